@@ -1,0 +1,352 @@
+"""A damper model as plain data: dataclasses that round-trip through JSON.
+
+All values are SI (Pa absolute, m, m^2, m^3, K, N, N s/m). Parameter names follow the
+thesis symbols in ASCII; docs/damper-json.md documents every field. Loading checks
+completeness and physical sense and raises DamperError naming the field.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .gas_spring import T_STD
+
+PRESET_DIR = Path(__file__).parent / "presets"
+T_MAX_RATED = 423.15  # K (150 C): top of the thesis's racing-damper temperature range
+
+
+class DamperError(ValueError):
+    """A damper description that is incomplete, malformed or non-physical."""
+
+
+@dataclass
+class Geometry:
+    A_p: float  # piston area [m^2]
+    A_r: float  # rod area [m^2]
+    stroke: float  # usable stroke from full extension [m]
+    V_total: float  # oil volume of chambers 1 + 2 at full extension [m^3] (Tables 4.5-4.8)
+    V20: float  # chamber 2 (rebound side) volume at full extension [m^3]
+
+    @property
+    def A_w(self) -> float:
+        """Working area of the piston valves, A_p - A_r [m^2] (eq 3.33)."""
+        return self.A_p - self.A_r
+
+
+@dataclass
+class GasSpring:
+    P0: float  # charge pressure at full extension and T0 [Pa abs] (Table 4.1)
+    V0: float  # gas volume at full extension and T0 [m^3] (Table 4.1)
+    T0: float  # charge temperature [K]
+    gamma: float  # polytropic exponent [-] (4.2.2.2)
+    K_voil: float  # effective thermal expansion [m^3/K] (Table 4.4)
+    K_voint: float  # regression intercept [m^3] (Table 4.4)
+
+
+@dataclass
+class Friction:
+    x_table: list[float]  # displacements [m] (eq 3.1)
+    F_table: list[float]  # static breakaway friction at 20 C [N] (eq 3.1)
+    C_sfT: float  # temperature slope of the breakaway ratio [1/K] (Table 4.2)
+    C_ifT: float  # breakaway ratio at 20 C [-] (Table 4.2, or Table 4.3 mean)
+
+
+@dataclass
+class Branch:
+    """One restriction in weighted form F = C_orrpw v^2 + C_linpw v + C_ipw (eq 4.14);
+    an orifice has C_linpw = 0, a flow-compensating valve C_orrpw = 0 (eqs 4.12, 4.13)."""
+    C_orrpw: float = 0.0  # [N s^2/m^2]
+    C_linpw: float = 0.0  # [N s/m]
+    C_ipw: float = 0.0  # constant / cracking force [N]
+
+
+@dataclass
+class Line:
+    """A linear valve F = C_linw v + C_ilinw (eq 4.13): passes flow beyond |C_ilinw|."""
+    C_linw: float  # [N s/m]
+    C_ilinw: float  # [N]
+
+
+@dataclass
+class Direction:
+    low: Branch  # always-open low-speed restriction
+    mid: Line | None = None  # mid-speed valve in parallel (eq 3.30)
+    high: Line | None = None  # replaces `mid` beyond the crossover flow (Fox-heavy)
+
+
+@dataclass
+class ValvePath:
+    compression: Direction
+    rebound: Direction
+
+
+@dataclass
+class Bypass:
+    """Mis-seated bypass disc (eqs 4.15-4.16): open while F = dP12 A_w > dP_seat_Aw."""
+    C_seatw: float  # [N s/m]
+    dP_seat_Aw: float  # seating force [N]
+
+
+@dataclass
+class Valves:
+    piston: ValvePath
+    head: ValvePath | None = None  # compression head (remote reservoir only)
+    bypass: Bypass | None = None
+
+
+@dataclass
+class Compressibility:
+    """Constant effective bulk modulus beta_inv, or eq 3.32: K = C_ibeta + C_sbeta P
+    capped at beta_min_inv. Set either beta_inv or the three others."""
+    beta_inv: float | None = None  # [Pa]
+    C_ibeta: float | None = None  # [Pa]
+    C_sbeta: float | None = None  # [-]
+    beta_min_inv: float | None = None  # [Pa]
+
+
+@dataclass
+class TempCoeff:
+    K_effoil: float  # [1/K] (Table 4.10, eq 4.17)
+    C_fd: float  # [-]
+
+
+@dataclass
+class TemperatureSensitivity:
+    T_ref: float  # temperature the valve coefficients refer to [K]
+    compression: TempCoeff
+    rebound: TempCoeff
+
+
+@dataclass
+class Damper:
+    name: str
+    layout: str  # "monotube" | "remote_reservoir"
+    geometry: Geometry
+    gas_spring: GasSpring
+    friction: Friction
+    valves: Valves
+    compressibility: Compressibility
+    temperature: TemperatureSensitivity
+    description: str = ""
+    x_mid: float | None = None  # default equilibrium point [m]; mid-stroke if None
+
+    @property
+    def mid_stroke(self) -> float:
+        return self.geometry.stroke / 2 if self.x_mid is None else self.x_mid
+
+
+@dataclass
+class SimplifiedDirection:
+    c_low: float  # low-speed damping coefficient [N s/m]
+    c_mid: float  # mid-speed damping coefficient [N s/m]
+    v_transition: float | None = None  # transition velocity [m/s] (alpha, eq 6.2)
+
+
+@dataclass
+class SimplifiedDamper:
+    """Piecewise-linear asymmetric damping, eqs 6.1 (model I) and 6.2 (model II)."""
+    name: str
+    layout: str  # "simplified"
+    compression: SimplifiedDirection
+    rebound: SimplifiedDirection
+    description: str = ""
+
+
+# --- JSON ---------------------------------------------------------------------------------
+
+def _build(cls, data, where):
+    if not isinstance(data, dict):
+        raise DamperError(f"{where or 'damper'}: expected an object, got {type(data).__name__}")
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise DamperError(f"{where + '.' if where else ''}{unknown[0]}: unknown field")
+    kwargs = {}
+    for f in dataclasses.fields(cls):
+        path = f"{where}.{f.name}" if where else f.name
+        if f.name not in data:
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                raise DamperError(f"{path}: missing")
+            continue
+        kwargs[f.name] = _value(hints[f.name], data[f.name], path)
+    return cls(**kwargs)
+
+
+def _value(tp, value, path):
+    args = typing.get_args(tp)
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        tp = next(a for a in args if a is not type(None))
+        return _value(tp, value, path)
+    if dataclasses.is_dataclass(tp):
+        return _build(tp, value, path)
+    if typing.get_origin(tp) is list:
+        if not isinstance(value, list):
+            raise DamperError(f"{path}: expected a list")
+        return [_value(args[0], v, f"{path}[{i}]") for i, v in enumerate(value)]
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise DamperError(f"{path}: expected a number, got {value!r}")
+        if value != value or value in (float("inf"), float("-inf")):
+            raise DamperError(f"{path}: must be finite")
+        return float(value)
+    if tp is str:
+        if not isinstance(value, str):
+            raise DamperError(f"{path}: expected a string")
+        return value
+    raise TypeError(tp)
+
+
+def from_dict(data) -> Damper | SimplifiedDamper:
+    if not isinstance(data, dict):
+        raise DamperError("damper: expected a JSON object")
+    layout = data.get("layout")
+    if layout == "simplified":
+        model = _build(SimplifiedDamper, data, "")
+    elif layout in ("monotube", "remote_reservoir"):
+        model = _build(Damper, data, "")
+    else:
+        raise DamperError(f"layout: must be monotube, remote_reservoir or simplified, got {layout!r}")
+    check(model)
+    return model
+
+
+def to_dict(model) -> dict:
+    return dataclasses.asdict(model)
+
+
+def save(model, path) -> None:
+    Path(path).write_text(json.dumps(to_dict(model), indent=2) + "\n")
+
+
+def load_file(path) -> Damper | SimplifiedDamper:
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise DamperError(f"{path}: no such file") from None
+    except json.JSONDecodeError as e:
+        raise DamperError(f"{path}: not valid JSON (line {e.lineno}: {e.msg})") from None
+    try:
+        return from_dict(data)
+    except DamperError as e:
+        raise DamperError(f"{path.name}: {e}") from None
+
+
+def preset_names() -> list[str]:
+    return sorted(p.stem for p in PRESET_DIR.glob("*.json"))
+
+
+def load(name_or_path) -> Damper | SimplifiedDamper:
+    """A preset by name (koni, mechformance, fox-light, fox-heavy, simplified-I, ...) or a
+    path to a JSON file."""
+    s = str(name_or_path)
+    if s.endswith(".json") or "/" in s:
+        return load_file(s)
+    p = PRESET_DIR / f"{s}.json"
+    if not p.exists():
+        raise DamperError(f"unknown damper preset {s!r} (known: {', '.join(preset_names())})")
+    return load_file(p)
+
+
+# --- physical checks ----------------------------------------------------------------------
+
+def _positive(value, path):
+    if not value > 0:
+        raise DamperError(f"{path}: must be positive, got {value}")
+
+
+def _check_direction(d: Direction, sign: float, path: str):
+    b = d.low
+    if b.C_orrpw == 0 and b.C_linpw == 0:
+        raise DamperError(f"{path}.low: needs C_orrpw or C_linpw")
+    if b.C_orrpw * sign < 0 or b.C_linpw < 0 or b.C_ipw * sign < 0:
+        raise DamperError(f"{path}.low: coefficient signs do not give a "
+                          f"{'positive' if sign > 0 else 'negative'} force")
+    for tag in ("mid", "high"):
+        line = getattr(d, tag)
+        if line is not None:
+            _positive(line.C_linw, f"{path}.{tag}.C_linw")
+            if line.C_ilinw * sign < 0:
+                raise DamperError(f"{path}.{tag}.C_ilinw: wrong sign for this direction")
+    if d.high is not None:
+        if d.mid is None:
+            raise DamperError(f"{path}.high: needs a mid-speed valve to cross over from")
+        if d.high.C_linw == d.mid.C_linw:
+            raise DamperError(f"{path}.high: parallel to mid, no crossover")
+        vx = (d.high.C_ilinw - d.mid.C_ilinw) / (d.mid.C_linw - d.high.C_linw)
+        if vx * sign <= 0:
+            raise DamperError(f"{path}.high: crosses mid on the wrong side of zero velocity")
+
+
+def gas_volume_min(d: Damper, T: float) -> float:
+    """Smallest gas volume over the stroke at temperature T [m^3] (eq 4.4 at full stroke)."""
+    g = d.gas_spring
+    return g.V0 - d.geometry.stroke * d.geometry.A_r - ((T - T_STD) * g.K_voil + g.K_voint)
+
+
+def check_temperature(d: Damper, T: float) -> None:
+    if not T > 0:
+        raise DamperError(f"temperature {T} K is not physical")
+    if gas_volume_min(d, T) <= 0.05 * d.gas_spring.V0:
+        raise DamperError(f"{d.name}: gas volume exhausted at full stroke and "
+                          f"{T - 273.15:.0f} C (stroke x rod area plus oil expansion "
+                          f"exceed 95 % of V0)")
+
+
+def check(model) -> None:
+    if isinstance(model, SimplifiedDamper):
+        for tag in ("compression", "rebound"):
+            d = getattr(model, tag)
+            _positive(d.c_low, f"{tag}.c_low")
+            _positive(d.c_mid, f"{tag}.c_mid")
+            if d.v_transition is not None and d.v_transition * (1 if tag == "compression" else -1) <= 0:
+                raise DamperError(f"{tag}.v_transition: wrong sign for this direction")
+        return
+    g, geo = model.gas_spring, model.geometry
+    for name in ("A_p", "A_r", "stroke", "V_total", "V20"):
+        _positive(getattr(geo, name), f"geometry.{name}")
+    if geo.A_r >= geo.A_p:
+        raise DamperError("geometry.A_r: rod area must be smaller than piston area A_p")
+    if model.layout == "remote_reservoir" and geo.V_total - geo.V20 - geo.stroke * geo.A_p <= 0:
+        raise DamperError("geometry.V_total: chamber 1 volume goes negative over the stroke")
+    for name in ("P0", "V0", "T0"):
+        _positive(getattr(g, name), f"gas_spring.{name}")
+    if not 1.0 <= g.gamma <= 1.67:
+        raise DamperError(f"gas_spring.gamma: must lie between 1 (isothermal) and 1.67, got {g.gamma}")
+    if g.V0 - geo.stroke * geo.A_r <= 0.05 * g.V0:
+        raise DamperError("gas_spring.V0: gas volume exhausted by the stroke (stroke x A_r >= V0)")
+    check_temperature(model, T_MAX_RATED)
+    f = model.friction
+    if len(f.x_table) != len(f.F_table) or not f.x_table:
+        raise DamperError("friction.F_table: must have one value per x_table entry")
+    if any(b <= a for a, b in zip(f.x_table, f.x_table[1:])):
+        raise DamperError("friction.x_table: must be strictly increasing")
+    if any(F < 0 for F in f.F_table):
+        raise DamperError("friction.F_table: friction magnitudes must be >= 0")
+    v = model.valves
+    if (model.layout == "remote_reservoir") != (v.head is not None):
+        raise DamperError("valves.head: required for remote_reservoir, not allowed for monotube")
+    for pname in ("piston", "head"):
+        p = getattr(v, pname)
+        if p is not None:
+            _check_direction(p.compression, 1.0, f"valves.{pname}.compression")
+            _check_direction(p.rebound, -1.0, f"valves.{pname}.rebound")
+    if v.bypass is not None:
+        _positive(v.bypass.C_seatw, "valves.bypass.C_seatw")
+    c = model.compressibility
+    if c.beta_inv is not None:
+        _positive(c.beta_inv, "compressibility.beta_inv")
+    else:
+        for name in ("C_ibeta", "C_sbeta", "beta_min_inv"):
+            if getattr(c, name) is None:
+                raise DamperError(f"compressibility.{name}: missing (or give beta_inv)")
+        _positive(c.C_ibeta, "compressibility.C_ibeta")
+        _positive(c.beta_min_inv, "compressibility.beta_min_inv")
+    _positive(model.temperature.T_ref, "temperature.T_ref")

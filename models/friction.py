@@ -1,0 +1,47 @@
+"""Seal and bearing friction (thesis 3.2.1, 4.2.2.1).
+
+Units: x in m, forces in N, temperatures in K. Friction opposes motion, so with the
+force-positive-in-compression convention it carries the sign of the velocity.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .gas_spring import T_STD
+
+
+def static_friction(x, x_table, F_table):
+    """Static breakaway friction magnitude vs displacement, eq 3.1  [N].
+
+    Linear interpolation in the look-up table; outside it the end segments are
+    extrapolated as eq 3.1 prints for x < X_1, clamped at zero.
+    """
+    x = np.asarray(x, float)
+    X = np.asarray(x_table, float)
+    F = np.asarray(F_table, float)
+    out = np.interp(x, X, F)
+    if len(X) > 1:
+        lo = x < X[0]
+        hi = x > X[-1]
+        out = np.where(lo, F[0] + (F[1] - F[0]) / (X[1] - X[0]) * (x - X[0]), out)
+        out = np.where(hi, F[-1] + (F[-1] - F[-2]) / (X[-1] - X[-2]) * (x - X[-1]), out)
+    return np.maximum(out, 0.0)
+
+
+def breakaway_ratio(T, C_sfT, C_ifT):
+    """Dynamic-to-static breakaway ratio R_fxT vs temperature, eqs 3.2 and 4.1  [-].
+
+    R = C_sfT * dT + C_ifT with dT = T - 20 C (C_sfT in 1/K). A temperature-independent
+    damper (the thesis's Fox, Table 4.3) has C_sfT = 0 and C_ifT = the mean ratio (eq 4.2).
+    """
+    return np.maximum(C_sfT * (np.asarray(T, float) - T_STD) + C_ifT, 0.0)
+
+
+def friction_force(x, v, T, x_table, F_table, C_sfT, C_ifT):
+    """Friction force, eq 3.3: F = F_sx * (C_sfT dT + C_ifT) * sgn(v)  [N]."""
+    return static_friction(x, x_table, F_table) * breakaway_ratio(T, C_sfT, C_ifT) * np.sign(v)
+
+
+def mean_ratio(ratios):
+    """Mean normalised breakaway friction over a temperature series, eq 4.2  [-]."""
+    return float(np.mean(ratios))

@@ -1,0 +1,107 @@
+"""Damper force from a motion: arrays in, arrays out.
+
+    r = simulate(damper, t, x, T=C_to_K(94))          # compressible, eq 3.63
+    r = simulate(damper, t, x, compressible=False)     # incompressible
+    r.force, r.damping, r.gas, r.friction, r.P1, r.P2, r.P_gas
+
+Total force F = F_dT + F_GxT + F_friexT (eq 3.63), positive in compression, N.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import friction, monotube, remote_reservoir, simplified, stiff
+from .damper import Damper, DamperError, SimplifiedDamper
+from .kernel import SEATOPEN, pack
+
+ASSEMBLY = {"monotube": monotube, "remote_reservoir": remote_reservoir}
+NOUT = 5  # F_d, F_G, P1, P2, P_gas
+
+
+def C_to_K(T_C):
+    return np.asarray(T_C, float) + 273.15
+
+
+@dataclass
+class Result:
+    t: np.ndarray  # s
+    x: np.ndarray  # m, from full extension, compression positive
+    v: np.ndarray  # m/s, compression positive
+    force: np.ndarray  # N, total (eq 3.63)
+    damping: np.ndarray  # N, F_dT
+    gas: np.ndarray  # N, F_GxT
+    friction: np.ndarray  # N, F_friexT
+    P1: np.ndarray  # Pa abs, compression chamber
+    P2: np.ndarray  # Pa abs, rebound chamber
+    P_gas: np.ndarray  # Pa abs, gas (= chamber 3 in a remote reservoir)
+    T: float  # K
+    state: tuple | None = None  # (y, seat_open) to continue a compressible run
+    newton_capped: int = 0  # steps whose Newton iteration hit its cap (0 expected)
+
+
+def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
+             substeps=1, state=None) -> Result:
+    """Force response of `damper` to displacement x(t) [m] at temperature T [K].
+
+    t must be uniformly spaced for the compressible model. v defaults to the numerical
+    derivative of x. x_e is the rest position the gas equilibrium refers to (eq 4.4);
+    it defaults to x[0]. `state` continues an earlier compressible run (Result.state).
+    """
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    if t.shape != x.shape or t.ndim != 1 or len(t) < 2:
+        raise DamperError("t and x must be 1-D arrays of the same length (>= 2)")
+    v = np.gradient(x, t) if v is None else np.asarray(v, float)
+    T = float(T)
+    if isinstance(damper, SimplifiedDamper):
+        Fd = simplified.force(damper, v)
+        nan = np.full_like(t, np.nan)
+        zero = np.zeros_like(t)
+        return Result(t, x, v, Fd, Fd, zero, zero, nan, nan, nan, T)
+    if not isinstance(damper, Damper):
+        raise TypeError("damper must be a Damper or SimplifiedDamper")
+    stroke = damper.geometry.stroke
+    if x.min() < -1e-9 or x.max() > stroke + 1e-9:
+        raise DamperError(f"motion leaves the stroke: x spans {x.min()*1e3:.1f}..{x.max()*1e3:.1f} mm, "
+                          f"stroke is 0..{stroke*1e3:.1f} mm")
+    x_e = float(x[0]) if x_e is None else float(x_e)
+    prm, vp, vh = pack(damper, T, x_e)
+    asm = ASSEMBLY[damper.layout]
+    out = np.empty((len(t), NOUT))
+    capped = 0
+    if compressible:
+        h = (t[-1] - t[0]) / (len(t) - 1)
+        if not np.allclose(np.diff(t), h, rtol=1e-6, atol=1e-12):
+            raise DamperError("t must be uniformly spaced for the compressible model")
+        if state is None:
+            y = asm.initial_state(prm, x[0])
+        else:
+            y = np.array(state[0], float)
+            prm[SEATOPEN] = state[1]
+        atol = np.array([10.0] * (asm.NSTATE // 2) + [1e-12] * (asm.NSTATE // 2))
+        _, capped = stiff.integrate(asm.rhs, asm.outputs, y, x, v, int(substeps), h,
+                                    prm, vp, vh, atol, out)
+        new_state = (y, prm[SEATOPEN])
+    else:
+        asm.incompressible(x, v, prm, vp, vh, out)
+        new_state = None
+    f = damper.friction
+    Ff = friction.friction_force(x, v, T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
+    Fd, Fg = out[:, 0], out[:, 1]
+    return Result(t, x, v, Fd + Fg + Ff, Fd, Fg, Ff, out[:, 2], out[:, 3], out[:, 4], T,
+                  new_state, int(capped))
+
+
+def sine(amplitude, freq, cycles, x_mid, samples_per_cycle=None, dt=None):
+    """Sinusoidal displacement about x_mid, (t, x, v) for amplitude [m] and freq [Hz].
+
+    It starts at rest at the rebound extreme (x_mid - amplitude) and moves into
+    compression, as a servo does, so there is no velocity step at t = 0."""
+    if dt is None:
+        dt = 1.0 / (freq * (samples_per_cycle or 500))
+    n = int(round(cycles / freq / dt)) + 1
+    t = np.arange(n) * dt
+    w = 2 * np.pi * freq
+    return t, x_mid - amplitude * np.cos(w * t), amplitude * w * np.sin(w * t)

@@ -80,8 +80,8 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
         else:
             y = np.array(state[0], float)
             prm[SEATOPEN] = state[1]
-        atol = np.array([10.0] * (asm.NSTATE // 2) + [1e-12] * (asm.NSTATE // 2))
-        _, capped = stiff.integrate(asm.rhs, asm.outputs, y, x, v, int(substeps), h,
+        atol = np.array([100.0] * (asm.NSTATE // 2) + [1e-10] * (asm.NSTATE // 2))  # Pa, m^3
+        _, capped, _ = stiff.integrate(asm.rhs, asm.outputs, y, x, v, int(substeps), h,
                                     prm, vp, vh, atol, out)
         new_state = (y, prm[SEATOPEN])
     else:

@@ -56,7 +56,7 @@ def integrate(rhs, outputs, y, x, xd, nsub, h, prm, vp, vh, atol, out):
     """March y from sample 0 to the last sample of x, xd (spacing h seconds, nsub
     implicit steps per sample), writing `outputs` at every sample into out[k].
     y is updated in place to the final state. Returns (Jacobian refreshes, steps whose
-    Newton iteration hit its cap)."""
+    Newton iteration hit its cap, Newton iterations)."""
     n = y.shape[0]
     N = x.shape[0]
     hs = h / nsub
@@ -74,6 +74,7 @@ def integrate(rhs, outputs, y, x, xd, nsub, h, prm, vp, vh, atol, out):
     g_fact = -1.0
     refreshes = 0
     capped = 0
+    iters = 0
     started = False
     outputs(y, x[0], xd[0], prm, vp, vh, out[0])
     for k in range(1, N):
@@ -113,6 +114,7 @@ def integrate(rhs, outputs, y, x, xd, nsub, h, prm, vp, vh, atol, out):
                             M[i, c] = (1.0 if i == c else 0.0) - g * J[i, c]
                     _lu(M, piv)
                     g_fact = g
+                iters += 1
                 rhs(y_new, xs, xds, prm, vp, vh, f)
                 for i in range(n):
                     res[i] = -(y_new[i] - r[i] - g * f[i])
@@ -121,11 +123,18 @@ def integrate(rhs, outputs, y, x, xd, nsub, h, prm, vp, vh, atol, out):
                 for i in range(n):
                     y_new[i] += res[i]
                     err = max(err, abs(res[i]) / atol[i])
+                # converged when the step is tiny, or when the contraction rate theta says
+                # the remaining error theta/(1-theta)*err is (Hairer & Wanner IV.8)
                 if err < 1.0:
                     converged = True
                     break
-                if it > 0 and err > 0.3 * last:  # not contracting: refresh the Jacobian
-                    have_J = False
+                if it > 0:
+                    theta = err / last
+                    if theta < 0.9 and theta / (1.0 - theta) * err < 1.0:
+                        converged = True
+                        break
+                    if theta > 0.3:  # slow contraction: refresh the Jacobian
+                        have_J = False
                 last = err
             if not converged:
                 capped += 1
@@ -137,4 +146,4 @@ def integrate(rhs, outputs, y, x, xd, nsub, h, prm, vp, vh, atol, out):
             outputs(y, xs, xds, prm, vp, vh, scratch)
         for i in range(out.shape[1]):
             out[k, i] = scratch[i]
-    return refreshes, capped
+    return refreshes, capped, iters

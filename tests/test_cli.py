@@ -1,0 +1,72 @@
+"""The dyno console script as a user runs it."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+DYNO = [str(Path(sys.executable).parent / "dyno")]
+
+
+def run(*args):
+    return subprocess.run(DYNO + list(args), capture_output=True, text=True, timeout=600)
+
+
+def test_validate_json_has_required_rows_and_passes_80_percent():
+    p = run("validate", "--json")
+    assert p.returncode == 0, p.stderr
+    rows = json.loads(p.stdout)["rows"]
+    keys = {"source", "case", "unit", "thesis", "model", "rel_error", "tolerance", "pass"}
+    assert all(keys <= set(r) for r in rows)
+    sources = {r["source"] for r in rows}
+    assert {"Table 4.1", "Table 6.1", "Sec 2.2.2", "Sec 4.3", "Sec 4.2.2.2"} <= sources
+    for damper in ("koni", "mechformance", "fox-light", "fox-heavy"):
+        assert sum(r["source"] == "Table 6.1" and r["case"].startswith(damper) for r in rows) == 2
+    assert sum(r["pass"] for r in rows) >= 0.8 * len(rows)
+
+
+def test_validate_human_table():
+    p = run("validate")
+    assert p.returncode == 0
+    assert "rows pass" in p.stdout and "Table 6.1" in p.stdout
+
+
+def test_plot_damper_writes_pngs(tmp_path):
+    p = run("plot", "damper", "koni", "--out", str(tmp_path), "--freq", "2", "16")
+    assert p.returncode == 0, p.stderr
+    pngs = sorted(tmp_path.glob("*.png"))
+    assert len(pngs) == 5
+    assert all(f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 10_000 for f in pngs)
+
+
+@pytest.mark.parametrize("args, message", [
+    (("plot", "damper", "konni", "--out", "/tmp/x"), "unknown damper preset 'konni'"),
+    (("plot", "damper", "koni", "--out", "/tmp/x", "--amplitude-mm", "60"), "--amplitude-mm"),
+    (("plot", "damper", "koni", "--out", "/tmp/x", "--temp", "900"), "gas volume exhausted"),
+])
+def test_bad_input_is_one_line_and_nonzero(args, message):
+    p = run(*args)
+    assert p.returncode == 2
+    assert "Traceback" not in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1 and message in p.stderr
+
+
+def test_incomplete_damper_json_names_the_field(tmp_path):
+    f = tmp_path / "mine.json"
+    data = json.loads(Path(__file__).parents[1].joinpath("models/presets/koni.json").read_text())
+    del data["friction"]["C_sfT"]
+    f.write_text(json.dumps(data))
+    p = run("plot", "damper", str(f), "--out", str(tmp_path))
+    assert p.returncode == 2
+    assert p.stderr.strip() == "dyno: error: mine.json: friction.C_sfT: missing"
+
+
+def test_bench_sim_json_keys():
+    p = run("bench", "sim", "--json", "--seconds", "0.2", "--ref-seconds", "0.05")
+    assert p.returncode == 0, p.stderr
+    cases = json.loads(p.stdout)["cases"]
+    assert set(cases) == {"koni", "fox-heavy"}
+    for c in cases.values():
+        assert {"realtime_factor", "speedup_vs_reference", "max_force_diff_fraction"} <= set(c)
+        assert c["max_force_diff_fraction"] < 0.005

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import gas_spring
 from .damper import load
+from .friction import static_friction
 from .simulate import C_to_K, simulate, sine
 
 DAMPERS = ("koni", "mechformance", "fox-light", "fox-heavy")
@@ -43,7 +44,6 @@ def static_test(d, rng, n=11):
     x = np.linspace(0.05, 0.95, n) * d.geometry.stroke
     g, f = d.gas_spring, d.friction
     F_g = gas_spring.static_force(x, gas_spring.T_STD, g.P0, g.V0, g.T0, d.geometry.A_r, g.K_voil, g.K_voint)
-    from .friction import static_friction
     F_s = static_friction(x, f.x_table, f.F_table)
     noise = lambda: rng.uniform(-LOADCELL_RESOLUTION, LOADCELL_RESOLUTION, n)
     up, down = F_g + F_s + noise(), F_g - F_s + noise()

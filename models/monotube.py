@@ -17,6 +17,7 @@ from numba import njit
 from .compressibility import bulk_modulus
 from .gas_spring import P_ATM
 from .kernel import AR, AW, CIB, CSB, KCONST, KMAX, SEATC, SEATF, SEATOPEN, V20, gas_pressure, update_seat
+from .stiff import make_integrator
 from .valves import bypass_open_at, path_force, path_velocity
 
 NSTATE = 2
@@ -58,3 +59,6 @@ def incompressible(x, v, prm, vp, vh, out):
         out[i, 0] = Fd  # eqs 3.33, 3.42
         out[i, 1] = (P1 - P_ATM) * prm[AR]
         out[i, 2], out[i, 3], out[i, 4] = P1, P1 - Fd / prm[AW], P1
+
+
+integrate = make_integrator(rhs, outputs)  # compressible stepper for this assembly (models/stiff.py)

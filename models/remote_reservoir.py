@@ -13,6 +13,7 @@ from .compressibility import bulk_modulus
 from .gas_spring import P_ATM
 from .kernel import (AP, AR, AW, CIB, CSB, KCONST, KMAX, SEATC, SEATF, SEATOPEN, V10, V20,
                      gas_pressure, update_seat)
+from .stiff import make_integrator
 from .valves import bypass_open_at, path_force, path_velocity
 
 NSTATE = 4
@@ -62,3 +63,6 @@ def incompressible(x, v, prm, vp, vh, out):
         out[i, 1] = (PG - P_ATM) * prm[AR]
         P1 = PG + Fh / prm[AR]
         out[i, 2], out[i, 3], out[i, 4] = P1, P1 - Fp / prm[AW], PG
+
+
+integrate = make_integrator(rhs, outputs)  # compressible stepper for this assembly (models/stiff.py)

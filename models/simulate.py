@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import friction, monotube, remote_reservoir, simplified, stiff
+from . import friction, monotube, remote_reservoir, simplified
 from .damper import Damper, DamperError, SimplifiedDamper
 from .kernel import SEATOPEN, pack
 
@@ -81,7 +81,7 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
             y = np.array(state[0], float)
             prm[SEATOPEN] = state[1]
         atol = np.array([100.0] * (asm.NSTATE // 2) + [1e-10] * (asm.NSTATE // 2))  # Pa, m^3
-        _, capped, _ = stiff.integrate(asm.rhs, asm.outputs, y, x, v, int(substeps), h,
+        _, capped, _ = asm.integrate(y, x, v, int(substeps), h,
                                     prm, vp, vh, atol, out)
         new_state = (y, prm[SEATOPEN])
     else:

@@ -4,25 +4,72 @@ The tables print the effective *bulk modulus* beta^-1 (entrained air makes it 45
 far below pure oil's 1370 MPa). Pressure-dependent form, eq 3.32 read as a bulk modulus:
 K(P) = C_ibeta + C_sbeta * P, capped at beta_min^-1 (the compressibility never drops below
 beta_min). P is the chamber's absolute pressure. Units: Pa.
+
+The chamber models keep the *oil* a chamber holds as their state and get the pressure
+from it: integrating eq 3.31, dP / K(P) = d(ln rho), over a chamber of volume V holding
+oil of reference volume u gives
+    strain(P) = integral_{P_ref}^{P} dP / K(P) = ln(u / V).
+Using the oil content rather than the pressure as the state conserves oil mass exactly;
+integrating dP/dt = K/V * net inflow instead drops the term from V changing with stroke
+and lets oil creep from one side of the piston to the other cycle after cycle.
 """
 from __future__ import annotations
+
+import math
 
 from numba import njit
 
 
 @njit(cache=True)
 def bulk_modulus(P, K_const, C_ibeta, C_sbeta, K_max):
-    """Effective bulk modulus [Pa] at chamber pressure P [Pa], eqs 3.31-3.32.
+    """Effective bulk modulus [Pa] at chamber pressure P [Pa], eq 3.32.
 
     K_const > 0 selects the constant model; otherwise the linear pressure model capped at
-    K_max. The floor of 1 MPa keeps a (non-physical) negative pressure from flipping sign.
-    """
+    K_max (valid while C_ibeta + C_sbeta P > 0)."""
     if K_const > 0.0:
         return K_const
-    K = C_ibeta + C_sbeta * P
-    if K > K_max:
-        K = K_max
-    if K < 1e6:
-        K = 1e6
-    return K
+    return min(C_ibeta + C_sbeta * P, K_max)
 
+
+@njit(cache=True)
+def _log_ratio(a, b, P1, P2):
+    return math.log((a + b * P2) / (a + b * P1)) / b
+
+
+@njit(cache=True)
+def strain(P, P_ref, K_const, a, b, K_max):
+    """integral of dP / K(P) from P_ref to P [-] (eqs 3.31-3.32)."""
+    if K_const > 0.0:
+        return (P - P_ref) / K_const
+    Pc = (K_max - a) / b  # pressure where the cap starts
+    if P_ref <= Pc:
+        if P <= Pc:
+            return _log_ratio(a, b, P_ref, P)
+        return _log_ratio(a, b, P_ref, Pc) + (P - Pc) / K_max
+    if P >= Pc:
+        return (P - P_ref) / K_max
+    return (Pc - P_ref) / K_max + _log_ratio(a, b, Pc, P)
+
+
+def cap_point(P_ref, K_const, a, b, K_max):
+    """(Pc, strain at Pc): where the pressure-dependent modulus reaches its cap. Computed
+    once per run so that `pressure` costs one exp."""
+    if K_const > 0.0:
+        return 0.0, 0.0
+    Pc = (K_max - a) / b
+    return Pc, strain(Pc, P_ref, K_const, a, b, K_max)
+
+
+@njit(cache=True)
+def pressure(lam, P_ref, K_const, a, b, K_max, Pc, Gc):
+    """Inverse of `strain`: the pressure [Pa] at which oil strained by lam = ln(u/V).
+    (Pc, Gc) from `cap_point`."""
+    if K_const > 0.0:
+        return P_ref + K_const * lam
+    if P_ref <= Pc:
+        if lam <= Gc:
+            return ((a + b * P_ref) * math.exp(b * lam) - a) / b
+        return Pc + (lam - Gc) * K_max
+    if lam >= Gc:
+        return P_ref + lam * K_max
+    return ((a + b * Pc) * math.exp(b * (lam - Gc)) - a) / b

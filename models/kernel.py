@@ -6,15 +6,18 @@ damping factor, eq 4.17), so a run at constant temperature costs nothing extra p
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
 from . import gas_spring, temperature, valves
+from .compressibility import cap_point, pressure, strain
 from .damper import Damper, Direction, ValvePath, check_temperature
 
 (AP, AR, AW, V10, V20, XE, VXE, PXE, GAMMA,
- KCONST, CIB, CSB, KMAX, SEATC, SEATF, SEATOPEN) = range(16)
-NPRM = 16
+ KCONST, CIB, CSB, KMAX, KPC, KGC, SEATC, SEATF, SEATOPEN) = range(18)
+NPRM = 18
 
 
 def _direction_row(d: Direction, f_T: float) -> np.ndarray:
@@ -51,6 +54,7 @@ def pack(d: Damper, T: float, x_e: float):
         prm[KCONST] = c.beta_inv
     else:
         prm[CIB], prm[CSB], prm[KMAX] = c.C_ibeta, c.C_sbeta, c.beta_min_inv
+    prm[KPC], prm[KGC] = cap_point(P_e, prm[KCONST], prm[CIB], prm[CSB], prm[KMAX])
     if d.valves.bypass is not None:
         prm[SEATC], prm[SEATF] = d.valves.bypass.C_seatw, d.valves.bypass.dP_seat_Aw
     prm[SEATOPEN] = 1.0
@@ -61,11 +65,25 @@ def pack(d: Damper, T: float, x_e: float):
 
 @njit(cache=True)
 def gas_pressure(prm, x, dV):
-    """Gas pressure [Pa] with the oil stored by compressibility dV [m^3] freeing gas
-    volume, eqs 3.38-3.39 (monotube) and 3.51-3.52 (remote reservoir)."""
+    """Gas pressure [Pa] with the oil stored by compressibility dV [m^3] in the other
+    chambers freeing gas volume, eqs 3.38-3.39 (monotube) and 3.51-3.52 (remote)."""
     V = prm[VXE] - (x - prm[XE]) * prm[AR] + dV
     V = max(V, 1e-3 * prm[VXE])
     return prm[PXE] * (prm[VXE] / V) ** prm[GAMMA]
+
+
+@njit(cache=True)
+def chamber_pressure(prm, excess, V):
+    """Pressure [Pa] of a chamber of volume V [m^3] holding `excess` m^3 of oil beyond V
+    (at the run's reference pressure, the gas equilibrium pressure): eqs 3.31-3.32."""
+    lam = math.log1p(max(excess / V, -0.5))
+    return pressure(lam, prm[PXE], prm[KCONST], prm[CIB], prm[CSB], prm[KMAX], prm[KPC], prm[KGC])
+
+
+@njit(cache=True)
+def excess_at(prm, P, V):
+    """Oil beyond the chamber volume V [m^3] that puts the chamber at pressure P."""
+    return V * math.expm1(strain(P, prm[PXE], prm[KCONST], prm[CIB], prm[CSB], prm[KMAX]))
 
 
 @njit(cache=True)

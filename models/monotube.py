@@ -1,9 +1,10 @@
 """Monotube damper: chambers 1 (compression), 2 (rebound) and the gas behind a floating
 piston in the same tube (thesis 3.3.3, Figs 3.9-3.12).
 
-Compressible model state y = [P2 (Pa), dV2 (m^3)]: chamber 2 pressure and the oil volume
-it stores by compressibility. Chamber 1 sits at the gas pressure (P_G = P1, eq 3.35).
-Outputs per step: [F_d, F_G, P1, P2, P_gas].
+Compressible model state y = [e2]: the oil chamber 2 holds beyond its geometric volume
+(m^3, eq 3.37's dV_12), from which its pressure follows (eqs 3.31-3.32). Chamber 1 sits at
+the gas pressure (P_G = P1, eq 3.35) and the oil stored in chamber 2 frees gas volume
+(eq 3.38). Outputs per step: [F_d, F_G, P1, P2, P_gas].
 
 Sign note: eq 3.36 prints V_c2 = V_c20 - x (A_p - A_r); with x positive in compression the
 rebound chamber grows (it is smallest at full extension, Table 4.5 V20 = 6.7 cc), so we
@@ -14,36 +15,39 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .compressibility import bulk_modulus
 from .gas_spring import P_ATM
-from .kernel import AR, AW, CIB, CSB, KCONST, KMAX, SEATC, SEATF, SEATOPEN, V20, gas_pressure, update_seat
+from .kernel import AR, AW, SEATC, SEATF, SEATOPEN, V20, chamber_pressure, excess_at, gas_pressure, update_seat
 from .stiff import make_integrator
 from .valves import bypass_open_at, path_force, path_velocity
 
-NSTATE = 2
+NSTATE = 1
 
 
 def initial_state(prm, x0):
-    """At rest: every chamber at the gas pressure for position x0."""
-    P = gas_pressure(prm, x0, 0.0)
-    return np.array([P, 0.0])
+    """At rest at x0: chamber 2 at the gas pressure."""
+    e = 0.0
+    for _ in range(20):  # the stored oil shifts the gas pressure slightly: fixed point
+        e = excess_at(prm, gas_pressure(prm, x0, e), prm[V20] + x0 * prm[AW])
+    return np.array([e])
+
+
+@njit(cache=True)
+def _pressures(y, x, prm):
+    P1 = gas_pressure(prm, x, y[0])  # eqs 3.38-3.39
+    P2 = chamber_pressure(prm, y[0], prm[V20] + x * prm[AW])  # eqs 3.31, 3.36
+    return P1, P2
 
 
 @njit(cache=True)
 def rhs(y, x, xd, prm, vp, vh, dydt):
-    P2, dV2 = y[0], y[1]
-    P1 = gas_pressure(prm, x, dV2)  # eqs 3.38-3.39
+    P1, P2 = _pressures(y, x, prm)
     Q12 = prm[AW] * path_velocity((P1 - P2) * prm[AW], vp, prm[SEATC], prm[SEATOPEN] > 0.5)
-    net = Q12 - xd * prm[AW]  # eq 3.35: dV_C2/dt = Q12 - Q12inc (eq 3.33)
-    V2 = prm[V20] + x * prm[AW]  # eq 3.36
-    dydt[0] = bulk_modulus(P2, prm[KCONST], prm[CIB], prm[CSB], prm[KMAX]) / V2 * net  # eq 3.31
-    dydt[1] = net  # eq 3.37
+    dydt[0] = Q12 - xd * prm[AW]  # eq 3.35: dV_C2/dt = Q12 - Q12inc (eq 3.33)
 
 
 @njit(cache=True)
 def outputs(y, x, xd, prm, vp, vh, out):
-    P2 = y[0]
-    P1 = gas_pressure(prm, x, y[1])
+    P1, P2 = _pressures(y, x, prm)
     out[0] = (P1 - P2) * prm[AW]  # eq 3.42
     out[1] = (P1 - P_ATM) * prm[AR]  # eq 3.4 with P_G = P1
     out[2], out[3], out[4] = P1, P2, P1

@@ -18,6 +18,9 @@ from .kernel import SEATOPEN, pack
 
 ASSEMBLY = {"monotube": monotube, "remote_reservoir": remote_reservoir}
 NOUT = 5  # F_d, F_G, P1, P2, P_gas
+# Newton tolerance on the stored oil [m^3]: 5e-12 m^3 is about 75 Pa in a 6.7 cc chamber at
+# 100 MPa bulk modulus, a force error near 0.1 N.
+ATOL_OIL = 5e-12
 
 
 def C_to_K(T_C):
@@ -37,7 +40,7 @@ class Result:
     P2: np.ndarray  # Pa abs, rebound chamber
     P_gas: np.ndarray  # Pa abs, gas (= chamber 3 in a remote reservoir)
     T: float  # K
-    state: tuple | None = None  # (y, seat_open) to continue a compressible run
+    state: tuple | None = None  # (y, seat_open, x_e) to continue a compressible run
     newton_capped: int = 0  # steps whose Newton iteration hit its cap (0 expected)
 
 
@@ -66,7 +69,9 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
     if x.min() < -1e-9 or x.max() > stroke + 1e-9:
         raise DamperError(f"motion leaves the stroke: x spans {x.min()*1e3:.1f}..{x.max()*1e3:.1f} mm, "
                           f"stroke is 0..{stroke*1e3:.1f} mm")
-    x_e = float(x[0]) if x_e is None else float(x_e)
+    if x_e is None:  # a continued run keeps its equilibrium point
+        x_e = state[2] if state is not None else float(x[0])
+    x_e = float(x_e)
     prm, vp, vh = pack(damper, T, x_e)
     asm = ASSEMBLY[damper.layout]
     out = np.empty((len(t), NOUT))
@@ -80,10 +85,9 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
         else:
             y = np.array(state[0], float)
             prm[SEATOPEN] = state[1]
-        atol = np.array([100.0] * (asm.NSTATE // 2) + [1e-10] * (asm.NSTATE // 2))  # Pa, m^3
-        _, capped, _ = asm.integrate(y, x, v, int(substeps), h,
-                                    prm, vp, vh, atol, out)
-        new_state = (y, prm[SEATOPEN])
+        atol = np.full(asm.NSTATE, ATOL_OIL)
+        _, capped, _ = asm.integrate(y, x, v, int(substeps), h, prm, vp, vh, atol, out)
+        new_state = (y, prm[SEATOPEN], x_e)
     else:
         asm.incompressible(x, v, prm, vp, vh, out)
         new_state = None

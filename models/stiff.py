@@ -70,6 +70,7 @@ def make_integrator(rhs, outputs):
         N = x.shape[0]
         hs = h / nsub
         y_prev = y.copy()
+        y_prev2 = y.copy()
         y_new = y.copy()
         r = np.empty(n)
         f = np.empty(n)
@@ -84,7 +85,7 @@ def make_integrator(rhs, outputs):
         refreshes = 0
         capped = 0
         iters = 0
-        started = False
+        started = 0  # implicit steps taken so far (0, 1, 2+)
         outputs(y, x[0], xd[0], prm, vp, vh, out[0])
         for k in range(1, N):
             for j in range(1, nsub + 1):
@@ -95,7 +96,10 @@ def make_integrator(rhs, outputs):
                     g = 2.0 / 3.0 * hs
                     for i in range(n):
                         r[i] = (4.0 * y[i] - y_prev[i]) / 3.0
-                        y_new[i] = 2.0 * y[i] - y_prev[i]  # linear predictor
+                        if started > 1:  # quadratic predictor: often converges in one iteration
+                            y_new[i] = 3.0 * (y[i] - y_prev[i]) + y_prev2[i]
+                        else:
+                            y_new[i] = 2.0 * y[i] - y_prev[i]
                 else:  # backward Euler start
                     g = hs
                     for i in range(n):
@@ -149,9 +153,10 @@ def make_integrator(rhs, outputs):
                     capped += 1
                     have_J = False
                 for i in range(n):
+                    y_prev2[i] = y_prev[i]
                     y_prev[i] = y[i]
                     y[i] = y_new[i]
-                started = True
+                started += 1
                 outputs(y, xs, xds, prm, vp, vh, scratch)
             for i in range(out.shape[1]):
                 out[k, i] = scratch[i]

@@ -1,0 +1,78 @@
+"""Time-domain quarter car: closed forms, exact sticking, lift-off, equilibrium."""
+import numpy as np
+import pytest
+
+from models import quarter_car as qcm
+from models import quarter_car_sim as qs
+from models.simulate import C_to_K
+
+
+def linear_car(c_s=0.0):
+    return qcm.QuarterCar("linear", m_s=252.5, m_u=45.4, k_s=70e3, k_t=350e3, c_tire=0.0, F_c1=0.0, F_c3=0.0)
+
+
+def closed_form_transmissibility(qc, c, f):
+    """|Y1/Yin| of the linear 2-DOF model with a viscous damper c."""
+    w = 2 * np.pi * f
+    M = np.diag([qc.m_s, qc.m_u])
+    K = np.array([[qc.k_s, -qc.k_s], [-qc.k_s, qc.k_s + qc.k_t]])
+    C = np.array([[c, -c], [-c, c]])
+    Y = np.linalg.solve(-w**2 * M + 1j * w * C + K, np.array([0.0, qc.k_t]))
+    return abs(Y[0])
+
+
+@pytest.mark.parametrize("f", [1.5, 2.4, 6.0, 14.0])
+def test_frictionless_linear_transmissibility_matches_closed_form(f):
+    qc, c = linear_car(), 3000.0
+    h = 1e-4
+    t = np.arange(0, 6.0, h)
+    A = 0.002  # small: the tire never leaves the road
+    y_in = A * np.sin(2 * np.pi * f * t)
+    r = qs.simulate(qc, lambda x, v: c * v, t, y_in, v_in=A * 2 * np.pi * f * np.cos(2 * np.pi * f * t))
+    steady = t > 4.0
+    amp = (r.y1[steady].max() - r.y1[steady].min()) / 2
+    assert amp / A == pytest.approx(closed_form_transmissibility(qc, c, f), rel=0.02)
+    assert r.tire_force.min() > 0
+
+
+def test_rest_is_equilibrium_with_gas_force_and_friction():
+    qc = qcm.load("simulator")
+    t = np.arange(0, 1.0, 1e-4)
+    r = qs.simulate(qc, lambda x, v: 500.0 + 2000.0 * v, t, np.zeros_like(t), F_static=500.0, x_install=0.03)
+    assert np.max(np.abs(r.y1)) < 1e-9 and np.max(np.abs(r.y2)) < 1e-9
+    assert r.tire_force[-1] == pytest.approx(r.static_tire_force)
+
+
+def test_friction_sticks_exactly_without_chatter():
+    # 65 N sprung-unsprung friction, no damper: a 0.05 mm, 1 Hz input cannot break it
+    qc = qcm.QuarterCar("stick", m_s=252.5, m_u=45.4, k_s=70e3, k_t=350e3, c_tire=0.0, F_c1=65.0, F_c3=0.0)
+    t = np.arange(0, 2.0, 1e-4)
+    y_in = 5e-5 * np.sin(2 * np.pi * 1.0 * t)
+    r = qs.simulate(qc, lambda x, v: 0.0, t, y_in)
+    assert np.max(np.abs(r.y1 - r.y2)) < 1e-12  # the masses move as one
+    assert np.max(np.abs(r.friction_su)) <= 65.0 + 1e-9
+    # and once the input is large enough it slides, at exactly the friction force
+    r = qs.simulate(qc, lambda x, v: 0.0, t, 0.01 * np.sin(2 * np.pi * 2.4 * t))
+    sliding = np.abs(np.diff(r.y1 - r.y2)) > 1e-9
+    assert sliding.any() and np.allclose(np.abs(r.friction_su[:-1][sliding]), 65.0)
+
+
+def test_tire_lifts_off_and_never_pulls():
+    qc = qcm.load("race-car")
+    t = np.arange(0, 3.0, 1e-4)
+    r = qs.simulate(qc, lambda x, v: 1500.0 * v, t, 0.0127 * np.sin(2 * np.pi * 14.0 * t))
+    assert r.tire_force.min() == 0.0
+    assert np.all(r.tire_force >= 0.0)
+    assert np.mean(r.tire_force[t > 1.0] == 0.0) > 0.02  # wheel hop
+
+
+def test_comprehensive_damper_step_response_settles():
+    qc = qcm.load("race-car")
+    src = qs.damper_source("koni", C_to_K(95))
+    t = np.arange(0, 1.5, 1e-4)
+    y_in = np.where(t > 0.05, 0.0127, 0.0)  # 1.27 cm step up (6.2)
+    r = qs.run(qc, src, t, y_in)
+    # damper friction (about 100 N on a 70 kN/m spring) can hold the car ~1.5 mm short
+    assert r.y1[-1] == pytest.approx(0.0127, abs=2e-3)
+    assert abs(r.y1[-1] - r.y1[-2000]) < 1e-5  # at rest again
+    assert 0.0 <= r.damper_x.min() and r.damper_x.max() <= src.stroke

@@ -1,0 +1,49 @@
+"""Road inputs for the quarter car (thesis 6.2: steps and harmonics; ISO 8608 random
+roads as the stochastic analysis the thesis recommends). Arrays in, arrays out: m, s."""
+from __future__ import annotations
+
+import numpy as np
+
+# ISO 8608 displacement PSD at n0 = 0.1 cycles/m, class mean values [m^3]
+ISO8608_GD0 = {c: 16e-6 * 4**i for i, c in enumerate("ABCDEFGH")}
+N0 = 0.1  # cycles/m
+
+
+def step(t, amplitude, t0=0.0):
+    """Step of `amplitude` [m] (positive up) at t0 (6.2: +-2.5 and +5 cm)."""
+    return np.where(np.asarray(t) >= t0, amplitude, 0.0)
+
+
+def harmonic(t, amplitude, freq):
+    """(y, v): sine of peak amplitude [m] at freq [Hz] (6.2: 0.32 and 1.27 cm)."""
+    w = 2 * np.pi * freq
+    return amplitude * np.sin(w * np.asarray(t)), amplitude * w * np.cos(w * np.asarray(t))
+
+
+def iso8608(t, speed, road_class="C", seed=0, n_band=(0.01, 10.0), n_lines=2000):
+    """(y, v): a random road of ISO 8608 class A-H driven at speed [m/s].
+
+    Sum of sinusoids with random phases whose amplitudes follow the class PSD
+    G_d(n) = G_d(n0) (n/n0)^-2 over the spatial-frequency band n_band [cycles/m]."""
+    if road_class not in ISO8608_GD0:
+        raise ValueError(f"road class must be one of A-H, got {road_class!r}")
+    if not speed > 0:
+        raise ValueError(f"speed must be positive, got {speed}")
+    rng = np.random.default_rng(seed)
+    edges = np.geomspace(n_band[0], n_band[1], n_lines + 1)
+    n = np.sqrt(edges[:-1] * edges[1:])
+    amp = np.sqrt(2 * ISO8608_GD0[road_class] * (n / N0) ** -2 * np.diff(edges))
+    phase = rng.uniform(0, 2 * np.pi, n_lines)
+    s = speed * np.asarray(t, float)
+    y, v = np.zeros_like(s), np.zeros_like(s)
+    for k in range(0, n_lines, 100):  # chunks keep memory at 100 x len(t)
+        arg = 2 * np.pi * np.outer(s, n[k:k + 100]) + phase[k:k + 100]
+        y += np.cos(arg) @ amp[k:k + 100]
+        v -= np.sin(arg) @ (amp[k:k + 100] * 2 * np.pi * n[k:k + 100] * speed)
+    return y, v
+
+
+def iso8608_variance(road_class, n_band=(0.01, 10.0)):
+    """Closed-form road variance over the band: integral of G_d [m^2]."""
+    a, b = n_band
+    return ISO8608_GD0[road_class] * N0**2 * (1 / a - 1 / b)

@@ -47,12 +47,12 @@ def _friction_impulse(w1f, w3f, W, F1, F3, p1, p3):
     w = w_free + W @ [p1, p3] (W in m/s per N); returns forces within [-F_i, F_i]
     making each contact either stick (w = 0) or slide against its motion."""
     for _ in range(50):
-        q1 = p1
+        q1, q3 = p1, p3
         if F1 > 0.0:
             p1 = min(max(p1 - (w1f + W[0, 0] * p1 + W[0, 1] * p3) / W[0, 0], -F1), F1)
         if F3 > 0.0:
             p3 = min(max(p3 - (w3f + W[1, 0] * p1 + W[1, 1] * p3) / W[1, 1], -F3), F3)
-        if abs(p1 - q1) < 1e-9 * (1.0 + F1):
+        if abs(p1 - q1) + abs(p3 - q3) < 1e-9 * (1.0 + F1 + F3):
             break
     return p1, p3
 
@@ -62,9 +62,10 @@ def simulate(qc: QuarterCar, damper_force, t, y_in, v_in=None, F_static=0.0, x_i
     """Run the quarter car over road input y_in(t) [m] (uniform t, s).
 
     damper_force(x, v) -> N; F_static: the damper force at rest at x_install (its gas
-    force, which carries part of the sprung weight, eq 5.1); x_install, stroke: where the
-    damper sits and its stroke [m] (the default, infinite, means no limit stops); tire_travel: tire compression beyond static before its
-    collapsed-length stop (eq 5.8) [m].
+    force, which carries part of the sprung weight, eq 5.1); x_install, stroke: where
+    the damper sits and its stroke [m] (infinite by default: no damper limit stops);
+    tire_travel: tire compression beyond static before its collapsed-length stop
+    (eq 5.8) [m].
     """
     t = np.asarray(t, float)
     y_in = np.asarray(y_in, float)
@@ -73,7 +74,7 @@ def simulate(qc: QuarterCar, damper_force, t, y_in, v_in=None, F_static=0.0, x_i
     n = len(t)
     z_pre1, z_pre2 = static_deflections(qc, F_static)
     ms, mu = qc.m_s, qc.m_u
-    # friction contacts: w1 = v1 - v2, w3 = v1 - v_in; impulse p acts +p on the sprung mass
+    # friction contacts: w1 = v1 - v2, w3 = v1 - v_in; friction force p acts +p on the sprung mass
     W = h * np.array([[1 / ms + 1 / mu, 1 / ms], [1 / ms, 1 / ms]])
     out = {k: np.zeros(n) for k in ("y1", "y2", "v1", "v2", "Ft", "Fd", "xd", "f1")}
     y1 = y2 = v1 = v2 = 0.0

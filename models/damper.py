@@ -10,7 +10,7 @@ import dataclasses
 import json
 import types
 import typing
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from .gas_spring import T_STD
@@ -158,7 +158,8 @@ class SimplifiedDamper:
 
 # --- JSON ---------------------------------------------------------------------------------
 
-def _build(cls, data, where):
+def build(cls, data, where=""):
+    """A dataclass `cls` from JSON data, naming any missing, unknown or mistyped field."""
     if not isinstance(data, dict):
         raise DamperError(f"{where or 'damper'}: expected an object, got {type(data).__name__}")
     hints = typing.get_type_hints(cls)
@@ -185,7 +186,7 @@ def _value(tp, value, path):
         tp = next(a for a in args if a is not type(None))
         return _value(tp, value, path)
     if dataclasses.is_dataclass(tp):
-        return _build(tp, value, path)
+        return build(tp, value, path)
     if typing.get_origin(tp) is list:
         if not isinstance(value, list):
             raise DamperError(f"{path}: expected a list")
@@ -208,9 +209,9 @@ def from_dict(data) -> Damper | SimplifiedDamper:
         raise DamperError("damper: expected a JSON object")
     layout = data.get("layout")
     if layout == "simplified":
-        model = _build(SimplifiedDamper, data, "")
+        model = build(SimplifiedDamper, data, "")
     elif layout in ("monotube", "remote_reservoir"):
-        model = _build(Damper, data, "")
+        model = build(Damper, data, "")
     else:
         raise DamperError(f"layout: must be monotube, remote_reservoir or simplified, got {layout!r}")
     check(model)

@@ -59,12 +59,6 @@ def polytropic_pressure(x, x_e, V_xeT, P_xeT, A_r, gamma, dV_oil=0.0):
     return P_xeT * (V_xeT / V) ** gamma  # eq 3.17 / 3.39
 
 
-def polytropic_force(x, x_e, T, P0, V0, T0, A_r, gamma, K_voil, K_voint=0.0):
-    """Gas spring force with thermal expansion, polytropic about x_e, eq 4.3  [N]."""
-    V_e, P_e = equilibrium_state(x_e, T, P0, V0, T0, A_r, K_voil, K_voint)
-    return force_from_pressure(polytropic_pressure(x, x_e, V_e, P_e, A_r, gamma), A_r)
-
-
 def static_force(x, T, P0, V0, T0, A_r, K_voil, K_voint=0.0):
     """Isothermal (static) gas spring force with oil expansion, eq 3.16  [N]."""
     _, P = equilibrium_state(x, T, P0, V0, T0, A_r, K_voil, K_voint)

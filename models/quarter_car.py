@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .damper import DamperError, _build
+from .damper import DamperError, build
 
 G = 9.81  # m/s^2
 PRESET_DIR = Path(__file__).parent / "presets" / "quarter-car"
@@ -42,7 +42,7 @@ def load(name_or_path) -> QuarterCar:
         known = ", ".join(sorted(p.stem for p in PRESET_DIR.glob("*.json")))
         raise DamperError(f"unknown quarter-car {s!r} (known: {known})")
     try:
-        qc = _build(QuarterCar, json.loads(path.read_text()), "")
+        qc = build(QuarterCar, json.loads(path.read_text()), "")
         check(qc)
     except json.JSONDecodeError as e:
         raise DamperError(f"{path.name}: not valid JSON (line {e.lineno}: {e.msg})") from None

@@ -22,7 +22,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import friction, simplified
+from .damper import SimplifiedDamper, load
+from .kernel import pack
 from .quarter_car import G, QuarterCar, static_deflections
+from .simulate import ASSEMBLY, ATOL_OIL
 
 K_STOP = 1e7  # N/m, rigid limit stops (assumed; the thesis gives no number)
 
@@ -76,7 +80,7 @@ def simulate(qc: QuarterCar, damper_force, t, y_in, v_in=None, F_static=0.0, x_i
     ms, mu = qc.m_s, qc.m_u
     # friction contacts: w1 = v1 - v2, w3 = v1 - v_in; friction force p acts +p on the sprung mass
     W = h * np.array([[1 / ms + 1 / mu, 1 / ms], [1 / ms, 1 / ms]])
-    out = {k: np.zeros(n) for k in ("y1", "y2", "v1", "v2", "Ft", "Fd", "xd", "f1")}
+    Y1, Y2, V1, V2, FT, FD, XD, F1s = (np.zeros(n) for _ in range(8))
     y1 = y2 = v1 = v2 = 0.0
     p1 = p3 = 0.0
     for k in range(n):
@@ -95,8 +99,7 @@ def simulate(qc: QuarterCar, damper_force, t, y_in, v_in=None, F_static=0.0, x_i
             Ft = max(Ft, 0.0)  # a tire cannot pull the wheel down
         if z2 < -tire_travel:
             Ft += K_STOP * (-tire_travel - z2)  # eq 5.8
-        for key, val in (("y1", y1), ("y2", y2), ("v1", v1), ("v2", v2), ("Ft", Ft), ("Fd", Fd), ("xd", x)):
-            out[key][k] = val
+        Y1[k], Y2[k], V1[k], V2[k], FT[k], FD[k], XD[k] = y1, y2, v1, v2, Ft, Fd, x
         if k == n - 1:
             break
         # smooth forces (eqs 5.3-5.4, 5.12-5.13), then friction at the new velocities
@@ -104,13 +107,12 @@ def simulate(qc: QuarterCar, damper_force, t, y_in, v_in=None, F_static=0.0, x_i
         F2 = -mu * G - Fs1 - Fd + Ft
         v1f, v2f = v1 + h * F1 / ms, v2 + h * F2 / mu
         p1, p3 = _friction_impulse(v1f - v2f, v1f - v_in[k + 1], W, qc.F_c1, qc.F_c3, p1, p3)
-        out["f1"][k] = p1
+        F1s[k] = p1
         v1 = v1f + h * (p1 + p3) / ms
         v2 = v2f - h * p1 / mu
         y1 += h * v1
         y2 += h * v2
-    return QuarterCarResult(t, out["y1"], out["y2"], out["v1"], out["v2"], y_in, out["Ft"], out["Fd"],
-                            out["xd"], out["f1"], float((ms + mu) * G))
+    return QuarterCarResult(t, Y1, Y2, V1, V2, y_in, FT, FD, XD, F1s, float((ms + mu) * G))
 
 
 @dataclass
@@ -129,11 +131,6 @@ def damper_source(damper, T, h=1e-4, compressible=True) -> DamperSource:
     each tick, first order at the 0.1 ms step; a compiled coupled loop comes with the
     sweeps). Motion beyond the stroke is clipped for the model: the stops take over.
     """
-    from . import friction, simplified
-    from .damper import SimplifiedDamper, load
-    from .kernel import pack
-    from .simulate import ASSEMBLY, ATOL_OIL
-
     d = load(damper) if isinstance(damper, str) else damper
     if isinstance(d, SimplifiedDamper):
         return DamperSource(lambda x, v: float(simplified.force(d, v)), 0.0, np.inf, np.inf)

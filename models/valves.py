@@ -139,11 +139,3 @@ def path_force(v, vp, C_seat, seat_open):
             side = 1
     return 0.5 * (lo + hi)
 
-
-@njit(cache=True)
-def path_force_array(v, vp, C_seat, F_seat):
-    """Vectorised incompressible path force [N] for velocities v [m/s]."""
-    out = np.empty(v.shape[0])
-    for i in range(v.shape[0]):
-        out[i] = path_force(v[i], vp, C_seat, bypass_open_at(v[i], vp, C_seat, F_seat))
-    return out

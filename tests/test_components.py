@@ -143,7 +143,7 @@ def test_eq_4_15_4_16_mechformance_bypass():
     # compression: low speed 56700 in parallel with the open bypass 1800 -> 1745.6 N s/m
     assert valves.path_force(0.1, vp, 1800.0, True) == pytest.approx(0.1 / (1 / 56700 + 1 / 1800))
     # slow rebound: bypass open (force above -50 N)
-    F = valves.path_force_array(np.array([-0.02, -0.05]), vp, 1800.0, -50.0)
+    F = [valves.path_force(v, vp, 1800.0, valves.bypass_open_at(v, vp, 1800.0, -50.0)) for v in (-0.02, -0.05)]
     assert F[0] == pytest.approx(-0.02 / (1 / 56700 + 1 / 1800))
     # faster rebound: seated; low 56700 in parallel with mid 17000 v - 2400: F = -2500.4 N
     assert F[1] == pytest.approx(-(0.05 + 2400 / 17000) / (1 / 56700 + 1 / 17000))
@@ -156,6 +156,17 @@ def test_eq_3_32_bulk_modulus():
     # Mechformance: 66 MPa + 81.25 * 2 MPa = 228.5 MPa, capped at 500 MPa
     assert compressibility.bulk_modulus(2e6, 0.0, 66e6, 81.25, 500e6) == pytest.approx(228.5e6)
     assert compressibility.bulk_modulus(6e6, 0.0, 66e6, 81.25, 500e6) == pytest.approx(500e6)
+
+
+@pytest.mark.parametrize("P", [0.5e6, 2e6, 5e6, 8e6])
+def test_strain_integrates_eq_3_32(P):
+    # the chamber kernels use strain = integral dP/K(P); its slope must be 1/K (eq 3.31)
+    args = (2.7e6, 0.0, 66e6, 81.25, 500e6)  # P_ref, then Mechformance Table 4.6
+    dP = 10.0
+    slope = (compressibility.strain(P + dP, *args) - compressibility.strain(P - dP, *args)) / (2 * dP)
+    assert slope == pytest.approx(1 / compressibility.bulk_modulus(P, 0.0, 66e6, 81.25, 500e6), rel=1e-6)
+    Pc, Gc = compressibility.cap_point(*args)
+    assert compressibility.pressure(compressibility.strain(P, *args), *args, Pc, Gc) == pytest.approx(P, rel=1e-9)
 
 
 # --- temperature sensitivity, eqs 3.57-3.62, 4.17 ------------------------------------------

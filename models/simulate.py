@@ -15,6 +15,7 @@ import numpy as np
 from . import friction, monotube, remote_reservoir, simplified
 from .damper import Damper, DamperError, SimplifiedDamper
 from .kernel import SEATOPEN, pack
+from .stiff import new_history
 
 ASSEMBLY = {"monotube": monotube, "remote_reservoir": remote_reservoir}
 NOUT = 5  # F_d, F_G, P1, P2, P_gas
@@ -86,7 +87,8 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
             y = np.array(state[0], float)
             prm[SEATOPEN] = state[1]
         atol = np.full(asm.NSTATE, ATOL_OIL)
-        _, capped, _ = asm.integrate(y, x, v, int(substeps), h, prm, vp, vh, atol, out)
+        _, capped, _ = asm.integrate(y, x, v, int(substeps), h, prm, vp, vh, atol, out,
+                                       new_history(asm.NSTATE))
         new_state = (y, prm[SEATOPEN], x_e)
     else:
         asm.incompressible(x, v, prm, vp, vh, out)

@@ -51,6 +51,12 @@ def _solve(M, piv, b):
         b[i] /= M[i, i]
 
 
+def new_history(n):
+    """Integrator memory for an n-state model: rows y_{k-1}, y_{k-2}, [2 x steps
+    taken (capped at 2) + Jacobian valid, ...], then the n x n Jacobian. All zeros: a fresh start."""
+    return np.zeros((3 + n, n))
+
+
 def make_integrator(rhs, outputs):
     """Compile the stepper for one assembly's `rhs` and `outputs`.
 
@@ -61,31 +67,34 @@ def make_integrator(rhs, outputs):
     """
 
     @njit
-    def integrate(y, x, xd, nsub, h, prm, vp, vh, atol, out):
+    def integrate(y, x, xd, nsub, h, prm, vp, vh, atol, out, hist):
         """March y from sample 0 to the last sample of x, xd (spacing h seconds, nsub
         implicit steps per sample), writing `outputs` at every sample into out[k].
-        y is updated in place to the final state. Returns (Jacobian refreshes, steps whose
-        Newton iteration hit its cap, Newton iterations)."""
+        y is updated in place to the final state. hist (new_history(n)) carries the BDF2
+        history and Jacobian from one call to the next, so a caller feeding one sample at
+        a time (the coupled quarter car) keeps second order. Returns (Jacobian refreshes,
+        steps whose Newton iteration hit its cap, Newton iterations)."""
         n = y.shape[0]
         N = x.shape[0]
         hs = h / nsub
-        y_prev = y.copy()
-        y_prev2 = y.copy()
+        y_prev = hist[0].copy()
+        y_prev2 = hist[1].copy()
+        J = hist[3:].copy()
+        code = int(hist[2, 0])
+        started = code // 2  # implicit steps taken so far (0, 1, 2+)
+        have_J = code % 2 == 1
         y_new = y.copy()
         r = np.empty(n)
         f = np.empty(n)
         f2 = np.empty(n)
         res = np.empty(n)
-        J = np.zeros((n, n))
         M = np.empty((n, n))
         piv = np.zeros(n, np.int64)
         scratch = np.empty(out.shape[1])
-        have_J = False
         g_fact = -1.0
         refreshes = 0
         capped = 0
         iters = 0
-        started = 0  # implicit steps taken so far (0, 1, 2+)
         outputs(y, x[0], xd[0], prm, vp, vh, out[0])
         for k in range(1, N):
             for j in range(1, nsub + 1):
@@ -160,6 +169,10 @@ def make_integrator(rhs, outputs):
                 outputs(y, xs, xds, prm, vp, vh, scratch)
             for i in range(out.shape[1]):
                 out[k, i] = scratch[i]
+        hist[0] = y_prev
+        hist[1] = y_prev2
+        hist[3:] = J
+        hist[2, 0] = 2 * min(started, 2) + (1 if have_J else 0)
         return refreshes, capped, iters
 
     return integrate

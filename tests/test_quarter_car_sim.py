@@ -4,6 +4,8 @@ import pytest
 
 from models import quarter_car as qcm
 from models import quarter_car_sim as qs
+from models import simplified
+from models.damper import load
 from models.simulate import C_to_K
 
 
@@ -68,11 +70,35 @@ def test_tire_lifts_off_and_never_pulls():
 
 def test_comprehensive_damper_step_response_settles():
     qc = qcm.load("race-car")
-    src = qs.damper_source("koni", C_to_K(95))
     t = np.arange(0, 1.5, 1e-4)
     y_in = np.where(t > 0.05, 0.0127, 0.0)  # 1.27 cm step up (6.2)
-    r = qs.run(qc, src, t, y_in)
+    r = qs.run(qc, "koni", t, y_in, T=C_to_K(95))
+    stroke = load("koni").geometry.stroke
     # damper friction (about 100 N on a 70 kN/m spring) can hold the car ~1.5 mm short
     assert r.y1[-1] == pytest.approx(0.0127, abs=2e-3)
-    assert abs(r.y1[-1] - r.y1[-2000]) < 1e-5  # at rest again
-    assert 0.0 <= r.damper_x.min() and r.damper_x.max() <= src.stroke
+    # friction locks the suspension; the car then rocks on its lightly damped tire
+    assert np.ptp(r.y1[-2000:] - r.y2[-2000:]) < 1e-9
+    assert np.ptp(r.y1[-2000:]) < 1e-4
+    assert 0.0 <= r.damper_x.min() and r.damper_x.max() <= stroke
+
+
+def test_compiled_loop_matches_the_callable_loop():
+    # the same simplified damper through run() (compiled, tabulated) and simulate()
+    qc = qcm.load("simulator")
+    d = load("simplified-II")
+    t = np.arange(0, 1.0, 1e-4)
+    y_in = 0.0127 * np.sin(2 * np.pi * 6.0 * t)
+    a = qs.run(qc, d, t, y_in)
+    b = qs.simulate(qc, lambda x, v: float(simplified.force(d, v)), t, y_in)
+    assert np.allclose(a.y1, b.y1, rtol=0, atol=1e-9) and np.allclose(a.tire_force, b.tire_force, atol=1e-3)
+    assert a.tire_force.min() == 0.0  # the case exercises lift-off too
+
+
+def test_incompressible_and_compressible_cars_agree_at_low_speed():
+    qc = qcm.load("simulator")
+    t = np.arange(0, 2.0, 1e-4)
+    y_in = 0.0032 * np.sin(2 * np.pi * 2.0 * t)
+    a = qs.run(qc, "koni", t, y_in, compressible=True)
+    b = qs.run(qc, "koni", t, y_in, compressible=False)
+    assert np.max(np.abs(a.y1 - b.y1)) < 0.03 * np.ptp(a.y1)
+    assert np.max(np.abs(a.damper_x - b.damper_x)) < 0.1 * np.ptp(a.damper_x)

@@ -26,6 +26,22 @@ def test_settling_time_to_90_percent():
     assert metrics.overshoot_percent(t, y) == pytest.approx(0.0, abs=1e-6)
 
 
+def test_settling_time_of_an_overshooting_response_waits_for_the_band():
+    # second order, zeta 0.3: the envelope exp(-zeta wn t) sqrt(1/(1-zeta^2)) bounds the
+    # error; the settling time is the last exit from the +-10 % band, found on a fine grid
+    zeta, wn = 0.3, 2 * np.pi * 2.4
+    t = np.linspace(0, 5, 500001)
+    y = second_order_step(zeta, wn, t)
+    ts = metrics.settling_time(t, y)
+    first_90 = t[np.argmax(y >= 0.9)]
+    assert ts > 2 * first_90  # the overshoot of 37 % keeps it outside the band longer
+    after = t >= ts
+    assert np.all(np.abs(y[after] - 1) <= 0.1 + 1e-6) and abs(abs(y[~after][-1] - 1) - 0.1) < 1e-3
+    # and it lies within one half period of the envelope estimate ln(10 / sqrt(1-zeta^2)) / (zeta wn)
+    estimate = np.log(10 / np.sqrt(1 - zeta**2)) / (zeta * wn)
+    assert abs(ts - estimate) < np.pi / (wn * np.sqrt(1 - zeta**2))
+
+
 def test_velocity_ratio_peaks_ride_height_and_tire():
     t = np.linspace(0, 1, 10001)[:-1]
     v_in = np.cos(2 * np.pi * 5 * t)

@@ -13,23 +13,29 @@ def run(*args):
     return subprocess.run(DYNO + list(args), capture_output=True, text=True, timeout=600)
 
 
-def test_validate_json_has_required_rows_and_passes_80_percent():
+def test_validate_json_has_required_rows_and_pass_rates():
     p = run("validate", "--json")
     assert p.returncode == 0, p.stderr
     rows = json.loads(p.stdout)["rows"]
-    keys = {"source", "case", "unit", "thesis", "model", "rel_error", "tolerance", "pass"}
+    keys = {"source", "group", "case", "unit", "thesis", "model", "rel_error", "tolerance",
+            "tolerance_type", "pass"}
     assert all(keys <= set(r) for r in rows)
     sources = {r["source"] for r in rows}
     assert {"Table 4.1", "Table 6.1", "Sec 2.2.2", "Sec 4.3", "Sec 4.2.2.2"} <= sources
+    assert {"Table 5.3", "Sec 6.2.1", "Table 6.2", "Table 6.3", "Table 6.4", "Table 6.5", "Table 6.6"} <= sources
     for damper in ("koni", "mechformance", "fox-light", "fox-heavy"):
         assert sum(r["source"] == "Table 6.1" and r["case"].startswith(damper) for r in rows) == 2
-    assert sum(r["pass"] for r in rows) >= 0.8 * len(rows)
-
-
-def test_validate_human_table():
-    p = run("validate")
-    assert p.returncode == 0
-    assert "rows pass" in p.stdout and "Table 6.1" in p.stdout
+        assert sum(r["source"] == "Table 6.4" and r["case"].startswith(damper) for r in rows) == 8
+        assert sum(r["source"] == "Table 6.5" and r["case"].startswith(damper) for r in rows) == 1
+        assert sum(r["source"] == "Table 6.6" and r["case"].startswith(damper) for r in rows) == 4
+    damper = [r for r in rows if r["group"] == "damper"]
+    car = [r for r in rows if r["group"] == "quarter-car"]
+    assert sum(r["pass"] for r in damper) >= 0.8 * len(damper)
+    assert sum(r["pass"] for r in car) >= 0.7 * len(car)
+    # the human table is the same rows
+    from models.validation import format_table
+    text = format_table(rows)
+    assert "quarter-car rows:" in text and "Table 6.4" in text and "+-1 Hz" in text
 
 
 def test_plot_damper_writes_pngs(tmp_path):

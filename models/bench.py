@@ -6,6 +6,7 @@ scipy.integrate.solve_ivp (Radau, rtol 1e-6), as a user would without our integr
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -91,3 +92,25 @@ def bench(seconds=10.0, ref_seconds=None):
              and c["max_force_diff_fraction"] <= goals["max_force_diff_fraction"]
              for c in cases.values())
     return {"cases": cases, "goals": goals, "goals_met": ok}
+
+
+def bench_sweep(workers=None, damper="koni", goal_wall_s=60.0):
+    """Issue 3's sweep: comprehensive compressible Koni on the simulator, 0.32 and 1.27 cm
+    x 60 frequencies 1.25-20 Hz, in parallel; wall time includes process start-up and
+    compilation in the workers, as a user sees it."""
+    import os
+
+    from . import quarter_car as qcm
+    from . import sweeps
+    freqs = np.linspace(1.25, 20.0, 60)
+    workers = workers or os.cpu_count() or 1
+    t0 = time.perf_counter()
+    fr = sweeps.frequency_response(qcm.load("simulator"), damper, sweeps.AMPLITUDES, freqs,
+                                   workers=workers, progress=True)
+    wall = time.perf_counter() - t0
+    simulated = float(sum((math.ceil(max(sweeps.SETTLE[0] * f, sweeps.SETTLE[1]))
+                           + math.ceil(max(sweeps.MEASURE[0] * f, sweeps.MEASURE[1]))) / f for f in freqs)
+                      * len(sweeps.AMPLITUDES))
+    return {"damper": damper, "amplitudes_m": list(sweeps.AMPLITUDES), "freqs_hz": freqs.tolist(),
+            "points": int(fr.values["rms_ratio_sprung"].size), "workers": workers, "simulated_s": simulated,
+            "wall_s": wall, "goal_wall_s": goal_wall_s, "goal_met": wall < goal_wall_s}

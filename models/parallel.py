@@ -50,7 +50,15 @@ def run_all(fn, jobs, executor=None, workers=None, progress=None, label=""):
     bar = None
     if progress and jobs:
         bar = Progress(len(jobs), label, None if progress is True else progress)
-    workers = workers or os.cpu_count() or 1
+    try:
+        return _run(fn, jobs, executor, workers or os.cpu_count() or 1, bar)
+    except BaseException:
+        if bar and bar.done < bar.total:
+            bar.stream.write("\n")  # an error message after us starts on its own line
+        raise
+
+
+def _run(fn, jobs, executor, workers, bar):
     if executor is None and (workers == 1 or len(jobs) == 1):
         out = []
         for job in jobs:

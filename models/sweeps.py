@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import metrics
+from . import gas_spring, metrics
 from .damper import DamperError, Damper, SimplifiedDamper, load
 from .parallel import run_all
 from .quarter_car import QuarterCar
@@ -83,6 +83,10 @@ class FrequencyResponse:
     amplitudes: np.ndarray  # m
     freqs: np.ndarray  # Hz
     values: dict  # metric name -> array (amplitude, frequency)
+    # static sprung height against the study's baseline [m]: a hotter gas spring lifts the
+    # car by its extra force over the spring rate (6.3.4); each run itself starts at its
+    # own equilibrium with the damper at mid-stroke
+    static_offset: float = 0.0
 
     def peak(self, metric, amplitude_index, sign=1.0):
         """(value, frequency) where sign * metric is largest."""
@@ -200,7 +204,7 @@ def parametric_cases(d: Damper):
         for k in FACTORS:
             cases.append((f"{var} x{k:g}", vary(d, var, k), T_BASE))
     for T_C in TEMPERATURES_C:
-        cases.append((f"temperature {T_C:g} C", d, float(C_to_K(T_C))))
+        cases.append((f"temperature {T_C:g}C", d, float(C_to_K(T_C))))
     return cases
 
 
@@ -217,10 +221,14 @@ def parametric_study(car: QuarterCar, damper, amplitudes=AMPLITUDES, freqs=FREQS
     jobs = [Harmonic(car, dv, float(a), float(f), T) for _, dv, T in cases for a in amplitudes for f in freqs]
     out = iter(run_all(harmonic_point, jobs, executor, workers, progress, f"{d.name} parametric"))
     study = {}
+    g = d.gas_spring
+    gas = lambda T: float(gas_spring.static_force(d.mid_stroke, T, g.P0, g.V0, g.T0, d.geometry.A_r,
+                                                  g.K_voil, g.K_voint))  # eqs 4.3-4.5
     for label, dv, T in cases:
         rows = [next(out) for _ in range(len(amplitudes) * len(freqs))]
         values = {m: np.array([o[m] for o in rows]).reshape(len(amplitudes), len(freqs)) for m in METRICS}
-        study[label] = FrequencyResponse(car.name, label, T, amplitudes, freqs, values)
+        study[label] = FrequencyResponse(car.name, label, T, amplitudes, freqs, values,
+                                         (gas(T) - gas(T_BASE)) / car.k_s)
     return study
 
 

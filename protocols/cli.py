@@ -32,6 +32,79 @@ def _plot_damper(args):
     return 0
 
 
+def _freqs(args):
+    from models.sweeps import FREQS
+    return FREQS if args.freq is None else args.freq
+
+
+def _plot_quarter_car(args):
+    from models import quarter_car as qcm
+    from models import quarter_car_plots as qp
+    from models import sweeps
+    car = qcm.load(args.car)
+    d = load(args.damper)
+    T = float(args.temp) + 273.15
+    out = _out_dir(args.out)
+    fr = sweeps.frequency_response(car, d, [a * 1e-3 for a in args.amplitude_mm], _freqs(args), T=T,
+                                   workers=args.workers, progress=True)
+    print(qp.plot_frequency_response(fr, out / f"frequency-response-{d.name}.png"))
+    if d.layout != "simplified":
+        steps = [(A, *sweeps.step_response(car, d, A, T=T)) for A in (0.025, -0.025, 0.0508)]
+        print(qp.plot_steps(steps, out / f"step-response-{d.name}.png",
+                            f"Quarter car '{car.name}' with {d.name} at {args.temp:g} C: road steps"))
+    for i, A in enumerate(fr.amplitudes):
+        on_stops = fr.freqs[fr.values["stop_fraction"][i] > 0]
+        if on_stops.size:
+            print(f"note: at {A * 1e3:.1f} mm the damper reaches its stops between {on_stops[0]:.2f} and "
+                  f"{on_stops[-1]:.2f} Hz", file=sys.stderr)
+    return 0
+
+
+def _plot_parametric(args):
+    from models import quarter_car as qcm
+    from models import quarter_car_plots as qp
+    from models import sweeps
+    car = qcm.load(args.car)
+    study = sweeps.parametric_study(car, args.damper, [a * 1e-3 for a in args.amplitude_mm], _freqs(args),
+                                    workers=args.workers, progress=True)
+    for p in qp.plot_parametric(study, _out_dir(args.out), args.damper):
+        print(p)
+    return 0
+
+
+def _plot_simplified(args):
+    from models import quarter_car as qcm
+    from models import quarter_car_plots as qp
+    from models import sweeps
+    res = sweeps.simplified_comparison(qcm.load(args.car), args.damper, freqs=_freqs(args),
+                                       workers=args.workers, progress=True)
+    print(qp.plot_simplified(res, _out_dir(args.out) / "simplified-models.png"))
+    return 0
+
+
+def _out_dir(path):
+    from pathlib import Path
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise DamperError(f"--out {path}: cannot create directory ({e.strerror})") from None
+    return out
+
+
+def _bench_sweep(args):
+    from models.bench import bench_sweep
+    result = bench_sweep(workers=args.workers)
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return 0
+    print(f"{result['damper']} sweep, {result['points']} points ({len(result['amplitudes_m'])} amplitudes x "
+          f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
+          f"{result['workers']} workers: {result['wall_s']:.1f} s wall "
+          f"(goal < {result['goal_wall_s']:.0f} s: {'met' if result['goal_met'] else 'NOT met'})")
+    return 0
+
+
 def _bench_sim(args):
     from models.bench import bench
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
@@ -62,6 +135,25 @@ def parser():
     pd.add_argument("--freq", type=float, nargs="+", default=[1, 2, 4, 8, 16], help="frequencies in Hz")
     pd.add_argument("--temp", type=float, default=94.0, help="damper temperature in C (default 94)")
     pd.set_defaults(func=_plot_damper)
+    for name, helptext, func in (
+            ("quarter-car", "frequency and step responses of a quarter car (6.2)", _plot_quarter_car),
+            ("parametric", "parametric study of one damper (6.3)", _plot_parametric),
+            ("simplified", "simplified models I and II against the comprehensive model (6.4)",
+             _plot_simplified)):
+        q = plsub.add_parser(name, help=helptext)
+        q.add_argument("--damper", default="koni", help="preset name or FILE.json (default koni)")
+        q.add_argument("--car", default="race-car" if name == "parametric" else "simulator",
+                       help="quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json")
+        q.add_argument("--out", required=True, help="output directory")
+        q.add_argument("--freq", type=float, nargs="+", default=None,
+                       help="excitation frequencies in Hz (default 1.25-20 in 0.25 Hz steps)")
+        if name != "simplified":
+            q.add_argument("--amplitude-mm", type=float, nargs="+", default=[3.2, 12.7],
+                           help="road amplitudes in mm (default 3.2 12.7)")
+        if name == "quarter-car":
+            q.add_argument("--temp", type=float, default=90.0, help="damper temperature in C (default 90)")
+        q.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+        q.set_defaults(func=func)
     b = sub.add_parser("bench", help="benchmarks (not tests)")
     bsub = b.add_subparsers(dest="what", required=True)
     bs = bsub.add_parser("sim", help="compressible model speed vs a solve_ivp Radau reference")
@@ -70,6 +162,10 @@ def parser():
     bs.add_argument("--ref-seconds", type=float, default=None,
                     help="simulate only this much with the slow reference (default: all)")
     bs.set_defaults(func=_bench_sim)
+    bw = bsub.add_parser("sweep", help="quarter-car frequency sweep time (2 amplitudes x 60 frequencies, Koni)")
+    bw.add_argument("--json", action="store_true")
+    bw.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    bw.set_defaults(func=_bench_sweep)
     return p
 
 

@@ -76,3 +76,33 @@ def test_bench_sim_json_keys():
     for c in cases.values():
         assert {"realtime_factor", "speedup_vs_reference", "max_force_diff_fraction"} <= set(c)
         assert c["max_force_diff_fraction"] < 0.005
+
+
+def test_plot_quarter_car_writes_frequency_and_step_pngs(tmp_path):
+    p = run("plot", "quarter-car", "--damper", "fox-light", "--out", str(tmp_path), "--freq", "3", "9",
+            "--amplitude-mm", "3.2", "--workers", "1")
+    assert p.returncode == 0, p.stderr
+    pngs = sorted(f.name for f in tmp_path.glob("*.png"))
+    assert pngs == ["frequency-response-fox-light.png", "step-response-fox-light.png"]
+    assert all(f.stat().st_size > 20_000 for f in tmp_path.glob("*.png"))
+    assert "2/2" in p.stderr  # the progress bar
+
+
+@pytest.mark.parametrize("extra, message", [
+    (("--freq", "0", "5"), "frequencies must be positive"),
+    (("--amplitude-mm", "45"), "bottoms the suspension"),
+    (("--car", "lorry"), "unknown quarter-car 'lorry'"),
+])
+def test_quarter_car_bad_input_is_one_line(tmp_path, extra, message):
+    p = run("plot", "quarter-car", "--out", str(tmp_path), *extra)
+    assert p.returncode == 2
+    assert len(p.stderr.strip().splitlines()) == 1 and message in p.stderr, p.stderr
+
+
+def test_negative_mass_car_file_is_named(tmp_path):
+    car = tmp_path / "car.json"
+    car.write_text(json.dumps({"name": "bad", "m_s": -250.0, "m_u": 45.0, "k_s": 7e4, "k_t": 3.5e5,
+                               "c_tire": 0.0, "F_c1": 0.0, "F_c3": 0.0}))
+    p = run("plot", "quarter-car", "--car", str(car), "--out", str(tmp_path))
+    assert p.returncode == 2
+    assert p.stderr.strip() == "dyno: error: car.json: m_s: must be positive, got -250.0"

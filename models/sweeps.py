@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gas_spring, metrics
-from .damper import DamperError, Damper, SimplifiedDamper, load
+from .damper import Damper, DamperError, load
 from .parallel import run_all
 from .quarter_car import QuarterCar
 from .quarter_car_sim import run

@@ -5,6 +5,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
+from linear_car import linear_car, transmissibility
 from models import quarter_car as qcm
 from models import quarter_car_validation as qv
 from models import sweeps
@@ -26,23 +27,9 @@ def test_run_all_keeps_job_order_in_processes_and_any_executor():
     assert "squares" in stream.getvalue() and "12/12" in stream.getvalue()
 
 
-def linear_car():
-    return qcm.QuarterCar("linear", m_s=252.5, m_u=45.4, k_s=70e3, k_t=350e3, c_tire=0.0, F_c1=0.0, F_c3=0.0)
-
-
 def linear_damper(c):
     side = SimplifiedDirection(c_low=c, c_mid=c)
     return SimplifiedDamper("linear", "simplified", side, side)
-
-
-def closed_form(qc, c, f):
-    """|Y1/Yin|, |Y2/Yin| of the linear 2-DOF model with a viscous damper c."""
-    w = 2 * np.pi * f
-    M = np.diag([qc.m_s, qc.m_u])
-    K = np.array([[qc.k_s, -qc.k_s], [-qc.k_s, qc.k_s + qc.k_t]])
-    C = np.array([[c, -c], [-c, c]])
-    Y = np.linalg.solve(-w**2 * M + 1j * w * C + K, np.array([0.0, qc.k_t]))
-    return abs(Y[0]), abs(Y[1])
 
 
 def test_frequency_response_of_a_linear_car_is_its_transmissibility():
@@ -51,7 +38,7 @@ def test_frequency_response_of_a_linear_car_is_its_transmissibility():
     freqs = [1.5, 2.4, 5.0, 12.0]
     fr = sweeps.frequency_response(qc, linear_damper(c), [0.001], freqs, workers=1)
     for k, f in enumerate(freqs):
-        t1, t2 = closed_form(qc, c, f)
+        t1, t2 = transmissibility(qc, c, f)
         assert fr.values["rms_ratio_sprung"][0, k] == pytest.approx(t1, rel=0.01)
         assert fr.values["rms_ratio_unsprung"][0, k] == pytest.approx(t2, rel=0.01)
     # small input: the tire never leaves the road and a linear car does not pack down

@@ -111,3 +111,47 @@ def sine(amplitude, freq, cycles, x_mid, samples_per_cycle=None, dt=None):
     t = np.arange(n) * dt
     w = 2 * np.pi * freq
     return t, x_mid - amplitude * np.cos(w * t), amplitude * w * np.sin(w * t)
+
+
+class Stepper:
+    """The compressible damper advanced one sample at a time, for loops that learn the
+    next motion only after this force (the virtual rig, hardware-in-the-loop).
+
+        s = Stepper(koni, T=C_to_K(40), x0=koni.mid_stroke, h=1e-3)
+        F, F_d, F_gas, F_fric, P1, P2, P_gas = s.step(x, v)
+
+    BDF2 with its history kept between calls (stiff.py). Motion beyond the stroke is
+    clipped (the rig's limits and stops are the caller's business)."""
+
+    def __init__(self, damper: Damper, T, x0, h):
+        self.damper, self.h, self.x_e = damper, float(h), float(x0)
+        self.asm = ASSEMBLY[damper.layout]
+        self.prm = None
+        self.set_temperature(T)
+        self.y = self.asm.initial_state(self.prm, self.x_e)
+        self.hist = new_history(self.asm.NSTATE)
+        self.atol = np.full(self.asm.NSTATE, ATOL_OIL)
+        self.xs, self.vs = np.full(2, self.x_e), np.zeros(2)
+        self.out = np.zeros((2, NOUT))
+
+    def set_temperature(self, T):
+        """Damper temperature [K]: gas equilibrium and valve coefficients follow; the oil
+        held in the chambers (the state) carries over."""
+        seat = None if self.prm is None else self.prm[SEATOPEN]
+        self.prm, self.vp, self.vh = pack(self.damper, float(T), self.x_e)
+        if seat is not None:
+            self.prm[SEATOPEN] = seat
+        self.T = float(T)
+
+    def step(self, x, v):
+        """Forces [N] and pressures [Pa] after moving to x [m] at v [m/s]:
+        (total, damping, gas, friction, P1, P2, P_gas)."""
+        x = min(max(float(x), 0.0), self.damper.geometry.stroke)
+        self.xs[0], self.vs[0] = self.xs[1], self.vs[1]
+        self.xs[1], self.vs[1] = x, float(v)
+        self.asm.integrate(self.y, self.xs, self.vs, 1, self.h, self.prm, self.vp, self.vh, self.atol,
+                           self.out, self.hist)
+        f = self.damper.friction
+        Ff = float(friction.friction_force(x, v, self.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT))
+        Fd, Fg, P1, P2, Pg = self.out[1]
+        return Fd + Fg + Ff, Fd, Fg, Ff, P1, P2, Pg

@@ -1,0 +1,210 @@
+"""Device drivers: bytes from the transports in, device outputs (V, degC) out.
+
+One small class per transport, all with the same three methods the rig uses:
+    open()            connect; RigError naming the device if it cannot
+    poll(now) -> list of (signal, value, fault or None) received since the last poll
+    close()
+and the actuator's `send(mode, setpoint)`. Calibration to SI is not here: it is the
+channel's (rig/config.py, Channel.scale).
+"""
+from __future__ import annotations
+
+import logging
+
+import can
+import serial
+
+from . import can_codec, modbus_map, serial_frame
+from .errors import RigError
+
+logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors ourselves
+MODES = {"off": 0, "hold": 1, "follow": 2}
+
+
+def open_can_bus(params: dict, where: str):
+    kwargs = {"interface": params["interface"], "channel": params["channel"]}
+    if "bitrate" in params:
+        kwargs["bitrate"] = params["bitrate"]
+    try:
+        return can.Bus(**kwargs)
+    except Exception as e:  # python-can raises per-interface errors
+        raise RigError(f"{where}: cannot open CAN {params['interface']} {params['channel']!r} ({e})") from None
+
+
+class CanBus:
+    """One CAN bus shared by the devices (nodes) on it: frames are routed by id."""
+
+    ROUTES = {"ACT_STATUS": "actuator", "DAQ_MOTION": "daq"}
+
+    def __init__(self, params, where):
+        self.params, self.where = params, where
+        self.bus = None
+        self.pending = {"actuator": [], "daq": []}
+        self.errors = 0
+
+    def open(self):
+        if self.bus is None:
+            self.bus = open_can_bus(self.params, self.where)
+
+    def pump(self):
+        """Drain received frames into per-node queues."""
+        while True:
+            try:
+                msg = self.bus.recv(timeout=0.0)
+            except Exception as e:
+                raise RigError(f"{self.where}: CAN receive failed ({e})") from None
+            if msg is None:
+                return
+            try:
+                name, sig = can_codec.decode(msg.arbitration_id, msg.data)
+            except RigError:
+                self.errors += 1  # a frame we do not know: counted, not fatal
+                continue
+            node = self.ROUTES.get(name)
+            if node:
+                self.pending[node].append((name, sig))
+
+    def send(self, name, signals):
+        try:
+            self.bus.send(can.Message(arbitration_id=can_codec.frame_id(name), is_extended_id=False,
+                                      data=can_codec.encode(name, signals)))
+        except can.CanError as e:
+            raise RigError(f"{self.where}: CAN send failed ({e})") from None
+
+    def close(self):
+        if self.bus is not None:
+            self.bus.shutdown()
+            self.bus = None
+
+
+class CanNode:
+    """The actuator controller or the LVDT/LVT conditioner on a CanBus."""
+
+    def __init__(self, name, bus: CanBus, node):
+        self.name, self.bus, self.node = name, bus, node
+        self.counter = 0
+        self.state = None  # actuator: (state, alarm)
+        self.frames = 0
+
+    def open(self):
+        self.bus.open()
+
+    def poll(self, now):
+        self.bus.pump()
+        out = []
+        for _, sig in self.bus.pending[self.node]:
+            self.frames += 1
+            if self.node == "actuator":
+                self.state = (int(sig["state"]), int(sig["alarm"]))
+                out.append(("position", sig["position"], None))
+            else:
+                st = int(sig["status"])
+                out.append(("lvdt", sig["lvdt"], "LVDT out of range" if st & 1 else None))
+                out.append(("lvt", sig["lvt"], "LVT out of range" if st & 2 else None))
+        self.bus.pending[self.node].clear()
+        return out
+
+    def send(self, mode, setpoint):
+        self.counter = (self.counter + 1) & 0xFF
+        self.bus.send("ACT_CMD", {"setpoint": setpoint, "mode": MODES[mode], "counter": self.counter})
+
+    def close(self):
+        self.bus.close()
+
+
+class SerialLoadCell:
+    """The load-cell amplifier's binary stream (rig/serial_frame.py) on a tty."""
+
+    def __init__(self, name, params):
+        self.name, self.params = name, params
+        self.port = None
+        self.parser = serial_frame.Parser()
+        self.frames = 0
+        self.last_seq = None
+        self.lost = 0
+
+    def open(self):
+        try:
+            self.port = serial.serial_for_url(self.params["port"], baudrate=self.params.get("baudrate", 921600),
+                                              timeout=0)
+        except (serial.SerialException, OSError, ValueError) as e:
+            raise RigError(f"device {self.name!r}: cannot open serial port {self.params['port']!r} ({e})") from None
+
+    def poll(self, now):
+        try:
+            data = self.port.read(self.port.in_waiting or 1)
+        except (serial.SerialException, OSError) as e:
+            raise RigError(f"device {self.name!r}: serial read failed ({e})") from None
+        out = []
+        for f in self.parser.feed(data):
+            if self.last_seq is not None:
+                self.lost += (f.seq - self.last_seq - 1) & 0xFF
+            self.last_seq = f.seq
+            self.frames += 1
+            fault = ("load cell saturated" if f.status & serial_frame.SATURATED
+                     else "load cell sensor fault" if f.status & serial_frame.SENSOR_FAULT else None)
+            out.append(("output", f.volts, fault))
+        return out
+
+    def close(self):
+        if self.port is not None:
+            self.port.close()
+            self.port = None
+
+
+class ModbusModule:
+    """A Modbus TCP module polled for its register block (rig/registers/*.toml)."""
+
+    def __init__(self, name, params):
+        self.name, self.params = name, params
+        self.map = modbus_map.load(params["map"])
+        self.period = 1.0 / float(params.get("poll_hz", 10))
+        self.next_poll = None
+        self.client = None
+        self.frames = 0
+
+    def open(self):
+        from pymodbus.client import ModbusTcpClient
+        p = self.params
+        self.client = ModbusTcpClient(p["host"], port=int(p["port"]), timeout=float(p.get("timeout_s", 0.1)),
+                                      retries=0)
+        if not self.client.connect():
+            raise RigError(f"device {self.name!r}: no Modbus server at {p['host']}:{p['port']}")
+        self.next_poll = None
+
+    def poll(self, now):
+        if self.next_poll is not None and now < self.next_poll:
+            return []
+        self.next_poll = now + self.period if self.next_poll is None else max(self.next_poll + self.period, now)
+        from pymodbus.exceptions import ModbusException
+        m = self.map
+        read = self.client.read_input_registers if m.table == "input" else self.client.read_holding_registers
+        try:
+            r = read(m.start, count=m.count, device_id=int(self.params["device_id"]))
+        except ModbusException as e:
+            raise RigError(f"device {self.name!r}: Modbus request failed ({str(e).split('] ')[-1]})") from None
+        if r.isError():
+            raise RigError(f"device {self.name!r}: Modbus exception response, code {getattr(r, 'exception_code', '?')}")
+        self.frames += 1
+        return [(name, value, fault) for name, (value, fault) in modbus_map.decode(m, r.registers).items()]
+
+    def close(self):
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+
+
+def make(config):
+    """{device name: driver} for a RigConfig; CAN devices on one bus share it."""
+    buses, out = {}, {}
+    for name, d in config.devices.items():
+        if d.transport == "can":
+            key = (d.params["interface"], str(d.params["channel"]))
+            if key not in buses:
+                buses[key] = CanBus(d.params, f"device {name!r}")
+            out[name] = CanNode(name, buses[key], d.params["node"])
+        elif d.transport == "serial":
+            out[name] = SerialLoadCell(name, d.params)
+        else:
+            out[name] = ModbusModule(name, d.params)
+    return out

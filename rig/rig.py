@@ -1,0 +1,114 @@
+"""The rig: one object a protocol uses whatever the wiring.
+
+    rig = Rig(config.load("my-cell.toml"), clock)
+    rig.open()
+    rig.poll()                         # take in what the devices sent
+    rig.read()["force"]                # latest Reading(t, value [SI], fault)
+    rig.drain()                        # every sample since the last drain, per channel
+    rig.follow(x); rig.hold(); rig.stop()
+    rig.actuator()                     # ("following", [alarms])
+    rig.close()
+
+Samples are timestamped by the rig's clock (wall time on a real cell, simulated time on
+the virtual rig) when they arrive.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import devices
+from .errors import RigError
+
+STATES = {0: "off", 1: "holding", 2: "following", 3: "alarm"}
+ALARMS = ("hydraulic pressure low", "valve fault", "following error", "interlock open")
+
+
+@dataclass(frozen=True)
+class Reading:
+    t: float  # s, rig clock
+    value: float  # SI
+    fault: str | None
+
+
+class Rig:
+    def __init__(self, config, clock=time.monotonic):
+        self.config = config
+        self.clock = clock
+        self.drivers = devices.make(config)
+        self.by_signal = {(c.device, c.signal): c for c in config.channels.values()}
+        self.latest: dict[str, Reading] = {}
+        self._buf = {name: ([], []) for name in config.channels}
+        self.is_open = False
+
+    def open(self):
+        opened = []
+        try:
+            for d in self.drivers.values():
+                d.open()
+                opened.append(d)
+        except RigError:
+            for d in opened:
+                d.close()
+            raise
+        self.is_open = True
+
+    def poll(self):
+        """Take in everything the devices sent since the last poll. RigError names a
+        device whose transport failed."""
+        now = self.clock()
+        for name, drv in self.drivers.items():
+            for signal, raw, fault in drv.poll(now):
+                ch = self.by_signal.get((name, signal))
+                if ch is None:
+                    continue
+                value = ch.scale(raw)
+                self.latest[ch.name] = Reading(now, value, fault)
+                ts, vs = self._buf[ch.name]
+                ts.append(now)
+                vs.append(value)
+        return now
+
+    def read(self) -> dict:
+        return dict(self.latest)
+
+    def drain(self) -> dict:
+        """{channel: (t [s], values [SI])} of every sample since the last drain."""
+        out = {}
+        for name, (ts, vs) in self._buf.items():
+            out[name] = (np.array(ts), np.array(vs))
+            ts.clear()
+            vs.clear()
+        return out
+
+    # --- actuator -----------------------------------------------------------------------
+    @property
+    def _actuator(self):
+        return self.drivers[self.config.actuator]
+
+    def follow(self, x):
+        """Position setpoint [m from full extension]; the caller checks the limits."""
+        self._actuator.send("follow", float(x))
+
+    def hold(self):
+        self._actuator.send("hold", 0.0)
+
+    def stop(self):
+        """Valve closed: the actuator locks where it is."""
+        self._actuator.send("off", 0.0)
+
+    def actuator(self):
+        """(state, [alarm texts]) from the actuator's last status frame; ("unknown", [])
+        before the first."""
+        st = self._actuator.state
+        if st is None:
+            return "unknown", []
+        state, alarm = st
+        return STATES.get(state, f"state {state}"), [a for i, a in enumerate(ALARMS) if alarm >> i & 1]
+
+    def close(self):
+        for d in self.drivers.values():
+            d.close()
+        self.is_open = False

@@ -1,0 +1,52 @@
+"""The load-cell amplifier on a pseudo-terminal: the driver opens the slave like any tty.
+Frames as rig/serial_frame.py; an output beyond +/-10 V saturates and says so."""
+from __future__ import annotations
+
+import os
+import tty
+
+import numpy as np
+
+from rig import serial_frame
+
+from .emulated import outputs
+
+FULL_SCALE = 10.0  # V
+
+
+class LoadCellAmp:
+    def __init__(self, config, device):
+        self.config, self.device = config, device
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)  # binary: no line discipline between us and the driver
+        os.set_blocking(self.master, False)
+        self.path = os.ttyname(self.slave)
+        self.seq = 0
+        self.faults = set()  # serial_corrupt, serial_truncate, serial_garbage, loadcell_saturated
+        self.rng = np.random.default_rng(7)
+        self.overruns = 0
+
+    def publish(self, readings):
+        v = outputs(self.config, self.device, readings).get("output", 0.0)
+        status = 0
+        if "loadcell_saturated" in self.faults or abs(v) > FULL_SCALE:
+            v, status = float(np.copysign(FULL_SCALE, v if v else 1.0)), serial_frame.SATURATED
+        frame = serial_frame.encode(self.seq, status, v)
+        self.seq = (self.seq + 1) & 0xFF
+        if "serial_corrupt" in self.faults:
+            frame = frame[:5] + bytes([frame[5] ^ 0x5A]) + frame[6:]
+        if "serial_truncate" in self.faults:
+            frame = frame[:6]
+        if "serial_garbage" in self.faults:
+            frame = self.rng.integers(0, 256, 7, dtype=np.uint8).tobytes() + frame
+        try:
+            os.write(self.master, frame)
+        except BlockingIOError:
+            self.overruns += 1  # nobody reads: the line overruns, as a real one would
+
+    def close(self):
+        for fd in (self.master, self.slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass

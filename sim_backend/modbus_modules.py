@@ -1,0 +1,77 @@
+"""The thermocouple and analog-input modules as a Modbus TCP server on 127.0.0.1
+(pymodbus), one device id per module; each read returns the latest register block."""
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+
+from pymodbus.constants import ExcCodes
+from pymodbus.server import ModbusTcpServer
+from pymodbus.simulator import DataType, SimData, SimDevice
+
+from rig import modbus_map
+
+from .emulated import outputs
+
+logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+
+
+class ModbusModules:
+    def __init__(self, config, devices, port):
+        """devices: names of the config's Modbus devices served on this port."""
+        self.config, self.port = config, port
+        self.maps = {name: modbus_map.load(config.devices[name].params["map"]) for name in devices}
+        self.ids = {name: int(config.devices[name].params["device_id"]) for name in devices}
+        self.blocks = {name: [0] * m.count for name, m in self.maps.items()}
+        self.faults = set()  # modbus_exception, modbus_timeout, open_thermocouple
+        self.loop = asyncio.new_event_loop()
+        self.server = None
+        self.ready = threading.Event()
+        self.thread = threading.Thread(target=self._run, name=f"modbus:{port}", daemon=True)
+
+    def _action(self, name):
+        async def action(fc, start, address, count, regs, set_values):
+            if "modbus_exception" in self.faults:
+                return ExcCodes.DEVICE_FAILURE
+            if "modbus_timeout" in self.faults:
+                await asyncio.sleep(2.0)
+            m = self.maps[name]
+            regs[:m.count] = self.blocks[name]
+            return None
+        return action
+
+    async def _serve(self):
+        devices = [SimDevice(id=self.ids[n], simdata=SimData(m.start, values=[0] * m.count,
+                                                               datatype=DataType.REGISTERS),
+                             action=self._action(n)) for n, m in self.maps.items()]
+        self.server = ModbusTcpServer(devices, address=("127.0.0.1", self.port))
+        await self.server.serve_forever(background=True)  # returns once listening
+
+    def _run(self):
+        asyncio.set_event_loop(self.loop)
+        try:
+            self.loop.run_until_complete(self._serve())
+        finally:
+            self.ready.set()
+        self.loop.run_forever()
+
+    def start(self):
+        self.thread.start()
+        self.ready.wait(5.0)
+        if self.server is None or self.server.transport is None:
+            raise OSError(f"Modbus server could not listen on 127.0.0.1:{self.port}")
+
+    def publish(self, readings):
+        for name, m in self.maps.items():
+            faults = ()
+            if "open_thermocouple" in self.faults and "tc" in m.name:
+                faults = tuple(v.name for v in m.values)
+            self.blocks[name] = modbus_map.encode(m, outputs(self.config, name, readings), faults)
+
+    def close(self):
+        if self.loop.is_running():
+            if self.server is not None:
+                asyncio.run_coroutine_threadsafe(self.server.shutdown(), self.loop).result(5.0)
+            self.loop.call_soon_threadsafe(self.loop.stop)
+        self.thread.join(5.0)

@@ -1,0 +1,125 @@
+"""The virtual rig: the plant behind device emulators that speak the real wire protocols.
+
+    vr = VirtualRig(config.load("virtual"), damper="koni")
+    cfg = vr.start()          # the config with its "auto" addresses filled in
+    rig = Rig(cfg, clock=vr.clock); rig.open()
+    vr.step(1e-3)             # simulated time: the caller paces it (as fast as the CPU allows)
+    ...
+    vr.close()
+
+In process: CAN on python-can's virtual bus, the load-cell amplifier on a pseudo-terminal,
+the Modbus modules on a TCP server at 127.0.0.1. Faults are injected with `inject(name)`.
+"""
+from __future__ import annotations
+
+import copy
+import itertools
+import os
+import socket
+
+import can
+
+from .can_nodes import CanNodes
+from .loadcell_amp import LoadCellAmp
+from .modbus_modules import ModbusModules
+from .plant import Plant
+
+FAULTS = {
+    "can_bus_off": "CAN nodes fall silent (bus-off)",
+    "serial_corrupt": "load-cell frames with bad checksums",
+    "serial_truncate": "load-cell frames cut short",
+    "serial_garbage": "garbage bytes between load-cell frames",
+    "modbus_exception": "Modbus modules answer with exception responses",
+    "modbus_timeout": "Modbus modules stop answering in time",
+    "open_thermocouple": "thermocouples read open",
+    "loadcell_stuck": "load cell output frozen",
+    "loadcell_saturated": "load cell amplifier saturated",
+    "actuator_alarm": "actuator controller raises a valve alarm",
+}
+_ids = itertools.count()
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class VirtualRig:
+    def __init__(self, config, damper="koni", seed=0, T0=None):
+        self.config = copy.deepcopy(config)
+        self.plant = Plant(damper, T0=T0, seed=seed)
+        self.t = 0.0
+        self.can = None
+        self.can_bus = None
+        self.amps = []
+        self.modbus = []
+
+    def clock(self):
+        return self.t
+
+    def start(self):
+        """Start the emulators; returns the config with "auto" addresses filled in."""
+        cfg = self.config
+        channel = f"dyno-virtual-{os.getpid()}-{next(_ids)}"
+        ports = {}
+        for name, d in cfg.devices.items():
+            if d.transport == "can" and d.params["channel"] == "auto":
+                d.params["interface"], d.params["channel"] = "virtual", channel
+            elif d.transport == "serial":
+                amp = LoadCellAmp(cfg, name)
+                self.amps.append(amp)
+                d.params["port"] = amp.path
+            elif d.transport == "modbus":
+                if d.params["port"] == "auto":
+                    d.params["port"] = ports.setdefault("auto", free_port())
+                ports.setdefault(d.params["port"], [])
+        can_devices = [d for d in cfg.devices.values() if d.transport == "can"]
+        if can_devices:
+            self.can_bus = can.Bus(interface="virtual", channel=can_devices[0].params["channel"])
+            self.can = CanNodes(self.can_bus, cfg, self.plant)
+        by_port = {}
+        for name, d in cfg.devices.items():
+            if d.transport == "modbus":
+                by_port.setdefault(int(d.params["port"]), []).append(name)
+        for port, names in by_port.items():
+            m = ModbusModules(cfg, names, port)
+            m.start()
+            self.modbus.append(m)
+        self.publish()
+        return cfg
+
+    def step(self, dt):
+        """Apply received setpoints, advance the plant by dt [s] of simulated time, and
+        publish one frame per device."""
+        if self.can:
+            self.can.service()
+        self.plant.advance(dt)
+        self.t += dt
+        self.publish()
+
+    def publish(self):
+        r = self.plant.readings()
+        if self.can:
+            self.can.publish(r)
+        for a in self.amps:
+            a.publish(r)
+        for m in self.modbus:
+            m.publish(r)
+
+    def inject(self, fault, on=True):
+        if fault not in FAULTS:
+            raise ValueError(f"unknown fault {fault!r} (known: {', '.join(FAULTS)})")
+        targets = [self.plant.faults] + [a.faults for a in self.amps] + [m.faults for m in self.modbus]
+        for t in targets:
+            (t.add if on else t.discard)(fault)
+        if self.can:
+            self.can.bus_off = "can_bus_off" in self.plant.faults
+
+    def close(self):
+        for m in self.modbus:
+            m.close()
+        for a in self.amps:
+            a.close()
+        if self.can_bus is not None:
+            self.can_bus.shutdown()

@@ -1,0 +1,60 @@
+"""Safety limits and the watchdog, checked every control tick.
+
+check() returns the first reason to trip, in plain words, or None. What a trip does is
+the control loop's (rig/loop.py): hold, then a slow move to the safe position when
+position feedback and the actuator are healthy, fault latched.
+"""
+from __future__ import annotations
+
+from .config import RigConfig
+
+# channel -> (limit key, test, words); values in SI
+RANGE_CHECKS = (
+    ("x", lambda v, L: not L["x_min"] <= v <= L["x_max"], "displacement {v:.4f} m outside {lo:.4f}..{hi:.4f} m"),
+    ("force", lambda v, L: abs(v) > L["force_max"], "force {v:.0f} N beyond +-{f:.0f} N"),
+    ("v", lambda v, L: abs(v) > L["velocity_max"], "velocity {v:.2f} m/s beyond +-{vm:.2f} m/s"),
+    ("T_body", lambda v, L: v > L["temperature_max"], "damper body at {c:.0f} C, above {tm:.0f} C"),
+    ("T_reservoir", lambda v, L: v > L["temperature_max"], "reservoir at {c:.0f} C, above {tm:.0f} C"),
+    ("P_gas", lambda v, L: v > L["gas_pressure_max"], "gas pressure {mpa:.2f} MPa above {pm:.2f} MPa"),
+)
+
+
+class Safety:
+    def __init__(self, config: RigConfig):
+        self.config = config
+        self.L = config.limits
+        # a polled channel may be up to 10 poll periods old; streamed ones stale_s
+        self.max_age = {}
+        for ch in config.channels.values():
+            d = config.devices[ch.device]
+            age = self.L["stale_s"]
+            if d.transport == "modbus":
+                age = max(age, 10.0 / float(d.params.get("poll_hz", 10)))
+            self.max_age[ch.name] = age
+
+    def check(self, readings: dict, now: float, started: float, actuator=("unknown", [])):
+        """First reason to trip, or None. `started`: when the loop began (a channel that
+        has never reported is stale once its allowed age has passed since then)."""
+        for name, ch in self.config.channels.items():
+            r = readings.get(name)
+            last = r.t if r is not None else started
+            if now - last > self.max_age[name]:
+                what = "no data" if r is None else f"no new data for {1e3 * (now - r.t):.0f} ms"
+                return f"watchdog: {name} ({ch.device}): {what} (limit {1e3 * self.max_age[name]:.0f} ms)"
+            if r is not None and r.fault:
+                return f"{name} ({ch.device}): {r.fault}"
+        state, alarms = actuator
+        if state == "alarm" or alarms:
+            return f"actuator alarm: {', '.join(alarms) or 'unspecified'}"
+        L = self.L
+        for name, test, words in RANGE_CHECKS:
+            r = readings.get(name)
+            if r is not None and test(r.value, L):
+                return "limit: " + words.format(v=r.value, lo=L["x_min"], hi=L["x_max"], f=L["force_max"],
+                                                vm=L["velocity_max"], c=r.value - 273.15,
+                                                tm=L["temperature_max"] - 273.15, mpa=r.value / 1e6,
+                                                pm=L["gas_pressure_max"] / 1e6)
+        return None
+
+    def setpoint_ok(self, x):
+        return self.L["x_min"] <= x <= self.L["x_max"]

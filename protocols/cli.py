@@ -6,6 +6,7 @@ import json
 import sys
 
 from models.damper import DamperError, load
+from rig.errors import RigError
 
 
 def _validate(args):
@@ -154,6 +155,19 @@ def parser():
             q.add_argument("--temp", type=float, default=90.0, help="damper temperature in C (default 90)")
         q.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
         q.set_defaults(func=func)
+    from . import rig_commands
+    sr = sub.add_parser("sim-rig", help="serve the virtual rig as its own process (CAN slcan, pty, Modbus TCP)")
+    sr.add_argument("--config", default="sim-rig", help="rig config to serve (default: sim-rig)")
+    sr.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
+    sr.add_argument("--fault", action="append", metavar="NAME[@TIME]", help="inject a fault, at TIME s")
+    sr.add_argument("--seconds", type=float, default=None, help="stop after this long")
+    sr.set_defaults(func=rig_commands.sim_rig)
+    rg = sub.add_parser("rig", help="the test cell")
+    rgsub = rg.add_subparsers(dest="what", required=True)
+    rc = rgsub.add_parser("check", help="connect to every device and print each channel")
+    rc.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
+    rc.add_argument("--damper", default="koni", help="damper in the embedded virtual rig (default koni)")
+    rc.set_defaults(func=rig_commands.rig_check)
     b = sub.add_parser("bench", help="benchmarks (not tests)")
     bsub = b.add_subparsers(dest="what", required=True)
     bs = bsub.add_parser("sim", help="compressible model speed vs a solve_ivp Radau reference")
@@ -173,7 +187,7 @@ def main(argv=None):
     args = parser().parse_args(argv)
     try:
         return args.func(args)
-    except DamperError as e:
+    except (DamperError, RigError) as e:
         print(f"dyno: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

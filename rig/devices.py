@@ -25,6 +25,8 @@ def open_can_bus(params: dict, where: str):
     kwargs = {"interface": params["interface"], "channel": params["channel"]}
     if "bitrate" in params:
         kwargs["bitrate"] = params["bitrate"]
+    if params["interface"] == "slcan" and str(params["channel"]).startswith("socket://"):
+        kwargs["sleep_after_open"] = 0.0  # no adapter to wake up on a socket
     try:
         return can.Bus(**kwargs)
     except Exception as e:  # python-can raises per-interface errors

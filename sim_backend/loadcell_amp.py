@@ -26,6 +26,14 @@ class LoadCellAmp:
         self.rng = np.random.default_rng(7)
         self.overruns = 0
 
+    def link(self, path):
+        """Make `path` a symlink to our pty (what a fixed-path config opens)."""
+        self.link_path = path
+        os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+        if os.path.islink(path):
+            os.unlink(path)
+        os.symlink(self.path, path)
+
     def publish(self, readings):
         v = outputs(self.config, self.device, readings).get("output", 0.0)
         status = 0
@@ -45,6 +53,8 @@ class LoadCellAmp:
             self.overruns += 1  # nobody reads: the line overruns, as a real one would
 
     def close(self):
+        if getattr(self, "link_path", None) and os.path.islink(self.link_path):
+            os.unlink(self.link_path)
         for fd in (self.master, self.slave):
             try:
                 os.close(fd)

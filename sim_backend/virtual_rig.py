@@ -16,6 +16,7 @@ import copy
 import itertools
 import os
 import socket
+import time
 
 import can
 
@@ -23,6 +24,7 @@ from .can_nodes import CanNodes
 from .loadcell_amp import LoadCellAmp
 from .modbus_modules import ModbusModules
 from .plant import Plant
+from .slcan_link import SlcanLink
 
 FAULTS = {
     "can_bus_off": "CAN nodes fall silent (bus-off)",
@@ -69,14 +71,24 @@ class VirtualRig:
             elif d.transport == "serial":
                 amp = LoadCellAmp(cfg, name)
                 self.amps.append(amp)
-                d.params["port"] = amp.path
+                if d.params["port"] == "auto":
+                    d.params["port"] = amp.path
+                else:  # a fixed path for a separate process: link it to our pty
+                    amp.link(d.params["port"])
             elif d.transport == "modbus":
                 if d.params["port"] == "auto":
                     d.params["port"] = ports.setdefault("auto", free_port())
                 ports.setdefault(d.params["port"], [])
         can_devices = [d for d in cfg.devices.values() if d.transport == "can"]
         if can_devices:
-            self.can_bus = can.Bus(interface="virtual", channel=can_devices[0].params["channel"])
+            p = can_devices[0].params
+            if p["interface"] == "virtual":
+                self.can_bus = can.Bus(interface="virtual", channel=p["channel"])
+            elif p["interface"] == "slcan" and str(p["channel"]).startswith("socket://"):
+                self.can_bus = SlcanLink(int(str(p["channel"]).rsplit(":", 1)[1]))
+            else:
+                raise ValueError(f"the virtual rig serves CAN as 'virtual' or 'slcan' on socket://127.0.0.1:PORT, "
+                                 f"not {p['interface']} {p['channel']}")
             self.can = CanNodes(self.can_bus, cfg, self.plant)
         by_port = {}
         for name, d in cfg.devices.items():
@@ -86,6 +98,7 @@ class VirtualRig:
             m = ModbusModules(cfg, names, port)
             m.start()
             self.modbus.append(m)
+        self.plant.advance(self.plant.h)  # compiles the damper model before anyone listens
         self.publish()
         return cfg
 
@@ -106,6 +119,21 @@ class VirtualRig:
             a.publish(r)
         for m in self.modbus:
             m.publish(r)
+
+    def run_realtime(self, stop, dt=1e-3, faults=()):
+        """Step in real time until the threading.Event `stop` is set; `faults`: (time s,
+        name) injected when the clock reaches them."""
+        pending = sorted(faults)
+        t0 = time.perf_counter()
+        k = 0
+        while not stop.is_set():
+            k += 1
+            while pending and pending[0][0] <= self.t:
+                self.inject(pending.pop(0)[1])
+            self.step(dt)
+            left = t0 + k * dt - time.perf_counter()
+            if left > 0:
+                time.sleep(left)
 
     def inject(self, fault, on=True):
         if fault not in FAULTS:

@@ -37,9 +37,14 @@ def breakaway_ratio(T, C_sfT, C_ifT):
     return np.maximum(C_sfT * (np.asarray(T, float) - T_STD) + C_ifT, 0.0)
 
 
-def friction_force(x, v, T, x_table, F_table, C_sfT, C_ifT):
-    """Friction force, eq 3.3: F = F_sx * (C_sfT dT + C_ifT) * sgn(v)  [N]."""
-    return static_friction(x, x_table, F_table) * breakaway_ratio(T, C_sfT, C_ifT) * np.sign(v)
+def friction_force(x, v, T, x_table, F_table, C_sfT, C_ifT, v_stick=0.0):
+    """Friction force, eq 3.3: F = F_sx * (C_sfT dT + C_ifT) * sgn(v)  [N].
+
+    v_stick > 0 [m/s] replaces sgn(v) by v / v_stick below that speed: a regularisation
+    for explicit loops where the damper sits in series with a compliance (the virtual
+    rig's load frame), where sgn(v) would flip every step."""
+    direction = np.sign(v) if v_stick <= 0 else np.clip(np.asarray(v, float) / v_stick, -1.0, 1.0)
+    return static_friction(x, x_table, F_table) * breakaway_ratio(T, C_sfT, C_ifT) * direction
 
 
 def mean_ratio(ratios):

@@ -121,10 +121,11 @@ class Stepper:
         F, F_d, F_gas, F_fric, P1, P2, P_gas = s.step(x, v)
 
     BDF2 with its history kept between calls (stiff.py). Motion beyond the stroke is
-    clipped (the rig's limits and stops are the caller's business)."""
+    clipped (the rig's limits and stops are the caller's business). v_stick: see
+    friction.friction_force."""
 
-    def __init__(self, damper: Damper, T, x0, h):
-        self.damper, self.h, self.x_e = damper, float(h), float(x0)
+    def __init__(self, damper: Damper, T, x0, h, v_stick=0.0):
+        self.damper, self.h, self.x_e, self.v_stick = damper, float(h), float(x0), float(v_stick)
         self.asm = ASSEMBLY[damper.layout]
         self.prm = None
         self.set_temperature(T)
@@ -152,6 +153,6 @@ class Stepper:
         self.asm.integrate(self.y, self.xs, self.vs, 1, self.h, self.prm, self.vp, self.vh, self.atol,
                            self.out, self.hist)
         f = self.damper.friction
-        Ff = float(friction.friction_force(x, v, self.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT))
+        Ff = float(friction.friction_force(x, v, self.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT, self.v_stick))
         Fd, Fg, P1, P2, Pg = self.out[1]
         return Fd + Fg + Ff, Fd, Fg, Ff, P1, P2, Pg

@@ -43,7 +43,8 @@ class Plant:
         self.alarm = 0
         self.faults = set()  # sensor/actuator faults injected by tests or `--fault`
         self._stuck_force = None
-        self.stepper = Stepper(self.damper, self.T, self.x_act, h)
+        self.stepper = Stepper(self.damper, self.T, self.x_act, h, v_stick=self.p["frame"]["friction_v_stick"])
+        self.F_frame = 0.0  # force the frame deflects under (low-passed)
         self._T_packed = self.T
         self.F = self.F_d = 0.0
         self.P = (0.0, 0.0, 0.0)
@@ -94,8 +95,11 @@ class Plant:
         self.v_act = v
         self.x_act += v * h
         self._lag.append(self.x_act)
-        # the damper sees the actuator less the frame's give under the last force
-        x_d = self.x_act - self.F / self.p["frame"]["stiffness"]
+        # the damper sees the actuator less the frame's give under the force, low-passed
+        # over the frame's time constant: explicit, and stable with regularised friction
+        fr = self.p["frame"]
+        self.F_frame += h / fr["tau_s"] * (self.F - self.F_frame)
+        x_d = self.x_act - self.F_frame / fr["stiffness"]
         self.v_d = (x_d - self.x_d) / h
         self.x_d = x_d
         F, F_d, F_g, F_f, P1, P2, Pg = self.stepper.step(self.x_d, self.v_d)

@@ -124,6 +124,7 @@ class SerialLoadCell:
         self.frames = 0
         self.last_seq = None
         self.lost = 0
+        self.glitches = []  # frame counts at which bytes were dropped or frames lost
 
     def open(self):
         try:
@@ -138,14 +139,24 @@ class SerialLoadCell:
         except (serial.SerialException, OSError) as e:
             raise RigError(f"device {self.name!r}: serial read failed ({e})") from None
         out = []
+        dropped = self.parser.dropped
         for f in self.parser.feed(data):
-            if self.last_seq is not None:
+            if self.last_seq is not None and (f.seq - self.last_seq - 1) & 0xFF:
                 self.lost += (f.seq - self.last_seq - 1) & 0xFF
+                self.glitches.append(self.frames)
             self.last_seq = f.seq
             self.frames += 1
             fault = ("load cell saturated" if f.status & serial_frame.SATURATED
                      else "load cell sensor fault" if f.status & serial_frame.SENSOR_FAULT else None)
             out.append(("output", f.volts, fault))
+        if self.parser.dropped > dropped:
+            self.glitches.append(self.frames)
+        # one glitch is noise; three within 100 frames is a line that cannot be trusted
+        self.glitches = [g for g in self.glitches if g > self.frames - 100]
+        if len(self.glitches) >= 3 and out:
+            name, volts, fault = out[-1]
+            out[-1] = (name, volts, fault or f"serial line corrupt ({self.parser.dropped} bytes dropped, "
+                                               f"{self.parser.bad_frames} bad frames)")
         return out
 
     def close(self):

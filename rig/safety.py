@@ -31,6 +31,20 @@ class Safety:
             if d.transport == "modbus":
                 age = max(age, 10.0 / float(d.params.get("poll_hz", 10)))
             self.max_age[ch.name] = age
+        self._force = None  # (value, since when) to spot a frozen load cell
+
+    def _frozen_force(self, readings, now):
+        """A real load cell's reading always moves by its noise; an identical value for
+        0.1 s while the damper moves means the amplifier or its link is stuck."""
+        f, v = readings.get("force"), readings.get("v")
+        if f is None:
+            return None
+        if self._force is None or f.value != self._force[0]:
+            self._force = (f.value, now)
+            return None
+        if v is not None and abs(v.value) > 0.02 and now - self._force[1] > 0.1:
+            return f"force ({self.config.channels['force'].device}): reading frozen at {f.value:.1f} N while moving"
+        return None
 
     def check(self, readings: dict, now: float, started: float, actuator=("unknown", [])):
         """First reason to trip, or None. `started`: when the loop began (a channel that
@@ -43,6 +57,9 @@ class Safety:
                 return f"watchdog: {name} ({ch.device}): {what} (limit {1e3 * self.max_age[name]:.0f} ms)"
             if r is not None and r.fault:
                 return f"{name} ({ch.device}): {r.fault}"
+        frozen = self._frozen_force(readings, now)
+        if frozen:
+            return frozen
         state, alarms = actuator
         if state == "alarm" or alarms:
             return f"actuator alarm: {', '.join(alarms) or 'unspecified'}"

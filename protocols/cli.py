@@ -156,7 +156,7 @@ def parser():
         q.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
         q.set_defaults(func=func)
     from . import rig_commands
-    sr = sub.add_parser("sim-rig", help="serve the virtual rig as its own process (CAN slcan, pty, Modbus TCP)")
+    sr = sub.add_parser("sim-rig", help="serve the virtual rig as its own process (CAN socketcand, pty, Modbus TCP)")
     sr.add_argument("--config", default="sim-rig", help="rig config to serve (default: sim-rig)")
     sr.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
     sr.add_argument("--fault", action="append", metavar="NAME[@TIME]", help="inject a fault, at TIME s")

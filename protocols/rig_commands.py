@@ -96,7 +96,7 @@ def sim_rig(args):
     except OSError as e:
         raise RigError(f"sim-rig: cannot serve {cfg.path} ({e.strerror or e})") from None
     for name, d in served.devices.items():
-        addr = {"can": lambda p: f"{p['interface']} {p['channel']}", "serial": lambda p: p["port"],
+        addr = {"can": lambda p: f"{p['interface']} {p['channel']} {p.get('host', '')}:{p.get('port', '')}".rstrip(":"), "serial": lambda p: p["port"],
                 "modbus": lambda p: f"{p['host']}:{p['port']} id {p['device_id']}"}[d.transport](d.params)
         print(f"sim-rig: {name:12s} {d.transport:7s} {addr}")
     print(f"sim-rig: serving {served.name!r} with damper {vr.plant.damper.name} in real time; Ctrl-C stops",

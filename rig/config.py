@@ -17,7 +17,7 @@ from .errors import RigError
 
 CONFIG_DIR = Path(__file__).parent / "configs"
 TRANSPORTS = {
-    "can": {"required": ("interface", "channel", "node"), "optional": ("bitrate",)},
+    "can": {"required": ("interface", "channel", "node"), "optional": ("bitrate", "host", "port")},
     "serial": {"required": ("port",), "optional": ("baudrate",)},
     "modbus": {"required": ("host", "port", "device_id", "map"), "optional": ("poll_hz", "timeout_s")},
 }

@@ -25,8 +25,10 @@ def open_can_bus(params: dict, where: str):
     kwargs = {"interface": params["interface"], "channel": params["channel"]}
     if "bitrate" in params:
         kwargs["bitrate"] = params["bitrate"]
-    if params["interface"] == "slcan" and str(params["channel"]).startswith("socket://"):
-        kwargs["sleep_after_open"] = 0.0  # no adapter to wake up on a socket
+    if params["interface"] == "socketcand":
+        kwargs.update(host=params["host"], port=int(params["port"]), tcp_tune=True)
+        # it warns on every split read and logs tracebacks for errors we report ourselves
+        logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.CRITICAL)
     try:
         return can.Bus(**kwargs)
     except Exception as e:  # python-can raises per-interface errors
@@ -54,7 +56,7 @@ class CanBus:
             try:
                 msg = self.bus.recv(timeout=0.0)
             except Exception as e:
-                raise RigError(f"{self.where}: CAN receive failed ({e})") from None
+                raise RigError(f"{self.where}: CAN receive failed ({str(e).splitlines()[0][:120]})") from None
             if msg is None:
                 return
             try:
@@ -70,7 +72,7 @@ class CanBus:
         try:
             self.bus.send(can.Message(arbitration_id=can_codec.frame_id(name), is_extended_id=False,
                                       data=can_codec.encode(name, signals)))
-        except can.CanError as e:
+        except (can.CanError, OSError) as e:
             raise RigError(f"{self.where}: CAN send failed ({e})") from None
 
     def close(self):
@@ -194,7 +196,7 @@ class ModbusModule:
         read = self.client.read_input_registers if m.table == "input" else self.client.read_holding_registers
         try:
             r = read(m.start, count=m.count, device_id=int(self.params["device_id"]))
-        except ModbusException as e:
+        except (ModbusException, OSError) as e:
             raise RigError(f"device {self.name!r}: Modbus request failed ({str(e).split('] ')[-1]})") from None
         if r.isError():
             raise RigError(f"device {self.name!r}: Modbus exception response, code {getattr(r, 'exception_code', '?')}")

@@ -1,5 +1,5 @@
 """The actuator controller and the LVDT/LVT conditioner as CAN nodes (rig/dyno.dbc) on
-any python-can bus: the in-process virtual bus, or the slcan link of `dyno sim-rig`."""
+any python-can bus: the in-process virtual bus, or the socketcand link of `dyno sim-rig`."""
 from __future__ import annotations
 
 import can

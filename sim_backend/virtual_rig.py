@@ -7,7 +7,7 @@
     ...
     vr.close()
 
-In process: CAN on python-can's virtual bus, the load-cell amplifier on a pseudo-terminal,
+In process: CAN on python-can's virtual bus (or a socketcand server on 127.0.0.1), the load-cell amplifier on a pseudo-terminal,
 the Modbus modules on a TCP server at 127.0.0.1. Faults are injected with `inject(name)`.
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ from .can_nodes import CanNodes
 from .loadcell_amp import LoadCellAmp
 from .modbus_modules import ModbusModules
 from .plant import Plant
-from .slcan_link import SlcanLink
+from .socketcand_link import SocketcandLink
 
 FAULTS = {
     "can_bus_off": "CAN nodes fall silent (bus-off)",
@@ -84,11 +84,11 @@ class VirtualRig:
             p = can_devices[0].params
             if p["interface"] == "virtual":
                 self.can_bus = can.Bus(interface="virtual", channel=p["channel"])
-            elif p["interface"] == "slcan" and str(p["channel"]).startswith("socket://"):
-                self.can_bus = SlcanLink(int(str(p["channel"]).rsplit(":", 1)[1]))
+            elif p["interface"] == "socketcand" and p.get("host") == "127.0.0.1":
+                self.can_bus = SocketcandLink(int(p["port"]))
             else:
-                raise ValueError(f"the virtual rig serves CAN as 'virtual' or 'slcan' on socket://127.0.0.1:PORT, "
-                                 f"not {p['interface']} {p['channel']}")
+                raise ValueError(f"the virtual rig serves CAN as 'virtual' or 'socketcand' on 127.0.0.1, "
+                                 f"not {p['interface']} {p.get('host', '')} {p['channel']}")
             self.can = CanNodes(self.can_bus, cfg, self.plant)
         by_port = {}
         for name, d in cfg.devices.items():

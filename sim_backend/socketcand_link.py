@@ -1,29 +1,31 @@
-"""A CAN link to `dyno sim-rig` over TCP on 127.0.0.1, speaking slcan (rig/slcan.py): the
-controller opens it with python-can's slcan interface and channel
-"socket://127.0.0.1:PORT", as it would a USB-CAN adapter. To the CAN nodes it looks like
-a python-can bus (send, recv)."""
+"""The virtual rig's CAN bus served to another process as a socketcand daemon on
+127.0.0.1 (rig/socketcand.py): the controller opens it with python-can's socketcand
+interface, as it would a real socketcand on a cell's Linux box. To the CAN nodes it looks
+like a python-can bus (send, recv)."""
 from __future__ import annotations
 
 import collections
 import socket
 import threading
+import time
 
 import can
 
-from rig import slcan
+from rig import socketcand
 from rig.errors import RigError
 
 
-class SlcanLink:
+class SocketcandLink:
     def __init__(self, port):
         self.server = socket.create_server(("127.0.0.1", port))
         self.port = self.server.getsockname()[1]
         self.conn = None
+        self.raw = False
         self.rx = collections.deque()
         self.lock = threading.Lock()
-        self.bad_lines = 0
+        self.bad_messages = 0
         self.running = True
-        self.thread = threading.Thread(target=self._serve, name="slcan", daemon=True)
+        self.thread = threading.Thread(target=self._serve, name="socketcand", daemon=True)
         self.thread.start()
 
     def _serve(self):
@@ -33,9 +35,10 @@ class SlcanLink:
             except OSError:
                 return
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            conn.sendall(b"< hi >")
             with self.lock:
-                self.conn = conn
-            buf = b""
+                self.conn, self.raw = conn, False
+            buf = ""
             while self.running:
                 try:
                     chunk = conn.recv(4096)
@@ -43,41 +46,41 @@ class SlcanLink:
                     break
                 if not chunk:
                     break
-                buf += chunk
-                *lines, buf = buf.split(b"\r")
-                for line in lines:
-                    self._handle(conn, line.strip(b"\n"))
+                messages, buf = socketcand.split_messages(buf + chunk.decode("ascii", "replace"))
+                for m in messages:
+                    self._handle(conn, m)
             with self.lock:
-                self.conn = None
+                self.conn, self.raw = None, False
             conn.close()
 
-    def _handle(self, conn, line):
-        if not line:
-            return
+    def _handle(self, conn, message):
         try:
-            kind, *rest = slcan.parse_line(line)
+            kind, *rest = socketcand.parse(message)
         except RigError:
-            self.bad_lines += 1
-            self._write(slcan.ERROR)
+            self.bad_messages += 1
+            self._write("< error bad message >")
             return
-        if kind == "frame":
-            ident, extended, data = rest
-            self.rx.append(can.Message(arbitration_id=ident, is_extended_id=extended, data=data))
+        if kind == "send":
+            ident, data = rest
+            self.rx.append(can.Message(arbitration_id=ident, is_extended_id=ident > 0x7FF, data=data))
         else:
-            self._write(b"V1013\r" if rest[0] == "V" else slcan.OK)
+            self._write("< ok >")
+            if kind == "rawmode":
+                self.raw = True
 
-    def _write(self, data):
+    def _write(self, text):
         with self.lock:
             conn = self.conn
         if conn is not None:
             try:
-                conn.sendall(data)
+                conn.sendall(text.encode("ascii"))
             except OSError:
                 pass
 
     # the python-can bus surface the CAN nodes use
     def send(self, msg):
-        self._write(slcan.format_frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id))
+        if self.raw:
+            self._write(socketcand.frame(msg.arbitration_id, bytes(msg.data), time.time()))
 
     def recv(self, timeout=0.0):
         try:

@@ -106,6 +106,25 @@ def _bench_sweep(args):
     return 0
 
 
+def _bench_loop(args):
+    from rig.bench import bench_loop, goals_met
+    if not 0 < args.rate <= 5000 or not 0 < args.seconds <= 3600:
+        raise RigError("--rate must be in (0, 5000] Hz and --seconds in (0, 3600]")
+    stats = bench_loop(args.rate, args.seconds)
+    stats["goals_met"] = goals_met(stats)
+    if args.json:
+        print(json.dumps(stats, indent=2))
+        return 0
+    j = stats["jitter_us"]
+    print(f"loop at {stats['rate_hz_target']:g} Hz for {args.seconds:g} s against sim-rig: achieved "
+          f"{stats['rate_hz']:.1f} Hz, jitter p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, p99.9 {j['p999']:.0f} us, "
+          f"overruns {stats['overruns']} of {stats['ticks']} ticks"
+          + (f", FAULT: {stats['fault']}" if stats["fault"] else ""))
+    if stats["goals_met"] is not None:
+        print("goals:", "met" if stats["goals_met"] else "NOT met")
+    return 0
+
+
 def _bench_sim(args):
     from models.bench import bench
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
@@ -180,6 +199,11 @@ def parser():
     bw.add_argument("--json", action="store_true")
     bw.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     bw.set_defaults(func=_bench_sweep)
+    bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
+    bl.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
+    bl.add_argument("--seconds", type=float, default=30.0, help="duration (default 30)")
+    bl.add_argument("--json", action="store_true")
+    bl.set_defaults(func=_bench_loop)
     return p
 
 

@@ -103,12 +103,16 @@ def sim_rig(args):
           flush=True)
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    timers = []
     if args.seconds:
-        threading.Timer(args.seconds, stop.set).start()
+        timers.append(threading.Timer(args.seconds, stop.set))
     die = [t for t, n in faults if n == "process_death"]
     if die:
         import os
-        threading.Timer(die[0], lambda: os._exit(3)).start()  # the whole emulator dies
+        timers.append(threading.Timer(die[0], lambda: os._exit(3)))  # the whole emulator dies
+    for t in timers:
+        t.daemon = True  # never keep the process alive after a stop
+        t.start()
     try:
         vr.run_realtime(stop, faults=[f for f in faults if f[1] != "process_death"])
     except KeyboardInterrupt:

@@ -10,6 +10,8 @@ channel's (rig/config.py, Channel.scale).
 from __future__ import annotations
 
 import logging
+import threading
+import time
 
 import can
 import serial
@@ -168,15 +170,23 @@ class SerialLoadCell:
 
 
 class ModbusModule:
-    """A Modbus TCP module polled for its register block (rig/registers/*.toml)."""
+    """A Modbus TCP module polled for its register block (rig/registers/*.toml).
 
-    def __init__(self, name, params):
-        self.name, self.params = name, params
+    On a real-time rig (threaded=True) a thread of its own polls it, so a slow or silent
+    module never stalls the control loop; poll() then hands over what the thread read,
+    or the error it met. On the simulated clock, poll() requests in line when due."""
+
+    def __init__(self, name, params, threaded=False):
+        self.name, self.params, self.threaded = name, params, threaded
         self.map = modbus_map.load(params["map"])
         self.period = 1.0 / float(params.get("poll_hz", 10))
         self.next_poll = None
         self.client = None
         self.frames = 0
+        self._results, self._error = [], None
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = None
 
     def open(self):
         from pymodbus.client import ModbusTcpClient
@@ -186,11 +196,37 @@ class ModbusModule:
         if not self.client.connect():
             raise RigError(f"device {self.name!r}: no Modbus server at {p['host']}:{p['port']}")
         self.next_poll = None
+        if self.threaded:
+            self._stop.clear()
+            self._thread = threading.Thread(target=self._run, name=f"modbus:{self.name}", daemon=True)
+            self._thread.start()
+
+    def _run(self):
+        t0 = time.monotonic()
+        while not self._stop.is_set():
+            try:
+                out = self._request()
+            except RigError as e:
+                with self._lock:
+                    self._error = e
+                return
+            with self._lock:
+                self._results.extend(out)
+            self._stop.wait(max(0.0, self.period - (time.monotonic() - t0) % self.period))
 
     def poll(self, now):
+        if self.threaded:
+            with self._lock:
+                out, self._results = self._results, []
+                if self._error is not None:
+                    raise self._error
+            return out
         if self.next_poll is not None and now < self.next_poll:
             return []
         self.next_poll = now + self.period if self.next_poll is None else max(self.next_poll + self.period, now)
+        return self._request()
+
+    def _request(self):
         from pymodbus.exceptions import ModbusException
         m = self.map
         read = self.client.read_input_registers if m.table == "input" else self.client.read_holding_registers
@@ -204,13 +240,18 @@ class ModbusModule:
         return [(name, value, fault) for name, (value, fault) in modbus_map.decode(m, r.registers).items()]
 
     def close(self):
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(2.0)
+            self._thread = None
         if self.client is not None:
             self.client.close()
             self.client = None
 
 
-def make(config):
-    """{device name: driver} for a RigConfig; CAN devices on one bus share it."""
+def make(config, threaded=False):
+    """{device name: driver} for a RigConfig; CAN devices on one bus share it. threaded:
+    polled devices get threads of their own (real time)."""
     buses, out = {}, {}
     for name, d in config.devices.items():
         if d.transport == "can":
@@ -221,5 +262,5 @@ def make(config):
         elif d.transport == "serial":
             out[name] = SerialLoadCell(name, d.params)
         else:
-            out[name] = ModbusModule(name, d.params)
+            out[name] = ModbusModule(name, d.params, threaded)
     return out

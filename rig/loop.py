@@ -13,6 +13,8 @@ result.fault set and every sample acquired so far passed to the sinks.
 """
 from __future__ import annotations
 
+import gc
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -39,10 +41,10 @@ class SimulatedPacer:
 
 
 class RealTimePacer:
-    """Wall clock: sleeps to each deadline (the last 0.3 ms spun for precision); returns
+    """Wall clock: sleeps to each deadline (the last 0.1 ms spun for precision); returns
     the tick's lateness. With a virtual rig, steps it by the elapsed time."""
 
-    def __init__(self, rate_hz, virtual_rig=None, spin_s=3e-4):
+    def __init__(self, rate_hz, virtual_rig=None, spin_s=1e-4):
         self.dt, self.vr, self.spin = 1.0 / rate_hz, virtual_rig, spin_s
         self.t0 = None
         self.k = 0
@@ -95,6 +97,22 @@ class ControlLoop:
             s(samples)
 
     def run(self, plan, max_s=None):
+        # the cyclic garbage collector pauses for milliseconds at random ticks; the loop
+        # makes no reference cycles, so it runs without it and collects when done
+        gc_enabled = gc.isenabled()
+        gc.disable()
+        # a device thread holding the GIL would keep the loop waiting up to the switch
+        # interval (5 ms by default)
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(1e-4)
+        try:
+            return self._run(plan, max_s)
+        finally:
+            sys.setswitchinterval(switch)
+            if gc_enabled:
+                gc.enable()
+
+    def _run(self, plan, max_s):
         r = LoopResult()
         started = self.pacer.now()
         t_end_safe = None

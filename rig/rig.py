@@ -34,10 +34,12 @@ class Reading:
 
 
 class Rig:
-    def __init__(self, config, clock=time.monotonic):
+    def __init__(self, config, clock=None):
+        """clock: the simulated clock of a virtual rig; None for wall time (real time,
+        polled devices on threads of their own)."""
         self.config = config
-        self.clock = clock
-        self.drivers = devices.make(config)
+        self.clock = clock or time.monotonic
+        self.drivers = devices.make(config, threaded=clock is None)
         self.by_signal = {(c.device, c.signal): c for c in config.channels.values()}
         self.latest: dict[str, Reading] = {}
         self._buf = {name: ([], []) for name in config.channels}

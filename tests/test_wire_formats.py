@@ -124,3 +124,37 @@ def test_register_decode_returns_or_raises_rig_error(name, regs):
 def test_unknown_register_map_is_named():
     with pytest.raises(RigError, match="unknown register map 'tc-modul'"):
         modbus_map.load("tc-modul")
+
+
+# --- socketcand (the sim-rig's CAN link) ---------------------------------------------------
+
+
+def test_socketcand_messages_are_byte_exact():
+    from rig import socketcand
+    assert socketcand.parse("< send 100 8 a 0 0 0 2 9 0 0 >") == ("send", 0x100, bytes([10, 0, 0, 0, 2, 9, 0, 0]))
+    assert socketcand.parse("< open can0 >") == ("open", "can0")
+    assert socketcand.frame(0x101, bytes([0x90, 0xD0]), 12.5) == "< frame 101 12.500000 90D0 >"
+    msgs, rest = socketcand.split_messages("junk< rawmode >< send 1 0 >< sen")
+    assert msgs == ["< rawmode >", "< send 1 0 >"] and rest == "< sen"
+
+
+@given(st.text(max_size=80))
+def test_socketcand_parse_returns_or_raises_rig_error(text):
+    from rig import socketcand
+    msgs, rest = socketcand.split_messages(text)
+    assert len(rest) <= 256
+    for m in msgs + [text]:
+        try:
+            socketcand.parse(m)
+        except RigError:
+            pass
+
+
+@given(st.integers(0, 0x7FF), st.binary(max_size=8))
+def test_python_can_socketcand_client_frames_parse(ident, data):
+    # what python-can's socketcand client sends, we parse back to the same frame
+    import can
+    from can.interfaces.socketcand.socketcand import convert_can_message_to_ascii_message
+    from rig import socketcand
+    text = convert_can_message_to_ascii_message(can.Message(arbitration_id=ident, data=data, is_extended_id=False))
+    assert socketcand.parse(text) == ("send", ident, data)

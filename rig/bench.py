@@ -1,0 +1,93 @@
+"""`dyno bench loop`: the control loop in real time against `dyno sim-rig` in a separate
+process, over the real transports (socketcand CAN, pty serial, Modbus TCP on loopback)."""
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import config
+from .errors import RigError
+from .loop import ControlLoop, RealTimePacer
+from .rig import Rig
+from .safety import Safety
+
+GOALS = {1000: {"p99_us": 250.0, "overrun_fraction": 0.001}, 500: {"overruns": 0}}
+
+
+def _free_port():
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni"):
+    tmp = Path(tempfile.mkdtemp(prefix="dyno-bench-"))
+    text = config.CONFIG_DIR.joinpath("sim-rig.toml").read_text()
+    text = text.replace("29536", str(_free_port())).replace("29502", str(_free_port()))
+    text = text.replace("/tmp/dyno-sim-rig/loadcell", str(tmp / "loadcell"))
+    text = text.replace("rate_hz = 1000", f"rate_hz = {rate_hz:g}")
+    cfg_path = tmp / "bench.toml"
+    cfg_path.write_text(text)
+    dyno = str(Path(sys.executable).parent / "dyno")
+    proc = subprocess.Popen([dyno, "sim-rig", "--config", str(cfg_path), "--damper", damper,
+                             "--seconds", str(seconds + 60)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    pinned = _pin(proc.pid)
+    try:
+        t0 = time.monotonic()
+        while True:
+            line = proc.stdout.readline()
+            if "serving" in line:
+                break
+            if not line or time.monotonic() - t0 > 120:
+                raise RigError("bench loop: sim-rig did not start")
+        cfg = config.load(cfg_path)
+        rig = Rig(cfg)
+        rig.open()
+        try:
+            mid = (cfg.limits["x_min"] + cfg.limits["x_max"]) / 2
+            loop = ControlLoop(rig, RealTimePacer(rate_hz), Safety(cfg))
+            res = loop.run(lambda t, r: None if t >= seconds else mid + 0.005 * np.sin(2 * np.pi * 2 * t))
+        finally:
+            rig.close()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    out = res.stats(rate_hz)
+    out["fault"] = res.fault
+    out["cpu_pinning"] = pinned
+    return out
+
+
+def _pin(sim_pid):
+    """Controller on one core, sim-rig on the other, as two machines would be; returns
+    whether it could."""
+    import os
+    cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    if len(cores) < 2:
+        return False
+    try:
+        os.sched_setaffinity(sim_pid, {cores[-1]})
+        os.sched_setaffinity(0, set(cores[:-1]))
+    except OSError:
+        return False
+    return True
+
+
+def goals_met(stats):
+    g = GOALS.get(int(stats["rate_hz_target"]))
+    if g is None or stats["fault"]:
+        return None if g is None else False
+    if "p99_us" in g:
+        return stats["jitter_us"]["p99"] < g["p99_us"] and stats["overruns"] < g["overrun_fraction"] * stats["ticks"]
+    return stats["overruns"] <= g["overruns"]

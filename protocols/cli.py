@@ -110,8 +110,10 @@ def _bench_loop(args):
     from rig.bench import bench_loop, goals_met
     if not 0 < args.rate <= 5000 or not 0 < args.seconds <= 3600:
         raise RigError("--rate must be in (0, 5000] Hz and --seconds in (0, 3600]")
+    from rig.bench import baseline
     stats = bench_loop(args.rate, args.seconds)
     stats["goals_met"] = goals_met(stats)
+    stats["machine_baseline"] = baseline(args.rate, args.seconds)
     if args.json:
         print(json.dumps(stats, indent=2))
         return 0
@@ -120,6 +122,9 @@ def _bench_loop(args):
           f"{stats['rate_hz']:.1f} Hz, jitter p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, p99.9 {j['p999']:.0f} us, "
           f"overruns {stats['overruns']} of {stats['ticks']} ticks"
           + (f", FAULT: {stats['fault']}" if stats["fault"] else ""))
+    b = stats["machine_baseline"]
+    print(f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
+          f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us")
     if stats["goals_met"] is not None:
         print("goals:", "met" if stats["goals_met"] else "NOT met")
     return 0

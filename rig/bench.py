@@ -53,7 +53,7 @@ def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni"):
         rig.open()
         try:
             mid = (cfg.limits["x_min"] + cfg.limits["x_max"]) / 2
-            loop = ControlLoop(rig, RealTimePacer(rate_hz), Safety(cfg))
+            loop = ControlLoop(rig, RealTimePacer(rate_hz, fifo_priority=50), Safety(cfg))
             res = loop.run(lambda t, r: None if t >= seconds else mid + 0.005 * np.sin(2 * np.pi * 2 * t))
         finally:
             rig.close()
@@ -82,6 +82,30 @@ def _pin(sim_pid):
     except OSError:
         return False
     return True
+
+
+def baseline(rate_hz, seconds):
+    """The machine alone: a bare sleep loop at the same rate and priority, no rig. Its
+    late ticks are stalls of the OS or hypervisor that no controller code can avoid."""
+    from .loop import _realtime_priority
+    policy = _realtime_priority(50)
+    import os
+    try:
+        dt = 1.0 / rate_hz
+        t0 = time.perf_counter()
+        late = []
+        for k in range(1, int(seconds * rate_hz) + 1):
+            deadline = t0 + k * dt
+            while (left := deadline - time.perf_counter()) > 0:
+                if left > 1e-4:
+                    time.sleep(left - 1e-4)
+            late.append(time.perf_counter() - deadline)
+    finally:
+        if policy is not None:
+            os.sched_setscheduler(0, *policy)
+    late = np.array(late)
+    return {"ticks": len(late), "late_beyond_period": int(np.sum(late > dt)),
+            "max_late_us": float(late.max() * 1e6), "p99_us": float(np.percentile(late, 99) * 1e6)}
 
 
 def goals_met(stats):

@@ -14,6 +14,7 @@ result.fault set and every sample acquired so far passed to the sinks.
 from __future__ import annotations
 
 import gc
+import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -24,6 +25,19 @@ from .errors import RigError
 
 SAFE_SPEED = 0.01  # m/s: the controlled move to the safe position
 SETTLE_S = 0.2  # hold at the safe position before returning
+
+
+def _realtime_priority(priority):
+    """Switch this thread to SCHED_FIFO; returns the policy to restore, or None if not
+    asked for or not allowed."""
+    if not priority or not hasattr(os, "SCHED_FIFO"):
+        return None
+    old = (os.sched_getscheduler(0), os.sched_getparam(0))
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(int(priority)))
+    except OSError:
+        return None
+    return old
 
 
 class SimulatedPacer:
@@ -44,10 +58,14 @@ class RealTimePacer:
     """Wall clock: sleeps to each deadline (the last 0.1 ms spun for precision); returns
     the tick's lateness. With a virtual rig, steps it by the elapsed time."""
 
-    def __init__(self, rate_hz, virtual_rig=None, spin_s=1e-4):
+    def __init__(self, rate_hz, virtual_rig=None, spin_s=1e-4, fifo_priority=None):
+        """fifo_priority: run the loop thread under SCHED_FIFO at this priority (1-99)
+        while it runs, if the OS allows (Linux, privileged); as a dedicated cell would."""
         self.dt, self.vr, self.spin = 1.0 / rate_hz, virtual_rig, spin_s
+        self.fifo_priority = fifo_priority
         self.t0 = None
         self.k = 0
+        self.missed = 0  # ticks skipped after stalls
 
     def now(self):
         return time.perf_counter() - (self.t0 or time.perf_counter())
@@ -57,6 +75,12 @@ class RealTimePacer:
             self.t0 = time.perf_counter()
         self.k += 1
         deadline = self.t0 + self.k * self.dt
+        behind = time.perf_counter() - deadline
+        if behind > self.dt:  # a stall: skip the ticks it swallowed rather than burst them
+            skip = int(behind / self.dt)
+            self.k += skip
+            self.missed += skip
+            deadline += skip * self.dt
         while True:
             left = deadline - time.perf_counter()
             if left <= 0:
@@ -75,6 +99,8 @@ class LoopResult:
     overruns: int = 0
     duration_s: float = 0.0
     fault: str | None = None
+    sched_fifo: bool = False
+    missed: int = 0  # ticks skipped after stalls (real time)
     lateness_s: list = field(default_factory=list, repr=False)
 
     def stats(self, rate_hz):
@@ -82,7 +108,8 @@ class LoopResult:
         return {"rate_hz_target": rate_hz, "rate_hz": self.ticks / self.duration_s if self.duration_s else 0.0,
                 "jitter_us": {p: float(np.percentile(late, q) * 1e6) for p, q in
                               (("p50", 50), ("p99", 99), ("p999", 99.9))},
-                "overruns": self.overruns, "ticks": self.ticks}
+                "overruns": self.overruns, "missed_ticks": self.missed, "ticks": self.ticks,
+                "sched_fifo": self.sched_fifo}
 
 
 class ControlLoop:
@@ -105,15 +132,21 @@ class ControlLoop:
         # interval (5 ms by default)
         switch = sys.getswitchinterval()
         sys.setswitchinterval(1e-4)
+        policy = _realtime_priority(getattr(self.pacer, "fifo_priority", None))
         try:
-            return self._run(plan, max_s)
+            result = self._run(plan, max_s)
+            result.sched_fifo = policy is not None
+            return result
         finally:
+            if policy is not None:
+                os.sched_setscheduler(0, *policy)
             sys.setswitchinterval(switch)
             if gc_enabled:
                 gc.enable()
 
     def _run(self, plan, max_s):
         r = LoopResult()
+        self.rig.poll()  # what arrived before the loop starts is not the first tick's work
         started = self.pacer.now()
         t_end_safe = None
         ramp = None
@@ -166,6 +199,7 @@ class ControlLoop:
             self._try_hold()
         finally:
             r.duration_s = self.pacer.now() - started
+            r.missed = getattr(self.pacer, "missed", 0)
             self._drain()
         return r
 

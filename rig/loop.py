@@ -74,8 +74,9 @@ class RealTimePacer:
         if self.t0 is None:
             self.t0 = time.perf_counter()
         self.k += 1
-        deadline = self.t0 + self.k * self.dt
+        due = deadline = self.t0 + self.k * self.dt
         behind = time.perf_counter() - deadline
+        skip = 0
         if behind > self.dt:  # a stall: skip the ticks it swallowed rather than burst them
             skip = int(behind / self.dt)
             self.k += skip
@@ -89,8 +90,8 @@ class RealTimePacer:
                 time.sleep(left - self.spin)
         now = time.perf_counter()
         if self.vr is not None:
-            self.vr.step(self.dt)
-        return now - self.t0, now - deadline
+            self.vr.step(self.dt * (1 + skip))
+        return now - self.t0, now - due  # lateness counts the stall
 
 
 @dataclass
@@ -158,6 +159,9 @@ class ControlLoop:
                 r.lateness_s.append(late)
                 if late > self.period:
                     r.overruns += 1
+                    if late > self.safety.L["stale_s"] and r.fault is None:
+                        r.fault = f"watchdog: control loop stalled for {late * 1e3:.0f} ms"
+                        ramp = None
                 try:
                     self.rig.poll()
                     readings = self.rig.read()

@@ -46,15 +46,16 @@ class Rig:
         self.is_open = False
 
     def open(self):
+        """Connect every device; RigError "CONFIG:LINE: ..." naming the first that fails."""
         opened = []
-        try:
-            for d in self.drivers.values():
+        for name, d in self.drivers.items():
+            try:
                 d.open()
-                opened.append(d)
-        except RigError:
-            for d in opened:
-                d.close()
-            raise
+            except RigError as e:
+                for o in opened:
+                    o.close()
+                raise RigError(f"{self.config.path}:{self.config.devices[name].line}: {e}") from None
+            opened.append(d)
         self.is_open = True
 
     def poll(self):

@@ -104,3 +104,27 @@ def test_emulator_process_dying_ends_in_a_clear_fault(tmp_path):
     finally:
         stop(p)
         assert p.wait(10) in (3, -signal.SIGTERM, 0)
+
+
+def test_rig_check_names_what_is_missing(tmp_path):
+    cfg_path = write_config(tmp_path)
+    p = start_sim_rig(cfg_path, "--fault", "can_bus_off", "--fault", "open_thermocouple")
+    try:
+        check = subprocess.run([DYNO, "rig", "check", "--rig", str(cfg_path)], capture_output=True,
+                               text=True, timeout=60)
+    finally:
+        stop(p)
+    assert check.returncode == 1
+    err = check.stderr.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    for missing in ("x (conditioner)", "v (conditioner)", "x_internal (actuator)",
+                    "T_body (tc: open thermocouple)", "actuator status (actuator)"):
+        assert missing in err, err
+    assert "force" not in err and "P_gas" not in err
+
+
+def test_embedded_rig_check_and_bad_fault_names():
+    check = subprocess.run([DYNO, "rig", "check"], capture_output=True, text=True, timeout=120)
+    assert check.returncode == 0 and "all 9 channels report" in check.stdout
+    bad = subprocess.run([DYNO, "sim-rig", "--fault", "gremlins@3"], capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and bad.stderr.startswith("dyno: error: --fault gremlins@3: unknown fault")

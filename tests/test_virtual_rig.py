@@ -131,3 +131,31 @@ def test_force_limit_trips(cell):
     res, _ = run(vr, rig, sine(amplitude=0.01, freq=4.0, until=2.0))
     assert res.fault.startswith("limit: force")
     assert vr.plant.x_act == pytest.approx(rig.config.safe_position, abs=2e-4)
+
+
+def test_a_stalled_loop_trips_its_watchdog(cell):
+    import time
+
+    from rig.loop import RealTimePacer
+    vr, rig = cell
+    stalled = []
+
+    def plan(t, readings):
+        if t > 0.3 and not stalled:
+            stalled.append(t)
+            time.sleep(0.08)  # the control computation hangs for 80 ms
+        return None if t > 2.0 else MID
+    loop = ControlLoop(rig, RealTimePacer(rig.config.rate_hz, virtual_rig=vr), Safety(rig.config))
+    res = loop.run(plan)
+    assert res.fault.startswith("watchdog: control loop stalled for") and res.missed >= 70
+    assert vr.plant.x_act == pytest.approx(MID, abs=1e-4)  # held where it was
+
+
+def test_unreachable_device_names_its_config_line():
+    from rig.errors import RigError
+    cfg = config.load("sim-rig")  # nobody serves it here
+    cfg.devices["tc"].params["port"] = 1  # nothing listens on port 1
+    rig = Rig(cfg, clock=lambda: 0.0)
+    rig.drivers = {"tc": rig.drivers["tc"]}
+    with pytest.raises(RigError, match=r"^sim-rig.toml:\d+: device 'tc': no Modbus server at 127.0.0.1:1$"):
+        rig.open()

@@ -158,3 +158,11 @@ def test_python_can_socketcand_client_frames_parse(ident, data):
     from rig import socketcand
     text = convert_can_message_to_ascii_message(can.Message(arbitration_id=ident, data=data, is_extended_id=False))
     assert socketcand.parse(text) == ("send", ident, data)
+
+
+def test_the_wiring_page_examples_are_what_we_send():
+    from pathlib import Path
+    page = Path(__file__).parents[1].joinpath("docs/wiring.md").read_text()
+    cmd = can_codec.encode("ACT_CMD", {"setpoint": 0.0381, "mode": 2, "counter": 9}).hex(" ").upper()
+    assert f"`{cmd}`" in page
+    assert f"`{serial_frame.encode(7, 1, 1.25).hex(' ').upper()}`" in page

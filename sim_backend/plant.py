@@ -51,8 +51,8 @@ class Plant:
         self.x_d = self.x_act
         self.v_d = 0.0
         self.F_meas = 0.0
-        self._lag = deque([self.x_act] * max(1, int(round(a["internal_lvdt_lag_s"] / h))),
-                          maxlen=max(1, int(round(a["internal_lvdt_lag_s"] / h))))
+        n_lag = int(round(a["internal_lvdt_lag_s"] / h))  # the oldest entry is n_lag steps old
+        self._lag = deque([self.x_act] * (n_lag + 1), maxlen=n_lag + 1)
         self.energy = 0.0  # J dissipated by damping
 
     # --- inputs -------------------------------------------------------------------------

@@ -25,6 +25,9 @@ def write_config(tmp_path):
     text = config.CONFIG_DIR.joinpath("sim-rig.toml").read_text()
     text = text.replace("29536", str(free_port())).replace("29502", str(free_port()))
     text = text.replace("/tmp/dyno-sim-rig/loadcell", str(tmp_path / "loadcell"))
+    # the CI machine is a VM that stalls for up to ~40 ms now and then (see the README's
+    # loop timing): these tests are about the path, not the 50 ms watchdog threshold
+    text = text.replace("stale_s = 0.05", "stale_s = 0.25")
     path = tmp_path / "cell.toml"
     path.write_text(text)
     return path

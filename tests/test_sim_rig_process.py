@@ -1,7 +1,6 @@
 """End to end: `dyno sim-rig` as its own process (CAN as a socketcand server, the load cell on
 a pseudo-terminal at a fixed path, Modbus TCP), `dyno rig check` against it, a short sine
 through the real-time loop, and the emulator process dying mid-run."""
-import os
 import signal
 import subprocess
 import sys

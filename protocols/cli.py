@@ -186,6 +186,17 @@ def parser():
     sr.add_argument("--fault", action="append", metavar="NAME[@TIME]", help="inject a fault, at TIME s")
     sr.add_argument("--seconds", type=float, default=None, help="stop after this long")
     sr.set_defaults(func=rig_commands.sim_rig)
+    rn = sub.add_parser("run", help="run a test protocol and record it to MCAP")
+    rn.add_argument("protocol", help="sine-matrix, step")
+    rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
+    rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
+    rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
+    rn.add_argument("--out", default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap)")
+    rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
+    rn.set_defaults(func=rig_commands.run_protocol)
+    rv = sub.add_parser("recover", help="rebuild a recording cut short (the original is kept as FILE.damaged)")
+    rv.add_argument("file")
+    rv.set_defaults(func=rig_commands.recover_file)
     rg = sub.add_parser("rig", help="the test cell")
     rgsub = rg.add_subparsers(dest="what", required=True)
     rc = rgsub.add_parser("check", help="connect to every device and print each channel")
@@ -213,7 +224,13 @@ def parser():
 
 
 def main(argv=None):
-    args = parser().parse_args(argv)
+    p = parser()
+    args, extra = p.parse_known_args(argv)
+    if extra:  # `dyno run` takes name=value anywhere among its options
+        if getattr(args, "cmd", None) == "run" and all("=" in e and not e.startswith("-") for e in extra):
+            args.params += extra
+        else:
+            p.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return args.func(args)
     except (DamperError, RigError) as e:

@@ -120,3 +120,92 @@ def sim_rig(args):
     finally:
         vr.close()
     return 0
+
+
+def rig_info(cfg, damper):
+    """RigInfo for the plans: the damper's mid-stroke (or the safe position without a
+    model), the rig's limits, the damper model's peak force for the pre-flight check."""
+    import numpy as np
+
+    from models.simulate import simulate
+    from protocols.plan import RigInfo
+    L = cfg.limits
+    peak = None
+    x_mid = cfg.safe_position
+    if damper is not None and getattr(damper, "layout", "") != "simplified":
+        x_mid = damper.mid_stroke
+
+        def peak(v, d=damper):
+            r = simulate(d, np.array([0.0, 1.0]), np.array([d.mid_stroke] * 2), v=np.array([v, -v]),
+                         T=d.temperature.T_ref, compressible=False)
+            return float(np.max(np.abs(r.force)))
+    return RigInfo(x_mid, L["x_min"], L["x_max"], L["velocity_max"], L.get("frequency_max", 50.0),
+                   L["force_max"], L["temperature_max"], 293.15, peak)
+
+
+def run_protocol(args):
+    import json as _json
+    from datetime import datetime
+    from pathlib import Path
+
+    from models.damper import load as load_damper
+    from models.damper import to_dict
+    from protocols import runner
+    from protocols.library import PROTOCOLS
+    from protocols.plan import as_dict, parse
+    from protocols.recording import Recorder
+    from rig.loop import RealTimePacer, SimulatedPacer
+    from rig.safety import Safety
+
+    module = PROTOCOLS.get(args.protocol)
+    if module is None:
+        raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
+    params = parse(module.Params, args.params)
+    damper = load_damper(args.damper)
+    cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
+    info = rig_info(cfg, damper)
+    skipped = module.check(params, info)  # refuse before anything connects or moves
+    for name, why in skipped:
+        print(f"skipping {name}: {why}", file=sys.stderr)
+    out = Path(args.out) if args.out else Path("recordings") / f"{module.NAME}-{datetime.now():%Y%m%d-%H%M%S}.mcap"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    vr = None
+    if args.rig is None:
+        from sim_backend.virtual_rig import VirtualRig
+        vr = VirtualRig(cfg, damper=damper)
+        cfg = vr.start()
+        rig = Rig(cfg, clock=vr.clock)
+        pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
+    else:
+        rig = Rig(cfg)
+        pacer = RealTimePacer(cfg.rate_hz)
+    recorder = None
+    previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    try:
+        rig.open()
+        recorder = Recorder(out, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params))
+        print(f"recording to {out}", file=sys.stderr, flush=True)
+        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), recorder)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        if recorder is not None:
+            recorder.close()
+        rig.close()
+        if vr is not None:
+            vr.close()
+    print(f"recorded {result.duration_s:.1f} s of {module.NAME} to {out}", file=sys.stderr)
+    if result.fault:
+        print(f"dyno: run stopped: {result.fault}", file=sys.stderr)
+        return 130 if result.fault == "operator stop" else 1
+    return 0
+
+
+def recover_file(args):
+    from protocols.recording import recover
+    r = recover(args.file)
+    if r["intact"]:
+        print(f"{args.file}: intact, nothing to recover")
+    else:
+        print(f"{args.file}: recovered {r['messages']} messages, {r['metadata']} metadata, "
+              f"{r['attachments']} attachments; the damaged original is {r['damaged']}")
+    return 0

@@ -1,0 +1,88 @@
+"""What a protocol is: typed parameters with the thesis's defaults, a pre-flight check,
+and a plan that yields segments of motion. The runner executes the segments.
+
+    @dataclass
+    class Params: ...                       # defaults from the thesis
+    def check(p, rig) -> [(segment, why skipped)]   # raise ParamError to refuse
+    def plan(p, rig) -> Iterator[Segment]
+"""
+from __future__ import annotations
+
+import dataclasses
+import typing
+from dataclasses import dataclass, field
+from typing import Callable
+
+from rig.errors import RigError
+
+
+class ParamError(RigError):
+    """A protocol parameter that cannot be run; the message names it."""
+
+
+@dataclass
+class Segment:
+    name: str
+    params: dict
+    duration: float  # s; the most it can take when `until` is given
+    x: Callable[[float], float]  # seconds into the segment -> setpoint [m]
+    record: bool = True  # a measurement (True) or a transition (ramp, wait)
+    until: Callable[[dict], bool] | None = None  # ends it early on the readings
+
+
+@dataclass
+class RigInfo:
+    """What a plan needs to know of the rig and the damper under test (SI)."""
+    x_mid: float
+    x_min: float
+    x_max: float
+    v_max: float
+    f_max: float
+    force_max: float
+    T_max: float
+    T_ambient: float
+    peak_force: Callable[[float], float] | None = None  # damper model: velocity -> |force|
+
+
+def parse(cls, pairs):
+    """A Params dataclass from CLI "name=value" strings; lists as comma-separated."""
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    kwargs = {}
+    for pair in pairs:
+        name, eq, text = pair.partition("=")
+        if not eq:
+            raise ParamError(f"{pair!r}: parameters are name=value")
+        if name not in names:
+            raise ParamError(f"{name}: unknown parameter (known: {', '.join(sorted(names))})")
+        kind = hints[name]
+        try:
+            if typing.get_origin(kind) in (list, tuple):
+                kwargs[name] = [float(v) for v in text.split(",") if v.strip()]
+            elif kind is int:
+                kwargs[name] = int(text)
+            else:
+                kwargs[name] = float(text)
+        except ValueError:
+            raise ParamError(f"{name}: {text!r} is not a number") from None
+    return cls(**kwargs)
+
+
+def positive(name, values):
+    for v in values if isinstance(values, (list, tuple)) else [values]:
+        if not v > 0:
+            raise ParamError(f"{name}: must be positive, got {v:g}")
+
+
+def ramp_in(amplitude, freq, cycles, x_mid):
+    """A sine whose amplitude grows linearly over `cycles`: no velocity step at start."""
+    import math
+    T = cycles / freq
+    return lambda t: x_mid + amplitude * min(t / T, 1.0) * math.sin(2 * math.pi * freq * t)
+
+
+def as_dict(p):
+    return {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in dataclasses.asdict(p).items()}
+
+
+__all__ = ["ParamError", "RigInfo", "Segment", "as_dict", "field", "parse", "positive", "ramp_in"]

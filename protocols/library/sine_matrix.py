@@ -31,7 +31,7 @@ def check(p: Params, rig: RigInfo):
         if f > rig.f_max:
             raise ParamError(f"freqs_hz: {f:g} Hz is above the rig's {rig.f_max:g} Hz")
     for a in p.amplitudes_mm:
-        if not rig.x_min <= rig.x_mid - a / 1e3 and rig.x_mid + a / 1e3 <= rig.x_max:
+        if not (rig.x_min <= rig.x_mid - a / 1e3 and rig.x_mid + a / 1e3 <= rig.x_max):
             raise ParamError(f"amplitudes_mm: {a:g} mm leaves the stroke limits "
                              f"{rig.x_min * 1e3:.1f}..{rig.x_max * 1e3:.1f} mm about {rig.x_mid * 1e3:.1f} mm")
     skipped = []

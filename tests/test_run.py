@@ -1,0 +1,147 @@
+"""`dyno run` on the embedded virtual rig: the recording as the standard mcap reader sees
+it, refusal of bad parameters before motion, SIGKILL and `dyno recover`, and recordings
+that end with the event that ended them."""
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from protocols import runner
+from protocols.library import sine_matrix
+from protocols.plan import parse
+from protocols.recording import Recorder
+from protocols.rig_commands import rig_info
+from rig import config
+from rig.loop import SimulatedPacer
+from rig.rig import Rig
+from rig.safety import Safety
+from sim_backend.virtual_rig import VirtualRig
+
+DYNO = str(Path(sys.executable).parent / "dyno")
+CHANNELS = ("force", "x", "v", "x_internal", "T_body", "T_reservoir", "P_gas", "P1", "P2")
+
+
+def read(path):
+    with open(path, "rb") as f:
+        r = make_reader(f)
+        summary = r.get_summary()
+        meta = {m.name: m.metadata for m in r.iter_metadata()}
+        attachments = [a.name for a in r.iter_attachments()]
+        messages = [(ch.topic, sch.name, sch.encoding, json.loads(m.data)) for sch, ch, m in r.iter_messages()]
+    return summary, meta, attachments, messages
+
+
+def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
+    out = tmp_path / "x.mcap"
+    p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(out), "amplitudes_mm=6.4,40",
+                        "freqs_hz=2,8", "record_cycles=3"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2 and "amplitudes_mm: 40 mm leaves the stroke limits" in p.stderr  # refused
+    assert not out.exists()
+    p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(out), "amplitudes_mm=6.4,12.7",
+                        "freqs_hz=2,8,20", "record_cycles=3"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "skipping sine 12.7 mm 20 Hz: peak velocity 1.60 m/s" in p.stderr
+    summary, meta, attachments, messages = read(out)
+    topics = {c.topic for c in summary.channels.values()}
+    assert topics == {f"/channels/{c}" for c in CHANNELS} | {"/actuator/setpoint", "/events"}
+    assert {s.name for s in summary.schemas.values()} == {"dyno.Samples", "dyno.Setpoints", "dyno.Event"}
+    assert all(s.encoding == "jsonschema" for s in summary.schemas.values())
+    assert {"software", "rig", "calibration", "damper", "protocol"} <= set(meta)
+    assert json.loads(meta["protocol"]["params"])["freqs_hz"] == [2.0, 8.0, 20.0]
+    assert attachments == ["rig.toml"]
+    # no gaps: per topic the message counter and the sample index both run on
+    seq, n = {}, {}
+    for topic, schema, _, d in messages:
+        assert d["seq"] == seq.get(topic, 0)
+        seq[topic] = d["seq"] + 1
+        if schema == "dyno.Samples":
+            assert d["n0"] == n.get(topic, 0) and len(d["t"]) == len(d["value"])
+            n[topic] = d["n0"] + len(d["t"])
+    events = [d for t, _, _, d in messages if t == "/events"]
+    assert events[0]["kind"] == "run_start" and events[-1] == {**events[-1], "kind": "run_end", "message": "completed"}
+    measured = [e["segment"] for e in events if e["kind"] == "segment_start" and e["segment"].startswith("sine")]
+    assert measured == ["sine 6.4 mm 2 Hz", "sine 6.4 mm 8 Hz", "sine 6.4 mm 20 Hz", "sine 12.7 mm 2 Hz",
+                        "sine 12.7 mm 8 Hz"]
+    assert any(e["kind"] == "skipped" and e["segment"] == "sine 12.7 mm 20 Hz" for e in events)
+    assert n["/channels/force"] == n["/channels/x"] > 10000  # 1 kHz for the whole run
+
+
+@pytest.mark.parametrize("args, message", [
+    (["sine-matrix", "amplitudes_mm=-3"], "amplitudes_mm: must be positive, got -3"),
+    (["sine-matrix", "freqs_hz=2,80"], "freqs_hz: 80 Hz is above the rig's 50 Hz"),
+    (["sine-matrix", "amplitude=3"], "amplitude: unknown parameter"),
+    (["sine-matrix", "freqs_hz=two"], "freqs_hz: 'two' is not a number"),
+    (["step", "steps_mm=0"], "steps_mm: needs non-zero steps"),
+    (["squat"], "unknown protocol 'squat'"),
+])
+def test_bad_parameters_are_refused_before_motion(tmp_path, args, message):
+    out = tmp_path / "x.mcap"
+    p = subprocess.run([DYNO, "run", *args, "--out", str(out)], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1 and message in p.stderr, p.stderr
+    assert not out.exists()
+
+
+def test_sigkill_then_recover_keeps_all_but_the_last_second(tmp_path):
+    out = tmp_path / "killed.mcap"
+    p = subprocess.Popen([DYNO, "run", "sine-matrix", "--realtime", "--out", str(out), "amplitudes_mm=6.4",
+                          "freqs_hz=2", "record_cycles=40"], stderr=subprocess.PIPE, text=True)
+    line = p.stderr.readline()
+    assert "recording to" in line
+    t_start = time.monotonic()
+    time.sleep(4.0)
+    p.send_signal(signal.SIGKILL)
+    p.wait(10)
+    elapsed = time.monotonic() - t_start
+    with pytest.raises(Exception):  # the indexed reader refuses the torn file
+        with open(out, "rb") as f:
+            list(make_reader(f).iter_messages())
+    r = subprocess.run([DYNO, "recover", str(out)], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and "recovered" in r.stdout, r.stderr
+    assert out.with_name("killed.mcap.damaged").exists()
+    summary, meta, attachments, messages = read(out)
+    assert {"rig", "damper", "protocol"} <= set(meta) and attachments == ["rig.toml"]
+    t_last = max(d["t"][-1] for topic, _, _, d in messages if topic == "/channels/force")
+    assert t_last > elapsed - 1.0 - 0.5  # at most the last second lost (0.5 s: start-up slack)
+
+
+def run_in_process(tmp_path, inject=None, interrupt_at=None):
+    vr = VirtualRig(config.load("virtual"), damper="koni")
+    cfg = vr.start()
+    rig = Rig(cfg, clock=vr.clock)
+    rig.open()
+    params = parse(sine_matrix.Params, ["amplitudes_mm=6.4", "freqs_hz=2", "record_cycles=10"])
+    rec = Recorder(tmp_path / "r.mcap", cfg, "{}", sine_matrix.NAME, {})
+    info = rig_info(cfg, vr.plant.damper)
+
+    stopped = []
+
+    def hook(samples):
+        if inject and vr.t > 1.0:
+            vr.inject(inject)
+        if interrupt_at and vr.t > interrupt_at and not stopped:
+            stopped.append(vr.t)
+            raise KeyboardInterrupt  # the operator's Ctrl-C
+    try:
+        result, _ = runner.run(sine_matrix, params, info, rig, SimulatedPacer(vr, 1000), Safety(cfg), rec,
+                               sinks=[hook], progress=False)
+    finally:
+        rec.close()
+        rig.close()
+        vr.close()
+    events = [d for t, _, _, d in read(tmp_path / "r.mcap")[3] if t == "/events"]
+    return result, events
+
+
+def test_a_safety_trip_and_an_operator_stop_end_the_recording(tmp_path):
+    result, events = run_in_process(tmp_path, inject="open_thermocouple")
+    assert [e["kind"] for e in events[-2:]] == ["fault", "run_end"]
+    assert events[-2]["message"] == "T_body (tc): open thermocouple" == result.fault
+    result, events = run_in_process(tmp_path, interrupt_at=1.5)
+    assert [e["kind"] for e in events[-2:]] == ["operator_stop", "run_end"]
+    assert events[-1]["message"] == "operator stop"

@@ -193,6 +193,8 @@ def parser():
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
     rn.add_argument("--out", default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap)")
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
+    rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
+    rn.add_argument("--rrd", default=None, help="also save the live view to FILE.rrd")
     rn.set_defaults(func=rig_commands.run_protocol)
     rv = sub.add_parser("recover", help="rebuild a recording cut short (the original is kept as FILE.damaged)")
     rv.add_argument("file")

@@ -179,17 +179,22 @@ def run_protocol(args):
     else:
         rig = Rig(cfg)
         pacer = RealTimePacer(cfg.rate_hz)
-    recorder = None
+    recorder = live = None
     previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
         rig.open()
         recorder = Recorder(out, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params))
+        if args.live or args.rrd:
+            from protocols.live import LiveView
+            live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
         print(f"recording to {out}", file=sys.stderr, flush=True)
-        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), recorder)
+        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live])
     finally:
         signal.signal(signal.SIGTERM, previous)
         if recorder is not None:
             recorder.close()
+        if live is not None:
+            live.close()
         rig.close()
         if vr is not None:
             vr.close()

@@ -1,6 +1,7 @@
-"""Runs a protocol's segments through the control loop, streaming samples to the sinks
-(recorder, live view, the identification hook), with events at every segment boundary
-and a progress line with an ETA."""
+"""Runs a protocol's segments through the control loop, streaming to observers (the
+recorder, the live view, later the identification hook: anything with `samples(drained)`,
+`event(t, kind, segment, params, message)` and optionally `setpoints(t, x)`), with events
+at every segment boundary and a progress line with an ETA."""
 from __future__ import annotations
 
 import sys
@@ -33,8 +34,10 @@ class ProgressLine:
         self.stream.flush()
 
 
-def run(module, params, info, rig, pacer, safety, recorder=None, sinks=(), progress=True):
-    """Execute the plan; returns (LoopResult, [skipped (segment, reason)])."""
+def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progress=True):
+    """Execute the plan; returns (LoopResult, [skipped (segment, reason)]). sinks: plain
+    callables that get every drained sample batch."""
+    observers = [o for o in observers if o is not None]
     skipped = module.check(params, info)
     segments = list(module.plan(params, info))
     total = sum(s.duration for s in segments)
@@ -42,17 +45,17 @@ def run(module, params, info, rig, pacer, safety, recorder=None, sinks=(), progr
     state = {"i": 0, "t0": None, "t_plan": 0.0, "t": 0.0}
     set_t, set_x = [], []
 
-    def event(t, kind, seg=None, message=""):
-        if recorder is not None:
-            recorder.event(t, kind, seg.name if seg else "", seg.params if seg else {}, message)
+    def event(t, kind, seg=None, message="", name=None, params=None):
+        for o in observers:
+            o.event(t, kind, name if name is not None else (seg.name if seg else ""),
+                    params if params is not None else (seg.params if seg else {}), message)
 
     def plan(t, readings):
         state["t"] = t
         if state["t0"] is None:
-            if recorder is not None:
-                recorder.event(t, "run_start", module.NAME, as_dict(params))
-                for name, why in skipped:
-                    recorder.event(t, "skipped", name, {}, why)
+            event(t, "run_start", name=module.NAME, params=as_dict(params))
+            for name, why in skipped:
+                event(t, "skipped", name=name, params={}, message=why)
             state["t0"] = t
             if not segments:
                 return None
@@ -76,12 +79,13 @@ def run(module, params, info, rig, pacer, safety, recorder=None, sinks=(), progr
         return x
 
     def record_setpoints(samples):
-        if recorder is not None:
-            recorder.setpoints(set_t, set_x)
+        for o in observers:
+            if hasattr(o, "setpoints"):
+                o.setpoints(set_t, set_x)
         set_t.clear()
         set_x.clear()
 
-    loop = ControlLoop(rig, pacer, safety, [*( [recorder.samples] if recorder else []), record_setpoints, *sinks])
+    loop = ControlLoop(rig, pacer, safety, [*(o.samples for o in observers), record_setpoints, *sinks])
     result = loop.run(plan)
     if bar:
         bar.show(state["t_plan"], "stopped" if result.fault else "done", final=True)
@@ -89,6 +93,5 @@ def run(module, params, info, rig, pacer, safety, recorder=None, sinks=(), progr
     if result.fault:
         kind = "operator_stop" if result.fault == "operator stop" else "fault"
         event(t_end, kind, segments[state["i"]] if state["i"] < len(segments) else None, result.fault)
-    if recorder is not None:
-        recorder.event(t_end, "run_end", module.NAME, {}, result.fault or "completed")
+    event(t_end, "run_end", name=module.NAME, params={}, message=result.fault or "completed")
     return result, skipped

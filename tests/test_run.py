@@ -128,7 +128,7 @@ def run_in_process(tmp_path, inject=None, interrupt_at=None):
             stopped.append(vr.t)
             raise KeyboardInterrupt  # the operator's Ctrl-C
     try:
-        result, _ = runner.run(sine_matrix, params, info, rig, SimulatedPacer(vr, 1000), Safety(cfg), rec,
+        result, _ = runner.run(sine_matrix, params, info, rig, SimulatedPacer(vr, 1000), Safety(cfg), [rec],
                                sinks=[hook], progress=False)
     finally:
         rec.close()
@@ -145,3 +145,31 @@ def test_a_safety_trip_and_an_operator_stop_end_the_recording(tmp_path):
     result, events = run_in_process(tmp_path, interrupt_at=1.5)
     assert [e["kind"] for e in events[-2:]] == ["operator_stop", "run_end"]
     assert events[-1]["message"] == "operator stop"
+
+
+def test_live_view_logs_the_documented_entities():
+    import rerun as rr
+
+    from protocols.live import LiveView
+    vr = VirtualRig(config.load("virtual"), damper="koni")
+    cfg = vr.start()
+    rig = Rig(cfg, clock=vr.clock)
+    rig.open()
+    rec = rr.RecordingStream("dyno-test")
+    memory = rec.memory_recording()
+    live = LiveView({n: c.unit for n, c in cfg.channels.items()}, recording=rec)
+    params = parse(sine_matrix.Params, ["amplitudes_mm=6.4", "freqs_hz=4", "record_cycles=4"])
+    try:
+        result, _ = runner.run(sine_matrix, params, rig_info(cfg, vr.plant.damper), rig, SimulatedPacer(vr, 1000),
+                               Safety(cfg), [live], progress=False)
+    finally:
+        live.close()
+        rig.close()
+        vr.close()
+    assert result.fault is None
+    data = memory.drain_as_bytes()
+    for entity in [f"channels/{c}" for c in CHANNELS] + ["loops/force_velocity", "loops/force_displacement",
+                                                        "events"]:
+        assert entity.encode() in data, entity
+    assert b"channels/not_a_channel" not in data
+    assert b"sine 6.4 mm 4 Hz" in data  # the events' text

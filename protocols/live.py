@@ -1,0 +1,76 @@
+"""The live view in rerun: every channel on one timeline, the current segment's
+force-velocity and force-displacement loops as 2D points, protocol progress and events as
+text, in a blueprint laid out for an operator. Batches go out with `send_columns`, so
+the view never slows the loop.
+
+Entities (docs/recording.md): channels/<name> (Scalars), loops/force_velocity and
+loops/force_displacement (Points2D, current segment), events (TextLog).
+"""
+from __future__ import annotations
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+TIMELINE = "t"
+LOOP_POINTS = 4000  # the most recent samples of the segment shown in the loops
+
+
+class LiveView:
+    def __init__(self, channels, spawn=False, rrd=None, recording=None):
+        """channels: {name: unit}. spawn: open a viewer; rrd: also save to this file;
+        recording: an existing RecordingStream (tests pass a memory one)."""
+        self.rec = recording or rr.RecordingStream("dyno")
+        sinks = []
+        if spawn:
+            self.rec.spawn(connect=False)
+            sinks.append(rr.GrpcSink())
+        if rrd:
+            sinks.append(rr.FileSink(str(rrd)))
+        if sinks:
+            self.rec.set_sinks(*sinks)
+        self.channels = dict(channels)
+        self.loop = {"x": [], "v": [], "force": []}
+        self.segment = ""
+        forces = [f"channels/{n}" for n in self.channels if n == "force"]
+        motion = [f"channels/{n}" for n in self.channels if n in ("x", "x_internal", "v")]
+        rest = [f"channels/{n}" for n in self.channels if f"channels/{n}" not in forces + motion]
+        self.rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(
+            rrb.Vertical(rrb.TimeSeriesView(origin="/", contents=forces, name="force [N]"),
+                         rrb.TimeSeriesView(origin="/", contents=motion, name="motion [m, m/s]"),
+                         rrb.TimeSeriesView(origin="/", contents=rest, name="temperatures, pressures")),
+            rrb.Vertical(rrb.Spatial2DView(origin="loops/force_velocity", name="force vs velocity"),
+                         rrb.Spatial2DView(origin="loops/force_displacement", name="force vs displacement"),
+                         rrb.TextLogView(origin="events", name="protocol")),
+            column_shares=[3, 2])))
+        for n, unit in self.channels.items():
+            self.rec.log(f"channels/{n}", rr.SeriesLines(names=f"{n} [{unit}]"), static=True)
+
+    def samples(self, drained):
+        for name, (t, v) in drained.items():
+            if len(t):
+                self.rec.send_columns(f"channels/{name}", indexes=[rr.TimeColumn(TIMELINE, duration=t)],
+                                      columns=rr.Scalars.columns(scalars=v))
+        if all(len(drained.get(k, ((), ()))[0]) for k in self.loop):
+            n = min(len(drained[k][1]) for k in self.loop)
+            for k in self.loop:
+                self.loop[k].extend(drained[k][1][:n].tolist())
+                del self.loop[k][:-LOOP_POINTS]
+            t_last = float(drained["force"][0][-1])
+            self.rec.set_time(TIMELINE, duration=t_last)
+            F = np.array(self.loop["force"])
+            # velocity in mm/s and displacement in mm keep both axes readable against N
+            self.rec.log("loops/force_velocity", rr.Points2D(np.c_[1e3 * np.array(self.loop["v"]), -F], radii=0.5))
+            self.rec.log("loops/force_displacement",
+                         rr.Points2D(np.c_[1e3 * np.array(self.loop["x"]), -F], radii=0.5))
+
+    def event(self, t, kind, segment, params, message):
+        self.rec.set_time(TIMELINE, duration=t)
+        if kind == "segment_start":
+            for k in self.loop:
+                self.loop[k].clear()
+        level = rr.TextLogLevel.ERROR if kind in ("fault", "operator_stop") else rr.TextLogLevel.INFO
+        self.rec.log("events", rr.TextLog(f"{kind}: {segment} {message}".strip(), level=level))
+
+    def close(self):
+        self.rec.flush()

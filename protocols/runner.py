@@ -46,9 +46,10 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     set_t, set_x = [], []
 
     def event(t, kind, seg=None, message="", name=None, params=None):
+        if params is None:
+            params = {**seg.params, "measured": seg.record} if seg else {}
         for o in observers:
-            o.event(t, kind, name if name is not None else (seg.name if seg else ""),
-                    params if params is not None else (seg.params if seg else {}), message)
+            o.event(t, kind, name if name is not None else (seg.name if seg else ""), params, message)
 
     def plan(t, readings):
         state["t"] = t

@@ -1,0 +1,73 @@
+"""Temperature sweep (thesis 2.3.1.1): warm the damper by cycling until it is above the
+top target, then, while it cools, record the given sine at each target temperature."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..plan import ParamError, RigInfo, Segment, positive, ramp_in
+
+NAME = "temperature-sweep"
+MARGIN_K = 5.0  # targets must lie this far inside ambient .. the rig's temperature limit
+
+
+@dataclass
+class Params:
+    targets_c: list[float] = field(default_factory=lambda: [140.0, 120.0, 100.0, 80.0, 60.0, 40.0])
+    amplitude_mm: float = 12.7
+    freq_hz: float = 2.0
+    cycles: int = 3
+    warm_amplitude_mm: float = 12.7
+    warm_freq_hz: float = 8.0
+    overshoot_c: float = 3.0  # warm this far above the top target
+    max_warm_s: float = 1800.0
+    max_cool_s: float = 1800.0  # per target
+
+
+def check(p: Params, rig: RigInfo):
+    positive("targets_c", p.targets_c)
+    for name in ("amplitude_mm", "freq_hz", "cycles", "warm_amplitude_mm", "warm_freq_hz", "max_warm_s",
+                 "max_cool_s"):
+        positive(name, getattr(p, name))
+    hi, lo = rig.T_max - 273.15 - MARGIN_K, rig.T_ambient - 273.15 + MARGIN_K
+    for T in p.targets_c:
+        if T > hi or T + p.overshoot_c > rig.T_max - 273.15:
+            raise ParamError(f"targets_c: {T:g} C is above what the rig may reach ({hi:g} C, its limit "
+                             f"{rig.T_max - 273.15:g} C less {MARGIN_K:g} K)")
+        if T < lo:
+            raise ParamError(f"targets_c: {T:g} C cannot be reached by cooling (ambient "
+                             f"{rig.T_ambient - 273.15:g} C, at least {lo:g} C)")
+    for A, f, what in ((p.amplitude_mm, p.freq_hz, ""), (p.warm_amplitude_mm, p.warm_freq_hz, "warm_")):
+        if 2 * math.pi * f * A / 1e3 > rig.v_max:
+            raise ParamError(f"{what}freq_hz: {A:g} mm at {f:g} Hz is faster than the rig's {rig.v_max:g} m/s")
+        if not (rig.x_min <= rig.x_mid - A / 1e3 and rig.x_mid + A / 1e3 <= rig.x_max):
+            raise ParamError(f"{what}amplitude_mm: {A:g} mm leaves the stroke limits")
+    return []
+
+
+def _above(T_K):
+    return lambda r: "T_body" in r and r["T_body"].value >= T_K
+
+
+def _below(T_K):
+    return lambda r: "T_body" in r and r["T_body"].value <= T_K
+
+
+def plan(p: Params, rig: RigInfo):
+    targets = sorted(p.targets_c, reverse=True)
+    Aw, fw = p.warm_amplitude_mm / 1e3, p.warm_freq_hz
+    top = targets[0] + p.overshoot_c + 273.15
+    yield Segment("warm up", {"until_c": top - 273.15}, p.max_warm_s, ramp_in(Aw, fw, 4, rig.x_mid), False,
+                  _above(top))
+    yield Segment("stop warming", {}, 2 / fw,
+                  lambda t: rig.x_mid + Aw * max(1 - t * fw / 2, 0) * math.sin(2 * math.pi * fw * t), False)
+    A, f = p.amplitude_mm / 1e3, p.freq_hz
+    for T in targets:
+        yield Segment(f"cool to {T:g} C", {"target_c": T}, p.max_cool_s, lambda t: rig.x_mid, False,
+                      _below(T + 273.15))
+        params = {"target_c": T, "amplitude_mm": p.amplitude_mm, "freq_hz": f, "cycles": p.cycles}
+        yield Segment(f"ramp in at {T:g} C", params, 1 / f, ramp_in(A, f, 1, rig.x_mid), False)
+        yield Segment(f"sine at {T:g} C", params, p.cycles / f,
+                      lambda t: rig.x_mid + A * math.sin(2 * math.pi * f * t))
+        yield Segment(f"ramp out at {T:g} C", params, 1 / f,
+                      lambda t: rig.x_mid + A * max(1 - t * f, 0) * math.sin(2 * math.pi * f * t), False)

@@ -37,14 +37,22 @@ def breakaway_ratio(T, C_sfT, C_ifT):
     return np.maximum(C_sfT * (np.asarray(T, float) - T_STD) + C_ifT, 0.0)
 
 
-def friction_force(x, v, T, x_table, F_table, C_sfT, C_ifT, v_stick=0.0):
-    """Friction force, eq 3.3: F = F_sx * (C_sfT dT + C_ifT) * sgn(v)  [N].
+def friction_force(x, v, T, x_table, F_table, C_sfT, C_ifT):
+    """Friction force, eq 3.3: F = F_sx * (C_sfT dT + C_ifT) * sgn(v)  [N]."""
+    return static_friction(x, x_table, F_table) * breakaway_ratio(T, C_sfT, C_ifT) * np.sign(v)
 
-    v_stick > 0 [m/s] replaces sgn(v) by v / v_stick below that speed: a regularisation
-    for explicit loops where the damper sits in series with a compliance (the virtual
-    rig's load frame), where sgn(v) would flip every step."""
-    direction = np.sign(v) if v_stick <= 0 else np.clip(np.asarray(v, float) / v_stick, -1.0, 1.0)
-    return static_friction(x, x_table, F_table) * breakaway_ratio(T, C_sfT, C_ifT) * direction
+
+def dahl_step(F, dx, F_c, x_stick):
+    """Friction force [N] after a displacement increment dx [m], Dahl's model (not the
+    thesis's): the force approaches +-F_c (eq 3.3's magnitude) exponentially over x_stick of
+    travel, F = sgn(dx) F_c + (F - sgn(dx) F_c) exp(-|dx| / x_stick), and stays put at rest.
+    The virtual rig uses it: the seal holds what it carried when the motion stopped (what
+    the static test measures), and an explicit loop with a compliant frame cannot chatter
+    on it as it would on sgn(v)."""
+    if dx == 0.0 or F_c <= 0.0:
+        return min(max(F, -F_c), F_c)
+    target = F_c if dx > 0 else -F_c
+    return target + (F - target) * float(np.exp(-abs(dx) / x_stick))
 
 
 def mean_ratio(ratios):

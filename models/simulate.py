@@ -121,11 +121,12 @@ class Stepper:
         F, F_d, F_gas, F_fric, P1, P2, P_gas = s.step(x, v)
 
     BDF2 with its history kept between calls (stiff.py). Motion beyond the stroke is
-    clipped (the rig's limits and stops are the caller's business). v_stick: see
-    friction.friction_force."""
+    clipped (the rig's limits and stops are the caller's business). x_stick > 0 [m]: the
+    friction follows Dahl's model (friction.dahl_step) instead of eq 3.3's sgn(v)."""
 
-    def __init__(self, damper: Damper, T, x0, h, v_stick=0.0):
-        self.damper, self.h, self.x_e, self.v_stick = damper, float(h), float(x0), float(v_stick)
+    def __init__(self, damper: Damper, T, x0, h, x_stick=0.0):
+        self.damper, self.h, self.x_e, self.x_stick = damper, float(h), float(x0), float(x_stick)
+        self.F_f = 0.0
         self.asm = ASSEMBLY[damper.layout]
         self.prm = None
         self.set_temperature(T)
@@ -153,6 +154,11 @@ class Stepper:
         self.asm.integrate(self.y, self.xs, self.vs, 1, self.h, self.prm, self.vp, self.vh, self.atol,
                            self.out, self.hist)
         f = self.damper.friction
-        Ff = float(friction.friction_force(x, v, self.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT, self.v_stick))
+        if self.x_stick > 0:
+            F_c = float(friction.static_friction(x, f.x_table, f.F_table)
+                        * friction.breakaway_ratio(self.T, f.C_sfT, f.C_ifT))
+            self.F_f = Ff = friction.dahl_step(self.F_f, x - self.xs[0], F_c, self.x_stick)
+        else:
+            Ff = float(friction.friction_force(x, v, self.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT))
         Fd, Fg, P1, P2, Pg = self.out[1]
         return Fd + Fg + Ff, Fd, Fg, Ff, P1, P2, Pg

@@ -214,3 +214,12 @@ def recover_file(args):
         print(f"{args.file}: recovered {r['messages']} messages, {r['metadata']} metadata, "
               f"{r['attachments']} attachments; the damaged original is {r['damaged']}")
     return 0
+
+
+def report_file(args):
+    from protocols.report import report
+    index, pngs = report(args.file, args.out)
+    for p in pngs:
+        print(p)
+    print(index)
+    return 0

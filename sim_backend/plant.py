@@ -43,7 +43,7 @@ class Plant:
         self.alarm = 0
         self.faults = set()  # sensor/actuator faults injected by tests or `--fault`
         self._stuck_force = None
-        self.stepper = Stepper(self.damper, self.T, self.x_act, h, v_stick=self.p["frame"]["friction_v_stick"])
+        self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.p["frame"]["friction_x_stick"])
         self.F_frame = 0.0  # force the frame deflects under (low-passed)
         self._T_packed = self.T
         self.F = self.F_d = 0.0
@@ -96,7 +96,7 @@ class Plant:
         self.x_act += v * h
         self._lag.append(self.x_act)
         # the damper sees the actuator less the frame's give under the force, low-passed
-        # over the frame's time constant: explicit, and stable with regularised friction
+        # over the frame's time constant: explicit, and stable with Dahl friction
         fr = self.p["frame"]
         self.F_frame += h / fr["tau_s"] * (self.F - self.F_frame)
         x_d = self.x_act - self.F_frame / fr["stiffness"]

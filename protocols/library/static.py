@@ -1,6 +1,7 @@
-"""Static test (thesis 2.3.1.2): hold discrete displacements across the stroke, approached
-from compression and from extension, each until the force settles. The mean of the two
-approaches is the gas force, half their difference the static friction (eq 3.7, 3.1)."""
+"""Static test (thesis 2.3.1.2): hold discrete displacements across the stroke, reached at
+the end of a compression stroke and of an extension stroke, each until the force settles.
+The mean of the two is the gas force, half their difference the static friction
+(eqs 3.7, 3.1)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -73,9 +74,11 @@ def settled(p):
 def plan(p: Params, rig: RigInfo):
     speed, d = p.speed_mm_s / 1e3, p.approach_mm / 1e3
     x = rig.x_mid
-    for direction, sign in (("from compression", +1), ("from extension", -1)):
+    # the last move into each hold is a compression stroke (from below) or an extension
+    # stroke (from above): the seal holds the friction of that direction
+    for direction, sign in (("compression stroke", +1), ("extension stroke", -1)):
         for xp in positions(p, rig):
-            start = xp + sign * d
+            start = xp - sign * d
             for target, what in ((start, "approach"), (xp, "settle")):
                 T, f = _move(x, target, speed)
                 yield Segment(f"{what} {xp * 1e3:.1f} mm {direction}", {}, T, f, False)

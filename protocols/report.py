@@ -1,0 +1,176 @@
+"""`dyno report FILE.mcap --out DIR`: an HTML page with the plots a damper engineer
+expects: force-velocity and force-displacement loops per measured segment, the composite
+peak force vs peak velocity curve, gas force and friction from static holds, low-speed
+loops, force and temperature over time for temperature sweeps."""
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+import numpy as np
+from mcap.reader import make_reader
+
+from models.plots import plt
+from rig.errors import RigError
+
+
+def load(path):
+    """(channels {name: (t, values)}, events [dict], metadata {name: dict})."""
+    path = Path(path)
+    if not path.exists():
+        raise RigError(f"{path}: no such file")
+    chans, events = {}, []
+    try:
+        with open(path, "rb") as f:
+            r = make_reader(f)
+            meta = {m.name: dict(m.metadata) for m in r.iter_metadata()}
+            for _, ch, m in r.iter_messages():
+                d = json.loads(m.data)
+                if ch.topic.startswith("/channels/"):
+                    ts, vs = chans.setdefault(ch.topic[len("/channels/"):], ([], []))
+                    ts.extend(d["t"])
+                    vs.extend(d["value"])
+                elif ch.topic == "/events":
+                    events.append(d)
+    except Exception as e:
+        raise RigError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
+    return {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, events, meta
+
+
+def segments(events, measured=True):
+    """[(name, params, t0, t1)] of the segments (measured ones by default)."""
+    out, open_ = [], {}
+    for e in events:
+        if e["kind"] == "segment_start":
+            open_ = {"name": e["segment"], "params": e["params"], "t0": e["t"]}
+        elif e["kind"] == "segment_end" and open_ and open_["name"] == e["segment"]:
+            if not measured or open_["params"].get("measured", True):
+                out.append((open_["name"], open_["params"], open_["t0"], e["t"]))
+            open_ = {}
+    return out
+
+
+def _window(ch, name, t0, t1):
+    t, v = ch[name]
+    k = (t >= t0) & (t <= t1)
+    return t[k], v[k]
+
+
+def _save(fig, path):
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path.name
+
+
+def report(path, out_dir):
+    ch, events, meta = load(path)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    segs = segments(events)
+    figures = []
+    sines = [s for s in segs if "freq_hz" in s[1] and "amplitude_mm" in s[1]]
+    if sines and all(k in ch for k in ("force", "x", "v")):
+        amps = sorted({s[1]["amplitude_mm"] for s in sines}, reverse=True)
+        fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
+        peaks = []
+        for j, a in enumerate(amps):
+            for name, prm, t0, t1 in sines:
+                if prm["amplitude_mm"] != a:
+                    continue
+                _, F = _window(ch, "force", t0, t1)
+                _, x = _window(ch, "x", t0, t1)
+                _, v = _window(ch, "v", t0, t1)
+                n = min(len(F), len(x), len(v))
+                label = f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
+                axes[0, j].plot(v[:n], F[:n], lw=0.8, label=label)
+                axes[1, j].plot(1e3 * x[:n], F[:n], lw=0.8, label=label)
+                if n:
+                    peaks.append((v[:n].max(), F[:n].max(), v[:n].min(), F[:n].min()))
+            axes[0, j].set(title=f"{a:g} mm: force vs velocity", xlabel="velocity [m/s]", ylabel="force [N]")
+            axes[1, j].set(title=f"{a:g} mm: force vs displacement", xlabel="displacement [mm]",
+                           ylabel="force [N]")
+            for ax in axes[:, j]:
+                ax.grid(alpha=0.3)
+                ax.legend(fontsize=7)
+        figures.append(("Force-velocity and force-displacement loops (compression positive)",
+                        _save(fig, out / "loops.png")))
+        P = np.array(peaks)
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        order = np.argsort(P[:, 0])
+        ax.plot(P[order, 0], P[order, 1], "o-", label="compression")
+        order = np.argsort(-P[:, 2])
+        ax.plot(-P[order, 2], -P[order, 3], "s-", label="rebound (magnitudes)")
+        ax.set(title="Composite: peak force vs peak velocity", xlabel="peak velocity [m/s]",
+               ylabel="peak force [N]")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        figures.append(("Composite peak force vs peak velocity", _save(fig, out / "composite.png")))
+    holds = [s for s in segs if "x_mm" in s[1]]
+    if holds and "force" in ch:
+        rows = {}
+        for name, prm, t0, t1 in holds:
+            _, F = _window(ch, "force", max(t0, t1 - 1.0), t1)  # the settled last second
+            rows.setdefault(prm["x_mm"], {})[prm["approach"]] = float(F.mean())
+        xs = sorted(x for x, r in rows.items() if len(r) == 2)
+        up = np.array([rows[x]["compression stroke"] for x in xs])
+        down = np.array([rows[x]["extension stroke"] for x in xs])
+        fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+        ax[0].plot(xs, up, "^-", label="held after a compression stroke")
+        ax[0].plot(xs, down, "v-", label="held after an extension stroke")
+        ax[0].plot(xs, (up + down) / 2, "k.-", label="gas force (mean)")
+        ax[0].set(title="Static test: force at rest", xlabel="displacement [mm]", ylabel="force [N]")
+        ax[1].plot(xs, (up - down) / 2, "o-")
+        ax[1].set(title="Static friction (half the difference)", xlabel="displacement [mm]", ylabel="friction [N]")
+        for a in ax:
+            a.grid(alpha=0.3)
+        ax[0].legend(fontsize=8)
+        figures.append(("Gas force and friction from the static test", _save(fig, out / "static.png")))
+    slow = [s for s in segs if s[0].startswith("low-speed")]
+    if slow and "force" in ch:
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        for name, prm, t0, t1 in slow:
+            _, F = _window(ch, "force", t0, t1)
+            _, x = _window(ch, "x", t0, t1)
+            n = min(len(F), len(x))
+            ax.plot(1e3 * x[:n], F[:n], lw=0.8, label=name)
+        ax.set(title="Low-speed loops: gas force with friction", xlabel="displacement [mm]", ylabel="force [N]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        figures.append(("Low-speed test", _save(fig, out / "low_speed.png")))
+    if any("target_c" in s[1] for s in segs) and "T_body" in ch:
+        fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+        t, F = ch["force"]
+        ax[0].plot(t, F, lw=0.3)
+        ax[0].set(ylabel="force [N]", title="Temperature sweep")
+        for key, label in (("T_body", "body"), ("T_reservoir", "reservoir")):
+            if key in ch:
+                ax[1].plot(ch[key][0], ch[key][1] - 273.15, label=label)
+        for name, prm, t0, t1 in segs:
+            if "target_c" in prm:
+                ax[1].axvspan(t0, t1, color="C2", alpha=0.3)
+        ax[1].set(xlabel="time [s]", ylabel="temperature [C]")
+        for a in ax:
+            a.grid(alpha=0.3)
+        ax[1].legend(fontsize=8)
+        figures.append(("Force and temperature over time (shaded: recorded sines)",
+                        _save(fig, out / "temperature.png")))
+    ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
+    proto = meta.get("protocol", {})
+    damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
+    page = ["<!doctype html><meta charset='utf-8'><title>dyno report</title>",
+            "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto}img{max-width:100%}</style>",
+            f"<h1>Dyno report: {html.escape(Path(path).name)}</h1>",
+            f"<p>Protocol <b>{html.escape(proto.get('name', '?'))}</b>, parameters "
+            f"<code>{html.escape(proto.get('params', ''))}</code>; damper <b>{html.escape(str(damper.get('name', '?')))}"
+            f"</b>; rig <b>{html.escape(meta.get('rig', {}).get('name', '?'))}</b>.</p>",
+            "<ul>" + "".join(f"<li>{html.escape(e['kind'])}: {html.escape(e['segment'])} "
+                             f"{html.escape(e.get('message', ''))}</li>" for e in ends) + "</ul>"]
+    for title, png in figures:
+        page.append(f"<h2>{html.escape(title)}</h2><img src='{png}' alt='{html.escape(title)}'>")
+    if not figures:
+        page.append("<p>No measured segments to plot.</p>")
+    index = out / "index.html"
+    index.write_text("\n".join(page))
+    return index, [out / png for _, png in figures]

@@ -12,8 +12,11 @@ $(STAMP): pyproject.toml
 	$(VENV)/bin/pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+DAMPER ?= koni
+
 run: $(STAMP)
-	$(VENV)/bin/dyno validate
+	$(VENV)/bin/dyno run standard --damper $(DAMPER) --out recordings/standard-$(DAMPER).mcap
+	$(VENV)/bin/dyno report recordings/standard-$(DAMPER).mcap --out reports/standard-$(DAMPER)
 
 test: $(STAMP)
 	$(VENV)/bin/python -m pytest -q

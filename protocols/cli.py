@@ -130,6 +130,18 @@ def _bench_loop(args):
     return 0
 
 
+def _bench_log(args):
+    from protocols.bench import bench_log
+    r = bench_log(args.seconds)
+    if args.json:
+        print(json.dumps(r, indent=2))
+        return 0
+    print(f"MCAP logging: {r['samples_per_s']:,.0f} samples/s sustained ({r['bytes_per_sample']:.1f} bytes/sample "
+          f"on disk), {r['ratio']:.0f}x the {r['protocol_samples_per_s']:,.0f} samples/s a protocol records "
+          f"(goal >= {r['goal_ratio']:.0f}x: {'met' if r['goal_met'] else 'NOT met'})")
+    return 0
+
+
 def _bench_sim(args):
     from models.bench import bench
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
@@ -187,7 +199,7 @@ def parser():
     sr.add_argument("--seconds", type=float, default=None, help="stop after this long")
     sr.set_defaults(func=rig_commands.sim_rig)
     rn = sub.add_parser("run", help="run a test protocol and record it to MCAP")
-    rn.add_argument("protocol", help="sine-matrix, step")
+    rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard")
     rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
     rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
@@ -221,6 +233,10 @@ def parser():
     bw.add_argument("--json", action="store_true")
     bw.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     bw.set_defaults(func=_bench_sweep)
+    bg = bsub.add_parser("log", help="samples per second into MCAP against a protocol's data rate")
+    bg.add_argument("--seconds", type=float, default=5.0)
+    bg.add_argument("--json", action="store_true")
+    bg.set_defaults(func=_bench_log)
     bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=float, default=30.0, help="duration (default 30)")

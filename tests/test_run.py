@@ -77,6 +77,10 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     (["sine-matrix", "amplitude=3"], "amplitude: unknown parameter"),
     (["sine-matrix", "freqs_hz=two"], "freqs_hz: 'two' is not a number"),
     (["step", "steps_mm=0"], "steps_mm: needs non-zero steps"),
+    (["temperature-sweep", "targets_c=200,60"], "targets_c: 200 C is above what the rig may reach"),
+    (["temperature-sweep", "targets_c=60,15"], "targets_c: 15 C cannot be reached by cooling"),
+    (["static", "points=1"], "points: at least 2"),
+    (["low-speed", "freqs_hz=2"], "freqs_hz: 2 Hz is not low speed"),
     (["squat"], "unknown protocol 'squat'"),
 ])
 def test_bad_parameters_are_refused_before_motion(tmp_path, args, message):
@@ -173,3 +177,24 @@ def test_live_view_logs_the_documented_entities():
         assert entity.encode() in data, entity
     assert b"channels/not_a_channel" not in data
     assert b"sine 6.4 mm 4 Hz" in data  # the events' text
+
+
+def test_report_of_a_static_and_sine_run(tmp_path):
+    out = tmp_path / "s.mcap"
+    p = subprocess.run([DYNO, "run", "static", "--out", str(out), "points=3", "dwell_max_s=5"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "static.png" in page and "Protocol <b>static</b>" in page
+    assert (tmp_path / "rep" / "static.png").stat().st_size > 20_000
+    # the friction the seal held shows: half the difference of the two approaches
+    from protocols.report import load, segments
+    ch, events, _ = load(out)
+    holds = [s for s in segments(events) if "x_mm" in s[1]]
+    assert len(holds) == 6 and {s[1]["approach"] for s in holds} == {"compression stroke", "extension stroke"}
+    bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path)],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "no such file" in bad.stderr

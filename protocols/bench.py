@@ -1,0 +1,54 @@
+"""`dyno bench log`: sustained samples per second into an MCAP recording (zstd chunks,
+JSON batches, the recorder the runs use), against the data rate of the most demanding
+protocol on the virtual rig's wiring. Goal: at least 20 times that rate on one core."""
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rig import config as rig_config
+
+from .recording import Recorder
+
+
+def protocol_rate(cfg):
+    """Samples per second a protocol records: streamed channels at the loop rate, polled
+    ones at their poll rate, plus one setpoint per tick (every protocol streams the same
+    channels, so the most demanding is any that runs the loop at full rate)."""
+    rate = cfg.rate_hz  # setpoints
+    for ch in cfg.channels.values():
+        d = cfg.devices[ch.device]
+        rate += float(d.params.get("poll_hz", 10)) if d.transport == "modbus" else cfg.rate_hz
+    return rate
+
+
+def bench_log(seconds=5.0):
+    cfg = rig_config.load("virtual")
+    need = protocol_rate(cfg)
+    per_drain = {n: (100 if cfg.devices[c.device].transport != "modbus" else 10) for n, c in cfg.channels.items()}
+    rng = np.random.default_rng(0)
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "bench.mcap"
+        rec = Recorder(path, cfg, "{}", "bench", {})
+        n = 0
+        t = 0.0
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            batch = {}
+            for name, k in per_drain.items():
+                ts = t + np.arange(k) * (0.1 / k)
+                batch[name] = (ts, 1000.0 * rng.standard_normal(k))
+                n += k
+            rec.samples(batch)
+            rec.setpoints(list(t + np.arange(100) * 1e-3), list(rng.standard_normal(100)))
+            n += 100
+            t += 0.1
+        rec.close()
+        wall = time.perf_counter() - t0
+        size = path.stat().st_size
+    rate = n / wall
+    return {"samples_per_s": rate, "protocol_samples_per_s": need, "ratio": rate / need, "goal_ratio": 20.0,
+            "goal_met": rate / need >= 20.0, "bytes_per_sample": size / n, "seconds": wall}

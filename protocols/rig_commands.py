@@ -135,10 +135,11 @@ def rig_info(cfg, damper):
     if damper is not None and getattr(damper, "layout", "") != "simplified":
         x_mid = damper.mid_stroke
 
-        def peak(v, d=damper):
+        def peak_force(v, d=damper):
             r = simulate(d, np.array([0.0, 1.0]), np.array([d.mid_stroke] * 2), v=np.array([v, -v]),
                          T=d.temperature.T_ref, compressible=False)
             return float(np.max(np.abs(r.force)))
+        peak = peak_force
     return RigInfo(x_mid, L["x_min"], L["x_max"], L["velocity_max"], L.get("frequency_max", 50.0),
                    L["force_max"], L["temperature_max"], 293.15, peak)
 

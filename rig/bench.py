@@ -20,21 +20,9 @@ from .safety import Safety
 GOALS = {1000: {"p99_us": 250.0, "overrun_fraction": 0.001}, 500: {"overruns": 0}}
 
 
-def _free_port():
-    import socket
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni"):
-    tmp = Path(tempfile.mkdtemp(prefix="dyno-bench-"))
-    text = config.CONFIG_DIR.joinpath("sim-rig.toml").read_text()
-    text = text.replace("29536", str(_free_port())).replace("29502", str(_free_port()))
-    text = text.replace("/tmp/dyno-sim-rig/loadcell", str(tmp / "loadcell"))
-    text = text.replace("rate_hz = 1000", f"rate_hz = {rate_hz:g}")
-    cfg_path = tmp / "bench.toml"
-    cfg_path.write_text(text)
+    from sim_backend.virtual_rig import sim_rig_config
+    cfg_path = sim_rig_config(tempfile.mkdtemp(prefix="dyno-bench-"), rate_hz=rate_hz)
     dyno = str(Path(sys.executable).parent / "dyno")
     proc = subprocess.Popen([dyno, "sim-rig", "--config", str(cfg_path), "--damper", damper,
                              "--seconds", str(seconds + 60)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,

@@ -18,6 +18,7 @@ import itertools
 import os
 import socket
 import time
+from pathlib import Path
 
 import can
 
@@ -46,6 +47,22 @@ def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def sim_rig_config(folder, rate_hz=None, stale_s=None):
+    """Write the shipped sim-rig config with free ports and the load cell's pty link in
+    `folder` (so several sim-rigs can run side by side); returns its path."""
+    from rig import config
+    text = config.CONFIG_DIR.joinpath("sim-rig.toml").read_text()
+    text = text.replace("29536", str(free_port())).replace("29502", str(free_port()))
+    text = text.replace("/tmp/dyno-sim-rig/loadcell", str(Path(folder) / "loadcell"))
+    if rate_hz is not None:
+        text = text.replace("rate_hz = 1000", f"rate_hz = {rate_hz:g}")
+    if stale_s is not None:
+        text = text.replace("stale_s = 0.05", f"stale_s = {stale_s:g}")
+    path = Path(folder) / "sim-rig.toml"
+    path.write_text(text)
+    return path
 
 
 class VirtualRig:

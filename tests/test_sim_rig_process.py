@@ -14,22 +14,16 @@ from rig import config
 from rig.loop import ControlLoop, RealTimePacer
 from rig.rig import Rig
 from rig.safety import Safety
-from sim_backend.virtual_rig import free_port
+from sim_backend.virtual_rig import sim_rig_config
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 MID = 0.0381
 
 
 def write_config(tmp_path):
-    text = config.CONFIG_DIR.joinpath("sim-rig.toml").read_text()
-    text = text.replace("29536", str(free_port())).replace("29502", str(free_port()))
-    text = text.replace("/tmp/dyno-sim-rig/loadcell", str(tmp_path / "loadcell"))
     # the CI machine is a VM that stalls for up to ~40 ms now and then (see the README's
     # loop timing): these tests are about the path, not the 50 ms watchdog threshold
-    text = text.replace("stale_s = 0.05", "stale_s = 0.25")
-    path = tmp_path / "cell.toml"
-    path.write_text(text)
-    return path
+    return sim_rig_config(tmp_path, stale_s=0.25)
 
 
 def start_sim_rig(cfg, *extra):

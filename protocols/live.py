@@ -8,12 +8,33 @@ loops/force_displacement (Points2D, current segment), events (TextLog).
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from rig.errors import RigError
+
 TIMELINE = "t"
 LOOP_POINTS = 4000  # the most recent samples of the segment shown in the loops
+
+
+VIEWER_PORT = 9876  # rerun's default
+
+
+def _listening(port, wait_s=5.0):
+    import socket
+    import time
+    t_end = time.monotonic() + wait_s
+    while time.monotonic() < t_end:
+        with socket.socket() as s:
+            s.settimeout(0.2)
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return True
+        time.sleep(0.2)
+    return False
 
 
 class LiveView:
@@ -23,7 +44,16 @@ class LiveView:
         self.rec = recording or rr.RecordingStream("dyno")
         sinks = []
         if spawn:
-            self.rec.spawn(connect=False)
+            viewer = Path(sys.executable).parent / "rerun"  # installed with rerun-sdk in our venv
+            try:
+                rr.spawn(connect=False, executable_path=str(viewer) if viewer.exists() else None,
+                         recording=self.rec)
+            except RuntimeError as e:
+                raise RigError(f"--live: cannot start the rerun viewer ({e}); --rrd FILE saves the view "
+                               f"to open later") from None
+            if not _listening(VIEWER_PORT):  # no display, say: streaming to it would block
+                raise RigError("--live: the rerun viewer did not start (no display?); --rrd FILE saves the "
+                               "view to open later")
             sinks.append(rr.GrpcSink())
         if rrd:
             sinks.append(rr.FileSink(str(rrd)))
@@ -73,4 +103,4 @@ class LiveView:
         self.rec.log("events", rr.TextLog(f"{kind}: {segment} {message}".strip(), level=level))
 
     def close(self):
-        self.rec.flush()
+        self.rec.flush(timeout_sec=5.0)

@@ -184,10 +184,10 @@ def run_protocol(args):
     previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
         rig.open()
-        recorder = Recorder(out, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params))
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
+        recorder = Recorder(out, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params))
         print(f"recording to {out}", file=sys.stderr, flush=True)
         result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live])
     finally:

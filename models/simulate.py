@@ -136,6 +136,12 @@ class Stepper:
         self.xs, self.vs = np.full(2, self.x_e), np.zeros(2)
         self.out = np.zeros((2, NOUT))
 
+    def set_equilibrium(self, x_e):
+        """Move the point the polytropic gas law refers to (eq 4.4) [m]: the gas has
+        exchanged its heat and is at the cell's temperature there."""
+        self.x_e = float(x_e)
+        self.set_temperature(self.T)
+
     def set_temperature(self, T):
         """Damper temperature [K]: gas equilibrium and valve coefficients follow; the oil
         held in the chambers (the state) carries over."""

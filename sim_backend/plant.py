@@ -46,6 +46,7 @@ class Plant:
         self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.p["frame"]["friction_x_stick"])
         self.F_frame = 0.0  # force the frame deflects under (low-passed)
         self._T_packed = self.T
+        self.x_gas = self.x_act  # where the gas last reached thermal equilibrium
         self.F = self.F_d = 0.0
         self.P = (0.0, 0.0, 0.0)
         self.x_d = self.x_act
@@ -113,6 +114,11 @@ class Plant:
         if abs(self.T - self._T_packed) > 0.5:  # re-pack the model every half kelvin
             self.stepper.set_temperature(self.T)
             self._T_packed = self.T
+        # the gas is polytropic about x_gas (eq 4.4) and exchanges heat towards isothermal
+        # at its present position over tau (what a static dwell waits for, eq 3.7)
+        self.x_gas += h / th["gas_tau_s"] * (self.x_d - self.x_gas)
+        if abs(self.x_gas - self.stepper.x_e) > 1e-4:
+            self.stepper.set_equilibrium(self.x_gas)
         s = self.p["sensors"]
         alpha = 1.0 - math.exp(-h / s["force_tau_s"])
         self.F_meas += alpha * (F - self.F_meas)

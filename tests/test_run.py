@@ -181,7 +181,7 @@ def test_live_view_logs_the_documented_entities():
 
 def test_report_of_a_static_and_sine_run(tmp_path):
     out = tmp_path / "s.mcap"
-    p = subprocess.run([DYNO, "run", "static", "--out", str(out), "points=3", "dwell_max_s=5"],
+    p = subprocess.run([DYNO, "run", "static", "--out", str(out), "points=5"],
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
@@ -194,7 +194,25 @@ def test_report_of_a_static_and_sine_run(tmp_path):
     from protocols.report import load, segments
     ch, events, _ = load(out)
     holds = [s for s in segments(events) if "x_mm" in s[1]]
-    assert len(holds) == 6 and {s[1]["approach"] for s in holds} == {"compression stroke", "extension stroke"}
+    assert len(holds) == 10 and {s[1]["approach"] for s in holds} == {"compression stroke", "extension stroke"}
+    # the gas force at rest (mean of the two approaches) gives back the charge by eq 3.7
+    import numpy as np
+
+    from models import gas_spring
+    from models.damper import load as load_damper
+    rows = {}
+    for name, prm, t0, t1 in holds:
+        t, F = ch["force"]
+        tx, x = ch["x"]
+        rows.setdefault(prm["x_mm"], []).append((F[(t >= t1 - 1) & (t <= t1)].mean(),
+                                                 x[(tx >= t1 - 1) & (tx <= t1)].mean()))
+    F_gas = np.array([(a[0] + b[0]) / 2 for a, b in rows.values()])
+    x_at = np.array([(a[1] + b[1]) / 2 for a, b in rows.values()])
+    koni = load_damper("koni")
+    P0, V0, _ = gas_spring.fit_charge(x_at, F_gas, koni.geometry.A_r)
+    assert P0 == pytest.approx(koni.gas_spring.P0, rel=0.05) and V0 == pytest.approx(koni.gas_spring.V0, rel=0.08)
+    friction = np.array([abs(a[0] - b[0]) / 2 for a, b in rows.values()])
+    assert np.all(friction > 50) and np.all(friction < 200)  # the Koni's seal, 55-95 N static x 1.7 moving
     bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no such file" in bad.stderr

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import typing
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 from rig.errors import RigError
@@ -83,6 +83,3 @@ def ramp_in(amplitude, freq, cycles, x_mid):
 
 def as_dict(p):
     return {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in dataclasses.asdict(p).items()}
-
-
-__all__ = ["ParamError", "RigInfo", "Segment", "as_dict", "field", "parse", "positive", "ramp_in"]

@@ -15,7 +15,7 @@ from protocols import runner
 from protocols.library import sine_matrix
 from protocols.plan import parse
 from protocols.recording import Recorder
-from protocols.rig_commands import rig_info
+from protocols.commands import rig_info
 from rig import config
 from rig.loop import SimulatedPacer
 from rig.rig import Rig

@@ -1,4 +1,4 @@
-"""`dyno sim-rig` and `dyno rig check`."""
+"""The `dyno` commands for the cell: sim-rig, rig check, run, recover, report."""
 from __future__ import annotations
 
 import signal

@@ -17,7 +17,6 @@ from numba import njit
 
 from .gas_spring import P_ATM
 from .kernel import AR, AW, SEATC, SEATF, SEATOPEN, V20, chamber_pressure, excess_at, gas_pressure, update_seat
-from .stiff import make_integrator
 from .valves import bypass_open_at, path_force, path_velocity
 
 NSTATE = 1
@@ -64,5 +63,3 @@ def incompressible(x, v, prm, vp, vh, out):
         out[i, 1] = (P1 - P_ATM) * prm[AR]
         out[i, 2], out[i, 3], out[i, 4] = P1, P1 - Fd / prm[AW], P1
 
-
-integrate = make_integrator(rhs, outputs)  # compressible stepper for this assembly (models/stiff.py)

@@ -34,7 +34,8 @@ from .friction import breakaway_ratio, static_friction
 from .kernel import pack
 from .quarter_car import G, QuarterCar, static_deflections
 from .simulate import ASSEMBLY, ATOL_OIL, NOUT, C_to_K
-from .stiff import new_history
+from .assemblies import CODE, incompressible
+from .stiff import integrate, new_history
 
 K_STOP = 1e7  # N/m, rigid limit stops (assumed; the thesis gives no number)
 V_TABLE = 100.0  # m/s, end knot of a simplified model's force table (never reached)
@@ -158,30 +159,26 @@ def simulate(qc: QuarterCar, damper_force, t, y_in, v_in=None, F_static=0.0, x_i
     return _result(qc, t, y_in, v_in, rec)
 
 
-def _make_coupled(asm):
-    """Compiled car + damper loop for one assembly (closure: see stiff.make_integrator)."""
-    integrate, incompressible = asm.integrate, asm.incompressible
-
-    @njit
-    def loop(s, q, y_in, v_in, mode, y, prm, vp, vh, atol, hist, fx, fF, f_ratio, rec):
-        n = y_in.shape[0]
-        xs, vs = np.empty(2), np.empty(2)
-        out = np.empty((2, 5))
+@njit(cache=True)
+def _coupled_loop(layout, s, q, y_in, v_in, mode, y, prm, vp, vh, atol, hist, fx, fF, f_ratio, rec):
+    """Car + damper model (assemblies.CODE `layout`), compiled together; mode 2:
+    compressible, 1: incompressible."""
+    n = y_in.shape[0]
+    xs, vs = np.empty(2), np.empty(2)
+    out = np.empty((2, 5))
+    x, v = _motion(s, q)
+    xs[1], vs[1] = min(max(x, 0.0), q[STROKE]), v
+    for k in range(n):
         x, v = _motion(s, q)
-        xs[1], vs[1] = min(max(x, 0.0), q[STROKE]), v
-        for k in range(n):
-            x, v = _motion(s, q)
-            x = min(max(x, 0.0), q[STROKE])  # beyond the stroke the stops take over
-            xs[0], vs[0] = xs[1], vs[1]
-            xs[1], vs[1] = x, v
-            if mode == 2:
-                integrate(y, xs, vs, 1, q[H], prm, vp, vh, atol, out, hist)
-            else:
-                incompressible(xs[1:], vs[1:], prm, vp, vh, out[1:])
-            Fc_d = np.interp(x, fx, fF) * f_ratio  # eq 3.3's magnitude; its sign is solved
-            _step(s, q, out[1, 0] + out[1, 1], Fc_d, y_in[k], v_in[k], v_in[min(k + 1, n - 1)], rec[k])
-
-    return loop
+        x = min(max(x, 0.0), q[STROKE])  # beyond the stroke the stops take over
+        xs[0], vs[0] = xs[1], vs[1]
+        xs[1], vs[1] = x, v
+        if mode == 2:
+            integrate(layout, y, xs, vs, 1, q[H], prm, vp, vh, atol, out, hist)
+        else:
+            incompressible(layout, xs[1:], vs[1:], prm, vp, vh, out[1:])
+        Fc_d = np.interp(x, fx, fF) * f_ratio  # eq 3.3's magnitude; its sign is solved
+        _step(s, q, out[1, 0] + out[1, 1], Fc_d, y_in[k], v_in[k], v_in[min(k + 1, n - 1)], rec[k])
 
 
 @njit(cache=True)
@@ -191,9 +188,6 @@ def _table_loop(s, q, y_in, v_in, tv, tF, rec):
     for k in range(n):
         x, v = _motion(s, q)
         _step(s, q, np.interp(v, tv, tF), 0.0, y_in[k], v_in[k], v_in[min(k + 1, n - 1)], rec[k])
-
-
-_COUPLED = {}
 
 
 def run(qc: QuarterCar, damper, t, y_in, v_in=None, T=C_to_K(94.0), compressible=True,
@@ -229,9 +223,7 @@ def run(qc: QuarterCar, damper, t, y_in, v_in=None, T=C_to_K(94.0), compressible
     # eq 3.1's table with its clamped end extrapolation, tabulated finely for np.interp
     fx = np.unique(np.concatenate([np.linspace(0.0, stroke, 257), fr.x_table]))
     fF = static_friction(fx, fr.x_table, fr.F_table)
-    if d.layout not in _COUPLED:
-        _COUPLED[d.layout] = _make_coupled(asm)
-    _COUPLED[d.layout](s, q, y_in, v_in, 2 if compressible else 1, y, prm, vp, vh,
-                       np.full(asm.NSTATE, ATOL_OIL), new_history(asm.NSTATE), fx, fF,
-                       float(breakaway_ratio(float(T), fr.C_sfT, fr.C_ifT)), rec)
+    _coupled_loop(CODE[d.layout], s, q, y_in, v_in, 2 if compressible else 1, y, prm, vp, vh,
+                  np.full(asm.NSTATE, ATOL_OIL), new_history(asm.NSTATE), fx, fF,
+                  float(breakaway_ratio(float(T), fr.C_sfT, fr.C_ifT)), rec)
     return _result(qc, t, y_in, v_in, rec)

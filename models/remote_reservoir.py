@@ -14,7 +14,6 @@ from numba import njit
 from .gas_spring import P_ATM
 from .kernel import (AP, AR, AW, SEATC, SEATF, SEATOPEN, V10, V20, chamber_pressure, excess_at,
                      gas_pressure, update_seat)
-from .stiff import make_integrator
 from .valves import bypass_open_at, path_force, path_velocity
 
 NSTATE = 2
@@ -69,5 +68,3 @@ def incompressible(x, v, prm, vp, vh, out):
         P1 = PG + Fh / prm[AR]
         out[i, 2], out[i, 3], out[i, 4] = P1, P1 - Fp / prm[AW], PG
 
-
-integrate = make_integrator(rhs, outputs)  # compressible stepper for this assembly (models/stiff.py)

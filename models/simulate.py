@@ -12,12 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import friction, monotube, remote_reservoir, simplified
+from . import assemblies, friction, simplified
 from .damper import Damper, DamperError, SimplifiedDamper
 from .kernel import SEATOPEN, pack
-from .stiff import new_history
+from .stiff import integrate, new_history
 
-ASSEMBLY = {"monotube": monotube, "remote_reservoir": remote_reservoir}
+ASSEMBLY = assemblies.MODULE
 NOUT = 5  # F_d, F_G, P1, P2, P_gas
 # Newton tolerance on the stored oil [m^3]: 5e-12 m^3 is about 75 Pa in a 6.7 cc chamber at
 # 100 MPa bulk modulus, a force error near 0.1 N.
@@ -87,11 +87,11 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
             y = np.array(state[0], float)
             prm[SEATOPEN] = state[1]
         atol = np.full(asm.NSTATE, ATOL_OIL)
-        _, capped, _ = asm.integrate(y, x, v, int(substeps), h, prm, vp, vh, atol, out,
-                                       new_history(asm.NSTATE))
+        _, capped, _ = integrate(assemblies.CODE[damper.layout], y, x, v, int(substeps), h, prm, vp, vh, atol,
+                                 out, new_history(asm.NSTATE))
         new_state = (y, prm[SEATOPEN], x_e)
     else:
-        asm.incompressible(x, v, prm, vp, vh, out)
+        assemblies.incompressible(assemblies.CODE[damper.layout], x, v, prm, vp, vh, out)
         new_state = None
     f = damper.friction
     Ff = friction.friction_force(x, v, T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
@@ -128,6 +128,7 @@ class Stepper:
         self.damper, self.h, self.x_e, self.x_stick = damper, float(h), float(x0), float(x_stick)
         self.F_f = 0.0
         self.asm = ASSEMBLY[damper.layout]
+        self.code = assemblies.CODE[damper.layout]
         self.prm = None
         self.set_temperature(T)
         self.y = self.asm.initial_state(self.prm, self.x_e)
@@ -157,8 +158,8 @@ class Stepper:
         x = min(max(float(x), 0.0), self.damper.geometry.stroke)
         self.xs[0], self.vs[0] = self.xs[1], self.vs[1]
         self.xs[1], self.vs[1] = x, float(v)
-        self.asm.integrate(self.y, self.xs, self.vs, 1, self.h, self.prm, self.vp, self.vh, self.atol,
-                           self.out, self.hist)
+        integrate(self.code, self.y, self.xs, self.vs, 1, self.h, self.prm, self.vp, self.vh, self.atol,
+                  self.out, self.hist)
         f = self.damper.friction
         if self.x_stick > 0:
             F_c = float(friction.static_friction(x, f.x_table, f.F_table)

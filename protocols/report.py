@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 from mcap.reader import make_reader
 
+from models.identify_static import static_holds
 from models.plots import plt
 from rig.errors import RigError
 
@@ -109,13 +110,8 @@ def report(path, out_dir):
         figures.append(("Composite peak force vs peak velocity", _save(fig, out / "composite.png")))
     holds = [s for s in segs if "x_mm" in s[1]]
     if holds and "force" in ch:
-        rows = {}
-        for name, prm, t0, t1 in holds:
-            _, F = _window(ch, "force", max(t0, t1 - 1.0), t1)  # the settled last second
-            rows.setdefault(prm["x_mm"], {})[prm["approach"]] = float(F.mean())
-        xs = sorted(x for x, r in rows.items() if len(r) == 2)
-        up = np.array([rows[x]["compression stroke"] for x in xs])
-        down = np.array([rows[x]["extension stroke"] for x in xs])
+        x_at, up, down = static_holds(ch, events)
+        xs = 1e3 * x_at
         fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
         ax[0].plot(xs, up, "^-", label="held after a compression stroke")
         ax[0].plot(xs, down, "v-", label="held after an extension stroke")

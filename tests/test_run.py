@@ -198,20 +198,15 @@ def test_report_of_a_static_and_sine_run(tmp_path):
     # the gas force at rest (mean of the two approaches) gives back the charge by eq 3.7
     import numpy as np
 
-    from models import gas_spring
     from models.damper import load as load_damper
-    rows = {}
-    for name, prm, t0, t1 in holds:
-        t, F = ch["force"]
-        tx, x = ch["x"]
-        rows.setdefault(prm["x_mm"], []).append((F[(t >= t1 - 1) & (t <= t1)].mean(),
-                                                 x[(tx >= t1 - 1) & (tx <= t1)].mean()))
-    F_gas = np.array([(a[0] + b[0]) / 2 for a, b in rows.values()])
-    x_at = np.array([(a[1] + b[1]) / 2 for a, b in rows.values()])
+    from models.identify_static import identify_static, static_holds
     koni = load_damper("koni")
-    P0, V0, _ = gas_spring.fit_charge(x_at, F_gas, koni.geometry.A_r)
-    assert P0 == pytest.approx(koni.gas_spring.P0, rel=0.05) and V0 == pytest.approx(koni.gas_spring.V0, rel=0.08)
-    friction = np.array([abs(a[0] - b[0]) / 2 for a, b in rows.values()])
+    x, up, down = static_holds(ch, events)
+    est = identify_static(x, up, down, koni.geometry.A_r)
+    P0, V0 = est["P0"], est["V0"]
+    assert P0.value == pytest.approx(koni.gas_spring.P0, rel=0.05) and V0.value == pytest.approx(koni.gas_spring.V0, rel=0.08)
+    assert P0.ci_low <= P0.value <= P0.ci_high and V0.ci_low <= V0.value <= V0.ci_high
+    _, friction = est["friction"]
     assert np.all(friction > 50) and np.all(friction < 200)  # the Koni's seal, 55-95 N static x 1.7 moving
     bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=60)

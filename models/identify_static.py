@@ -1,0 +1,66 @@
+"""Identification from a static test (thesis 4.2.1): friction against displacement as the
+look-up table of eq 3.1, and the gas charge P0, V0 by the regression of eq 3.7 (Table 4.1),
+each with a bootstrap confidence interval over the hold points.
+
+Arrays in, numbers out: x [m], forces [N]. `static_holds` takes a recording's channels
+{name: (t, values)} and events (docs/recording.md) as plain data.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gas_spring import fit_charge
+
+
+@dataclass
+class Estimate:
+    name: str
+    value: float
+    ci_low: float  # 95 % bootstrap interval
+    ci_high: float
+    unit: str
+
+
+def static_holds(channels, events, window_s=1.0):
+    """(x [m], force after a compression stroke [N], after an extension stroke [N]) at
+    each hold of a static run: means over the last window_s of each hold."""
+    rows = {}
+    start = None
+    for e in events:
+        if e["kind"] == "segment_start":
+            start = e
+        elif e["kind"] == "segment_end" and start is not None and "x_mm" in start["params"]:
+            t1 = e["t"]
+            means = []
+            for name in ("force", "x"):
+                t, v = channels[name]
+                k = (t >= t1 - window_s) & (t <= t1)
+                means.append(float(v[k].mean()) if k.any() else np.nan)
+            rows.setdefault(start["params"]["x_mm"], {})[start["params"]["approach"]] = means
+    keys = sorted(k for k, r in rows.items() if len(r) == 2)
+    x = np.array([(rows[k]["compression stroke"][1] + rows[k]["extension stroke"][1]) / 2 for k in keys])
+    up = np.array([rows[k]["compression stroke"][0] for k in keys])
+    down = np.array([rows[k]["extension stroke"][0] for k in keys])
+    return x, up, down
+
+
+def identify_static(x, F_comp, F_ext, A_r, n_boot=400, seed=0):
+    """{"P0": Estimate, "V0": Estimate, "friction": (x_table, F_table)} from hold forces:
+    the gas force is the mean of the two approaches, the friction half their difference."""
+    x, up, down = (np.asarray(a, float) for a in (x, F_comp, F_ext))
+    if len(x) < 3:
+        raise ValueError(f"the static step needs at least 3 hold positions, got {len(x)}")
+    gas, friction = (up + down) / 2, (up - down) / 2
+    P0, V0, _ = fit_charge(x, gas, A_r)
+    rng = np.random.default_rng(seed)
+    boot = []
+    for _ in range(n_boot):  # resample hold positions (at least two distinct)
+        k = rng.integers(0, len(x), len(x))
+        if len(np.unique(x[k])) > 1:
+            boot.append(fit_charge(x[k], gas[k], A_r)[:2])
+    lo, hi = np.percentile(np.array(boot), [2.5, 97.5], axis=0)
+    order = np.argsort(x)
+    return {"P0": Estimate("P0", P0, lo[0], hi[0], "Pa"), "V0": Estimate("V0", V0, lo[1], hi[1], "m^3"),
+            "friction": (x[order], friction[order])}

@@ -10,11 +10,9 @@ percentage points on percent overshoot (a relative tolerance means nothing on 0-
 """
 from __future__ import annotations
 
-import numpy as np
 
 from . import quarter_car as qcm
 from . import sweeps
-from .damper import load
 from .parallel import run_all
 
 DAMPERS = ("koni", "mechformance", "fox-heavy", "fox-light")
@@ -99,32 +97,25 @@ def rows(executor=None, workers=None, progress=None):
                            m[f"settling_{mass}"], TOL_RATIO, "check"))
 
     # all harmonic points of all dampers in one parallel batch
-    dampers = [load(n) for n in DAMPERS]
-    jobs = [sweeps.Harmonic(car, d, a, float(f)) for d in dampers for a in sweeps.AMPLITUDES
-            for f in sweeps.FREQS]
-    points = iter(run_all(sweeps.harmonic_point, jobs, executor, workers, progress, "frequency sweeps"))
-    n = len(sweeps.AMPLITUDES) * len(sweeps.FREQS)
-    for d in dampers:
-        block = [next(points) for _ in range(n)]
-        values = {m: np.array([p[m] for p in block]).reshape(len(sweeps.AMPLITUDES), -1) for m in sweeps.METRICS}
-        fr = sweeps.FrequencyResponse(car.name, d.name, sweeps.T_BASE, np.array(sweeps.AMPLITUDES),
-                                      np.array(sweeps.FREQS), values)
+    responses = sweeps.sweep_cases(car, [(n, n, sweeps.T_BASE) for n in DAMPERS], executor=executor,
+                                   workers=workers, progress=progress, label="frequency sweeps")
+    for name, fr in responses.items():
         for i, A in enumerate(sweeps.AMPLITUDES):
             amp = f"{A * 100:.2f} cm"
-            r_s, r_u, f_s, f_u = TABLE_6_4[d.name][A]
+            r_s, r_u, f_s, f_u = TABLE_6_4[name][A]
             for mass, ref_r, ref_f in (("sprung", r_s, f_s), ("unsprung", r_u, f_u)):
                 value, freq = fr.peak(f"rms_ratio_{mass}", i)
-                out.append(row("Table 6.4", f"{d.name} {amp} peak rms velocity ratio, {mass}", "-", ref_r,
+                out.append(row("Table 6.4", f"{name} {amp} peak rms velocity ratio, {mass}", "-", ref_r,
                                value, TOL_RATIO, "check"))
-                out.append(row("Table 6.4", f"{d.name} {amp} frequency of that peak, {mass}", "Hz", ref_f,
+                out.append(row("Table 6.4", f"{name} {amp} frequency of that peak, {mass}", "Hz", ref_f,
                                freq, TOL_HZ, "check", absolute=True))
-            ref_h, ref_f = TABLE_6_6[d.name][A]
+            ref_h, ref_f = TABLE_6_6[name][A]
             value, freq = fr.peak("ride_height_change", i, sign=-1.0)
-            out.append(row("Table 6.6", f"{d.name} {amp} peak change in average ride height", "cm", ref_h,
+            out.append(row("Table 6.6", f"{name} {amp} peak change in average ride height", "cm", ref_h,
                            100 * value, TOL_RATIO, "check"))
-            out.append(row("Table 6.6", f"{d.name} {amp} frequency of that peak", "Hz", ref_f, freq, TOL_HZ,
+            out.append(row("Table 6.6", f"{name} {amp} frequency of that peak", "Hz", ref_f, freq, TOL_HZ,
                            "check", absolute=True))
         i = sweeps.AMPLITUDES.index(0.0127)
-        out.append(row("Table 6.5", f"{d.name} 1.27 cm wheel-hop range starts (lift-off up to 20 Hz)", "Hz",
-                       TABLE_6_5[d.name], wheel_hop_onset(fr, i), TOL_HZ, "check", absolute=True))
+        out.append(row("Table 6.5", f"{name} 1.27 cm wheel-hop range starts (lift-off up to 20 Hz)", "Hz",
+                       TABLE_6_5[name], wheel_hop_onset(fr, i), TOL_HZ, "check", absolute=True))
     return out

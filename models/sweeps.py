@@ -125,16 +125,31 @@ def _check_amplitude(d, amplitudes):
                               f"{d.name} damper has {travel * 1e3:.1f} mm of travel each side")
 
 
+def sweep_cases(car: QuarterCar, cases, amplitudes=AMPLITUDES, freqs=FREQS, compressible=True, executor=None,
+                workers=None, progress=None, label="sweep") -> dict:
+    """{case label: FrequencyResponse} for cases [(label, damper, T [K])], every point of
+    every case in one parallel batch."""
+    amplitudes, freqs = check_sweep(amplitudes, freqs)
+    cases = [(name, _damper(d), float(T)) for name, d, T in cases]
+    for _, d, _ in cases:
+        _check_amplitude(d, amplitudes)
+    jobs = [Harmonic(car, d, float(a), float(f), T, compressible) for _, d, T in cases for a in amplitudes
+            for f in freqs]
+    out = iter(run_all(harmonic_point, jobs, executor, workers, progress, label))
+    result = {}
+    for name, d, T in cases:
+        rows = [next(out) for _ in range(len(amplitudes) * len(freqs))]
+        values = {m: np.array([o[m] for o in rows]).reshape(len(amplitudes), len(freqs)) for m in METRICS}
+        result[name] = FrequencyResponse(car.name, d.name, T, amplitudes, freqs, values)
+    return result
+
+
 def frequency_response(car: QuarterCar, damper, amplitudes=AMPLITUDES, freqs=FREQS, T=T_BASE,
                        compressible=True, executor=None, workers=None, progress=None) -> FrequencyResponse:
     """Harmonic sweep: every (amplitude, frequency) pair is an independent job."""
-    amplitudes, freqs = check_sweep(amplitudes, freqs)
     d = _damper(damper)
-    _check_amplitude(d, amplitudes)
-    jobs = [Harmonic(car, d, float(a), float(f), float(T), compressible) for a in amplitudes for f in freqs]
-    out = run_all(harmonic_point, jobs, executor, workers, progress, f"{d.name} sweep")
-    values = {m: np.array([o[m] for o in out]).reshape(len(amplitudes), len(freqs)) for m in METRICS}
-    return FrequencyResponse(car.name, d.name, float(T), amplitudes, freqs, values)
+    return sweep_cases(car, [(d.name, d, T)], amplitudes, freqs, compressible, executor, workers, progress,
+                       f"{d.name} sweep")[d.name]
 
 
 def step_response(car: QuarterCar, damper, amplitude, T=T_BASE, duration=2.0, t_step=0.05, h=1e-4):
@@ -212,23 +227,17 @@ def parametric_study(car: QuarterCar, damper, amplitudes=AMPLITUDES, freqs=FREQS
                      workers=None, progress=None) -> dict:
     """label -> FrequencyResponse for the baseline and each variation, all points of all
     cases in one parallel batch."""
-    amplitudes, freqs = check_sweep(amplitudes, freqs)
     d = _damper(damper)
     if not isinstance(d, Damper):
         raise DamperError("the parametric study needs a comprehensive damper model, not a simplified one")
-    _check_amplitude(d, amplitudes)
-    cases = parametric_cases(d)
-    jobs = [Harmonic(car, dv, float(a), float(f), T) for _, dv, T in cases for a in amplitudes for f in freqs]
-    out = iter(run_all(harmonic_point, jobs, executor, workers, progress, f"{d.name} parametric"))
-    study = {}
+    study = sweep_cases(car, parametric_cases(d), amplitudes, freqs, True, executor, workers, progress,
+                        f"{d.name} parametric")
     g = d.gas_spring
     gas = lambda T: float(gas_spring.static_force(d.mid_stroke, T, g.P0, g.V0, g.T0, d.geometry.A_r,
                                                   g.K_voil, g.K_voint))  # eqs 4.3-4.5
-    for label, dv, T in cases:
-        rows = [next(out) for _ in range(len(amplitudes) * len(freqs))]
-        values = {m: np.array([o[m] for o in rows]).reshape(len(amplitudes), len(freqs)) for m in METRICS}
-        study[label] = FrequencyResponse(car.name, label, T, amplitudes, freqs, values,
-                                         (gas(T) - gas(T_BASE)) / car.k_s)
+    for label, fr in study.items():
+        fr.damper = label
+        fr.static_offset = (gas(fr.T) - gas(T_BASE)) / car.k_s
     return study
 
 
@@ -237,15 +246,5 @@ def simplified_comparison(car: QuarterCar, comprehensive="koni", simplified=("si
     """name -> FrequencyResponse of the comprehensive model and the simplified models I and
     II (6.4: 0.32 cm excitation)."""
     names = (comprehensive, *simplified)
-    amplitudes, freqs = check_sweep([amplitude], freqs)
-    dampers = [_damper(n) for n in names]
-    for d in dampers:
-        _check_amplitude(d, amplitudes)
-    jobs = [Harmonic(car, d, float(amplitudes[0]), float(f)) for d in dampers for f in freqs]
-    out = run_all(harmonic_point, jobs, executor, workers, progress, "simplified models")
-    res = {}
-    for i, d in enumerate(dampers):
-        rows = out[i * len(freqs):(i + 1) * len(freqs)]
-        values = {m: np.array([[o[m] for o in rows]]) for m in METRICS}
-        res[d.name] = FrequencyResponse(car.name, d.name, T_BASE, amplitudes, freqs, values)
-    return res
+    return sweep_cases(car, [(n, n, T_BASE) for n in names], [amplitude], freqs, True, executor, workers,
+                       progress, "simplified models")

@@ -1,5 +1,5 @@
 """The thermocouple and analog-input modules as a Modbus TCP server on 127.0.0.1
-(pymodbus), one device id per module; each read returns the latest register block."""
+(pymodbus), one device id per module; each read encodes the plant's latest readings."""
 from __future__ import annotations
 
 import asyncio
@@ -23,7 +23,7 @@ class ModbusModules:
         self.config, self.port = config, port
         self.maps = {name: modbus_map.load(config.devices[name].params["map"]) for name in devices}
         self.ids = {name: int(config.devices[name].params["device_id"]) for name in devices}
-        self.blocks = {name: [0] * m.count for name, m in self.maps.items()}
+        self.readings = {}  # the plant's latest; encoded only when a client reads
         self.faults = set()  # modbus_exception, modbus_timeout, open_thermocouple
         self.loop = asyncio.new_event_loop()
         self.server = None
@@ -37,7 +37,10 @@ class ModbusModules:
             if "modbus_timeout" in self.faults:
                 await asyncio.sleep(2.0)
             m = self.maps[name]
-            regs[:m.count] = self.blocks[name]
+            faults = ()
+            if "open_thermocouple" in self.faults and "tc" in m.name:
+                faults = tuple(v.name for v in m.values)
+            regs[:m.count] = modbus_map.encode(m, outputs(self.config, name, self.readings), faults)
             return None
         return action
 
@@ -63,11 +66,7 @@ class ModbusModules:
             raise OSError(f"Modbus server could not listen on 127.0.0.1:{self.port}")
 
     def publish(self, readings):
-        for name, m in self.maps.items():
-            faults = ()
-            if "open_thermocouple" in self.faults and "tc" in m.name:
-                faults = tuple(v.name for v in m.values)
-            self.blocks[name] = modbus_map.encode(m, outputs(self.config, name, readings), faults)
+        self.readings = readings  # one reference swap: the server thread reads it when polled
 
     def close(self):
         if self.loop.is_running():

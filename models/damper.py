@@ -53,6 +53,7 @@ class Friction:
     F_table: list[float]  # static breakaway friction at 20 C [N] (eq 3.1)
     C_sfT: float  # temperature slope of the breakaway ratio [1/K] (Table 4.2)
     C_ifT: float  # breakaway ratio at 20 C [-] (Table 4.2, or Table 4.3 mean)
+    x_stick: float = 0.0  # pre-sliding travel of Dahl's model [m] (friction.dahl_step); 0: eq 3.3's sgn(v)
 
 
 @dataclass
@@ -331,6 +332,8 @@ def check(model) -> None:
         raise DamperError("friction.x_table: must be strictly increasing")
     if any(F < 0 for F in f.F_table):
         raise DamperError("friction.F_table: friction magnitudes must be >= 0")
+    if f.x_stick < 0:
+        raise DamperError("friction.x_stick: must be >= 0 (0 selects eq 3.3)")
     v = model.valves
     if (model.layout == "remote_reservoir") != (v.head is not None):
         raise DamperError("valves.head: required for remote_reservoir, not allowed for monotube")

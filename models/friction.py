@@ -5,7 +5,10 @@ force-positive-in-compression convention it carries the sign of the velocity.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from .gas_spring import T_STD
 
@@ -53,6 +56,22 @@ def dahl_step(F, dx, F_c, x_stick):
         return min(max(F, -F_c), F_c)
     target = F_c if dx > 0 else -F_c
     return target + (F - target) * float(np.exp(-abs(dx) / x_stick))
+
+
+@njit(cache=True)
+def dahl_series(x, F_c, x_stick, F0):
+    """dahl_step along a displacement record x [m] with friction magnitudes F_c [N] per
+    sample, from F0 [N]: the friction force [N] at each sample."""
+    out = np.empty(x.shape[0])
+    F = F0
+    out[0] = F
+    for i in range(1, x.shape[0]):
+        dx = x[i] - x[i - 1]
+        if dx != 0.0:
+            target = F_c[i] if dx > 0.0 else -F_c[i]
+            F = target + (F - target) * math.exp(-abs(dx) / x_stick)
+        out[i] = F
+    return out
 
 
 def mean_ratio(ratios):

@@ -18,9 +18,11 @@ from .gas_spring import fit_charge
 class Estimate:
     name: str
     value: float
-    ci_low: float  # 95 % bootstrap interval
+    ci_low: float  # 95 % interval
     ci_high: float
     unit: str
+    identifiable: bool = True  # False: the data cannot determine it; value is a default
+    note: str = ""
 
 
 def static_holds(channels, events, window_s=1.0):

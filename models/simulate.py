@@ -94,7 +94,11 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
         assemblies.incompressible(assemblies.CODE[damper.layout], x, v, prm, vp, vh, out)
         new_state = None
     f = damper.friction
-    Ff = friction.friction_force(x, v, T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
+    if f.x_stick > 0:  # Dahl: the friction builds over x_stick of travel (a continued run restarts it)
+        F_c = friction.static_friction(x, f.x_table, f.F_table) * friction.breakaway_ratio(T, f.C_sfT, f.C_ifT)
+        Ff = friction.dahl_series(x, F_c, f.x_stick, float(np.sign(v[0]) * F_c[0]))
+    else:
+        Ff = friction.friction_force(x, v, T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
     Fd, Fg = out[:, 0], out[:, 1]
     return Result(t, x, v, Fd + Fg + Ff, Fd, Fg, Ff, out[:, 2], out[:, 3], out[:, 4], T,
                   new_state, int(capped))
@@ -125,7 +129,8 @@ class Stepper:
     friction follows Dahl's model (friction.dahl_step) instead of eq 3.3's sgn(v)."""
 
     def __init__(self, damper: Damper, T, x0, h, x_stick=0.0):
-        self.damper, self.h, self.x_e, self.x_stick = damper, float(h), float(x0), float(x_stick)
+        self.damper, self.h, self.x_e = damper, float(h), float(x0)
+        self.x_stick = float(x_stick or damper.friction.x_stick)
         self.F_f = 0.0
         self.asm = ASSEMBLY[damper.layout]
         self.code = assemblies.CODE[damper.layout]

@@ -157,6 +157,16 @@ def _bench_sim(args):
     return 0
 
 
+def _identify(args):
+    from protocols.identification import run
+    return run(args)
+
+
+def _import(args):
+    from protocols.csv_import import run
+    return run(args)
+
+
 def parser():
     p = argparse.ArgumentParser(prog="dyno", description="Damper dyno controller and damper model tools")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -215,6 +225,22 @@ def parser():
     rp.add_argument("file")
     rp.add_argument("--out", required=True, help="output directory")
     rp.set_defaults(func=commands.report_file)
+    idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
+    idf.add_argument("recordings", nargs="+", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
+    idf.add_argument("--damper", default=None,
+                     help="description giving layout and geometry (default: the damper the recording names)")
+    idf.add_argument("--out", default=None, help="model JSON (default: RECORDING.model.json)")
+    idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
+    idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
+    idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
+    idf.set_defaults(func=_identify)
+    im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
+    im.add_argument("file", metavar="FILE.csv")
+    im.add_argument("--out", required=True, metavar="FILE.mcap")
+    im.add_argument("--map", action="append", required=True, metavar="NAME=COLUMN[:UNIT]",
+                    help="time, displacement, velocity, force, temperature, pressure or aux.NAME; "
+                         "units e.g. ms, mm, mm/s, kN, C, bar (default SI)")
+    im.set_defaults(func=_import)
     rg = sub.add_parser("rig", help="the test cell")
     rgsub = rg.add_subparsers(dest="what", required=True)
     rc = rgsub.add_parser("check", help="connect to every device and print each channel")

@@ -36,7 +36,8 @@ class Plant:
         self.T_res = self.T
         self.x_act = self.damper.mid_stroke  # actuator position, in damper x [m]
         self.v_act = 0.0
-        self.setpoint = self.x_act
+        self.setpoint = self.setpoint_from = self.x_act
+        self.cmd_period = 1e-3
         self.mode = MODE_HOLD
         self.hold_at = self.x_act
         self.last_command_t = 0.0
@@ -58,11 +59,21 @@ class Plant:
 
     # --- inputs -------------------------------------------------------------------------
     def command(self, mode, setpoint):
-        """A setpoint frame from the controller: mode (0 off, 1 hold, 2 follow), x [m]."""
+        """A setpoint frame from the controller: mode (0 off, 1 hold, 2 follow), x [m].
+        Like a servo controller, it ramps from the previous setpoint to this one over one
+        command period (first-order hold): a setpoint that jumps every period would make
+        the piston's velocity ripple at the command rate, which no real actuator and LVT
+        show (they filter it) and which would bias every velocity sample."""
+        self.setpoint_from = self._target_now() if self.mode == MODE_FOLLOW else self.x_act
+        self.cmd_period = min(max(self.t - self.last_command_t, self.h), 0.01)
         self.last_command_t = self.t
         if mode == MODE_HOLD and self.mode != MODE_HOLD:
             self.hold_at = self.x_act
         self.mode, self.setpoint = int(mode), float(setpoint)
+
+    def _target_now(self):
+        frac = min((self.t - self.last_command_t) / self.cmd_period, 1.0)
+        return self.setpoint_from + (self.setpoint - self.setpoint_from) * frac
 
     @property
     def state(self):
@@ -84,7 +95,7 @@ class Plant:
         if self.alarm or self.mode == MODE_OFF:
             target = None
         else:
-            target = self.setpoint if self.mode == MODE_FOLLOW else self.hold_at
+            target = self._target_now() if self.mode == MODE_FOLLOW else self.hold_at
         if target is None:
             v = 0.0  # valve closed: the oil column locks the piston
         else:

@@ -1,0 +1,564 @@
+"""The identification pipeline of thesis chapter 4: a recording in, a damper model out.
+
+Steps, each run when its data and channels are there (a step that cannot run says why):
+  static      friction look-up (eq 3.1) and the gas charge (eq 3.7)       identify_static
+  low-speed   dynamic breakaway friction and its temperature coefficients identify_low_speed
+  gas         oil thermal expansion K_voil from the gas pressure at rest (eq 4.6)
+  valves      valve structure and coefficients at low acceleration with the damping
+              temperature coefficient (eqs 4.12-4.14, 3.30, 4.17)          identify_valves
+  dynamic     the compressible model (eqs 3.31-3.56) refitted to whole training segments:
+              valves, temperature coefficients, bulk modulus (constant or pressure
+              dependent, chosen on held-out segments) and the polytropic exponent gamma
+              (eq 4.3), using the gas pressure channel when recorded (as the thesis did)
+
+Input is plain data: channels {name: (t [s], values [SI])}, the recording's events
+(docs/recording.md) and a damper description giving what is measured with a calliper,
+not identified: layout, geometry, charge temperature T0 and the reference temperature
+T_ref the valve coefficients refer to.
+
+Parameters that enter the model only in combination are identified in one canonical form
+(and the comparison with a known damper uses the same form, `canonical`):
+  * V0 and K_voint only as V0 - K_voint (eq 4.4), so K_voint = 0;
+  * the damping coefficients and C_fd only as coefficient / (1 + C_fd) (eq 4.17), so
+    C_fd = 0 and K_effoil / (1 + C_fd) is the temperature coefficient.
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import butter, filtfilt
+
+from . import identify_low_speed, identify_valves
+from .damper import Damper, DamperError, ValvePath, Valves
+from .gas_spring import P_ATM, T_STD
+from .identify_static import Estimate, identify_static, static_holds
+from .simulate import simulate
+
+G_START = 1.40  # adiabatic nitrogen: where the gamma fit starts (the thesis found 1.38)
+X_STICK_START = 2e-4  # m: starting pre-sliding travel of the friction (Dahl)
+BETA_START = 2.0e8  # Pa: starting effective bulk modulus (the thesis's range 0.45-5e8)
+HELDOUT_EVERY = 3  # every third dynamic segment is held out of all fitting
+WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
+TRAIN_CYCLES = 2  # cycles of each training segment used by the compressible fit
+
+
+@dataclass
+class Segment:
+    """A recorded test segment resampled on a uniform clock (the force's)."""
+    name: str
+    params: dict
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    F: np.ndarray
+    T: float  # mean body temperature [K]
+    P_gas: np.ndarray | None  # gas pressure on the segment's clock [Pa]
+    score_from: int  # samples before it are warm-up
+    tP: np.ndarray | None = None  # the gas pressure as sampled (scored part) [s]
+    P: np.ndarray | None = None  # [Pa]
+
+    @property
+    def freq(self):
+        return float(self.params.get("freq_hz", 0.0))
+
+
+@dataclass
+class Result:
+    damper: Damper
+    estimates: list = field(default_factory=list)  # [Estimate]
+    steps: dict = field(default_factory=dict)  # step -> "done ..." | "skipped: ..."
+    correlated: list = field(default_factory=list)  # [(name, name, rho)]
+    heldout: list = field(default_factory=list)  # [(segment name, nrmse)]
+    train: list = field(default_factory=list)  # [Segment]
+    test: list = field(default_factory=list)  # [Segment]
+
+    @property
+    def heldout_nrmse(self):
+        return float(np.mean([e for _, e in self.heldout])) if self.heldout else float("nan")
+
+    def estimate(self, name):
+        return next(e for e in self.estimates if e.name == name)
+
+
+class IdentifyError(ValueError):
+    """The recording cannot give a model (say what is missing)."""
+
+
+# --- recordings as data ---------------------------------------------------------------
+
+def segments(events, measured=True):
+    """[(name, params, t0, t1)] of a recording's segments (measured ones by default)."""
+    out, open_ = [], {}
+    for e in events:
+        if e["kind"] == "segment_start":
+            open_ = {"name": e["segment"], "params": e["params"], "t0": e["t"]}
+        elif e["kind"] == "segment_end" and open_ and open_["name"] == e["segment"]:
+            if not measured or open_["params"].get("measured", True):
+                out.append((open_["name"], open_["params"], open_["t0"], e["t"]))
+            open_ = {}
+    return out
+
+
+def _missing(channels, names):
+    return [n for n in names if n not in channels or len(channels[n][0]) < 2]
+
+
+def _at(channels, name, t):
+    tc, vc = channels[name]
+    return np.interp(t, tc, vc)
+
+
+def dynamic_segments(channels, events):
+    """The sine segments (sine matrix, temperature sweep, imported cycling) as Segments."""
+    spans = [(n, p, t0, t1) for n, p, t0, t1 in segments(events) if "freq_hz" in p and p["freq_hz"] > 0.5]
+    if not spans and not events:  # an imported recording: blocks of whole cycles
+        spans = cycle_blocks(channels)
+    tf = channels["force"][0]
+    h = float(np.median(np.diff(tf)))
+    out = []
+    for name, params, t0, t1 in spans:
+        start = max(t0 - WARMUP_S, tf[0])
+        t = np.arange(start, t1, h)
+        if len(t) < 20:
+            continue
+        f = params.get("freq_hz", 1.0)
+        x = smooth(_at(channels, "x", t), h, f)
+        v = smooth(_at(channels, "v", t) if "v" in channels else np.gradient(x, t), h, f)
+        T = float(_at(channels, "T_body", t).mean()) if "T_body" in channels else T_STD
+        P = _at(channels, "P_gas", t) if "P_gas" in channels else None
+        seg = Segment(name, params, t, x, v, _at(channels, "force", t), T, P, int(np.searchsorted(t, t0)))
+        if P is not None:
+            tp, pv = channels["P_gas"]
+            k = (tp >= t0) & (tp <= t1)
+            seg.tP, seg.P = tp[k], pv[k]
+        out.append(seg)
+    return out
+
+
+def smooth(y, h, freq):
+    """The motion the model is driven with: zero-phase low-pass at ten times the test
+    frequency (at least 20 Hz, at most 0.4 x Nyquist). The transducers' noise would
+    otherwise flip the sign of the model's friction and put noise into its damping
+    force, which the measured force does not have."""
+    fc = min(max(10.0 * freq, 20.0), 0.2 / h)
+    if len(y) < 30:
+        return y
+    b, a = butter(2, fc * 2 * h)
+    return filtfilt(b, a, y)
+
+
+def cycle_blocks(channels, cycles=3):
+    """[(name, params, t0, t1)]: a recording without segment events cut into blocks of
+    `cycles` whole strokes (displacement rising through its median)."""
+    t, x = channels["x"]
+    up = np.nonzero((x[:-1] < np.median(x)) & (x[1:] >= np.median(x)))[0]
+    # a crossing counts once the motion has gone 1 mm the other way since the last one
+    starts = []
+    for i in up:
+        if not starts or np.ptp(x[starts[-1]:i + 1]) > 2e-3:
+            starts.append(i)
+    out = []
+    for k in range(0, len(starts) - cycles, cycles):
+        t0, t1 = float(t[starts[k]]), float(t[starts[k + cycles]])
+        out.append((f"cycles {k + 1}-{k + cycles}", {"freq_hz": cycles / (t1 - t0), "cycles": cycles}, t0, t1))
+    return out
+
+
+def nrmse(F_model, F_meas):
+    """RMS error over the measured force's peak-to-peak range [-]."""
+    return float(np.sqrt(np.mean((F_model - F_meas) ** 2)) / max(np.ptp(F_meas), 1e-9))
+
+
+# --- the pipeline ---------------------------------------------------------------------
+
+def identify(channels, events, description: Damper, progress=print) -> Result:
+    """A damper model from a recording (see the module docstring)."""
+    if _missing(channels, ("force", "x")):
+        raise IdentifyError(f"recording has no {' or '.join(_missing(channels, ('force', 'x')))} channel: "
+                            "nothing can be identified")
+    d = canonical(description)
+    res = Result(d)
+    geo = d.geometry
+    T_ambient = T_STD
+
+    # static: friction table and gas charge at the hold temperature
+    holds = [s for s in segments(events) if "x_mm" in s[1]]
+    T_s = T_ambient
+    charge = None
+    if not holds:
+        res.steps["static"] = "skipped: no static holds in the recording"
+    else:
+        x, up, down = static_holds(channels, events)
+        if len(x) < 3:
+            res.steps["static"] = f"skipped: {len(x)} complete hold positions (need 3)"
+        else:
+            est = identify_static(x, up, down, geo.A_r)
+            if "T_body" in channels:
+                T_s = float(np.mean([_at(channels, "T_body", np.array([t1]))[0] for *_, t1 in holds]))
+            charge = (est["P0"], est["V0"])
+            xt, Ft = est["friction"]
+            d.friction.x_table, d.friction.F_table = [float(v) for v in xt], [float(max(v, 0.0)) for v in Ft]
+            res.steps["static"] = f"done: {len(x)} hold positions at {T_s - 273.15:.1f} C"
+
+    # gas: thermal expansion from the gas pressure at rest, then P0, V0 referred to 20 C
+    K_voil = None
+    rests = [s for s in segments(events, measured=False) if s[1].get("measured") is False and "target_c" in s[1]
+             and "cycles" not in s[1]]
+    need = _missing(channels, ("P_gas", "T_body"))
+    if charge is None:
+        res.steps["gas"] = "skipped: needs the static step's charge"
+    elif need:
+        res.steps["gas"] = f"skipped: missing channels {', '.join(need)}"
+    elif not rests:
+        res.steps["gas"] = "skipped: no rests at different temperatures (temperature sweep)"
+    else:
+        K_voil, k0, se, T_span = _thermal_expansion(channels, rests, charge, T_s, geo.A_r)
+        res.estimates.append(Estimate("K_voil", K_voil, K_voil - 1.96 * se, K_voil + 1.96 * se, "m^3/K",
+                                      note=f"rests over {T_span:.0f} K; intercept {k0 * 1e6:+.2f} cc"))
+        res.steps["gas"] = f"done: rests spanning {T_span:.0f} K"
+    if charge is not None:
+        P0s, V0s = charge
+        Kv = K_voil if K_voil is not None else 0.0
+        V0 = V0s.value + Kv * (T_s - T_STD)  # the gas volume at 20 C (eq 4.4, K_voint = 0)
+        P0 = P0s.value * V0s.value * d.gas_spring.T0 / (T_s * V0)  # eq 4.5
+        r0, r1 = P0 / P0s.value, V0 / V0s.value
+        res.estimates += [Estimate("P0", P0, P0s.ci_low * r0, P0s.ci_high * r0, "Pa"),
+                          Estimate("V0", V0, V0s.ci_low * r1, V0s.ci_high * r1, "m^3")]
+        d.gas_spring.P0, d.gas_spring.V0, d.gas_spring.K_voil = P0, V0, Kv
+        if K_voil is None:
+            res.estimates.append(Estimate("K_voil", 0.0, np.nan, np.nan, "m^3/K", identifiable=False,
+                                          note="needs the gas pressure at rest at several temperatures"))
+    res.estimates.append(Estimate("K_voint", 0.0, np.nan, np.nan, "m^3", identifiable=False,
+                                  note="enters only as V0 - K_voint (eq 4.4): folded into V0"))
+
+    # low-speed: breakaway friction at reversals
+    slow = [s for s in segments(events) if s[1].get("freq_hz", 1.0) <= 0.5 and "cycles" in s[1]]
+    if not slow:
+        res.steps["low-speed"] = "skipped: no low-speed segments"
+    elif res.steps["static"].startswith("skipped"):
+        res.steps["low-speed"] = "skipped: needs the static friction table"
+    else:
+        rows = []
+        for name, p, t0, t1 in slow:
+            t, F = channels["force"]
+            k = (t >= t0) & (t <= t1)
+            x = _at(channels, "x", t[k])
+            T = _at(channels, "T_body", t[k]) if "T_body" in channels else np.full(k.sum(), T_ambient)
+            rows.append(identify_low_speed.breakaway_ratios(x, F[k], T, d.friction.x_table, d.friction.F_table))
+        rows = np.vstack(rows)
+        if len(rows) < 2:
+            res.steps["low-speed"] = f"skipped: {len(rows)} stroke reversals found (need 2)"
+        else:
+            fr = identify_low_speed.fit_ratio(rows[:, 1], rows[:, 2])
+            d.friction.C_sfT, d.friction.C_ifT = fr["C_sfT"].value, fr["C_ifT"].value
+            res.estimates += [fr["C_sfT"], fr["C_ifT"]]
+            res.steps["low-speed"] = f"done: {len(rows)} stroke reversals"
+    if "low-speed" in res.steps and not res.steps["low-speed"].startswith("done"):
+        d.friction.C_sfT, d.friction.C_ifT = 0.0, 1.0  # static friction taken as the dynamic
+
+    # valves and the compressible model
+    need = _missing(channels, ("T_body",))
+    dyn = dynamic_segments(channels, events)
+    if len(dyn) < 2:
+        res.steps["valves"] = f"skipped: {len(dyn)} sine segments (need 2)"
+        res.steps["dynamic"] = "skipped: needs the valves step"
+        return res
+    res.test = dyn[HELDOUT_EVERY - 1::HELDOUT_EVERY]
+    res.train = [s for s in dyn if s not in res.test]
+    progress(f"identify: valves from {len(res.train)} training segments ({len(res.test)} held out)")
+    _valves_step(d, res, fit_K=not need)
+    if need:
+        res.steps["valves"] += "; temperature coefficients skipped: missing channel T_body"
+    progress("identify: compressible fit (valves, bulk modulus, gamma)")
+    _dynamic_step(d, res, fit_K=not need)
+    res.heldout = [(s.name, nrmse(_simulate(d, s), s.F[s.score_from:])) for s in res.test]
+    return res
+
+
+def _thermal_expansion(channels, rests, charge, T_s, A_r):
+    """Eq 4.6 from the gas pressure at rest: the gas volume n R T / P against temperature.
+    Returns (K_voil [m^3/K], intercept [m^3], standard error of K_voil, temperature span)."""
+    P0s, V0s = charge
+    nR = P0s.value * V0s.value / T_s  # from the static charge (isothermal at T_s)
+    Ts, dV = [], []
+    for name, p, t0, t1 in rests:
+        t = channels["P_gas"][0]
+        t = t[(t >= t0 + 0.5 * (t1 - t0)) & (t <= t1)]  # the second half: the gas has settled
+        if len(t) < 3:
+            continue
+        x = _at(channels, "x", t)
+        T = _at(channels, "T_body", t)
+        P = _at(channels, "P_gas", t)
+        V = nR * T / P
+        Ts.append(T)
+        dV.append(V0s.value - x * A_r - V)  # oil grown since T_s: K_voil (T - T_s) + k0
+    T, dV = np.concatenate(Ts), np.concatenate(dV)
+    A = np.column_stack([T - T_s, np.ones_like(T)])
+    coef, *_ = np.linalg.lstsq(A, dV, rcond=None)
+    r = dV - A @ coef
+    # samples within a rest are correlated: count rests, not samples, for the error
+    cov = r @ r / max(len(rests) - 2, 1) * np.linalg.inv(A.T @ A) * len(T) / max(len(rests), 1)
+    return float(coef[0]), float(coef[1]), float(np.sqrt(cov[0, 0])), float(np.ptp(T))
+
+
+def _gas_force(d: Damper, s: Segment):
+    """Gas force [N] over a segment: measured pressure x rod area when recorded (eq 3.4),
+    else the polytropic model about the segment's mean position (eq 4.3)."""
+    if s.P_gas is not None:
+        return (s.P_gas - P_ATM) * d.geometry.A_r
+    from .gas_spring import equilibrium_state, force_from_pressure, polytropic_pressure
+    g = d.gas_spring
+    x_e = float(s.x.mean())
+    V_e, P_e = equilibrium_state(x_e, s.T, g.P0, g.V0, g.T0, d.geometry.A_r, g.K_voil, g.K_voint)
+    return force_from_pressure(polytropic_pressure(s.x, x_e, V_e, P_e, d.geometry.A_r, g.gamma), d.geometry.A_r)
+
+
+def _low_acceleration(s: Segment):
+    """Samples where the compressibility hardly matters (thesis 4.2.3.1): within half the
+    amplitude of mid-stroke (|acceleration| below half its peak)."""
+    A = 0.5 * np.ptp(s.x[s.score_from:])
+    k = np.zeros(len(s.t), bool)
+    k[s.score_from:] = np.abs(s.x[s.score_from:] - s.x[s.score_from:].mean()) <= 0.5 * A
+    return k
+
+
+def _valves_step(d: Damper, res: Result, fit_K=True):
+    """Incompressible start: structure and coefficients per direction on low-acceleration
+    samples of the training segments (damping = force - gas - friction)."""
+    from .friction import friction_force
+    u_all, G_all, T_all, grp = {1: [], -1: []}, {1: [], -1: []}, {1: [], -1: []}, {1: [], -1: []}
+    f = d.friction
+    for i, s in enumerate(res.train):
+        k = _low_acceleration(s)
+        Fd = s.F - _gas_force(d, s) - friction_force(s.x, s.v, s.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
+        for sign in (1, -1):
+            kk = k & (s.v * sign > 0.005)
+            kk &= Fd * sign > 0
+            u_all[sign].append(np.abs(s.v[kk]))
+            G_all[sign].append(np.abs(Fd[kk]))
+            T_all[sign].append(np.full(kk.sum(), s.T))
+            grp[sign].append(np.full(kk.sum(), i))
+    T_ref = d.temperature.T_ref
+    path, notes = {}, []
+    for sign, tag in ((1, "compression"), (-1, "rebound")):
+        u, G, T, g = (np.concatenate(a[sign]) for a in (u_all, G_all, T_all, grp))
+        # thin to at most 300 samples per segment: the fit is by segment anyway
+        keep = np.concatenate([np.nonzero(g == k)[0][:: max(1, (g == k).sum() // 300)] for k in np.unique(g)])
+        u, G, T, g = u[keep], G[keep], T[keep], g[keep]
+        K_fit = fit_K and np.ptp(T) >= 10.0
+        structure, scores = identify_valves.select(u, G, T, T_ref, g % 4, fit_K=K_fit)
+        p, K, _ = identify_valves.fit(structure, u, G, T, T_ref, fit_K=K_fit)
+        path[tag] = (structure, p, K, K_fit)
+        notes.append(f"{tag} {structure} (held-out " + ", ".join(f"{k} {v:.3f}" for k, v in
+                                                                 sorted(scores.items(), key=lambda kv: kv[1])[:3]) + ")")
+        getattr(d.temperature, tag).K_effoil = K
+        getattr(d.temperature, tag).C_fd = 0.0
+    d.valves = Valves(ValvePath(identify_valves.direction(path["compression"][1], 1.0),
+                                identify_valves.direction(path["rebound"][1], -1.0)),
+                      head=_quiet_head() if d.layout == "remote_reservoir" else None, bypass=None)
+    res.steps["valves"] = "done: " + "; ".join(notes)
+    res._structures = path
+
+
+def _quiet_head() -> ValvePath:
+    """A compression head that passes its flow (A_r v) at almost no pressure: without the
+    chamber pressures the split between piston and head is not identifiable, and the whole
+    damping force is given to the piston."""
+    from .damper import Branch, Direction
+    return ValvePath(Direction(Branch(0.0, 1.0, 0.0)), Direction(Branch(0.0, 1.0, 0.0)))
+
+
+# --- the compressible fit -------------------------------------------------------------
+
+def _simulate(d: Damper, s: Segment, cycles=None, full=False):
+    """Model force over a segment's scored part, driven by its measured motion (the
+    simulate.Result from the segment's start if full)."""
+    end = len(s.t)
+    if cycles and s.freq:
+        end = min(end, s.score_from + int(cycles / s.freq / (s.t[1] - s.t[0])))
+    x = np.clip(s.x[:end], 0.0, d.geometry.stroke)
+    r = simulate(d, s.t[:end], x, s.v[:end], T=s.T, compressible=True, x_e=float(s.x.mean()))
+    return r if full else r.force[s.score_from:]
+
+
+def _residual(d: Damper, s: Segment, cycles):
+    """Force error over the segment's force range, and gas-pressure error over the
+    pressure's range where the gas pressure was recorded, each weighted so that every
+    segment counts the same."""
+    r = _simulate(d, s, cycles, full=True)
+    F = r.force[s.score_from:]
+    Fm = s.F[s.score_from:s.score_from + len(F)]
+    out = [(F - Fm) / max(np.ptp(Fm), 1.0) / np.sqrt(len(F))]
+    if s.P is not None:
+        k = s.tP <= r.t[-1]
+        if k.sum() > 4:
+            Pm = s.P[k]
+            out.append((np.interp(s.tP[k], r.t, r.P_gas) - Pm) / max(np.ptp(Pm), 1.0) / np.sqrt(k.sum()))
+    return np.concatenate(out)
+
+
+def _dynamic_step(d: Damper, res: Result, fit_K=True):
+    """Refit valves, temperature coefficients, bulk modulus and gamma to whole training
+    segments with the compressible model; the bulk modulus form (constant or eq 3.32) is
+    the one with the lower held-out error."""
+    base = copy.deepcopy(d)
+    fits = {}
+    for form in ("constant", "pressure"):
+        dd = copy.deepcopy(base)
+        names, z0, apply = _parameters(dd, res, form, fit_K)
+
+        size = []
+
+        def resid(z, dd=dd, apply=apply):
+            apply(z)
+            try:
+                out = np.concatenate([_residual(dd, s, TRAIN_CYCLES) for s in res.train])
+            except DamperError:  # a trial parameter set outside the model's range
+                return np.full(size[0], 1.0)
+            size[:] = [len(out)]
+            return out
+
+        fit = least_squares(resid, z0, method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=60)
+        apply(fit.x)
+        held = float(np.mean([nrmse(_simulate(dd, s), s.F[s.score_from:]) for s in res.test]))
+        fits[form] = (dd, names, fit, held)
+    form = min(fits, key=lambda k: fits[k][3])
+    dd, names, fit, held = fits[form]
+    for field_ in dataclasses.fields(d):
+        setattr(d, field_.name, getattr(dd, field_.name))
+    sd, rho = _covariance(fit)
+    for i, (n, unit, transform) in enumerate(names):
+        v = parameter_value(d, n)
+        lo, hi = transform(fit.x[i] - 1.96 * sd[i]), transform(fit.x[i] + 1.96 * sd[i])
+        # not determined: no influence on the fit, or an interval wider than a factor e (logs)
+        # or than the value itself
+        ok = bool(np.isfinite(sd[i]) and 1.96 * sd[i] < (1.0 if _is_log(names[i]) else abs(fit.x[i])))
+        res.estimates.append(Estimate(n, v, min(lo, hi), max(lo, hi), unit, identifiable=ok,
+                                      note="" if ok else "the data does not determine it"))
+    res.correlated = [(names[i][0], names[j][0], float(rho[i, j])) for i in range(len(names))
+                      for j in range(i + 1, len(names)) if abs(rho[i, j]) > 0.95]
+    res.steps["dynamic"] = (f"done: bulk modulus {form} (held-out NRMSE constant {fits['constant'][3]:.4f}, "
+                            f"pressure-dependent {fits['pressure'][3]:.4f}), {fit.nfev} model runs")
+
+
+def _parameters(d: Damper, res: Result, form: str, fit_K: bool):
+    """(names [(name, unit, z -> value)], z0, apply(z)) for the compressible fit. Positive
+    quantities are fitted as logs, so a step of 1e-3 in z is 0.1 % in the value."""
+    entries = []  # (name, unit, object, attribute or key, fitted as log)
+    for tag in ("compression", "rebound"):
+        structure, p, K, K_fit = res._structures[tag]
+        for k in identify_valves.STRUCTURES[structure]:
+            entries.append((f"valves.piston.{tag}.{k}", "", p, k, True))
+        if fit_K and K_fit:
+            entries.append((f"temperature.{tag}.K_effoil", "1/K", getattr(d.temperature, tag), "K_effoil", False))
+    g = d.gas_spring
+    entries.append(("gas_spring.gamma", "-", g, "gamma", False))
+    d.friction.x_stick = X_STICK_START
+    entries.append(("friction.x_stick", "m", d.friction, "x_stick", True))
+    c = d.compressibility
+    if form == "constant":
+        c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = BETA_START, None, None, None
+        entries.append(("compressibility.beta_inv", "Pa", c, "beta_inv", True))
+    else:
+        c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = None, 0.5 * BETA_START, 50.0, 3 * BETA_START
+        entries += [("compressibility.C_ibeta", "Pa", c, "C_ibeta", True),
+                    ("compressibility.C_sbeta", "-", c, "C_sbeta", True),
+                    ("compressibility.beta_min_inv", "Pa", c, "beta_min_inv", True)]
+    g.gamma = G_START
+
+    def get(obj, k):
+        return obj[k] if isinstance(obj, dict) else getattr(obj, k)
+
+    def put(obj, k, v):
+        if isinstance(obj, dict):
+            obj[k] = v
+        else:
+            setattr(obj, k, v)
+
+    z0 = np.array([np.log(get(o, k)) if lg else (get(o, k) * 1e3 if "K_eff" in n else get(o, k))
+                   for n, _, o, k, lg in entries])
+
+    def value(i, zi):
+        n, _, o, k, lg = entries[i]
+        return float(np.exp(zi)) if lg else (zi * 1e-3 if "K_eff" in n else float(zi))
+
+    def apply(z):
+        for i, (n, _, o, k, lg) in enumerate(entries):
+            put(o, k, value(i, z[i]))
+        for tag, sign in (("compression", 1.0), ("rebound", -1.0)):
+            setattr(d.valves.piston, tag, identify_valves.direction(res._structures[tag][1], sign))
+        d.gas_spring.gamma = float(np.clip(d.gas_spring.gamma, 1.0, 1.67))
+
+    names = [(n, u, (lambda zi, i=i: value(i, zi))) for i, (n, u, o, k, lg) in enumerate(entries)]
+    apply(z0)
+    return names, z0, apply
+
+
+def parameter_value(d: Damper, name: str) -> float:
+    """A parameter by its dotted name; valve coefficients by magnitude (a, b, m, c, m2, c2)."""
+    parts = name.split(".")
+    if parts[0] == "valves":
+        _, path, tag, k = parts
+        sign = 1.0 if tag == "compression" else -1.0
+        return identify_valves.magnitudes(getattr(getattr(d.valves, path), tag), sign).get(k, np.nan)
+    obj = d
+    for p in parts:
+        obj = getattr(obj, p)
+    return float(obj) if obj is not None else np.nan
+
+
+def _is_log(entry):
+    return entry[1] in ("", "Pa", "m") or entry[0].endswith("C_sbeta")
+
+
+def _covariance(fit):
+    """(standard deviations, correlation matrix) of the fitted z from the Jacobian: the
+    residual variance per effective independent sample (neighbouring samples' errors are
+    correlated; one independent error per sign change of the residual). A parameter
+    without influence on the fit gets an infinite deviation."""
+    J, r = fit.jac, fit.fun
+    n, p = J.shape
+    n_eff = max(int(np.sum(np.diff(np.sign(r)) != 0)), p + 1)
+    live = np.linalg.norm(J, axis=0) > 1e-9 * max(np.linalg.norm(J), 1e-300)
+    sd = np.full(p, np.inf)
+    rho = np.zeros((p, p))
+    if live.any():
+        Jl = J[:, live]
+        # sigma^2 (J^T J)^-1 with the residual variance counted per independent error
+        cov = (r @ r) / max(n_eff - p, 1) * np.linalg.pinv(Jl.T @ Jl)
+        sdl = np.sqrt(np.clip(np.diag(cov), 0, None))
+        sd[live] = sdl
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rho[np.ix_(live, live)] = np.nan_to_num(cov / np.outer(sdl, sdl))
+    return sd, rho
+
+
+# --- canonical form and comparison with a known damper ---------------------------------
+
+def canonical(d: Damper) -> Damper:
+    """The equivalent damper with K_voint = 0 and C_fd = 0 (module docstring)."""
+    d = copy.deepcopy(d)
+    g = d.gas_spring
+    V0 = g.V0 - g.K_voint
+    g.P0, g.V0, g.K_voint = g.P0 * g.V0 / V0, V0, 0.0
+    for tag in ("compression", "rebound"):
+        tc = getattr(d.temperature, tag)
+        s = 1.0 + tc.C_fd
+        tc.K_effoil, tc.C_fd = tc.K_effoil / s, 0.0
+        for path in (d.valves.piston, d.valves.head):
+            if path is None:
+                continue
+            dr = getattr(path, tag)
+            dr.low.C_orrpw, dr.low.C_linpw, dr.low.C_ipw = (c / s for c in (dr.low.C_orrpw, dr.low.C_linpw,
+                                                                             dr.low.C_ipw))
+            for line in (dr.mid, dr.high):
+                if line is not None:
+                    line.C_linw, line.C_ilinw = line.C_linw / s, line.C_ilinw / s
+        if d.valves.bypass is not None and tag == "compression":
+            d.valves.bypass.C_seatw /= s
+            d.valves.bypass.dP_seat_Aw /= s
+    return d

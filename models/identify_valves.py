@@ -1,0 +1,157 @@
+"""Valve models from multi-speed data at low acceleration (thesis 4.2.3.1): per direction,
+the low-speed restriction (orifice, flow-compensating or polynomial, eqs 4.12-4.14), an
+optional mid-speed valve in parallel with its cracking force (eq 3.30) and an optional
+high-speed line beyond a crossover (Fox-heavy, 4.2.3.3), with the damping temperature
+coefficient of eq 4.17 fitted alongside. The structure is chosen by the error on held-out
+segments, not by the training error.
+
+Work is in magnitudes: u = |v| [m/s], G = |F_d| [N]; the rebound sign is put back when a
+direction is turned into a damper.Direction.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from scipy.optimize import least_squares
+
+from . import valves
+from .damper import Branch, Direction, Line
+
+# structure name -> its parameters: a [N s^2/m^2], b [N s/m] (low branch, eq 4.14),
+# m [N s/m], c [N] (mid line slope and cracking force, eq 4.13), m2, c2 (high line)
+STRUCTURES = {
+    "orifice": ("a",),
+    "linear": ("b",),
+    "polynomial": ("a", "b"),
+    "orifice+mid": ("a", "m", "c"),
+    "linear+mid": ("b", "m", "c"),
+    "polynomial+mid": ("a", "b", "m", "c"),
+    "polynomial+mid+high": ("a", "b", "m", "c", "m2", "c2"),
+}
+
+
+def row(p: dict) -> np.ndarray:
+    """A kernel path row (valves.py layout) for one direction, magnitudes, f_T = 1."""
+    r = np.zeros((2, valves.NCOL))
+    r[:, valves.A], r[:, valves.B] = p.get("a", 0.0), p.get("b", 0.0)
+    if "m" in p:
+        r[:, valves.MB], r[:, valves.MC] = p["m"], p["c"]
+    if "m2" in p:
+        r[:, valves.HB], r[:, valves.HC] = p["m2"], p["c2"]
+        r[:, valves.VX] = (p["c2"] - p["c"]) / (p["m"] - p["m2"])
+    r[:, valves.FT] = 1.0
+    return r
+
+
+@njit(cache=True)
+def _forces(u, vp):
+    out = np.empty(u.shape[0])
+    for i in range(u.shape[0]):
+        out[i] = valves.path_force(u[i], vp, 0.0, False)
+    return out
+
+
+def force(p: dict, u, T=None, T_ref=None, K=0.0):
+    """Damping force magnitude [N] at speed u [m/s] (eq 3.30) and temperature T [K]
+    (eq 4.17 with C_fd = 0: the scale of the coefficients absorbs it)."""
+    G = _forces(np.asarray(u, float), row(p))
+    if T is None:
+        return G
+    return G / (1.0 + K * (np.asarray(T, float) - T_ref))
+
+
+def direction(p: dict, sign: float) -> Direction:
+    """damper.Direction from magnitudes; sign -1 for rebound."""
+    low = Branch(sign * p.get("a", 0.0), p.get("b", 0.0), 0.0)
+    mid = Line(p["m"], sign * p["c"]) if "m" in p else None
+    high = Line(p["m2"], sign * p["c2"]) if "m2" in p else None
+    return Direction(low, mid, high)
+
+
+def magnitudes(d: Direction, sign: float) -> dict:
+    """Inverse of `direction`, for a damper's own coefficients."""
+    p = {"a": sign * d.low.C_orrpw, "b": d.low.C_linpw}
+    if d.mid is not None:
+        p.update(m=d.mid.C_linw, c=sign * d.mid.C_ilinw)
+    if d.high is not None:
+        p.update(m2=d.high.C_linw, c2=sign * d.high.C_ilinw)
+    return p
+
+
+def _start(structure, u, G):
+    """Starting values from the data: the low branch from the slow third, the mid line
+    from the fast half of the speeds, the high line from the fastest sixth."""
+    names = STRUCTURES[structure]
+    order = np.argsort(u)
+    lo = order[: max(len(u) // 3, 3)]
+    hi = order[len(u) // 2:]
+    a, b = np.polyfit(u[lo], G[lo], 2)[:2] if len(lo) >= 3 else (0.0, 1e3)
+    a, b = max(a, 1.0), max(b, 10.0)
+    if "m" in names:
+        m, c = np.polyfit(u[hi], G[hi], 1)
+        m, c = max(m, 10.0), float(np.clip(c, 0.05 * G.max(), 0.9 * G.max()))
+        if "m2" not in names:
+            return {"a": a, "b": b, "m": m, "c": c}
+        top = order[-max(len(u) // 6, 3):]
+        m2, c2 = np.polyfit(u[top], G[top], 1)
+        return {"a": a, "b": b, "m": m, "c": c, "m2": max(m2, 10.0), "c2": max(c2, c * 1.5)}
+    if structure == "orifice":
+        return {"a": float(np.sum(G * u**2) / np.sum(u**4))}
+    if structure == "linear":
+        return {"b": float(np.sum(G * u) / np.sum(u**2))}
+    return {"a": a, "b": b}
+
+
+def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None):
+    """(params, K, result) for one direction: least squares in log-coefficients, relative
+    residuals (the force spans two decades)."""
+    names = STRUCTURES[structure]
+    p0 = _start(structure, u, G)
+    p0 = {k: p0[k] for k in names}
+    w = np.ones_like(u) if weights is None else weights
+    scale = np.maximum(G, 0.05 * G.max())
+
+    def unpack(z):
+        p = dict(zip(names, np.exp(z[: len(names)])))
+        return p, (z[len(names)] * 1e-3 if fit_K else 0.0)
+
+    def resid(z):
+        p, K = unpack(z)
+        if "m2" in p and p["m2"] >= p["m"]:
+            return np.full_like(u, 1e3)
+        return w * (force(p, u, T, T_ref, K) - G) / scale
+
+    z0 = np.log([p0[k] for k in names])
+    if fit_K:
+        z0 = np.append(z0, K0 * 1e3)
+    res = least_squares(resid, z0, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
+    p, K = unpack(res.x)
+    return p, K, res
+
+
+def select(u, G, T, T_ref, groups, fit_K=True, structures=None):
+    """The structure with the lowest held-out error: each group (a test segment) left out
+    in turn. Returns (structure, {structure: held-out rms relative error})."""
+    structures = structures or list(STRUCTURES)
+    groups = np.asarray(groups)
+    keys = np.unique(groups)
+    scores = {}
+    for s in structures:
+        if len(u) < 3 * len(STRUCTURES[s]) + 2:
+            continue
+        errs = []
+        for k in keys:
+            train, test = groups != k, groups == k
+            if train.sum() < len(STRUCTURES[s]) + 2:
+                continue
+            p, K, _ = fit(s, u[train], G[train], T[train], T_ref, fit_K)
+            e = (force(p, u[test], T[test], T_ref, K) - G[test]) / np.maximum(G[test], 0.05 * G.max())
+            errs.append(e)
+        if errs:
+            scores[s] = float(np.sqrt(np.mean(np.concatenate(errs) ** 2)))
+    best = min(scores, key=scores.get)
+    # prefer the simplest structure whose held-out error is within 2 % of the best's
+    for s in structures:
+        if s in scores and scores[s] <= scores[best] * 1.02 and len(STRUCTURES[s]) < len(STRUCTURES[best]):
+            best = s
+    return best, scores

@@ -1,0 +1,131 @@
+"""`dyno identify RECORDING... [--damper D] [--out MODEL.json] [--truth PRESET|MODEL.json]
+[--json] [--report DIR]`: the damper model from recordings (models/identify.py), with the
+round-trip comparison against a known damper when --truth is given."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from models import damper as dm
+from models.identify import IdentifyError, identify
+from protocols.report import load
+from rig.errors import RigError
+
+
+def merge(paths):
+    """(channels, events, metadata of the first) from several recordings, each later one
+    shifted in time to start 10 s after the one before ends."""
+    channels, events, meta, offset = {}, [], None, 0.0
+    for p in paths:
+        ch, ev, m = load(p)
+        meta = meta if meta is not None else m
+        end = offset
+        for name, (t, v) in ch.items():
+            T, V = channels.get(name, (np.empty(0), np.empty(0)))
+            channels[name] = (np.concatenate([T, t + offset]), np.concatenate([V, v]))
+            end = max(end, float(t[-1]) + offset) if len(t) else end
+        events += [{**e, "t": e["t"] + offset} for e in ev]
+        offset = end + 10.0
+    return channels, events, meta or {}
+
+
+def description(arg, meta):
+    """The damper description: --damper, else the one the recording names."""
+    if arg:
+        return dm.load(arg)
+    text = meta.get("damper", {}).get("model")
+    if not text:
+        raise dm.DamperError("the recording names no damper: give --damper PRESET|FILE.json for its layout and "
+                             "geometry")
+    return dm.from_dict(json.loads(text))
+
+
+def run(args):
+    for p in args.recordings:
+        if not Path(p).exists():
+            raise RigError(f"{p}: no such file")
+    channels, events, meta = merge(args.recordings)
+    desc = description(args.damper, meta)
+    if desc.layout == "simplified":
+        raise dm.DamperError(f"{desc.name}: a simplified model has no layout or geometry to identify into")
+    truth = dm.load(args.truth) if args.truth else None
+    say = (lambda m: print(m, file=sys.stderr)) if args.json else print
+    say(f"identify: {desc.layout} with the geometry of '{desc.name}' (layout, geometry, T0 and T_ref are taken "
+        f"from the description; everything else from the data)")
+    try:
+        res = identify(channels, events, desc, progress=say)
+    except IdentifyError as e:
+        raise RigError(str(e)) from None
+    res.damper.name = f"{desc.name}-identified"
+    res.damper.description = f"identified by dyno identify from {', '.join(Path(p).name for p in args.recordings)}"
+    out = Path(args.out) if args.out else Path(args.recordings[0]).with_suffix(".model.json")
+    dm.save(res.damper, out)
+    doc = summary(res)
+    if truth is not None:
+        from models.identify_compare import compare
+        T = float(np.mean([s.T for s in res.train + res.test])) if res.train else 293.15
+        doc.update(compare(res, truth, T))
+    if args.report:
+        from protocols.identify_report import write
+        index = write(res, doc, args.report)
+        say(f"report: {index}")
+    if args.json:
+        print(json.dumps(_clean(doc), indent=2))
+    else:
+        print(text(doc))
+        print(f"model: {out}")
+    return 0
+
+
+def summary(res):
+    return {"steps": res.steps,
+            "estimates": [{"name": e.name, "value": e.value, "ci_low": e.ci_low, "ci_high": e.ci_high,
+                           "unit": e.unit, "identifiable": e.identifiable, "note": e.note} for e in res.estimates],
+            "correlated": [{"a": a, "b": b, "rho": r} for a, b, r in res.correlated],
+            "heldout": [{"segment": n, "nrmse": e} for n, e in res.heldout],
+            "heldout_nrmse": res.heldout_nrmse}
+
+
+def _clean(o):
+    """JSON has no NaN or infinity: null instead."""
+    if isinstance(o, float):
+        return o if math.isfinite(o) else None
+    if isinstance(o, dict):
+        return {k: _clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_clean(v) for v in o]
+    if isinstance(o, (np.floating, np.integer)):
+        return _clean(o.item())
+    return o
+
+
+def _num(v):
+    return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
+
+
+def text(doc):
+    lines = ["steps:"] + [f"  {k:10s} {v}" for k, v in doc["steps"].items()]
+    if "parameters" in doc:
+        lines.append("parameter                               identified        truth   error   95 % interval")
+        for r in doc["parameters"]:
+            err = "-" if r["rel_error"] is None else f"{100 * r['rel_error']:+.1f}%"
+            ci = "not identifiable" if not r["identifiable"] else f"{_num(r['ci_low'])} .. {_num(r['ci_high'])}"
+            lines.append(f"  {r['name']:36s} {_num(r['identified']):>12s} {_num(r['truth']):>12s} {err:>7s}   {ci}")
+        c = doc["curve"]
+        lines.append(f"peak force-velocity curve {c['speeds'][0]:g}-{c['speeds'][-1]:g} m/s at "
+                     f"{c['T'] - 273.15:.0f} C: largest error {100 * c['max_rel_error']:.1f} %")
+    else:
+        lines.append("parameter                               value           95 % interval")
+        for e in doc["estimates"]:
+            ci = f"not identifiable ({e['note']})" if not e["identifiable"] else \
+                f"{_num(e['ci_low'])} .. {_num(e['ci_high'])} {e['unit']}"
+            lines.append(f"  {e['name']:36s} {_num(e['value']):>12s}   {ci}")
+    for c in doc["correlated"]:
+        lines.append(f"strongly correlated: {c['a']} and {c['b']} (rho {c['rho']:+.2f})")
+    lines.append(f"held-out loop NRMSE: {100 * doc['heldout_nrmse']:.2f} % (mean over "
+                 f"{len(doc['heldout'])} segments never used for fitting)")
+    return "\n".join(lines)

@@ -44,6 +44,8 @@ BETA_START = 2.0e8  # Pa: starting effective bulk modulus (the thesis's range 0.
 HELDOUT_EVERY = 3  # every third dynamic segment is held out of all fitting
 WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
 TRAIN_CYCLES = 2  # cycles of each training segment used by the compressible fit
+MAX_RUNS = 100  # model evaluations per compressible fit (Jacobians not counted)
+P_WEIGHT = 0.3  # gas-pressure residuals against force residuals: enough to fix gamma (eq 4.3)
 
 
 @dataclass
@@ -60,6 +62,7 @@ class Segment:
     score_from: int  # samples before it are warm-up
     tP: np.ndarray | None = None  # the gas pressure as sampled (scored part) [s]
     P: np.ndarray | None = None  # [Pa]
+    chambers: dict | None = None  # {"t", "x", "v", "P1", "P2", "P_gas"} at the pressure samples
 
     @property
     def freq(self):
@@ -75,6 +78,7 @@ class Result:
     heldout: list = field(default_factory=list)  # [(segment name, nrmse)]
     train: list = field(default_factory=list)  # [Segment]
     test: list = field(default_factory=list)  # [Segment]
+    structures: dict = field(default_factory=dict)  # (path, direction) -> (structure, params, K, K fitted)
 
     @property
     def heldout_nrmse(self):
@@ -135,6 +139,9 @@ def dynamic_segments(channels, events):
             tp, pv = channels["P_gas"]
             k = (tp >= t0) & (tp <= t1)
             seg.tP, seg.P = tp[k], pv[k]
+            if not _missing(channels, ("P1", "P2")) and k.sum() > 4:
+                seg.chambers = {"t": seg.tP, "x": np.interp(seg.tP, t, x), "v": np.interp(seg.tP, t, v),
+                                "P_gas": seg.P, "P1": _at(channels, "P1", seg.tP), "P2": _at(channels, "P2", seg.tP)}
         out.append(seg)
     return out
 
@@ -175,8 +182,9 @@ def nrmse(F_model, F_meas):
 
 # --- the pipeline ---------------------------------------------------------------------
 
-def identify(channels, events, description: Damper, progress=print) -> Result:
-    """A damper model from a recording (see the module docstring)."""
+def identify(channels, events, description: Damper, progress=print, dynamic=True) -> Result:
+    """A damper model from a recording (see the module docstring). dynamic=False stops
+    after the incompressible valve step (what the live view shows while a test runs)."""
     if _missing(channels, ("force", "x")):
         raise IdentifyError(f"recording has no {' or '.join(_missing(channels, ('force', 'x')))} channel: "
                             "nothing can be identified")
@@ -199,10 +207,15 @@ def identify(channels, events, description: Damper, progress=print) -> Result:
             est = identify_static(x, up, down, geo.A_r)
             if "T_body" in channels:
                 T_s = float(np.mean([_at(channels, "T_body", np.array([t1]))[0] for *_, t1 in holds]))
-            charge = (est["P0"], est["V0"])
+            charge, source = (est["P0"], est["V0"]), "force"
+            if "P_gas" in channels:  # the gas force measured directly (eq 3.4), as the thesis checked it
+                _, Pu, Pd = static_holds(channels, events, name="P_gas", extrapolate=True)
+                gas = identify_static(x, (Pu - P_ATM) * geo.A_r, (Pd - P_ATM) * geo.A_r, geo.A_r)
+                charge, source = (gas["P0"], gas["V0"]), "gas pressure"
             xt, Ft = est["friction"]
             d.friction.x_table, d.friction.F_table = [float(v) for v in xt], [float(max(v, 0.0)) for v in Ft]
-            res.steps["static"] = f"done: {len(x)} hold positions at {T_s - 273.15:.1f} C"
+            res.steps["static"] = (f"done: {len(x)} hold positions at {T_s - 273.15:.1f} C; charge from the "
+                                   f"{source}, friction from the force")
 
     # gas: thermal expansion from the gas pressure at rest, then P0, V0 referred to 20 C
     K_voil = None
@@ -273,6 +286,9 @@ def identify(channels, events, description: Damper, progress=print) -> Result:
     _valves_step(d, res, fit_K=not need)
     if need:
         res.steps["valves"] += "; temperature coefficients skipped: missing channel T_body"
+    if not dynamic:
+        res.steps["dynamic"] = "not run (live estimate)"
+        return res
     progress("identify: compressible fit (valves, bulk modulus, gamma)")
     _dynamic_step(d, res, fit_K=not need)
     res.heldout = [(s.name, nrmse(_simulate(d, s), s.F[s.score_from:])) for s in res.test]
@@ -327,41 +343,64 @@ def _low_acceleration(s: Segment):
 
 
 def _valves_step(d: Damper, res: Result, fit_K=True):
-    """Incompressible start: structure and coefficients per direction on low-acceleration
-    samples of the training segments (damping = force - gas - friction)."""
+    """Incompressible start: structure and coefficients per path and direction on
+    low-acceleration samples of the training segments. Monotube: damping = force - gas -
+    friction. Remote reservoir with chamber pressures: the piston's share (P1 - P2) A_w and
+    the compression head's (P1 - P_gas) A_r (eq 3.55) separately; without them the
+    split is not identifiable and the piston takes all of it."""
     from .friction import friction_force
-    u_all, G_all, T_all, grp = {1: [], -1: []}, {1: [], -1: []}, {1: [], -1: []}, {1: [], -1: []}
     f = d.friction
+    split = d.layout == "remote_reservoir" and all(s.chambers is not None for s in res.train)
+    samples = {}  # (path, sign) -> lists of (u, G, T, group)
     for i, s in enumerate(res.train):
-        k = _low_acceleration(s)
-        Fd = s.F - _gas_force(d, s) - friction_force(s.x, s.v, s.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
-        for sign in (1, -1):
-            kk = k & (s.v * sign > 0.005)
-            kk &= Fd * sign > 0
-            u_all[sign].append(np.abs(s.v[kk]))
-            G_all[sign].append(np.abs(Fd[kk]))
-            T_all[sign].append(np.full(kk.sum(), s.T))
-            grp[sign].append(np.full(kk.sum(), i))
+        if split:
+            c = s.chambers
+            k = np.abs(c["x"] - s.x[s.score_from:].mean()) <= 0.25 * np.ptp(s.x[s.score_from:])
+            targets = {"piston": (c["v"], (c["P1"] - c["P2"]) * d.geometry.A_w),
+                       "head": (c["v"], (c["P1"] - c["P_gas"]) * d.geometry.A_r)}
+        else:
+            k = _low_acceleration(s)
+            Fd = s.F - _gas_force(d, s) - friction_force(s.x, s.v, s.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
+            targets = {"piston": (s.v, Fd)}
+        for path, (v, Fd) in targets.items():
+            for sign in (1, -1):
+                kk = k & (v * sign > 0.005) & (Fd * sign > 0)
+                samples.setdefault((path, sign), []).append(
+                    (np.abs(v[kk]), np.abs(Fd[kk]), np.full(kk.sum(), s.T), np.full(kk.sum(), i)))
     T_ref = d.temperature.T_ref
-    path, notes = {}, []
-    for sign, tag in ((1, "compression"), (-1, "rebound")):
-        u, G, T, g = (np.concatenate(a[sign]) for a in (u_all, G_all, T_all, grp))
+    structures, notes = {}, []
+    for (path, sign), parts in samples.items():
+        tag = "compression" if sign > 0 else "rebound"
+        u, G, T, g = (np.concatenate([p[j] for p in parts]) for j in range(4))
+        if len(u) < 12:
+            raise IdentifyError(f"{path} {tag}: {len(u)} low-acceleration samples (need 12)")
         # thin to at most 300 samples per segment: the fit is by segment anyway
         keep = np.concatenate([np.nonzero(g == k)[0][:: max(1, (g == k).sum() // 300)] for k in np.unique(g)])
         u, G, T, g = u[keep], G[keep], T[keep], g[keep]
-        K_fit = fit_K and np.ptp(T) >= 10.0
-        structure, scores = identify_valves.select(u, G, T, T_ref, g % 4, fit_K=K_fit)
+        K_fit = fit_K and path == "piston" and np.ptp(T) >= 10.0
+        chosen, scores = identify_valves.select(u, G, T, T_ref, g % 4, fit_K=K_fit)
+        # the selection decides the valves (mid, high); the low branch stays polynomial,
+        # which holds the orifice and the linear valve as special cases: at low
+        # acceleration compressibility still bends the data enough to fool a choice
+        # between them, and the compressible fit sends the absent term towards zero
+        structure = chosen.replace("orifice", "polynomial").replace("linear", "polynomial")
         p, K, _ = identify_valves.fit(structure, u, G, T, T_ref, fit_K=K_fit)
-        path[tag] = (structure, p, K, K_fit)
-        notes.append(f"{tag} {structure} (held-out " + ", ".join(f"{k} {v:.3f}" for k, v in
-                                                                 sorted(scores.items(), key=lambda kv: kv[1])[:3]) + ")")
-        getattr(d.temperature, tag).K_effoil = K
-        getattr(d.temperature, tag).C_fd = 0.0
-    d.valves = Valves(ValvePath(identify_valves.direction(path["compression"][1], 1.0),
-                                identify_valves.direction(path["rebound"][1], -1.0)),
-                      head=_quiet_head() if d.layout == "remote_reservoir" else None, bypass=None)
+        structures[(path, tag)] = (structure, p, K, K_fit)
+        best = sorted(scores.items(), key=lambda kv: kv[1])[:3]
+        notes.append(f"{path} {tag} {chosen} (held-out " + ", ".join(f"{k} {v:.3f}" for k, v in best) + ")")
+        if path == "piston":
+            getattr(d.temperature, tag).K_effoil = K
+            getattr(d.temperature, tag).C_fd = 0.0
+    paths = {path: ValvePath(identify_valves.direction(structures[(path, "compression")][1], 1.0),
+                             identify_valves.direction(structures[(path, "rebound")][1], -1.0))
+             for path in {p for p, _ in structures}}
+    head = paths.get("head", _quiet_head()) if d.layout == "remote_reservoir" else None
+    d.valves = Valves(paths["piston"], head=head, bypass=None)
     res.steps["valves"] = "done: " + "; ".join(notes)
-    res._structures = path
+    if d.layout == "remote_reservoir" and not split:
+        res.steps["valves"] += ("; piston/head split not identifiable without channels P1, P2: the piston "
+                                "takes all the damping")
+    res.structures = structures
 
 
 def _quiet_head() -> ValvePath:
@@ -397,105 +436,132 @@ def _residual(d: Damper, s: Segment, cycles):
         k = s.tP <= r.t[-1]
         if k.sum() > 4:
             Pm = s.P[k]
-            out.append((np.interp(s.tP[k], r.t, r.P_gas) - Pm) / max(np.ptp(Pm), 1.0) / np.sqrt(k.sum()))
+            out.append(P_WEIGHT * (np.interp(s.tP[k], r.t, r.P_gas) - Pm) / max(np.ptp(Pm), 1.0) / np.sqrt(k.sum()))
     return np.concatenate(out)
 
 
 def _dynamic_step(d: Damper, res: Result, fit_K=True):
-    """Refit valves, temperature coefficients, bulk modulus and gamma to whole training
-    segments with the compressible model; the bulk modulus form (constant or eq 3.32) is
-    the one with the lower held-out error."""
-    base = copy.deepcopy(d)
-    fits = {}
+    """Refit valves, temperature coefficients, bulk modulus, gamma and the friction's
+    pre-sliding travel to whole training segments with the compressible model. The bulk
+    modulus form (constant, or pressure dependent by eq 3.32) is chosen on validation
+    segments taken from the training set; a damping temperature coefficient the data
+    cannot determine is fixed at 0 and the model refitted without it."""
+    val = res.train[3::4]
+    fit_on = [s for s in res.train if s not in val]
+    scores = {}
     for form in ("constant", "pressure"):
-        dd = copy.deepcopy(base)
-        names, z0, apply = _parameters(dd, res, form, fit_K)
-
-        size = []
-
-        def resid(z, dd=dd, apply=apply):
-            apply(z)
-            try:
-                out = np.concatenate([_residual(dd, s, TRAIN_CYCLES) for s in res.train])
-            except DamperError:  # a trial parameter set outside the model's range
-                return np.full(size[0], 1.0)
-            size[:] = [len(out)]
-            return out
-
-        fit = least_squares(resid, z0, method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=60)
-        apply(fit.x)
-        held = float(np.mean([nrmse(_simulate(dd, s), s.F[s.score_from:]) for s in res.test]))
-        fits[form] = (dd, names, fit, held)
-    form = min(fits, key=lambda k: fits[k][3])
-    dd, names, fit, held = fits[form]
+        trial = copy.deepcopy(d)
+        _fit(trial, res, form, fit_K, set(), fit_on)
+        scores[form] = float(np.mean([nrmse(_simulate(trial, s), s.F[s.score_from:]) for s in val]))
+    # the three-parameter form must earn its place: 2 % lower validation error
+    form = "pressure" if scores["pressure"] < 0.98 * scores["constant"] else "constant"
+    fixed, runs = set(), 0
+    while True:
+        trial = copy.deepcopy(d)
+        names, fit, sd, structures = _fit(trial, res, form, fit_K, fixed, res.train)
+        runs += fit.nfev
+        weak = {n for n, s in zip(names, sd) if "K_effoil" in n and not _determined(n, fit.x[names.index(n)], s)}
+        if not weak - fixed:
+            break
+        fixed |= weak
     for field_ in dataclasses.fields(d):
-        setattr(d, field_.name, getattr(dd, field_.name))
-    sd, rho = _covariance(fit)
-    for i, (n, unit, transform) in enumerate(names):
-        v = parameter_value(d, n)
-        lo, hi = transform(fit.x[i] - 1.96 * sd[i]), transform(fit.x[i] + 1.96 * sd[i])
-        # not determined: no influence on the fit, or an interval wider than a factor e (logs)
-        # or than the value itself
-        ok = bool(np.isfinite(sd[i]) and 1.96 * sd[i] < (1.0 if _is_log(names[i]) else abs(fit.x[i])))
-        res.estimates.append(Estimate(n, v, min(lo, hi), max(lo, hi), unit, identifiable=ok,
-                                      note="" if ok else "the data does not determine it"))
-    res.correlated = [(names[i][0], names[j][0], float(rho[i, j])) for i in range(len(names))
+        setattr(d, field_.name, getattr(trial, field_.name))
+    res.structures = structures
+    _, rho = _covariance(fit)
+    for i, n in enumerate(names):
+        lo, hi = (_value(n, fit.x[i] + k * 1.96 * sd[i]) for k in (-1, 1))
+        ok = _determined(n, fit.x[i], sd[i])
+        res.estimates.append(Estimate(n, parameter_value(d, n), min(lo, hi), max(lo, hi), UNITS.get(n.split(".")[-1], ""),
+                                      identifiable=ok, note="" if ok else "the data does not determine it"))
+    for n in sorted(fixed):
+        res.estimates.append(Estimate(n, 0.0, np.nan, np.nan, "1/K", identifiable=False,
+                                      note="the data does not determine it: fixed at 0 (no temperature effect)"))
+    res.correlated = [(names[i], names[j], float(rho[i, j])) for i in range(len(names))
                       for j in range(i + 1, len(names)) if abs(rho[i, j]) > 0.95]
-    res.steps["dynamic"] = (f"done: bulk modulus {form} (held-out NRMSE constant {fits['constant'][3]:.4f}, "
-                            f"pressure-dependent {fits['pressure'][3]:.4f}), {fit.nfev} model runs")
+    res.steps["dynamic"] = (f"done: bulk modulus {form} (validation NRMSE constant {scores['constant']:.4f}, "
+                            f"pressure-dependent {scores['pressure']:.4f}), {runs} model runs")
 
 
-def _parameters(d: Damper, res: Result, form: str, fit_K: bool):
-    """(names [(name, unit, z -> value)], z0, apply(z)) for the compressible fit. Positive
-    quantities are fitted as logs, so a step of 1e-3 in z is 0.1 % in the value."""
-    entries = []  # (name, unit, object, attribute or key, fitted as log)
-    for tag in ("compression", "rebound"):
-        structure, p, K, K_fit = res._structures[tag]
-        for k in identify_valves.STRUCTURES[structure]:
-            entries.append((f"valves.piston.{tag}.{k}", "", p, k, True))
-        if fit_K and K_fit:
-            entries.append((f"temperature.{tag}.K_effoil", "1/K", getattr(d.temperature, tag), "K_effoil", False))
-    g = d.gas_spring
-    entries.append(("gas_spring.gamma", "-", g, "gamma", False))
-    d.friction.x_stick = X_STICK_START
-    entries.append(("friction.x_stick", "m", d.friction, "x_stick", True))
+UNITS = {"a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
+         "gamma": "-", "x_stick": "m", "beta_inv": "Pa", "C_ibeta": "Pa", "C_sbeta": "-", "beta_min_inv": "Pa"}
+
+
+def _is_log(name):
+    """Positive quantities are fitted as logs (a step of 1e-3 is 0.1 %); K_effoil in
+    units of 1e-3 /K, gamma as it is."""
+    return not (name.endswith("K_effoil") or name.endswith("gamma"))
+
+
+def _value(name, z):
+    if _is_log(name):
+        return float(np.exp(z))
+    return float(z) * (1e-3 if name.endswith("K_effoil") else 1.0)
+
+
+def _z(name, value):
+    if _is_log(name):
+        return float(np.log(value))
+    return float(value) * (1e3 if name.endswith("K_effoil") else 1.0)
+
+
+def _determined(name, z, sd):
+    """Identifiable: an interval narrower than a factor e (logs) or than the value."""
+    return bool(np.isfinite(sd) and 1.96 * sd < (1.0 if _is_log(name) else abs(z)))
+
+
+def _fit(d: Damper, res: Result, form: str, fit_K: bool, fixed: set, segs):
+    """Least squares of the compressible model on segs; d is updated in place.
+    Returns (names, scipy result, standard deviations of z, valve structures)."""
+    structures = copy.deepcopy(res.structures)
+    names = []
+    for (path, tag), (structure, p, K, K_fit) in structures.items():
+        names += [f"valves.{path}.{tag}.{k}" for k in identify_valves.STRUCTURES[structure]]
+        if path != "piston":
+            continue
+        tc = getattr(d.temperature, tag)
+        if fit_K and K_fit and f"temperature.{tag}.K_effoil" not in fixed:
+            names.append(f"temperature.{tag}.K_effoil")
+            tc.K_effoil = K
+        else:
+            tc.K_effoil = 0.0 if f"temperature.{tag}.K_effoil" in fixed else tc.K_effoil
+    names += ["gas_spring.gamma", "friction.x_stick"]
+    d.gas_spring.gamma, d.friction.x_stick = G_START, X_STICK_START
     c = d.compressibility
     if form == "constant":
         c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = BETA_START, None, None, None
-        entries.append(("compressibility.beta_inv", "Pa", c, "beta_inv", True))
+        names.append("compressibility.beta_inv")
     else:
         c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = None, 0.5 * BETA_START, 50.0, 3 * BETA_START
-        entries += [("compressibility.C_ibeta", "Pa", c, "C_ibeta", True),
-                    ("compressibility.C_sbeta", "-", c, "C_sbeta", True),
-                    ("compressibility.beta_min_inv", "Pa", c, "beta_min_inv", True)]
-    g.gamma = G_START
-
-    def get(obj, k):
-        return obj[k] if isinstance(obj, dict) else getattr(obj, k)
-
-    def put(obj, k, v):
-        if isinstance(obj, dict):
-            obj[k] = v
-        else:
-            setattr(obj, k, v)
-
-    z0 = np.array([np.log(get(o, k)) if lg else (get(o, k) * 1e3 if "K_eff" in n else get(o, k))
-                   for n, _, o, k, lg in entries])
-
-    def value(i, zi):
-        n, _, o, k, lg = entries[i]
-        return float(np.exp(zi)) if lg else (zi * 1e-3 if "K_eff" in n else float(zi))
+        names += ["compressibility.C_ibeta", "compressibility.C_sbeta", "compressibility.beta_min_inv"]
 
     def apply(z):
-        for i, (n, _, o, k, lg) in enumerate(entries):
-            put(o, k, value(i, z[i]))
-        for tag, sign in (("compression", 1.0), ("rebound", -1.0)):
-            setattr(d.valves.piston, tag, identify_valves.direction(res._structures[tag][1], sign))
+        for n, zi in zip(names, z):
+            v = _value(n, zi)
+            parts = n.split(".")
+            if parts[0] == "valves":
+                structures[(parts[1], parts[2])][1][parts[3]] = v
+            else:
+                setattr(getattr(d, parts[0]), parts[-1], v)
+        for (path, tag), (_, p, _, _) in structures.items():
+            setattr(getattr(d.valves, path), tag, identify_valves.direction(p, 1.0 if tag == "compression" else -1.0))
         d.gas_spring.gamma = float(np.clip(d.gas_spring.gamma, 1.0, 1.67))
 
-    names = [(n, u, (lambda zi, i=i: value(i, zi))) for i, (n, u, o, k, lg) in enumerate(entries)]
-    apply(z0)
-    return names, z0, apply
+    z0 = np.array([_z(n, parameter_value(d, n)) for n in names])
+    size = []
+
+    def resid(z):
+        apply(z)
+        try:
+            out = np.concatenate([_residual(d, s, TRAIN_CYCLES) for s in segs])
+        except DamperError:  # a trial parameter set outside the model's range
+            return np.full(size[0], 1.0)
+        size[:] = [len(out)]
+        return out
+
+    fit = least_squares(resid, z0, method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=MAX_RUNS)
+    apply(fit.x)
+    sd, _ = _covariance(fit)
+    return names, fit, sd, structures
 
 
 def parameter_value(d: Damper, name: str) -> float:
@@ -509,10 +575,6 @@ def parameter_value(d: Damper, name: str) -> float:
     for p in parts:
         obj = getattr(obj, p)
     return float(obj) if obj is not None else np.nan
-
-
-def _is_log(entry):
-    return entry[1] in ("", "Pa", "m") or entry[0].endswith("C_sbeta")
 
 
 def _covariance(fit):

@@ -25,27 +25,63 @@ class Estimate:
     note: str = ""
 
 
-def static_holds(channels, events, window_s=1.0):
-    """(x [m], force after a compression stroke [N], after an extension stroke [N]) at
-    each hold of a static run: means over the last window_s of each hold."""
+def static_holds(channels, events, window_s=1.0, name="force", extrapolate=False):
+    """(x [m], `name` after a compression stroke, after an extension stroke) at each hold
+    of a static run: means over the last window_s of each hold (force [N] by default),
+    or with extrapolate the value each hold settles to (`settled`)."""
     rows = {}
     start = None
+    spans = []
     for e in events:
         if e["kind"] == "segment_start":
             start = e
         elif e["kind"] == "segment_end" and start is not None and "x_mm" in start["params"]:
-            t1 = e["t"]
-            means = []
-            for name in ("force", "x"):
-                t, v = channels[name]
-                k = (t >= t1 - window_s) & (t <= t1)
-                means.append(float(v[k].mean()) if k.any() else np.nan)
-            rows.setdefault(start["params"]["x_mm"], {})[start["params"]["approach"]] = means
+            spans.append((start["params"], start["t"], e["t"]))
+    ends = settled(*channels[name], [(t0, t1) for _, t0, t1 in spans]) if extrapolate else None
+    for i, (params, t0, t1) in enumerate(spans):
+        means = []
+        for ch in (name, "x"):
+            t, v = channels[ch]
+            k = (t >= t1 - window_s) & (t <= t1)
+            means.append(float(v[k].mean()) if k.any() else np.nan)
+        if ends is not None:
+            means[0] = ends[i]
+        rows.setdefault(params["x_mm"], {})[params["approach"]] = means
     keys = sorted(k for k, r in rows.items() if len(r) == 2)
     x = np.array([(rows[k]["compression stroke"][1] + rows[k]["extension stroke"][1]) / 2 for k in keys])
     up = np.array([rows[k]["compression stroke"][0] for k in keys])
     down = np.array([rows[k]["extension stroke"][0] for k in keys])
     return x, up, down
+
+
+def settled(t, y, spans, tau_range=(0.5, 60.0)):
+    """The value each hold (t0, t1) settles to: y = y_inf + A exp(-(t - t0) / tau) with
+    one time constant for all holds (the gas's heat exchange, eq 3.7 wants it finished),
+    fitted over the second half of each hold. Falls back to the last second's mean when
+    the decay is not resolved (tau at its bounds)."""
+    from scipy.optimize import minimize_scalar
+    parts = []
+    for t0, t1 in spans:
+        k = (t >= t0 + 0.25 * (t1 - t0)) & (t <= t1)
+        parts.append((t[k] - t0, y[k]))
+
+    def solve(tau):
+        out, sse = [], 0.0
+        for tt, yy in parts:
+            if len(tt) < 4:
+                out.append(np.nan)
+                continue
+            A = np.column_stack([np.ones_like(tt), np.exp(-tt / tau)])
+            c, *_ = np.linalg.lstsq(A, yy, rcond=None)
+            sse += float(np.sum((yy - A @ c) ** 2))
+            out.append(float(c[0]))
+        return out, sse
+
+    lo, hi = np.log(tau_range)
+    best = minimize_scalar(lambda z: solve(np.exp(z))[1], bounds=(lo, hi), method="bounded")
+    if not lo + 0.05 < best.x < hi - 0.05:
+        return [float(yy[tt >= tt[-1] - 1.0].mean()) if len(tt) else np.nan for tt, yy in parts]
+    return solve(np.exp(best.x))[0]
 
 
 def identify_static(x, F_comp, F_ext, A_r, n_boot=400, seed=0):

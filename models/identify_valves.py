@@ -112,7 +112,8 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None):
     scale = np.maximum(G, 0.05 * G.max())
 
     def unpack(z):
-        p = dict(zip(names, np.exp(z[: len(names)])))
+        # clipped: a coefficient the data drives to zero or infinity must stay a number
+        p = dict(zip(names, np.exp(np.clip(z[: len(names)], -7.0, 23.0))))
         return p, (z[len(names)] * 1e-3 if fit_K else 0.0)
 
     def resid(z):

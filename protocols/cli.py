@@ -217,6 +217,9 @@ def parser():
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
     rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
     rn.add_argument("--rrd", default=None, help="also save the live view to FILE.rrd")
+    rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
+                    help="identify the damper while the test runs and write RECORDING.model.json "
+                         "(default: on for the standard sequence)")
     rn.set_defaults(func=commands.run_protocol)
     rv = sub.add_parser("recover", help="rebuild a recording cut short (the original is kept as FILE.damaged)")
     rv.add_argument("file")

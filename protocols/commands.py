@@ -131,16 +131,19 @@ def rig_info(cfg, damper):
     from protocols.plan import RigInfo
     L = cfg.limits
     peak = None
-    x_mid = cfg.safe_position
+    x_mid, x_min, x_max = cfg.safe_position, L["x_min"], L["x_max"]
     if damper is not None and getattr(damper, "layout", "") != "simplified":
         x_mid = damper.mid_stroke
+        # never plan into the damper's own end stops: 2 mm inside its stroke at most
+        x_min, x_max = max(x_min, 0.002), min(x_max, damper.geometry.stroke - 0.002)
 
         def peak_force(v, d=damper):
-            r = simulate(d, np.array([0.0, 1.0]), np.array([d.mid_stroke] * 2), v=np.array([v, -v]),
-                         T=d.temperature.T_ref, compressible=False)
-            return float(np.max(np.abs(r.force)))
+            # the damper may be cold (ambient) or at its reference temperature: the larger
+            r = [simulate(d, np.array([0.0, 1.0]), np.array([d.mid_stroke] * 2), v=np.array([v, -v]),
+                          T=T, compressible=False) for T in (293.15, d.temperature.T_ref)]
+            return float(max(np.max(np.abs(x.force)) for x in r))
         peak = peak_force
-    return RigInfo(x_mid, L["x_min"], L["x_max"], L["velocity_max"], L.get("frequency_max", 50.0),
+    return RigInfo(x_mid, x_min, x_max, L["velocity_max"], L.get("frequency_max", 50.0),
                    L["force_max"], L["temperature_max"], 293.15, peak)
 
 
@@ -168,6 +171,9 @@ def run_protocol(args):
     skipped = module.check(params, info)  # refuse before anything connects or moves
     for name, why in skipped:
         print(f"skipping {name}: {why}", file=sys.stderr)
+    identifying = args.identify if args.identify is not None else module.NAME == "standard"
+    if identifying and (damper.layout == "simplified"):
+        identifying = False
     out = Path(args.out) if args.out else Path("recordings") / f"{module.NAME}-{datetime.now():%Y%m%d-%H%M%S}.mcap"
     out.parent.mkdir(parents=True, exist_ok=True)
     vr = None
@@ -180,7 +186,7 @@ def run_protocol(args):
     else:
         rig = Rig(cfg)
         pacer = RealTimePacer(cfg.rate_hz)
-    recorder = live = None
+    recorder = live = ident = None
     previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
         rig.open()
@@ -189,7 +195,10 @@ def run_protocol(args):
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
         recorder = Recorder(out, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params))
         print(f"recording to {out}", file=sys.stderr, flush=True)
-        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live])
+        if identifying:
+            from protocols.live_identify import LiveIdentify
+            ident = LiveIdentify(to_dict(damper), out.with_suffix(".model.json"), live)
+        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live, ident])
     finally:
         signal.signal(signal.SIGTERM, previous)
         if recorder is not None:
@@ -200,6 +209,11 @@ def run_protocol(args):
         if vr is not None:
             vr.close()
     print(f"recorded {result.duration_s:.1f} s of {module.NAME} to {out}", file=sys.stderr)
+    if ident is not None:
+        print("identify: final fit of the whole recording (the rig is already safe)", file=sys.stderr, flush=True)
+        model = ident.finish()
+        if model:
+            print(f"identify: model written to {model}", file=sys.stderr)
     if result.fault:
         print(f"dyno: run stopped: {result.fault}", file=sys.stderr)
         return 130 if result.fault == "operator stop" else 1

@@ -4,7 +4,8 @@ text, in a blueprint laid out for an operator. Batches go out with `send_columns
 the view never slows the loop.
 
 Entities (docs/recording.md): channels/<name> (Scalars), loops/force_velocity and
-loops/force_displacement (Points2D, current segment), events (TextLog).
+loops/force_displacement (Points2D, current segment), events (TextLog), identify/<name>
+(Scalars: the live identification's estimate and its 95 % interval).
 """
 from __future__ import annotations
 
@@ -71,6 +72,7 @@ class LiveView:
                          rrb.TimeSeriesView(origin="/", contents=rest, name="temperatures, pressures")),
             rrb.Vertical(rrb.Spatial2DView(origin="loops/force_velocity", name="force vs velocity"),
                          rrb.Spatial2DView(origin="loops/force_displacement", name="force vs displacement"),
+                         rrb.TimeSeriesView(origin="identify", name="identified (value, 95 % interval)"),
                          rrb.TextLogView(origin="events", name="protocol")),
             column_shares=[3, 2])))
         for n, unit in self.channels.items():
@@ -101,6 +103,16 @@ class LiveView:
                 self.loop[k].clear()
         level = rr.TextLogLevel.ERROR if kind in ("fault", "operator_stop") else rr.TextLogLevel.INFO
         self.rec.log("events", rr.TextLog(f"{kind}: {segment} {message}".strip(), level=level))
+
+    def estimates(self, t, estimates):
+        """The identification's current estimates (protocols/live_identify.py): each as
+        identify/<name> with its 95 % interval as two more series, and a text line."""
+        self.rec.set_time(TIMELINE, duration=t)
+        for e in estimates:
+            if e["identifiable"]:
+                self.rec.log(f"identify/{e['name']}", rr.Scalars([e["value"], e["ci_low"], e["ci_high"]]))
+        self.rec.log("events", rr.TextLog("identify: " + ", ".join(
+            f"{e['name']} {e['value']:.4g}" for e in estimates if e["identifiable"]), level=rr.TextLogLevel.INFO))
 
     def close(self):
         self.rec.flush(timeout_sec=5.0)

@@ -1,0 +1,154 @@
+"""Identification while `dyno run` runs: an observer of the runner hands every completed
+segment's samples to a worker process, which re-identifies on all data so far and sends
+back the current estimates with their intervals; the observer prints them and passes them
+to the live view. At the end of the run the worker fits the whole model (with the
+compressible step) and writes it next to the recording.
+
+The control loop never waits: the observer only appends arrays and moves whole segments
+into a queue without blocking (a backlog holds what the queue cannot take yet, so the
+identification may fall behind but loses nothing; the recording is another observer and
+is not touched by any of this).
+"""
+from __future__ import annotations
+
+import multiprocessing as mp
+import queue
+import sys
+
+import numpy as np
+
+SHOWN = ("P0", "V0", "K_voil", "C_ifT", "gas_spring.gamma", "friction.x_stick")
+
+
+class LiveIdentify:
+    def __init__(self, description: dict, model_path, live=None, stream=None):
+        ctx = mp.get_context("spawn")  # no fork of a process holding buses and threads
+        self.inbox, self.outbox = ctx.Queue(maxsize=4), ctx.Queue()
+        self.proc = ctx.Process(target=_worker, args=(self.inbox, self.outbox, description, str(model_path)),
+                                daemon=True)
+        self.proc.start()
+        self.live, self.stream = live, stream or sys.stderr
+        self.buf, self.events, self.backlog = {}, [], []
+        self.latest = None
+        self.model_path = model_path
+
+    # runner observer -----------------------------------------------------------------
+    def samples(self, drained):
+        for name, (t, v) in drained.items():
+            if len(t):
+                self.buf.setdefault(name, []).append((np.array(t), np.array(v)))
+
+    def event(self, t, kind, segment, params, message):
+        self.events.append({"t": t, "kind": kind, "segment": segment, "params": params, "message": message})
+        if kind == "segment_end":
+            chunk = {n: (np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts]))
+                     for n, parts in self.buf.items()}
+            self.backlog.append(("data", chunk, self.events))
+            self.buf, self.events = {}, []
+        self._pump()
+
+    def _pump(self):
+        while self.backlog:
+            try:
+                self.inbox.put_nowait(self.backlog[0])
+            except queue.Full:
+                break
+            self.backlog.pop(0)
+        while True:
+            try:
+                msg = self.outbox.get_nowait()
+            except queue.Empty:
+                return
+            self._show(msg)
+
+    def _show(self, msg):
+        kind, body = msg
+        if kind == "estimates":
+            self.latest = body
+            parts = [f"{e['name']} {_fmt(e)}" for e in body["estimates"] if e["name"] in SHOWN]
+            self.stream.write("\nidentify: " + "; ".join(parts) + "\n")
+            if self.live is not None and hasattr(self.live, "estimates"):
+                self.live.estimates(body["t"], body["estimates"])
+        elif kind in ("note", "error"):
+            self.stream.write(f"\nidentify: {body}\n")
+        self.stream.flush()
+
+    # after the run -------------------------------------------------------------------
+    def finish(self, timeout=600.0):
+        """Hand over the rest, wait for the final model; returns its path or None."""
+        if self.buf:
+            self.event(self.events[-1]["t"] if self.events else 0.0, "segment_end", "", {}, "")
+        self.backlog.append(("end", None, None))
+        for item in self.backlog:
+            self.inbox.put(item, timeout=timeout)
+        self.backlog = []
+        result = None
+        while True:
+            try:
+                kind, body = self.outbox.get(timeout=timeout)
+            except queue.Empty:
+                self.stream.write("identify: the final fit did not finish in time\n")
+                break
+            if kind == "model":
+                result = body
+                break
+            self._show((kind, body))
+            if kind == "error":
+                break
+        self.proc.join(timeout=10)
+        if self.proc.is_alive():
+            self.proc.terminate()
+        return result
+
+
+def _fmt(e):
+    if not e["identifiable"]:
+        return f"{e['value']:.4g} (not identifiable)"
+    return f"{e['value']:.4g} ({e['ci_low']:.4g}..{e['ci_high']:.4g})"
+
+
+def _worker(inbox, outbox, description, model_path):
+    """Accumulate segments; after each batch re-identify (without the slow compressible
+    step); at the end identify everything and save the model."""
+    from models import damper as dm
+    from models.identify import identify
+    desc = dm.from_dict(description)
+    channels, events = {}, []
+    done = False
+    while not done:
+        items = [inbox.get()]
+        while True:  # catch up: only the newest data matters for the next estimate
+            try:
+                items.append(inbox.get_nowait())
+            except queue.Empty:
+                break
+        for kind, chunk, evs in items:
+            if kind == "end":
+                done = True
+                continue
+            for n, (t, v) in chunk.items():
+                T, V = channels.get(n, (np.empty(0), np.empty(0)))
+                channels[n] = (np.concatenate([T, t]), np.concatenate([V, v]))
+            events += evs
+        if not channels or "force" not in channels:
+            continue
+        try:
+            res = identify(channels, events, desc, progress=lambda m: None, dynamic=done)
+        except Exception as e:  # partial data: say so and wait for more
+            if done:
+                outbox.put(("error", f"final identification failed: {e}"))
+                return
+            outbox.put(("note", f"waiting for more data ({e})"))
+            continue
+        t_now = float(channels["force"][0][-1])
+        outbox.put(("estimates", {"t": t_now, "estimates": [
+            {"name": e.name, "value": float(e.value), "ci_low": float(e.ci_low), "ci_high": float(e.ci_high),
+             "identifiable": bool(e.identifiable)} for e in res.estimates]}))
+        if done:
+            res.damper.name = f"{desc.name}-identified"
+            res.damper.description = "identified live by dyno run"
+            dm.save(res.damper, model_path)
+            outbox.put(("note", f"held-out loop NRMSE {100 * res.heldout_nrmse:.2f} %"))
+            outbox.put(("model", model_path))
+            return
+    outbox.put(("error", "no data to identify"))

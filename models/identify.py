@@ -435,8 +435,12 @@ def _residual(d: Damper, s: Segment, cycles):
     if s.P is not None:
         k = s.tP <= r.t[-1]
         if k.sum() > 4:
-            Pm = s.P[k]
-            out.append(P_WEIGHT * (np.interp(s.tP[k], r.t, r.P_gas) - Pm) / max(np.ptp(Pm), 1.0) / np.sqrt(k.sum()))
+            measured = {"P_gas": s.P[k]}
+            if s.chambers is not None:  # chamber pressures pin the bulk modulus (eqs 3.31-3.32)
+                measured.update(P1=s.chambers["P1"][k], P2=s.chambers["P2"][k])
+            for name, Pm in measured.items():
+                Ps = np.interp(s.tP[k], r.t, getattr(r, name))
+                out.append(P_WEIGHT * (Ps - Pm) / max(np.ptp(Pm), 1.0) / np.sqrt(k.sum()))
     return np.concatenate(out)
 
 
@@ -482,7 +486,7 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True):
                             f"pressure-dependent {scores['pressure']:.4f}), {runs} model runs")
 
 
-UNITS = {"a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
+UNITS = {"C_ifT": "-", "a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
          "gamma": "-", "x_stick": "m", "beta_inv": "Pa", "C_ibeta": "Pa", "C_sbeta": "-", "beta_min_inv": "Pa"}
 
 
@@ -524,7 +528,9 @@ def _fit(d: Damper, res: Result, form: str, fit_K: bool, fixed: set, segs):
             tc.K_effoil = K
         else:
             tc.K_effoil = 0.0 if f"temperature.{tag}.K_effoil" in fixed else tc.K_effoil
-    names += ["gas_spring.gamma", "friction.x_stick"]
+    # the friction's level too: the low-speed extrapolation keeps some damping in it
+    # (the thesis says so of the heavily damped Fox), the loops' jumps at reversal do not
+    names += ["gas_spring.gamma", "friction.x_stick", "friction.C_ifT"]
     d.gas_spring.gamma, d.friction.x_stick = G_START, X_STICK_START
     c = d.compressibility
     if form == "constant":

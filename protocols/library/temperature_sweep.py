@@ -37,6 +37,14 @@ def check(p: Params, rig: RigInfo):
         if T < lo:
             raise ParamError(f"targets_c: {T:g} C cannot be reached by cooling (ambient "
                              f"{rig.T_ambient - 273.15:g} C, at least {lo:g} C)")
+    if rig.peak_force is not None:
+        v = 2 * math.pi * p.freq_hz * p.amplitude_mm / 1e3
+        if rig.peak_force(v) > rig.force_max:
+            raise ParamError(f"freq_hz: {p.amplitude_mm:g} mm at {p.freq_hz:g} Hz needs about "
+                             f"{rig.peak_force(v):.0f} N, above the rig's {rig.force_max:.0f} N")
+        if _warm_freq(p, rig) is None:
+            raise ParamError(f"warm_amplitude_mm: {p.warm_amplitude_mm:g} mm needs more force than the rig's "
+                             f"{rig.force_max:.0f} N even at 1 Hz")
     for A, f, what in ((p.amplitude_mm, p.freq_hz, ""), (p.warm_amplitude_mm, p.warm_freq_hz, "warm_")):
         if 2 * math.pi * f * A / 1e3 > rig.v_max:
             raise ParamError(f"{what}freq_hz: {A:g} mm at {f:g} Hz is faster than the rig's {rig.v_max:g} m/s")
@@ -53,11 +61,25 @@ def _below(T_K):
     return lambda r: "T_body" in r and r["T_body"].value <= T_K
 
 
+def _warm_freq(p: Params, rig: RigInfo):
+    """warm_freq_hz, lowered in 0.5 Hz steps until the damper's expected force stays under
+    90 % of the rig's limit (a stiff damper warms more slowly but safely); None if even
+    1 Hz is too much."""
+    f = p.warm_freq_hz
+    while rig.peak_force is not None and rig.peak_force(2 * math.pi * f * p.warm_amplitude_mm / 1e3) > \
+            0.9 * rig.force_max:
+        f -= 0.5
+        if f < 1.0:
+            return None
+    return f
+
+
 def plan(p: Params, rig: RigInfo):
     targets = sorted(p.targets_c, reverse=True)
-    Aw, fw = p.warm_amplitude_mm / 1e3, p.warm_freq_hz
+    Aw, fw = p.warm_amplitude_mm / 1e3, _warm_freq(p, rig)
     top = targets[0] + p.overshoot_c + 273.15
-    yield Segment("warm up", {"until_c": top - 273.15}, p.max_warm_s, ramp_in(Aw, fw, 4, rig.x_mid), False,
+    yield Segment("warm up", {"until_c": top - 273.15, "freq_hz": fw}, p.max_warm_s, ramp_in(Aw, fw, 4, rig.x_mid),
+                  False,
                   _above(top))
     yield Segment("stop warming", {}, 2 / fw,
                   lambda t: rig.x_mid + Aw * max(1 - t * fw / 2, 0) * math.sin(2 * math.pi * fw * t), False)

@@ -88,13 +88,18 @@ def _start(structure, u, G):
     a, b = np.polyfit(u[lo], G[lo], 2)[:2] if len(lo) >= 3 else (0.0, 1e3)
     a, b = max(a, 1.0), max(b, 10.0)
     if "m" in names:
-        m, c = np.polyfit(u[hi], G[hi], 1)
-        m, c = max(m, 10.0), float(np.clip(c, 0.05 * G.max(), 0.9 * G.max()))
         if "m2" not in names:
+            m, c = np.polyfit(u[hi], G[hi], 1)
+            m, c = max(m, 10.0), float(np.clip(c, 0.05 * G.max(), 0.9 * G.max()))
             return {"a": a, "b": b, "m": m, "c": c}
-        top = order[-max(len(u) // 6, 3):]
+        # mid line from the middle third of the speeds, high line from the top third
+        third = max(len(u) // 3, 3)
+        mid, top = order[third:2 * third], order[-third:]
+        m, c = np.polyfit(u[mid], G[mid], 1)
         m2, c2 = np.polyfit(u[top], G[top], 1)
-        return {"a": a, "b": b, "m": m, "c": c, "m2": max(m2, 10.0), "c2": max(c2, c * 1.5)}
+        m, c = max(m, 10.0), float(np.clip(c, 0.05 * G.max(), 0.9 * G.max()))
+        m2 = float(np.clip(m2, 1.0, 0.7 * m))  # the high line is the flatter one
+        return {"a": a, "b": b, "m": m, "c": c, "m2": m2, "c2": max(c2, c * 1.2)}
     if structure == "orifice":
         return {"a": float(np.sum(G * u**2) / np.sum(u**4))}
     if structure == "linear":

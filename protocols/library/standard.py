@@ -21,7 +21,9 @@ class Params:
 
 
 def _parts(p: Params):
-    return ((static, static.Params(points=p.static_points)),
+    # holds of at least 10 s: long enough to see the gas's heat exchange decay and
+    # extrapolate it (identify_static.settled), which the charge estimate needs
+    return ((static, static.Params(points=p.static_points, dwell_min_s=10.0)),
             (low_speed, low_speed.Params(freqs_hz=list(p.low_speed_freqs_hz))),
             (sine_matrix, sine_matrix.Params(amplitudes_mm=list(p.amplitudes_mm), freqs_hz=list(p.freqs_hz))),
             (temperature_sweep, temperature_sweep.Params(targets_c=list(p.targets_c))))

@@ -52,3 +52,29 @@ def bench_log(seconds=5.0):
     rate = n / wall
     return {"samples_per_s": rate, "protocol_samples_per_s": need, "ratio": rate / need, "goal_ratio": 20.0,
             "goal_met": rate / need >= 20.0, "bytes_per_sample": size / n, "seconds": wall}
+
+
+GOAL_IDENTIFY_S = 120.0
+
+
+def bench_identify(recording=None, damper="koni"):
+    """Wall time of `dyno identify` on a full standard-sequence recording (recorded first
+    on the virtual rig when none is given). Goal: under 2 minutes on the 2-core machine."""
+    import json
+    import subprocess
+    import sys
+    dyno = str(Path(sys.executable).parent / "dyno")
+    with tempfile.TemporaryDirectory() as tmp:
+        if recording is None:
+            recording = str(Path(tmp) / "standard.mcap")
+            subprocess.run([dyno, "run", "standard", "--damper", damper, "--no-identify", "--out", recording],
+                           check=True, capture_output=True)
+        t0 = time.perf_counter()
+        p = subprocess.run([dyno, "identify", recording, "--json", "--out", str(Path(tmp) / "m.json")],
+                           capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+    if p.returncode:
+        raise RuntimeError(p.stderr.strip().splitlines()[-1])
+    doc = json.loads(p.stdout)
+    return {"recording": str(recording), "wall_s": wall, "goal_wall_s": GOAL_IDENTIFY_S,
+            "goal_met": wall < GOAL_IDENTIFY_S, "heldout_nrmse": doc["heldout_nrmse"], "steps": doc["steps"]}

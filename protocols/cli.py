@@ -142,6 +142,17 @@ def _bench_log(args):
     return 0
 
 
+def _bench_identify(args):
+    from protocols.bench import bench_identify
+    r = bench_identify(args.recording, args.damper)
+    if args.json:
+        print(json.dumps(r, indent=2))
+        return 0
+    print(f"identify {r['recording']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
+          f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %")
+    return 0
+
+
 def _bench_sim(args):
     from models.bench import bench
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
@@ -266,6 +277,12 @@ def parser():
     bg.add_argument("--seconds", type=float, default=5.0)
     bg.add_argument("--json", action="store_true")
     bg.set_defaults(func=_bench_log)
+    bi = bsub.add_parser("identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")
+    bi.add_argument("recording", nargs="?", default=None,
+                    help="a standard-sequence recording (default: record one on the virtual rig first, ~4 min)")
+    bi.add_argument("--damper", default="koni", help="damper for the recording made first (default koni)")
+    bi.add_argument("--json", action="store_true")
+    bi.set_defaults(func=_bench_identify)
     bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=float, default=30.0, help="duration (default 30)")

@@ -69,7 +69,7 @@ def read(path, mapping):
     increase are refused, naming the row."""
     path = Path(path)
     try:
-        text = path.read_text(newline="")
+        text = path.read_text()
     except OSError as e:
         raise RigError(f"{path}: cannot read ({e.strerror})") from None
     sample = text[:4096]

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 from mcap.reader import make_reader
 
+from models.identify import segments  # noqa: F401  (re-exported: recordings as data)
 from models.identify_static import static_holds
 from models.plots import plt
 from rig.errors import RigError
@@ -37,19 +38,6 @@ def load(path):
     except Exception as e:
         raise RigError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
     return {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, events, meta
-
-
-def segments(events, measured=True):
-    """[(name, params, t0, t1)] of the segments (measured ones by default)."""
-    out, open_ = [], {}
-    for e in events:
-        if e["kind"] == "segment_start":
-            open_ = {"name": e["segment"], "params": e["params"], "t0": e["t"]}
-        elif e["kind"] == "segment_end" and open_ and open_["name"] == e["segment"]:
-            if not measured or open_["params"].get("measured", True):
-                out.append((open_["name"], open_["params"], open_["t0"], e["t"]))
-            open_ = {}
-    return out
 
 
 def _window(ch, name, t0, t1):

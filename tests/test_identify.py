@@ -25,9 +25,15 @@ def test_canonical_form_is_the_same_damper(name):
     c = canonical(d)
     assert c.gas_spring.K_voint == 0 and c.temperature.compression.C_fd == 0
     t, x, v = sine(0.0127, 4.0, 2, d.mid_stroke, samples_per_cycle=400)
+    # exact, but for a bypass (Mechformance): one seat coefficient serves both directions,
+    # each with its own C_fd, and it passes flow in rebound below its seating force
+    exact = 1e-9 if d.valves.bypass is None else 1e-4
     for T in (300.0, 350.0):
+        a, b = simulate(d, t, x, v, T=T, compressible=False), simulate(c, t, x, v, T=T, compressible=False)
+        assert np.max(np.abs(a.force - b.force)) < exact * np.max(np.abs(a.force))
+        # compressible: equal within the stiff solver's Newton tolerance (about 0.1 N a step)
         a, b = simulate(d, t, x, v, T=T), simulate(c, t, x, v, T=T)
-        assert np.max(np.abs(a.force - b.force)) < 1e-6 * np.max(np.abs(a.force))
+        assert np.max(np.abs(a.force - b.force)) < 2e-4 * np.max(np.abs(a.force))
 
 
 def test_breakaway_friction_by_extrapolation_to_the_reversals():

@@ -33,7 +33,7 @@ from scipy.optimize import least_squares
 from scipy.signal import butter, filtfilt
 
 from . import identify_low_speed, identify_valves
-from .damper import Damper, DamperError, ValvePath, Valves
+from .damper import Bypass, Damper, DamperError, ValvePath, Valves
 from .gas_spring import P_ATM, T_STD
 from .identify_static import Estimate, identify_static, static_holds
 from .simulate import simulate
@@ -45,6 +45,9 @@ HELDOUT_EVERY = 3  # every third dynamic segment is held out of all fitting
 WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
 TRAIN_CYCLES = 2  # cycles of each training segment used by the compressible fit
 MAX_RUNS = 100  # model evaluations per compressible fit (Jacobians not counted)
+SCREEN_RUNS = 30  # ... per screening fit (model forms, extra valves), on one cycle per segment
+EXTRA_AT = 0.03  # validation NRMSE above which a bypass or high-speed line is tried
+BYPASS_SEAT_START = 100.0  # N: seating force a bypass starts from (the Mechformance's is 50 N)
 P_WEIGHT = 0.3  # gas-pressure residuals against force residuals: enough to fix gamma (eq 4.3)
 
 
@@ -452,17 +455,41 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True):
     cannot determine is fixed at 0 and the model refitted without it."""
     val = res.train[3::4]
     fit_on = [s for s in res.train if s not in val]
-    scores = {}
+
+    def score(trial):
+        return float(np.mean([nrmse(_simulate(trial, s), s.F[s.score_from:]) for s in val]))
+
+    # screening fits: one cycle per segment, validation segments left out
+    screened = {}
     for form in ("constant", "pressure"):
         trial = copy.deepcopy(d)
-        _fit(trial, res, form, fit_K, set(), fit_on)
-        scores[form] = float(np.mean([nrmse(_simulate(trial, s), s.F[s.score_from:]) for s in val]))
+        *_, st = _fit(trial, res.structures, form, fit_K, set(), fit_on, cycles=1, max_runs=SCREEN_RUNS)
+        screened[form] = (score(trial), trial, st, ())
+    scores = {k: v[0] for k, v in screened.items()}
     # the three-parameter form must earn its place: 2 % lower validation error
     form = "pressure" if scores["pressure"] < 0.98 * scores["constant"] else "constant"
+    best = screened[form]
+    # a model that misses the validation loops by more than EXTRA_AT gets the chance of a
+    # valve the selection did not see: a bypass disc (eqs 4.15-4.16) or a high-speed line,
+    # each started from the fit so far
+    tried = {}
+    if best[0] > EXTRA_AT:
+        for extra in _extra_candidates(best[2]):
+            trial = copy.deepcopy(best[1])
+            try:
+                *_, st = _fit(trial, best[2], form, fit_K, set(), fit_on, (extra,), cycles=1,
+                              max_runs=SCREEN_RUNS, warm=True)
+            except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+                continue
+            tried[extra] = score(trial)
+            if tried[extra] < 0.8 * best[0] and (not best[3] or tried[extra] < screened["extra"][0]):
+                screened["extra"] = (tried[extra], trial, st, (extra,))
+        best = screened.get("extra", best)
+    start, start_structures, extras = best[1], best[2], best[3]
     fixed, runs = set(), 0
-    while True:
-        trial = copy.deepcopy(d)
-        names, fit, sd, structures = _fit(trial, res, form, fit_K, fixed, res.train)
+    while True:  # the final fit on all training segments, from the screened start
+        trial = copy.deepcopy(start)
+        names, fit, sd, structures = _fit(trial, start_structures, form, fit_K, fixed, res.train, warm=True)
         runs += fit.nfev
         weak = {n for n, s in zip(names, sd) if "K_effoil" in n and not _determined(n, fit.x[names.index(n)], s)}
         if not weak - fixed:
@@ -483,17 +510,28 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True):
     res.correlated = [(names[i], names[j], float(rho[i, j])) for i in range(len(names))
                       for j in range(i + 1, len(names)) if abs(rho[i, j]) > 0.95]
     res.steps["dynamic"] = (f"done: bulk modulus {form} (validation NRMSE constant {scores['constant']:.4f}, "
-                            f"pressure-dependent {scores['pressure']:.4f}), {runs} model runs")
+                            f"pressure-dependent {scores['pressure']:.4f})"
+                            + "".join(f"; with {e}: {v:.4f}" for e, v in tried.items())
+                            + (f"; added {extras[0]}" if extras else "") + f", {runs} model runs")
 
 
-UNITS = {"C_ifT": "-", "a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
+def _extra_candidates(structures):
+    out = ["bypass"]
+    for tag in ("compression", "rebound"):
+        structure = structures[("piston", tag)][0]
+        if "mid" in structure and "high" not in structure:
+            out.append(f"high {tag}")
+    return out
+
+
+UNITS = {"C_seatw": "N s/m", "dP_seat_Aw": "N", "C_ifT": "-", "a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
          "gamma": "-", "x_stick": "m", "beta_inv": "Pa", "C_ibeta": "Pa", "C_sbeta": "-", "beta_min_inv": "Pa"}
 
 
 def _is_log(name):
     """Positive quantities are fitted as logs (a step of 1e-3 is 0.1 %); K_effoil in
     units of 1e-3 /K, gamma as it is."""
-    return not (name.endswith("K_effoil") or name.endswith("gamma"))
+    return not (name.endswith("K_effoil") or name.endswith("gamma") or name.endswith("dP_seat_Aw"))
 
 
 def _value(name, z):
@@ -504,7 +542,8 @@ def _value(name, z):
 
 def _z(name, value):
     if _is_log(name):
-        return float(np.log(value))
+        with np.errstate(divide="ignore"):
+            return float(np.log(value))
     return float(value) * (1e3 if name.endswith("K_effoil") else 1.0)
 
 
@@ -513,10 +552,23 @@ def _determined(name, z, sd):
     return bool(np.isfinite(sd) and 1.96 * sd < (1.0 if _is_log(name) else abs(z)))
 
 
-def _fit(d: Damper, res: Result, form: str, fit_K: bool, fixed: set, segs):
-    """Least squares of the compressible model on segs; d is updated in place.
-    Returns (names, scipy result, standard deviations of z, valve structures)."""
-    structures = copy.deepcopy(res.structures)
+def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras=(), cycles=TRAIN_CYCLES,
+         max_runs=MAX_RUNS, warm=False):
+    """Least squares of the compressible model on segs (`cycles` of each); d is updated in
+    place. extras: "bypass" (a seat valve across the piston, starting as the compression
+    side's soft path while the piston's own valve starts as the rebound one), "high
+    compression", "high rebound". warm: start from d's own gamma, friction and bulk
+    modulus (and keep a bypass it has). Returns (names, scipy result, standard deviations
+    of z, structures)."""
+    structures = copy.deepcopy(structures)
+    for extra in extras:
+        if extra.startswith("high"):
+            key = ("piston", extra.split()[1])
+            structure, p, K, K_fit = structures[key]
+            # the line fitted so far is taken as the high-speed one, a steeper mid valve
+            # opening earlier put in front of it (crossover at 0.2 c / m)
+            p.update(m2=p["m"], c2=p["c"], m=2.5 * p["m"], c=0.7 * p["c"])
+            structures[key] = (structure + "+high", p, K, K_fit)
     names = []
     for (path, tag), (structure, p, K, K_fit) in structures.items():
         names += [f"valves.{path}.{tag}.{k}" for k in identify_valves.STRUCTURES[structure]]
@@ -525,26 +577,41 @@ def _fit(d: Damper, res: Result, form: str, fit_K: bool, fixed: set, segs):
         tc = getattr(d.temperature, tag)
         if fit_K and K_fit and f"temperature.{tag}.K_effoil" not in fixed:
             names.append(f"temperature.{tag}.K_effoil")
-            tc.K_effoil = K
+            tc.K_effoil = tc.K_effoil if warm else K
         else:
             tc.K_effoil = 0.0 if f"temperature.{tag}.K_effoil" in fixed else tc.K_effoil
     # the friction's level too: the low-speed extrapolation keeps some damping in it
     # (the thesis says so of the heavily damped Fox), the loops' jumps at reversal do not
     names += ["gas_spring.gamma", "friction.x_stick", "friction.C_ifT"]
-    d.gas_spring.gamma, d.friction.x_stick = G_START, X_STICK_START
+    if not warm:
+        d.gas_spring.gamma, d.friction.x_stick = G_START, X_STICK_START
+    if d.valves.bypass is not None:
+        names += ["valves.bypass.C_seatw", "valves.bypass.dP_seat_Aw"]
+    elif "bypass" in extras:
+        comp, reb = structures[("piston", "compression")][1], structures[("piston", "rebound")][1]
+        soft = identify_valves.force(comp, np.array([0.1]))[0] / 0.1  # N s/m at 0.1 m/s
+        for k in ("a", "b"):
+            if k in comp:
+                comp[k] = max(reb.get(k, 0.0), 1.0)
+        d.valves.bypass = Bypass(C_seatw=soft, dP_seat_Aw=-BYPASS_SEAT_START)
+        names += ["valves.bypass.C_seatw", "valves.bypass.dP_seat_Aw"]
     c = d.compressibility
     if form == "constant":
-        c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = BETA_START, None, None, None
+        if not warm:
+            c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = BETA_START, None, None, None
         names.append("compressibility.beta_inv")
     else:
-        c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = None, 0.5 * BETA_START, 50.0, 3 * BETA_START
+        if not warm:
+            c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = None, 0.5 * BETA_START, 50.0, 3 * BETA_START
         names += ["compressibility.C_ibeta", "compressibility.C_sbeta", "compressibility.beta_min_inv"]
 
     def apply(z):
         for n, zi in zip(names, z):
             v = _value(n, zi)
             parts = n.split(".")
-            if parts[0] == "valves":
+            if parts[0] == "valves" and parts[1] == "bypass":
+                setattr(d.valves.bypass, parts[2], v)
+            elif parts[0] == "valves":
                 structures[(parts[1], parts[2])][1][parts[3]] = v
             else:
                 setattr(getattr(d, parts[0]), parts[-1], v)
@@ -552,19 +619,26 @@ def _fit(d: Damper, res: Result, form: str, fit_K: bool, fixed: set, segs):
             setattr(getattr(d.valves, path), tag, identify_valves.direction(p, 1.0 if tag == "compression" else -1.0))
         d.gas_spring.gamma = float(np.clip(d.gas_spring.gamma, 1.0, 1.67))
 
-    z0 = np.array([_z(n, parameter_value(d, n)) for n in names])
+    def start(n):
+        parts = n.split(".")
+        if parts[0] == "valves" and parts[1] != "bypass":
+            return structures[(parts[1], parts[2])][1][parts[3]]
+        return parameter_value(d, n)
+
+    z0 = np.array([_z(n, start(n)) for n in names])
+    z0 = np.nan_to_num(z0, nan=0.0, neginf=-25.0, posinf=25.0)  # a coefficient driven to zero
     size = []
 
     def resid(z):
         apply(z)
         try:
-            out = np.concatenate([_residual(d, s, TRAIN_CYCLES) for s in segs])
+            out = np.concatenate([_residual(d, s, cycles) for s in segs])
         except DamperError:  # a trial parameter set outside the model's range
             return np.full(size[0], 1.0)
         size[:] = [len(out)]
         return out
 
-    fit = least_squares(resid, z0, method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=MAX_RUNS)
+    fit = least_squares(resid, z0, method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=max_runs)
     apply(fit.x)
     sd, _ = _covariance(fit)
     return names, fit, sd, structures
@@ -573,6 +647,8 @@ def _fit(d: Damper, res: Result, form: str, fit_K: bool, fixed: set, segs):
 def parameter_value(d: Damper, name: str) -> float:
     """A parameter by its dotted name; valve coefficients by magnitude (a, b, m, c, m2, c2)."""
     parts = name.split(".")
+    if parts[0] == "valves" and parts[1] == "bypass":
+        return float(getattr(d.valves.bypass, parts[2])) if d.valves.bypass is not None else np.nan
     if parts[0] == "valves":
         _, path, tag, k = parts
         sign = 1.0 if tag == "compression" else -1.0

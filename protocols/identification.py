@@ -60,6 +60,8 @@ def run(args):
         res = identify(channels, events, desc, progress=say)
     except IdentifyError as e:
         raise RigError(str(e)) from None
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:  # a fit that cannot proceed
+        raise RigError(f"identification failed: {e}") from None
     res.damper.name = f"{desc.name}-identified"
     res.damper.description = f"identified by dyno identify from {', '.join(Path(p).name for p in args.recordings)}"
     out = Path(args.out) if args.out else Path(args.recordings[0]).with_suffix(".model.json")

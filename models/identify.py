@@ -371,6 +371,9 @@ def _valves_step(d: Damper, res: Result, fit_K=True):
                 samples.setdefault((path, sign), []).append(
                     (np.abs(v[kk]), np.abs(Fd[kk]), np.full(kk.sum(), s.T), np.full(kk.sum(), i)))
     T_ref = d.temperature.T_ref
+    speeds = np.array([np.ptp(s.v[s.score_from:]) for s in res.train])
+    fold = np.empty(len(speeds), int)
+    fold[np.argsort(speeds)] = np.arange(len(speeds)) % 4
     structures, notes = {}, []
     for (path, sign), parts in samples.items():
         tag = "compression" if sign > 0 else "rebound"
@@ -381,7 +384,9 @@ def _valves_step(d: Damper, res: Result, fit_K=True):
         keep = np.concatenate([np.nonzero(g == k)[0][:: max(1, (g == k).sum() // 300)] for k in np.unique(g)])
         u, G, T, g = u[keep], G[keep], T[keep], g[keep]
         K_fit = fit_K and path == "piston" and np.ptp(T) >= 10.0
-        chosen, scores = identify_valves.select(u, G, T, T_ref, g % 4, fit_K=K_fit)
+        # folds interleaved by the segments' peak speeds, so that no fold leaves a whole
+        # speed range out (a left-out range would be extrapolated, and judged on that)
+        chosen, scores = identify_valves.select(u, G, T, T_ref, fold[g], fit_K=K_fit)
         # the selection decides the valves (mid, high); the low branch stays polynomial,
         # which holds the orifice and the linear valve as special cases: at low
         # acceleration compressibility still bends the data enough to fool a choice

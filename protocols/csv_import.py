@@ -66,7 +66,7 @@ def parse_map(items):
 def read(path, mapping):
     """{channel: SI array} from the CSV. Unmapped and empty columns and a trailing
     separator are ignored; unknown mapped columns, non-numbers and time that does not
-    increase are refused, naming the row."""
+    goes backwards are refused, naming the row."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -107,17 +107,22 @@ def read(path, mapping):
         data[name] = a
     t = data["time"]
     keep = ~np.isnan(t)
-    bad = np.nonzero(np.diff(t[keep]) <= 0)[0]
+    bad = np.nonzero(np.diff(t[keep]) < 0)[0]  # repeated stamps happen in logged data; going back does not
     if len(bad):
         row = np.nonzero(keep)[0][bad[0] + 1] + 2
-        raise RigError(f"{path}:{row}: time does not increase ({t[keep][bad[0]]:g} then {t[keep][bad[0] + 1]:g} s)")
+        raise RigError(f"{path}:{row}: time goes backwards ({t[keep][bad[0]]:.9g} then {t[keep][bad[0] + 1]:.9g} s)")
     if keep.sum() < 10:
         raise RigError(f"{path}: {keep.sum()} rows with a time (need at least 10)")
     return {k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}
 
 
 def velocity_from(t, x):
-    """Velocity [m/s] from displacement: Savitzky-Golay derivative (module docstring)."""
+    """Velocity [m/s] from displacement: Savitzky-Golay derivative (module docstring).
+    Rows sharing a time stamp share the velocity of their mean displacement."""
+    tu, inverse = np.unique(t, return_inverse=True)
+    if len(tu) < len(t):
+        xu = np.bincount(inverse, weights=x) / np.bincount(inverse)
+        return velocity_from(tu, xu)[inverse]
     h = np.diff(t)
     if len(x) >= 11 and np.allclose(h, h.mean(), rtol=1e-3):
         return savgol_filter(x, 11, 2, deriv=1, delta=float(h.mean()))

@@ -82,7 +82,7 @@ def test_settled_value_of_exponential_holds():
 
 # --- the round trip on the virtual rig --------------------------------------------------
 
-SHORT = ["static_points=5", "amplitudes_mm=12.7,3.2", "freqs_hz=1,4,16", "targets_c=45,35"]
+SHORT = ["static_points=5", "amplitudes_mm=12.7,6.4,3.2,1.6", "freqs_hz=1,4,16", "targets_c=45,35"]
 
 
 @pytest.fixture(scope="module")
@@ -168,7 +168,7 @@ def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     (["time=t", "displacement=x:furlong", "force=F"], None, "unknown displacement unit 'furlong'"),
     (["time=t", "displacement=pos", "force=F"], None, "no column 'pos'"),
     (["time=t", "displacement=x", "force=F"], "t,x,F\n0,0.01,5\n0.002,0.011,6\n0.001,0.012,7\n",
-     "time does not increase"),
+     "time goes backwards"),
 ])
 def test_bad_csv_is_refused_in_one_line(tmp_path, maps, content, message):
     csv = tmp_path / "bad.csv"

@@ -87,9 +87,6 @@ class Result:
     def heldout_nrmse(self):
         return float(np.mean([e for _, e in self.heldout])) if self.heldout else float("nan")
 
-    def estimate(self, name):
-        return next(e for e in self.estimates if e.name == name)
-
 
 class IdentifyError(ValueError):
     """The recording cannot give a model (say what is missing)."""

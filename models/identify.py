@@ -198,11 +198,12 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
     T_s = T_ambient
     charge = None
     if not holds:
-        res.steps["static"] = "skipped: no static holds in the recording"
+        res.steps["static"] = "skipped: no static holds in the recording (the description's charge and friction kept)"
     else:
         x, up, down = static_holds(channels, events)
         if len(x) < 3:
-            res.steps["static"] = f"skipped: {len(x)} complete hold positions (need 3)"
+            res.steps["static"] = (f"skipped: {len(x)} complete hold positions (need 3; the description's charge "
+                                   f"and friction kept)")
         else:
             est = identify_static(x, up, down, geo.A_r)
             if "T_body" in channels:
@@ -270,8 +271,8 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
             d.friction.C_sfT, d.friction.C_ifT = fr["C_sfT"].value, fr["C_ifT"].value
             res.estimates += [fr["C_sfT"], fr["C_ifT"]]
             res.steps["low-speed"] = f"done: {len(rows)} stroke reversals"
-    if "low-speed" in res.steps and not res.steps["low-speed"].startswith("done"):
-        d.friction.C_sfT, d.friction.C_ifT = 0.0, 1.0  # static friction taken as the dynamic
+    if res.steps["static"].startswith("done") and not res.steps["low-speed"].startswith("done"):
+        d.friction.C_sfT, d.friction.C_ifT = 0.0, 1.0  # the measured static friction taken as the dynamic
 
     # valves and the compressible model
     need = _missing(channels, ("T_body",))

@@ -2,7 +2,7 @@
 
 One small class per transport, all with the same three methods the rig uses:
     open()            connect; RigError naming the device if it cannot
-    poll(now) -> list of (signal, value, fault or None) received since the last poll
+    poll(now) -> list of (signal, value, fault or None[, age s]) received since the last poll
     close()
 and the actuator's `send(mode, setpoint)`. Calibration to SI is not here: it is the
 channel's (rig/config.py, Channel.scale).
@@ -129,6 +129,8 @@ class SerialLoadCell:
         self.last_seq = None
         self.lost = 0
         self.glitches = []  # frame counts at which bytes were dropped or frames lost
+        self.n_sent = 0  # frames the amplifier sent, counting lost ones (from sequence numbers)
+        self.t0 = None  # rig clock when frame 0 was sent [s]
 
     def open(self):
         try:
@@ -144,23 +146,35 @@ class SerialLoadCell:
             raise RigError(f"device {self.name!r}: serial read failed ({e})") from None
         out = []
         dropped = self.parser.dropped
-        for f in self.parser.feed(data):
+        frames = self.parser.feed(data)
+        for f in frames:
             if self.last_seq is not None and (f.seq - self.last_seq - 1) & 0xFF:
                 self.lost += (f.seq - self.last_seq - 1) & 0xFF
                 self.glitches.append(self.frames)
+            self.n_sent += 1 + ((f.seq - self.last_seq - 1) & 0xFF if self.last_seq is not None else 0)
             self.last_seq = f.seq
             self.frames += 1
             fault = ("load cell saturated" if f.status & serial_frame.SATURATED
                      else "load cell sensor fault" if f.status & serial_frame.SENSOR_FAULT else None)
-            out.append(("output", f.volts, fault))
+            out.append(["output", f.volts, fault, self.n_sent])
+        if out:
+            # The amplifier streams at a fixed rate, so frame k was sent at t0 + k period; a
+            # frame is never received before it is sent, so t0 is the least (receipt - k
+            # period), let creep 100 ppm to follow the amplifier's clock. Stamping frames
+            # on receipt put 2 % of forces a tick late.
+            period = 1.0 / self.params.get("frame_hz", serial_frame.RATE_HZ)
+            t0 = now - self.n_sent * period
+            self.t0 = t0 if self.t0 is None else min(self.t0 + 1e-4 * period * len(out), t0)
+            for o in out:
+                o[3] = now - (self.t0 + o[3] * period)
         if self.parser.dropped > dropped:
             self.glitches.append(self.frames)
         # one glitch is noise; three within 100 frames is a line that cannot be trusted
         self.glitches = [g for g in self.glitches if g > self.frames - 100]
         if len(self.glitches) >= 3 and out:
-            name, volts, fault = out[-1]
+            name, volts, fault, age = out[-1]
             out[-1] = (name, volts, fault or f"serial line corrupt ({self.parser.dropped} bytes dropped, "
-                                               f"{self.parser.bad_frames} bad frames)")
+                                               f"{self.parser.bad_frames} bad frames)", age)
         return out
 
     def close(self):

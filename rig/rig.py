@@ -63,14 +63,15 @@ class Rig:
         device whose transport failed."""
         now = self.clock()
         for name, drv in self.drivers.items():
-            for signal, raw, fault in drv.poll(now):
+            for signal, raw, fault, *age in drv.poll(now):
                 ch = self.by_signal.get((name, signal))
                 if ch is None:
                     continue
                 value = ch.scale(raw)
-                self.latest[ch.name] = Reading(now, value, fault)
+                t = now - age[0] if age else now
+                self.latest[ch.name] = Reading(t, value, fault)
                 ts, vs = self._buf[ch.name]
-                ts.append(now)
+                ts.append(t)
                 vs.append(value)
         return now
 

@@ -41,14 +41,16 @@ def pack_path(p: ValvePath | None, f_comp: float, f_reb: float) -> np.ndarray:
     return np.stack([_direction_row(p.compression, f_comp), _direction_row(p.rebound, f_reb)])
 
 
-def pack(d: Damper, T: float, x_e: float):
-    """(prm, piston path, head path) for a run at temperature T [K] about x_e [m]."""
+def pack(d: Damper, T: float, x_e: float, T_gas: float | None = None):
+    """(prm, piston path, head path) for a run at temperature T [K] about x_e [m]; the gas
+    charge at T_gas [K] if it differs from the oil's (default T)."""
     check_temperature(d, T)
+    T_gas = T if T_gas is None else T_gas
     geo, g, c, ts = d.geometry, d.gas_spring, d.compressibility, d.temperature
     prm = np.zeros(NPRM)
     prm[AP], prm[AR], prm[AW] = geo.A_p, geo.A_r, geo.A_w
     prm[V10], prm[V20] = geo.V_total - geo.V20, geo.V20
-    V_e, P_e = gas_spring.equilibrium_state(x_e, T, g.P0, g.V0, g.T0, geo.A_r, g.K_voil, g.K_voint)
+    V_e, P_e = gas_spring.equilibrium_state(x_e, T_gas, g.P0, g.V0, g.T0, geo.A_r, g.K_voil, g.K_voint)
     prm[XE], prm[VXE], prm[PXE], prm[GAMMA] = x_e, V_e, P_e, g.gamma
     if c.beta_inv is not None:
         prm[KCONST] = c.beta_inv

@@ -138,7 +138,9 @@ class Stepper:
         self.set_temperature(T)
         self.y = self.asm.initial_state(self.prm, self.x_e)
         self.hist = new_history(self.asm.NSTATE)
-        self.atol = np.full(self.asm.NSTATE, ATOL_OIL)
+        # ATOL_OIL is sized for 100 MPa; a stiffer oil needs the stored volume proportionally finer
+        beta = damper.compressibility.beta_inv
+        self.atol = np.full(self.asm.NSTATE, ATOL_OIL * min(1.0, 1e8 / beta) if beta else ATOL_OIL)
         self.xs, self.vs = np.full(2, self.x_e), np.zeros(2)
         self.out = np.zeros((2, NOUT))
 
@@ -146,13 +148,14 @@ class Stepper:
         """Move the point the polytropic gas law refers to (eq 4.4) [m]: the gas has
         exchanged its heat and is at the cell's temperature there."""
         self.x_e = float(x_e)
-        self.set_temperature(self.T)
+        self.set_temperature(self.T, self.T_gas)
 
-    def set_temperature(self, T):
+    def set_temperature(self, T, T_gas=None):
         """Damper temperature [K]: gas equilibrium and valve coefficients follow; the oil
-        held in the chambers (the state) carries over."""
+        held in the chambers (the state) carries over. T_gas: the gas charge's, if not T."""
         seat = None if self.prm is None else self.prm[SEATOPEN]
-        self.prm, self.vp, self.vh = pack(self.damper, float(T), self.x_e)
+        self.T_gas = T_gas
+        self.prm, self.vp, self.vh = pack(self.damper, float(T), self.x_e, T_gas)
         if seat is not None:
             self.prm[SEATOPEN] = seat
         self.T = float(T)

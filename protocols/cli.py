@@ -178,6 +178,15 @@ def _import(args):
     return run(args)
 
 
+def _hidden_physics(p):
+    from sim_backend.effects import EFFECTS
+    p.add_argument("--effect", action="append", metavar="NAME=VALUE",
+                   help="hide physics in the virtual rig: " + ", ".join(f"{n} [{u}]" for n, (u, _) in EFFECTS.items()))
+    p.add_argument("--plain", action="store_true",
+                   help="the plain cell dyno prove uses (sim_backend/plain.toml): nothing the minimal model leaves out")
+    p.add_argument("--seed", type=int, default=0, help="the virtual rig's noise seed (default 0)")
+
+
 def parser():
     p = argparse.ArgumentParser(prog="dyno", description="Damper dyno controller and damper model tools")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -217,6 +226,7 @@ def parser():
     sr.add_argument("--config", default="sim-rig", help="rig config to serve (default: sim-rig)")
     sr.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
     sr.add_argument("--fault", action="append", metavar="NAME[@TIME]", help="inject a fault, at TIME s")
+    _hidden_physics(sr)
     sr.add_argument("--seconds", type=float, default=None, help="stop after this long")
     sr.set_defaults(func=commands.sim_rig)
     rn = sub.add_parser("run", help="run a test protocol and record it to MCAP")
@@ -224,6 +234,7 @@ def parser():
     rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
     rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
+    _hidden_physics(rn)
     rn.add_argument("--out", default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap)")
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
     rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")

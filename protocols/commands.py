@@ -86,11 +86,26 @@ def parse_faults(specs):
     return out
 
 
+def virtual_plant(args):
+    """VirtualRig keywords from --damper, --effect, --plain and --seed."""
+    from sim_backend.effects import EffectError, parse, plain_cell
+    try:
+        effects = parse(args.effect)
+    except EffectError as e:
+        raise RigError(str(e)) from None
+    params = None
+    damper = args.damper
+    if args.plain:
+        name, params, _ = plain_cell()
+        damper = name if damper in (None, "koni") else damper
+    return {"damper": damper, "effects": effects, "params": params, "seed": args.seed}
+
+
 def sim_rig(args):
     from sim_backend.virtual_rig import VirtualRig
     faults = parse_faults(args.fault)
     cfg = rig_config.load(args.config)
-    vr = VirtualRig(cfg, damper=args.damper)
+    vr = VirtualRig(cfg, **virtual_plant(args))
     try:
         served = vr.start()
     except OSError as e:
@@ -165,7 +180,10 @@ def run_protocol(args):
     if module is None:
         raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
     params = parse(module.Params, args.params)
-    damper = load_damper(args.damper)
+    if args.rig is not None and (args.effect or args.plain):
+        raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
+    plant = virtual_plant(args)
+    damper = load_damper(plant.pop("damper"))
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     info = rig_info(cfg, damper)
     skipped = module.check(params, info)  # refuse before anything connects or moves
@@ -179,7 +197,7 @@ def run_protocol(args):
     vr = None
     if args.rig is None:
         from sim_backend.virtual_rig import VirtualRig
-        vr = VirtualRig(cfg, damper=damper)
+        vr = VirtualRig(cfg, damper=damper, **plant)
         cfg = vr.start()
         rig = Rig(cfg, clock=vr.clock)
         pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
@@ -198,7 +216,8 @@ def run_protocol(args):
         if identifying:
             from protocols.live_identify import LiveIdentify
             ident = LiveIdentify(to_dict(damper), out.with_suffix(".model.json"), live)
-        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live, ident])
+        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live, ident],
+                               progress=getattr(args, "progress", True))
     finally:
         signal.signal(signal.SIGTERM, previous)
         if recorder is not None:

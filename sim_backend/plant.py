@@ -18,6 +18,8 @@ import numpy as np
 from models.damper import load as load_damper
 from models.simulate import Stepper
 
+from . import effects as fx_mod
+
 PARAMS = Path(__file__).parent / "plant.toml"
 MODE_OFF, MODE_HOLD, MODE_FOLLOW = 0, 1, 2
 STATE_OFF, STATE_HOLDING, STATE_FOLLOWING, STATE_ALARM = 0, 1, 2, 3
@@ -25,15 +27,20 @@ ALARM_FORCE, ALARM_VALVE = 1 << 0, 1 << 1  # see rig/dyno.dbc
 
 
 class Plant:
-    def __init__(self, damper="koni", T0=None, h=5e-4, seed=0, params=None):
+    def __init__(self, damper="koni", T0=None, h=5e-4, seed=0, params=None, effects=None):
         self.p = params or tomllib.loads(PARAMS.read_text())
-        self.damper = load_damper(damper) if isinstance(damper, str) else damper
+        self.fx = dict(effects or {})  # hidden physics, sim_backend/effects.py
+        damper = load_damper(damper) if isinstance(damper, str) else damper
+        self.damper = fx_mod.damper_with(damper, self.fx)
         self.h = h
         self.t = 0.0
         self.rng = np.random.default_rng(seed)
         a, th = self.p["actuator"], self.p["thermal"]
         self.T = th["ambient"] if T0 is None else float(T0)
         self.T_res = self.T
+        self.T_cell = self.T  # the gas charge's temperature where it does not follow the body
+        self.gas_share = self.fx.get("gas_temperature", th.get("gas_follows_body", 1.0))
+        self.repack_K = 0.05 if {"gas_temperature", "damping_temperature"} & set(self.fx) else th.get("repack_K", 0.5)
         self.x_act = self.damper.mid_stroke  # actuator position, in damper x [m]
         self.v_act = 0.0
         self.setpoint = self.setpoint_from = self.x_act
@@ -45,6 +52,14 @@ class Plant:
         self.faults = set()  # sensor/actuator faults injected by tests or `--fault`
         self._stuck_force = None
         self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.p["frame"]["friction_x_stick"])
+        self.stepper.set_temperature(self.T, self._T_gas())
+        self.x_rod = self.x_act - self.fx.get("free_play", 0.0) / 2  # where the damper's rod is (differs from the mount's with free play)
+        self.v_rod = self.F_rod = 0.0
+        self.contact = 1  # free play: +1 mount bears in compression, -1 in rebound, 0 crossing the gap
+        self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
+        self.a_f = 0.0  # acceleration through the oil column, low-passed [m/s^2]
+        self.aux_rng = np.random.default_rng(seed + 7919)
+        self.i_valve = self.i_lag = 1.0  # adjuster current [A] and what the valve has followed
         self.F_frame = 0.0  # force the frame deflects under (low-passed)
         self._T_packed = self.T
         self.x_gas = self.x_act  # where the gas last reached thermal equilibrium
@@ -112,9 +127,10 @@ class Plant:
         fr = self.p["frame"]
         self.F_frame += h / fr["tau_s"] * (self.F - self.F_frame)
         x_d = self.x_act - self.F_frame / fr["stiffness"]
+        v_prev = self.v_d
         self.v_d = (x_d - self.x_d) / h
         self.x_d = x_d
-        F, F_d, F_g, F_f, P1, P2, Pg = self.stepper.step(self.x_d, self.v_d)
+        F, F_d, P1, P2, Pg = self._damper_step(h, v_prev)
         self.F, self.F_d, self.P = F, F_d, (Pg, P1, P2)
         # thermal: damping power heats the body, convection cools it
         th = self.p["thermal"]
@@ -122,18 +138,73 @@ class Plant:
         self.energy += power * h
         self.T += h * (power - th["conductance"] * (self.T - th["ambient"])) / th["heat_capacity"]
         self.T_res += h * (self.T - self.T_res) / th["reservoir_tau_s"]
-        if abs(self.T - self._T_packed) > 0.5:  # re-pack the model every half kelvin
-            self.stepper.set_temperature(self.T)
+        if abs(self.T - self._T_packed) > self.repack_K:  # re-pack the model as it warms
+            self.stepper.set_temperature(self.T, self._T_gas())
             self._T_packed = self.T
         # the gas is polytropic about x_gas (eq 4.4) and exchanges heat towards isothermal
         # at its present position over tau (what a static dwell waits for, eq 3.7)
         self.x_gas += h / th["gas_tau_s"] * (self.x_d - self.x_gas)
         if abs(self.x_gas - self.stepper.x_e) > 1e-4:
             self.stepper.set_equilibrium(self.x_gas)
+        # the adjuster current wanders (Ornstein-Uhlenbeck, 2 s, 0.3 A about 1 A); the valve
+        # follows it through its solenoid's 20 ms lag
+        self.i_valve += h / 2.0 * (1.0 - self.i_valve) + 0.3 * math.sqrt(2 * h / 2.0) * self.aux_rng.standard_normal()
+        self.i_lag += h / 0.02 * (self.i_valve - self.i_lag)
         s = self.p["sensors"]
-        alpha = 1.0 - math.exp(-h / s["force_tau_s"])
+        alpha = 1.0 - math.exp(-h / s["force_tau_s"]) if s["force_tau_s"] > 0 else 1.0
         self.F_meas += alpha * (F - self.F_meas)
+        if "sensor_delay" in self.fx and self.fx["sensor_delay"] > 0:  # the conditioning's filter
+            if self.x_sens is None:
+                self.x_sens, self.v_sens = self.x_d, self.v_d
+            b = 1.0 - math.exp(-h / self.fx["sensor_delay"])
+            self.x_sens += b * (self.x_d - self.x_sens)
+            self.v_sens += b * (self.v_d - self.v_sens)
         self.t += h
+
+    def _T_gas(self):
+        return self.T_cell + self.gas_share * (self.T - self.T_cell)
+
+    def _damper_step(self, h, v_prev):
+        """The damper between the mount (at x_d) and the load cell, with the hidden
+        effects that live in its load path: (force on the load cell, damping, P1, P2, P_gas)."""
+        fx = self.fx
+        c = fx.get("free_play", 0.0)
+        if c > 0:  # the rod sits against one side of the clearance, or crosses it
+            gap = self.x_d - self.x_rod
+            if self.contact == 0 and abs(gap) >= c / 2:
+                self.contact = 1 if gap > 0 else -1
+            if self.contact:
+                x_rod = self.x_d - self.contact * c / 2
+            else:  # free: the rod moves so that its own force is spent (gas against damping)
+                slope = max(abs(self.F_d / self.v_rod), 2e3) if abs(self.v_rod) > 1e-4 else 2e4
+                x_rod = self.x_rod - h * self.F_rod / slope
+            v_rod = (x_rod - self.x_rod) / h
+            self.x_rod, self.v_rod = x_rod, v_rod
+        else:
+            x_rod, v_rod = self.x_d, self.v_d
+        F, F_d, F_g, F_f, P1, P2, Pg = self.stepper.step(x_rod, v_rod)
+        if fx.get("breakaway_friction", 1.0) != 1.0:  # Stribeck: the seal grips harder near rest
+            F += F_f * (fx["breakaway_friction"] - 1.0) * math.exp(-(v_rod / fx_mod.STRIBECK_V) ** 2)
+        if fx.get("fluid_inertia"):
+            self.a_f += h / 1e-3 * ((v_rod - v_prev) / h - self.a_f)
+            F += fx["fluid_inertia"] * self.a_f
+        if fx.get("aux_channel"):
+            F += fx["aux_channel"] * (self.i_lag - 1.0) * F_d
+        if "cavitation" in fx:  # a chamber below the floor holds the floor: the piston loses that push
+            geo, floor = self.damper.geometry, fx["cavitation"]
+            if P2 < floor:
+                F -= (floor - P2) * (geo.A_p - geo.A_r)
+                P2 = floor
+            if P1 < floor:
+                F += (floor - P1) * geo.A_p
+                P1 = floor
+        if c > 0:
+            if self.contact and F * self.contact < 0:
+                self.contact = 0  # the force changed sign: the rod leaves that side
+            self.F_rod = F  # the rod's own force (for the crossing); the load cell feels none of it
+            if self.contact == 0:
+                return 0.0, F_d, P1, P2, Pg
+        return F, F_d, P1, P2, Pg
 
     # --- outputs ------------------------------------------------------------------------
     def readings(self):
@@ -144,10 +215,16 @@ class Plant:
             if self._stuck_force is None:
                 self._stuck_force = force
             force = self._stuck_force
+        # the damper was driven at v_d, the velocity over the last step: the motion it answered
+        # is the step's middle, so that is the displacement reported (else the force seems to
+        # lag the motion by half a step, 0.25 ms)
+        x_mid = self.x_d - 0.5 * self.h * self.v_d
+        x, v = (x_mid, self.v_d) if self.x_sens is None else (self.x_sens, self.v_sens)
         return {
             "force": force,
-            "x": self.x_d + s["x_noise"] * n[1],
-            "v": self.v_d + s["v_noise"] * n[2],
+            "x": x + s["x_noise"] * n[1],
+            "v": v + s["v_noise"] * n[2],
+            "aux.valve_current": self.i_valve + 0.005 * self.aux_rng.standard_normal(),
             "x_internal": self._lag[0],
             "T_body": self.T + s["temperature_noise"] * n[3],
             "T_reservoir": self.T_res + s["temperature_noise"] * n[4],

@@ -66,9 +66,11 @@ def sim_rig_config(folder, rate_hz=None, stale_s=None):
 
 
 class VirtualRig:
-    def __init__(self, config, damper="koni", seed=0, T0=None):
+    def __init__(self, config, damper="koni", seed=0, T0=None, effects=None, params=None):
+        """effects: hidden physics {name: value} (sim_backend/effects.py); params: the
+        plant's parameters if not sim_backend/plant.toml."""
         self.config = copy.deepcopy(config)
-        self.plant = Plant(damper, T0=T0, seed=seed)
+        self.plant = Plant(damper, T0=T0, seed=seed, params=params, effects=effects)
         self.t = 0.0
         self.can = None
         self.can_bus = None

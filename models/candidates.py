@@ -1,0 +1,224 @@
+"""The diagnosis's models: the minimal baseline and the catalogue of physics it may have
+left out, each a small model with bounded parameters (arrays in, force out, N).
+
+Baseline `minimal` (thesis chapter 3, reduced):
+  damping   two-stage asymmetric valve curve, low- and mid-speed paths in parallel
+            (eq 3.30): v = v_L(F) + v_M(F), v_L from F = c1 v + c2 v^2 (eq 3.26, the
+            polynomial low-speed valve), v_M = (F - F_cr)/C_lin above the mid valve's
+            cracking force (eq 3.27 with its constant); incompressible, per direction
+  gas       polytropic about the mean position at constant temperature (eq 3.19):
+            F_G = G0 (L / (L - (x - x_m)))^gamma, gamma = 1.38 (thesis 4.1.2)
+  friction  Coulomb (eq 3.3), sgn(v) softened over V_EPS
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+GAMMA = 1.38  # thesis section 4.1.2
+V_EPS = 5e-4  # m/s: friction sign softened over this (the model's velocity is low-passed)
+
+
+@dataclass(frozen=True)
+class P:
+    name: str
+    x0: float
+    lo: float
+    hi: float
+    unit: str = ""
+
+
+def _direction(v, c1, c2, C, Fcr):
+    """Force magnitude [N] at speed v >= 0 [m/s] of low (c1 v + c2 v^2) and mid
+    ((F - Fcr)/C) paths in parallel, eq 3.30; closed form of the quadratic."""
+    FL = c1 * v + c2 * v * v
+    # above the cracking force: sqrt(c1^2 + 4 c2 F) = A - B F
+    A = 2 * c2 * v + c1 + 2 * c2 * Fcr / C
+    B = 2 * c2 / C
+    qa, qb, qc = B * B, -(2 * A * B + 4 * c2), A * A - c1 * c1
+    disc = np.sqrt(np.maximum(qb * qb - 4 * qa * qc, 0.0))
+    # the smaller root (A - B F >= 0), in the cancellation-free form
+    F_open = 2 * qc / np.maximum(-qb + disc, 1e-30)
+    return np.where(FL > Fcr, np.maximum(F_open, Fcr), FL)
+
+
+def damping(v, p):
+    """Damping force [N], positive in compression, from velocity v [m/s]."""
+    comp = _direction(np.maximum(v, 0), p["c1_c"], p["c2_c"], p["C_c"], p["Fcr_c"])
+    reb = _direction(np.maximum(-v, 0), p["c1_r"], p["c2_r"], p["C_r"], p["Fcr_r"])
+    return comp - reb
+
+
+def gas(x, x_m, p):
+    """Gas force [N]: polytropic about x_m (eq 3.19)."""
+    L = p["L"]
+    return p["G0"] * (L / np.maximum(L - (x - x_m), 1e-3 * L)) ** GAMMA
+
+
+def baseline_params(d):
+    """Start values and bounds of the minimal model from the data's ranges."""
+    Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
+    vmax = max(np.percentile(np.abs(d.v), 99), 1e-3)
+    c0 = Fmax / vmax
+    Fg = float(np.median(d.F))
+    return [P("c1_c", c0, 0.0, 50 * c0, "N s/m"), P("c2_c", c0 / vmax * 0.3, 0.0, 100 * c0 / vmax, "N s^2/m^2"),
+            P("C_c", c0, 0.01 * c0, 100 * c0, "N s/m"), P("Fcr_c", 0.5 * Fmax, 0.0, 3 * Fmax, "N"),
+            P("c1_r", c0, 0.0, 50 * c0, "N s/m"), P("c2_r", c0 / vmax * 0.3, 0.0, 100 * c0 / vmax, "N s^2/m^2"),
+            P("C_r", c0, 0.01 * c0, 100 * c0, "N s/m"), P("Fcr_r", 0.5 * Fmax, 0.0, 3 * Fmax, "N"),
+            P("G0", Fg, -Fmax, Fmax, "N"), P("L", 0.3, 0.005, 20.0, "m"),
+            P("F_c", 0.03 * Fmax, 0.0, 0.5 * Fmax, "N")]
+
+
+@njit(cache=True)
+def _lag(F, tau, h):
+    """F through a first-order lag of time constant tau[i] [s] (implicit Euler)."""
+    out = np.empty_like(F)
+    y = F[0]
+    for i in range(len(F)):
+        y += h[i] / (tau[i] + h[i]) * (F[i] - y)
+        out[i] = y
+    return out
+
+
+@njit(cache=True)
+def _since_reversal(x, v, cycle):
+    """Travel [m] since the last velocity reversal (restarts at each stretch)."""
+    out = np.empty_like(x)
+    x0, s0 = x[0], np.sign(v[0])
+    for i in range(len(x)):
+        s = np.sign(v[i])
+        if s != s0 and s != 0 or (i > 0 and cycle[i] != cycle[i - 1] and cycle[i] != cycle[i - 1] + 1):
+            x0, s0 = x[i], s
+        out[i] = abs(x[i] - x0)
+    return out
+
+
+@njit(cache=True)
+def _plateau(F, x, c):
+    """Zero force while the mount crosses a clearance c [m]: whenever the force would
+    change sign, it stays 0 until the displacement has moved c from there."""
+    out = F.copy()
+    side = 1.0 if F[0] >= 0 else -1.0
+    x_open, crossing = 0.0, False
+    for i in range(len(F)):
+        if crossing:
+            if abs(x[i] - x_open) >= c:
+                crossing = False
+                side = -side
+            else:
+                out[i] = 0.0
+                continue
+        if F[i] * side < 0:
+            crossing, x_open = True, x[i]
+            out[i] = 0.0
+    return out
+
+
+def _shift(y, t, tau):
+    return np.interp(t - tau, t, y)
+
+
+class Model:
+    """Baseline plus accepted effects, evaluated on Data: force(d, values) [N]."""
+
+    def __init__(self, d, effects=()):
+        self.x_m = float(np.mean(d.x))
+        self.params = baseline_params(d)
+        self.effects = list(effects)
+        for e in self.effects:
+            self.params += CATALOGUE[e.split(":")[0]].params(d, e)
+
+    def force(self, d, p, parts=False):
+        x, v, a, t = d.x, d.v, d.a, d.t
+        if "tau" in p:  # sensor_delay: the force answers the motion tau earlier than stamped
+            x, v, a = _shift(x, t, -p["tau"]), _shift(v, t, -p["tau"]), _shift(a, t, -p["tau"])
+        Fd = damping(v, p)
+        if "k_dT" in p:
+            Fd = Fd * (1 + p["k_dT"] * (d.T - self.T_m))
+        if "inv_k_oil" in p:  # compressibility: the valve in series with the oil's spring
+            Fd = _lag(Fd, _slope(v, p) * p["inv_k_oil"], d.h)
+        Fg = gas(x, self.x_m, p)
+        if "k_gT" in p:
+            Fg = Fg * (1 + p["k_gT"] * (d.T - self.T_m))
+        Fc = p["F_c"]
+        if "pf1" in p:
+            xi = (x - self.x_m) / 0.01
+            Fc = Fc * (1 + p["pf1"] * xi + p["pf2"] * xi * xi)
+        if "r_break" in p:
+            s = _since_reversal(x, v, d.cycle)
+            Fc = Fc * (1 + (p["r_break"] - 1) * np.exp(-s / p["s_break"]))
+        Ff = Fc * np.tanh(v / V_EPS)
+        F = Fd + Fg + Ff
+        if "m_oil" in p:
+            F = F + p["m_oil"] * a
+        for e in self.effects:
+            if e.startswith("aux_channel:"):
+                name = e.split(":", 1)[1]
+                u = _shift(d.aux[name], t, p[f"lag:{name}"]) - self.aux_m[name]
+                F = F + (p[f"b0:{name}"] + p[f"b1:{name}"] * Fd) * u
+        if "Fcav_c" in p:  # cavitation: the force cannot rise past what the chamber holds
+            F = np.where(v > 0, np.minimum(F, p["Fcav_c"]), np.maximum(F, -p["Fcav_r"]))
+        if "c_play" in p:
+            F = _plateau(F, x, p["c_play"])
+        return (F, Fd, Fg, Ff) if parts else F
+
+    def bind(self, d):
+        """Means the effects refer to (fixed from the data, not fitted)."""
+        self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
+        self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
+        return self
+
+
+def _slope(v, p):
+    """Local slope dF/dv of the damping curve [N s/m] (finite difference)."""
+    dv = 1e-3
+    return np.abs(damping(v + dv, p) - damping(v - dv, p)) / (2 * dv)
+
+
+@dataclass(frozen=True)
+class Effect:
+    name: str
+    what: str  # the physics, in an engineer's words
+    params: callable  # (d, effect id) -> [P]
+    needs: str = ""  # "T" or "aux": a channel it needs
+
+
+def _p(*ps):
+    return lambda d, e: list(ps)
+
+
+def _aux_params(d, e):
+    n = e.split(":", 1)[1]
+    s = float(np.std(d.aux[n])) or 1.0
+    Fs = float(np.std(d.F)) or 1.0
+    return [P(f"b0:{n}", 0.0, -10 * Fs / s, 10 * Fs / s, "N per unit"), P(f"b1:{n}", 0.0, -1 / s, 1 / s, "per unit"),
+            P(f"lag:{n}", 0.0, 0.0, 0.2, "s")]
+
+
+def _cav_params(d, e):
+    Fmax = float(np.max(np.abs(d.F)))
+    return [P("Fcav_c", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N"), P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N")]
+
+
+CATALOGUE = {
+    "sensor_delay": Effect("sensor_delay", "a time lag between the displacement and force channels",
+                           _p(P("tau", 0.0, -0.02, 0.02, "s"))),
+    "free_play": Effect("free_play", "clearance (free play) in the damper's mounts",
+                        _p(P("c_play", 2e-5, 0.0, 5e-3, "m"))),
+    "compressibility": Effect("compressibility", "compressible oil (entrained air) in series with the valves",
+                              _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N"))),
+    "breakaway_friction": Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
+                                 _p(P("r_break", 1.2, 1.0, 5.0, "-"), P("s_break", 2e-4, 1e-5, 3e-3, "m"))),
+    "position_friction": Effect("position_friction", "seal friction varying along the bore",
+                                _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2"))),
+    "gas_temperature": Effect("gas_temperature", "gas-spring force rising with temperature",
+                              _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")), "T"),
+    "damping_temperature": Effect("damping_temperature", "damping changing with oil temperature",
+                                  _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")), "T"),
+    "fluid_inertia": Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
+                            _p(P("m_oil", 0.0, -20.0, 200.0, "kg"))),
+    "cavitation": Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params),
+    "aux_channel": Effect("aux_channel", "an auxiliary channel changing the force", _aux_params, "aux"),
+}

@@ -1,0 +1,211 @@
+"""Missing-physics diagnosis: fit the baseline, locate where its residual lives, try each
+catalogue effect (models/candidates.py) with the baseline refitted, judge it only on
+held-out cycles, accept the best one whose improvement is significant, repeat.
+
+Significance: the held-out improvement per cycle d_c = SSE_baseline,c - SSE_candidate,c
+is tested by a bootstrap over cycles (whole cycles are the blocks) against zero, one-sided,
+Bonferroni-corrected for the candidates tried in that round (ALPHA over their number).
+An effect must also be worth having: its held-out mean-square improvement at least
+RELEVANCE times the force noise variance (the noise from the residual's sample-to-sample
+differences), so a structured misfit of the baseline a little smaller than the noise is
+not announced as physics.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .candidates import CATALOGUE, Model
+from .diagnose_data import Data, prepare
+
+ALPHA = 0.01
+RELEVANCE = 0.1
+BOOT = 2000
+GRID = {"c_play": [1e-5, 3e-5, 1e-4, 3e-4, 1e-3], "tau": [-2e-3, -2e-4, 0.0, 2e-4, 2e-3],
+        "s_break": [3e-5, 1e-4, 3e-4, 1e-3]}
+
+
+def nrmse(r, F):
+    return float(np.sqrt(np.mean(r ** 2)) / max(np.ptp(F), 1e-9))
+
+
+def fit(model: Model, d: Data, train, start: dict):
+    """Least squares over the training samples; returns (values, sd per parameter)."""
+    names = [p.name for p in model.params]
+    lo = np.array([p.lo for p in model.params])
+    hi = np.array([p.hi for p in model.params])
+    z0 = np.clip([start.get(p.name, p.x0) for p in model.params], lo, hi)
+    scale = np.maximum(np.abs(hi - lo) * 1e-3, np.abs(z0) * 0.1)
+    Fs = max(float(np.std(d.F)), 1e-9)
+
+    def resid(z):
+        return (model.force(d, dict(zip(names, z)))[train] - d.F[train]) / Fs
+
+    for g, values in GRID.items():  # parameters whose effect is piecewise: start from a grid
+        if g in names and g not in start:
+            i = names.index(g)
+            costs = []
+            for val in values:
+                z = z0.copy()
+                z[i] = val
+                costs.append(np.sum(resid(z) ** 2))
+            z0[i] = values[int(np.argmin(costs))]
+    r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=60 * len(z0), method="trf")
+    values = dict(zip(names, r.x))
+    res = r.fun
+    n_eff = max(int(np.sum(np.diff(np.sign(res)) != 0)), len(z0) + 2)
+    sigma2 = np.sum(res ** 2) / max(n_eff - len(z0), 1)
+    try:
+        cov = np.linalg.pinv(r.jac.T @ r.jac) * sigma2 * (len(res) / n_eff)
+        sd = dict(zip(names, np.sqrt(np.maximum(np.diag(cov), 0.0))))
+    except np.linalg.LinAlgError:
+        sd = {n: float("nan") for n in names}
+    return values, sd
+
+
+def _cycle_sse(r, cycles, test_cycles):
+    return np.array([np.sum(r[cycles == c] ** 2) for c in test_cycles])
+
+
+def p_value(d_c, rng):
+    """One-sided bootstrap p-value of mean(d_c) > 0, cycles as blocks."""
+    n = len(d_c)
+    if n < 3:
+        return 1.0
+    m = d_c.mean()
+    boot = d_c[rng.integers(0, n, (BOOT, n))].mean(axis=1)
+    return float((np.sum(boot - m >= m) + 1) / (BOOT + 1))
+
+
+def noise_sd(r, d: Data):
+    """Force noise [N] from sample-to-sample differences of the residual within cycles."""
+    same = np.diff(d.cycle) == 0
+    return float(np.median(np.abs(np.diff(r)[same])) / 0.6745 / np.sqrt(2))
+
+
+def available(d: Data, accepted):
+    out, skipped = [], []
+    for name, e in CATALOGUE.items():
+        if e.needs == "T" and d.T is None:
+            skipped.append(name)
+        elif e.needs == "aux":
+            out += [f"aux_channel:{n}" for n in d.aux if f"aux_channel:{n}" not in accepted]
+            if not d.aux:
+                skipped.append(name)
+        elif name not in accepted:
+            out.append(name)
+    return out, skipped
+
+
+def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
+    """The diagnosis as plain data (see protocols/diagnosis.py for its JSON)."""
+    d = prepare(channels, events)
+    rng = np.random.default_rng(seed)
+    train = d.cycle % 2 == 0
+    test_cycles = np.unique(d.cycle[~train])
+    model = Model(d).bind(d)
+    values, sd = fit(model, d, train, {})
+    r0 = model.force(d, values) - d.F
+    base = {"name": "minimal", "parameters": values, "sd": sd, "nrmse_train": nrmse(r0[train], d.F[train]),
+            "nrmse_heldout": nrmse(r0[~train], d.F[~train]), "residual": r0}
+    sigma = noise_sd(r0, d)
+    progress(f"baseline: held-out error {100 * base['nrmse_heldout']:.2f} % of the force range, "
+             f"force noise {sigma:.2f} N")
+    accepted, steps, candidates = [], [], []
+    current, r_cur = values, r0
+    _, not_assessed = available(d, accepted)
+    for _ in range(max_effects):
+        names, _ = available(d, accepted)
+        sse_cur = _cycle_sse(r_cur, d.cycle, test_cycles)
+        round_ = []
+        for e in names:
+            m = Model(d, accepted + [e]).bind(d)
+            vals, sds = fit(m, d, train, current)
+            r = m.force(d, vals) - d.F
+            d_c = sse_cur - _cycle_sse(r, d.cycle, test_cycles)
+            n_test = int(np.sum(~train))
+            gain = float(d_c.sum() / n_test)  # held-out mean-square improvement [N^2]
+            own = {p.name: vals[p.name] for p in m.params[len(Model(d, accepted).params):]}
+            round_.append({"effect": e, "parameters": own,
+                           "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
+                           "nrmse_heldout": nrmse(r[~train], d.F[~train]), "p_value": p_value(d_c, rng),
+                           "gain": gain, "relevance": gain / sigma ** 2, "round": len(accepted) + 1,
+                           "_values": vals, "_r": r})
+            progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.4f}"
+                     f"  gain {gain / sigma ** 2:+.3f} noise variances")
+        candidates += round_
+        alpha = ALPHA / max(len(round_), 1)
+        ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE]
+        if not ok:
+            break
+        best = max(ok, key=lambda c: c["gain"])
+        steps.append({"effect": best["effect"], "before": nrmse(r_cur[~train], d.F[~train]),
+                      "after": best["nrmse_heldout"], "parameters": best["parameters"], "ci": best["ci"],
+                      "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"]})
+        accepted.append(best["effect"])
+        current, r_cur = best["_values"], best["_r"]
+        progress(f"accepted {best['effect']}")
+    final_model = Model(d, accepted).bind(d)
+    return {"data": d, "train": train, "baseline": base, "noise_sd": sigma, "locations": locate(d, r0, train),
+            "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
+            "final": {"nrmse_heldout": nrmse(r_cur[~train], d.F[~train]), "parameters": current,
+                      "force": final_model.force(d, current)}}
+
+
+# --- where the residual lives ---------------------------------------------------------
+
+def locate(d: Data, r, train=None):
+    """[{where, energy_share, sample_share, mean_residual}] of regions holding more than
+    their share of the residual energy, strongest concentration first."""
+    E = r ** 2
+    tot = max(E.sum(), 1e-30)
+    vpk = np.array([np.max(np.abs(d.v[d.segment == s])) for s in range(len(d.segments))])[d.segment]
+    Fr = np.ptp(d.F)
+    regions = {
+        "in compression (v > 0)": d.v > 0,
+        "in rebound (v < 0)": d.v < 0,
+        "near velocity reversal (|v| < 5 % of the segment's peak)": np.abs(d.v) < 0.05 * vpk,
+        "at high speed (|v| > 80 % of the segment's peak)": np.abs(d.v) > 0.8 * vpk,
+        "near force zero-crossing (|F| < 5 % of its range)": np.abs(d.F) < 0.05 * Fr,
+        "at high acceleration (|a| > 80 % of the segment's peak)":
+            np.abs(d.a) > 0.8 * np.array([np.max(np.abs(d.a[d.segment == s])) for s in range(len(d.segments))])[d.segment],
+    }
+    lo, hi = np.percentile(d.x, [20, 80])
+    regions[f"at the compressed end (x > {hi * 1e3:.1f} mm)"] = d.x > hi
+    regions[f"at the extended end (x < {lo * 1e3:.1f} mm)"] = d.x < lo
+    mid = (d.x > np.percentile(d.x, 40)) & (d.x < np.percentile(d.x, 60))
+    regions[f"mid-stroke ({np.percentile(d.x, 40) * 1e3:.1f}-{np.percentile(d.x, 60) * 1e3:.1f} mm)"] = mid
+    for s, (name, f) in enumerate(d.segments):
+        regions[f"in segment {name}"] = d.segment == s
+    if d.T is not None:
+        Tq = np.percentile(d.T, 75)
+        regions[f"when hottest (T > {Tq - 273.15:.1f} C)"] = d.T > Tq
+    out = []
+    for where, k in regions.items():
+        n = k.mean()
+        if n < 0.01 or n > 0.9:
+            continue
+        share = E[k].sum() / tot
+        out.append({"where": where, "energy_share": float(share), "sample_share": float(n),
+                    "mean_residual": float(np.mean(r[k])), "concentration": float(share / n)})
+    out.sort(key=lambda o: -o["concentration"])
+    lag = best_lag(d, r)
+    if lag is not None:
+        out.append(lag)
+    return out
+
+
+def best_lag(d: Data, r):
+    """The residual against the force's rate of change: a lag between force and motion
+    leaves residual = -lag dF/dt."""
+    dF = np.gradient(d.F, d.t)
+    same = np.r_[True, np.diff(d.cycle) == 0]
+    k = same & np.isfinite(dF)
+    denom = float(np.sum(dF[k] ** 2))
+    if denom <= 0:
+        return None
+    lag = -float(np.sum(r[k] * dF[k]) / denom)
+    share = float(np.sum((lag * dF[k]) ** 2) / max(np.sum(r[k] ** 2), 1e-30))
+    return {"where": f"lag between force and displacement {1e3 * lag:+.3f} ms (force later when positive)",
+            "energy_share": share, "sample_share": 1.0, "mean_residual": 0.0, "concentration": share,
+            "lag_s": lag}

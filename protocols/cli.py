@@ -173,6 +173,16 @@ def _identify(args):
     return run(args)
 
 
+def _diagnose(args):
+    from protocols.diagnosis import run
+    return run(args)
+
+
+def _prove(args):
+    from protocols.prove import run
+    return run(args)
+
+
 def _import(args):
     from protocols.csv_import import run
     return run(args)
@@ -259,6 +269,20 @@ def parser():
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
     idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
     idf.set_defaults(func=_identify)
+    dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
+    dg.add_argument("recording")
+    dg.add_argument("--baseline", default="minimal", help="minimal (default)")
+    dg.add_argument("--json", action="store_true", help="machine-readable result")
+    dg.add_argument("--report", metavar="DIR", help="HTML report with residual maps and loops")
+    dg.set_defaults(func=_diagnose)
+    pv = sub.add_parser("prove", help="hide each effect in the virtual rig at the noise level and diagnose it")
+    pv.add_argument("--seeds", type=int, default=10, help="recordings per effect (default 10)")
+    pv.add_argument("--effects", help="comma-separated subset of effects (default: all, plus nulls)")
+    pv.add_argument("--json", action="store_true")
+    pv.add_argument("--calibrate", action="store_true",
+                    help="find each effect's concealed value (contribution = force noise) and print it")
+    pv.add_argument("--jobs", type=int, default=2, help="recordings made and diagnosed in parallel (default 2)")
+    pv.set_defaults(func=_prove)
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
     im.add_argument("file", metavar="FILE.csv")
     im.add_argument("--out", required=True, metavar="FILE.mcap")

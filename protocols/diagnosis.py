@@ -1,0 +1,193 @@
+"""`dyno diagnose RECORDING [--baseline minimal] [--json] [--report DIR]`: where the
+model misses the recording, what physics was left out, and the held-out evidence."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from models.candidates import CATALOGUE
+from models.diagnose import diagnose
+from models.diagnose_data import DiagnoseError
+from rig.errors import RigError
+
+from .report import load
+
+# how each accepted effect is said: (sentence, parameter shown, factor, unit)
+SAY = {
+    "sensor_delay": ("The force answers the displacement {v} {u} {late}: a filter or transport lag in a "
+                     "sensor's signal chain. Align the channels (or fix the conditioning) before fitting valves.",
+                     "tau", 1e3, "ms"),
+    "free_play": ("The force sits at zero while the mount travels {v} {u} each time it changes sign: "
+                  "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
+                  "c_play", 1e3, "mm"),
+    "compressibility": ("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
+                        "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
+                        "inv_k_oil", None, "kN/mm"),
+    "breakaway_friction": ("Friction is higher just after each velocity reversal, static/dynamic ratio {v}: "
+                           "seal breakaway. It sets the force near zero velocity; check seal and rod finish.",
+                           "r_break", 1.0, ""),
+    "position_friction": ("Friction changes along the stroke ({v} {u} per cm from mid-stroke): a tight spot or "
+                          "wear in the bore or seal. Inspect the bore and rod.", "pf1", 100.0, "%"),
+    "gas_temperature": ("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
+                        "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%"),
+    "damping_temperature": ("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
+                            "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
+    "fluid_inertia": ("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
+                      "(or unsupported mass in the load path). It matters in step and high-frequency tests.",
+                      "m_oil", 1.0, "kg"),
+    "cavitation": ("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
+                   "charge or check for air.", None, 1.0, "N"),
+    "aux_channel": ("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
+                    "Hold it constant or include it in the model.", "lag", 1e3, "ms"),
+}
+
+
+def sentence(step, d_F):
+    e = step["effect"]
+    key = e.split(":")[0]
+    text, pname, factor, unit = SAY[key]
+    p, ci = step["parameters"], step["ci"]
+    late = ""
+    if key == "cavitation":
+        v = min(p["Fcav_c"], p["Fcav_r"])
+        vs = f"{v:.0f}"
+    elif key == "aux_channel":
+        ch = e.split(":", 1)[1]
+        name = f"lag:{ch}"
+        vs = f"{p[name] * factor:.1f}"
+        return text.format(ch=ch, v=vs, u=unit) + _change(step)
+    elif key == "compressibility":
+        k = 1.0 / max(p[pname], 1e-30)
+        lo, hi = (1.0 / max(c, 1e-30) for c in ci[pname][::-1])
+        vs = f"{k / 1e6:.3g} ({max(lo, 0) / 1e6:.3g}-{hi / 1e6:.3g})"
+    else:
+        v = p[pname] * factor
+        lo, hi = (c * factor for c in ci[pname])
+        if key == "sensor_delay":
+            late = "late" if v < 0 else "early"
+            v, lo, hi = abs(v), min(abs(lo), abs(hi)), max(abs(lo), abs(hi))
+        vs = f"{v:.3g} ({lo:.3g}-{hi:.3g})"
+    return text.format(v=vs, u=unit, late=late) + _change(step)
+
+
+def _change(step):
+    return (f" Held-out error falls from {100 * step['before']:.2f} % to {100 * step['after']:.2f} % "
+            f"(p = {step['p_value']:.4f}).")
+
+
+def _where(loc):
+    return (f"{loc['where']}: {100 * loc['energy_share']:.0f} % of the residual energy in "
+            f"{100 * loc['sample_share']:.0f} % of the samples")
+
+
+def summary(res):
+    lines = []
+    b = res["baseline"]
+    lines.append(f"Baseline (minimal): held-out error {100 * b['nrmse_heldout']:.2f} % of the force range "
+                 f"(training {100 * b['nrmse_train']:.2f} %); force noise {res['noise_sd']:.2f} N.")
+    strong = [loc for loc in res["locations"] if loc["concentration"] > 2.0][:3]
+    if strong:
+        lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
+    if res["accepted"]:
+        for s in res["steps"]:
+            lines.append(f"Left out: {s['effect'].replace('_', ' ')}. " + sentence(s, res["data"].F))
+    else:
+        lines.append("Nothing significant was left out: no candidate improved the held-out cycles beyond chance "
+                     "and the noise.")
+    for n in res["data"].notes:
+        lines.append(f"Not assessed: {n}.")
+    return "\n".join(lines)
+
+
+def to_json(res):
+    def num(v):
+        return float(v) if np.isfinite(v) else None
+    b = res["baseline"]
+    return {
+        "baseline": {"name": b["name"], "parameters": {k: num(v) for k, v in b["parameters"].items()},
+                     "nrmse_train": b["nrmse_train"], "nrmse_heldout": b["nrmse_heldout"]},
+        "noise_sd": res["noise_sd"],
+        "locations": res["locations"],
+        "candidates": [{"effect": c["effect"], "round": c["round"],
+                        "parameters": {k: num(v) for k, v in c["parameters"].items()},
+                        "ci": {k: [num(a), num(z)] for k, (a, z) in c["ci"].items()},
+                        "nrmse_heldout": c["nrmse_heldout"], "p_value": c["p_value"],
+                        "gain_noise_variances": c["relevance"]} for c in res["candidates"]],
+        "accepted": res["accepted"],
+        "final": {"nrmse_heldout": res["final"]["nrmse_heldout"],
+                  "parameters": {k: num(v) for k, v in res["final"]["parameters"].items()}},
+        "not_assessed": res["data"].notes,
+        "summary": summary(res),
+    }
+
+
+def report(res, out_dir: Path):
+    from models.plots import plt
+    out_dir.mkdir(parents=True, exist_ok=True)
+    d = res["data"]
+    stages = [("baseline", res["baseline"]["residual"])] + [(f"+ {s['effect']}", s["residual_after"]) for s in res["steps"]]
+    fig, axes = plt.subplots(len(stages), 3, figsize=(13, 3.2 * len(stages)), squeeze=False)
+    for row, (name, r) in zip(axes, stages):
+        for ax, (xv, lab) in zip(row, [(d.v, "velocity [m/s]"), (d.x * 1e3, "displacement [mm]"), (d.t, "time [s]")]):
+            ax.plot(xv, r, ",", alpha=0.5)
+            ax.set_xlabel(lab)
+            ax.set_ylabel(f"residual [N] ({name})")
+    fig.tight_layout()
+    fig.savefig(out_dir / "residuals.png", dpi=80)
+    plt.close(fig)
+    seg = int(np.argmax([np.ptp(d.F[d.segment == s]) for s in range(len(d.segments))]))
+    k = d.segment == seg
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
+    base = d.F - res["baseline"]["residual"]
+    ax[0].plot(d.x[k] * 1e3, d.F[k], "k", lw=0.6, label="measured")
+    ax[0].plot(d.x[k] * 1e3, base[k], "C1", lw=0.6, label="baseline")
+    ax[0].plot(d.x[k] * 1e3, res["final"]["force"][k], "C2", lw=0.6, label="with accepted effects")
+    ax[0].set_xlabel("displacement [mm]")
+    ax[0].set_ylabel("force [N]")
+    ax[0].legend()
+    ax[0].set_title(d.segments[seg][0])
+    ax[1].plot(d.v[k], d.F[k], "k", lw=0.6)
+    ax[1].plot(d.v[k], base[k], "C1", lw=0.6)
+    ax[1].plot(d.v[k], res["final"]["force"][k], "C2", lw=0.6)
+    ax[1].set_xlabel("velocity [m/s]")
+    fig.tight_layout()
+    fig.savefig(out_dir / "loops.png", dpi=80)
+    plt.close(fig)
+    rows = "".join(f"<tr><td>{c['effect']}</td><td>{c['round']}</td><td>{100 * c['nrmse_heldout']:.3f} %</td>"
+                   f"<td>{c['p_value']:.4f}</td><td>{c['relevance']:+.2f}</td></tr>" for c in res["candidates"])
+    text = summary(res).replace("\n", "</p><p>")
+    (out_dir / "index.html").write_text(
+        f"<html><head><meta charset='utf-8'><title>dyno diagnose</title></head><body><h1>Diagnosis</h1><p>{text}</p>"
+        f"<h2>Residual maps, before and after each accepted effect</h2><img src='residuals.png'>"
+        f"<h2>Loops</h2><img src='loops.png'><h2>Candidates</h2><table border=1><tr><th>effect</th><th>round</th>"
+        f"<th>held-out error</th><th>p</th><th>gain [noise variances]</th></tr>{rows}</table></body></html>")
+    return out_dir / "index.html"
+
+
+def run(args):
+    if args.baseline != "minimal":
+        raise RigError(f"--baseline {args.baseline}: only 'minimal' is implemented so far")
+    ch, events, _ = load(args.recording)
+    say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
+    try:
+        res = diagnose(ch, events, progress=say)
+    except DiagnoseError as e:
+        raise RigError(f"{args.recording}: {e}") from None
+    if args.report:
+        page = report(res, Path(args.report))
+        say(f"report: {page}")
+    if args.json:
+        print(json.dumps(to_json(res), indent=1))
+    else:
+        print(summary(res))
+        print("\nCandidates (held-out error, p, gain in noise variances):")
+        for c in res["candidates"]:
+            print(f"  round {c['round']} {c['effect']:32s} {100 * c['nrmse_heldout']:7.3f} %  p = {c['p_value']:.4f}  "
+                  f"{c['relevance']:+8.2f}")
+    return 0
+
+
+__all__ = ["run", "summary", "to_json", "CATALOGUE"]

@@ -1,0 +1,183 @@
+"""`dyno prove`: hide each catalogue effect in the plain virtual rig (sim_backend/plain.toml)
+at the level where its RMS contribution to the force equals the force sensor's noise,
+record the prove sine matrix through the wire protocols, diagnose, and count.
+
+Detection: the effect is the first accepted. Wrong effect: something else came first.
+False positive: anything accepted on a null recording (no hidden effect).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from sim_backend.effects import EFFECTS, plain_cell
+
+# the parameter of the diagnosis that estimates each effect (its own description differs)
+ESTIMATE = {"sensor_delay": "tau", "free_play": "c_play", "compressibility": "inv_k_oil",
+            "breakaway_friction": "r_break", "position_friction": "pf1", "gas_temperature": "k_gT",
+            "damping_temperature": "k_dT", "fluid_inertia": "m_oil", "cavitation": "Fcav_c",
+            "aux_channel": "b1:aux.valve_current"}
+GUESS = {"sensor_delay": 1e-4, "free_play": 2e-5, "compressibility": 2e10, "breakaway_friction": 1.1,
+         "position_friction": 0.1, "gas_temperature": 0.1, "damping_temperature": 1e-4, "fluid_inertia": 0.5,
+         "cavitation": 3e5, "aux_channel": 0.01}
+
+
+def _plan():
+    from models.damper import load as load_damper
+    from protocols.commands import rig_info
+    from protocols.library import PROTOCOLS
+    from rig import config as rig_config
+    name, params, prove = plain_cell()
+    module = PROTOCOLS[prove["protocol"]]
+    p = module.Params(**prove["params"])
+    damper = load_damper(name)
+    return module, p, rig_info(rig_config.load("virtual"), damper), name, params, prove
+
+
+def offline_force(effects, seed=0):
+    """The plain plant driven by the prove plan without the wires (calibration only):
+    (force as measured, measured-segment mask)."""
+    from sim_backend.plant import MODE_FOLLOW, Plant
+    module, p, info, name, params, _ = _plan()
+    plant = Plant(name, params=params, effects=effects, seed=seed)
+    F, rec = [], []
+    for seg in module.plan(p, info):
+        for k in range(int(round(seg.duration / 1e-3))):
+            plant.command(MODE_FOLLOW, seg.x(k * 1e-3))
+            plant.advance(1e-3)
+            F.append(plant.readings()["force"])
+            rec.append(seg.record)
+    return np.array(F), np.array(rec)
+
+
+def contribution(effect, value, seed=0, null=None):
+    """RMS [N] of what the effect adds to the measured force (same noise seed, so the noise
+    cancels); for a sensor lag, of the force against itself shifted by the lag."""
+    F0, rec = null if null is not None else offline_force({}, seed)
+    if effect == "sensor_delay":
+        t = np.arange(len(F0)) * 1e-3
+        d = F0 - np.interp(t - value, t, F0)
+    else:
+        F1, _ = offline_force({effect: value}, seed)
+        d = F1 - F0
+    return float(np.sqrt(np.mean(d[rec] ** 2)))
+
+
+def calibrate(target, progress):
+    """{effect: value} with contribution == target, by bisection on a log scale."""
+    null = offline_force({}, 0)
+    out = {}
+    for e, g in GUESS.items():
+        # strength s > 0 grows the effect; the value is g * s (bulk modulus: g / s; ratio: 1 + (g - 1) s)
+        def value(s, e=e, g=g):
+            return g / s if e == "compressibility" else 1 + (g - 1) * s if e == "breakaway_friction" else g * s
+        lo, hi = 1e-3, 1e3
+        for _ in range(14):
+            s = math.sqrt(lo * hi)
+            c = contribution(e, value(s), 0, null)
+            lo, hi = (s, hi) if c < target else (lo, s)
+        out[e] = float(f"{value(lo):.4g}")
+        progress(f"{e} = {out[e]:g} {EFFECTS[e][0]} (contribution {contribution(e, out[e], 0, null):.2f} N)")
+    return out
+
+
+def _one(task):
+    """Record one prove run through the wire protocols, diagnose it."""
+    effect, value, seed, folder = task
+    from models.diagnose import diagnose
+    from protocols.commands import run_protocol
+    from protocols.report import load
+    _, _, prove = plain_cell()
+    out = Path(folder) / f"{effect or 'null'}-{seed}.mcap"
+    pairs = [f"{k}={','.join(str(x) for x in v) if isinstance(v, list) else v}" for k, v in prove["params"].items()]
+    args = argparse.Namespace(protocol=prove["protocol"], params=pairs, rig=None, damper=None, out=str(out),
+                              realtime=False, live=False, rrd=None, identify=False, plain=True, seed=seed,
+                              effect=[f"{effect}={value}"] if effect else [], progress=False)
+    import contextlib
+    import io
+    with contextlib.redirect_stderr(io.StringIO()):
+        run_protocol(args)
+    ch, ev, _ = load(out)
+    r = diagnose(ch, ev)
+    first = r["accepted"][0].split(":")[0] if r["accepted"] else None
+    est = None
+    if first and effect and first == effect:
+        est = r["steps"][0]["parameters"].get(ESTIMATE[effect])
+    return {"effect": effect, "seed": seed, "accepted": r["accepted"], "first": first, "estimate": est,
+            "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"],
+            "file": str(out)}
+
+
+def _measured_rms_diff(a, b):
+    from protocols.report import load
+    (ta, Fa), (tb, Fb) = load(a)[0]["force"], load(b)[0]["force"]
+    n = min(len(Fa), len(Fb))
+    return float(np.sqrt(np.mean((Fa[:n] - Fb[:n]) ** 2)))
+
+
+def run(args):
+    _, params, prove = plain_cell()
+    say = (lambda s: print(s, file=sys.stderr, flush=True))
+    noise = params["sensors"]["force_noise"]
+    if args.calibrate:
+        vals = calibrate(noise, say)
+        print("[prove.concealed]")
+        for e, v in vals.items():
+            print(f"{e} = {v:g}")
+        return 0
+    concealed = prove.get("concealed", {})
+    effects = [e for e in (args.effects.split(",") if args.effects else list(EFFECTS) + ["null"])]
+    for e in effects:
+        if e != "null" and e not in concealed:
+            say(f"dyno: error: no concealed value for {e!r} in sim_backend/plain.toml (run dyno prove --calibrate)")
+            return 2
+    tasks = []
+    with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:
+        for seed in range(args.seeds):
+            for e in effects:
+                tasks.append((None if e == "null" else e, concealed.get(e), seed, folder))
+            if "null" not in effects:  # the contribution is measured against the null of the same seed
+                tasks.append((None, None, seed, folder))
+        results = []
+        with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            for r in pool.map(_one, tasks):
+                results.append(r)
+                say(f"{r['effect'] or 'null':20s} seed {r['seed']:2d}: accepted {r['accepted'] or 'nothing'}")
+        nulls = {r["seed"]: r["file"] for r in results if r["effect"] is None}
+        for r in results:
+            if r["effect"] and r["effect"] != "sensor_delay":
+                r["contribution"] = _measured_rms_diff(r["file"], nulls[r["seed"]])
+    table = []
+    for e in effects:
+        rs = [r for r in results if (r["effect"] or "null") == e]
+        row = {"effect": e, "n": len(rs), "value": concealed.get(e),
+               "detection": float(np.mean([r["first"] == e for r in rs])) if e != "null" else None,
+               "wrong_effect": float(np.mean([r["first"] not in (None, e) for r in rs])) if e != "null" else None,
+               "false_positive": float(np.mean([bool(r["accepted"]) for r in rs])) if e == "null" else None,
+               "heldout_before": float(np.median([r["before"] for r in rs])),
+               "heldout_after": float(np.median([r["after"] for r in rs])),
+               "estimate": (float(np.median([r["estimate"] for r in rs if r["estimate"] is not None]))
+                            if any(r["estimate"] is not None for r in rs) else None),
+               "contribution_rms": (float(np.median([r["contribution"] for r in rs if "contribution" in r]))
+                                    if any("contribution" in r for r in rs) else None)}
+        table.append(row)
+    doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table,
+           "goals": {"detection": 0.9, "false_positive": 0.05}}
+    if args.json:
+        print(json.dumps(doc, indent=1))
+    else:
+        print(f"{'effect':20s} {'value':>10s} {'contrib N':>9s} {'detect':>7s} {'wrong':>6s} {'FP':>5s} "
+              f"{'estimate':>10s} {'before %':>8s} {'after %':>8s}")
+        for r in table:
+            f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
+            print(f"{r['effect']:20s} {f(r['value'], '10.3g')} {f(r['contribution_rms'], '9.2f')} "
+                  f"{f(r['detection'], '7.0%')} {f(r['wrong_effect'], '6.0%')} {f(r['false_positive'], '5.0%')} "
+                  f"{f(r['estimate'], '10.3g')} {100 * r['heldout_before']:8.3f} {100 * r['heldout_after']:8.3f}")
+    return 0

@@ -170,14 +170,14 @@ class Plant:
         fx = self.fx
         c = fx.get("free_play", 0.0)
         if c > 0:  # the rod sits against one side of the clearance, or crosses it
-            gap = self.x_d - self.x_rod
-            if self.contact == 0 and abs(gap) >= c / 2:
-                self.contact = 1 if gap > 0 else -1
             if self.contact:
                 x_rod = self.x_d - self.contact * c / 2
-            else:  # free: the rod moves so that its own force is spent (gas against damping)
+            else:  # free: the rod moves, relative to the mount, so that its own force is spent
                 slope = max(abs(self.F_d / self.v_rod), 2e3) if abs(self.v_rod) > 1e-4 else 2e4
-                x_rod = self.x_rod - h * self.F_rod / slope
+                x_rod = self.x_rod + h * (self.v_d - self.F_rod / slope)
+                if abs(self.x_d - x_rod) >= c / 2:  # it reached a side of the clearance: contact
+                    self.contact = 1 if self.x_d > x_rod else -1
+                    x_rod = self.x_d - self.contact * c / 2
             v_rod = (x_rod - self.x_rod) / h
             self.x_rod, self.v_rod = x_rod, v_rod
         else:

@@ -2,8 +2,9 @@
 catalogue effect (models/candidates.py) with the baseline refitted, judge it only on
 held-out cycles, accept the best one whose improvement is significant, repeat.
 
-Significance: the held-out improvement per cycle d_c = SSE_baseline,c - SSE_candidate,c
-is tested by a bootstrap over cycles (whole cycles are the blocks) against zero, one-sided,
+Significance: the held-out relative improvement per cycle (SSE_baseline,c - SSE_candidate,c)
+/ SSE_baseline,c, so that every cycle counts alike whatever its force level, is tested by
+a bootstrap over cycles (whole cycles are the blocks) against zero, one-sided,
 Bonferroni-corrected for the candidates tried in that round (ALPHA over their number).
 An effect must also be worth having: its held-out mean-square improvement at least
 RELEVANCE times the force noise variance (the noise from the residual's sample-to-sample
@@ -125,10 +126,11 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
             d_c = sse_cur - _cycle_sse(r, d.cycle, test_cycles)
             n_test = int(np.sum(~train))
             gain = float(d_c.sum() / n_test)  # held-out mean-square improvement [N^2]
+            rel = d_c / np.maximum(sse_cur, 1e-30)  # each cycle counts alike, whatever its force
             own = {p.name: vals[p.name] for p in m.params[len(Model(d, accepted).params):]}
             round_.append({"effect": e, "parameters": own,
                            "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                           "nrmse_heldout": nrmse(r[~train], d.F[~train]), "p_value": p_value(d_c, rng),
+                           "nrmse_heldout": nrmse(r[~train], d.F[~train]), "p_value": p_value(rel, rng),
                            "gain": gain, "relevance": gain / sigma ** 2, "round": len(accepted) + 1,
                            "_values": vals, "_r": r})
             progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.4f}"

@@ -2,9 +2,9 @@
 catalogue effect (models/candidates.py) with the baseline refitted, judge it only on
 held-out cycles, accept the best one whose improvement is significant, repeat.
 
-Significance: the held-out relative improvement per cycle (SSE_baseline,c - SSE_candidate,c)
-/ SSE_baseline,c, so that every cycle counts alike whatever its force level, is tested by
-a bootstrap over cycles (whole cycles are the blocks) against zero, one-sided,
+Significance: the held-out relative improvement per block (SSE_baseline,b - SSE_candidate,b)
+/ SSE_baseline,b, so that every block counts alike whatever its force level, is tested by
+a bootstrap over blocks (quarter cycles of held-out cycles) against zero, one-sided,
 Bonferroni-corrected for the candidates tried in that round (ALPHA over their number).
 An effect must also be worth having: its held-out mean-square improvement at least
 RELEVANCE times the force noise variance (the noise from the residual's sample-to-sample
@@ -64,12 +64,22 @@ def fit(model: Model, d: Data, train, start: dict):
     return values, sd
 
 
-def _cycle_sse(r, cycles, test_cycles):
-    return np.array([np.sum(r[cycles == c] ** 2) for c in test_cycles])
+def blocks(d: Data, per_cycle=4):
+    """Block number of each sample: each cycle cut into `per_cycle` equal parts (strokes
+    and reversals apart), the units the bootstrap resamples."""
+    out = np.empty(len(d.cycle), int)
+    starts = np.r_[0, np.nonzero(np.diff(d.cycle))[0] + 1, len(d.cycle)]
+    for a, b in zip(starts[:-1], starts[1:]):
+        out[a:b] = d.cycle[a] * per_cycle + (np.arange(b - a) * per_cycle) // (b - a)
+    return out
+
+
+def _block_sse(r, block, ids):
+    return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
 
 
 def p_value(d_c, rng):
-    """One-sided bootstrap p-value of mean(d_c) > 0, cycles as blocks."""
+    """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c."""
     n = len(d_c)
     if n < 3:
         return 1.0
@@ -103,7 +113,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
     d = prepare(channels, events)
     rng = np.random.default_rng(seed)
     train = d.cycle % 2 == 0
-    test_cycles = np.unique(d.cycle[~train])
+    block = blocks(d)
+    test_blocks = np.unique(block[~train])
     model = Model(d).bind(d)
     values, sd = fit(model, d, train, {})
     r0 = model.force(d, values) - d.F
@@ -117,16 +128,16 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
     _, not_assessed = available(d, accepted)
     for _ in range(max_effects):
         names, _ = available(d, accepted)
-        sse_cur = _cycle_sse(r_cur, d.cycle, test_cycles)
+        sse_cur = _block_sse(r_cur, block, test_blocks)
         round_ = []
         for e in names:
             m = Model(d, accepted + [e]).bind(d)
             vals, sds = fit(m, d, train, current)
             r = m.force(d, vals) - d.F
-            d_c = sse_cur - _cycle_sse(r, d.cycle, test_cycles)
+            d_c = sse_cur - _block_sse(r, block, test_blocks)
             n_test = int(np.sum(~train))
             gain = float(d_c.sum() / n_test)  # held-out mean-square improvement [N^2]
-            rel = d_c / np.maximum(sse_cur, 1e-30)  # each cycle counts alike, whatever its force
+            rel = d_c / np.maximum(sse_cur, 1e-30)  # each block counts alike, whatever its force
             own = {p.name: vals[p.name] for p in m.params[len(Model(d, accepted).params):]}
             round_.append({"effect": e, "parameters": own,
                            "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},

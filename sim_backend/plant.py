@@ -154,10 +154,11 @@ class Plant:
         alpha = 1.0 - math.exp(-h / s["force_tau_s"]) if s["force_tau_s"] > 0 else 1.0
         self.F_meas += alpha * (F - self.F_meas)
         if "sensor_delay" in self.fx and self.fx["sensor_delay"] > 0:  # the conditioning's filter
+            x_mid = self.x_d - 0.5 * h * self.v_d  # see readings()
             if self.x_sens is None:
-                self.x_sens, self.v_sens = self.x_d, self.v_d
+                self.x_sens, self.v_sens = x_mid, self.v_d
             b = 1.0 - math.exp(-h / self.fx["sensor_delay"])
-            self.x_sens += b * (self.x_d - self.x_sens)
+            self.x_sens += b * (x_mid - self.x_sens)
             self.v_sens += b * (self.v_d - self.v_sens)
         self.t += h
 
@@ -172,9 +173,11 @@ class Plant:
         if c > 0:  # the rod sits against one side of the clearance, or crosses it
             if self.contact:
                 x_rod = self.x_d - self.contact * c / 2
-            else:  # free: the rod moves, relative to the mount, so that its own force is spent
-                slope = max(abs(self.F_d / self.v_rod), 2e3) if abs(self.v_rod) > 1e-4 else 2e4
-                x_rod = self.x_rod + h * (self.v_d - self.F_rod / slope)
+            else:  # free: the rod moves at the speed where its own force is spent
+                # twice the secant slope of the damping: at least the tangent of a valve curve
+                # growing no faster than v^2, so the Newton step does not overshoot
+                slope = 2 * max(abs(self.F_d / self.v_rod), 2e3) if abs(self.v_rod) > 1e-4 else 4e4
+                x_rod = self.x_rod + h * (self.v_rod - self.F_rod / slope)  # Newton on F_rod(v) = 0
                 if abs(self.x_d - x_rod) >= c / 2:  # it reached a side of the clearance: contact
                     self.contact = 1 if self.x_d > x_rod else -1
                     x_rod = self.x_d - self.contact * c / 2

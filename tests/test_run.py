@@ -23,7 +23,7 @@ from rig.safety import Safety
 from sim_backend.virtual_rig import VirtualRig
 
 DYNO = str(Path(sys.executable).parent / "dyno")
-CHANNELS = ("force", "x", "v", "x_internal", "T_body", "T_reservoir", "P_gas", "P1", "P2")
+CHANNELS = ("force", "x", "v", "x_internal", "T_body", "T_reservoir", "P_gas", "P1", "P2", "aux.valve_current")
 
 
 def read(path):

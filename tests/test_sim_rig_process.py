@@ -58,7 +58,7 @@ def test_rig_check_and_a_sine_against_a_separate_sim_rig(tmp_path):
         check = subprocess.run([DYNO, "rig", "check", "--rig", str(cfg_path)], capture_output=True,
                                text=True, timeout=60)
         assert check.returncode == 0, check.stdout + check.stderr
-        assert "all 9 channels report" in check.stdout and "actuator: holding" in check.stdout
+        assert "all 10 channels report" in check.stdout and "actuator: holding" in check.stdout
         cfg = config.load(cfg_path)
         assert {d.transport for d in cfg.devices.values()} == {"can", "serial", "modbus"}
         rig = Rig(cfg)
@@ -121,6 +121,6 @@ def test_rig_check_names_what_is_missing(tmp_path):
 
 def test_embedded_rig_check_and_bad_fault_names():
     check = subprocess.run([DYNO, "rig", "check"], capture_output=True, text=True, timeout=120)
-    assert check.returncode == 0 and "all 9 channels report" in check.stdout
+    assert check.returncode == 0 and "all 10 channels report" in check.stdout
     bad = subprocess.run([DYNO, "sim-rig", "--fault", "gremlins@3"], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and bad.stderr.startswith("dyno: error: --fault gremlins@3: unknown fault")

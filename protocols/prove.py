@@ -70,11 +70,13 @@ def contribution(effect, value, seed=0, null=None):
     return float(np.sqrt(np.mean(d[rec] ** 2)))
 
 
-def calibrate(target, progress):
+def calibrate(target, progress, effects=None):
     """{effect: value} with contribution == target, by bisection on a log scale."""
     null = offline_force({}, 0)
     out = {}
     for e, g in GUESS.items():
+        if effects and e not in effects:
+            continue
         # strength s > 0 grows the effect; the value is g * s (bulk modulus: g / s; ratio: 1 + (g - 1) s)
         def value(s, e=e, g=g):
             return g / s if e == "compressibility" else 1 + (g - 1) * s if e == "breakaway_friction" else g * s
@@ -127,7 +129,7 @@ def run(args):
     say = (lambda s: print(s, file=sys.stderr, flush=True))
     noise = params["sensors"]["force_noise"]
     if args.calibrate:
-        vals = calibrate(noise, say)
+        vals = calibrate(noise, say, args.effects.split(",") if args.effects else None)
         print("[prove.concealed]")
         for e, v in vals.items():
             print(f"{e} = {v:g}")

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 GAMMA = 1.38  # thesis section 4.1.2
-V_EPS = 5e-4  # m/s: friction sign softened over this (the model's velocity is low-passed)
+V_EPS = 5e-5  # m/s: friction sign softened over this (the model's velocity is low-passed)
 
 
 @dataclass(frozen=True)

@@ -78,3 +78,24 @@ def bench_identify(recording=None, damper="koni"):
     doc = json.loads(p.stdout)
     return {"recording": str(recording), "wall_s": wall, "goal_wall_s": GOAL_IDENTIFY_S,
             "goal_met": wall < GOAL_IDENTIFY_S, "heldout_nrmse": doc["heldout_nrmse"], "steps": doc["steps"]}
+
+
+def bench_diagnose(seconds=60.0, rate_hz=5000.0):
+    """`dyno bench diagnose`: a recording of `seconds` of sine matrix at rate_hz from the
+    plain plant (no wires), then the diagnosis's wall time. Goal: 60 s at 5 kHz in < 3 min."""
+    from models.diagnose import diagnose
+    from protocols.prove import offline_recording
+    params = {"amplitudes_mm": [12.7, 6.4, 3.2], "freqs_hz": [1.0, 2.0, 4.0, 8.0, 16.0],
+              "settle_cycles": 1, "record_cycles": 5}
+    t0 = time.perf_counter()
+    ch, events, _ = offline_recording({"fluid_inertia": 1.0}, rate_hz=rate_hz, params=params)
+    t_rec = time.perf_counter() - t0
+    t_end = ch["force"][0][-1]
+    if t_end > seconds:  # cut to `seconds` of recording
+        ch = {n: (t[t <= seconds], v[t <= seconds]) for n, (t, v) in ch.items()}
+        events = [e for e in events if e["t"] <= seconds]
+    t0 = time.perf_counter()
+    res = diagnose(ch, events)
+    wall = time.perf_counter() - t0
+    return {"recording_s": float(min(t_end, seconds)), "rate_hz": rate_hz, "samples": int(len(ch["force"][0])),
+            "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res["accepted"], "goal_s": 180.0}

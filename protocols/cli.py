@@ -142,6 +142,19 @@ def _bench_log(args):
     return 0
 
 
+def _bench_diagnose(args):
+    import json
+
+    from protocols.bench import bench_diagnose
+    r = bench_diagnose(args.seconds, args.rate)
+    if args.json:
+        print(json.dumps(r))
+    else:
+        print(f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
+              f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}")
+    return 0
+
+
 def _bench_identify(args):
     from protocols.bench import bench_identify
     r = bench_identify(args.recording, args.damper)
@@ -318,6 +331,11 @@ def parser():
     bi.add_argument("--damper", default="koni", help="damper for the recording made first (default koni)")
     bi.add_argument("--json", action="store_true")
     bi.set_defaults(func=_bench_identify)
+    bd = bsub.add_parser("diagnose", help="dyno diagnose's time on 60 s recorded at 5 kHz (goal < 3 min)")
+    bd.add_argument("--seconds", type=float, default=60.0)
+    bd.add_argument("--rate", type=float, default=5000.0, help="sample rate [Hz] (default 5000)")
+    bd.add_argument("--json", action="store_true")
+    bd.set_defaults(func=_bench_diagnose)
     bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=float, default=30.0, help="duration (default 30)")

@@ -29,32 +29,51 @@ GUESS = {"sensor_delay": 1e-4, "free_play": 2e-5, "compressibility": 2e10, "brea
          "cavitation": 3e5, "aux_channel": 0.01}
 
 
-def _plan():
+def _plan(override=None):
     from models.damper import load as load_damper
     from protocols.commands import rig_info
     from protocols.library import PROTOCOLS
     from rig import config as rig_config
     name, params, prove = plain_cell()
     module = PROTOCOLS[prove["protocol"]]
-    p = module.Params(**prove["params"])
+    p = module.Params(**(override or prove["params"]))
     damper = load_damper(name)
     return module, p, rig_info(rig_config.load("virtual"), damper), name, params, prove
 
 
-def offline_force(effects, seed=0):
-    """The plain plant driven by the prove plan without the wires (calibration only):
-    (force as measured, measured-segment mask)."""
+def offline_recording(effects=None, seed=0, rate_hz=1000.0, params=None):
+    """The plain plant driven by the prove plan (or `params` of the prove protocol) without
+    the wires, sampled at rate_hz: (channels {name: (t, values)}, events, measured mask).
+    For calibration and the diagnosis benchmark; prove itself records through the wires."""
     from sim_backend.plant import MODE_FOLLOW, Plant
-    module, p, info, name, params, _ = _plan()
-    plant = Plant(name, params=params, effects=effects, seed=seed)
-    F, rec = [], []
+    module, p, info, name, plant_params, _ = _plan(params)
+    dt = 1.0 / rate_hz
+    plant = Plant(name, params=plant_params, effects=effects, seed=seed, h=min(5e-4, dt))
+    names = ("force", "x", "v", "T_body", "aux.valve_current")
+    cols = {n: [] for n in names}
+    ts, rec, events, t = [], [], [], 0.0
     for seg in module.plan(p, info):
-        for k in range(int(round(seg.duration / 1e-3))):
-            plant.command(MODE_FOLLOW, seg.x(k * 1e-3))
-            plant.advance(1e-3)
-            F.append(plant.readings()["force"])
+        events.append({"kind": "segment_start", "segment": seg.name, "t": t,
+                       "params": {**seg.params, "measured": seg.record}})
+        for k in range(int(round(seg.duration / dt))):
+            plant.command(MODE_FOLLOW, seg.x(k * dt))
+            plant.advance(dt)
+            t += dt
+            r = plant.readings()
+            for n in names:
+                cols[n].append(r[n])
+            ts.append(t)
             rec.append(seg.record)
-    return np.array(F), np.array(rec)
+        events.append({"kind": "segment_end", "segment": seg.name, "t": t,
+                       "params": {**seg.params, "measured": seg.record}})
+    ts = np.array(ts)
+    return {n: (ts, np.array(v)) for n, v in cols.items()}, events, np.array(rec)
+
+
+def offline_force(effects, seed=0):
+    """(force as measured, measured-segment mask) of offline_recording."""
+    ch, _, rec = offline_recording(effects, seed)
+    return ch["force"][1], rec
 
 
 def contribution(effect, value, seed=0, null=None):

@@ -22,7 +22,7 @@ from .diagnose_data import Data, prepare
 ALPHA = 0.01
 RELEVANCE = 0.1
 BOOT = 2000
-GRID = {"c_play": [1e-5, 3e-5, 1e-4, 3e-4, 1e-3], "tau": [-2e-3, -2e-4, 0.0, 2e-4, 2e-3],
+GRID = {"c_play": [0.0, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3], "tau": [-2e-3, -2e-4, 0.0, 2e-4, 2e-3],
         "s_break": [3e-5, 1e-4, 3e-4, 1e-3]}
 
 

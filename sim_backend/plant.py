@@ -22,6 +22,7 @@ from . import effects as fx_mod
 
 PARAMS = Path(__file__).parent / "plant.toml"
 MODE_OFF, MODE_HOLD, MODE_FOLLOW = 0, 1, 2
+MOUNT_K = 1e10  # N/m: the mount's contact stiffness once a clearance is taken up
 STATE_OFF, STATE_HOLDING, STATE_FOLLOWING, STATE_ALARM = 0, 1, 2, 3
 ALARM_FORCE, ALARM_VALVE = 1 << 0, 1 << 1  # see rig/dyno.dbc
 
@@ -54,7 +55,7 @@ class Plant:
         self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.p["frame"]["friction_x_stick"])
         self.stepper.set_temperature(self.T, self._T_gas())
         self.x_rod = self.x_act - self.fx.get("free_play", 0.0) / 2  # where the damper's rod is (differs from the mount's with free play)
-        self.v_rod = self.F_rod = 0.0
+        self.v_rod = self.F_rod = self.F_rod_d = 0.0
         self.contact = 1  # free play: +1 mount bears in compression, -1 in rebound, 0 crossing the gap
         self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
         self.a_f = 0.0  # acceleration through the oil column, low-passed [m/s^2]
@@ -170,19 +171,8 @@ class Plant:
         effects that live in its load path: (force on the load cell, damping, P1, P2, P_gas)."""
         fx = self.fx
         c = fx.get("free_play", 0.0)
-        if c > 0:  # the rod sits against one side of the clearance, or crosses it
-            if self.contact:
-                x_rod = self.x_d - self.contact * c / 2
-            else:  # free: the rod moves at the speed where its own force is spent
-                # twice the secant slope of the damping: at least the tangent of a valve curve
-                # growing no faster than v^2, so the Newton step does not overshoot
-                slope = 2 * max(abs(self.F_d / self.v_rod), 2e3) if abs(self.v_rod) > 1e-4 else 4e4
-                x_rod = self.x_rod + h * (self.v_rod - self.F_rod / slope)  # Newton on F_rod(v) = 0
-                if abs(self.x_d - x_rod) >= c / 2:  # it reached a side of the clearance: contact
-                    self.contact = 1 if self.x_d > x_rod else -1
-                    x_rod = self.x_d - self.contact * c / 2
-            v_rod = (x_rod - self.x_rod) / h
-            self.x_rod, self.v_rod = x_rod, v_rod
+        if c > 0:
+            x_rod, v_rod = self._rod_in_clearance(h, c)
         else:
             x_rod, v_rod = self.x_d, self.v_d
         F, F_d, F_g, F_f, P1, P2, Pg = self.stepper.step(x_rod, v_rod)
@@ -202,12 +192,31 @@ class Plant:
                 F += (floor - P1) * geo.A_p
                 P1 = floor
         if c > 0:
-            if self.contact and F * self.contact < 0:
-                self.contact = 0  # the force changed sign: the rod leaves that side
-            self.F_rod = F  # the rod's own force (for the crossing); the load cell feels none of it
+            self.F_rod, self.F_rod_d = F, F_d
             if self.contact == 0:
-                return 0.0, F_d, P1, P2, Pg
+                return 0.0, F_d, P1, P2, Pg  # crossing the clearance: the load cell feels nothing
         return F, F_d, P1, P2, Pg
+
+    def _rod_in_clearance(self, h, c):
+        """(x, v) of the damper's rod when its mount has a clearance c [m]. The mount bears
+        on the rod through a stiff contact (MOUNT_K) on either side of the clearance; the
+        rod (massless) moves so that the damper's force, linearised about the last step
+        (slope: the damping's secant), equals the contact's. Solved per regime (bearing in
+        compression, in rebound, or free), so a clearance crossed within a step costs no
+        more than the time it takes."""
+        S = max(abs(self.F_rod_d / self.v_rod), 2e3) if abs(self.v_rod) > 1e-4 else 2e4
+        g0, F0, v0, kh = self.x_d - self.x_rod, self.F_rod, self.v_rod, MOUNT_K * h
+        for side in (1, -1):
+            v = (MOUNT_K * (g0 - side * c / 2) - F0 + S * v0) / (S + kh)
+            if side * (g0 - v * h) > c / 2:
+                self.contact = side
+                break
+        else:
+            v = v0 - F0 / S
+            self.contact = 0
+        self.x_rod += v * h
+        self.v_rod = v
+        return self.x_rod, v
 
     # --- outputs ------------------------------------------------------------------------
     def readings(self):

@@ -28,6 +28,7 @@ class P:
     lo: float
     hi: float
     unit: str = ""
+    grid: tuple = ()  # start values tried first (a parameter whose effect is piecewise)
 
 
 def _direction(v, c1, c2, C, Fcr):
@@ -194,23 +195,26 @@ def _aux_params(d, e):
     s = float(np.std(d.aux[n])) or 1.0
     Fs = float(np.std(d.F)) or 1.0
     return [P(f"b0:{n}", 0.0, -10 * Fs / s, 10 * Fs / s, "N per unit"), P(f"b1:{n}", 0.0, -1 / s, 1 / s, "per unit"),
-            P(f"lag:{n}", 0.0, 0.0, 0.2, "s")]
+            P(f"lag:{n}", 0.0, 0.0, 0.2, "s", (0.0, 0.01, 0.03, 0.1))]
 
 
 def _cav_params(d, e):
     Fmax = float(np.max(np.abs(d.F)))
-    return [P("Fcav_c", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N"), P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N")]
+    fc, fr = float(np.max(d.F)), float(-np.min(d.F))
+    return [P("Fcav_c", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fc * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
+            P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fr * np.r_[0.9, 0.95, 0.98, 0.99, 1.5]))]
 
 
 CATALOGUE = {
     "sensor_delay": Effect("sensor_delay", "a time lag between the displacement and force channels",
-                           _p(P("tau", 0.0, -0.02, 0.02, "s"))),
+                           _p(P("tau", 0.0, -0.02, 0.02, "s", (-2e-3, -2e-4, 0.0, 2e-4, 2e-3)))),
     "free_play": Effect("free_play", "clearance (free play) in the damper's mounts",
-                        _p(P("c_play", 2e-5, 0.0, 5e-3, "m"))),
+                        _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3)))),
     "compressibility": Effect("compressibility", "compressible oil (entrained air) in series with the valves",
                               _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N"))),
     "breakaway_friction": Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
-                                 _p(P("r_break", 1.2, 1.0, 5.0, "-"), P("s_break", 2e-4, 1e-5, 3e-3, "m"))),
+                                 _p(P("r_break", 1.2, 1.0, 5.0, "-"),
+                                    P("s_break", 2e-4, 1e-7, 3e-3, "m", (1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3)))),
     "position_friction": Effect("position_friction", "seal friction varying along the bore",
                                 _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2"))),
     "gas_temperature": Effect("gas_temperature", "gas-spring force rising with temperature",

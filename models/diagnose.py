@@ -20,10 +20,8 @@ from .candidates import CATALOGUE, Model
 from .diagnose_data import Data, prepare
 
 ALPHA = 0.01
-RELEVANCE = 0.1
+RELEVANCE = 0.02
 BOOT = 2000
-GRID = {"c_play": [0.0, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3], "tau": [-2e-3, -2e-4, 0.0, 2e-4, 2e-3],
-        "s_break": [3e-5, 1e-4, 3e-4, 1e-3]}
 
 
 def nrmse(r, F):
@@ -42,10 +40,10 @@ def fit(model: Model, d: Data, train, start: dict):
     def resid(z):
         return (model.force(d, dict(zip(names, z)))[train] - d.F[train]) / Fs
 
-    for g, values in GRID.items():  # parameters whose effect is piecewise: start from a grid
-        if g in names and g not in start:
-            i = names.index(g)
+    for i, p in enumerate(model.params):  # parameters whose effect is piecewise: start from a grid
+        if p.grid and p.name not in start:
             costs = []
+            values = [min(max(g, p.lo), p.hi) for g in p.grid]
             for val in values:
                 z = z0.copy()
                 z[i] = val

@@ -159,8 +159,11 @@ class Model:
                 name = e.split(":", 1)[1]
                 u = _shift(d.aux[name], t, p[f"lag:{name}"]) - self.aux_m[name]
                 F = F + (p[f"b0:{name}"] + p[f"b1:{name}"] * Fd) * u
-        if "Fcav_c" in p:  # cavitation: the force cannot rise past what the chamber holds
-            F = np.where(v > 0, np.minimum(F, p["Fcav_c"]), np.maximum(F, -p["Fcav_r"]))
+        if "Fcav_c" in p:  # cavitation: the force cannot rise past what the chambers hold; in
+            # compression that is the gas pressure on the piston less the floor on the annulus,
+            # so the cap follows the gas force (times about A_p / A_r)
+            cap = p["Fcav_c"] + p["kcav"] * (Fg - self.Fg_m)
+            F = np.where(v > 0, np.minimum(F, cap), np.maximum(F, -p["Fcav_r"]))
         if "c_play" in p:
             F = _plateau(F, x, p["c_play"])
         return (F, Fd, Fg, Ff) if parts else F
@@ -169,6 +172,7 @@ class Model:
         """Means the effects refer to (fixed from the data, not fitted)."""
         self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
         self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
+        self.Fg_m = float(np.mean(gas(d.x, self.x_m, {p.name: p.x0 for p in self.params})))
         return self
 
 
@@ -202,7 +206,8 @@ def _cav_params(d, e):
     Fmax = float(np.max(np.abs(d.F)))
     fc, fr = float(np.max(d.F)), float(-np.min(d.F))
     return [P("Fcav_c", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fc * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
-            P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fr * np.r_[0.9, 0.95, 0.98, 0.99, 1.5]))]
+            P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fr * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
+            P("kcav", 0.0, 0.0, 30.0, "-", (0.0, 5.0, 10.0))]
 
 
 CATALOGUE = {

@@ -138,9 +138,15 @@ def _one(task):
 
 def _measured_rms_diff(a, b):
     from protocols.report import load
-    (ta, Fa), (tb, Fb) = load(a)[0]["force"], load(b)[0]["force"]
-    n = min(len(Fa), len(Fb))
-    return float(np.sqrt(np.mean((Fa[:n] - Fb[:n]) ** 2)))
+    from models.identify import segments
+    ch, events, _ = load(a)
+    (ta, Fa), (tb, Fb) = ch["force"], load(b)[0]["force"]
+    _, ia, ib = np.intersect1d(np.round(ta, 6), np.round(tb, 6), return_indices=True)
+    t = ta[ia]
+    measured = np.zeros(len(t), bool)
+    for _, _, t0, t1 in segments(events):
+        measured |= (t >= t0) & (t < t1)
+    return float(np.sqrt(np.mean((Fa[ia] - Fb[ib])[measured] ** 2)))
 
 
 def run(args):

@@ -9,7 +9,8 @@ Bonferroni-corrected for the candidates tried in that round (ALPHA over their nu
 An effect must also be worth having: its held-out mean-square improvement at least
 RELEVANCE times the force noise variance (the noise from the residual's sample-to-sample
 differences), so a structured misfit of the baseline a little smaller than the noise is
-not announced as physics.
+not announced as physics; and at least SHARE of the held-out mean-square error it starts
+from, so that far above the noise an effect must still matter.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from .diagnose_data import Data, prepare
 
 ALPHA = 0.01
 RELEVANCE = 0.1
+SHARE = 0.01
 BOOT = 2000
 
 
@@ -153,7 +155,9 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
                      f"  gain {gain / sigma ** 2:+.3f} noise variances")
         candidates += round_
         alpha = ALPHA / max(len(round_), 1)
-        ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE]
+        mse = float(np.mean(r_cur[test] ** 2))
+        ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE
+              and c["gain"] >= SHARE * mse]
         if not ok:
             break
         best = max(ok, key=lambda c: c["gain"])

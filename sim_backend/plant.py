@@ -33,6 +33,13 @@ STATE_OFF, STATE_HOLDING, STATE_FOLLOWING, STATE_ALARM = 0, 1, 2, 3
 ALARM_FORCE, ALARM_VALVE = 1 << 0, 1 << 1  # see rig/dyno.dbc
 
 
+def ramp_lag(y, u0, u, tau, h):
+    """A first-order lag's output (time constant tau [s]) after its input ramped from u0 to
+    u over h [s]: exact, so a filter far faster than the step still delays a ramp by tau."""
+    r = (u - u0) / h
+    return u - tau * r + (y - u0 + tau * r) * math.exp(-h / tau)
+
+
 class Plant:
     def __init__(self, damper="koni", T0=None, h=5e-4, seed=0, params=None, effects=None):
         self.p = params or tomllib.loads(PARAMS.read_text())
@@ -164,19 +171,9 @@ class Plant:
             x_mid = self.x_d - X_LAG * h * self.v_d  # see readings()
             if self.x_sens is None:
                 self.x_sens, self.v_sens, self._u = x_mid, self.v_d, (x_mid, self.v_d)
-            # exact for an input ramping over the step (a filter far faster than the step
-            # still delays a ramp by its time constant)
             tau = self.fx["sensor_delay"]
-            a = math.exp(-h / tau)
-            for i, u in enumerate((x_mid, self.v_d)):
-                u0 = self._u[i]
-                r = (u - u0) / h
-                y = (self.x_sens, self.v_sens)[i]
-                y = u - tau * r + (y - u0 + tau * r) * a
-                if i == 0:
-                    self.x_sens = y
-                else:
-                    self.v_sens = y
+            self.x_sens = ramp_lag(self.x_sens, self._u[0], x_mid, tau, h)
+            self.v_sens = ramp_lag(self.v_sens, self._u[1], self.v_d, tau, h)
             self._u = (x_mid, self.v_d)
         self.t += h
 

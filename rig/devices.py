@@ -165,6 +165,8 @@ class SerialLoadCell:
             period = 1.0 / self.params.get("frame_hz", serial_frame.RATE_HZ)
             t0 = now - self.n_sent * period
             self.t0 = t0 if self.t0 is None else min(self.t0 + 1e-4 * period * len(out), t0)
+            if t0 - self.t0 > 5 * period:  # a stream that paused (no frames sent): re-anchor
+                self.t0 = t0
             for o in out:
                 o[3] = now - (self.t0 + o[3] * period)
         if self.parser.dropped > dropped:

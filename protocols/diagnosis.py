@@ -17,8 +17,8 @@ from .report import load
 
 # how each accepted effect is said: (sentence, parameter shown, factor, unit)
 SAY = {
-    "sensor_delay": ("The force answers the displacement {v} {u} {late}: a filter or transport lag in a "
-                     "sensor's signal chain. Align the channels (or fix the conditioning) before fitting valves.",
+    "sensor_delay": ("The {late} by {v} {u}: a filter or transport lag in a sensor's signal chain. "
+                     "Align the channels (or fix the conditioning) before fitting valves.",
                      "tau", 1e3, "ms"),
     "free_play": ("The force sits at zero while the mount travels {v} {u} each time it changes sign: "
                   "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
@@ -62,20 +62,24 @@ def sentence(step, d_F):
     elif key == "compressibility":
         k = 1.0 / max(p[pname], 1e-30)
         lo, hi = (1.0 / max(c, 1e-30) for c in ci[pname][::-1])
-        vs = f"{k / 1e6:.3g} ({max(lo, 0) / 1e6:.3g}-{hi / 1e6:.3g})"
+        vs = f"{k / 1e6:.3g} ({max(lo, 0) / 1e6:.3g} to {hi / 1e6:.3g})"
+    elif key == "free_play" and p[pname] < 1e-6:
+        return ("The force drops to zero for a sample or two each time it changes sign, a clearance "
+                "crossed too fast to size at this sample rate: check the rod-end and eye bushes." + _change(step))
     else:
         v = p[pname] * factor
         lo, hi = (c * factor for c in ci[pname])
         if key == "sensor_delay":
-            late = "late" if v < 0 else "early"
+            late = ("force reading lags the displacement" if v < 0
+                    else "displacement reading lags the force")
             v, lo, hi = abs(v), min(abs(lo), abs(hi)), max(abs(lo), abs(hi))
-        vs = f"{v:.3g} ({lo:.3g}-{hi:.3g})"
+        vs = f"{v:.3g} ({lo:.3g} to {hi:.3g})"
     return text.format(v=vs, u=unit, late=late) + _change(step)
 
 
 def _change(step):
-    return (f" Held-out error falls from {100 * step['before']:.2f} % to {100 * step['after']:.2f} % "
-            f"(p = {step['p_value']:.4f}).")
+    return (f" Held-out error falls from {100 * step['before']:.3g} % to {100 * step['after']:.3g} % "
+            f"of the force range (p = {step['p_value']:.4f}).")
 
 
 def _where(loc):
@@ -86,14 +90,15 @@ def _where(loc):
 def summary(res):
     lines = []
     b = res["baseline"]
-    lines.append(f"Baseline (minimal): held-out error {100 * b['nrmse_heldout']:.2f} % of the force range "
-                 f"(training {100 * b['nrmse_train']:.2f} %); force noise {res['noise_sd']:.2f} N.")
+    lines.append(f"Baseline (minimal): held-out error {100 * b['nrmse_heldout']:.3g} % of the force range "
+                 f"(training {100 * b['nrmse_train']:.3g} %); force noise {res['noise_sd']:.2f} N.")
     strong = [loc for loc in res["locations"] if loc["concentration"] > 2.0][:3]
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
     if res["accepted"]:
         for s in res["steps"]:
-            lines.append(f"Left out: {s['effect'].replace('_', ' ')}. " + sentence(s, res["data"].F))
+            name = s["effect"].split(":")[0].replace("_", " ")
+            lines.append(f"Left out: {name}. " + sentence(s, res["data"].F))
     else:
         lines.append("Nothing significant was left out: no candidate improved the held-out cycles beyond chance "
                      "and the noise.")

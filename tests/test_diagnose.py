@@ -69,7 +69,7 @@ def test_cli_json_and_summary(recordings, tmp_path):
     doc = json.loads(r.stdout)
     assert set(doc) >= {"baseline", "locations", "candidates", "accepted", "final"}
     assert doc["accepted"][0] == "sensor_delay" and doc["final"]["nrmse_heldout"] < doc["baseline"]["nrmse_heldout"]
-    assert "Left out: sensor delay" in doc["summary"] and "ms early" in doc["summary"]
+    assert "Left out: sensor delay" in doc["summary"] and "displacement reading lags the force by" in doc["summary"]
     assert (tmp_path / "rep" / "index.html").exists() and (tmp_path / "rep" / "residuals.png").exists()
 
 

@@ -168,7 +168,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
         current, r_cur = best["_values"], best["_r"]
         progress(f"accepted {best['effect']}")
     final_model = Model(d, accepted).bind(d)
-    return {"data": d, "train": train, "baseline": base, "noise_sd": sigma, "locations": locate(d, r0, train),
+    return {"data": d, "train": train, "baseline": base, "noise_sd": sigma, "locations": locate(d, r0),
             "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
             "final": {"nrmse_heldout": nrmse(r_cur[test], d.F[test]), "parameters": current,
                       "force": final_model.force(d, current)}}
@@ -176,7 +176,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
 
 # --- where the residual lives ---------------------------------------------------------
 
-def locate(d: Data, r, train=None):
+def locate(d: Data, r):
     """[{where, energy_share, sample_share, mean_residual}] of regions holding more than
     their share of the residual energy, strongest concentration first."""
     E = r ** 2

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-from models.candidates import CATALOGUE
 from models.diagnose import diagnose
 from models.diagnose_data import DiagnoseError
 from rig.errors import RigError
@@ -45,7 +44,7 @@ SAY = {
 }
 
 
-def sentence(step, d_F):
+def sentence(step):
     e = step["effect"]
     key = e.split(":")[0]
     text, pname, factor, unit = SAY[key]
@@ -98,7 +97,7 @@ def summary(res):
     if res["accepted"]:
         for s in res["steps"]:
             name = s["effect"].split(":")[0].replace("_", " ")
-            lines.append(f"Left out: {name}. " + sentence(s, res["data"].F))
+            lines.append(f"Left out: {name}. " + sentence(s))
     else:
         lines.append("Nothing significant was left out: no candidate improved the held-out cycles beyond chance "
                      "and the noise.")
@@ -194,5 +193,3 @@ def run(args):
                   f"{c['relevance']:+8.2f}")
     return 0
 
-
-__all__ = ["run", "summary", "to_json", "CATALOGUE"]

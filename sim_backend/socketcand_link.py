@@ -21,6 +21,7 @@ class SocketcandLink:
         self.port = self.server.getsockname()[1]
         self.conn = None
         self.raw = False
+        self.raw_from = 0.0
         self.rx = collections.deque()
         self.lock = threading.Lock()
         self.bad_messages = 0
@@ -66,6 +67,9 @@ class SocketcandLink:
         else:
             self._write("< ok >")
             if kind == "rawmode":
+                # frames start 50 ms after the "< ok >": python-can's client reads the reply
+                # with one recv and refuses "< ok >" with frames behind it in the same read
+                self.raw_from = time.monotonic() + 0.05
                 self.raw = True
 
     def _write(self, text):
@@ -79,7 +83,7 @@ class SocketcandLink:
 
     # the python-can bus surface the CAN nodes use
     def send(self, msg):
-        if self.raw:
+        if self.raw and time.monotonic() >= self.raw_from:
             self._write(socketcand.frame(msg.arbitration_id, bytes(msg.data), time.time()))
 
     def recv(self, timeout=0.0):

@@ -130,6 +130,10 @@ class Model:
         self.effects = list(effects)
         for e in self.effects:
             self.params += CATALOGUE[e.split(":")[0]].params(d, e)
+        # means the effects refer to (fixed from the data, not fitted)
+        self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
+        self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
+        self.Fg_m = float(np.mean(gas(d.x, self.x_m, {p.name: p.x0 for p in self.params})))
 
     def force(self, d, p, parts=False):
         x, v, a, t = d.x, d.v, d.a, d.t
@@ -167,13 +171,6 @@ class Model:
         if "c_play" in p:
             F = _plateau(F, x, p["c_play"])
         return (F, Fd, Fg, Ff) if parts else F
-
-    def bind(self, d):
-        """Means the effects refer to (fixed from the data, not fitted)."""
-        self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
-        self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
-        self.Fg_m = float(np.mean(gas(d.x, self.x_m, {p.name: p.x0 for p in self.params})))
-        return self
 
 
 def _slope(v, p):

@@ -122,7 +122,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
     test = (d.cycle % 2 == 1) & ~flip
     block = blocks(d)
     test_blocks = np.unique(block[test])
-    model = Model(d).bind(d)
+    model = Model(d)
     values, sd = fit(model, d, train, {})
     r0 = model.force(d, values) - d.F
     base = {"name": "minimal", "parameters": values, "sd": sd, "nrmse_train": nrmse(r0[train], d.F[train]),
@@ -138,7 +138,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
         sse_cur = _block_sse(np.where(test, r_cur, 0.0), block, test_blocks)
         round_ = []
         for e in names:
-            m = Model(d, accepted + [e]).bind(d)
+            m = Model(d, accepted + [e])
             vals, sds = fit(m, d, train, current)
             r = m.force(d, vals) - d.F
             d_c = sse_cur - _block_sse(np.where(test, r, 0.0), block, test_blocks)
@@ -167,7 +167,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
         accepted.append(best["effect"])
         current, r_cur = best["_values"], best["_r"]
         progress(f"accepted {best['effect']}")
-    final_model = Model(d, accepted).bind(d)
+    final_model = Model(d, accepted)
     return {"data": d, "train": train, "baseline": base, "noise_sd": sigma, "locations": locate(d, r0),
             "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
             "final": {"nrmse_heldout": nrmse(r_cur[test], d.F[test]), "parameters": current,

@@ -1,10 +1,11 @@
 """Missing-physics diagnosis: fit the baseline, locate where its residual lives, try each
 catalogue effect (models/candidates.py) with the baseline refitted, judge it only on
-held-out cycles, accept the best one whose improvement is significant, repeat.
+held-out cycles, accept the best one whose improvement is significant, repeat. Two-fold
+cross-fitting (even cycles fit, odd judged, and back) judges every cycle once.
 
 Significance: the held-out relative improvement per block (SSE_baseline,b - SSE_candidate,b)
 / SSE_baseline,b, so that every block counts alike whatever its force level, is tested by
-a bootstrap over blocks (quarter cycles of held-out cycles) against zero, one-sided,
+a bootstrap over blocks (quarter cycles) against zero, one-sided,
 Bonferroni-corrected for the candidates tried in that round (ALPHA over their number).
 An effect must also be worth having: its held-out mean-square improvement at least
 RELEVANCE times the force noise variance (the noise from the residual's sample-to-sample
@@ -108,49 +109,73 @@ def available(d: Data, accepted):
     return out, skipped
 
 
+def _cross_fit(model: Model, d: Data, folds, starts):
+    """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
+    sd per fold, residual [N] where every judged sample comes from a fit that never saw it)."""
+    r = np.zeros(len(d.F))
+    vals, sds = [], []
+    for (train, test), start in zip(folds, starts):
+        v, sd = fit(model, d, train, start)
+        r = np.where(test, model.force(d, v) - d.F, r)
+        vals.append(v)
+        sds.append(sd)
+    return vals, sds, r
+
+
+def _pooled(vals, sds):
+    """The folds' estimates averaged, with the sd of that mean (independent halves)."""
+    mean = {k: float(np.mean([v[k] for v in vals])) for k in vals[0]}
+    sd = {k: float(np.sqrt(sum(s[k] ** 2 for s in sds)) / len(sds)) for k in sds[0]}
+    return mean, sd
+
+
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
     """The diagnosis as plain data (see protocols/diagnosis.py for its JSON)."""
     d = prepare(channels, events)
     rng = np.random.default_rng(seed)
-    # fitted: even cycles; judged: odd ones. Samples within a sample period of a velocity
-    # reversal are neither: the friction's sign there is set by where the reversal falls
-    # between samples, which no model of the physics can know
+    # two folds: fitted on even cycles and judged on odd ones, and the other way round, so
+    # every cycle is judged once by a fit that never saw it. Samples within a sample period
+    # of a velocity reversal are neither fitted nor judged: the friction's sign there is set
+    # by where the reversal falls between samples, which no model of the physics can know
     flip = np.zeros(len(d.v), bool)
     k = np.nonzero(np.diff(np.sign(d.v)) != 0)[0]
     flip[k] = flip[np.minimum(k + 1, len(flip) - 1)] = True
-    train = (d.cycle % 2 == 0) & ~flip
-    test = (d.cycle % 2 == 1) & ~flip
+    even, odd = (d.cycle % 2 == 0) & ~flip, (d.cycle % 2 == 1) & ~flip
+    folds = [(even, odd), (odd, even)]
+    test = even | odd
     block = blocks(d)
     test_blocks = np.unique(block[test])
     model = Model(d)
-    values, sd = fit(model, d, train, {})
-    r0 = model.force(d, values) - d.F
-    base = {"name": "minimal", "parameters": values, "sd": sd, "nrmse_train": nrmse(r0[train], d.F[train]),
+    fold_vals, sds, r0 = _cross_fit(model, d, folds, [{}, {}])
+    values, sd = _pooled(fold_vals, sds)
+    r_train = model.force(d, fold_vals[0]) - d.F
+    base = {"name": "minimal", "parameters": values, "sd": sd, "nrmse_train": nrmse(r_train[even], d.F[even]),
             "nrmse_heldout": nrmse(r0[test], d.F[test]), "residual": r0}
     sigma = noise_sd(r0, d)
     progress(f"baseline: held-out error {100 * base['nrmse_heldout']:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
-    current, r_cur = values, r0
+    current, r_cur = fold_vals, r0
     _, not_assessed = available(d, accepted)
+    n_test = int(np.sum(test))
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         sse_cur = _block_sse(np.where(test, r_cur, 0.0), block, test_blocks)
+        n_before = len(Model(d, accepted).params)
         round_ = []
         for e in names:
             m = Model(d, accepted + [e])
-            vals, sds = fit(m, d, train, current)
-            r = m.force(d, vals) - d.F
+            f_vals, f_sds, r = _cross_fit(m, d, folds, current)
+            vals, sds = _pooled(f_vals, f_sds)
             d_c = sse_cur - _block_sse(np.where(test, r, 0.0), block, test_blocks)
-            n_test = int(np.sum(test))
             gain = float(d_c.sum() / n_test)  # held-out mean-square improvement [N^2]
             rel = d_c / np.maximum(sse_cur, 1e-30)  # each block counts alike, whatever its force
-            own = {p.name: vals[p.name] for p in m.params[len(Model(d, accepted).params):]}
+            own = {p.name: vals[p.name] for p in m.params[n_before:]}
             round_.append({"effect": e, "parameters": own,
                            "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
                            "nrmse_heldout": nrmse(r[test], d.F[test]), "p_value": p_value(rel, rng),
                            "gain": gain, "relevance": gain / sigma ** 2, "round": len(accepted) + 1,
-                           "_values": vals, "_r": r})
+                           "_values": vals, "_folds": f_vals, "_r": r})
             progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.4f}"
                      f"  gain {gain / sigma ** 2:+.3f} noise variances")
         candidates += round_
@@ -165,13 +190,13 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
                       "after": best["nrmse_heldout"], "parameters": best["parameters"], "ci": best["ci"],
                       "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"]})
         accepted.append(best["effect"])
-        current, r_cur = best["_values"], best["_r"]
+        values, current, r_cur = best["_values"], best["_folds"], best["_r"]
         progress(f"accepted {best['effect']}")
     final_model = Model(d, accepted)
-    return {"data": d, "train": train, "baseline": base, "noise_sd": sigma, "locations": locate(d, r0),
+    return {"data": d, "baseline": base, "noise_sd": sigma, "locations": locate(d, r0),
             "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
-            "final": {"nrmse_heldout": nrmse(r_cur[test], d.F[test]), "parameters": current,
-                      "force": final_model.force(d, current)}}
+            "final": {"nrmse_heldout": nrmse(r_cur[test], d.F[test]), "parameters": values,
+                      "force": final_model.force(d, values)}}
 
 
 # --- where the residual lives ---------------------------------------------------------

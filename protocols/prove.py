@@ -55,7 +55,7 @@ def offline_recording(effects=None, seed=0, rate_hz=1000.0, params=None):
     for seg in module.plan(p, info):
         events.append({"kind": "segment_start", "segment": seg.name, "t": t,
                        "params": {**seg.params, "measured": seg.record}})
-        for k in range(int(round(seg.duration / dt))):
+        for k in range(math.ceil(seg.duration / dt - 1e-9)):  # as the runner: while t < duration
             plant.command(MODE_FOLLOW, seg.x(k * dt))
             plant.advance(dt)
             t += dt

@@ -19,6 +19,7 @@ from numba import njit
 
 GAMMA = 1.38  # thesis section 4.1.2
 V_EPS = 5e-5  # m/s: friction sign softened over this (the model's velocity is low-passed)
+LEAD = 20  # samples run before a stretch when a damper model is simulated along it
 
 
 @dataclass(frozen=True)
@@ -108,40 +109,101 @@ def _shift(y, t, tau):
     return np.interp(t - tau, t, y)
 
 
+class Minimal:
+    """Baseline `minimal` (see the module's docstring), fitted whole."""
+    name = "minimal"
+
+    def __init__(self, d):
+        self.x_m = float(np.mean(d.x))
+
+    def params(self, d):
+        return baseline_params(d)
+
+    def parts(self, d, p, x, v, tau):
+        """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
+        along motion x, v (already shifted by the sensor delay tau)."""
+        return damping(v, p), gas(x, self.x_m, p), p["F_c"] * np.tanh(v / V_EPS), lambda: _slope(v, p)
+
+
+class FromModel:
+    """Baseline from a damper model (the presets' JSON): its damping, gas and friction
+    forces simulated once along the recorded motion (models/simulate.py, compressible), then
+    refitted where the data allows: a gain on the damping (valves), the static gas force and
+    a gain on its slope with stroke (charge pressure and volume), a gain on the friction."""
+
+    def __init__(self, damper, d, name):
+        from .simulate import simulate
+        self.name = name
+        T = float(np.mean(d.T)) if d.T is not None else 293.15
+        x_e = float(np.mean(d.x))
+        out = {k: np.empty(len(d.t)) for k in ("Fd", "Fg", "Ff", "slope")}
+        dv = 1e-3  # m/s, for the valves' slope (incompressible)
+        cut = np.r_[0, np.nonzero(np.diff(d.t) > 1.5 * d.h[1:])[0] + 1, len(d.t)]
+        for a, b in zip(cut[:-1], cut[1:]):
+            if b - a < 2:
+                out["Fd"][a:b] = out["Fg"][a:b] = out["Ff"][a:b] = out["slope"][a:b] = 0.0
+                continue
+            t = np.linspace(d.t[a], d.t[b - 1], b - a)  # uniform, as the compressible model needs
+            x, v = np.interp(t, d.t[a:b], d.x[a:b]), np.interp(t, d.t[a:b], d.v[a:b])
+            # a lead-in at the first sample's velocity, so the chambers are flowing when it starts
+            lead = np.arange(-LEAD, 0)
+            t = np.r_[t[0] + lead * (t[1] - t[0]), t]
+            x = np.r_[x[0] + v[0] * (t[:LEAD] - t[LEAD]), x]
+            v = np.r_[np.full(LEAD, v[0]), v]
+            r = simulate(damper, t, x, v, T=T, compressible=True, x_e=x_e, substeps=4)
+            up = simulate(damper, t, x, v + dv, T=T, compressible=False, x_e=x_e)
+            dn = simulate(damper, t, x, v - dv, T=T, compressible=False, x_e=x_e)
+            back = (lambda y: np.interp(d.t[a:b], t[LEAD:], y[LEAD:]))
+            out["Fd"][a:b], out["Fg"][a:b], out["Ff"][a:b] = back(r.damping), back(r.gas), back(r.friction)
+            out["slope"][a:b] = back(np.abs(up.damping - dn.damping) / (2 * dv))
+        self.Fd, self.Fg, self.Ff, self.slope = out["Fd"], out["Fg"], out["Ff"], out["slope"]
+        self.Fg_m = float(np.mean(self.Fg))
+
+    def params(self, d):
+        Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
+        return [P("k_damping", 1.0, 0.0, 5.0, "-"), P("G0", self.Fg_m, -Fmax, Fmax, "N"),
+                P("k_gas", 1.0, 0.0, 5.0, "-"), P("k_friction", 1.0, 0.0, 10.0, "-")]
+
+    def parts(self, d, p, x, v, tau):
+        s = (lambda y: _shift(y, d.t, -tau)) if tau else (lambda y: y)
+        return (p["k_damping"] * s(self.Fd), p["G0"] + p["k_gas"] * (s(self.Fg) - self.Fg_m),
+                p["k_friction"] * s(self.Ff), lambda: p["k_damping"] * s(self.slope))
+
+
 class Model:
     """Baseline plus accepted effects, evaluated on Data: force(d, values) [N]."""
 
-    def __init__(self, d, effects=()):
+    def __init__(self, d, effects=(), base=None):
+        self.base = base or Minimal(d)
         self.x_m = float(np.mean(d.x))
-        self.params = baseline_params(d)
+        self.params = self.base.params(d)
         self.effects = list(effects)
         for e in self.effects:
             self.params += CATALOGUE[e.split(":")[0]].params(d, e)
         # means the effects refer to (fixed from the data, not fitted)
         self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
         self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
-        self.Fg_m = float(np.mean(gas(d.x, self.x_m, {p.name: p.x0 for p in self.params})))
+        x0 = {p.name: p.x0 for p in self.params}
+        self.Fg_m = float(np.mean(self.base.parts(d, x0, d.x, d.v, 0.0)[1]))
 
     def force(self, d, p, parts=False):
         x, v, a, t = d.x, d.v, d.a, d.t
-        if "tau" in p:  # sensor_delay: the force answers the motion tau earlier than stamped
-            x, v, a = _shift(x, t, -p["tau"]), _shift(v, t, -p["tau"]), _shift(a, t, -p["tau"])
-        Fd = damping(v, p)
+        tau = p.get("tau", 0.0)
+        if tau:  # sensor_delay: the force answers the motion tau earlier than stamped
+            x, v, a = _shift(x, t, -tau), _shift(v, t, -tau), _shift(a, t, -tau)
+        Fd, Fg, Ff, slope = self.base.parts(d, p, x, v, tau)
         if "k_dT" in p:
             Fd = Fd * (1 + p["k_dT"] * (d.T - self.T_m))
         if "inv_k_oil" in p:  # compressibility: the valve in series with the oil's spring
-            Fd = _lag(Fd, _slope(v, p) * p["inv_k_oil"], d.h)
-        Fg = gas(x, self.x_m, p)
+            Fd = _lag(Fd, slope() * p["inv_k_oil"], d.h)
         if "k_gT" in p:
             Fg = Fg * (1 + p["k_gT"] * (d.T - self.T_m))
-        Fc = p["F_c"]
         if "pf1" in p:
             xi = (x - self.x_m) / 0.01
-            Fc = Fc * (1 + p["pf1"] * xi + p["pf2"] * xi * xi)
+            Ff = Ff * (1 + p["pf1"] * xi + p["pf2"] * xi * xi)
         if "r_break" in p:  # the seal grips harder near rest, falling to sliding friction with
             # speed (the thesis's friction falls with velocity, section 3.2.1); exponential
-            Fc = Fc * (1 + (p["r_break"] - 1) * np.exp(-np.abs(v) / p["v_break"]))
-        Ff = Fc * np.tanh(v / V_EPS)
+            Ff = Ff * (1 + (p["r_break"] - 1) * np.exp(-np.abs(v) / p["v_break"]))
         F = Fd + Fg + Ff
         if "m_oil" in p:
             F = F + p["m_oil"] * a

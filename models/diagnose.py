@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .candidates import CATALOGUE, Model
+from .candidates import CATALOGUE, FromModel, Minimal, Model
 from .diagnose_data import Data, prepare
 
 ALPHA = 0.01
@@ -129,9 +129,15 @@ def _pooled(vals, sds):
     return mean, sd
 
 
-def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
-    """The diagnosis as plain data (see protocols/diagnosis.py for its JSON)."""
+def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None):
+    """The diagnosis as plain data (see protocols/diagnosis.py for its JSON). baseline:
+    None for `minimal`, or (name, damper model) to start from that model, refitted."""
     d = prepare(channels, events)
+    if baseline is None:
+        base = Minimal(d)
+    else:
+        progress(f"simulating {baseline[0]} along the recorded motion")
+        base = FromModel(baseline[1], d, baseline[0])
     rng = np.random.default_rng(seed)
     # two folds: fitted on even cycles and judged on odd ones, and the other way round, so
     # every cycle is judged once by a fit that never saw it. Samples within a sample period
@@ -145,14 +151,15 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
     test = even | odd
     block = blocks(d)
     test_blocks = np.unique(block[test])
-    model = Model(d)
+    model = Model(d, base=base)
     fold_vals, sds, r0 = _cross_fit(model, d, folds, [{}, {}])
     values, sd = _pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
-    base = {"name": "minimal", "parameters": values, "sd": sd, "nrmse_train": nrmse(r_train[even], d.F[even]),
-            "nrmse_heldout": nrmse(r0[test], d.F[test]), "residual": r0}
+    base_res = {"name": base.name, "parameters": values, "sd": sd, "nrmse_train": nrmse(r_train[even], d.F[even]),
+            "nrmse_heldout": nrmse(r0[test], d.F[test]), "residual": r0,
+                "model_gas_force": getattr(base, "Fg_m", None)}
     sigma = noise_sd(r0, d)
-    progress(f"baseline: held-out error {100 * base['nrmse_heldout']:.2f} % of the force range, "
+    progress(f"baseline: held-out error {100 * base_res['nrmse_heldout']:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
     current, r_cur = fold_vals, r0
@@ -161,10 +168,10 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         sse_cur = _block_sse(np.where(test, r_cur, 0.0), block, test_blocks)
-        n_before = len(Model(d, accepted).params)
+        n_before = len(Model(d, accepted, base).params)
         round_ = []
         for e in names:
-            m = Model(d, accepted + [e])
+            m = Model(d, accepted + [e], base)
             f_vals, f_sds, r = _cross_fit(m, d, folds, current)
             vals, sds = _pooled(f_vals, f_sds)
             d_c = sse_cur - _block_sse(np.where(test, r, 0.0), block, test_blocks)
@@ -192,8 +199,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0):
         accepted.append(best["effect"])
         values, current, r_cur = best["_values"], best["_folds"], best["_r"]
         progress(f"accepted {best['effect']}")
-    final_model = Model(d, accepted)
-    return {"data": d, "baseline": base, "noise_sd": sigma, "locations": locate(d, r0),
+    final_model = Model(d, accepted, base)
+    return {"data": d, "baseline": base_res, "noise_sd": sigma, "locations": locate(d, r0),
             "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
             "final": {"nrmse_heldout": nrmse(r_cur[test], d.F[test]), "parameters": values,
                       "force": final_model.force(d, values)}}

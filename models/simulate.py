@@ -24,6 +24,13 @@ NOUT = 5  # F_d, F_G, P1, P2, P_gas
 ATOL_OIL = 5e-12
 
 
+def oil_atol(damper) -> float:
+    """Newton tolerance on the stored oil [m^3]: ATOL_OIL is sized for 100 MPa; a stiffer
+    oil needs the stored volume proportionally finer."""
+    beta = damper.compressibility.beta_inv
+    return ATOL_OIL * min(1.0, 1e8 / beta) if beta else ATOL_OIL
+
+
 def C_to_K(T_C):
     return np.asarray(T_C, float) + 273.15
 
@@ -86,7 +93,7 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
         else:
             y = np.array(state[0], float)
             prm[SEATOPEN] = state[1]
-        atol = np.full(asm.NSTATE, ATOL_OIL)
+        atol = np.full(asm.NSTATE, oil_atol(damper))
         _, capped, _ = integrate(assemblies.CODE[damper.layout], y, x, v, int(substeps), h, prm, vp, vh, atol,
                                  out, new_history(asm.NSTATE))
         new_state = (y, prm[SEATOPEN], x_e)
@@ -138,9 +145,7 @@ class Stepper:
         self.set_temperature(T)
         self.y = self.asm.initial_state(self.prm, self.x_e)
         self.hist = new_history(self.asm.NSTATE)
-        # ATOL_OIL is sized for 100 MPa; a stiffer oil needs the stored volume proportionally finer
-        beta = damper.compressibility.beta_inv
-        self.atol = np.full(self.asm.NSTATE, ATOL_OIL * min(1.0, 1e8 / beta) if beta else ATOL_OIL)
+        self.atol = np.full(self.asm.NSTATE, oil_atol(damper))
         self.xs, self.vs = np.full(2, self.x_e), np.zeros(2)
         self.out = np.zeros((2, NOUT))
 

@@ -284,7 +284,8 @@ def parser():
     idf.set_defaults(func=_identify)
     dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
     dg.add_argument("recording")
-    dg.add_argument("--baseline", default="minimal", help="minimal (default)")
+    dg.add_argument("--baseline", default="minimal",
+                    help="minimal (default: fitted whole), or a damper preset or model JSON, refitted")
     dg.add_argument("--json", action="store_true", help="machine-readable result")
     dg.add_argument("--report", metavar="DIR", help="HTML report with residual maps and loops")
     dg.set_defaults(func=_diagnose)

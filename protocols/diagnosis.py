@@ -1,4 +1,4 @@
-"""`dyno diagnose RECORDING [--baseline minimal] [--json] [--report DIR]`: where the
+"""`dyno diagnose RECORDING [--baseline minimal|PRESET|FILE.json] [--json] [--report DIR]`: where the
 model misses the recording, what physics was left out, and the held-out evidence."""
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from models.diagnose import diagnose
+from models.damper import DamperError, SimplifiedDamper
+from models.damper import load as load_damper
 from models.diagnose_data import DiagnoseError
 from rig.errors import RigError
 
@@ -89,8 +91,13 @@ def _where(loc):
 def summary(res):
     lines = []
     b = res["baseline"]
-    lines.append(f"Baseline (minimal): held-out error {100 * b['nrmse_heldout']:.3g} % of the force range "
+    lines.append(f"Baseline ({b['name']}): held-out error {100 * b['nrmse_heldout']:.3g} % of the force range "
                  f"(training {100 * b['nrmse_train']:.3g} %); force noise {res['noise_sd']:.2f} N.")
+    if "k_damping" in b["parameters"]:  # a damper model as the baseline: what the refit changed
+        p = b["parameters"]
+        lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
+                     f"mean position (the model: {b['model_gas_force']:.0f} N) and its slope with stroke "
+                     f"x{p['k_gas']:.3f}, friction x{p['k_friction']:.3f}.")
     strong = [loc for loc in res["locations"] if loc["concentration"] > 2.0][:3]
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
@@ -172,13 +179,21 @@ def report(res, out_dir: Path):
 
 
 def run(args):
+    baseline = None
     if args.baseline != "minimal":
-        raise RigError(f"--baseline {args.baseline}: only 'minimal' is implemented so far")
+        try:
+            model = load_damper(args.baseline)
+        except (DamperError, OSError, ValueError) as e:
+            raise RigError(f"--baseline {args.baseline}: {e}") from None
+        if isinstance(model, SimplifiedDamper):
+            raise RigError(f"--baseline {args.baseline}: a simplified model has no gas spring or friction to refit; "
+                           f"give a full damper model")
+        baseline = (Path(args.baseline).stem, model)
     ch, events, _ = load(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     try:
-        res = diagnose(ch, events, progress=say)
-    except DiagnoseError as e:
+        res = diagnose(ch, events, progress=say, baseline=baseline)
+    except (DiagnoseError, DamperError) as e:
         raise RigError(f"{args.recording}: {e}") from None
     if args.report:
         page = report(res, Path(args.report))

@@ -88,6 +88,26 @@ def test_gaps_missing_temperature_and_too_short(recordings):
         prepare(short, [e for e in ev if e["t"] < 1.5])
 
 
+def test_a_damper_model_as_baseline(recordings):
+    """--baseline PRESET: the plain cell's own damper model, simulated along the motion and
+    refitted, leaves nothing on the null and finds the hidden inertia first."""
+    from models.damper import load as load_damper
+    res = diagnose(*load(recordings["null"])[:2], baseline=("koni-plain", load_damper("koni-plain")))
+    assert res["accepted"] == [] and res["baseline"]["name"] == "koni-plain"
+    assert res["baseline"]["nrmse_heldout"] < 0.001  # within the noise: it is the rig's own damper
+    assert abs(res["baseline"]["parameters"]["k_damping"] - 1.0) < 0.02
+    res = diagnose(*load(recordings["inertia"])[:2], baseline=("koni-plain", load_damper("koni-plain")))
+    assert res["accepted"][0] == "fluid_inertia"
+
+
+@pytest.mark.parametrize("baseline, message", [("nosuch", "unknown damper preset"),
+                                               ("simplified-I", "simplified model")])
+def test_cli_refuses_a_baseline_it_cannot_use(recordings, baseline, message):
+    r = subprocess.run([*DYNO, "diagnose", str(recordings["null"]), "--baseline", baseline],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and message in r.stderr and "Traceback" not in r.stderr
+
+
 def test_cli_refuses_a_recording_without_force(tmp_path):
     r = subprocess.run([*DYNO, "diagnose", str(tmp_path / "none.mcap")], capture_output=True, text=True)
     assert r.returncode != 0 and "no such file" in r.stderr and "Traceback" not in r.stderr

@@ -85,22 +85,31 @@ def _lag(F, tau, h):
 
 
 @njit(cache=True)
-def _plateau(F, x, c):
-    """Zero force while the mount crosses a clearance c [m]: whenever the force would
-    change sign, it stays 0 until the displacement has moved c from there."""
+def _plateau(F, x, t, v_free, c):
+    """Free play: the load cell reads zero while the mount crosses a clearance c [m].
+    When the force would change sign the rod leaves its contact and floats at v_free [m/s]
+    (where the damper's own force on it is zero: the gas pushing it out through the rebound
+    valves); the crossing ends when the mount has moved c relative to the rod. In the
+    sample where it ends, the force counts for the part of the step spent in contact, so
+    the force depends smoothly on c."""
     out = F.copy()
     side = 1.0 if F[0] >= 0 else -1.0
-    x_open, crossing = 0.0, False
+    moved, crossing = 0.0, False
     for i in range(len(F)):
         if crossing:
-            if abs(x[i] - x_open) >= c:
+            step = -side * ((x[i] - x[i - 1]) - v_free[i] * (t[i] - t[i - 1]))
+            moved += step
+            if moved >= c:
                 crossing = False
                 side = -side
+                out[i] = F[i] * min((moved - c) / max(step, 1e-30), 1.0)
+            elif moved < 0.0:  # back onto the contact it left
+                crossing = False
             else:
                 out[i] = 0.0
-                continue
+            continue
         if F[i] * side < 0:
-            crossing, x_open = True, x[i]
+            crossing, moved = True, 0.0
             out[i] = 0.0
     return out
 
@@ -123,6 +132,14 @@ class Minimal:
         """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
         along motion x, v (already shifted by the sensor delay tau)."""
         return damping(v, p), gas(x, self.x_m, p), p["F_c"] * np.tanh(v / V_EPS), lambda: _slope(v, p)
+
+    def free_speed(self, p, G):
+        """Velocity [m/s] of a rod left to itself under a net outward force G >= 0 [N] (gas
+        less the friction's grip): rebound through the valves at that force, eq 3.30
+        read the other way, v = v_L(F) + v_M(F)."""
+        c1, c2 = p["c1_r"], p["c2_r"]
+        vL = 2 * G / np.maximum(np.sqrt(c1 * c1 + 4 * c2 * G) + c1, 1e-12)  # root of c2 v^2 + c1 v = G
+        return -(vL + np.maximum(G - p["Fcr_r"], 0.0) / p["C_r"])
 
 
 class FromModel:
@@ -158,11 +175,20 @@ class FromModel:
             out["slope"][a:b] = back(np.abs(up.damping - dn.damping) / (2 * dv))
         self.Fd, self.Fg, self.Ff, self.slope = out["Fd"], out["Fg"], out["Ff"], out["slope"]
         self.Fg_m = float(np.mean(self.Fg))
+        # the rebound valve curve at the mean position, read backwards by free_speed
+        v = -np.geomspace(1e-5, 5.0, 200)
+        self.v_table = v
+        self.G_table = -simulate(damper, np.arange(len(v)) * 1e-3, np.full(len(v), x_e), v, T=T,
+                                 compressible=False, x_e=x_e).damping
 
     def params(self, d):
         Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
         return [P("k_damping", 1.0, 0.0, 5.0, "-"), P("G0", self.Fg_m, -Fmax, Fmax, "N"),
                 P("k_gas", 1.0, 0.0, 5.0, "-"), P("k_friction", 1.0, 0.0, 10.0, "-")]
+
+    def free_speed(self, p, G):
+        """Velocity [m/s] of a rod left to itself under a net outward force G [N]."""
+        return np.interp(G / max(p["k_damping"], 1e-9), self.G_table, self.v_table, left=0.0)
 
     def parts(self, d, p, x, v, tau):
         s = (lambda y: _shift(y, d.t, -tau)) if tau else (lambda y: y)
@@ -218,7 +244,7 @@ class Model:
             cap = p["Fcav_c"] + p["kcav"] * (Fg - self.Fg_m)
             F = np.where(v > 0, np.minimum(F, cap), np.maximum(F, -p["Fcav_r"]))
         if "c_play" in p:
-            F = _plateau(F, x, p["c_play"])
+            F = _plateau(F, x, t, self.base.free_speed(p, np.maximum(Fg - np.abs(Ff), 0.0)), p["c_play"])
         return (F, Fd, Fg, Ff) if parts else F
 
 

@@ -3,8 +3,9 @@ catalogue effect (models/candidates.py) with the baseline refitted, judge it onl
 held-out cycles, accept the best one whose improvement is significant, repeat. Two-fold
 cross-fitting (even cycles fit, odd judged, and back) judges every cycle once.
 
-Significance: the held-out relative improvement per block (SSE_baseline,b - SSE_candidate,b)
-/ SSE_baseline,b, so that every block counts alike whatever its force level, is tested by
+Significance: the held-out improvement per block, log(SSE_baseline,b / SSE_candidate,b), so
+that every block counts alike whatever its force level and a block made worse weighs as
+much as one made better by the same factor, is tested by
 a bootstrap over blocks (quarter cycles) against zero, one-sided,
 Bonferroni-corrected for the candidates tried in that round (ALPHA over their number).
 An effect must also be worth having: its held-out mean-square improvement at least
@@ -176,7 +177,9 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
             vals, sds = _pooled(f_vals, f_sds)
             d_c = sse_cur - _block_sse(np.where(test, r, 0.0), block, test_blocks)
             gain = float(d_c.sum() / n_test)  # held-out mean-square improvement [N^2]
-            rel = d_c / np.maximum(sse_cur, 1e-30)  # each block counts alike, whatever its force
+            # each block counts alike whatever its force, and symmetrically: a block made ten
+            # times worse weighs what one made ten times better does
+            rel = np.log(np.maximum(sse_cur, 1e-30) / np.maximum(sse_cur - d_c, 1e-30))
             own = {p.name: vals[p.name] for p in m.params[n_before:]}
             round_.append({"effect": e, "parameters": own,
                            "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},

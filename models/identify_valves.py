@@ -107,12 +107,24 @@ def _start(structure, u, G):
     return {"a": a, "b": b}
 
 
-def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None):
+def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None):
     """(params, K, result) for one direction: least squares in log-coefficients, relative
-    residuals (the force spans two decades)."""
+    residuals (the force spans two decades). A structure that contains smaller ones also
+    starts from their fits (`done` keeps them for one data set), so it never ends worse
+    than a structure it contains for want of a start: the least-squares surface has
+    valleys where, say, the polynomial settles as an orifice plus a wrong mid line."""
+    done = {} if done is None else done
+    if structure in done:
+        return done[structure]
     names = STRUCTURES[structure]
-    p0 = _start(structure, u, G)
-    p0 = {k: p0[k] for k in names}
+    own = _start(structure, u, G)
+    starts = [({k: own[k] for k in names}, K0)]
+    for sub, sub_names in STRUCTURES.items():
+        bigger = [s for s, n in STRUCTURES.items() if set(sub_names) < set(n) < set(names)]
+        if set(sub_names) < set(names) and not bigger:  # the largest structures inside this one
+            p_sub, K_sub, _ = fit(sub, u, G, T, T_ref, fit_K, K0, weights, done)
+            # a low-branch term it lacked starts small; a line it lacked starts where the data puts it
+            starts.append(({k: p_sub.get(k, 0.1 * own[k] if k in "ab" else own[k]) for k in names}, K_sub))
     w = np.ones_like(u) if weights is None else weights
     scale = np.maximum(G, 0.05 * G.max())
 
@@ -127,12 +139,19 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None):
             return np.full_like(u, 1e3)
         return w * (force(p, u, T, T_ref, K) - G) / scale
 
-    z0 = np.log([p0[k] for k in names])
-    if fit_K:
-        z0 = np.append(z0, K0 * 1e3)
-    res = least_squares(resid, z0, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
-    p, K = unpack(res.x)
-    return p, K, res
+    best = None
+    for p0, K_start in starts:
+        z0 = np.log(np.maximum([p0[k] for k in names], 1e-300))
+        if fit_K:
+            z0 = np.append(z0, K_start * 1e3)
+        if "m2" in p0 and p0["m2"] >= p0["m"]:
+            continue
+        res = least_squares(resid, z0, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
+        if best is None or res.cost < best.cost:
+            best = res
+    p, K = unpack(best.x)
+    done[structure] = (p, K, best)
+    return done[structure]
 
 
 def select(u, G, T, T_ref, groups, fit_K=True, structures=None):
@@ -142,6 +161,7 @@ def select(u, G, T, T_ref, groups, fit_K=True, structures=None):
     groups = np.asarray(groups)
     keys = np.unique(groups)
     scores = {}
+    done = {k: {} for k in keys}  # fits per held-out group, shared by the structures
     for s in structures:
         if len(u) < 3 * len(STRUCTURES[s]) + 2:
             continue
@@ -150,7 +170,7 @@ def select(u, G, T, T_ref, groups, fit_K=True, structures=None):
             train, test = groups != k, groups == k
             if train.sum() < len(STRUCTURES[s]) + 2:
                 continue
-            p, K, _ = fit(s, u[train], G[train], T[train], T_ref, fit_K)
+            p, K, _ = fit(s, u[train], G[train], T[train], T_ref, fit_K, done=done[k])
             e = (force(p, u[test], T[test], T_ref, K) - G[test]) / np.maximum(G[test], 0.05 * G.max())
             errs.append(e)
         if errs:

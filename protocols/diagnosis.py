@@ -21,7 +21,8 @@ SAY = {
     "sensor_delay": ("The {late} by {v} {u}: a filter or transport lag in a sensor's signal chain. "
                      "Align the channels (or fix the conditioning) before fitting valves.",
                      "tau", 1e3, "ms"),
-    "free_play": ("The force sits at zero while the mount travels {v} {u} each time it changes sign: "
+    "free_play": ("The force sits at zero while the mount travels {v} {u} (relative to the rod, which the gas "
+                  "pushes out meanwhile) each time it changes sign: "
                   "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
                   "c_play", 1e3, "mm"),
     "compressibility": ("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "

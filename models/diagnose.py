@@ -157,7 +157,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     values, sd = _pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
     base_res = {"name": base.name, "parameters": values, "sd": sd, "nrmse_train": nrmse(r_train[even], d.F[even]),
-            "nrmse_heldout": nrmse(r0[test], d.F[test]), "residual": r0,
+                "nrmse_heldout": nrmse(r0[test], d.F[test]), "residual": r0,
                 "model_gas_force": getattr(base, "Fg_m", None)}
     sigma = noise_sd(r0, d)
     progress(f"baseline: held-out error {100 * base_res['nrmse_heldout']:.2f} % of the force range, "

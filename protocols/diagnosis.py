@@ -74,7 +74,8 @@ def sentence(step):
         if key == "sensor_delay":
             late = ("force reading lags the displacement" if v < 0
                     else "displacement reading lags the force")
-            v, lo, hi = abs(v), min(abs(lo), abs(hi)), max(abs(lo), abs(hi))
+            # the size of the lag; an interval across zero starts at zero
+            v, lo, hi = abs(v), (0.0 if lo * hi < 0 else min(abs(lo), abs(hi))), max(abs(lo), abs(hi))
         vs = f"{v:.3g} ({lo:.3g} to {hi:.3g})"
     return text.format(v=vs, u=unit, late=late) + _change(step)
 

@@ -80,14 +80,19 @@ def _block_sse(r, block, ids):
     return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
 
 
-def p_value(d_c, rng):
-    """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c."""
+def p_value(d_c, rng, alpha=ALPHA):
+    """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
+    (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha."""
     n = len(d_c)
     if n < 3:
         return 1.0
     m = d_c.mean()
-    boot = d_c[rng.integers(0, n, (BOOT, n))].mean(axis=1)
-    return float((np.sum(boot - m >= m) + 1) / (BOOT + 1))
+    total = max(BOOT, int(np.ceil(20 / alpha)))
+    hits = 0
+    for k in range(0, total, BOOT):  # in chunks: a (resamples x blocks) index array each
+        boot = d_c[rng.integers(0, n, (min(BOOT, total - k), n))].mean(axis=1)
+        hits += int(np.sum(boot - m >= m))
+    return float((hits + 1) / (total + 1))
 
 
 def noise_sd(r, d: Data):
@@ -168,6 +173,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     n_test = int(np.sum(test))
     for _ in range(max_effects):
         names, _ = available(d, accepted)
+        alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
         sse_cur = _block_sse(np.where(test, r_cur, 0.0), block, test_blocks)
         n_before = len(Model(d, accepted, base).params)
         round_ = []
@@ -183,13 +189,12 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
             own = {p.name: vals[p.name] for p in m.params[n_before:]}
             round_.append({"effect": e, "parameters": own,
                            "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                           "nrmse_heldout": nrmse(r[test], d.F[test]), "p_value": p_value(rel, rng),
+                           "nrmse_heldout": nrmse(r[test], d.F[test]), "p_value": p_value(rel, rng, alpha),
                            "gain": gain, "relevance": gain / sigma ** 2, "round": len(accepted) + 1,
                            "_values": vals, "_folds": f_vals, "_r": r})
-            progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.4f}"
+            progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.2g}"
                      f"  gain {gain / sigma ** 2:+.3f} noise variances")
         candidates += round_
-        alpha = ALPHA / max(len(round_), 1)
         mse = float(np.mean(r_cur[test] ** 2))
         ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE
               and c["gain"] >= SHARE * mse]

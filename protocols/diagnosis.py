@@ -82,7 +82,7 @@ def sentence(step):
 
 def _change(step):
     return (f" Held-out error falls from {100 * step['before']:.3g} % to {100 * step['after']:.3g} % "
-            f"of the force range (p = {step['p_value']:.4f}).")
+            f"of the force range (p = {step['p_value']:.2g}).")
 
 
 def _where(loc):
@@ -206,7 +206,7 @@ def run(args):
         print(summary(res))
         print("\nCandidates (held-out error, p, gain in noise variances):")
         for c in res["candidates"]:
-            print(f"  round {c['round']} {c['effect']:32s} {100 * c['nrmse_heldout']:7.3f} %  p = {c['p_value']:.4f}  "
+            print(f"  round {c['round']} {c['effect']:32s} {100 * c['nrmse_heldout']:7.3f} %  p = {c['p_value']:<7.2g}"
                   f"{c['relevance']:+8.2f}")
     return 0
 

@@ -19,6 +19,10 @@ from numba import njit
 
 GAMMA = 1.38  # thesis section 4.1.2
 V_EPS = 5e-5  # m/s: friction sign softened over this (the model's velocity is low-passed)
+# the force channel's averaging time, in sample periods: a first-order anti-alias filter
+# at the Nyquist frequency averages over about 0.6 of one (a choice; the data cannot tell it
+# from the size of a short clearance crossing, which it scales)
+W_FORCE = 0.5
 LEAD = 20  # samples run before a stretch when a damper model is simulated along it
 
 
@@ -85,32 +89,72 @@ def _lag(F, tau, h):
 
 
 @njit(cache=True)
-def _plateau(F, x, t, v_free, c):
+def _integral(F, t, lo, hi):
+    """Integral over [lo, hi] of F linear between samples t (lo >= t[0])."""
+    j = max(np.searchsorted(t, lo) - 1, 0)
+    out = 0.0
+    while j < len(t) - 1 and t[j] < hi:
+        a, b = max(t[j], lo), min(t[j + 1], hi)
+        if b > a:
+            s = (F[j + 1] - F[j]) / (t[j + 1] - t[j])
+            out += (b - a) * (F[j] + s * (0.5 * (a + b) - t[j]))
+        j += 1
+    return out
+
+
+@njit(cache=True)
+def _plateau(F, S, t, c, W):
     """Free play: the load cell reads zero while the mount crosses a clearance c [m].
-    When the force would change sign the rod leaves its contact and floats at v_free [m/s]
-    (where the damper's own force on it is zero: the gas pushing it out through the rebound
-    valves); the crossing ends when the mount has moved c relative to the rod. In the
-    sample where it ends, the force counts for the part of the step spent in contact, so
-    the force depends smoothly on c."""
+    When the force F [N] changes sign (at t_z, between samples) the rod leaves its contact
+    and floats where the damper's own force on it is zero; the mount then moves away from
+    it at the speed it would have needed to make the force, |F| / S (S: the damping's slope
+    dF/dv [N s/m]), so the gap closes at t_e where the integral of |F| / S from t_z is c.
+    Each sample holds the force's mean over a window W [s] about it (the amplifier's
+    anti-alias filter), so it loses what the part of its window inside the crossing would
+    have carried: the force depends smoothly on c and on where the crossing falls between
+    samples, and c = 0 is the model without. No crossing is begun across a gap."""
     out = F.copy()
-    side = 1.0 if F[0] >= 0 else -1.0
-    moved, crossing = 0.0, False
-    for i in range(len(F)):
-        if crossing:
-            step = -side * ((x[i] - x[i - 1]) - v_free[i] * (t[i] - t[i - 1]))
-            moved += step
-            if moved >= c:
-                crossing = False
-                side = -side
-                out[i] = F[i] * min((moved - c) / max(step, 1e-30), 1.0)
-            elif moved < 0.0:  # back onto the contact it left
-                crossing = False
-            else:
-                out[i] = 0.0
+    if c <= 0.0:
+        return out
+    n = len(F)
+    i = 1
+    while i < n:
+        h = t[i] - t[i - 1]
+        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
+            i += 1
             continue
-        if F[i] * side < 0:
-            crossing, moved = True, 0.0
-            out[i] = 0.0
+        tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
+        side = 1.0 if F[i] > 0 else -1.0
+        s, t0, f0, te = 0.0, tz, 0.0, t[n - 1]
+        j = i
+        while j < n:
+            f1 = side * F[j]
+            if f1 < 0.0:  # back to the old side before the gap closed: contact resumes there
+                te = t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1)
+                break
+            dt = t[j] - t0
+            k = max(S[j], 1e-9)
+            ds = 0.5 * (f0 + f1) * dt / k
+            if s + ds >= c and dt > 0.0:
+                # |F| linear over the interval: s(tau) = (f0 tau + b tau^2 / 2) / k, b = (f1 - f0) / dt
+                b = (f1 - f0) / dt
+                need = (c - s) * k
+                if abs(b) * need < 1e-12 * f0 * f0:
+                    tau = need / max(f0, 1e-30)
+                else:
+                    tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
+                te = t0 + min(max(tau, 0.0), dt)
+                break
+            s += ds
+            t0, f0 = t[j], f1
+            j += 1
+        k = i - 1
+        while k < n and t[k] - 0.5 * W < te:
+            lo, hi = max(t[k] - 0.5 * W, tz), min(t[k] + 0.5 * W, te)
+            if hi > lo:
+                out[k] -= _integral(F, t, lo, hi) / W
+            k += 1
+        i = max(k, i + 1)
     return out
 
 
@@ -132,14 +176,6 @@ class Minimal:
         """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
         along motion x, v (already shifted by the sensor delay tau)."""
         return damping(v, p), gas(x, self.x_m, p), p["F_c"] * np.tanh(v / V_EPS), lambda: _slope(v, p)
-
-    def free_speed(self, p, G):
-        """Velocity [m/s] of a rod left to itself under a net outward force G >= 0 [N] (gas
-        less the friction's grip): rebound through the valves at that force, eq 3.30
-        read the other way, v = v_L(F) + v_M(F)."""
-        c1, c2 = p["c1_r"], p["c2_r"]
-        vL = 2 * G / np.maximum(np.sqrt(c1 * c1 + 4 * c2 * G) + c1, 1e-12)  # root of c2 v^2 + c1 v = G
-        return -(vL + np.maximum(G - p["Fcr_r"], 0.0) / p["C_r"])
 
 
 class FromModel:
@@ -175,20 +211,11 @@ class FromModel:
             out["slope"][a:b] = back(np.abs(up.damping - dn.damping) / (2 * dv))
         self.Fd, self.Fg, self.Ff, self.slope = out["Fd"], out["Fg"], out["Ff"], out["slope"]
         self.Fg_m = float(np.mean(self.Fg))
-        # the rebound valve curve at the mean position, read backwards by free_speed
-        v = -np.geomspace(1e-5, 5.0, 200)
-        self.v_table = v
-        self.G_table = -simulate(damper, np.arange(len(v)) * 1e-3, np.full(len(v), x_e), v, T=T,
-                                 compressible=False, x_e=x_e).damping
 
     def params(self, d):
         Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
         return [P("k_damping", 1.0, 0.0, 5.0, "-"), P("G0", self.Fg_m, -Fmax, Fmax, "N"),
                 P("k_gas", 1.0, 0.0, 5.0, "-"), P("k_friction", 1.0, 0.0, 10.0, "-")]
-
-    def free_speed(self, p, G):
-        """Velocity [m/s] of a rod left to itself under a net outward force G [N]."""
-        return np.interp(G / max(p["k_damping"], 1e-9), self.G_table, self.v_table, left=0.0)
 
     def parts(self, d, p, x, v, tau):
         s = (lambda y: _shift(y, d.t, -tau)) if tau else (lambda y: y)
@@ -209,6 +236,7 @@ class Model:
         # means the effects refer to (fixed from the data, not fitted)
         self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
         self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
+        self.h = float(np.median(d.h))  # s, the sample period
         x0 = {p.name: p.x0 for p in self.params}
         self.Fg_m = float(np.mean(self.base.parts(d, x0, d.x, d.v, 0.0)[1]))
 
@@ -244,7 +272,7 @@ class Model:
             cap = p["Fcav_c"] + p["kcav"] * (Fg - self.Fg_m)
             F = np.where(v > 0, np.minimum(F, cap), np.maximum(F, -p["Fcav_r"]))
         if "c_play" in p:
-            F = _plateau(F, x, t, self.base.free_speed(p, np.maximum(Fg - np.abs(Ff), 0.0)), p["c_play"])
+            F = _plateau(F, slope(), t, p["c_play"], W_FORCE * self.h)
         return (F, Fd, Fg, Ff) if parts else F
 
 

@@ -21,8 +21,8 @@ SAY = {
     "sensor_delay": ("The {late} by {v} {u}: a filter or transport lag in a sensor's signal chain. "
                      "Align the channels (or fix the conditioning) before fitting valves.",
                      "tau", 1e3, "ms"),
-    "free_play": ("The force sits at zero while the mount travels {v} {u} (relative to the rod, which the gas "
-                  "pushes out meanwhile) each time it changes sign: "
+    "free_play": ("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
+                  "meanwhile where the damper's own force on it is zero) each time it changes sign: "
                   "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
                   "c_play", 1e3, "mm"),
     "compressibility": ("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
@@ -66,8 +66,10 @@ def sentence(step):
         lo, hi = (1.0 / max(c, 1e-30) for c in ci[pname][::-1])
         vs = f"{k / 1e6:.3g} ({max(lo, 0) / 1e6:.3g} to {hi / 1e6:.3g})"
     elif key == "free_play" and p[pname] < 1e-6:
-        return ("The force drops to zero for a sample or two each time it changes sign, a clearance "
-                "crossed too fast to size at this sample rate: check the rod-end and eye bushes." + _change(step))
+        return (f"The force dips towards zero for less than a sample each time it changes sign: a clearance of "
+                f"roughly {p[pname] * 1e6:.2g} um crossed that fast (at this sample rate its size is uncertain by a "
+                f"factor of two or three), in the damper's mounts or bearings. Check the rod-end and eye bushes."
+                + _change(step))
     else:
         v = p[pname] * factor
         lo, hi = (c * factor for c in ci[pname])

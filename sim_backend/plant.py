@@ -28,7 +28,6 @@ MODE_OFF, MODE_HOLD, MODE_FOLLOW = 0, 1, 2
 # plain cell: `dyno diagnose` finds no lag between them (|tau| < 11 us) where 0.5 leaves
 # 21 us and 0 leaves 240 us.
 X_LAG = 0.46
-MOUNT_K = 1e10  # N/m: the mount's contact stiffness once a clearance is taken up
 STATE_OFF, STATE_HOLDING, STATE_FOLLOWING, STATE_ALARM = 0, 1, 2, 3
 ALARM_FORCE, ALARM_VALVE = 1 << 0, 1 << 1  # see rig/dyno.dbc
 
@@ -67,9 +66,13 @@ class Plant:
         self._stuck_force = None
         self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.p["frame"]["friction_x_stick"])
         self.stepper.set_temperature(self.T, self._T_gas())
-        self.x_rod = self.x_act - self.fx.get("free_play", 0.0) / 2  # where the damper's rod is (differs from the mount's with free play)
-        self.v_rod = self.F_rod = self.F_rod_d = 0.0
-        self.contact = 1  # free play: +1 mount bears in compression, -1 in rebound, 0 crossing the gap
+        # free play: the rod sits a gap (mount less rod, [m]) from the mount, bearing on it in
+        # compression (contact +1), in rebound (-1) or crossing the clearance (0)
+        self.gap = self.fx.get("free_play", 0.0) / 2
+        self.x_rod = self.x_act - self.gap
+        self.contact = 1
+        self.v_rod = self.F_rest = self.F_grip = 0.0
+        self.curve = self._damping_curve() if self.gap else None
         self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
         self.a_f = 0.0  # acceleration through the oil column, low-passed [m/s^2]
         self.aux_rng = np.random.default_rng(seed + 7919)
@@ -155,6 +158,8 @@ class Plant:
         if abs(self.T - self._T_packed) > self.repack_K:  # re-pack the model as it warms
             self.stepper.set_temperature(self.T, self._T_gas())
             self._T_packed = self.T
+            if self.curve is not None:
+                self.curve = self._damping_curve()
         # the gas is polytropic about x_gas (eq 4.4) and exchanges heat towards isothermal
         # at its present position over tau (what a static dwell waits for, eq 3.7)
         self.x_gas += h / th["gas_tau_s"] * (self.x_d - self.x_gas)
@@ -186,7 +191,7 @@ class Plant:
         fx = self.fx
         c = fx.get("free_play", 0.0)
         if c > 0:
-            x_rod, v_rod = self._rod_in_clearance(h, c)
+            x_rod, v_rod = self._rod_in_clearance(h, c, v_prev)
         else:
             x_rod, v_rod = self.x_d, self.v_d
         F, F_d, F_g, F_f, P1, P2, Pg = self.stepper.step(x_rod, v_rod)
@@ -206,31 +211,54 @@ class Plant:
                 F += (floor - P1) * geo.A_p
                 P1 = floor
         if c > 0:
-            self.F_rod, self.F_rod_d = F, F_d
+            self.F_rest, self.F_grip = F - F_d - F_f, abs(F_f)
             if self.contact == 0:
                 return 0.0, F_d, P1, P2, Pg  # crossing the clearance: the load cell feels nothing
         return F, F_d, P1, P2, Pg
 
-    def _rod_in_clearance(self, h, c):
-        """(x, v) of the damper's rod when its mount has a clearance c [m]. The mount bears
-        on the rod through a stiff contact (MOUNT_K) on either side of the clearance; the
-        rod (massless) moves so that the damper's force, linearised about the last step
-        (slope: the damping's secant), equals the contact's. Solved per regime (bearing in
-        compression, in rebound, or free), so a clearance crossed within a step costs no
-        more than the time it takes."""
-        S = max(abs(self.F_rod_d / self.v_rod), 2e3) if abs(self.v_rod) > 1e-4 else 2e4
-        g0, F0, v0, kh = self.x_d - self.x_rod, self.F_rod, self.v_rod, MOUNT_K * h
-        for side in (1, -1):
-            v = (MOUNT_K * (g0 - side * c / 2) - F0 + S * v0) / (S + kh)
-            if side * (g0 - v * h) > c / 2:
-                self.contact = side
-                break
-        else:
-            v = v0 - F0 / S
-            self.contact = 0
-        self.x_rod += v * h
-        self.v_rod = v
-        return self.x_rod, v
+    def _damping_curve(self):
+        """(v [m/s], F [N]): the damper's damping at steady speed, mid-stroke, at its present
+        temperature (incompressible), rising with v; what a free rod floats on."""
+        from models.simulate import simulate
+        v = np.r_[-np.geomspace(5.0, 1e-6, 120), 0.0, np.geomspace(1e-6, 5.0, 120)]
+        x = np.full(len(v), self.stepper.x_e)
+        F = simulate(self.damper, np.arange(len(v)) * 1e-3, x, v, T=self.T, compressible=False,
+                     x_e=self.stepper.x_e).damping
+        return v, np.maximum.accumulate(F)
+
+    def _rod_in_clearance(self, h, c, v_prev):
+        """(x [m], mean v over the step [m/s]) of the damper's rod when its mount has a
+        clearance c [m]. In contact the rod moves with the mount, whose speed ramps from
+        v_prev to v_d over the step. The contact opens where the force it carries would change
+        sign; the rod (massless) then floats at the speed v_f where the damper's force on it
+        is zero (its damping curve against the rest: gas, friction), and the mount moves away
+        from it at v - v_f until the gap is crossed. Followed within the step, so a crossing
+        shorter than a step ends when it ends: the load cell reads zero only at the
+        instants inside one."""
+        v_tab, F_tab = self.curve
+        rest = self.F_rest + self.F_grip * math.copysign(1.0, self.v_d)  # force besides damping
+        v_f = float(np.interp(-rest, F_tab, v_tab))
+        side, g0 = self.contact, self.gap
+        g, t_a = g0, 0.0
+        if side:
+            if side * (rest + float(np.interp(self.v_d, v_tab, F_tab))) >= 0:  # stays in contact
+                t_a = h
+            elif self.v_d != v_prev:  # opens within the step, where the mount passes v_f
+                t_a = h * min(max((v_f - v_prev) / (self.v_d - v_prev), 0.0), 1.0)
+        if t_a < h:
+            u = np.linspace(t_a, h, 65)
+            v = v_prev + (self.v_d - v_prev) * u / h  # the mount's speed
+            gap = g + np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1] - 2 * v_f) * np.diff(u))]
+            hit = np.nonzero(np.abs(gap[1:]) >= c / 2)[0] + 1
+            if len(hit):  # the gap closes on one side within the step: contact from there on
+                side = 1 if gap[hit[0]] > 0 else -1
+                g = side * c / 2
+            else:
+                side, g = 0, float(gap[-1])
+        self.contact, self.gap = side, g
+        self.x_rod = self.x_d - g
+        self.v_rod = self.v_d - (g - g0) / h  # the mount's motion less the gap's change
+        return self.x_rod, self.v_rod
 
     # --- outputs ------------------------------------------------------------------------
     def readings(self):

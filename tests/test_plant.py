@@ -47,3 +47,38 @@ def test_the_actuator_holds_when_setpoints_stop():
         p.advance(1e-3)
     p.advance(0.2)  # no frames for 200 ms
     assert p.mode == MODE_HOLD and abs(p.v_act) < 1e-9
+
+
+@pytest.mark.parametrize("c", [3e-5, 3e-7])
+def test_free_play_reads_zero_while_the_mount_crosses_the_clearance(c):
+    """The rod floats where the damper's force on it is zero while the mount, accelerating
+    at a, moves c away from it: the load cell reads zero for sqrt(2 c / a) each time the
+    force would change sign, however that compares with the step."""
+    from sim_backend.effects import plain_cell
+    name, params, _ = plain_cell()
+    h, f, A = 5e-4, 2.0, 0.0127
+    p = Plant(name, params=params, effects={"free_play": c}, h=h)
+    x0 = p.x_act
+    F, v = [], []
+    for k in range(int(1.2 / h)):
+        p.command(MODE_FOLLOW, x0 + A * np.sin(2 * np.pi * f * k * h))
+        p.advance(h)
+        F.append(p.F)
+        v.append(p.v_d)
+    F, v = np.array(F), np.array(v)
+    zero = F == 0.0
+    starts = np.nonzero(zero[1:] & ~zero[:-1])[0] + 1
+    ends = np.nonzero(~zero[1:] & zero[:-1])[0] + 1
+    assert len(starts) >= 2 and len(ends) >= 2
+    for s in starts[:2]:
+        a = abs(v[s + 1] - v[s - 1]) / (2 * h)  # the mount's acceleration there [m/s^2]
+        tau = np.sqrt(2 * c / a)
+        e = ends[ends > s][0]
+        n = e - s  # steps whose end fell inside the crossing
+        assert n == pytest.approx(tau / h, abs=1.0)
+    # without the clearance the force never reads exactly zero
+    q = Plant(name, params=params, h=h)
+    for k in range(int(1.2 / h)):
+        q.command(MODE_FOLLOW, x0 + A * np.sin(2 * np.pi * f * k * h))
+        q.advance(h)
+        assert q.F != 0.0

@@ -114,13 +114,13 @@ def test_cli_refuses_a_recording_without_force(tmp_path):
 
 
 def test_prove_finds_a_concealed_effect_and_nothing_on_a_null():
-    """dyno prove in CI with one seed and three rows (the full proof: README)."""
-    r = subprocess.run([*DYNO, "prove", "--seeds", "1", "--effects", "fluid_inertia,free_play,null", "--json"],
+    """dyno prove in CI with one seed and two rows (the full proof: README)."""
+    # free play: the effect hardest to see (one recording per core: the suite's time)
+    r = subprocess.run([*DYNO, "prove", "--seeds", "1", "--effects", "free_play,null", "--json"],
                        capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     rows = {row["effect"]: row for row in json.loads(r.stdout)["effects"]}
     assert rows["null"]["false_positive"] == 0.0
-    for e in ("fluid_inertia", "free_play"):  # the plainest effect and the one hardest to see
-        assert rows[e]["detection"] == 1.0
-        # concealed: what the effect adds to the force is no more than the sensor noise (1.5 N)
-        assert rows[e]["contribution_rms"] <= 1.6
+    assert rows["free_play"]["detection"] == 1.0
+    # concealed: what the effect adds to the force is no more than the sensor noise (1.5 N)
+    assert rows["free_play"]["contribution_rms"] <= 1.6

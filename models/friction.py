@@ -19,16 +19,18 @@ def static_friction(x, x_table, F_table):
     Linear interpolation in the look-up table; outside it the end segments are
     extrapolated as eq 3.1 prints for x < X_1, clamped at zero.
     """
-    x = np.asarray(x, float)
-    X = np.asarray(x_table, float)
-    F = np.asarray(F_table, float)
-    out = np.interp(x, X, F)
-    if len(X) > 1:
-        lo = x < X[0]
-        hi = x > X[-1]
-        out = np.where(lo, F[0] + (F[1] - F[0]) / (X[1] - X[0]) * (x - X[0]), out)
-        out = np.where(hi, F[-1] + (F[-1] - F[-2]) / (X[-1] - X[-2]) * (x - X[-1]), out)
-    return np.maximum(out, 0.0)
+    return np.maximum(np.interp(x, *extended_table(x_table, F_table)), 0.0)
+
+
+def extended_table(x_table, F_table, reach=1.0):
+    """The look-up table with its end segments extended `reach` [m] beyond each end, so
+    that plain interpolation gives eq 3.1's extrapolation (a stroke is well under 1 m)."""
+    X, F = np.asarray(x_table, float), np.asarray(F_table, float)
+    if len(X) < 2:
+        return X, F
+    lo = F[0] - (F[1] - F[0]) / (X[1] - X[0]) * reach
+    hi = F[-1] + (F[-1] - F[-2]) / (X[-1] - X[-2]) * reach
+    return np.r_[X[0] - reach, X, X[-1] + reach], np.r_[lo, F, hi]
 
 
 def breakaway_ratio(T, C_sfT, C_ifT):
@@ -55,7 +57,7 @@ def dahl_step(F, dx, F_c, x_stick):
     if dx == 0.0 or F_c <= 0.0:
         return min(max(F, -F_c), F_c)
     target = F_c if dx > 0 else -F_c
-    return target + (F - target) * float(np.exp(-abs(dx) / x_stick))
+    return target + (F - target) * math.exp(-abs(dx) / x_stick)
 
 
 @njit(cache=True)

@@ -161,6 +161,9 @@ class Stepper:
         seat = None if self.prm is None else self.prm[SEATOPEN]
         self.T_gas = T_gas
         self.prm, self.vp, self.vh = pack(self.damper, float(T), self.x_e, T_gas)
+        f = self.damper.friction
+        self._fric_table = friction.extended_table(f.x_table, f.F_table)
+        self._fric_ratio = float(friction.breakaway_ratio(T, f.C_sfT, f.C_ifT))
         if seat is not None:
             self.prm[SEATOPEN] = seat
         self.T = float(T)
@@ -175,8 +178,7 @@ class Stepper:
                   self.out, self.hist)
         f = self.damper.friction
         if self.x_stick > 0:
-            F_c = float(friction.static_friction(x, f.x_table, f.F_table)
-                        * friction.breakaway_ratio(self.T, f.C_sfT, f.C_ifT))
+            F_c = max(float(np.interp(x, *self._fric_table)), 0.0) * self._fric_ratio  # eqs 3.1, 3.2
             self.F_f = Ff = friction.dahl_step(self.F_f, x - self.xs[0], F_c, self.x_stick)
         else:
             Ff = float(friction.friction_force(x, v, self.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT))

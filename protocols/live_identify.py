@@ -66,7 +66,8 @@ class LiveIdentify:
         if kind == "estimates":
             self.latest = body
             parts = [f"{e['name']} {_fmt(e)}" for e in body["estimates"] if e["name"] in SHOWN]
-            self.stream.write("\nidentify: " + "; ".join(parts) + "\n")
+            if parts:  # nothing to show before the first step has its data
+                self.stream.write("\nidentify: " + "; ".join(parts) + "\n")
             if self.live is not None and hasattr(self.live, "estimates"):
                 self.live.estimates(body["t"], body["estimates"])
         elif kind in ("note", "error"):
@@ -78,9 +79,11 @@ class LiveIdentify:
         """Hand over the rest, wait for the final model; returns its path or None."""
         if self.buf:
             self.event(self.events[-1]["t"] if self.events else 0.0, "segment_end", "", {}, "")
-        self.backlog.append(("end", None, None))
-        for item in self.backlog:
-            self.inbox.put(item, timeout=timeout)
+        # what the worker has not had yet goes as one batch: one piece at a time, it would
+        # re-identify after each (the queue is short) before it got to the final fit
+        if self.backlog:
+            self.inbox.put(("data", *_merged(self.backlog)), timeout=timeout)
+        self.inbox.put(("end", None, None), timeout=timeout)
         self.backlog = []
         result = None
         while True:
@@ -99,6 +102,13 @@ class LiveIdentify:
         if self.proc.is_alive():
             self.proc.terminate()
         return result
+
+
+def _merged(items):
+    """One (chunk, events) of several queued ("data", chunk, events) in order."""
+    names = {n for _, chunk, _ in items for n in chunk}
+    chunk = {n: tuple(np.concatenate([c[n][j] for _, c, _ in items if n in c]) for j in (0, 1)) for n in names}
+    return chunk, [e for *_, evs in items for e in evs]
 
 
 def _fmt(e):

@@ -65,7 +65,9 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
         ts = t - state["t0"]
         if ts >= seg.duration or (seg.until is not None and seg.until(readings)):
             event(t, "segment_end", seg)
-            state["t_plan"] += seg.duration
+            state["t_plan"] += ts
+            if bar:  # a segment that ended early (a dwell settled, a target reached) frees its time
+                bar.total += ts - seg.duration
             state["i"] += 1
             if state["i"] == len(segments):
                 return None

@@ -45,7 +45,7 @@ class CanNodes:
 
     def _send(self, name, signals):
         self.bus.send(can.Message(arbitration_id=can_codec.frame_id(name), is_extended_id=False,
-                                  data=can_codec.encode(name, signals)))
+                                  data=can_codec.encode(name, signals, strict=False)))
 
 
 def _clip(volts, limit=16.7):

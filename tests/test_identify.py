@@ -82,18 +82,6 @@ def test_settled_value_of_exponential_holds():
 
 # --- the round trip on the virtual rig --------------------------------------------------
 
-SHORT = ["static_points=5", "amplitudes_mm=12.7,6.4,3.2,1.6", "freqs_hz=1,4,16", "targets_c=45,35"]
-
-
-@pytest.fixture(scope="module")
-def koni_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("id") / "std.mcap"
-    p = subprocess.run([DYNO, "run", "standard", "--out", str(out), *SHORT], capture_output=True, text=True,
-                       timeout=900)
-    assert p.returncode == 0, p.stderr[-2000:]
-    return out, p.stderr
-
-
 def test_live_identification_writes_the_model_next_to_the_recording(koni_run):
     out, log = koni_run
     assert "identify: " in log and "P0 " in log  # estimates shown while the test ran

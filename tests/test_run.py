@@ -180,17 +180,15 @@ def test_live_view_logs_the_documented_entities():
     assert b"sine 6.4 mm 4 Hz" in data  # the events' text
 
 
-def test_report_of_a_static_and_sine_run(tmp_path):
-    out = tmp_path / "s.mcap"
-    p = subprocess.run([DYNO, "run", "static", "--out", str(out), "points=5"],
-                       capture_output=True, text=True, timeout=300)
-    assert p.returncode == 0, p.stderr
+def test_report_of_a_standard_run(koni_run, tmp_path):
+    out, _ = koni_run  # static holds, low-speed, sine matrix, temperature sweep (conftest.py)
     r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
                        timeout=120)
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "rep" / "index.html").read_text()
-    assert "static.png" in page and "Protocol <b>static</b>" in page
-    assert (tmp_path / "rep" / "static.png").stat().st_size > 20_000
+    assert "Protocol <b>standard</b>" in page
+    for png in ("static.png", "loops.png", "composite.png"):
+        assert png in page and (tmp_path / "rep" / png).stat().st_size > 20_000
     # the friction the seal held shows: half the difference of the two approaches
     from protocols.report import load, segments
     ch, events, _ = load(out)

@@ -4,6 +4,7 @@ The mean of the two is the gas force, half their difference the static friction
 (eqs 3.7, 3.1)."""
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,7 +53,8 @@ def _move(a, b, speed):
 def settled(p):
     """until() for a dwell: the mean force over the last window differs from the window
     before by less than settle_n (means, so the load cell's noise does not count)."""
-    hist = []
+    old, new = deque(), deque()  # (t, force) of the window before last, and of the last
+    sums = [0.0, 0.0]
     start = []
 
     def until(readings):
@@ -61,15 +63,19 @@ def settled(p):
             return False
         if not start:
             start.append(f.t)
-        hist.append((f.t, f.value))
-        while hist[-1][0] - hist[0][0] > 2 * p.settle_window_s:
-            hist.pop(0)
+        new.append((f.t, f.value))
+        sums[1] += f.value
+        mid = f.t - p.settle_window_s
+        while new and new[0][0] < mid:  # running sums: this runs every loop tick
+            t, v = new.popleft()
+            old.append((t, v))
+            sums[0] += v
+            sums[1] -= v
+        while old and old[0][0] < mid - p.settle_window_s:
+            sums[0] -= old.popleft()[1]
         if f.t - start[0] < max(p.dwell_min_s, 2 * p.settle_window_s):
             return False
-        mid = f.t - p.settle_window_s
-        old = [v for t, v in hist if t < mid]
-        new = [v for t, v in hist if t >= mid]
-        return bool(old) and abs(sum(new) / len(new) - sum(old) / len(old)) < p.settle_n
+        return bool(old) and abs(sums[1] / len(new) - sums[0] / len(old)) < p.settle_n
     return until
 
 

@@ -12,7 +12,7 @@ import pytest
 from models import identify_low_speed, identify_valves
 from models.damper import load, load_file
 from models.friction import dahl_series
-from models.identify import canonical
+from models.identify import _direction_ranges, canonical
 from models.identify_static import settled
 from models.simulate import simulate, sine
 
@@ -78,6 +78,17 @@ def test_settled_value_of_exponential_holds():
         k = (t >= t0) & (t <= t1)
         y[k] = e + 6.0 * np.exp(-(t[k] - t0) / 5.0)
     assert np.allclose(settled(t, y, spans), ends, atol=1e-6)
+
+
+def test_each_direction_is_scaled_by_its_own_force_range():
+    # a rebound ten times the compression: an error of 10 N in compression must weigh as
+    # much as 100 N in rebound, not a tenth of it
+    t = np.linspace(0, 1, 1000, endpoint=False)
+    v = np.cos(2 * np.pi * t)
+    Fm = np.where(v > 0, 100.0 * v, 1000.0 * v)
+    scale = _direction_ranges(Fm, v)
+    assert np.allclose(scale[v > 0], np.ptp(Fm[v > 0])) and np.allclose(scale[v <= 0], np.ptp(Fm[v <= 0]))
+    assert np.ptp(Fm[v <= 0]) == pytest.approx(10 * np.ptp(Fm[v > 0]), rel=1e-3)
 
 
 # --- the round trip on the virtual rig --------------------------------------------------

@@ -88,7 +88,6 @@ def test_each_direction_is_scaled_by_its_own_force_range():
     Fm = np.where(v > 0, 100.0 * v, 1000.0 * v)
     scale = _direction_ranges(Fm, v)
     assert np.allclose(scale[v > 0], np.ptp(Fm[v > 0])) and np.allclose(scale[v <= 0], np.ptp(Fm[v <= 0]))
-    assert np.ptp(Fm[v <= 0]) == pytest.approx(10 * np.ptp(Fm[v > 0]), rel=1e-3)
 
 
 # --- the round trip on the virtual rig --------------------------------------------------

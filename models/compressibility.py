@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 
@@ -49,6 +50,15 @@ def strain(P, P_ref, K_const, a, b, K_max):
     if P >= Pc:
         return (P - P_ref) / K_max
     return (Pc - P_ref) / K_max + _log_ratio(a, b, Pc, P)
+
+
+@njit(cache=True)
+def strains(P, P_ref, K_const, a, b, K_max):
+    """`strain` at each pressure of the array P [Pa]."""
+    out = np.empty(P.shape[0])
+    for i in range(P.shape[0]):
+        out[i] = strain(P[i], P_ref, K_const, a, b, K_max)
+    return out
 
 
 def cap_point(P_ref, K_const, a, b, K_max):

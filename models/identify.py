@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import butter, filtfilt
 
-from . import identify_low_speed, identify_valves
+from . import identify_gas, identify_low_speed, identify_valves
 from .damper import Bypass, Damper, DamperError, ValvePath, Valves
 from .gas_spring import P_ATM, T_STD
 from .identify_static import Estimate, identify_static, static_holds
@@ -283,6 +283,7 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
         return res
     res.test = dyn[HELDOUT_EVERY - 1::HELDOUT_EVERY]
     res.train = [s for s in dyn if s not in res.test]
+    gamma_known = _gamma_step(d, res)
     progress(f"identify: valves from {len(res.train)} training segments ({len(res.test)} held out)")
     _valves_step(d, res, fit_K=not need)
     if need:
@@ -290,8 +291,8 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
     if not dynamic:
         res.steps["dynamic"] = "not run (live estimate)"
         return res
-    progress("identify: compressible fit (valves, bulk modulus, gamma)")
-    _dynamic_step(d, res, fit_K=not need)
+    progress("identify: compressible fit (valves, bulk modulus" + ("" if gamma_known else ", gamma") + ")")
+    _dynamic_step(d, res, fit_K=not need, fit_gamma=not gamma_known)
     res.heldout = [(s.name, nrmse(_simulate(d, s), s.F[s.score_from:])) for s in res.test]
     return res
 
@@ -320,6 +321,25 @@ def _thermal_expansion(channels, rests, charge, T_s, A_r):
     # samples within a rest are correlated: count rests, not samples, for the error
     cov = r @ r / max(len(rests) - 2, 1) * np.linalg.inv(A.T @ A) * len(T) / max(len(rests), 1)
     return float(coef[0]), float(coef[1]), float(np.sqrt(cov[0, 0])), float(np.ptp(T))
+
+
+def _gamma_step(d: Damper, res: Result) -> bool:
+    """gamma from the training segments' gas and chamber pressures (identify_gas); True
+    when it was identified (the compressible fit then keeps it)."""
+    if any(s.chambers is None for s in res.train):
+        res.steps["gamma"] = ("skipped: needs channels P_gas, P1, P2 in every sine segment (gamma comes from "
+                              "the compressible fit)")
+        return False
+    parts = [(c["x"], c["P1"], c["P2"], c["P_gas"], s.T, float(s.x.mean())) for s in res.train
+             for c in (s.chambers,)]
+    fit = identify_gas.fit_gamma(d.layout, d.geometry, d.gas_spring, parts)
+    sd, _ = _covariance(fit)
+    gamma = float(fit.x[0])
+    d.gas_spring.gamma = gamma
+    res.estimates.append(Estimate("gas_spring.gamma", gamma, gamma - 1.96 * sd[0], gamma + 1.96 * sd[0], "-",
+                                  note="from the gas pressure with the chambers' measured pressures"))
+    res.steps["gamma"] = f"done: gas pressure of {len(parts)} sine segments with the chambers' stored oil"
+    return True
 
 
 def _gas_force(d: Damper, s: Segment):
@@ -463,12 +483,14 @@ def _residual(d: Damper, s: Segment, cycles):
     return np.concatenate(out)
 
 
-def _dynamic_step(d: Damper, res: Result, fit_K=True):
+def _dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
     """Refit valves, temperature coefficients, bulk modulus, gamma and the friction's
     pre-sliding travel to whole training segments with the compressible model. The bulk
     modulus form (constant, or pressure dependent by eq 3.32) is chosen on validation
     segments taken from the training set; a damping temperature coefficient the data
-    cannot determine is fixed at 0 and the model refitted without it."""
+    cannot determine is fixed at 0 and the model refitted without it. fit_gamma=False keeps
+    d's gamma (identified from the gas pressure by the gamma step)."""
+    keep = set() if fit_gamma else {"gas_spring.gamma"}
     val = res.train[3::4]
     fit_on = [s for s in res.train if s not in val]
 
@@ -479,7 +501,7 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True):
     screened = {}
     for form in ("constant", "pressure"):
         trial = copy.deepcopy(d)
-        *_, st = _fit(trial, res.structures, form, fit_K, set(), fit_on, cycles=1, max_runs=SCREEN_RUNS)
+        *_, st = _fit(trial, res.structures, form, fit_K, keep, fit_on, cycles=1, max_runs=SCREEN_RUNS)
         screened[form] = (score(trial), trial, st, ())
     scores = {k: v[0] for k, v in screened.items()}
     # the three-parameter form must earn its place: 2 % lower validation error
@@ -493,7 +515,7 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True):
         for extra in _extra_candidates(best[2]):
             trial = copy.deepcopy(best[1])
             try:
-                *_, st = _fit(trial, best[2], form, fit_K, set(), fit_on, (extra,), cycles=1,
+                *_, st = _fit(trial, best[2], form, fit_K, keep, fit_on, (extra,), cycles=1,
                               max_runs=SCREEN_RUNS, warm=True)
             except (ValueError, FloatingPointError, np.linalg.LinAlgError):
                 continue
@@ -502,7 +524,7 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True):
                 screened["extra"] = (tried[extra], trial, st, (extra,))
         best = screened.get("extra", best)
     start, start_structures, extras = best[1], best[2], best[3]
-    fixed, runs = set(), 0
+    fixed, runs = set(keep), 0
     while True:  # the final fit on all training segments, from the screened start
         trial = copy.deepcopy(start)
         names, fit, sd, structures = _fit(trial, start_structures, form, fit_K, fixed, res.train, warm=True)
@@ -520,7 +542,7 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True):
         ok = _determined(n, fit.x[i], sd[i])
         res.estimates.append(Estimate(n, parameter_value(d, n), min(lo, hi), max(lo, hi), UNITS.get(n.split(".")[-1], ""),
                                       identifiable=ok, note="" if ok else "the data does not determine it"))
-    for n in sorted(fixed):
+    for n in sorted(fixed - keep):
         res.estimates.append(Estimate(n, 0.0, np.nan, np.nan, "1/K", identifiable=False,
                                       note="the data does not determine it: fixed at 0 (no temperature effect)"))
     res.correlated = [(names[i], names[j], float(rho[i, j])) for i in range(len(names))
@@ -552,7 +574,8 @@ def _is_log(name):
 
 def _value(name, z):
     if _is_log(name):
-        return float(np.exp(z))
+        with np.errstate(over="ignore"):  # the bound of an interval that has none
+            return float(np.exp(z))
     return float(z) * (1e-3 if name.endswith("K_effoil") else 1.0)
 
 
@@ -598,9 +621,11 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
             tc.K_effoil = 0.0 if f"temperature.{tag}.K_effoil" in fixed else tc.K_effoil
     # the friction's level too: the low-speed extrapolation keeps some damping in it
     # (the thesis says so of the heavily damped Fox), the loops' jumps at reversal do not
-    names += ["gas_spring.gamma", "friction.x_stick", "friction.C_ifT"]
+    names += [n for n in ("gas_spring.gamma", "friction.x_stick", "friction.C_ifT") if n not in fixed]
     if not warm:
-        d.gas_spring.gamma, d.friction.x_stick = G_START, X_STICK_START
+        d.friction.x_stick = X_STICK_START
+        if "gas_spring.gamma" not in fixed:
+            d.gas_spring.gamma = G_START
     if d.valves.bypass is not None:
         names += ["valves.bypass.C_seatw", "valves.bypass.dP_seat_Aw"]
     elif "bypass" in extras:

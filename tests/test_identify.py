@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import identify_low_speed, identify_valves
+from models import identify_gas, identify_low_speed, identify_valves
 from models.damper import load, load_file
 from models.friction import dahl_series
 from models.identify import _direction_ranges, canonical
@@ -88,6 +88,25 @@ def test_each_direction_is_scaled_by_its_own_force_range():
     Fm = np.where(v > 0, 100.0 * v, 1000.0 * v)
     scale = _direction_ranges(Fm, v)
     assert np.allclose(scale[v > 0], np.ptp(Fm[v > 0])) and np.allclose(scale[v <= 0], np.ptp(Fm[v <= 0]))
+
+
+@pytest.mark.parametrize("gamma", [1.38, 1.25])
+def test_gamma_from_the_gas_pressure_with_the_chambers_stored_oil(gamma):
+    # Fox-heavy: its 280 cc chamber 1 stores as much oil in compression as the rod
+    # displaces, with a pressure-dependent bulk modulus (eq 3.32); ignoring the stored oil
+    # puts gamma 5 % low here
+    d = canonical(load("fox-heavy"))
+    d.gas_spring.gamma = gamma
+    parts = []
+    for a, f in ((0.0127, 1.0), (0.0127, 8.0), (0.0032, 4.0)):
+        t, x, v = sine(a, f, 2, d.mid_stroke, samples_per_cycle=400)
+        r = simulate(d, t, x, v, T=300.0, x_e=d.mid_stroke)
+        parts.append((x, r.P1, r.P2, r.P_gas, 300.0, d.mid_stroke))
+    fit = identify_gas.fit_gamma(d.layout, d.geometry, d.gas_spring, parts)
+    assert fit.x[0] == pytest.approx(gamma, rel=0.005)
+    # the same gas pressure with no oil stored (chambers read as the gas)
+    bare = [(x, Pg, Pg, Pg, T, xe) for x, _, _, Pg, T, xe in parts]
+    assert abs(identify_gas.fit_gamma(d.layout, d.geometry, d.gas_spring, bare).x[0] / gamma - 1) > 0.03
 
 
 # --- the round trip on the virtual rig --------------------------------------------------

@@ -660,7 +660,10 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
             elif parts[0] == "valves":
                 structures[(parts[1], parts[2])][1][parts[3]] = v
             else:
-                setattr(getattr(d, parts[0]), parts[-1], v)
+                obj = d
+                for p in parts[:-1]:
+                    obj = getattr(obj, p)
+                setattr(obj, parts[-1], v)
         for (path, tag), (_, p, _, _) in structures.items():
             setattr(getattr(d.valves, path), tag, identify_valves.direction(p, 1.0 if tag == "compression" else -1.0))
         d.gas_spring.gamma = float(np.clip(d.gas_spring.gamma, 1.0, 1.67))

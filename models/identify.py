@@ -47,7 +47,8 @@ TRAIN_CYCLES = 2  # cycles of each training segment used by the compressible fit
 MAX_RUNS = 100  # model evaluations per compressible fit (Jacobians not counted)
 SCREEN_RUNS = 30  # ... per screening fit (model forms, extra valves), on one cycle per segment
 EXTRA_AT = 0.03  # validation NRMSE above which a bypass or high-speed line is tried
-BYPASS_SEAT_START = 100.0  # N: seating force a bypass starts from (the Mechformance's is 50 N)
+BYPASS_SEAT_START = 100.0  # N: seating force a bypass found by the compressible fit starts from
+BYPASS_SEAT_MARGIN = 1.25  # ... one the valve step found: this times the largest open force
 P_WEIGHT = 0.3  # gas-pressure residuals against force residuals: enough to fix gamma (eq 4.3)
 
 
@@ -392,7 +393,7 @@ def _valves_step(d: Damper, res: Result, fit_K=True):
     speeds = np.array([np.ptp(s.v[s.score_from:]) for s in res.train])
     fold = np.empty(len(speeds), int)
     fold[np.argsort(speeds)] = np.arange(len(speeds)) % 4
-    structures, notes = {}, []
+    structures, notes, bypass = {}, [], None
     for (path, sign), parts in samples.items():
         tag = "compression" if sign > 0 else "rebound"
         u, G, T, g = (np.concatenate([p[j] for p in parts]) for j in range(4))
@@ -401,6 +402,13 @@ def _valves_step(d: Damper, res: Result, fit_K=True):
         # thin to at most 300 samples per segment: the fit is by segment anyway
         keep = np.concatenate([np.nonzero(g == k)[0][:: max(1, (g == k).sum() // 300)] for k in np.unique(g)])
         u, G, T, g = u[keep], G[keep], T[keep], g[keep]
+        if split and (path, sign) == ("piston", -1):
+            found = identify_valves.bypass_split(u, G, g)
+            if found is not None:  # the valve is what the seated samples show
+                open_, C_open, F_open = found
+                bypass = Bypass(C_seatw=C_open, dP_seat_Aw=-BYPASS_SEAT_MARGIN * F_open)
+                u, G, T, g = u[~open_], G[~open_], T[~open_], g[~open_]
+                notes.append(f"piston bypass: rebound {C_open:.0f} N s/m up to {F_open:.0f} N, then seated")
         K_fit = fit_K and path == "piston" and np.ptp(T) >= 10.0
         # folds interleaved by the segments' peak speeds, so that no fold leaves a whole
         # speed range out (a left-out range would be extrapolated, and judged on that)
@@ -417,16 +425,31 @@ def _valves_step(d: Damper, res: Result, fit_K=True):
         if path == "piston":
             getattr(d.temperature, tag).K_effoil = K
             getattr(d.temperature, tag).C_fd = 0.0
+    if bypass is not None:
+        _bypass_compression_start(structures)
     paths = {path: ValvePath(identify_valves.direction(structures[(path, "compression")][1], 1.0),
                              identify_valves.direction(structures[(path, "rebound")][1], -1.0))
              for path in {p for p, _ in structures}}
     head = paths.get("head", _quiet_head()) if d.layout == "remote_reservoir" else None
-    d.valves = Valves(paths["piston"], head=head, bypass=None)
+    d.valves = Valves(paths["piston"], head=head, bypass=bypass)
     res.steps["valves"] = "done: " + "; ".join(notes)
     if d.layout == "remote_reservoir" and not split:
         res.steps["valves"] += ("; piston/head split not identifiable without channels P1, P2: the piston "
                                 "takes all the damping")
     res.structures = structures
+
+
+def _bypass_compression_start(structures):
+    """With a bypass across the piston, the piston's own compression low branch starts as
+    a line through the rebound low branch at 0.1 m/s: in compression the open bypass hides
+    its shape (so whatever the valve step made of it says nothing); its size is what the
+    seated rebound shows."""
+    comp, reb = structures[("piston", "compression")][1], structures[("piston", "rebound")][1]
+    low = {k: reb[k] for k in ("a", "b") if k in reb}
+    stiff = identify_valves.force(low, np.array([0.1]))[0] / 0.1  # N s/m
+    for k in ("a", "b"):
+        if k in comp:
+            comp[k] = stiff if k == "b" else 1.0  # a log parameter cannot start at 0
 
 
 def _quiet_head() -> ValvePath:
@@ -512,7 +535,7 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
     # each started from the fit so far
     tried = {}
     if best[0] > EXTRA_AT:
-        for extra in _extra_candidates(best[2]):
+        for extra in _extra_candidates(best[2], best[1].valves.bypass is not None):
             trial = copy.deepcopy(best[1])
             try:
                 *_, st = _fit(trial, best[2], form, fit_K, keep, fit_on, (extra,), cycles=1,
@@ -553,8 +576,8 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
                             + (f"; added {extras[0]}" if extras else "") + f", {runs} model runs")
 
 
-def _extra_candidates(structures):
-    out = ["bypass"]
+def _extra_candidates(structures, has_bypass):
+    out = [] if has_bypass else ["bypass"]
     for tag in ("compression", "rebound"):
         structure = structures[("piston", tag)][0]
         if "mid" in structure and "high" not in structure:
@@ -629,16 +652,9 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
     if d.valves.bypass is not None:
         names += ["valves.bypass.C_seatw", "valves.bypass.dP_seat_Aw"]
     elif "bypass" in extras:
-        comp, reb = structures[("piston", "compression")][1], structures[("piston", "rebound")][1]
-        soft = identify_valves.force(comp, np.array([0.1]))[0] / 0.1  # N s/m at 0.1 m/s
-        # the piston's own low branch starts as a line through the rebound low branch at
-        # 0.1 m/s: its shape there is hidden behind the open bypass (so whatever the
-        # valve step made of it says nothing), its size is what the seated rebound shows
-        low = {k: reb[k] for k in ("a", "b") if k in reb}
-        stiff = identify_valves.force(low, np.array([0.1]))[0] / 0.1  # N s/m
-        for k in ("a", "b"):
-            if k in comp:
-                comp[k] = stiff if k == "b" else 1.0
+        # the bypass starts as the soft path the compression showed
+        soft = identify_valves.force(structures[("piston", "compression")][1], np.array([0.1]))[0] / 0.1
+        _bypass_compression_start(structures)
         d.valves.bypass = Bypass(C_seatw=soft, dP_seat_Aw=-BYPASS_SEAT_START)
         names += ["valves.bypass.C_seatw", "valves.bypass.dP_seat_Aw"]
     c = d.compressibility
@@ -716,17 +732,20 @@ def _covariance(fit):
     J, r = fit.jac, fit.fun
     n, p = J.shape
     n_eff = max(int(np.sum(np.diff(np.sign(r)) != 0)), p + 1)
-    live = np.linalg.norm(J, axis=0) > 1e-9 * max(np.linalg.norm(J), 1e-300)
+    norms = np.linalg.norm(J, axis=0)
+    live = norms > 1e-6 * max(norms.max(), 1e-300)
     sd = np.full(p, np.inf)
     rho = np.zeros((p, p))
     if live.any():
         Jl = J[:, live]
         # sigma^2 (J^T J)^-1 with the residual variance counted per independent error
         cov = (r @ r) / max(n_eff - p, 1) * np.linalg.pinv(Jl.T @ Jl)
-        sdl = np.sqrt(np.clip(np.diag(cov), 0, None))
+        var = np.diag(cov)
+        # pinv gives a direction the data does not see no variance at all: not "exact"
+        sdl = np.where(var > 0, np.sqrt(np.abs(var)), np.inf)
         sd[live] = sdl
         with np.errstate(invalid="ignore", divide="ignore"):
-            rho[np.ix_(live, live)] = np.nan_to_num(cov / np.outer(sdl, sdl))
+            rho[np.ix_(live, live)] = np.clip(np.nan_to_num(cov / np.outer(sdl, sdl)), -1.0, 1.0)
     return sd, rho
 
 

@@ -78,6 +78,32 @@ def magnitudes(d: Direction, sign: float) -> dict:
     return p
 
 
+BYPASS_JUMP = 5.0  # force ratio beyond the speed ratio between neighbouring segments
+
+
+def bypass_split(u, G, groups):
+    """A mis-seated bypass (eqs 4.15-4.16) in one direction's samples. Below its seating
+    force the open bypass carries the flow at a small force; beyond it the valve alone, so
+    between two segments the force jumps far more than the speed rises (Mechformance
+    rebound: 36 N at 0.019 m/s, then 1160 N at 0.038 m/s; a valve's force at most doubles
+    with the speed, an orifice's). Segments (groups) are ordered by their median force and
+    split at the largest jump if it exceeds BYPASS_JUMP times their speed ratio.
+    Returns (mask of the open samples, their conductance [N s/m], the largest open force
+    [N]) or None."""
+    keys = np.unique(groups)
+    med = np.array([(np.median(u[groups == k]), np.median(G[groups == k])) for k in keys])
+    med = med[np.argsort(med[:, 1])]
+    if len(med) < 3 or med[0, 1] <= 0:
+        return None
+    excess = np.diff(np.log(med[:, 1])) - np.maximum(np.diff(np.log(med[:, 0])), 0.0)
+    j = int(np.argmax(excess))
+    if excess[j] < np.log(BYPASS_JUMP):
+        return None
+    open_ = G < np.sqrt(med[j, 1] * med[j + 1, 1])
+    C = float(np.sum(G[open_] * u[open_]) / np.sum(u[open_] ** 2))  # a line through the origin
+    return open_, C, float(G[open_].max())
+
+
 def _start(structure, u, G):
     """Starting values from the data: the low branch from the slow third, the mid line
     from the fast half of the speeds, the high line from the fastest sixth."""

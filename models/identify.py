@@ -4,12 +4,14 @@ Steps, each run when its data and channels are there (a step that cannot run say
   static      friction look-up (eq 3.1) and the gas charge (eq 3.7)       identify_static
   low-speed   dynamic breakaway friction and its temperature coefficients identify_low_speed
   gas         oil thermal expansion K_voil from the gas pressure at rest (eq 4.6)
+  gamma       the polytropic exponent from the gas pressure in the sine segments, with
+              the oil the chambers store taken from their measured pressures   identify_gas
   valves      valve structure and coefficients at low acceleration with the damping
               temperature coefficient (eqs 4.12-4.14, 3.30, 4.17)          identify_valves
   dynamic     the compressible model (eqs 3.31-3.56) refitted to whole training segments:
               valves, temperature coefficients, bulk modulus (constant or pressure
-              dependent, chosen on held-out segments) and the polytropic exponent gamma
-              (eq 4.3), using the gas pressure channel when recorded (as the thesis did)
+              dependent, chosen on held-out segments) and, when the gamma step could not
+              run, gamma (eq 4.3), using the gas pressure channel when recorded
 
 Input is plain data: channels {name: (t [s], values [SI])}, the recording's events
 (docs/recording.md) and a damper description giving what is measured with a calliper,
@@ -669,17 +671,7 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
 
     def apply(z):
         for n, zi in zip(names, z):
-            v = _value(n, zi)
-            parts = n.split(".")
-            if parts[0] == "valves" and parts[1] == "bypass":
-                setattr(d.valves.bypass, parts[2], v)
-            elif parts[0] == "valves":
-                structures[(parts[1], parts[2])][1][parts[3]] = v
-            else:
-                obj = d
-                for p in parts[:-1]:
-                    obj = getattr(obj, p)
-                setattr(obj, parts[-1], v)
+            set_parameter(d, structures, n, _value(n, zi))
         for (path, tag), (_, p, _, _) in structures.items():
             setattr(getattr(d.valves, path), tag, identify_valves.direction(p, 1.0 if tag == "compression" else -1.0))
         d.gas_spring.gamma = float(np.clip(d.gas_spring.gamma, 1.0, 1.67))
@@ -707,6 +699,22 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
     apply(fit.x)
     sd, _ = _covariance(fit)
     return names, fit, sd, structures
+
+
+def set_parameter(d: Damper, structures, name: str, value: float):
+    """Inverse of `parameter_value`; a valve coefficient goes into its structure's
+    magnitudes (structures: (path, direction) -> (structure, magnitudes, ...)), which the
+    caller turns into the damper's valves."""
+    parts = name.split(".")
+    if parts[0] == "valves" and parts[1] == "bypass":
+        setattr(d.valves.bypass, parts[2], value)
+    elif parts[0] == "valves":
+        structures[(parts[1], parts[2])][1][parts[3]] = value
+    else:
+        obj = d
+        for p in parts[:-1]:
+            obj = getattr(obj, p)
+        setattr(obj, parts[-1], value)
 
 
 def parameter_value(d: Damper, name: str) -> float:

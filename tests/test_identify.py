@@ -12,7 +12,7 @@ import pytest
 from models import identify_gas, identify_low_speed, identify_valves
 from models.damper import load, load_file
 from models.friction import dahl_series
-from models.identify import _direction_ranges, canonical
+from models.identify import _direction_ranges, canonical, parameter_value, set_parameter
 from models.identify_static import settled
 from models.simulate import simulate, sine
 
@@ -107,6 +107,30 @@ def test_gamma_from_the_gas_pressure_with_the_chambers_stored_oil(gamma):
     # the same gas pressure with no oil stored (chambers read as the gas)
     bare = [(x, Pg, Pg, Pg, T, xe) for x, _, _, Pg, T, xe in parts]
     assert abs(identify_gas.fit_gamma(d.layout, d.geometry, d.gas_spring, bare).x[0] / gamma - 1) > 0.03
+
+
+def test_a_mis_seated_bypass_shows_as_a_jump_of_the_piston_force():
+    rng = np.random.default_rng(1)
+    speeds = [0.01, 0.02, 0.04, 0.08, 0.16]  # one segment each, its samples near peak speed
+    u = np.concatenate([s * rng.uniform(0.9, 1.0, 50) for s in speeds])
+    g = np.repeat(np.arange(len(speeds)), 50)
+    seated = u > 0.027  # the Mechformance's rebound: open bypass up to 50 N
+    G = np.where(seated, 56000 * u, 1800 * u) + rng.normal(0, 2, len(u))
+    open_, C, F_open = identify_valves.bypass_split(u, G, g)
+    assert np.array_equal(open_, ~seated) and C == pytest.approx(1800, rel=0.03) and 30 < F_open < 40
+    # an orifice and a valve cracking open are no bypass, however steep
+    assert identify_valves.bypass_split(u, 2e6 * u**2, g) is None
+    assert identify_valves.bypass_split(u, np.minimum(56000 * u, 2000 + 5000 * u), g) is None
+
+
+@pytest.mark.parametrize("name", ["gas_spring.gamma", "friction.C_ifT", "compressibility.beta_inv",
+                                  "temperature.compression.K_effoil", "temperature.rebound.K_effoil"])
+def test_a_fitted_parameter_lands_in_the_damper(name):
+    # the compressible fit once set K_effoil on the temperature object, not on its
+    # direction: the fit had no effect and the coefficient was reported not identifiable
+    d = canonical(load("koni"))
+    set_parameter(d, {}, name, 0.123)
+    assert parameter_value(d, name) == 0.123
 
 
 # --- the round trip on the virtual rig --------------------------------------------------

@@ -552,9 +552,11 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
     fixed, runs = set(keep), 0
     while True:  # the final fit on all training segments, from the screened start
         trial = copy.deepcopy(start)
+        if "friction.C_sfT" in fixed:  # back to the low-speed step's, which the screening moved
+            trial.friction.C_sfT = d.friction.C_sfT
         names, fit, sd, structures = _fit(trial, start_structures, form, fit_K, fixed, res.train, warm=True)
         runs += fit.nfev
-        weak = {n for n, s in zip(names, sd) if "K_effoil" in n and not _determined(n, fit.x[names.index(n)], s)}
+        weak = {n for n, s in zip(names, sd) if _is_slope(n) and not _determined(n, fit.x[names.index(n)], s)}
         if not weak - fixed:
             break
         fixed |= weak
@@ -568,8 +570,10 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
         res.estimates.append(Estimate(n, parameter_value(d, n), min(lo, hi), max(lo, hi), UNITS.get(n.split(".")[-1], ""),
                                       identifiable=ok, note="" if ok else "the data does not determine it"))
     for n in sorted(fixed - keep):
-        res.estimates.append(Estimate(n, 0.0, np.nan, np.nan, "1/K", identifiable=False,
-                                      note="the data does not determine it: fixed at 0 (no temperature effect)"))
+        res.estimates.append(Estimate(n, parameter_value(d, n), np.nan, np.nan, "1/K", identifiable=False,
+                                      note="the data does not determine it: " + (
+                                          "the low-speed step's value kept" if n == "friction.C_sfT"
+                                          else "fixed at 0 (no temperature effect)")))
     res.correlated = [(names[i], names[j], float(rho[i, j])) for i in range(len(names))
                       for j in range(i + 1, len(names)) if abs(rho[i, j]) > 0.95]
     res.steps["dynamic"] = (f"done: bulk modulus {form} (validation NRMSE constant {scores['constant']:.4f}, "
@@ -587,28 +591,33 @@ def _extra_candidates(structures, has_bypass):
     return out
 
 
-UNITS = {"C_seatw": "N s/m", "dP_seat_Aw": "N", "C_ifT": "-", "a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
+UNITS = {"C_seatw": "N s/m", "dP_seat_Aw": "N", "C_ifT": "-", "C_sfT": "1/K", "a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
          "gamma": "-", "x_stick": "m", "beta_inv": "Pa", "C_ibeta": "Pa", "C_sbeta": "-", "beta_min_inv": "Pa"}
 
 
+def _is_slope(name):
+    """A temperature coefficient [1/K]: K_effoil (eq 4.17) or the friction's C_sfT (eq 4.1)."""
+    return name.endswith("K_effoil") or name.endswith("C_sfT")
+
+
 def _is_log(name):
-    """Positive quantities are fitted as logs (a step of 1e-3 is 0.1 %); K_effoil in
-    units of 1e-3 /K, gamma as it is."""
-    return not (name.endswith("K_effoil") or name.endswith("gamma") or name.endswith("dP_seat_Aw"))
+    """Positive quantities are fitted as logs (a step of 1e-3 is 0.1 %); temperature
+    coefficients in units of 1e-3 /K, gamma as it is."""
+    return not (_is_slope(name) or name.endswith("gamma") or name.endswith("dP_seat_Aw"))
 
 
 def _value(name, z):
     if _is_log(name):
         with np.errstate(over="ignore"):  # the bound of an interval that has none
             return float(np.exp(z))
-    return float(z) * (1e-3 if name.endswith("K_effoil") else 1.0)
+    return float(z) * (1e-3 if _is_slope(name) else 1.0)
 
 
 def _z(name, value):
     if _is_log(name):
         with np.errstate(divide="ignore"):
             return float(np.log(value))
-    return float(value) * (1e3 if name.endswith("K_effoil") else 1.0)
+    return float(value) * (1e3 if _is_slope(name) else 1.0)
 
 
 def _determined(name, z, sd):
@@ -647,6 +656,11 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
     # the friction's level too: the low-speed extrapolation keeps some damping in it
     # (the thesis says so of the heavily damped Fox), the loops' jumps at reversal do not
     names += [n for n in ("gas_spring.gamma", "friction.x_stick", "friction.C_ifT") if n not in fixed]
+    # and its temperature slope (eq 4.1) where the segments' temperatures spread: the
+    # standard sequence's low-speed cycles all run at the cell's temperature
+    T_spread = np.ptp([s.T for s in segs]) if segs else 0.0
+    if T_spread >= identify_low_speed.MIN_T_SPREAD_K and "friction.C_sfT" not in fixed:
+        names.append("friction.C_sfT")
     if not warm:
         d.friction.x_stick = X_STICK_START
         if "gas_spring.gamma" not in fixed:

@@ -60,9 +60,15 @@ def compare(result, truth: Damper, T):
     c_id, r_id = peak_curve(ident, T)
     c_tr, r_tr = peak_curve(tr, T)
     err = np.concatenate([(c_id - c_tr) / np.abs(c_tr), (r_id - r_tr) / np.abs(r_tr)])
+    # beyond the fastest stroke of the recording the curve is extrapolated: say so
+    segs = result.train + result.test
+    tested = [max((float(np.max(sign * s.v[s.score_from:])) for s in segs), default=0.0) for sign in (1, -1)]
+    inside = np.concatenate([SPEEDS <= tested[0] * 1.05, SPEEDS <= tested[1] * 1.05])
     curve = {"speeds": SPEEDS.tolist(), "T": T, "compression": {"identified": c_id.tolist(), "truth": c_tr.tolist()},
              "rebound": {"identified": r_id.tolist(), "truth": r_tr.tolist()},
-             "max_rel_error": float(np.max(np.abs(err)))}
+             "max_rel_error": float(np.max(np.abs(err))),
+             "tested_speed": {"compression": tested[0], "rebound": tested[1]},
+             "max_rel_error_tested": float(np.max(np.abs(err[inside]))) if inside.any() else None}
     return {"parameters": rows, "curve": curve}
 
 

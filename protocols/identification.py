@@ -120,6 +120,11 @@ def text(doc):
         c = doc["curve"]
         lines.append(f"peak force-velocity curve {c['speeds'][0]:g}-{c['speeds'][-1]:g} m/s at "
                      f"{c['T'] - 273.15:.0f} C: largest error {100 * c['max_rel_error']:.1f} %")
+        if c.get("max_rel_error_tested") is not None:
+            ts = c["tested_speed"]
+            lines.append(f"  within the recording's speeds (compression to {ts['compression']:.2f} m/s, rebound to "
+                         f"{ts['rebound']:.2f} m/s; beyond them the model extrapolates): "
+                         f"{100 * c['max_rel_error_tested']:.1f} %")
     else:
         lines.append("parameter                               value           95 % interval")
         for e in doc["estimates"]:

@@ -44,6 +44,8 @@ def _curve(doc, path):
     for tag, mk, sign in (("compression", "o", 1), ("rebound", "s", -1)):
         ax.plot(v, sign * np.array(c[tag]["truth"]), mk + "-", color="0.4", label=f"{tag}: true damper")
         ax.plot(v, sign * np.array(c[tag]["identified"]), mk + "--", color="C3", label=f"{tag}: identified")
+    for (tag, vt), ls in zip(c.get("tested_speed", {}).items(), (":", "-.")):
+        ax.axvline(vt, color="0.6", ls=ls, lw=1, label=f"fastest {tag} recorded ({vt:.2f} m/s)")
     ax.set(xscale="log", xlabel="peak velocity [m/s]", ylabel="force less gas force, magnitude [N]",
            title=f"Peak force-velocity at {c['T'] - 273.15:.0f} C: largest error {100 * c['max_rel_error']:.1f} %")
     ax.grid(alpha=0.3, which="both")

@@ -224,6 +224,8 @@ def to_dict(model) -> dict:
 
 
 def save(model, path) -> None:
+    """Write model as JSON; one the loader would refuse is refused here, before the write."""
+    check(model)
     Path(path).write_text(json.dumps(to_dict(model), indent=2) + "\n")
 
 

@@ -683,11 +683,14 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
             c.beta_inv, c.C_ibeta, c.C_sbeta, c.beta_min_inv = None, 0.5 * BETA_START, 50.0, 3 * BETA_START
         names += ["compressibility.C_ibeta", "compressibility.C_sbeta", "compressibility.beta_min_inv"]
 
+    def apply_structures():
+        for (path, tag), (_, p, _, _) in structures.items():
+            setattr(getattr(d.valves, path), tag, identify_valves.direction(p, 1.0 if tag == "compression" else -1.0))
+
     def apply(z):
         for n, zi in zip(names, z):
             set_parameter(d, structures, n, _value(n, zi))
-        for (path, tag), (_, p, _, _) in structures.items():
-            setattr(getattr(d.valves, path), tag, identify_valves.direction(p, 1.0 if tag == "compression" else -1.0))
+        apply_structures()
         d.gas_spring.gamma = float(np.clip(d.gas_spring.gamma, 1.0, 1.67))
 
     def start(n):
@@ -706,11 +709,18 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
             out = np.concatenate([_residual(d, s, cycles) for s in segs])
         except DamperError:  # a trial parameter set outside the model's range
             return np.full(size[0], 1.0)
+        # a high-speed line must stay one the model accepts (it crosses the mid line at a
+        # positive speed): the fit has driven it to the wrong side when the data let it
+        weight = 10.0 * np.sqrt(len(out))
+        out = np.concatenate([out, *(identify_valves.crossover_penalty(p, weight) for _, p, _, _ in structures.values())])
         size[:] = [len(out)]
         return out
 
     fit = least_squares(resid, z0, method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=max_runs)
     apply(fit.x)
+    for _, p, _, _ in structures.values():
+        identify_valves.make_valid(p)
+    apply_structures()
     sd, _ = _covariance(fit)
     return names, fit, sd, structures
 

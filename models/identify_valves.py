@@ -38,7 +38,9 @@ def row(p: dict) -> np.ndarray:
         r[:, valves.MB], r[:, valves.MC] = p["m"], p["c"]
     if "m2" in p:
         r[:, valves.HB], r[:, valves.HC] = p["m2"], p["c2"]
-        r[:, valves.VX] = (p["c2"] - p["c"]) / (p["m"] - p["m2"])
+        # parallel lines (a trial point of the fit) never cross
+        dm = p["m"] - p["m2"]
+        r[:, valves.VX] = (p["c2"] - p["c"]) / dm if dm != 0 else np.inf
     r[:, valves.FT] = 1.0
     return r
 
@@ -75,6 +77,28 @@ def magnitudes(d: Direction, sign: float) -> dict:
         p.update(m=d.mid.C_linw, c=sign * d.mid.C_ilinw)
     if d.high is not None:
         p.update(m2=d.high.C_linw, c2=sign * d.high.C_ilinw)
+    return p
+
+
+CROSSOVER_MARGIN = 0.01  # log units: a high line at least 1 % flatter and 1 % higher at zero speed
+
+
+def crossover_penalty(p: dict, weight: float) -> np.ndarray:
+    """Hinge residuals that keep a high-speed line one damper.check accepts: flatter than
+    the mid line (m2 < m) and crossing it at a positive speed (c2 > c). Zero inside, so a
+    valid fit is unchanged; weight makes a 1 % violation cost more than the whole fit."""
+    if "m2" not in p:
+        return np.zeros(0)
+    return weight * np.maximum(0.0, [np.log(p["m2"] / p["m"]) + CROSSOVER_MARGIN,
+                                     np.log(p["c"] / p["c2"]) + CROSSOVER_MARGIN])
+
+
+def make_valid(p: dict) -> dict:
+    """p with its high line moved inside the bounds `crossover_penalty` holds it to (what
+    a penalised fit can leave outside them is a fraction of the margin)."""
+    if "m2" in p:
+        p["m2"] = min(p["m2"], p["m"] * np.exp(-CROSSOVER_MARGIN))
+        p["c2"] = max(p["c2"], p["c"] * np.exp(CROSSOVER_MARGIN))
     return p
 
 
@@ -159,23 +183,22 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None)
         p = dict(zip(names, np.exp(np.clip(z[: len(names)], -7.0, 23.0))))
         return p, (z[len(names)] * 1e-3 if fit_K else 0.0)
 
+    weight = 10.0 * np.sqrt(len(u))
+
     def resid(z):
         p, K = unpack(z)
-        if "m2" in p and p["m2"] >= p["m"]:
-            return np.full_like(u, 1e3)
-        return w * (force(p, u, T, T_ref, K) - G) / scale
+        return np.concatenate([w * (force(p, u, T, T_ref, K) - G) / scale, crossover_penalty(p, weight)])
 
     best = None
     for p0, K_start in starts:
         z0 = np.log(np.maximum([p0[k] for k in names], 1e-300))
         if fit_K:
             z0 = np.append(z0, K_start * 1e3)
-        if "m2" in p0 and p0["m2"] >= p0["m"]:
-            continue
         res = least_squares(resid, z0, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
         if best is None or res.cost < best.cost:
             best = res
     p, K = unpack(best.x)
+    make_valid(p)
     done[structure] = (p, K, best)
     return done[structure]
 

@@ -86,6 +86,18 @@ class Result:
     test: list = field(default_factory=list)  # [Segment]
     structures: dict = field(default_factory=dict)  # (path, direction) -> (structure, params, K, K fitted)
 
+    def add(self, *estimates):
+        """Record estimates; one a later step refines (the compressible fit refits the
+        friction's level found at the reversals) replaces the earlier, which its note keeps."""
+        for e in estimates:
+            old = next((o for o in self.estimates if o.name == e.name), None)
+            if old is None:
+                self.estimates.append(e)
+                continue
+            was = f"{old.value:.4g}" + (" (not identifiable)" if not old.identifiable else "")
+            e.note = "; ".join(filter(None, [e.note, f"before the compressible fit {was}"]))
+            self.estimates[self.estimates.index(old)] = e
+
     @property
     def heldout_nrmse(self):
         return float(np.mean([e for _, e in self.heldout])) if self.heldout else float("nan")
@@ -234,7 +246,7 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
         res.steps["gas"] = "skipped: no rests at different temperatures (temperature sweep)"
     else:
         K_voil, k0, se, T_span = _thermal_expansion(channels, rests, charge, T_s, geo.A_r)
-        res.estimates.append(Estimate("K_voil", K_voil, K_voil - 1.96 * se, K_voil + 1.96 * se, "m^3/K",
+        res.add(Estimate("K_voil", K_voil, K_voil - 1.96 * se, K_voil + 1.96 * se, "m^3/K",
                                       note=f"rests over {T_span:.0f} K; intercept {k0 * 1e6:+.2f} cc"))
         res.steps["gas"] = f"done: rests spanning {T_span:.0f} K"
     if charge is not None:
@@ -243,13 +255,13 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
         V0 = V0s.value + Kv * (T_s - T_STD)  # the gas volume at 20 C (eq 4.4, K_voint = 0)
         P0 = P0s.value * V0s.value * d.gas_spring.T0 / (T_s * V0)  # eq 4.5
         r0, r1 = P0 / P0s.value, V0 / V0s.value
-        res.estimates += [Estimate("P0", P0, P0s.ci_low * r0, P0s.ci_high * r0, "Pa"),
-                          Estimate("V0", V0, V0s.ci_low * r1, V0s.ci_high * r1, "m^3")]
+        res.add(Estimate("P0", P0, P0s.ci_low * r0, P0s.ci_high * r0, "Pa"),
+                Estimate("V0", V0, V0s.ci_low * r1, V0s.ci_high * r1, "m^3"))
         d.gas_spring.P0, d.gas_spring.V0, d.gas_spring.K_voil = P0, V0, Kv
         if K_voil is None:
-            res.estimates.append(Estimate("K_voil", 0.0, np.nan, np.nan, "m^3/K", identifiable=False,
+            res.add(Estimate("K_voil", 0.0, np.nan, np.nan, "m^3/K", identifiable=False,
                                           note="needs the gas pressure at rest at several temperatures"))
-    res.estimates.append(Estimate("K_voint", 0.0, np.nan, np.nan, "m^3", identifiable=False,
+    res.add(Estimate("K_voint", 0.0, np.nan, np.nan, "m^3", identifiable=False,
                                   note="enters only as V0 - K_voint (eq 4.4): folded into V0"))
 
     # low-speed: breakaway friction at reversals
@@ -272,7 +284,7 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
         else:
             fr = identify_low_speed.fit_ratio(rows[:, 1], rows[:, 2])
             d.friction.C_sfT, d.friction.C_ifT = fr["C_sfT"].value, fr["C_ifT"].value
-            res.estimates += [fr["C_sfT"], fr["C_ifT"]]
+            res.add(fr["C_sfT"], fr["C_ifT"])
             res.steps["low-speed"] = f"done: {len(rows)} stroke reversals"
     if res.steps["static"].startswith("done") and not res.steps["low-speed"].startswith("done"):
         d.friction.C_sfT, d.friction.C_ifT = 0.0, 1.0  # the measured static friction taken as the dynamic
@@ -339,7 +351,7 @@ def _gamma_step(d: Damper, res: Result) -> bool:
     sd, _ = _covariance(fit)
     gamma = float(fit.x[0])
     d.gas_spring.gamma = gamma
-    res.estimates.append(Estimate("gas_spring.gamma", gamma, gamma - 1.96 * sd[0], gamma + 1.96 * sd[0], "-",
+    res.add(Estimate("gas_spring.gamma", gamma, gamma - 1.96 * sd[0], gamma + 1.96 * sd[0], "-",
                                   note="from the gas pressure with the chambers' measured pressures"))
     res.steps["gamma"] = f"done: gas pressure of {len(parts)} sine segments with the chambers' stored oil"
     return True
@@ -567,10 +579,10 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
     for i, n in enumerate(names):
         lo, hi = (_value(n, fit.x[i] + k * 1.96 * sd[i]) for k in (-1, 1))
         ok = _determined(n, fit.x[i], sd[i])
-        res.estimates.append(Estimate(n, parameter_value(d, n), min(lo, hi), max(lo, hi), UNITS.get(n.split(".")[-1], ""),
+        res.add(Estimate(n, parameter_value(d, n), min(lo, hi), max(lo, hi), UNITS.get(n.split(".")[-1], ""),
                                       identifiable=ok, note="" if ok else "the data does not determine it"))
     for n in sorted(fixed - keep):
-        res.estimates.append(Estimate(n, parameter_value(d, n), np.nan, np.nan, "1/K", identifiable=False,
+        res.add(Estimate(n, parameter_value(d, n), np.nan, np.nan, "1/K", identifiable=False,
                                       note="the data does not determine it: " + (
                                           "the low-speed step's value kept" if n == "friction.C_sfT"
                                           else "fixed at 0 (no temperature effect)")))

@@ -74,7 +74,7 @@ def compare(result, truth: Damper, T):
 
 def _true_value(tr: Damper, name):
     simple = {"P0": ("gas_spring", "P0"), "V0": ("gas_spring", "V0"), "K_voil": ("gas_spring", "K_voil"),
-              "K_voint": ("gas_spring", "K_voint"), "C_sfT": ("friction", "C_sfT"), "C_ifT": ("friction", "C_ifT")}
+              "K_voint": ("gas_spring", "K_voint")}
     if name in simple:
         a, b = simple[name]
         return float(getattr(getattr(tr, a), b))

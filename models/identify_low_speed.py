@@ -78,13 +78,13 @@ def fit_ratio(ratio, T):
     if np.ptp(T) < MIN_T_SPREAD_K or n < 4:
         m, se = ratio.mean(), ratio.std(ddof=1) / np.sqrt(n)
         note = f"temperatures spread {np.ptp(T):.1f} K (< {MIN_T_SPREAD_K:g} K): slope not identifiable, eq 4.2 mean"
-        return {"C_sfT": Estimate("C_sfT", 0.0, np.nan, np.nan, "1/K", identifiable=False, note=note),
-                "C_ifT": Estimate("C_ifT", m, m - 1.96 * se, m + 1.96 * se, "-",
+        return {"C_sfT": Estimate("friction.C_sfT", 0.0, np.nan, np.nan, "1/K", identifiable=False, note=note),
+                "C_ifT": Estimate("friction.C_ifT", m, m - 1.96 * se, m + 1.96 * se, "-",
                                   note=f"mean ratio at {T.mean() - 273.15:.0f} C")}
     A = np.column_stack([dT, np.ones(n)])
     coef, *_ = np.linalg.lstsq(A, ratio, rcond=None)
     resid = ratio - A @ coef
     cov = resid @ resid / (n - 2) * np.linalg.inv(A.T @ A)
     se = np.sqrt(np.diag(cov))
-    return {name: Estimate(name, c, c - 1.96 * s, c + 1.96 * s, unit)
+    return {name: Estimate(f"friction.{name}", c, c - 1.96 * s, c + 1.96 * s, unit)
             for name, c, s, unit in (("C_sfT", coef[0], se[0], "1/K"), ("C_ifT", coef[1], se[1], "-"))}

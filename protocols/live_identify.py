@@ -17,7 +17,7 @@ import sys
 
 import numpy as np
 
-SHOWN = ("P0", "V0", "K_voil", "C_ifT", "gas_spring.gamma", "friction.x_stick")
+SHOWN = ("P0", "V0", "K_voil", "friction.C_ifT", "gas_spring.gamma", "friction.x_stick")
 
 
 class LiveIdentify:
@@ -157,7 +157,11 @@ def _worker(inbox, outbox, description, model_path):
         if done:
             res.damper.name = f"{desc.name}-identified"
             res.damper.description = "identified live by dyno run"
-            dm.save(res.damper, model_path)
+            try:
+                dm.save(res.damper, model_path)
+            except dm.DamperError as e:
+                outbox.put(("error", f"identified model not written: {e}"))
+                return
             outbox.put(("note", f"held-out loop NRMSE {100 * res.heldout_nrmse:.2f} %"))
             outbox.put(("model", model_path))
             return

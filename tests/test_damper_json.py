@@ -75,7 +75,7 @@ def test_wrong_valve_sign_is_named():
 
 def test_a_model_the_loader_refuses_is_not_written(tmp_path):
     d = load("fox-heavy")
-    d.valves.piston.compression.high.C_ilinw = 0.5 * d.valves.piston.compression.mid.C_ilinw
+    d.valves.piston.rebound.high.C_ilinw = 0.5 * d.valves.piston.rebound.mid.C_ilinw
     with pytest.raises(DamperError, match="wrong side of zero velocity"):
         save(d, tmp_path / "m.json")
     assert not (tmp_path / "m.json").exists()

@@ -165,6 +165,7 @@ def test_identify_against_the_truth(koni_run, tmp_path):
     assert p.returncode == 0, p.stderr[-2000:]
     doc = json.loads(p.stdout)
     rows = {r["name"]: r for r in doc["parameters"]}
+    assert len(rows) == len(doc["parameters"])  # one row per parameter: a refit replaces the earlier estimate
     for name in ("P0", "V0", "gas_spring.gamma"):
         assert abs(rows[name]["rel_error"]) < 0.03, rows[name]
         assert rows[name]["ci_low"] <= rows[name]["identified"] <= rows[name]["ci_high"]

@@ -246,8 +246,12 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
         res.steps["gas"] = "skipped: no rests at different temperatures (temperature sweep)"
     else:
         K_voil, k0, se, T_span = _thermal_expansion(channels, rests, charge, T_s, geo.A_r)
-        res.add(Estimate("K_voil", K_voil, K_voil - 1.96 * se, K_voil + 1.96 * se, "m^3/K",
-                                      note=f"rests over {T_span:.0f} K; intercept {k0 * 1e6:+.2f} cc"))
+        # rests a few kelvin apart leave it undetermined: said so, the fitted value still used
+        # (0 instead would give the gas at the test temperature the wrong volume)
+        ok = bool(1.96 * se < abs(K_voil))
+        res.add(Estimate("K_voil", K_voil, K_voil - 1.96 * se, K_voil + 1.96 * se, "m^3/K", identifiable=ok,
+                         note=f"rests over {T_span:.0f} K; intercept {k0 * 1e6:+.2f} cc"
+                         + ("" if ok else "; the interval is wider than the value: not determined, the fit's value used")))
         res.steps["gas"] = f"done: rests spanning {T_span:.0f} K"
     if charge is not None:
         P0s, V0s = charge
@@ -260,9 +264,9 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
         d.gas_spring.P0, d.gas_spring.V0, d.gas_spring.K_voil = P0, V0, Kv
         if K_voil is None:
             res.add(Estimate("K_voil", 0.0, np.nan, np.nan, "m^3/K", identifiable=False,
-                                          note="needs the gas pressure at rest at several temperatures"))
+                             note="needs the gas pressure at rest at several temperatures"))
     res.add(Estimate("K_voint", 0.0, np.nan, np.nan, "m^3", identifiable=False,
-                                  note="enters only as V0 - K_voint (eq 4.4): folded into V0"))
+                     note="enters only as V0 - K_voint (eq 4.4): folded into V0"))
 
     # low-speed: breakaway friction at reversals
     slow = [s for s in segments(events) if s[1].get("freq_hz", 1.0) <= 0.5 and "cycles" in s[1]]
@@ -352,7 +356,7 @@ def _gamma_step(d: Damper, res: Result) -> bool:
     gamma = float(fit.x[0])
     d.gas_spring.gamma = gamma
     res.add(Estimate("gas_spring.gamma", gamma, gamma - 1.96 * sd[0], gamma + 1.96 * sd[0], "-",
-                                  note="from the gas pressure with the chambers' measured pressures"))
+                     note="from the gas pressure with the chambers' measured pressures"))
     res.steps["gamma"] = f"done: gas pressure of {len(parts)} sine segments with the chambers' stored oil"
     return True
 
@@ -580,12 +584,12 @@ def _dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
         lo, hi = (_value(n, fit.x[i] + k * 1.96 * sd[i]) for k in (-1, 1))
         ok = _determined(n, fit.x[i], sd[i])
         res.add(Estimate(n, parameter_value(d, n), min(lo, hi), max(lo, hi), UNITS.get(n.split(".")[-1], ""),
-                                      identifiable=ok, note="" if ok else "the data does not determine it"))
+                         identifiable=ok, note="" if ok else "the data does not determine it"))
     for n in sorted(fixed - keep):
         res.add(Estimate(n, parameter_value(d, n), np.nan, np.nan, "1/K", identifiable=False,
-                                      note="the data does not determine it: " + (
-                                          "the low-speed step's value kept" if n == "friction.C_sfT"
-                                          else "fixed at 0 (no temperature effect)")))
+                         note="the data does not determine it: " + (
+                             "the low-speed step's value kept" if n == "friction.C_sfT"
+                             else "fixed at 0 (no temperature effect)")))
     res.correlated = [(names[i], names[j], float(rho[i, j])) for i in range(len(names))
                       for j in range(i + 1, len(names)) if abs(rho[i, j]) > 0.95]
     res.steps["dynamic"] = (f"done: bulk modulus {form} (validation NRMSE constant {scores['constant']:.4f}, "

@@ -28,6 +28,7 @@ class Segment:
     x: Callable[[float], float]  # seconds into the segment -> setpoint [m]
     record: bool = True  # a measurement (True) or a transition (ramp, wait)
     until: Callable[[dict], bool] | None = None  # ends it early on the readings
+    target: tuple[str, float] | None = None  # (reading, value) `until` waits for: a wait of unknown length
 
 
 @dataclass

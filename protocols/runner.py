@@ -13,25 +13,69 @@ from .plan import as_dict
 
 
 class ProgressLine:
-    def __init__(self, total_s, name, stream=None):
-        self.total, self.name = total_s, name
+    """One terminal line: bar, segment, ETA. A segment that waits for a reading to reach a
+    target (Segment.target: warming, cooling) has no known length: its remaining time is
+    the distance to the target over the rate of approach so far, and each wait still to
+    come is named as such rather than counted at its timeout (30 min of a cooling that
+    takes 3 would make the ETA meaningless)."""
+
+    def __init__(self, segments, name, stream=None):
+        self.segments, self.name = segments, name
         self.stream = stream or sys.stderr
         self.t_wall0 = time.monotonic()
         self.last = 0.0
+        self.start = None  # (ts, value) of the current wait, a few seconds in
 
-    def show(self, t, segment, final=False):
+    def show(self, i, ts, done_s, readings=None, final=None):
+        """i: current segment, ts: seconds into it, done_s: seconds run so far; final: the
+        last line's label ("done", "stopped")."""
         now = time.monotonic()
         if not final and now - self.last < 0.25:
             return
         self.last = now
-        frac = min(t / self.total, 1.0) if self.total else 1.0
-        wall = now - self.t_wall0
-        eta = wall / frac * (1 - frac) if frac > 0 else float("nan")
+        seg = self.segments[min(i, len(self.segments) - 1)]
+        label, eta, waits = final or seg.name, 0.0, 0
+        if final != "done":
+            left = self.segments[i + 1:]
+            eta = sum(s.duration for s in left if s.target is None)
+            waits = sum(1 for s in left if s.target is not None)
+            if seg.target is None:
+                eta += max(seg.duration - ts, 0.0)
+            else:
+                label, rest = self._wait(seg, ts, readings or {})
+                label = final or label
+                if rest is None:
+                    waits += 1
+                else:
+                    eta += rest
+        # the bar counts time; a wait's share is its time so far, and it is not full while
+        # a wait of unknown length is left
+        frac = 1.0 if final == "done" else done_s / max(done_s + eta, 1e-9)
+        frac = min(frac, 0.99) if waits else frac
+        pace = (now - self.t_wall0) / done_s if done_s > 10 else 1.0  # wall seconds per rig second
         bar = "#" * int(25 * frac) + "." * (25 - int(25 * frac))
-        self.stream.write(f"\r{self.name} [{bar}] {100 * frac:3.0f} %  {segment[:28]:28s} ETA {eta:5.0f} s")
+        tail = "" if final else f"ETA {eta * pace:5.0f} s" + (f" + {waits} wait{'s' * (waits > 1)}" if waits else "")
+        self.stream.write(f"\r{self.name} [{bar}] {100 * frac:3.0f} %  {label[:34]:34s} {tail:20s}")
         if final:
             self.stream.write("\n")
         self.stream.flush()
+
+    def _wait(self, seg, ts, readings):
+        """(label with the reading against its target, seconds left or None)."""
+        name, target = seg.target
+        r = readings.get(name)
+        if r is None:
+            return seg.name, None
+        value = r.value
+        kelvin = name.startswith("T_")
+        shown = (f"{value - 273.15:.1f} of {target - 273.15:.0f} C" if kelvin else f"{value:.4g} of {target:.4g}")
+        if ts < 5.0 or self.start is None or self.start[0] > ts:
+            self.start = (ts, value) if ts >= 5.0 else None  # the first seconds: the ramp in
+            return f"{seg.name} {shown}", None
+        rate = (value - self.start[1]) / max(ts - self.start[0], 1e-9)
+        if rate * (target - value) <= 0:  # not approaching (yet)
+            return f"{seg.name} {shown}", None
+        return f"{seg.name} {shown}", min((target - value) / rate, seg.duration - ts)
 
 
 def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progress=True):
@@ -40,8 +84,7 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     observers = [o for o in observers if o is not None]
     skipped = module.check(params, info)
     segments = list(module.plan(params, info))
-    total = sum(s.duration for s in segments)
-    bar = ProgressLine(total, module.NAME) if progress else None
+    bar = ProgressLine(segments, module.NAME) if progress else None
     state = {"i": 0, "t0": None, "t_plan": 0.0, "t": 0.0}
     set_t, set_x = [], []
 
@@ -66,8 +109,6 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
         if ts >= seg.duration or (seg.until is not None and seg.until(readings)):
             event(t, "segment_end", seg)
             state["t_plan"] += ts
-            if bar:  # a segment that ended early (a dwell settled, a target reached) frees its time
-                bar.total += ts - seg.duration
             state["i"] += 1
             if state["i"] == len(segments):
                 return None
@@ -78,7 +119,7 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
         set_t.append(t)
         set_x.append(x)
         if bar:
-            bar.show(state["t_plan"] + ts, seg.name)
+            bar.show(state["i"], ts, state["t_plan"] + ts, readings)
         return x
 
     def record_setpoints(samples):
@@ -91,7 +132,7 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     loop = ControlLoop(rig, pacer, safety, [*(o.samples for o in observers), record_setpoints, *sinks])
     result = loop.run(plan)
     if bar:
-        bar.show(state["t_plan"], "stopped" if result.fault else "done", final=True)
+        bar.show(state["i"], 0.0, state["t_plan"], final="stopped" if result.fault else "done")
     t_end = state["t"]
     if result.fault:
         kind = "operator_stop" if result.fault == "operator stop" else "fault"

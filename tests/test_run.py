@@ -210,3 +210,30 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no such file" in bad.stderr
+
+
+def test_progress_counts_waits_by_their_approach_not_their_timeout():
+    import io
+    from types import SimpleNamespace
+
+    from protocols.plan import Segment
+    hold = lambda t: 0.1  # noqa: E731
+    segs = [Segment("sine", {}, 10.0, hold), Segment("warm up", {}, 1800.0, hold, False, None, ("T_body", 320.0)),
+            Segment("sine hot", {}, 5.0, hold), Segment("cool to 30 C", {}, 1800.0, hold, False, None,
+                                                         ("T_body", 303.15))]
+    out = io.StringIO()
+    line = runner.ProgressLine(segs, "t", out)
+
+    def shown(i, ts, T):
+        line.last = 0.0  # the line is throttled in wall time
+        line.t_wall0 = time.monotonic() - (10.0 + ts)  # a rig in real time
+        line.show(i, ts, 10.0 + ts, {"T_body": SimpleNamespace(value=T)})
+        return out.getvalue().rsplit("\r", 1)[-1]
+
+    assert "ETA     5 s + 2 waits" in shown(1, 1.0, 300.0)  # how long the warming takes is not known yet
+    shown(1, 5.0, 300.0)
+    text = shown(1, 15.0, 310.0)  # 1 K/s, 10 K to go
+    assert "warm up 36.9 of 47 C" in text and "ETA    15 s + 1 wait" in text
+    assert "ETA     5 s + 2 waits" in shown(1, 20.0, 299.0)  # cooling while it should warm: not known
+    text = shown(3, 1.0, 310.0)  # the last wait: the bar is not full before it is done
+    assert "ETA     0 s + 1 wait" in text and " 99 %" in text

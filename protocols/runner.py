@@ -55,7 +55,7 @@ class ProgressLine:
         pace = (now - self.t_wall0) / done_s if done_s > 10 else 1.0  # wall seconds per rig second
         bar = "#" * int(25 * frac) + "." * (25 - int(25 * frac))
         tail = "" if final else f"ETA {eta * pace:5.0f} s" + (f" + {waits} wait{'s' * (waits > 1)}" if waits else "")
-        self.stream.write(f"\r{self.name} [{bar}] {100 * frac:3.0f} %  {label[:34]:34s} {tail:20s}")
+        self.stream.write(f"\r{self.name} [{bar}] {100 * frac:3.0f} %  {label[:38]:38s} {tail:20s}")
         if final:
             self.stream.write("\n")
         self.stream.flush()

@@ -43,11 +43,11 @@ class ProgressLine:
                 eta += max(seg.duration - ts, 0.0)
             else:
                 label, rest = self._wait(seg, ts, readings or {})
-                label = final or label
                 if rest is None:
                     waits += 1
                 else:
                     eta += rest
+        label = final or label
         # the bar counts time; a wait's share is its time so far, and it is not full while
         # a wait of unknown length is left
         frac = 1.0 if final == "done" else done_s / max(done_s + eta, 1e-9)

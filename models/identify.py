@@ -430,7 +430,10 @@ def _valves_step(d: Damper, res: Result, fit_K=True):
         K_fit = fit_K and path == "piston" and np.ptp(T) >= 10.0
         # folds interleaved by the segments' peak speeds, so that no fold leaves a whole
         # speed range out (a left-out range would be extrapolated, and judged on that)
-        chosen, scores = identify_valves.select(u, G, T, T_ref, fold[g], fit_K=K_fit)
+        try:
+            chosen, scores = identify_valves.select(u, G, T, T_ref, fold[g], fit_K=K_fit)
+        except ValueError as e:
+            raise IdentifyError(f"{path} {tag}: {e}") from None
         # the selection decides the valves (mid, high); the low branch stays polynomial,
         # which holds the orifice and the linear valve as special cases: at low
         # acceleration compressibility still bends the data enough to fool a choice

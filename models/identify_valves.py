@@ -224,6 +224,9 @@ def select(u, G, T, T_ref, groups, fit_K=True, structures=None):
             errs.append(e)
         if errs:
             scores[s] = float(np.sqrt(np.mean(np.concatenate(errs) ** 2)))
+    if not scores:
+        raise ValueError(f"{len(u)} samples from {len(keys)} group(s) of segments: a valve structure is "
+                         f"chosen on segments left out, and needs samples in at least 2 groups")
     best = min(scores, key=scores.get)
     # prefer the simplest structure whose held-out error is within 2 % of the best's
     for s in structures:

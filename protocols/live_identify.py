@@ -24,8 +24,9 @@ class LiveIdentify:
     def __init__(self, description: dict, model_path, live=None, stream=None):
         ctx = mp.get_context("spawn")  # no fork of a process holding buses and threads
         self.inbox, self.outbox = ctx.Queue(maxsize=4), ctx.Queue()
-        self.proc = ctx.Process(target=_worker, args=(self.inbox, self.outbox, description, str(model_path)),
-                                daemon=True)
+        self.ending = ctx.Event()  # the run is over: no more estimates, only the final fit
+        self.proc = ctx.Process(target=_worker, args=(self.inbox, self.outbox, description, str(model_path),
+                                                      self.ending), daemon=True)
         self.proc.start()
         self.live, self.stream = live, stream or sys.stderr
         self.buf, self.events, self.backlog = {}, [], []
@@ -77,6 +78,7 @@ class LiveIdentify:
     # after the run -------------------------------------------------------------------
     def finish(self, timeout=600.0):
         """Hand over the rest, wait for the final model; returns its path or None."""
+        self.ending.set()
         if self.buf:
             self.event(self.events[-1]["t"] if self.events else 0.0, "segment_end", "", {}, "")
         # what the worker has not had yet goes as one batch: one piece at a time, it would
@@ -117,9 +119,11 @@ def _fmt(e):
     return f"{e['value']:.4g} ({e['ci_low']:.4g}..{e['ci_high']:.4g})"
 
 
-def _worker(inbox, outbox, description, model_path):
+def _worker(inbox, outbox, description, model_path, ending):
     """Accumulate segments; after each batch re-identify (without the slow compressible
-    step); at the end identify everything and save the model."""
+    step); at the end identify everything and save the model. Once the run is over
+    (`ending`), the batches still queued are only collected: an estimate of part of the
+    data would delay the final fit (by a minute on the tests' short run)."""
     from models import damper as dm
     from models.identify import identify
     desc = dm.from_dict(description)
@@ -140,7 +144,7 @@ def _worker(inbox, outbox, description, model_path):
                 T, V = channels.get(n, (np.empty(0), np.empty(0)))
                 channels[n] = (np.concatenate([T, t]), np.concatenate([V, v]))
             events += evs
-        if not channels or "force" not in channels:
+        if not channels or "force" not in channels or (ending.is_set() and not done):
             continue
         try:
             res = identify(channels, events, desc, progress=lambda m: None, dynamic=done)

@@ -86,8 +86,7 @@ CROSSOVER_MARGIN = 0.01  # log units: a high line at least 1 % flatter and 1 % h
 def crossover_penalty(p: dict, weight: float) -> np.ndarray:
     """Hinge residuals that keep a high-speed line one damper.check accepts: flatter than
     the mid line (m2 < m) and crossing it at a positive speed (c2 > c). Zero inside, so a
-    valid fit is unchanged; weight makes a 1 % violation cost more than the whole fit (the
-    compressible fit). The valve fit uses it as a wall: any violation refuses the step."""
+    valid fit is unchanged; weight makes a 1 % violation cost more than the whole fit."""
     if "m2" not in p:
         return np.zeros(0)
     return weight * np.maximum(0.0, [np.log(p["m2"] / p["m"]) + CROSSOVER_MARGIN,
@@ -184,19 +183,17 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None)
         p = dict(zip(names, np.exp(np.clip(z[: len(names)], -7.0, 23.0))))
         return p, (z[len(names)] * 1e-3 if fit_K else 0.0)
 
+    weight = 10.0 * np.sqrt(len(u))
+
     def resid(z):
         p, K = unpack(z)
-        if crossover_penalty(p, 1.0).any():  # a wall: LM steps back (a hinge made it slide along the bound)
-            return np.full_like(u, 1e3)
-        return w * (force(p, u, T, T_ref, K) - G) / scale
+        return np.concatenate([w * (force(p, u, T, T_ref, K) - G) / scale, crossover_penalty(p, weight)])
 
     best = None
     for p0, K_start in starts:
         z0 = np.log(np.maximum([p0[k] for k in names], 1e-300))
         if fit_K:
             z0 = np.append(z0, K_start * 1e3)
-        if crossover_penalty(p0, 1.0).any():  # a start outside the bounds (the own start is inside)
-            continue
         res = least_squares(resid, z0, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
         if best is None or res.cost < best.cost:
             best = res

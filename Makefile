@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 DAMPER ?= koni
 
 run: $(STAMP)
-	$(VENV)/bin/dyno run standard --damper $(DAMPER) --out recordings/standard-$(DAMPER).mcap
+	$(VENV)/bin/dyno run standard --damper $(DAMPER) --out recordings/standard-$(DAMPER).mcap --overwrite
 	$(VENV)/bin/dyno report recordings/standard-$(DAMPER).mcap --out reports/standard-$(DAMPER)
 
 test: $(STAMP)

@@ -258,7 +258,10 @@ def parser():
     rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
     _hidden_physics(rn)
-    rn.add_argument("--out", default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap)")
+    rn.add_argument("--out", default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap); "
+                                                "an existing file is kept unless --overwrite")
+    rn.add_argument("--overwrite", action="store_true", help="replace an existing --out file once the run starts")
+    rn.add_argument("--long", action="store_true", help="allow a run planned to move for more than 2 hours")
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
     rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
     rn.add_argument("--rrd", default=None, help="also save the live view to FILE.rrd")

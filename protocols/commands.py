@@ -139,37 +139,57 @@ def sim_rig(args):
 
 def rig_info(cfg, damper):
     """RigInfo for the plans: the damper's mid-stroke (or the safe position without a
-    model), the rig's limits, the damper model's peak force for the pre-flight check."""
+    model), the rig's limits, the damper model's response for the pre-flight check."""
     import numpy as np
 
     from models.simulate import simulate
     from protocols.plan import RigInfo
     L = cfg.limits
-    peak = None
+    peak = response = None
     x_mid, x_min, x_max = cfg.safe_position, L["x_min"], L["x_max"]
+    ambient = 293.15
     if damper is not None and getattr(damper, "layout", "") != "simplified":
         x_mid = damper.mid_stroke
         # never plan into the damper's own end stops: 2 mm inside its stroke at most
         x_min, x_max = max(x_min, 0.002), min(x_max, damper.geometry.stroke - 0.002)
+        temps = (ambient, damper.temperature.T_ref)  # cold or at its reference: the larger force
 
         def peak_force(v, d=damper):
-            # the damper may be cold (ambient) or at its reference temperature: the larger
             r = [simulate(d, np.array([0.0, 1.0]), np.array([d.mid_stroke] * 2), v=np.array([v, -v]),
-                          T=T, compressible=False) for T in (293.15, d.temperature.T_ref)]
+                          T=T, compressible=False) for T in temps]
             return float(max(np.max(np.abs(x.force)) for x in r))
+
+        def response(t, x, v, T, d=damper):
+            """Force and gas pressure along a motion at T [K], or (T None) the worse force
+            of cold and reference and the gas of a damper that has not warmed."""
+            runs = [simulate(d, t, x, v=v, T=Ti, compressible=False, x_e=d.mid_stroke)
+                    for Ti in ((T,) if T is not None else temps)]
+            force = np.max([np.abs(r.force) for r in runs], axis=0)
+            return force, runs[0].P_gas
         peak = peak_force
     return RigInfo(x_mid, x_min, x_max, L["velocity_max"], L.get("frequency_max", 50.0),
-                   L["force_max"], L["temperature_max"], 293.15, peak)
+                   L["force_max"], L["temperature_max"], ambient, peak, response, L["gas_pressure_max"])
+
+
+def _output(args, name):
+    """The recording's Claim, taken before the rig opens (refuses an existing file without
+    --overwrite, and a target another run is writing)."""
+    from datetime import datetime
+    from pathlib import Path
+
+    from protocols.files import Claim, numbered
+    if args.out:
+        return Claim(args.out, overwrite=args.overwrite)
+    default = Path("recordings") / f"{name}-{datetime.now():%Y%m%d-%H%M%S}.mcap"
+    return Claim(numbered(default))
 
 
 def run_protocol(args):
     import json as _json
-    from datetime import datetime
-    from pathlib import Path
 
     from models.damper import load as load_damper
     from models.damper import to_dict
-    from protocols import runner
+    from protocols import preflight, runner
     from protocols.library import PROTOCOLS
     from protocols.plan import as_dict, parse
     from protocols.recording import Recorder
@@ -189,53 +209,75 @@ def run_protocol(args):
     skipped = module.check(params, info)  # refuse before anything connects or moves
     for name, why in skipped:
         print(f"skipping {name}: {why}", file=sys.stderr)
+    forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
+    print(preflight.summary(forecast), file=sys.stderr)
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
     if identifying and (damper.layout == "simplified"):
         identifying = False
-    out = Path(args.out) if args.out else Path("recordings") / f"{module.NAME}-{datetime.now():%Y%m%d-%H%M%S}.mcap"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    vr = None
-    if args.rig is None:
-        from sim_backend.virtual_rig import VirtualRig
-        vr = VirtualRig(cfg, damper=damper, **plant)
-        cfg = vr.start()
-        rig = Rig(cfg, clock=vr.clock)
-        pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
-    else:
-        rig = Rig(cfg)
-        pacer = RealTimePacer(cfg.rate_hz)
-    recorder = live = ident = None
+    claim = _output(args, module.NAME)
+    vr = rig = recorder = live = ident = result = None
+    errors = []  # the first is the one that ended the run; later ones are reported after it
     previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
+        if args.rig is None:
+            from sim_backend.virtual_rig import VirtualRig
+            vr = VirtualRig(cfg, damper=damper, **plant)
+            cfg = vr.start()
+            rig = Rig(cfg, clock=vr.clock)
+            pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
+        else:
+            rig = Rig(cfg)
+            pacer = RealTimePacer(cfg.rate_hz)
         rig.open()
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
-        recorder = Recorder(out, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params))
-        print(f"recording to {out}", file=sys.stderr, flush=True)
+        recorder = Recorder(claim, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params),
+                            wall_start=rig.wall_start)
+        print(f"recording to {claim.target}", file=sys.stderr, flush=True)
         if identifying:
             from protocols.live_identify import LiveIdentify
-            ident = LiveIdentify(to_dict(damper), out.with_suffix(".model.json"), live)
+            ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live)
         result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live, ident],
                                progress=getattr(args, "progress", True))
+    except KeyboardInterrupt:
+        errors.append("operator stop")
+    except RigError as e:
+        errors.append(str(e))
     finally:
         signal.signal(signal.SIGTERM, previous)
-        if recorder is not None:
-            recorder.close()
-        if live is not None:
-            live.close()
-        rig.close()
-        if vr is not None:
-            vr.close()
-    print(f"recorded {result.duration_s:.1f} s of {module.NAME} to {out}", file=sys.stderr)
-    if ident is not None:
+        for close in (recorder and recorder.close, live and live.close, rig and rig.close, vr and vr.close):
+            if close:
+                try:
+                    close()
+                except Exception as e:  # noqa: BLE001 - never hides the error that ended the run
+                    errors.append(str(e) if isinstance(e, RigError) else f"{type(e).__name__}: {e}")
+        if recorder is None:
+            claim.abandon()
+            claim.release()
+    if result is None:  # the run never started: nothing moved, nothing recorded
+        if ident is not None:
+            ident.cancel()
+        raise RigError(errors[0] if errors else "run did not start")
+    if result.fault:
+        errors.insert(0, result.fault)
+    if recorder.kept:
+        print(f"recorded {result.duration_s:.1f} s of {module.NAME} to {recorder.path}", file=sys.stderr)
+    else:
+        print(f"nothing recorded: the run stopped before its first segment; {claim.target} "
+              f"{'kept as it was' if claim.target.exists() else 'not written'}", file=sys.stderr)
+    for later in errors[1:]:
+        print(f"dyno: also: {later}", file=sys.stderr)
+    if ident is not None and recorder.kept:
         print("identify: final fit of the whole recording (the rig is already safe)", file=sys.stderr, flush=True)
         model = ident.finish()
         if model:
             print(f"identify: model written to {model}", file=sys.stderr)
-    if result.fault:
-        print(f"dyno: run stopped: {result.fault}", file=sys.stderr)
-        return 130 if result.fault == "operator stop" else 1
+    elif ident is not None:
+        ident.cancel()
+    if errors:
+        print(f"dyno: run stopped: {errors[0]}", file=sys.stderr)
+        return 130 if errors[0] == "operator stop" else 1
     return 0
 
 

@@ -76,6 +76,11 @@ class LiveIdentify:
         self.stream.flush()
 
     # after the run -------------------------------------------------------------------
+    def cancel(self):
+        """The run recorded nothing to identify: stop the worker."""
+        self.proc.terminate()
+        self.proc.join(timeout=10)
+
     def finish(self, timeout=600.0):
         """Hand over the rest, wait for the final model; returns its path or None."""
         self.ending.set()

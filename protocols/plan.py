@@ -9,11 +9,17 @@ and a plan that yields segments of motion. The runner executes the segments.
 from __future__ import annotations
 
 import dataclasses
+import math
 import typing
 from dataclasses import dataclass
 from typing import Callable
 
 from rig.errors import RigError
+
+
+# predicted force and gas pressure must stay below this share of the rig's limits: the
+# damper model is a prediction, and a real damper differs from it
+MARGIN = 0.95
 
 
 class ParamError(RigError):
@@ -43,6 +49,22 @@ class RigInfo:
     T_max: float
     T_ambient: float
     peak_force: Callable[[float], float] | None = None  # damper model: velocity -> |force|
+    # damper model: (t, x, v, T or None) -> (force [N], gas pressure [Pa] or None), per sample
+    response: Callable | None = None
+    gas_max: float = 0.0  # Pa, the rig's gas pressure limit (0: none)
+
+
+def sine_peaks(rig: RigInfo, amplitude, freq, T=None):
+    """(peak |force| [N], peak gas pressure [Pa]) the damper model predicts for a steady
+    sine of `amplitude` [m] at `freq` [Hz] about mid-stroke at T [K] (None: see
+    RigInfo.response); (0, 0) without a model."""
+    import numpy as np
+    if rig.response is None:
+        return 0.0, 0.0
+    t = np.linspace(0.0, 1.0 / freq, 129)
+    x = rig.x_mid + amplitude * np.sin(2 * np.pi * freq * t)
+    force, gas = rig.response(t, x, 2 * np.pi * freq * amplitude * np.cos(2 * np.pi * freq * t), T)
+    return float(np.max(force)), float(np.max(gas)) if gas is not None else 0.0
 
 
 def parse(cls, pairs):
@@ -60,12 +82,17 @@ def parse(cls, pairs):
         try:
             if typing.get_origin(kind) in (list, tuple):
                 kwargs[name] = [float(v) for v in text.split(",") if v.strip()]
+                if not kwargs[name]:
+                    raise ParamError(f"{name}: needs at least one value")
             elif kind is int:
                 kwargs[name] = int(text)
             else:
                 kwargs[name] = float(text)
         except ValueError:
             raise ParamError(f"{name}: {text!r} is not a number") from None
+        values = kwargs[name] if isinstance(kwargs[name], list) else [kwargs[name]]
+        if not all(math.isfinite(v) for v in values):
+            raise ParamError(f"{name}: {text!r} is not a finite number")
     return cls(**kwargs)
 
 
@@ -77,7 +104,6 @@ def positive(name, values):
 
 def ramp_in(amplitude, freq, cycles, x_mid):
     """A sine whose amplitude grows linearly over `cycles`: no velocity step at start."""
-    import math
     T = cycles / freq
     return lambda t: x_mid + amplitude * min(t / T, 1.0) * math.sin(2 * math.pi * freq * t)
 

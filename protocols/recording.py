@@ -9,15 +9,23 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import time
+import zlib
+from io import BytesIO
+from datetime import datetime, timezone
 from pathlib import Path
 
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
 from mcap.reader import make_reader
-from mcap.records import Attachment, Channel, Metadata, Schema
-from mcap.stream_reader import StreamReader
-from mcap.writer import CompressionType, Writer
+from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
+from mcap.stream_reader import breakup_chunk
+from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from rig.errors import RigError
+
+from .files import Claim, numbered
 
 FLUSH_S = 0.5
 SCHEMAS = {
@@ -50,12 +58,21 @@ VERSION = "0.1.0"
 
 
 class Recorder:
-    def __init__(self, path, config, damper_json: str, protocol: str, params: dict):
-        self.path = Path(path)
-        try:
-            self.file = open(self.path, "wb")
-        except OSError as e:
-            raise RigError(f"--out {path}: cannot write ({e.strerror})") from None
+    """Writes a run to `path` through a Claim (protocols/files.py): to a partial file
+    beside it, renamed onto `path` at the first segment_start event (the run has started
+    cleanly); a run that never starts leaves no file and an existing one untouched.
+
+    Log times are absolute (ns since the Unix epoch: wall_start + the run clock), so any
+    MCAP tool shows the date; the messages carry the run clock in seconds."""
+
+    def __init__(self, path, config, damper_json: str, protocol: str, params: dict, wall_start=None,
+                 overwrite=False, run_info=None):
+        """path: the target, or a Claim on it taken earlier (to refuse before the rig opens)."""
+        self.claim = path if isinstance(path, Claim) else Claim(path, overwrite)
+        self.path = self.claim.target
+        self.file = self.claim.open()
+        self.wall_start = time.time() if wall_start is None else float(wall_start)
+        self.t0_ns = int(round(self.wall_start * 1e9))
         self.w = Writer(self.file, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
         self.w.start(profile="", library=f"dyno {VERSION}")
         self.schema = {name: self.w.register_schema(name, "jsonschema", json.dumps(s).encode())
@@ -67,14 +84,19 @@ class Recorder:
         self._topic("/actuator/setpoint", "dyno.Setpoints")
         self._topic("/events", "dyno.Event")
         self.w.add_metadata("software", {"name": "dyno", "version": VERSION})
+        started = datetime.fromtimestamp(self.wall_start, timezone.utc)
+        self.w.add_metadata("run", {"wall_start": started.isoformat(timespec="microseconds"),
+                                    "wall_start_unix_s": repr(self.wall_start),
+                                    "clock": "t [s] of every message: the run clock, 0 at the rig's open; "
+                                             "log time = wall_start + t",
+                                    **{k: str(v) for k, v in (run_info or {}).items()}})
         self.w.add_metadata("rig", {"name": config.name, "config_path": str(config.path)})
         self.w.add_metadata("calibration", {n: json.dumps({"device": c.device, "signal": c.signal, "gain": c.gain,
                                                            "offset": c.offset, "unit": c.unit})
                                             for n, c in config.channels.items()})
         self.w.add_metadata("damper", {"model": damper_json})
         self.w.add_metadata("protocol", {"name": protocol, "params": json.dumps(params)})
-        now = time.time_ns()
-        self.w.add_attachment(now, now, "rig.toml", "application/toml", config.text.encode())
+        self.w.add_attachment(self.t0_ns, self.t0_ns, "rig.toml", "application/toml", config.text.encode())
         self.last_flush = time.monotonic()
         self.last_t = 0.0
 
@@ -84,7 +106,7 @@ class Recorder:
 
     def _write(self, topic, t, payload):
         payload = {"seq": self.seq[topic], **payload}
-        ns = int(max(t, 0.0) * 1e9)
+        ns = self.t0_ns + int(round(max(t, 0.0) * 1e9))
         self.w.add_message(self.topics[topic], ns, json.dumps(payload, separators=(",", ":")).encode(), ns,
                            sequence=self.seq[topic])
         self.seq[topic] += 1
@@ -109,6 +131,13 @@ class Recorder:
         self._write("/events", t, {"t": t, "kind": kind, "segment": segment, "params": params or {},
                                    "message": message})
         self.flush()  # events are rare and matter: never leave one in an open chunk
+        if kind == "segment_start":
+            self.commit()
+
+    def commit(self):
+        """The recording is worth keeping: it takes the target's name now."""
+        self.claim.commit()
+        self.path = self.claim.target
 
     def maybe_flush(self):
         if time.monotonic() - self.last_flush >= FLUSH_S:
@@ -119,50 +148,131 @@ class Recorder:
         os.fsync(self.file.fileno())
         self.last_flush = time.monotonic()
 
+    @property
+    def kept(self):
+        return self.claim.committed
+
     def close(self):
-        self.w.finish()
-        self.file.close()
+        """Finish the file (index and summary). A run that never started leaves nothing.
+        RigError if the file cannot be finished (a full disk): what was flushed before is
+        on disk and `dyno recover` rebuilds it."""
+        error = None
+        try:
+            self.w.finish()
+            self.file.flush()
+            os.fsync(self.file.fileno())
+        except Exception as e:  # noqa: BLE001 - reported once, after the run's own error
+            error = e
+        finally:
+            try:
+                self.file.close()
+            except OSError as e:
+                error = error or e
+            if not self.claim.committed:
+                self.claim.abandon()
+            self.claim.release()
+        if error is not None and self.claim.committed:
+            why = getattr(error, "strerror", None) or str(error)
+            raise RigError(f"{self.path}: recording not finished ({why}); what was written up to the last "
+                           f"flush is kept: run `dyno recover {self.path}`")
+
+
+# records worth keeping, and how a resync finds a candidate: opcode, then a little-endian
+# u64 length below 2^32 (the high four bytes zero)
+_KEEP = {Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel, Opcode.CHUNK: Chunk, Opcode.METADATA: Metadata,
+         Opcode.ATTACHMENT: Attachment}
+_CANDIDATE = re.compile(b"[" + b"".join(re.escape(bytes([int(o)])) for o in _KEEP) + b"].{4}\x00{4}", re.DOTALL)
+
+
+def _record_at(data, pos):
+    """(records, end) of the intact record at pos, or (None, None). A chunk counts only
+    if it decompresses to its CRC; other records only if they parse to their exact length."""
+    opcode, length = data[pos], int.from_bytes(data[pos + 1:pos + 9], "little")
+    end = pos + 9 + length
+    kind = _KEEP.get(opcode)
+    if kind is None or end > len(data):
+        return None, None
+    stream = ReadDataStream(BytesIO(data[pos + 9:end]))
+    try:
+        rec = kind.read(stream)
+        if stream.count != length:
+            return None, None
+        if isinstance(rec, Chunk):
+            if rec.compression not in ("", "zstd", "lz4") or rec.uncompressed_crc == 0:
+                return None, None
+            return breakup_chunk(rec, validate_crc=True), end
+        crc = int.from_bytes(data[end - 4:end], "little")
+        if isinstance(rec, Attachment) and crc and crc != zlib.crc32(data[pos + 9:end - 4]):
+            return None, None
+    except Exception:  # noqa: BLE001 - any parse failure: not a record here
+        return None, None
+    return [rec], end
+
+
+def scan(data):
+    """(records, bytes skipped): every intact schema, channel, metadata, attachment and
+    every message of every intact chunk, in file order, resynchronising after damage (a
+    torn end, a damaged chunk or a damaged magic)."""
+    out, skipped = [], 0
+    pos = 8 if data[:8] == MCAP0_MAGIC else 0
+    while pos + 9 <= len(data):
+        recs, end = _record_at(data, pos)
+        if recs is not None:
+            out.extend(recs)
+            pos = end
+            continue
+        if data[pos] in (Opcode.HEADER, Opcode.DATA_END, Opcode.FOOTER, Opcode.STATISTICS, Opcode.CHUNK_INDEX,
+                         Opcode.MESSAGE_INDEX, Opcode.METADATA_INDEX, Opcode.ATTACHMENT_INDEX,
+                         Opcode.SUMMARY_OFFSET):
+            length = int.from_bytes(data[pos + 1:pos + 9], "little")
+            if pos + 9 + length <= len(data) and length < 1 << 32:  # a record we need not keep
+                pos += 9 + length
+                continue
+        m = _CANDIDATE.search(data, pos + 1)
+        nxt = m.start() if m else len(data)
+        skipped += nxt - pos
+        pos = nxt
+    return out, skipped
 
 
 def recover(path) -> dict:
-    """Rebuild an indexed MCAP from a damaged one (a run that was killed): every record of
-    every complete chunk is kept. The original is kept beside it as PATH.damaged.
+    """Rebuild an indexed MCAP from a damaged one (a run that was killed, a torn or
+    corrupted file): every intact record is kept, also those after a damaged part. The
+    original is kept beside it as PATH.damaged (PATH.damaged-2 ... if that exists).
     Returns counts of what was restored."""
     path = Path(path)
     if not path.exists():
         raise RigError(f"{path}: no such file")
-    damaged = path.with_name(path.name + ".damaged")
+    if not path.is_file():
+        raise RigError(f"{path}: not a file")
     try:
         with open(path, "rb") as f:
             make_reader(f).get_summary()
             list(make_reader(f).iter_messages())
-        intact = True
-    except Exception:
-        intact = False
-    if intact:
         return {"intact": True}
-    schemas, channels, records = {}, {}, []
-    with open(path, "rb") as f:
-        try:
-            for rec in StreamReader(f, record_size_limit=1 << 30).records:
-                if isinstance(rec, Schema):
-                    schemas[rec.id] = rec
-                elif isinstance(rec, Channel):
-                    channels[rec.id] = rec
-                elif type(rec).__name__ in ("Message", "Metadata", "Attachment"):
-                    records.append(rec)
-        except Exception:
-            pass  # the torn end of the file: everything before it is kept
-    if not schemas:
-        raise RigError(f"{path}: not an MCAP file, or nothing recoverable in it")
+    except Exception:  # noqa: BLE001 - anything the indexed reader refuses is recovered below
+        pass
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise RigError(f"{path}: cannot read ({e.strerror})") from None
+    records, skipped = scan(data)
+    schemas = {r.id: r for r in records if isinstance(r, Schema)}
+    channels = {r.id: r for r in records if isinstance(r, Channel)}
+    messages = [r for r in records if isinstance(r, Message) and r.channel_id in channels]
+    if not channels:
+        raise RigError(f"{path}: not an MCAP recording, or nothing recoverable in it")
+    damaged = numbered(path.with_name(path.name + ".damaged"))
     os.replace(path, damaged)
-    counts = {"intact": False, "messages": 0, "metadata": 0, "attachments": 0, "damaged": str(damaged)}
+    counts = {"intact": False, "messages": len(messages), "metadata": 0, "attachments": 0,
+              "bytes_skipped": skipped, "damaged": str(damaged)}
     with open(path, "wb") as out:
         w = Writer(out, chunk_size=1 << 20, compression=CompressionType.ZSTD)
         w.start(profile="", library=f"dyno {VERSION} recover")
         sid = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
         cid = {i: w.register_channel(c.topic, c.message_encoding, sid.get(c.schema_id, 0), c.metadata)
                for i, c in channels.items()}
+        seen = set()
         for rec in records:
             if isinstance(rec, Metadata):
                 w.add_metadata(rec.name, rec.metadata)
@@ -170,8 +280,11 @@ def recover(path) -> dict:
             elif isinstance(rec, Attachment):
                 w.add_attachment(rec.create_time, rec.log_time, rec.name, rec.media_type, rec.data)
                 counts["attachments"] += 1
-            elif rec.channel_id in cid:
-                w.add_message(cid[rec.channel_id], rec.log_time, rec.data, rec.publish_time, rec.sequence)
-                counts["messages"] += 1
+            elif isinstance(rec, Message) and rec.channel_id in cid:
+                key = (rec.channel_id, rec.sequence, rec.log_time)
+                if key not in seen:  # a chunk can only be counted once
+                    seen.add(key)
+                    w.add_message(cid[rec.channel_id], rec.log_time, rec.data, rec.publish_time, rec.sequence)
+        counts["messages"] = len(seen)
         w.finish()
     return counts

@@ -106,15 +106,20 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
             event(t, "segment_start", segments[0])
         seg = segments[state["i"]]
         ts = t - state["t0"]
-        if ts >= seg.duration or (seg.until is not None and seg.until(readings)):
-            event(t, "segment_end", seg)
-            state["t_plan"] += ts
+        while ts >= seg.duration or (seg.until is not None and seg.until(readings)):
+            # a segment that ran its time ended at its boundary, between ticks: the next
+            # one starts there, so the motion runs on without a repeated setpoint
+            ended = ts >= seg.duration
+            t_end = state["t0"] + seg.duration if ended else t
+            event(t_end, "segment_end", seg)
+            state["t_plan"] += t_end - state["t0"]
             state["i"] += 1
             if state["i"] == len(segments):
                 return None
             seg = segments[state["i"]]
-            state["t0"], ts = t, 0.0
-            event(t, "segment_start", seg)
+            state["t0"] = t_end
+            ts = t - t_end
+            event(t_end, "segment_start", seg)
         x = seg.x(ts)
         set_t.append(t)
         set_x.append(x)

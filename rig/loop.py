@@ -22,9 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import RigError
-
-SAFE_SPEED = 0.01  # m/s: the controlled move to the safe position
-SETTLE_S = 0.2  # hold at the safe position before returning
+from .safe_stop import SafeStop
 
 
 def _realtime_priority(priority):
@@ -46,17 +44,15 @@ class SimulatedPacer:
     def __init__(self, virtual_rig, rate_hz):
         self.vr, self.dt = virtual_rig, 1.0 / rate_hz
 
-    def now(self):
-        return self.vr.t
-
     def wait_next(self):
         self.vr.step(self.dt)
-        return self.vr.t, 0.0
+        return 0.0
 
 
 class RealTimePacer:
     """Wall clock: sleeps to each deadline (the last 0.1 ms spun for precision); returns
-    the tick's lateness. With a virtual rig, steps it by the elapsed time."""
+    the tick's lateness. With a virtual rig, steps it by the elapsed time. It only paces:
+    the time of a tick is the rig's clock."""
 
     def __init__(self, rate_hz, virtual_rig=None, spin_s=1e-4, fifo_priority=None):
         """fifo_priority: run the loop thread under SCHED_FIFO at this priority (1-99)
@@ -66,9 +62,6 @@ class RealTimePacer:
         self.t0 = None
         self.k = 0
         self.missed = 0  # ticks skipped after stalls
-
-    def now(self):
-        return time.perf_counter() - (self.t0 or time.perf_counter())
 
     def wait_next(self):
         if self.t0 is None:
@@ -91,7 +84,7 @@ class RealTimePacer:
         now = time.perf_counter()
         if self.vr is not None:
             self.vr.step(self.dt * (1 + skip))
-        return now - self.t0, now - due  # lateness counts the stall
+        return now - due  # lateness counts the stall
 
 
 @dataclass
@@ -113,18 +106,26 @@ class LoopResult:
                 "sched_fifo": self.sched_fifo}
 
 
+def describe(e: BaseException) -> str:
+    """One line for an error: a RigError's own words, else its type and message."""
+    if isinstance(e, RigError):
+        return str(e).splitlines()[0] if str(e) else "rig error"
+    if isinstance(e, OSError) and e.strerror:
+        return f"{e.strerror}" + (f" ({e.filename})" if e.filename else "")
+    return f"{type(e).__name__}: {str(e).splitlines()[0] if str(e) else 'no message'}"
+
+
 class ControlLoop:
+    """sinks: callables that get every drained sample batch. A sink that raises (a full
+    disk under the recorder) trips the run like any fault, and is not called again."""
+
     def __init__(self, rig, pacer, safety, sinks=(), drain_every=100):
         self.rig, self.pacer, self.safety = rig, pacer, safety
         self.sinks, self.drain_every = list(sinks), drain_every
         self.period = 1.0 / rig.config.rate_hz
 
-    def _drain(self):
-        samples = self.rig.drain()
-        for s in self.sinks:
-            s(samples)
-
     def run(self, plan, max_s=None):
+        """plan(t, readings) -> setpoint [m] or None when done; t on the rig's clock."""
         # the cyclic garbage collector pauses for milliseconds at random ticks; the loop
         # makes no reference cycles, so it runs without it and collects when done
         gc_enabled = gc.isenabled()
@@ -147,95 +148,111 @@ class ControlLoop:
 
     def _run(self, plan, max_s):
         r = LoopResult()
-        self.rig.poll()  # what arrived before the loop starts is not the first tick's work
-        started = self.pacer.now()
-        t_end_safe = None
-        ramp = None
+        stop = SafeStop(self.rig.config.safe_position)
+        clock = self.rig.clock
         try:
-            while True:
-                t, late = self.pacer.wait_next()
-                t0 = time.perf_counter()
+            self.rig.poll()  # what arrived before the loop starts is not the first tick's work
+        except Exception as e:  # noqa: BLE001 - every error trips
+            stop.trip(describe(e))
+        started = t = clock()
+        while not stop.done:
+            try:
+                late = self.pacer.wait_next()
+                t = clock()
+                t_work = time.perf_counter()
                 r.ticks += 1
                 r.lateness_s.append(late)
                 if late > self.period:
                     r.overruns += 1
-                    if late > self.safety.L["stale_s"] and r.fault is None:
-                        r.fault = f"watchdog: control loop stalled for {late * 1e3:.0f} ms"
-                        ramp = None
-                try:
-                    self.rig.poll()
-                    readings = self.rig.read()
-                    if r.fault is None:
-                        r.fault = self.safety.check(readings, t, started, self.rig.actuator())
-                        if r.fault is None:
-                            x = plan(t - started, readings)
-                            if x is None:
-                                break
-                            if not self.safety.setpoint_ok(x):
-                                r.fault = f"setpoint {x:.4f} m outside the stroke limits"
-                            else:
-                                self.rig.follow(x)
-                        if r.fault is not None:
-                            ramp = self._safe_ramp(readings, r.fault)
-                    if r.fault is not None:
-                        done = self._safe_step(ramp, t)
-                        if done and t_end_safe is None:
-                            t_end_safe = t + SETTLE_S
-                        if t_end_safe is not None and t >= t_end_safe:
-                            break
-                except RigError as e:
-                    if r.fault is None:
-                        r.fault = str(e)
-                        ramp = None
-                    self._try_hold()
-                    if t_end_safe is None:
-                        t_end_safe = t + SETTLE_S
-                    if t >= t_end_safe:
+                    if late > self.safety.L["stale_s"] and stop.running:
+                        stop.trip(f"watchdog: control loop stalled for {late * 1e3:.0f} ms")
+                if stop.running:
+                    if self._tick(plan, t, stop) is None:
                         break
+                if not stop.running:
+                    self._safe_step(stop, t)
                 if r.ticks % self.drain_every == 0:
-                    self._drain()
-                if max_s is not None and t - started >= max_s and r.fault is None:
+                    self._drain(stop)
+                if max_s is not None and t - started >= max_s and stop.running:
                     break
-                if time.perf_counter() - t0 > self.period:
+                if time.perf_counter() - t_work > self.period:
                     r.overruns += 1
-        except KeyboardInterrupt:
-            r.fault = r.fault or "operator stop"
-            self._try_hold()
-        finally:
-            r.duration_s = self.pacer.now() - started
-            r.missed = getattr(self.pacer, "missed", 0)
-            self._drain()
+            except KeyboardInterrupt:
+                stop.trip("operator stop")  # the actuator holds where it is
+                stop.cannot_move()
+            except Exception as e:  # noqa: BLE001 - a bug in the loop itself: stop safely
+                stop.trip(f"control loop: {describe(e)}")
+                stop.cannot_move()
+        r.fault = stop.reason
+        r.duration_s = t - started
+        r.missed = getattr(self.pacer, "missed", 0)
+        self._drain(stop)
         return r
 
-    def _safe_ramp(self, readings, reason):
-        """(start x, start t) of the slow move to the safe position, or None to just hold
+    def _tick(self, plan, t, stop):
+        """One running tick: read, check, command. None once the plan is done."""
+        try:
+            self.rig.poll()
+            readings = self.rig.read()
+        except Exception as e:  # noqa: BLE001 - transport or device: nothing read can be trusted
+            stop.trip(describe(e))
+            return False
+        fault = self.safety.check(readings, t, self.rig.actuator())
+        if fault is None:
+            try:
+                x = plan(t, readings)
+                if x is None:
+                    return None
+                x = float(x)
+            except Exception as e:  # noqa: BLE001 - a protocol's bug: still stop safely
+                fault = f"protocol: {describe(e)}"
+            else:
+                if not self.safety.setpoint_ok(x):
+                    fault = f"setpoint {x:.4f} m outside the stroke limits"
+                else:
+                    try:
+                        self.rig.follow(x)
+                        return True
+                    except Exception as e:  # noqa: BLE001
+                        stop.trip(describe(e))
+                        return False
+        stop.trip(fault, self._trusted_x(readings, fault))
+        return False
+
+    def _trusted_x(self, readings, reason):
+        """The measured position if the actuator may move to the safe position, else None
         (position feedback or the actuator cannot be trusted)."""
-        self._try_hold()
         x = readings.get("x")
         state, alarms = self.rig.actuator()
         if x is None or x.fault or state == "alarm" or alarms or "watchdog: x" in reason:
             return None
-        return [x.value, None]
+        return x.value
 
-    def _safe_step(self, ramp, t):
-        """One tick of the safe state; True once it is reached."""
-        if ramp is None:
-            self._try_hold()
-            return True
-        if ramp[1] is None:
-            ramp[1] = t
-        target = self.rig.config.safe_position
-        x0 = ramp[0]
-        step = SAFE_SPEED * (t - ramp[1])
-        x = target if abs(target - x0) <= step else x0 + np.sign(target - x0) * step
+    def _safe_step(self, stop, t):
+        command, x = stop.step(t)
         try:
-            self.rig.follow(float(x))
-        except RigError:
-            return True
-        return x == target
+            if command == "follow":
+                self.rig.follow(x)
+            elif command == "hold":
+                self.rig.hold()
+        except Exception:  # noqa: BLE001 - the actuator holds by itself when setpoints stop (50 ms)
+            stop.cannot_move()
+            try:
+                self.rig.hold()
+            except Exception:  # noqa: BLE001
+                pass
 
-    def _try_hold(self):
+    def _drain(self, stop):
         try:
-            self.rig.hold()
-        except RigError:
-            pass  # the actuator holds by itself when its setpoints stop (50 ms)
+            samples = self.rig.drain()
+        except Exception as e:  # noqa: BLE001
+            stop.trip(f"rig: {describe(e)}")
+            return
+        for sink in list(self.sinks):
+            try:
+                sink(samples)
+            except Exception as e:  # noqa: BLE001 - a full disk must not leave the actuator moving
+                self.sinks.remove(sink)
+                owner = getattr(sink, "__self__", None)
+                reason = f"{type(owner).__name__.lower() if owner is not None else 'sink'}: {describe(e)}"
+                stop.trip(reason, self._trusted_x(self.rig.read(), reason))

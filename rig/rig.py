@@ -9,8 +9,10 @@
     rig.actuator()                     # ("following", [alarms])
     rig.close()
 
-Samples are timestamped by the rig's clock (wall time on a real cell, simulated time on
-the virtual rig) when they arrive.
+Samples are timestamped by the rig's clock when they arrive: on a real cell seconds on the
+monotonic clock since open(), on the embedded virtual rig its simulated seconds. It is the
+one clock of a run: the control loop, the safety watchdogs, setpoints and events all read
+`rig.clock()`, and `rig.wall_start` is the wall-clock time (Unix seconds) of its zero.
 """
 from __future__ import annotations
 
@@ -35,10 +37,12 @@ class Reading:
 
 class Rig:
     def __init__(self, config, clock=None):
-        """clock: the simulated clock of a virtual rig; None for wall time (real time,
-        polled devices on threads of their own)."""
+        """clock: the simulated clock of a virtual rig; None for real time (the monotonic
+        clock from open(), polled devices on threads of their own)."""
         self.config = config
-        self.clock = clock or time.monotonic
+        self._t0 = time.monotonic()
+        self.clock = clock or (lambda: time.monotonic() - self._t0)
+        self.wall_start = time.time() - self.clock()
         self.drivers = devices.make(config, threaded=clock is None)
         self.by_signal = {(c.device, c.signal): c for c in config.channels.values()}
         self.latest: dict[str, Reading] = {}
@@ -47,6 +51,8 @@ class Rig:
 
     def open(self):
         """Connect every device; RigError "CONFIG:LINE: ..." naming the first that fails."""
+        self._t0 = time.monotonic()
+        self.wall_start = time.time() - self.clock()
         opened = []
         for name, d in self.drivers.items():
             try:

@@ -32,6 +32,7 @@ class Safety:
                 age = max(age, 10.0 / float(d.params.get("poll_hz", 10)))
             self.max_age[ch.name] = age
         self._force = None  # (value, since when) to spot a frozen load cell
+        self.started = None  # first check: a channel that never reported is stale from then
 
     def _frozen_force(self, readings, now):
         """A real load cell's reading always moves by its noise; an identical value for
@@ -46,12 +47,15 @@ class Safety:
             return f"force ({self.config.channels['force'].device}): reading frozen at {f.value:.1f} N while moving"
         return None
 
-    def check(self, readings: dict, now: float, started: float, actuator=("unknown", [])):
-        """First reason to trip, or None. `started`: when the loop began (a channel that
-        has never reported is stale once its allowed age has passed since then)."""
+    def check(self, readings: dict, now: float, actuator=("unknown", [])):
+        """First reason to trip, or None. now: the rig's clock, on which readings are
+        stamped (a channel that has never reported is stale once its allowed age has
+        passed since the first check)."""
+        if self.started is None:
+            self.started = now
         for name, ch in self.config.channels.items():
             r = readings.get(name)
-            last = r.t if r is not None else started
+            last = r.t if r is not None else self.started
             if now - last > self.max_age[name]:
                 what = "no data" if r is None else f"no new data for {1e3 * (now - r.t):.0f} ms"
                 return f"watchdog: {name} ({ch.device}): {what} (limit {1e3 * self.max_age[name]:.0f} ms)"

@@ -96,8 +96,8 @@ def test_sigkill_then_recover_keeps_all_but_the_last_second(tmp_path):
     out = tmp_path / "killed.mcap"
     p = subprocess.Popen([DYNO, "run", "sine-matrix", "--realtime", "--out", str(out), "amplitudes_mm=6.4",
                           "freqs_hz=2", "record_cycles=40"], stderr=subprocess.PIPE, text=True)
-    line = p.stderr.readline()
-    assert "recording to" in line
+    lines = [p.stderr.readline() for _ in range(2)]
+    assert lines[0].startswith("pre-flight:") and "recording to" in lines[1], lines
     t_start = time.monotonic()
     time.sleep(4.0)
     p.send_signal(signal.SIGKILL)
@@ -121,7 +121,7 @@ def run_in_process(tmp_path, inject=None, interrupt_at=None):
     rig = Rig(cfg, clock=vr.clock)
     rig.open()
     params = parse(sine_matrix.Params, ["amplitudes_mm=6.4", "freqs_hz=2", "record_cycles=10"])
-    rec = Recorder(tmp_path / "r.mcap", cfg, "{}", sine_matrix.NAME, {})
+    rec = Recorder(tmp_path / "r.mcap", cfg, "{}", sine_matrix.NAME, {}, wall_start=rig.wall_start, overwrite=True)
     info = rig_info(cfg, vr.plant.damper)
 
     stopped = []

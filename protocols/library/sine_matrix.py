@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..plan import ParamError, RigInfo, Segment, positive, ramp_in
+from ..plan import MARGIN, ParamError, RigInfo, Segment, positive, ramp_in
 
 NAME = "sine-matrix"
 
@@ -40,9 +40,11 @@ def check(p: Params, rig: RigInfo):
             v = 2 * math.pi * f * a / 1e3
             if v > rig.v_max:
                 skipped.append((_name(a, f), f"peak velocity {v:.2f} m/s above the rig's {rig.v_max:g} m/s"))
-            elif rig.peak_force is not None and rig.peak_force(v) > rig.force_max:
-                skipped.append((_name(a, f), f"expected force {rig.peak_force(v):.0f} N above the rig's "
-                                             f"{rig.force_max:.0f} N"))
+            elif rig.peak_force is not None and rig.peak_force(v) > MARGIN * rig.force_max:
+                skipped.append((_name(a, f), f"expected force {rig.peak_force(v):.0f} N above "
+                                             f"{100 * MARGIN:.0f} % of the rig's {rig.force_max:.0f} N"))
+    if len(skipped) == len(p.amplitudes_mm) * len(p.freqs_hz):
+        raise ParamError(f"nothing to run: every combination is skipped ({skipped[0][0]}: {skipped[0][1]})")
     return skipped
 
 

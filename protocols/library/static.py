@@ -37,6 +37,11 @@ def check(p: Params, rig: RigInfo):
         raise ParamError(f"speed_mm_s: {p.speed_mm_s:g} mm/s is above the rig's {rig.v_max:g} m/s")
     if p.dwell_max_s < p.dwell_min_s:
         raise ParamError("dwell_max_s: must not be below dwell_min_s")
+    lo, hi = positions(p, rig)[[0, -1]]
+    if not lo < hi:
+        raise ParamError(f"approach_mm: {p.approach_mm:g} mm leaves no stroke to hold in (usable "
+                         f"{rig.x_min * 1e3:.1f}..{rig.x_max * 1e3:.1f} mm, each approach needs it plus 2 mm "
+                         f"at both ends)")
     return []
 
 

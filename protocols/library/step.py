@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..plan import ParamError, RigInfo, Segment
+from ..plan import MARGIN, ParamError, RigInfo, Segment
 
 NAME = "step"
 
@@ -31,10 +31,23 @@ def check(p: Params, rig: RigInfo):
     return []
 
 
+def rise_time(p: Params, rig: RigInfo, step_mm):
+    """rise_s, lengthened where the damper model says the step's speed would take the force
+    above MARGIN of the rig's limit (a stiff damper is stepped more slowly, not tripped)."""
+    v = abs(step_mm) / 1e3 / p.rise_s
+    if rig.peak_force is None or rig.peak_force(v) <= MARGIN * rig.force_max:
+        return p.rise_s
+    lo, hi = 0.0, v
+    for _ in range(30):  # the fastest speed that fits, by bisection
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if rig.peak_force(mid) <= MARGIN * rig.force_max else (lo, mid)
+    return abs(step_mm) / 1e3 / max(lo, 1e-9)
+
+
 def plan(p: Params, rig: RigInfo):
     for s in p.steps_mm:
-        d = s / 1e3
-        yield Segment(f"step {s:+g} mm", {"step_mm": s}, p.hold_s,
-                      lambda t, d=d: rig.x_mid + d * min(t / p.rise_s, 1.0))
-        yield Segment(f"return from {s:+g} mm", {"step_mm": s}, p.hold_s,
-                      lambda t, d=d: rig.x_mid + d * max(1.0 - t / p.rise_s, 0.0), False)
+        d, rise = s / 1e3, rise_time(p, rig, s)
+        yield Segment(f"step {s:+g} mm", {"step_mm": s, "rise_s": rise}, p.hold_s,
+                      lambda t, d=d, r=rise: rig.x_mid + d * min(t / r, 1.0))
+        yield Segment(f"return from {s:+g} mm", {"step_mm": s, "rise_s": rise}, p.hold_s,
+                      lambda t, d=d, r=rise: rig.x_mid + d * max(1.0 - t / r, 0.0), False)

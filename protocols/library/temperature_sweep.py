@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..plan import ParamError, RigInfo, Segment, positive, ramp_in
+from ..plan import MARGIN, ParamError, RigInfo, Segment, positive, ramp_in, sine_peaks
 
 NAME = "temperature-sweep"
 MARGIN_K = 5.0  # targets must lie this far inside ambient .. the rig's temperature limit
@@ -39,18 +39,41 @@ def check(p: Params, rig: RigInfo):
                              f"{rig.T_ambient - 273.15:g} C, at least {lo:g} C)")
     if rig.peak_force is not None:
         v = 2 * math.pi * p.freq_hz * p.amplitude_mm / 1e3
-        if rig.peak_force(v) > rig.force_max:
+        if rig.peak_force(v) > MARGIN * rig.force_max:
             raise ParamError(f"freq_hz: {p.amplitude_mm:g} mm at {p.freq_hz:g} Hz needs about "
-                             f"{rig.peak_force(v):.0f} N, above the rig's {rig.force_max:.0f} N")
+                             f"{rig.peak_force(v):.0f} N, above {100 * MARGIN:.0f} % of the rig's "
+                             f"{rig.force_max:.0f} N")
         if _warm_freq(p, rig) is None:
             raise ParamError(f"warm_amplitude_mm: {p.warm_amplitude_mm:g} mm needs more force than the rig's "
                              f"{rig.force_max:.0f} N even at 1 Hz")
+    skipped = [(f"sine at {T:g} C", why) for T, why in _too_hot(p, rig)]
+    if len(skipped) == len(p.targets_c):
+        raise ParamError(f"targets_c: none can be run on this damper: {skipped[-1][1]}")
     for A, f, what in ((p.amplitude_mm, p.freq_hz, ""), (p.warm_amplitude_mm, p.warm_freq_hz, "warm_")):
         if 2 * math.pi * f * A / 1e3 > rig.v_max:
             raise ParamError(f"{what}freq_hz: {A:g} mm at {f:g} Hz is faster than the rig's {rig.v_max:g} m/s")
         if not (rig.x_min <= rig.x_mid - A / 1e3 and rig.x_mid + A / 1e3 <= rig.x_max):
             raise ParamError(f"{what}amplitude_mm: {A:g} mm leaves the stroke limits")
-    return []
+    return skipped
+
+
+def _too_hot(p: Params, rig: RigInfo):
+    """[(target C, why)] of the targets the damper model says would take the gas pressure
+    above MARGIN of the rig's limit: while cycling at the target, or while warming to just
+    above it when it would be the top target. The hottest first."""
+    out = []
+    if rig.response is None or not rig.gas_max:
+        return out
+    fw = _warm_freq(p, rig) or p.warm_freq_hz
+    for T in sorted(p.targets_c, reverse=True):
+        gas = sine_peaks(rig, p.amplitude_mm / 1e3, p.freq_hz, T + 273.15)[1]
+        warm = sine_peaks(rig, p.warm_amplitude_mm / 1e3, fw, T + p.overshoot_c + 273.15)[1]
+        if max(gas, warm) <= MARGIN * rig.gas_max:
+            break  # the rest are colder
+        what = "cycling at it" if gas >= warm else f"warming to {T + p.overshoot_c:g} C"
+        out.append((T, f"gas pressure {max(gas, warm) / 1e6:.2f} MPa {what} (damper model), above "
+                       f"{100 * MARGIN:.0f} % of the rig's {rig.gas_max / 1e6:.2f} MPa"))
+    return out
 
 
 def _above(T_K):
@@ -75,7 +98,8 @@ def _warm_freq(p: Params, rig: RigInfo):
 
 
 def plan(p: Params, rig: RigInfo):
-    targets = sorted(p.targets_c, reverse=True)
+    too_hot = {T for T, _ in _too_hot(p, rig)}
+    targets = sorted((T for T in p.targets_c if T not in too_hot), reverse=True)
     Aw, fw = p.warm_amplitude_mm / 1e3, _warm_freq(p, rig)
     top = targets[0] + p.overshoot_c + 273.15
     yield Segment("warm up", {"until_c": top - 273.15, "freq_hz": fw}, p.max_warm_s, ramp_in(Aw, fw, 4, rig.x_mid),

@@ -1,0 +1,124 @@
+"""Pre-flight: what a plan will do, predicted before anything moves.
+
+Every segment's setpoints are sampled and run through the damper model (incompressible,
+eq 3.33/3.44 family, at the segment's temperature): stroke, velocity, force and gas
+pressure are compared with the rig's limits, and the planned time with MAX_MOTION_S. A
+plan that would trip a limit it could have predicted is refused, naming the segment.
+
+Temperature: a segment that states one (a temperature sweep's target, a warm-up's end)
+is predicted at it; any other at the cell's ambient for the gas (it has not warmed) and at
+the worse of ambient and the damper's reference temperature for the force (a cold damper
+is stiffer). Margins: the model is a prediction, and a real damper differs from it, so a
+force or gas pressure above MARGIN of its limit is refused.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .plan import MARGIN, ParamError, RigInfo, Segment
+
+MAX_MOTION_S = 2 * 3600.0  # s: a plan that moves longer than this needs --long
+SAMPLES = 400  # per segment, and at least POINTS_PER_CYCLE a cycle
+POINTS_PER_CYCLE = 64
+
+
+@dataclass
+class Forecast:
+    duration_s: float = 0.0  # fixed-time segments [s]
+    waits: int = 0  # segments that end on a reading (a temperature, a settled force)
+    wait_max_s: float = 0.0  # their time limits, summed [s]
+    x_range: tuple = (math.inf, -math.inf)  # m
+    v_peak: float = 0.0  # m/s
+    force_peak: float = 0.0  # N
+    gas_peak: float = 0.0  # Pa
+    worst: dict = field(default_factory=dict)  # quantity -> segment name
+
+
+def segment_temperatures(seg: Segment):
+    """The temperatures [K] to predict a segment at: a sweep's target; a warm-up's start
+    (None: see RigInfo.response) and end; else None."""
+    if "target_c" in seg.params:
+        return (float(seg.params["target_c"]) + 273.15,)
+    if "until_c" in seg.params:
+        return None, float(seg.params["until_c"]) + 273.15
+    return (None,)
+
+
+def _samples(seg: Segment):
+    """(t, x) of the segment's setpoints, fine enough for its fastest motion."""
+    f = float(seg.params.get("freq_hz", 0.0) or 0.0)
+    span = seg.duration if f <= 0 else min(seg.duration, 32 / f)  # a long cycling repeats itself
+    n = SAMPLES if f <= 0 else max(SAMPLES, int(span * f * POINTS_PER_CYCLE))
+    t = np.linspace(0.0, span, n + 1)
+    return t, np.array([seg.x(ti) for ti in t])
+
+
+def forecast(segments, info: RigInfo) -> Forecast:
+    out = Forecast()
+    for seg in segments:
+        if seg.until is None:
+            out.duration_s += seg.duration
+        else:
+            out.waits += 1
+            out.wait_max_s += seg.duration
+        t, x = _samples(seg)
+        if not np.all(np.isfinite(x)):
+            raise ParamError(f"{seg.name}: the plan gives a setpoint that is not a number")
+        lo, hi = float(x.min()), float(x.max())
+        if lo < out.x_range[0] or hi > out.x_range[1]:
+            out.x_range = (min(lo, out.x_range[0]), max(hi, out.x_range[1]))
+            out.worst["stroke"] = seg.name
+        if lo < info.x_min - 1e-9 or hi > info.x_max + 1e-9:
+            raise ParamError(f"{seg.name}: setpoints span {lo * 1e3:.1f}..{hi * 1e3:.1f} mm, outside the stroke "
+                             f"limits {info.x_min * 1e3:.1f}..{info.x_max * 1e3:.1f} mm")
+        v = np.gradient(x, t) if len(t) > 1 and t[-1] > 0 else np.zeros_like(x)
+        vp = float(np.abs(v).max())
+        if vp > out.v_peak:
+            out.v_peak, out.worst["velocity"] = vp, seg.name
+        if info.response is None:
+            continue
+        fp = gp = 0.0
+        for T in segment_temperatures(seg):
+            force, gas = info.response(t, x, v, T)
+            fp = max(fp, float(np.abs(force).max()))
+            gp = max(gp, float(np.max(gas)) if gas is not None else 0.0)
+        if fp > out.force_peak:
+            out.force_peak, out.worst["force"] = fp, seg.name
+        if gp > out.gas_peak:
+            out.gas_peak, out.worst["gas"] = gp, seg.name
+    return out
+
+
+def check(segments, info: RigInfo, long=False) -> Forecast:
+    """The forecast of a plan; ParamError naming the segment if it would trip a limit or
+    move longer than MAX_MOTION_S without `long`."""
+    if not segments:
+        raise ParamError("nothing to run: every part of the plan was skipped")
+    f = forecast(segments, info)
+    if f.v_peak > info.v_max * (1 + 1e-9):
+        raise ParamError(f"{f.worst['velocity']}: needs {f.v_peak:.2f} m/s, above the rig's {info.v_max:g} m/s")
+    if f.force_peak > MARGIN * info.force_max:
+        raise ParamError(f"{f.worst['force']}: the damper model predicts {f.force_peak:.0f} N, above "
+                         f"{100 * MARGIN:.0f} % of the rig's {info.force_max:.0f} N")
+    if info.gas_max and f.gas_peak > MARGIN * info.gas_max:
+        raise ParamError(f"{f.worst['gas']}: the damper model predicts a gas pressure of {f.gas_peak / 1e6:.2f} MPa, "
+                         f"above {100 * MARGIN:.0f} % of the rig's {info.gas_max / 1e6:.2f} MPa")
+    if f.duration_s > MAX_MOTION_S and not long:
+        raise ParamError(f"the plan moves for {_hours(f.duration_s)}, more than {_hours(MAX_MOTION_S)}: "
+                         f"check its parameters, or give --long")
+    return f
+
+
+def _hours(s):
+    return f"{s / 3600:.1f} h" if s >= 3600 else f"{s / 60:.0f} min" if s >= 60 else f"{s:.0f} s"
+
+
+def summary(f: Forecast) -> str:
+    waits = f" + {f.waits} wait{'s' * (f.waits > 1)} (at most {_hours(f.wait_max_s)})" if f.waits else ""
+    gas = f", gas up to {f.gas_peak / 1e6:.2f} MPa" if f.gas_peak else ""
+    force = f", force up to {f.force_peak:.0f} N" if f.force_peak else ""
+    return (f"pre-flight: {_hours(f.duration_s)} of motion{waits}; stroke {f.x_range[0] * 1e3:.1f}.."
+            f"{f.x_range[1] * 1e3:.1f} mm, velocity up to {f.v_peak:.2f} m/s{force}{gas} (damper model)")

@@ -9,6 +9,7 @@ import time
 from rig import config as rig_config
 from rig.errors import RigError
 from rig.rig import Rig
+from rig.safety import Safety
 
 CHECK_S = 0.5  # how long rig check listens
 
@@ -41,6 +42,7 @@ def rig_check(args):
                 break
         readings = rig.read()
         cfg = rig.config
+        safety = Safety(cfg)
         where = "embedded virtual rig" if vr is not None else cfg.path
         print(f"rig {cfg.name!r} ({where})")
         print(f"{'channel':12s} {'device':12s} {'value':>14s} {'unit':5s} {'age':>8s}  status")
@@ -52,15 +54,23 @@ def rig_check(args):
                 print(f"{name:12s} {ch.device:12s} {'-':>14s} {ch.unit:5s} {'-':>8s}  NO DATA")
                 continue
             status = "ok" if r.fault is None else f"FAULT: {r.fault}"
+            q = rig_config.quantity(name)
+            beyond = safety.beyond_limit(name, r.value)
             if r.fault:
                 missing.append(f"{name} ({ch.device}: {r.fault})")
+            elif q is not None and not q[1] <= r.value <= q[2]:
+                status = f"IMPLAUSIBLE: outside {q[1]:g}..{q[2]:g} {q[0]}: check gain, offset and wiring"
+                missing.append(f"{name} ({ch.device}: implausible {r.value:.6g} {ch.unit})")
+            elif beyond:
+                status = f"BEYOND LIMIT: {beyond}"
+                missing.append(f"{name} ({ch.device}: beyond limit)")
             print(f"{name:12s} {ch.device:12s} {r.value:14.6g} {ch.unit:5s} {1e3 * (now - r.t):6.0f} ms  {status}")
         state, alarms = rig.actuator()
         print(f"actuator: {state}, {'alarms: ' + ', '.join(alarms) if alarms else 'no alarms'}")
         if state == "unknown":
             missing.append(f"actuator status ({cfg.actuator})")
         if missing:
-            print(f"dyno: error: rig check: no data or faulted: {', '.join(missing)}", file=sys.stderr)
+            print(f"dyno: error: rig check: no data, faulted or implausible: {', '.join(missing)}", file=sys.stderr)
             return 1
         print(f"all {len(cfg.channels)} channels report")
         return 0
@@ -194,7 +204,6 @@ def run_protocol(args):
     from protocols.plan import as_dict, parse
     from protocols.recording import Recorder
     from rig.loop import RealTimePacer, SimulatedPacer
-    from rig.safety import Safety
 
     module = PROTOCOLS.get(args.protocol)
     if module is None:

@@ -1,12 +1,16 @@
 """Rig configuration (TOML): which device sits on which transport and address, which
 channel comes from which device signal, its calibration, and the safety limits.
 
-Every problem is reported as "FILE:LINE: what is wrong" (RigError) before anything
-connects. The shipped configs are rig/configs/virtual.toml (the embedded default) and
-rig/configs/example-cell.toml (a real cell's wiring, commented).
+The schema below is strict: every key has a type (a number is never a boolean or a
+string), limits are finite and in range, units are SI, and an unknown key or table is
+refused with a "did you mean" for near misses. Every problem is reported as
+"FILE:LINE: what is wrong" (RigError) before anything connects. The shipped configs are
+rig/configs/virtual.toml (the embedded default), sim-rig.toml and example-cell.toml.
 """
 from __future__ import annotations
 
+import difflib
+import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -16,15 +20,60 @@ from . import modbus_map
 from .errors import RigError
 
 CONFIG_DIR = Path(__file__).parent / "configs"
-TRANSPORTS = {
-    "can": {"required": ("interface", "channel", "node"), "optional": ("bitrate", "host", "port")},
-    "serial": {"required": ("port",), "optional": ("baudrate",)},
-    "modbus": {"required": ("host", "port", "device_id", "map"), "optional": ("poll_hz", "timeout_s")},
-}
 CAN_NODES = {"actuator": ("position",), "daq": ("lvdt", "lvt")}
 SERIAL_SIGNALS = ("output",)
 REQUIRED_CHANNELS = ("force", "x")
-LIMITS = ("x_min", "x_max", "force_max", "velocity_max", "temperature_max", "gas_pressure_max", "stale_s")
+# what a channel measures, by its name: SI unit, and the range a working sensor can read
+QUANTITIES = (
+    (r"force", "N", -1e6, 1e6),
+    (r"x|x_.+", "m", -0.5, 1.0),
+    (r"v|v_.+", "m/s", -20.0, 20.0),
+    (r"T_.+", "K", 173.15, 773.15),
+    (r"P_.+|P\d+", "Pa", 0.0, 1e8),
+)
+AUX_UNITS = ("1", "A", "V", "N", "m", "m/s", "m/s^2", "K", "Pa", "Hz", "W", "s", "rad", "rad/s")
+
+
+@dataclass(frozen=True)
+class Field:
+    kind: str  # "number", "integer", "string", "port" (an integer 1-65535 or "auto")
+    required: bool = False
+    lo: float | None = None
+    hi: float | None = None
+    above: float | None = None  # strictly greater than
+    choices: tuple = ()
+    nonzero: bool = False
+
+
+def _num(**kw):
+    return Field("number", **kw)
+
+
+RIG = {"name": Field("string"), "rate_hz": _num(above=0.0, hi=10000.0), "safe_position": _num()}
+ACTUATOR_RATINGS = {"stroke": _num(above=0.0, hi=2.0), "force_rating": _num(above=0.0),
+                    "velocity_rating": _num(above=0.0, hi=50.0)}
+TRANSPORTS = {
+    "can": {"interface": Field("string", True), "channel": Field("string", True),
+            "node": Field("string", True, choices=tuple(CAN_NODES)), "bitrate": Field("integer", above=0),
+            "host": Field("string"), "port": Field("port"), "timeout_s": _num(above=0.0, hi=60.0),
+            **ACTUATOR_RATINGS},
+    "serial": {"port": Field("string", True), "baudrate": Field("integer", above=0)},
+    "modbus": {"host": Field("string", True), "port": Field("port", True),
+               "device_id": Field("integer", True, lo=0, hi=247), "map": Field("string", True),
+               "poll_hz": _num(above=0.0, hi=1000.0), "timeout_s": _num(above=0.0, hi=10.0)},
+}
+CHANNEL = {"device": Field("string", True), "signal": Field("string", True),
+           "gain": _num(required=True, nonzero=True), "offset": _num(), "unit": Field("string", True)}
+LIMITS = {
+    "x_min": _num(required=True, lo=0.0, hi=2.0), "x_max": _num(required=True, above=0.0, hi=2.0),
+    "force_max": _num(required=True, above=0.0, hi=1e7),
+    "velocity_max": _num(required=True, above=0.0, hi=50.0),
+    "temperature_max": _num(required=True, above=273.15, hi=773.15),  # K
+    "gas_pressure_max": _num(required=True, above=0.0, hi=1e8),  # Pa
+    "stale_s": _num(required=True, above=0.0, hi=1.0),  # a watchdog slower than a second is none
+    "frequency_max": _num(above=0.0, hi=1000.0),
+}
+TABLES = ("rig", "devices", "channels", "limits")
 
 
 @dataclass
@@ -66,18 +115,34 @@ class RigConfig:
     actuator: str = ""  # name of the device that takes the setpoint
 
 
-def _line(text, section, key=None):
-    """1-based line of [section] (or of key inside it) in the TOML text, 0 if not found."""
+def quantity(channel_name):
+    """(SI unit, plausible low, high) of a channel by its name; None for aux.* and others."""
+    for pattern, unit, lo, hi in QUANTITIES:
+        if re.fullmatch(pattern, channel_name):
+            return unit, lo, hi
+    return None
+
+
+def _header(parts):
+    """Regex for the TOML table header [a.b.c], each part bare or quoted."""
+    body = r"\s*\.\s*".join(rf"(?:{re.escape(p)}|\"{re.escape(p)}\"|'{re.escape(p)}')" for p in parts)
+    return re.compile(rf"^\s*\[\s*{body}\s*\]")
+
+
+def _line(text, parts, key=None):
+    """1-based line of the table `parts` (or of `key` inside it) in the TOML text, 0 if
+    not found."""
     lines = text.splitlines()
-    head = re.compile(r"^\s*\[\s*" + re.escape(section).replace(r"\.", r"\s*\.\s*") + r"\s*\]")
+    head = _header(parts)
     for i, ln in enumerate(lines):
         if head.match(ln):
             if key is None:
                 return i + 1
+            keyre = re.compile(rf"^\s*(?:{re.escape(key)}|\"{re.escape(key)}\")\s*=")
             for j in range(i + 1, len(lines)):
                 if lines[j].lstrip().startswith("["):
                     break
-                if re.match(r"^\s*" + re.escape(key) + r"\s*=", lines[j]):
+                if keyre.match(lines[j]):
                     return j + 1
             return i + 1
     return 0
@@ -86,11 +151,80 @@ def _line(text, section, key=None):
 def load(path_or_name=None) -> RigConfig:
     """A config file path, or the name of a shipped config (default: virtual)."""
     s = "virtual" if path_or_name is None else str(path_or_name)
-    path = Path(s) if s.endswith(".toml") else CONFIG_DIR / f"{s}.toml"
+    path = Path(s) if s.endswith(".toml") or "/" in s else CONFIG_DIR / f"{s}.toml"
     if not path.exists():
         raise RigError(f"{s}: no such rig config (shipped: "
                        f"{', '.join(sorted(p.stem for p in CONFIG_DIR.glob('*.toml')))})")
-    return parse(path.read_text(), path.name)
+    if not path.is_file():
+        raise RigError(f"{s}: not a file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise RigError(f"{path.name}: not a text (TOML) file") from None
+    except OSError as e:
+        raise RigError(f"{path.name}: cannot read ({e.strerror})") from None
+    return parse(text, path.name)
+
+
+class _Checker:
+    """Checks tables of a parsed TOML document against the schema, naming FILE:LINE."""
+
+    def __init__(self, text, where):
+        self.text, self.where = text, where
+
+    def fail(self, line, msg):
+        raise RigError(f"{self.where}:{line or 1}: {msg}")
+
+    def line(self, parts, key=None):
+        return _line(self.text, parts, key) or (_line(self.text, parts[:1]) if len(parts) > 1 else 0)
+
+    def table(self, data, parts, what):
+        if not isinstance(data, dict):
+            self.fail(self.line(parts[:-1], parts[-1]) or self.line(parts), f"{what}: expected a table "
+                      f"[{'.'.join(parts)}], got {type(data).__name__} {data!r}"[:160])
+        return data
+
+    def fields(self, data, parts, schema, what):
+        """Checked values of one table: unknown keys refused, types and ranges enforced."""
+        for key in data:
+            if key not in schema:
+                near = difflib.get_close_matches(key, list(schema), n=1, cutoff=0.6)
+                self.fail(self.line(parts, key), f"{what}: unknown key {key!r}"
+                          + (f"; did you mean {near[0]!r}?" if near else f" (known: {', '.join(schema)})"))
+        out = {}
+        for key, f in schema.items():
+            if key not in data:
+                if f.required:
+                    self.fail(self.line(parts), f"{what}: missing {key!r}")
+                continue
+            out[key] = self.value(data[key], f, f"{what}: {key}", self.line(parts, key))
+        return out
+
+    def value(self, v, f, what, line):
+        if f.kind == "string":
+            if not isinstance(v, str) or not v.strip():
+                self.fail(line, f"{what}: expected a text in quotes, got {v!r}")
+            if f.choices and v not in f.choices:
+                self.fail(line, f"{what}: {v!r} is not one of {', '.join(f.choices)}")
+            return v
+        if f.kind == "port":
+            if v == "auto":
+                return v
+            if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 65535:
+                self.fail(line, f"{what}: expected a port number 1-65535, got {v!r}")
+            return v
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (f.kind == "integer" and not isinstance(v, int)):
+            self.fail(line, f"{what}: expected {'an integer' if f.kind == 'integer' else 'a number'}, got {v!r}")
+        if not math.isfinite(v):
+            self.fail(line, f"{what}: must be a finite number, got {v!r}")
+        if f.nonzero and v == 0:
+            self.fail(line, f"{what}: must not be zero")
+        if f.above is not None and not v > f.above:
+            self.fail(line, f"{what}: must be above {f.above:g}, got {v!r}")
+        if f.lo is not None and v < f.lo or f.hi is not None and v > f.hi:
+            self.fail(line, f"{what}: must be within {f.lo if f.lo is not None else f.above:g}.."
+                            f"{f.hi:g}, got {v!r}")
+        return v
 
 
 def parse(text: str, where="<config>") -> RigConfig:
@@ -99,90 +233,105 @@ def parse(text: str, where="<config>") -> RigConfig:
     except tomllib.TOMLDecodeError as e:
         m = re.search(r"line (\d+)", str(e))
         raise RigError(f"{where}:{m.group(1) if m else '?'}: {str(e).split(' (at')[0]}") from None
+    c = _Checker(text, where)
+    for name in data:
+        if name not in TABLES:
+            near = difflib.get_close_matches(name, TABLES, n=1, cutoff=0.6)
+            c.fail(c.line([name]) or _line(text, [name, *list(data[name])[:1]]),
+                   f"unknown table [{name}]" + (f"; did you mean [{near[0]}]?" if near else
+                                               f" (known: {', '.join(f'[{t}]' for t in TABLES)})"))
+    rig = c.fields(c.table(data.get("rig", {}), ["rig"], "rig"), ["rig"], RIG, "rig")
+    devices = _devices(c, c.table(data.get("devices", {}), ["devices"], "devices"))
+    channels = _channels(c, c.table(data.get("channels", {}), ["channels"], "channels"), devices)
+    limits = _limits(c, c.table(data.get("limits", {}), ["limits"], "limits"), devices)
+    safe = float(rig.get("safe_position", (limits["x_min"] + limits["x_max"]) / 2))
+    if not limits["x_min"] <= safe <= limits["x_max"]:
+        c.fail(c.line(["rig"], "safe_position"), "rig.safe_position: must lie within the stroke limits "
+                                                 f"{limits['x_min']:g}..{limits['x_max']:g} m")
+    actuator = next(n for n, d in devices.items() if d.transport == "can" and d.params["node"] == "actuator")
+    return RigConfig(rig.get("name", where), float(rig.get("rate_hz", 1000)), safe, devices, channels, limits,
+                     where, text, actuator)
 
-    def fail(line, msg):
-        raise RigError(f"{where}:{line}: {msg}")
 
-    rig = data.get("rig", {})
+def _devices(c, table):
     devices = {}
-    for name, d in data.get("devices", {}).items():
-        line = _line(text, f"devices.{name}")
-        if not isinstance(d, dict):
-            fail(line, f"devices.{name}: expected a table")
+    for name, d in table.items():
+        parts = ["devices", name]
+        d = c.table(d, parts, f"devices.{name}")
         t = d.get("transport")
-        if t not in TRANSPORTS:
-            fail(_line(text, f"devices.{name}", "transport"),
-                 f"device {name!r}: unknown transport {t!r} (one of {', '.join(TRANSPORTS)})")
-        spec = TRANSPORTS[t]
-        for key in spec["required"]:
-            if key not in d:
-                fail(line, f"device {name!r}: missing {key!r} for transport {t!r}")
-        for key in d:
-            if key != "transport" and key not in spec["required"] + spec["optional"]:
-                fail(_line(text, f"devices.{name}", key), f"device {name!r}: unknown key {key!r}")
-        if t == "can" and d["node"] not in CAN_NODES:
-            fail(_line(text, f"devices.{name}", "node"),
-                 f"device {name!r}: unknown CAN node {d['node']!r} (one of {', '.join(CAN_NODES)})")
+        if not isinstance(t, str) or t not in TRANSPORTS:
+            near = difflib.get_close_matches(str(t), TRANSPORTS, n=1, cutoff=0.6)
+            c.fail(c.line(parts, "transport"), f"device {name!r}: " + (
+                "missing 'transport'" if t is None else f"unknown transport {t!r}") + (
+                f"; did you mean {near[0]!r}?" if near else f" (one of {', '.join(TRANSPORTS)})"))
+        params = c.fields({k: v for k, v in d.items() if k != "transport"}, parts, TRANSPORTS[t], f"device {name!r}")
+        if t == "can" and params["node"] != "actuator":
+            for key in ACTUATOR_RATINGS:
+                if key in params:
+                    c.fail(c.line(parts, key), f"device {name!r}: {key} is a rating of the actuator node only")
         if t == "modbus":
             try:
-                modbus_map.load(d["map"])
+                modbus_map.load(params["map"])
             except RigError as e:
-                fail(_line(text, f"devices.{name}", "map"), f"device {name!r}: {e}")
-        devices[name] = Device(name, t, {k: v for k, v in d.items() if k != "transport"}, line)
+                c.fail(c.line(parts, "map"), f"device {name!r}: {e}")
+        devices[name] = Device(name, t, params, c.line(parts))
     if not devices:
-        fail(1, "no [devices.NAME] tables")
+        c.fail(1, "no [devices.NAME] tables")
     actuators = [n for n, d in devices.items() if d.transport == "can" and d.params["node"] == "actuator"]
     if len(actuators) != 1:
-        fail(1, f"exactly one actuator device (CAN node 'actuator') is needed, found {len(actuators)}")
+        c.fail(c.line(["devices"]), f"exactly one actuator device (CAN node 'actuator') is needed, "
+                                    f"found {len(actuators)}")
+    return devices
 
-    channels = {}
-    used = {}
-    for name, c in data.get("channels", {}).items():
-        line = _line(text, f"channels.{name}")
-        for key in ("device", "signal", "gain"):
-            if key not in c:
-                fail(line, f"channel {name!r}: missing {key!r}")
-        dev = devices.get(c["device"])
+
+def _channels(c, table, devices):
+    channels, used = {}, {}
+    for name, ch in table.items():
+        parts = ["channels", name]
+        ch = c.fields(c.table(ch, parts, f"channels.{name}"), parts, CHANNEL, f"channel {name!r}")
+        dev = devices.get(ch["device"])
         if dev is None:
-            fail(_line(text, f"channels.{name}", "device"),
-                 f"channel {name!r}: unknown device {c['device']!r} (devices: {', '.join(devices)})")
-        signals = _signals(dev)
-        if c["signal"] not in signals:
-            fail(_line(text, f"channels.{name}", "signal"),
-                 f"channel {name!r}: device {dev.name!r} has no signal {c['signal']!r} "
-                 f"(it has {', '.join(signals)})")
-        key = (c["device"], c["signal"])
+            near = difflib.get_close_matches(ch["device"], devices, n=1, cutoff=0.6)
+            c.fail(c.line(parts, "device"), f"channel {name!r}: unknown device {ch['device']!r}"
+                   + (f"; did you mean {near[0]!r}?" if near else f" (devices: {', '.join(devices)})"))
+        signals = signals_of(dev)
+        if ch["signal"] not in signals:
+            c.fail(c.line(parts, "signal"), f"channel {name!r}: device {dev.name!r} has no signal {ch['signal']!r} "
+                                            f"(it has {', '.join(signals)})")
+        key = (ch["device"], ch["signal"])
         if key in used:
-            fail(line, f"channel {name!r}: duplicates channel {used[key]!r} ({c['device']}.{c['signal']})")
+            c.fail(c.line(parts), f"channel {name!r}: duplicates channel {used[key]!r} ({ch['device']}.{ch['signal']})")
         used[key] = name
-        try:
-            gain, offset = float(c["gain"]), float(c.get("offset", 0.0))
-        except (TypeError, ValueError):
-            fail(line, f"channel {name!r}: gain and offset must be numbers")
-        if gain == 0:
-            fail(_line(text, f"channels.{name}", "gain"), f"channel {name!r}: gain must not be zero")
-        channels[name] = Channel(name, c["device"], c["signal"], gain, offset, c.get("unit", ""), line)
+        q = quantity(name)
+        unit = ch["unit"]
+        if q is not None and unit != q[0]:
+            c.fail(c.line(parts, "unit"), f"channel {name!r}: unit {unit!r} is not its SI unit {q[0]!r} "
+                                          f"(scale with gain and offset to {q[0]})")
+        if q is None and unit not in AUX_UNITS:
+            c.fail(c.line(parts, "unit"), f"channel {name!r}: unit {unit!r} is not an SI unit "
+                                          f"({', '.join(AUX_UNITS)})")
+        channels[name] = Channel(name, ch["device"], ch["signal"], float(ch["gain"]), float(ch.get("offset", 0.0)),
+                                 unit, c.line(parts))
     for name in REQUIRED_CHANNELS:
         if name not in channels:
-            fail(_line(text, "channels") or 1, f"required channel {name!r} is missing")
-
-    limits = data.get("limits", {})
-    for name in LIMITS:
-        if not isinstance(limits.get(name), (int, float)):
-            fail(_line(text, "limits", name) or _line(text, "limits") or 1, f"limits.{name}: missing or not a number")
-    if not limits["x_min"] < limits["x_max"]:
-        fail(_line(text, "limits", "x_min"), "limits: x_min must be below x_max")
-    rate = rig.get("rate_hz", 1000)
-    if not isinstance(rate, (int, float)) or not 0 < rate <= 10000:
-        fail(_line(text, "rig", "rate_hz"), f"rig.rate_hz: must be in (0, 10000], got {rate!r}")
-    safe = rig.get("safe_position", (limits["x_min"] + limits["x_max"]) / 2)
-    if not limits["x_min"] <= safe <= limits["x_max"]:
-        fail(_line(text, "rig", "safe_position"), "rig.safe_position: must lie within the stroke limits")
-    return RigConfig(rig.get("name", where), float(rate), float(safe), devices, channels,
-                     {k: float(limits[k]) for k in LIMITS}, where, text, actuators[0])
+            c.fail(c.line(["channels"]), f"required channel {name!r} is missing")
+    return channels
 
 
-def _signals(dev: Device):
+def _limits(c, table, devices):
+    L = {k: float(v) for k, v in c.fields(table, ["limits"], LIMITS, "limits").items()}
+    if not L["x_min"] < L["x_max"]:
+        c.fail(c.line(["limits"], "x_min"), "limits: x_min must be below x_max")
+    act = next(d for d in devices.values() if d.transport == "can" and d.params["node"] == "actuator")
+    for key, rating, what in (("x_max", "stroke", "m"), ("force_max", "force_rating", "N"),
+                              ("velocity_max", "velocity_rating", "m/s")):
+        if rating in act.params and L[key] > act.params[rating]:
+            c.fail(c.line(["limits"], key), f"limits.{key}: {L[key]:g} {what} is beyond what the actuator "
+                                            f"declares ({rating} = {act.params[rating]:g} {what})")
+    return L
+
+
+def signals_of(dev: Device):
     if dev.transport == "can":
         return CAN_NODES[dev.params["node"]]
     if dev.transport == "serial":

@@ -23,18 +23,45 @@ logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors our
 MODES = {"off": 0, "hold": 1, "follow": 2}
 
 
+CONNECT_TIMEOUT_S = 2.0  # every network wait has one
+
+
+def _probe_socketcand(host, port, where, timeout):
+    """Connect and read the daemon's greeting with a timeout: python-can's client retries a
+    refused connection for 10 s and waits for the greeting forever."""
+    import socket
+    try:
+        with socket.create_connection((host, port), timeout=timeout) as s:
+            greeting = s.recv(16)
+    except socket.timeout:
+        raise RigError(f"{where}: socketcand at {host}:{port} did not answer in {timeout:g} s") from None
+    except OSError as e:
+        raise RigError(f"{where}: no socketcand at {host}:{port} ({e.strerror or e})") from None
+    if not greeting.startswith(b"< hi >"):
+        raise RigError(f"{where}: {host}:{port} does not speak socketcand (it said {greeting[:16]!r})")
+
+
 def open_can_bus(params: dict, where: str):
+    import socket
     kwargs = {"interface": params["interface"], "channel": params["channel"]}
     if "bitrate" in params:
         kwargs["bitrate"] = params["bitrate"]
+    timeout = float(params.get("timeout_s", CONNECT_TIMEOUT_S))
+    old_timeout = socket.getdefaulttimeout()
     if params["interface"] == "socketcand":
-        kwargs.update(host=params["host"], port=int(params["port"]), tcp_tune=True)
+        host, port = params.get("host", "127.0.0.1"), int(params.get("port", 29536))
+        _probe_socketcand(host, port, where, timeout)
+        kwargs.update(host=host, port=port, tcp_tune=True)
         # it warns on every split read and logs tracebacks for errors we report ourselves
         logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.CRITICAL)
+        socket.setdefaulttimeout(timeout)  # its socket: the handshake cannot block forever
     try:
         return can.Bus(**kwargs)
     except Exception as e:  # python-can raises per-interface errors
-        raise RigError(f"{where}: cannot open CAN {params['interface']} {params['channel']!r} ({e})") from None
+        raise RigError(f"{where}: cannot open CAN {params['interface']} {params['channel']!r} "
+                       f"({str(e).splitlines()[0][:160] if str(e) else type(e).__name__})") from None
+    finally:
+        socket.setdefaulttimeout(old_timeout)
 
 
 class CanBus:
@@ -211,11 +238,32 @@ class ModbusModule:
                                       retries=0)
         if not self.client.connect():
             raise RigError(f"device {self.name!r}: no Modbus server at {p['host']}:{p['port']}")
+        self._identify()
         self.next_poll = None
         if self.threaded:
             self._stop.clear()
             self._thread = threading.Thread(target=self._run, name=f"modbus:{self.name}", daemon=True)
             self._thread.start()
+
+    def _identify(self):
+        """A module that says what it is must say it is this one: a wrong device_id would
+        otherwise read another module's registers as this one's values."""
+        from pymodbus.exceptions import ModbusException
+        m, p = self.map, self.params
+        if m.identity is None:
+            return
+        where = f"device {self.name!r}: Modbus unit {p['device_id']} at {p['host']}:{p['port']}"
+        read = self.client.read_input_registers if m.table == "input" else self.client.read_holding_registers
+        try:
+            r = read(m.identity[0], count=1, device_id=int(p["device_id"]))
+        except (ModbusException, OSError) as e:
+            raise RigError(f"{where}: no answer to the identity read ({str(e).split('] ')[-1]})") from None
+        if r.isError():
+            raise RigError(f"{where}: refuses the identity read of register {m.identity[0]} (exception code "
+                           f"{getattr(r, 'exception_code', '?')}); wrong device_id?")
+        if r.registers[0] != m.identity[1]:
+            raise RigError(f"{where}: identifies as 0x{r.registers[0]:04X}, not the {m.name}'s "
+                           f"0x{m.identity[1]:04X}: wrong device_id?")
 
     def _run(self):
         t0 = time.monotonic()

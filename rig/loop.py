@@ -166,8 +166,9 @@ class ControlLoop:
                     r.overruns += 1
                     if late > self.safety.L["stale_s"] and stop.running:
                         stop.trip(f"watchdog: control loop stalled for {late * 1e3:.0f} ms")
+                readings = self._read(stop)
                 if stop.running:
-                    if self._tick(plan, t, stop) is None:
+                    if self._tick(plan, t, readings, stop) is None:
                         break
                 if not stop.running:
                     self._safe_step(stop, t)
@@ -189,14 +190,18 @@ class ControlLoop:
         self._drain(stop)
         return r
 
-    def _tick(self, plan, t, stop):
-        """One running tick: read, check, command. None once the plan is done."""
+    def _read(self, stop):
+        """This tick's readings (polled also while stopping: the recording goes on)."""
         try:
             self.rig.poll()
-            readings = self.rig.read()
+            return self.rig.read()
         except Exception as e:  # noqa: BLE001 - transport or device: nothing read can be trusted
             stop.trip(describe(e))
-            return False
+            stop.cannot_move()
+            return {}
+
+    def _tick(self, plan, t, readings, stop):
+        """One running tick: check, command. None once the plan is done."""
         fault = self.safety.check(readings, t, self.rig.actuator())
         if fault is None:
             try:

@@ -39,6 +39,7 @@ class RegisterMap:
     start: int
     count: int
     values: tuple
+    identity: tuple | None = None  # (address, value): a register holding the module's type code
 
 
 def load(name_or_path) -> RegisterMap:
@@ -56,12 +57,16 @@ def load(name_or_path) -> RegisterMap:
             values.append(Value(vname, int(v["address"]), v["type"], v.get("word_order", "big"),
                                 float(v.get("scale", 1.0)), float(v.get("offset", 0.0)), v.get("unit", ""),
                                 v.get("fault_address"), v.get("fault_bit"), v.get("fault", "fault")))
+        ident = data.get("identity")
+        identity = (int(ident["address"]), int(ident["value"])) if ident is not None else None
         m = RegisterMap(path.stem, data.get("description", ""), data.get("table", "input"),
-                        int(data["start"]), int(data["count"]), tuple(values))
+                        int(data["start"]), int(data["count"]), tuple(values), identity)
     except tomllib.TOMLDecodeError as e:
         raise RigError(f"{path.name}: {e}") from None
     except KeyError as e:
         raise RigError(f"{path.name}: missing {e.args[0]!r}") from None
+    except (TypeError, ValueError, AttributeError) as e:
+        raise RigError(f"{path.name}: malformed ({e})") from None
     for v in m.values:
         last = v.address + TYPES[v.type][1] - 1
         if v.address < m.start or last >= m.start + m.count or v.word_order not in ("big", "little"):

@@ -67,14 +67,23 @@ class Safety:
         state, alarms = actuator
         if state == "alarm" or alarms:
             return f"actuator alarm: {', '.join(alarms) or 'unspecified'}"
-        L = self.L
-        for name, test, words in RANGE_CHECKS:
+        for name, _, _ in RANGE_CHECKS:
             r = readings.get(name)
-            if r is not None and test(r.value, L):
-                return "limit: " + words.format(v=r.value, lo=L["x_min"], hi=L["x_max"], f=L["force_max"],
-                                                vm=L["velocity_max"], c=r.value - 273.15,
-                                                tm=L["temperature_max"] - 273.15, mpa=r.value / 1e6,
-                                                pm=L["gas_pressure_max"] / 1e6)
+            if r is not None:
+                beyond = self.beyond_limit(name, r.value)
+                if beyond:
+                    return "limit: " + beyond
+        return None
+
+    def beyond_limit(self, name, value):
+        """The words for a reading beyond its safety limit, or None (also for NaN: a
+        reading that is not a number is beyond every limit)."""
+        L = self.L
+        for channel, test, words in RANGE_CHECKS:
+            if channel == name and (value != value or test(value, L)):
+                return words.format(v=value, lo=L["x_min"], hi=L["x_max"], f=L["force_max"], vm=L["velocity_max"],
+                                    c=value - 273.15, tm=L["temperature_max"] - 273.15, mpa=value / 1e6,
+                                    pm=L["gas_pressure_max"] / 1e6)
         return None
 
     def setpoint_ok(self, x):

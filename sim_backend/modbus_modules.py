@@ -37,17 +37,24 @@ class ModbusModules:
             if "modbus_timeout" in self.faults:
                 await asyncio.sleep(2.0)
             m = self.maps[name]
+            if address >= m.start + m.count or address + count <= m.start:
+                return None  # not the value block (the identity register holds its type code)
             faults = ()
             if "open_thermocouple" in self.faults and "tc" in m.name:
                 faults = tuple(v.name for v in m.values)
-            regs[:m.count] = modbus_map.encode(m, outputs(self.config, name, self.readings), faults)
+            off = m.start - start
+            regs[off:off + m.count] = modbus_map.encode(m, outputs(self.config, name, self.readings), faults)
             return None
         return action
 
     async def _serve(self):
-        devices = [SimDevice(id=self.ids[n], simdata=SimData(m.start, values=[0] * m.count,
-                                                               datatype=DataType.REGISTERS),
-                             action=self._action(n)) for n, m in self.maps.items()]
+        def blocks(m):
+            out = [SimData(m.start, values=[0] * m.count, datatype=DataType.REGISTERS)]
+            if m.identity is not None:
+                out.append(SimData(m.identity[0], values=[m.identity[1]], datatype=DataType.REGISTERS))
+            return out
+        devices = [SimDevice(id=self.ids[n], simdata=blocks(m), action=self._action(n))
+                   for n, m in self.maps.items()]
         self.server = ModbusTcpServer(devices, address=("127.0.0.1", self.port))
         await self.server.serve_forever(background=True)  # returns once listening
 

@@ -1,5 +1,9 @@
 """Rig configuration: the shipped configs load; each mistake is named with its line."""
+import math
+
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from rig import config
 from rig.errors import RigError
@@ -49,3 +53,70 @@ def test_duplicate_table_is_a_toml_error_with_its_line():
 def test_unknown_config_name():
     with pytest.raises(RigError, match="no such rig config"):
         config.load("moon-base")
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("force_max = 10000.0", "force_max = nan", "limits: force_max: must be a finite number"),
+    ("force_max = 10000.0", "force_max = inf", "limits: force_max: must be a finite number"),
+    ("force_max = 10000.0", "force_max = -5.0", "limits: force_max: must be above 0"),
+    ("force_max = 10000.0", "force_max = 0", "limits: force_max: must be above 0"),
+    ("force_max = 10000.0", "force_max = true", "limits: force_max: expected a number, got True"),
+    ("force_max = 10000.0", "force_max = 50000.0", "beyond what the actuator declares (force_rating = 35000 N)"),
+    ("stale_s = 0.05", "stale_s = 1e9", "limits: stale_s: must be within"),
+    ("rate_hz = 1000", "rate_hz = true", "rig: rate_hz: expected a number, got True"),
+    ("gain = 1032.0", 'gain = "1032"', "channel 'force': gain: expected a number"),
+    ('unit = "N"', 'unit = "kN"', "channel 'force': unit 'kN' is not its SI unit 'N'"),
+    ('offset = 273.15         # degC -> K', 'ofset = 273.15', "channel 'T_body': unknown key 'ofset'; did you mean 'offset'?"),
+    ("[limits]", "[limit]", "unknown table [limit]; did you mean [limits]?"),
+    ("poll_hz = 10", "poll_hz = 0", "device 'tc': poll_hz: must be above 0"),
+    ("safe_position = 0.0381", 'safe_position = "0.0381"', "rig: safe_position: expected a number"),
+    ("[channels.force]", "[channels]\nfoo = 5\n[channels.force]", "channels.foo: expected a table"),
+    ("device_id = 1", "device_id = 1.5", "device 'tc': device_id: expected an integer"),
+    ('transport = "serial"', 'transport = "serail"', "unknown transport 'serail'; did you mean 'serial'?"),
+])
+def test_what_would_switch_safety_off_is_refused_with_its_line(old, new, message):
+    text = BASE.replace(old, new, 1)
+    assert text != BASE, old
+    with pytest.raises(RigError) as e:
+        config.parse(text, "cell.toml")
+    msg = str(e.value)
+    assert message in msg and "\n" not in msg, msg
+    line = int(msg.split(":")[1])
+    first = next(i + 1 for i, (a, b) in enumerate(zip(text.splitlines(), BASE.splitlines())) if a != b)
+    assert line in (first, first + 1), msg  # the edited line (or the key inserted below a header)
+
+
+def test_a_binary_or_missing_file_is_one_line(tmp_path):
+    p = tmp_path / "cell.toml"
+    p.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(RigError, match="not a text"):
+        config.load(p)
+    with pytest.raises(RigError, match="not a file"):
+        config.load(tmp_path.as_posix() + "/")
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_any_edit_of_a_config_loads_or_gives_one_line(data):
+    """Replace one value of the shipped config by anything TOML can hold: the result is a
+    config whose limits are finite and ordered, or a RigError naming a line."""
+    lines = BASE.splitlines()
+    keys = [i for i, ln in enumerate(lines) if "=" in ln and not ln.lstrip().startswith("#")]
+    i = data.draw(st.sampled_from(keys))
+    value = data.draw(st.one_of(
+        st.floats(allow_nan=True, allow_infinity=True).map(lambda v: repr(v).replace("inf", "inf")),
+        st.integers(-10**12, 10**12).map(str), st.booleans().map(lambda b: str(b).lower()),
+        st.text(max_size=8).map(lambda s: '"' + s.replace("\\", "").replace('"', "") + '"'),
+        st.sampled_from(["[]", "{}", "[1, 2]", '"auto"', "0", "-1", "1e400"])))
+    key = lines[i].split("=")[0]
+    lines[i] = f"{key}= {value}"
+    text = "\n".join(lines)
+    try:
+        cfg = config.parse(text, "cell.toml")
+    except RigError as e:
+        assert "\n" not in str(e) and str(e).startswith("cell.toml:")
+        return
+    L = cfg.limits
+    assert all(math.isfinite(v) for v in L.values()) and L["x_min"] < L["x_max"]
+    assert L["force_max"] > 0 and 0 < L["stale_s"] <= 1.0
+    assert all(math.isfinite(c.gain) and c.gain != 0 for c in cfg.channels.values())

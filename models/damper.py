@@ -232,11 +232,15 @@ def save(model, path) -> None:
 def load_file(path) -> Damper | SimplifiedDamper:
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise DamperError(f"{path}: no such file") from None
     except json.JSONDecodeError as e:
         raise DamperError(f"{path}: not valid JSON (line {e.lineno}: {e.msg})") from None
+    except UnicodeDecodeError:
+        raise DamperError(f"{path}: not a text (JSON) file") from None
+    except (OSError, RecursionError) as e:
+        raise DamperError(f"{path}: cannot read ({getattr(e, 'strerror', None) or type(e).__name__})") from None
     try:
         return from_dict(data)
     except DamperError as e:

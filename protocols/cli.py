@@ -28,7 +28,7 @@ def _plot_damper(args):
         raise DamperError(f"--amplitude-mm must be in (0, {d.geometry.stroke * 500:.1f}] for {d.name}")
     if any(f <= 0 or f > 100 for f in args.freq):
         raise DamperError("--freq values must be in (0, 100] Hz")
-    for p in plot_damper(d, args.out, args.amplitude_mm * 1e-3, tuple(args.freq), args.temp):
+    for p in plot_damper(d, _out_dir(args.out), args.amplitude_mm * 1e-3, tuple(args.freq), args.temp):
         print(p)
     return 0
 
@@ -84,13 +84,8 @@ def _plot_simplified(args):
 
 
 def _out_dir(path):
-    from pathlib import Path
-    out = Path(path)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise DamperError(f"--out {path}: cannot create directory ({e.strerror})") from None
-    return out
+    from protocols.files import make_dir
+    return make_dir(path)
 
 
 def _bench_sweep(args):
@@ -303,6 +298,7 @@ def parser():
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
     im.add_argument("file", metavar="FILE.csv")
     im.add_argument("--out", required=True, metavar="FILE.mcap")
+    im.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
     im.add_argument("--map", action="append", required=True, metavar="NAME=COLUMN[:UNIT]",
                     help="time, displacement, velocity, force, temperature, pressure or aux.NAME; "
                          "units e.g. ms, mm, mm/s, kN, C, bar (default SI)")

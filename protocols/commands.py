@@ -302,7 +302,9 @@ def recover_file(args):
 
 
 def report_file(args):
+    from protocols.files import make_dir
     from protocols.report import report
+    make_dir(args.out)
     index, pngs = report(args.file, args.out)
     for p in pngs:
         print(p)

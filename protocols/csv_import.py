@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import csv
 import json
+import math
+import os
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -19,6 +21,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from protocols.recording import Recorder
+from rig.config import quantity
 from rig.errors import RigError
 
 P_ATM = 101_325.0
@@ -69,7 +72,9 @@ def read(path, mapping):
     goes backwards are refused, naming the row."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise RigError(f"{path}: not a text (CSV) file") from None
     except OSError as e:
         raise RigError(f"{path}: cannot read ({e.strerror})") from None
     sample = text[:4096]
@@ -100,10 +105,13 @@ def read(path, mapping):
                 values.append(float(cell))
             except ValueError:
                 raise RigError(f"{path}:{i}: column {column!r}: {cell!r} is not a number") from None
+            if not math.isfinite(values[-1]):
+                raise RigError(f"{path}:{i}: column {column!r}: {cell!r} is not a finite number")
         a = np.array(values)
         if name in UNITS:
             scale, offset = UNITS[name][unit]
             a = a * scale + offset
+        _plausible(path, name, column, a)
         data[name] = a
     t = data["time"]
     keep = ~np.isnan(t)
@@ -113,7 +121,27 @@ def read(path, mapping):
         raise RigError(f"{path}:{row}: time goes backwards ({t[keep][bad[0]]:.9g} then {t[keep][bad[0] + 1]:.9g} s)")
     if keep.sum() < 10:
         raise RigError(f"{path}: {keep.sum()} rows with a time (need at least 10)")
+    if not t[keep][-1] > t[keep][0]:
+        column = next(c for n, c, _ in mapping if n == "time")
+        raise RigError(f"{path}: the time column {column!r} does not advance (all {t[keep][0]:g} s)")
     return {k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}
+
+
+def _plausible(path, name, column, a):
+    """Refuse values no working sensor gives (a wrong unit, a corrupt file): the ranges are
+    the rig's, per quantity (rig/config.py QUANTITIES)."""
+    q = quantity(CHANNELS.get(name, ""))
+    if name == "time":
+        q = ("s", -1e9, 1e9)
+    if q is None:
+        bad = np.nonzero(np.abs(np.nan_to_num(a)) > 1e12)[0]
+    else:
+        bad = np.nonzero((a < q[1]) | (a > q[2]))[0]
+    if len(bad):
+        i = bad[0]
+        where = f"{q[1]:g}..{q[2]:g} {q[0]}" if q else "+-1e12"
+        raise RigError(f"{path}:{i + 2}: column {column!r}: {a[i]:.6g} {q[0] if q else ''} is not a plausible "
+                       f"{name} (outside {where}): check its unit")
 
 
 def velocity_from(t, x):
@@ -151,11 +179,16 @@ def run(args):
                   for n, (_, _, u) in channels.items()},
         text=f'# imported by dyno import\n[import]\nsource = "{Path(args.file).name}"\n'
              f"map = {json.dumps(args.map)}\n")
-    rec = Recorder(args.out, cfg, "", "import", {"source": str(args.file), "map": args.map})
+    duration = float(t[-1] - t[0])
+    # the CSV's own start is unknown: its file time less its duration stands for it
+    wall_start = os.path.getmtime(args.file) - duration
+    rec = Recorder(args.out, cfg, "", "import", {"source": str(args.file), "map": args.map}, wall_start=wall_start,
+                   overwrite=args.overwrite, run_info={"wall_start_source": "CSV file time less its duration"})
     try:
         for n, (tt, v, _) in channels.items():
             for i in range(0, len(tt), 5000):
                 rec.samples({n: (tt[i:i + 5000], v[i:i + 5000])})
+        rec.commit()
     finally:
         rec.close()
     print(f"{args.out}: {len(t)} rows, channels " + ", ".join(

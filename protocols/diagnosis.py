@@ -12,6 +12,7 @@ from models.diagnose import diagnose
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose_data import DiagnoseError
+from protocols.files import make_dir
 from rig.errors import RigError
 
 from .report import load
@@ -193,6 +194,8 @@ def run(args):
             raise RigError(f"--baseline {args.baseline}: a simplified model has no gas spring or friction to refit; "
                            f"give a full damper model")
         baseline = (Path(args.baseline).stem, model)
+    if args.report:
+        make_dir(args.report, "--report")
     ch, events, _ = load(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     try:

@@ -56,7 +56,15 @@ def writable_file(path, what="--out") -> Path:
         raise RigError(f"{what} {path}: is a folder, not a file")
     if path.exists() and not path.is_file():
         raise RigError(f"{what} {path}: not a regular file")
-    make_dir(path.parent if str(path.parent) else ".", what)
+    folder = path.parent
+    if folder.exists() and not folder.is_dir():
+        raise RigError(f"{what} {path}: {folder} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise RigError(f"{what} {path}: cannot create its folder ({_why(e)})") from None
+    if not os.access(folder, os.W_OK):
+        raise RigError(f"{what} {path}: folder {folder} not writable")
     return path
 
 

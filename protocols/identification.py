@@ -12,6 +12,7 @@ import numpy as np
 
 from models import damper as dm
 from models.identify import IdentifyError, identify
+from protocols.files import make_dir, writable_file
 from protocols.report import load
 from rig.errors import RigError
 
@@ -48,6 +49,9 @@ def run(args):
     for p in args.recordings:
         if not Path(p).exists():
             raise RigError(f"{p}: no such file")
+    out = writable_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), "--out")
+    if args.report:
+        make_dir(args.report, "--report")
     channels, events, meta = merge(args.recordings)
     desc = description(args.damper, meta)
     if desc.layout == "simplified":
@@ -64,8 +68,10 @@ def run(args):
         raise RigError(f"identification failed: {e}") from None
     res.damper.name = f"{desc.name}-identified"
     res.damper.description = f"identified by dyno identify from {', '.join(Path(p).name for p in args.recordings)}"
-    out = Path(args.out) if args.out else Path(args.recordings[0]).with_suffix(".model.json")
-    dm.save(res.damper, out)
+    try:
+        dm.save(res.damper, out)
+    except OSError as e:
+        raise RigError(f"--out {out}: cannot write the model ({e.strerror or e})") from None
     doc = summary(res)
     if truth is not None:
         from models.identify_compare import compare

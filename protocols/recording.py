@@ -25,7 +25,7 @@ from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from rig.errors import RigError
 
-from .files import Claim, numbered
+from .files import Claim
 
 FLUSH_S = 0.5
 SCHEMAS = {
@@ -262,7 +262,9 @@ def recover(path) -> dict:
     messages = [r for r in records if isinstance(r, Message) and r.channel_id in channels]
     if not channels:
         raise RigError(f"{path}: not an MCAP recording, or nothing recoverable in it")
-    damaged = numbered(path.with_name(path.name + ".damaged"))
+    damaged, k = path.with_name(path.name + ".damaged"), 2
+    while damaged.exists():
+        damaged, k = path.with_name(f"{path.name}.damaged-{k}"), k + 1
     os.replace(path, damaged)
     counts = {"intact": False, "messages": len(messages), "metadata": 0, "attachments": 0,
               "bytes_skipped": skipped, "damaged": str(damaged)}

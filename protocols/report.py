@@ -40,10 +40,13 @@ def load(path):
     return {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, events, meta
 
 
-def _window(ch, name, t0, t1):
-    t, v = ch[name]
+def _window(ch, names, t0, t1):
+    """The channels `names` between t0 and t1 on the first one's clock (the others
+    interpolated to its sample times: channels arrive at their own rates and delays)."""
+    t, first = ch[names[0]]
     k = (t >= t0) & (t <= t1)
-    return t[k], v[k]
+    tk = t[k]
+    return [first[k]] + [np.interp(tk, *ch[n]) if len(ch[n][0]) else np.full(len(tk), np.nan) for n in names[1:]]
 
 
 def _save(fig, path):
@@ -68,10 +71,8 @@ def report(path, out_dir):
             for name, prm, t0, t1 in sines:
                 if prm["amplitude_mm"] != a:
                     continue
-                _, F = _window(ch, "force", t0, t1)
-                _, x = _window(ch, "x", t0, t1)
-                _, v = _window(ch, "v", t0, t1)
-                n = min(len(F), len(x), len(v))
+                F, x, v = _window(ch, ("force", "x", "v"), t0, t1)
+                n = len(F)
                 label = f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
                 axes[0, j].plot(v[:n], F[:n], lw=0.8, label=label)
                 axes[1, j].plot(1e3 * x[:n], F[:n], lw=0.8, label=label)
@@ -115,9 +116,8 @@ def report(path, out_dir):
     if slow and "force" in ch:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         for name, prm, t0, t1 in slow:
-            _, F = _window(ch, "force", t0, t1)
-            _, x = _window(ch, "x", t0, t1)
-            n = min(len(F), len(x))
+            F, x = _window(ch, ("force", "x"), t0, t1)
+            n = len(F)
             ax.plot(1e3 * x[:n], F[:n], lw=0.8, label=name)
         ax.set(title="Low-speed loops: gas force with friction", xlabel="displacement [mm]", ylabel="force [N]")
         ax.grid(alpha=0.3)

@@ -1,13 +1,18 @@
 """Runs a protocol's segments through the control loop, streaming to observers (the
 recorder, the live view, later the identification hook: anything with `samples(drained)`,
 `event(t, kind, segment, params, message)` and optionally `setpoints(t, x)`), with events
-at every segment boundary and a progress line with an ETA."""
+at every segment boundary and a progress line with an ETA.
+
+An observer that raises (a full disk under the recorder) is not called again, and the run
+trips with its error on that tick: the actuator stops safely and the other observers go on.
+"""
 from __future__ import annotations
 
 import sys
 import time
 
-from rig.loop import ControlLoop
+from rig.errors import RigError
+from rig.loop import ControlLoop, describe
 
 from .plan import as_dict
 
@@ -88,11 +93,21 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     state = {"i": 0, "t0": None, "t_plan": 0.0, "t": 0.0}
     set_t, set_x = [], []
 
+    failed = {}  # observer -> what it raised
+
+    def notify(method, *args):
+        for o in observers:
+            if o in failed or not hasattr(o, method):
+                continue
+            try:
+                getattr(o, method)(*args)
+            except Exception as e:  # noqa: BLE001 - one observer's failure stops the run, not the others
+                failed[o] = f"{type(o).__name__.lower()}: {describe(e)}"
+
     def event(t, kind, seg=None, message="", name=None, params=None):
         if params is None:
             params = {**seg.params, "measured": seg.record} if seg else {}
-        for o in observers:
-            o.event(t, kind, name if name is not None else (seg.name if seg else ""), params, message)
+        notify("event", t, kind, name if name is not None else (seg.name if seg else ""), params, message)
 
     def plan(t, readings):
         state["t"] = t
@@ -120,6 +135,8 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
             state["t0"] = t_end
             ts = t - t_end
             event(t_end, "segment_start", seg)
+        if failed:
+            raise RigError(next(iter(failed.values())))
         x = seg.x(ts)
         set_t.append(t)
         set_x.append(x)
@@ -127,14 +144,13 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
             bar.show(state["i"], ts, state["t_plan"] + ts, readings)
         return x
 
-    def record_setpoints(samples):
-        for o in observers:
-            if hasattr(o, "setpoints"):
-                o.setpoints(set_t, set_x)
+    def record(samples):
+        notify("samples", samples)
+        notify("setpoints", set_t, set_x)
         set_t.clear()
         set_x.clear()
 
-    loop = ControlLoop(rig, pacer, safety, [*(o.samples for o in observers), record_setpoints, *sinks])
+    loop = ControlLoop(rig, pacer, safety, [record, *sinks])
     result = loop.run(plan)
     if bar:
         bar.show(state["i"], 0.0, state["t_plan"], final="stopped" if result.fault else "done")

@@ -18,6 +18,7 @@ import serial
 
 from . import can_codec, modbus_map, serial_frame
 from .errors import RigError
+from .stream_clock import StreamClock
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors ourselves
 MODES = {"off": 0, "hold": 1, "follow": 2}
@@ -111,30 +112,34 @@ class CanBus:
 
 
 class CanNode:
-    """The actuator controller or the LVDT/LVT conditioner on a CanBus."""
+    """The actuator controller or the LVDT/LVT conditioner on a CanBus; each streams its
+    frames at frame_hz with a counter, which dates them (rig/stream_clock.py)."""
 
-    def __init__(self, name, bus: CanBus, node):
+    def __init__(self, name, bus: CanBus, node, frame_hz=1000.0):
         self.name, self.bus, self.node = name, bus, node
         self.counter = 0
         self.state = None  # actuator: (state, alarm)
         self.frames = 0
+        self.clock = StreamClock(1.0 / frame_hz)
 
     def open(self):
         self.bus.open()
 
     def poll(self, now):
         self.bus.pump()
+        frames = self.bus.pending[self.node]
+        sent = self.clock.stamp([int(sig["counter"]) for _, sig in frames], now)
         out = []
-        for _, sig in self.bus.pending[self.node]:
+        for (_, sig), t in zip(frames, sent):
             self.frames += 1
             if self.node == "actuator":
                 self.state = (int(sig["state"]), int(sig["alarm"]))
-                out.append(("position", sig["position"], None))
+                out.append(("position", sig["position"], None, now - t))
             else:
                 st = int(sig["status"])
-                out.append(("lvdt", sig["lvdt"], "LVDT out of range" if st & 1 else None))
-                out.append(("lvt", sig["lvt"], "LVT out of range" if st & 2 else None))
-        self.bus.pending[self.node].clear()
+                out.append(("lvdt", sig["lvdt"], "LVDT out of range" if st & 1 else None, now - t))
+                out.append(("lvt", sig["lvt"], "LVT out of range" if st & 2 else None, now - t))
+        frames.clear()
         return out
 
     def send(self, mode, setpoint):
@@ -153,11 +158,8 @@ class SerialLoadCell:
         self.port = None
         self.parser = serial_frame.Parser()
         self.frames = 0
-        self.last_seq = None
-        self.lost = 0
         self.glitches = []  # frame counts at which bytes were dropped or frames lost
-        self.n_sent = 0  # frames the amplifier sent, counting lost ones (from sequence numbers)
-        self.t0 = None  # rig clock when frame 0 was sent [s]
+        self.clock = StreamClock(1.0 / params.get("frame_hz", serial_frame.RATE_HZ))
 
     def open(self):
         try:
@@ -171,31 +173,17 @@ class SerialLoadCell:
             data = self.port.read(self.port.in_waiting or 1)
         except (serial.SerialException, OSError) as e:
             raise RigError(f"device {self.name!r}: serial read failed ({e})") from None
-        out = []
-        dropped = self.parser.dropped
+        dropped, lost = self.parser.dropped, self.clock.lost
         frames = self.parser.feed(data)
-        for f in frames:
-            if self.last_seq is not None and (f.seq - self.last_seq - 1) & 0xFF:
-                self.lost += (f.seq - self.last_seq - 1) & 0xFF
-                self.glitches.append(self.frames)
-            self.n_sent += 1 + ((f.seq - self.last_seq - 1) & 0xFF if self.last_seq is not None else 0)
-            self.last_seq = f.seq
+        sent = self.clock.stamp([f.seq for f in frames], now)
+        if self.clock.lost > lost:
+            self.glitches.append(self.frames)
+        out = []
+        for f, t in zip(frames, sent):
             self.frames += 1
             fault = ("load cell saturated" if f.status & serial_frame.SATURATED
                      else "load cell sensor fault" if f.status & serial_frame.SENSOR_FAULT else None)
-            out.append(["output", f.volts, fault, self.n_sent])
-        if out:
-            # The amplifier streams at a fixed rate, so frame k was sent at t0 + k period; a
-            # frame is never received before it is sent, so t0 is the least (receipt - k
-            # period), let creep 100 ppm to follow the amplifier's clock. Stamping frames
-            # on receipt put 2 % of forces a tick late.
-            period = 1.0 / self.params.get("frame_hz", serial_frame.RATE_HZ)
-            t0 = now - self.n_sent * period
-            self.t0 = t0 if self.t0 is None else min(self.t0 + 1e-4 * period * len(out), t0)
-            if t0 - self.t0 > 5 * period:  # a stream that paused (no frames sent): re-anchor
-                self.t0 = t0
-            for o in out:
-                o[3] = now - (self.t0 + o[3] * period)
+            out.append(("output", f.volts, fault, now - t))
         if self.parser.dropped > dropped:
             self.glitches.append(self.frames)
         # one glitch is noise; three within 100 frames is a line that cannot be trusted
@@ -322,7 +310,7 @@ def make(config, threaded=False):
             key = (d.params["interface"], str(d.params["channel"]))
             if key not in buses:
                 buses[key] = CanBus(d.params, f"device {name!r}")
-            out[name] = CanNode(name, buses[key], d.params["node"])
+            out[name] = CanNode(name, buses[key], d.params["node"], d.params.get("frame_hz", 1000.0))
         elif d.transport == "serial":
             out[name] = SerialLoadCell(name, d.params)
         else:

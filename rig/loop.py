@@ -209,6 +209,8 @@ class ControlLoop:
                 if x is None:
                     return None
                 x = float(x)
+            except RigError as e:  # the plan's own reason to stop (an observer failed)
+                fault = describe(e)
             except Exception as e:  # noqa: BLE001 - a protocol's bug: still stop safely
                 fault = f"protocol: {describe(e)}"
             else:

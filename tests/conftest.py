@@ -18,3 +18,34 @@ def koni_run(tmp_path_factory):
                        timeout=900)
     assert p.returncode == 0, p.stderr[-2000:]
     return out, p.stderr
+
+
+@pytest.fixture()
+def sim_rig():
+    """start(config, *extra args) -> the `dyno sim-rig` process, serving once it returns;
+    every one started is stopped after the test."""
+    import signal
+    import time
+    procs = []
+
+    def start(cfg, *extra):
+        p = subprocess.Popen([DYNO, "sim-rig", "--config", str(cfg), "--seconds", "120", *extra],
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        procs.append(p)
+        t0, lines = time.monotonic(), []
+        while time.monotonic() - t0 < 120:
+            line = p.stdout.readline()
+            if not line:
+                break
+            lines.append(line)
+            if "serving" in line:
+                return p
+        raise AssertionError("sim-rig did not start:\n" + "".join(lines))
+    yield start
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                p.kill()

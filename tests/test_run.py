@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 
@@ -237,3 +238,150 @@ def test_progress_counts_waits_by_their_approach_not_their_timeout():
     assert "ETA     5 s + 2 waits" in shown(1, 20.0, 299.0)  # cooling while it should warm: not known
     text = shown(3, 1.0, 310.0)  # the last wait: the bar is not full before it is done
     assert "ETA     0 s + 1 wait" in text and " 99 %" in text
+
+
+def test_recover_keeps_every_intact_chunk_after_damage_and_a_damaged_magic(tmp_path):
+    from mcap.writer import CompressionType, Writer
+
+    from protocols.recording import recover
+    path = tmp_path / "many.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f, chunk_size=2048, compression=CompressionType.ZSTD)
+        w.start()
+        ch = w.register_channel("/x", "json", w.register_schema("s", "jsonschema", b"{}"))
+        w.add_metadata("rig", {"name": "test"})
+        for i in range(2000):
+            w.add_message(ch, i * 1000, json.dumps({"i": i, "pad": "%08d" % (i * 7919 % 10**8)}).encode(), i * 1000, i)
+        w.finish()
+    data = bytearray(path.read_bytes())
+    with open(path, "rb") as f:
+        chunks = list(make_reader(f).get_summary().chunk_indexes)
+    assert len(chunks) > 10
+    hit = chunks[len(chunks) // 2]
+    start = hit.chunk_start_offset + hit.chunk_length // 2
+    data[start:start + 40] = b"\xff" * 40  # one chunk's compressed body damaged
+    data[:8] = b"\0" * 8  # and the magic
+    cut = len(data) - 300  # and the summary torn off
+    path.write_bytes(bytes(data[:cut]))
+    r = recover(path)
+    assert r["intact"] is False and r["metadata"] == 1
+    with open(path, "rb") as f:
+        got = [json.loads(m.data)["i"] for _, _, m in make_reader(f).iter_messages()]
+    lost = set(range(2000)) - set(got)
+    assert lost and max(got) == 1999  # what follows the damage is kept to the end
+    first_lost, last_lost = min(lost), max(lost)
+    assert lost == set(range(first_lost, last_lost + 1))  # only the damaged chunk's messages
+    assert len(lost) < 2000 / len(chunks) * 1.5
+
+
+def test_a_disk_error_in_a_sink_stops_the_actuator_safely():
+    """A sink writing to a full device (/dev/full: the kernel's ENOSPC) trips the run: the
+    actuator holds and parks at the safe position, the other sinks get every sample."""
+    from rig.loop import ControlLoop
+
+    class DiskWriter:
+        def __init__(self):
+            self.f = open("/dev/full", "wb", buffering=0)
+            self.calls = 0
+
+        def samples(self, drained):
+            self.calls += 1
+            if self.calls > 3:
+                self.f.write(json.dumps({k: len(t) for k, (t, v) in drained.items()}).encode())
+
+    vr = VirtualRig(config.load("virtual"), damper="koni")
+    cfg = vr.start()
+    rig = Rig(cfg, clock=vr.clock)
+    rig.open()
+    disk, kept = DiskWriter(), []
+    try:
+        loop = ControlLoop(rig, SimulatedPacer(vr, cfg.rate_hz), Safety(cfg),
+                           [disk.samples, lambda s: kept.extend(s["x"][0])])
+        res = loop.run(lambda t, r: 0.030 + 0.005 * np.sin(2 * np.pi * 2 * t) if t < 5 else None)
+    finally:
+        rig.close()
+        vr.close()
+    assert res.fault == "diskwriter: No space left on device"
+    assert abs(vr.plant.x_act - cfg.safe_position) < 2e-4 and abs(vr.plant.v_act) < 1e-3
+    assert res.duration_s < 5 and kept[-1] == pytest.approx(res.duration_s, abs=2e-3)
+
+
+def test_a_full_disk_ends_the_run_with_its_message_and_the_recording_recoverable(tmp_path):
+    """`dyno run` onto a disk that fills: exit 1 naming the recorder's error first, the
+    file's end reported after it, and `dyno recover` gives back what was flushed."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=400k", "tmpfs", str(disk)],
+                             capture_output=True).returncode == 0
+    limit = None
+    if not mounted:  # no privilege to mount: the same write error from a file-size limit
+        import resource
+
+        def limit():
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (400_000, 400_000))
+    try:
+        out = disk / "x.mcap"
+        p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(out), "amplitudes_mm=6.4", "freqs_hz=2",
+                            "record_cycles=400"], capture_output=True, text=True, timeout=600, preexec_fn=limit)
+        assert p.returncode == 1 and "Traceback" not in p.stderr, p.stderr
+        lines = p.stderr.strip().splitlines()
+        why = "No space left on device" if mounted else "File too large"
+        assert lines[-1] == f"dyno: run stopped: recorder: {why}", lines[-3:]
+        assert any(ln.startswith("dyno: also:") and "dyno recover" in ln for ln in lines)
+        saved = tmp_path / "x.mcap"
+        saved.write_bytes(out.read_bytes())
+    finally:
+        if mounted:
+            subprocess.run(["umount", str(disk)], check=True)
+    r = subprocess.run([DYNO, "recover", str(saved)], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and "recovered" in r.stdout, r.stderr
+    summary, meta, _, messages = read(saved)
+    forces = [d for topic, _, _, d in messages if topic == "/channels/force"]
+    assert {"rig", "damper", "protocol", "run"} <= set(meta) and sum(len(d["t"]) for d in forces) > 5000
+
+
+def test_no_repeated_setpoint_at_segment_boundaries():
+    """Each segment starts where the last ended, between ticks: the setpoints of a moving
+    sequence never repeat (a repeat is a 1 ms stall and a force notch in the loops)."""
+    class Setpoints:
+        def __init__(self):
+            self.t, self.x, self.events, self.force = [], [], [], []
+
+        def samples(self, drained):
+            self.force.extend(zip(*drained["force"]))
+
+        def setpoints(self, t, x):
+            self.t += list(t)
+            self.x += list(x)
+
+        def event(self, t, kind, segment, params, message):
+            self.events.append((t, kind, segment))
+
+    vr = VirtualRig(config.load("virtual"), damper="koni")
+    cfg = vr.start()
+    rig = Rig(cfg, clock=vr.clock)
+    rig.open()
+    obs = Setpoints()
+    params = parse(sine_matrix.Params, ["amplitudes_mm=12.7", "freqs_hz=8", "record_cycles=3"])
+    try:
+        result, _ = runner.run(sine_matrix, params, rig_info(cfg, vr.plant.damper), rig, SimulatedPacer(vr, 1000),
+                               Safety(cfg), [obs], progress=False)
+    finally:
+        rig.close()
+        vr.close()
+    assert result.fault is None
+    x = np.array(obs.x)
+    assert np.all(np.diff(x) != 0)  # a sine never stands still for a tick
+    starts = [t for t, kind, _ in obs.events if kind == "segment_start"][1:]
+    assert len(starts) == 3
+    t = np.array(obs.t)
+    for b in starts:  # the step across each boundary is like its neighbours'
+        k = np.searchsorted(t, b)
+        steps = np.abs(np.diff(x[k - 3:k + 3]))
+        assert steps.min() > 0.3 * steps.max()
+    tf, F = np.array(obs.force).T
+    for b in starts:  # and the force has no notch there: its second difference is ordinary
+        k = np.searchsorted(tf, b)
+        d2 = np.abs(np.diff(F[k - 40:k + 40], 2))
+        assert d2[36:42].max() < 6 * np.median(d2) + 20

@@ -1,0 +1,240 @@
+"""Careless and hostile input gets one line naming the problem and exit 2, never a
+traceback, and no file already written is lost (issue 17's list, rerun as tests)."""
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from models import damper as dm
+from protocols import csv_import
+from rig.config import CONFIG_DIR
+from rig.errors import RigError
+
+DYNO = str(Path(sys.executable).parent / "dyno")
+MAP = ["--map", "time=t:s", "--map", "displacement=x:mm", "--map", "force=F:N"]
+
+
+def dyno(*args, timeout=120):
+    return subprocess.run([DYNO, *map(str, args)], capture_output=True, text=True, timeout=timeout)
+
+
+def one_line_error(p, *words):
+    err = p.stderr.strip().splitlines()
+    assert p.returncode == 2, p.stderr
+    assert "Traceback" not in p.stderr and err and err[-1].startswith("dyno: error: "), p.stderr
+    for w in words:
+        assert w in err[-1], err[-1]
+
+
+def csv(tmp_path, rows, name="cell.csv"):
+    p = tmp_path / name
+    p.write_text("t,x,F\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
+    return p
+
+
+@pytest.fixture()
+def files(tmp_path):
+    """A binary file, a regular file, a folder, and a short recording to keep."""
+    binary = tmp_path / "bin.dat"
+    binary.write_bytes(bytes(range(256)) * 8)
+    regular = tmp_path / "note.txt"
+    regular.write_text("keep me\n")
+    rows = [(i * 1e-3, 30 + 5 * np.sin(i / 20), 100 * np.cos(i / 20)) for i in range(200)]
+    rec = tmp_path / "kept.mcap"
+    p = dyno("import", csv(tmp_path, rows), "--out", rec, *MAP)
+    assert p.returncode == 0, p.stderr
+    return SimpleNamespace(binary=binary, regular=regular, folder=tmp_path, rec=rec, rec_bytes=rec.read_bytes())
+
+
+CASES = [
+    (["rig", "check", "--rig", "{binary_toml}"], ["not a text"]),
+    (["run", "sine-matrix", "--damper", "{binary_json}"], ["not a text (JSON) file"]),
+    (["import", "{binary_csv}", "--out", "{folder}/b.mcap", *MAP], ["not a text (CSV) file"]),
+    (["run", "sine-matrix", "--out", "/dev/full"], ["not a regular file"]),
+    (["run", "sine-matrix", "--out", "{regular}/x.mcap"], ["note.txt is a file, not a folder"]),
+    (["run", "sine-matrix", "--out", "{regular}/deeper/x.mcap"], ["cannot create its folder (Not a directory)"]),
+    (["run", "sine-matrix", "--out", "{rec}"], ["exists; give --overwrite"]),
+    (["report", "{rec}", "--out", "{regular}"], ["exists and is not a folder"]),
+    (["plot", "damper", "koni", "--out", "{regular}"], ["exists and is not a folder"]),
+    (["identify", "{rec}", "--out", "{regular}/m.json"], ["is a file, not a folder"]),
+    (["identify", "{rec}", "--report", "{regular}"], ["exists and is not a folder"]),
+    (["diagnose", "{rec}", "--report", "{regular}"], ["exists and is not a folder"]),
+    (["recover", "{folder}"], ["not a file"]),
+    (["report", "{binary}", "--out", "{folder}/r"], ["not a readable recording"]),
+    (["identify", "{folder}"], ["not a readable recording"]),
+    (["import", "{rec}", "--out", "{folder}/c.mcap", *MAP], ["not a text (CSV) file"]),
+    (["run", "sine-matrix", "amplitudes_mm=30", "freqs_hz=16"], ["nothing to run: every combination is skipped"]),
+    (["run", "sine-matrix", "amplitudes_mm="], ["amplitudes_mm: needs at least one value"]),
+    (["run", "sine-matrix", "freqs_hz=nan"], ["freqs_hz: 'nan' is not a finite number"]),
+    (["run", "sine-matrix", "freqs_hz=1e-6"], ["more than 2.0 h", "--long"]),
+    (["run", "static", "approach_mm=50"], ["approach_mm: 50 mm leaves no stroke"]),
+    (["run", "step", "steps_mm=5", "hold_s=inf"], ["hold_s: 'inf' is not a finite number"]),
+    (["sim-rig", "--config", "{binary_toml}"], ["not a text"]),
+]
+
+
+@pytest.mark.parametrize("args, words", CASES, ids=[" ".join(a[:2]) + f" {i}" for i, (a, _) in enumerate(CASES)])
+def test_bad_input_is_one_line_and_loses_nothing(files, args, words):
+    t = files.folder
+    names = {"binary": files.binary, "regular": files.regular, "folder": t, "rec": files.rec}
+    for ext in ("toml", "json", "csv"):
+        p = t / f"bin.{ext}"
+        p.write_bytes(files.binary.read_bytes())
+        names[f"binary_{ext}"] = p
+    p = dyno(*[a.format(**names) for a in args])
+    one_line_error(p, *words)
+    assert files.rec.read_bytes() == files.rec_bytes and files.regular.read_text() == "keep me\n"
+    assert not list(t.glob("*.partial")) and not list(t.glob(".*.partial")) and not list(t.glob("*.lock"))
+
+
+@pytest.mark.parametrize("rows, words", [
+    ([(0.0, 1, 1)] * 20, ["the time column 't' does not advance"]),
+    ([(i * 1e-3, 30, 1e300 if i == 5 else 1) for i in range(20)], [":7: column 'F'", "not a plausible force"]),
+    ([(i * 1e-3, "inf" if i == 3 else 30, 1) for i in range(20)], [":5: column 'x': 'inf' is not a finite number"]),
+])
+def test_bad_csv_values_are_refused_with_their_row(tmp_path, rows, words):
+    p = dyno("import", csv(tmp_path, rows), "--out", tmp_path / "x.mcap", *MAP)
+    one_line_error(p, *words)
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_network_waits_end_with_the_endpoint_named(tmp_path):
+    """A TCP port that accepts and never speaks, and one with nothing behind it."""
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+    held = []
+    threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()
+    text = CONFIG_DIR.joinpath("sim-rig.toml").read_text()
+    silent = tmp_path / "silent.toml"
+    silent.write_text(text.replace("29536", str(port)))
+    p = dyno("rig", "check", "--rig", silent, timeout=30)
+    one_line_error(p, f"socketcand at 127.0.0.1:{port} did not answer in 2 s")
+    server.close()
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        free = s.getsockname()[1]
+    closed = tmp_path / "closed.toml"
+    closed.write_text(text.replace("29536", str(free)))
+    p = dyno("run", "sine-matrix", "--rig", closed, "--out", tmp_path / "x.mcap", timeout=30)
+    one_line_error(p, f"no socketcand at 127.0.0.1:{free}")
+    assert not (tmp_path / "x.mcap").exists()
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                  HealthCheck.function_scoped_fixture])
+@given(st.lists(st.lists(st.one_of(st.floats(), st.integers(), st.text(max_size=6),
+                                   st.sampled_from(["", "nan", "inf", "-1e308", "1e-320"])),
+                         min_size=0, max_size=4), max_size=30))
+def test_any_csv_imports_or_gives_one_line(tmp_path_factory, rows):
+    """Whatever the rows, `dyno import` writes a recording or refuses with a RigError."""
+    t = tmp_path_factory.mktemp("csv")
+    src = t / "in.csv"
+    src.write_text("t,x,F\n" + "\n".join(",".join(str(v).replace(",", ";") for v in r) for r in rows))
+    args = SimpleNamespace(file=str(src), out=str(t / "out.mcap"), overwrite=False,
+                           map=["time=t:s", "displacement=x:mm", "force=F:N"])
+    try:
+        csv_import.run(args)
+    except RigError as e:
+        assert "\n" not in str(e)
+        assert not (t / "out.mcap").exists()
+        return
+    assert (t / "out.mcap").stat().st_size > 0
+
+
+def _leaves(obj, path=()):
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _leaves(v, path + (k,))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _leaves(v, path + (i,))
+    else:
+        yield path
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_any_edit_of_a_damper_json_loads_or_gives_one_line(data):
+    """One value of a preset replaced by anything JSON holds: the model loads and gives
+    finite forces, or the loader names the field."""
+    from models.simulate import simulate
+    name = data.draw(st.sampled_from(["koni", "mechformance", "fox-heavy"]))
+    doc = dm.to_dict(dm.load(name))
+    path = data.draw(st.sampled_from(list(_leaves(doc))))
+    value = data.draw(st.one_of(st.floats(), st.integers(-10**9, 10**9), st.text(max_size=5), st.none(),
+                                st.booleans(), st.just([]), st.just({})))
+    target = doc
+    for k in path[:-1]:
+        target = target[k]
+    target[path[-1]] = value
+    try:
+        d = dm.from_dict(json.loads(json.dumps(doc)))
+    except dm.DamperError as e:
+        assert "\n" not in str(e)
+        return
+    if d.layout == "simplified":
+        return
+    t = np.linspace(0, 0.5, 101)
+    x = d.mid_stroke + 0.005 * np.sin(2 * np.pi * 2 * t)
+    try:
+        r = simulate(d, t, x, T=313.15, compressible=False)
+    except dm.DamperError as e:
+        assert "\n" not in str(e)
+        return
+    assert np.all(np.isfinite(r.force))
+
+
+def test_two_runs_on_one_file_and_a_failed_start_lose_nothing(tmp_path, files):
+    """A second writer of the same file is refused while the first runs; a run that fails
+    before it starts leaves the file it was asked to overwrite as it was."""
+    out = tmp_path / "busy.mcap"
+    first = subprocess.Popen([DYNO, "run", "sine-matrix", "--realtime", "--out", str(out), "amplitudes_mm=3.2",
+                              "freqs_hz=2", "record_cycles=6"], stderr=subprocess.PIPE, text=True)
+    try:
+        while "recording to" not in first.stderr.readline():
+            pass
+        one_line_error(dyno("run", "sine-matrix", "--out", out, "--overwrite"), "another run is writing it")
+    finally:
+        rest = first.communicate(timeout=120)[1]
+    assert first.returncode == 0, rest
+    p = dyno("report", out, "--out", tmp_path / "rep")
+    assert p.returncode == 0, p.stderr
+    # overwrite asked, but the rig never opens: the old recording stays
+    closed = tmp_path / "closed.toml"
+    closed.write_text(CONFIG_DIR.joinpath("sim-rig.toml").read_text().replace("29536", "1"))
+    before = files.rec.read_bytes()
+    one_line_error(dyno("run", "sine-matrix", "--rig", closed, "--out", files.rec, "--overwrite"), "no socketcand")
+    assert files.rec.read_bytes() == before
+    assert not [p for p in files.folder.iterdir() if p.name.endswith((".partial", ".lock"))]
+
+
+def test_identify_creates_its_output_folder_before_the_work(tmp_path, files):
+    out = tmp_path / "new" / "deeper" / "m.json"
+    p = dyno("identify", files.rec, "--out", out)
+    assert out.parent.is_dir()  # made before identification ran (which may refuse this tiny import)
+    assert "Traceback" not in p.stderr
+    if p.returncode == 0:
+        assert out.exists()
+    else:
+        one_line_error(p)
+
+
+def test_recover_twice_never_overwrites_a_damaged_original(tmp_path, files):
+    data = files.rec.read_bytes()
+    bad = tmp_path / "torn.mcap"
+    for i in range(2):
+        bad.write_bytes(data[:-100])  # the summary torn off, as by a kill
+        p = dyno("recover", bad)
+        assert p.returncode == 0 and "recovered" in p.stdout, p.stderr
+    damaged = sorted(x.name for x in tmp_path.glob("torn.mcap.damaged*"))
+    assert damaged == ["torn.mcap.damaged", "torn.mcap.damaged-2"]
+    assert os.path.getsize(tmp_path / "torn.mcap.damaged") == len(data) - 100

@@ -1,0 +1,106 @@
+"""A real cell's path end to end: `dyno sim-rig` as its own process, `dyno run --rig`
+against it over socketcand, a pseudo-terminal and Modbus TCP, then report, identify and
+diagnose on the recording; and one fault per transport through the same path, each
+ending tripped, safe, with a non-zero exit and the recording intact up to the fault."""
+import json
+import subprocess
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from sim_backend.virtual_rig import sim_rig_config
+
+DYNO = str(Path(sys.executable).parent / "dyno")
+SINE = ["sine-matrix", "amplitudes_mm=6.4,3.2", "freqs_hz=2,8", "record_cycles=4"]
+
+
+def read(path):
+    """(events, {channel: (t, value)}, setpoint times, metadata, log times [ns])."""
+    events, chans, sp, logs = [], {}, [], []
+    with open(path, "rb") as f:
+        r = make_reader(f)
+        meta = {m.name: dict(m.metadata) for m in r.iter_metadata()}
+        for _, ch, m in r.iter_messages():
+            d = json.loads(m.data)
+            logs.append(m.log_time)
+            if ch.topic == "/events":
+                events.append(d)
+            elif ch.topic == "/actuator/setpoint":
+                sp += d["t"]
+            else:
+                t, v = chans.setdefault(ch.topic.split("/")[-1], ([], []))
+                t += d["t"]
+                v += d["value"]
+    return events, {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, np.array(sp), meta, logs
+
+
+def dyno(*args, timeout=300):
+    return subprocess.run([DYNO, *map(str, args)], capture_output=True, text=True, timeout=timeout)
+
+
+def test_a_wired_run_is_one_clock_and_report_identify_diagnose_use_it(tmp_path, sim_rig):
+    # the CI machine is a VM that stalls up to ~40 ms now and then: this test is about the path
+    cfg = sim_rig_config(tmp_path, stale_s=0.25)
+    sim_rig(cfg)
+    out = tmp_path / "wired.mcap"
+    p = dyno("run", *SINE, "--rig", cfg, "--out", out)
+    assert p.returncode == 0, p.stderr[-2000:]
+    events, ch, sp, meta, logs = read(out)
+    # one clock: events, setpoints and every channel's samples share it
+    t_first = min(t[0] for t, _ in ch.values())
+    t_last = max(t[-1] for t, _ in ch.values())
+    assert 0 <= t_first < 1.0 and events[0]["kind"] == "run_start" and events[-1]["kind"] == "run_end"
+    for e in events:
+        assert t_first - 0.1 <= e["t"] <= t_last + 0.1, e
+    assert sp[0] >= t_first - 0.1 and sp[-1] <= t_last + 0.1
+    for name, (t, _) in ch.items():
+        assert np.all(np.diff(t) >= 0), name
+    # absolute log times: the date of the run, as any MCAP tool shows it
+    start = datetime.fromisoformat(meta["run"]["wall_start"])
+    assert abs((datetime.now(timezone.utc) - start).total_seconds()) < 600
+    assert min(logs) / 1e9 == pytest.approx(start.timestamp(), abs=2.0)
+    # the same structure as an embedded recording
+    emb = tmp_path / "embedded.mcap"
+    assert dyno("run", *SINE, "--out", emb).returncode == 0
+    e_events, e_ch, *_ = read(emb)
+    assert set(e_ch) == set(ch)
+    assert [e["segment"] for e in e_events if e["kind"] == "segment_start"] == \
+           [e["segment"] for e in events if e["kind"] == "segment_start"]
+    p = dyno("report", out, "--out", tmp_path / "report")
+    assert p.returncode == 0 and (tmp_path / "report" / "loops.png").exists(), p.stderr
+    p = dyno("identify", out, "--json", "--out", tmp_path / "wired.model.json")
+    assert p.returncode == 0, p.stderr[-2000:]
+    doc = json.loads(p.stdout)
+    assert "0 sine segments" not in p.stderr and doc["heldout_nrmse"] < 0.05, doc["heldout_nrmse"]
+    p = dyno("diagnose", out, "--json")
+    assert p.returncode == 0, p.stderr[-2000:]
+
+
+@pytest.mark.parametrize("fault, message, stale_s", [
+    ("can_bus_off", "watchdog: x (conditioner): no new data", None),
+    ("serial_corrupt", "force (loadcell): serial line corrupt", 0.25),
+    ("modbus_timeout", "Modbus request failed", 0.25),
+])
+def test_a_fault_on_each_transport_trips_safely_and_keeps_the_recording(tmp_path, sim_rig, fault, message, stale_s):
+    cfg = sim_rig_config(tmp_path, stale_s=stale_s)  # None: the shipped 50 ms watchdog
+    sim_rig(cfg, "--fault", f"{fault}@5")
+    out = tmp_path / "fault.mcap"
+    p = dyno("run", "sine-matrix", "amplitudes_mm=6.4", "freqs_hz=2", "record_cycles=12", "--rig", cfg,
+             "--out", out, timeout=120)
+    assert p.returncode == 1 and "Traceback" not in p.stderr, p.stderr[-2000:]
+    assert p.stderr.strip().splitlines()[-1].startswith("dyno: run stopped: "), p.stderr[-500:]
+    assert message in p.stderr.strip().splitlines()[-1]
+    events, ch, sp, meta, _ = read(out)  # the indexed reader: the file was finished
+    kinds = [e["kind"] for e in events]
+    assert kinds[-2:] == ["fault", "run_end"] and message in events[-2]["message"]
+    t_fault = events[-2]["t"]
+    assert 1.0 < t_fault < 12.0
+    assert ch["force"][0][-1] > t_fault + 0.15 or fault == "serial_corrupt"  # recorded on through the stop
+    if fault == "can_bus_off":
+        t_x = ch["x"][0]
+        last = t_x[t_x <= t_fault][-1]
+        assert t_fault - last <= 0.100, t_fault - last  # tripped within 100 ms of the last frame

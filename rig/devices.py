@@ -160,6 +160,7 @@ class SerialLoadCell:
         self.frames = 0
         self.glitches = []  # frame counts at which bytes were dropped or frames lost
         self.clock = StreamClock(1.0 / params.get("frame_hz", serial_frame.RATE_HZ))
+        self.dropped_at_frame = 0  # parser.dropped when the last valid frame came
 
     def open(self):
         try:
@@ -186,6 +187,11 @@ class SerialLoadCell:
             out.append(("output", f.volts, fault, now - t))
         if self.parser.dropped > dropped:
             self.glitches.append(self.frames)
+        if frames:
+            self.dropped_at_frame = self.parser.dropped
+        elif self.parser.dropped - self.dropped_at_frame > 3 * serial_frame.SIZE:
+            raise RigError(f"device {self.name!r}: serial line corrupt ({self.parser.dropped - self.dropped_at_frame} "
+                           f"bytes since the last valid frame, {self.parser.bad_frames} bad frames)")
         # one glitch is noise; three within 100 frames is a line that cannot be trusted
         self.glitches = [g for g in self.glitches if g > self.frames - 100]
         if len(self.glitches) >= 3 and out:

@@ -195,10 +195,17 @@ class ControlLoop:
         try:
             self.rig.poll()
             return self.rig.read()
-        except Exception as e:  # noqa: BLE001 - transport or device: nothing read can be trusted
-            stop.trip(describe(e))
-            stop.cannot_move()
-            return {}
+        except Exception as e:  # noqa: BLE001 - a transport or device failed
+            reason = describe(e)
+            readings = self.rig.read()
+            x = readings.get("x")
+            # the safe move needs position feedback from a device other than the one that failed
+            if x is None or getattr(e, "device", None) in (None, self.rig.config.channels["x"].device):
+                stop.trip(reason)
+                stop.cannot_move()
+            else:
+                stop.trip(reason, self._trusted_x(readings, reason))
+            return readings
 
     def _tick(self, plan, t, readings, stop):
         """One running tick: check, command. None once the plan is done."""

@@ -69,7 +69,12 @@ class Rig:
         device whose transport failed."""
         now = self.clock()
         for name, drv in self.drivers.items():
-            for signal, raw, fault, *age in drv.poll(now):
+            try:
+                polled = drv.poll(now)
+            except RigError as e:
+                e.device = name  # the loop may still trust the other devices' readings
+                raise
+            for signal, raw, fault, *age in polled:
                 ch = self.by_signal.get((name, signal))
                 if ch is None:
                     continue

@@ -42,15 +42,16 @@ class SafeStop:
 
     def trip(self, reason, x=None):
         """Stop for `reason`; x: the measured position when it can be trusted to move the
-        actuator to the safe position, else None (just hold)."""
+        actuator to the safe position, else None (just hold, also when already moving)."""
         if self.reason is None:
             self.reason = reason
+        trusted = x is not None and math.isfinite(x)
         if self.state == "running":
-            if x is not None and math.isfinite(x):
+            if trusted:
                 self.state, self.x0 = "moving", float(x)
             else:
                 self.state = "holding"
-        elif self.state == "moving":
+        elif not trusted:  # a later error that leaves the position untrusted
             self.cannot_move()
 
     def cannot_move(self):

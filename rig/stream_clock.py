@@ -5,7 +5,10 @@ forces a tick late on the serial line, and LVDT samples 0-2 ms off over socketca
 
 A frame is never received before it is sent, so t0 is the least (receipt - k period) seen,
 allowed to creep 100 ppm per frame to follow the device's clock; a stream that paused (its
-sender stopped, or frames were lost beyond what the counter can tell) re-anchors.
+sender stopped, or frames were lost beyond what the counter can tell) re-anchors. t0 moves
+back by at most half a period per poll, so the stamps never run backwards (a backlog read
+at start is dated late at first, and the anchor slides onto the truth within a few
+hundred polls).
 """
 from __future__ import annotations
 
@@ -34,5 +37,5 @@ class StreamClock:
         if self.t0 is None or t0 - self.t0 > 5 * self.period:
             self.t0 = t0
         else:
-            self.t0 = min(self.t0 + 1e-4 * self.period * len(index), t0)
+            self.t0 = max(min(self.t0 + 1e-4 * self.period * len(index), t0), self.t0 - 0.5 * self.period)
         return [self.t0 + k * self.period for k in index]

@@ -80,12 +80,13 @@ def test_a_sine_is_followed_and_every_sample_kept(cell):
 
 FAULTS = [
     # fault, message fragment, whether the controlled move to the safe position is possible
+    # (position feedback from a device that did not fail, and the actuator healthy)
     ("can_bus_off", "watchdog: x (conditioner)", False),
-    ("serial_corrupt", "watchdog: force (loadcell)", True),
-    ("serial_truncate", "watchdog: force (loadcell)", True),
+    ("serial_corrupt", "device 'loadcell': serial line corrupt", True),
+    ("serial_truncate", "device 'loadcell': serial line corrupt", True),
     ("serial_garbage", "force (loadcell): serial line corrupt", True),
-    ("modbus_exception", "Modbus exception response", False),
-    ("modbus_timeout", "Modbus request failed", False),
+    ("modbus_exception", "Modbus exception response", True),
+    ("modbus_timeout", "Modbus request failed", True),
     ("open_thermocouple", "T_body (tc): open thermocouple", True),
     ("loadcell_stuck", "force (loadcell): reading frozen", True),
     ("loadcell_saturated", "force (loadcell): load cell saturated", True),

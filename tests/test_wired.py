@@ -82,7 +82,7 @@ def test_a_wired_run_is_one_clock_and_report_identify_diagnose_use_it(tmp_path, 
 
 @pytest.mark.parametrize("fault, message, stale_s", [
     ("can_bus_off", "watchdog: x (conditioner): no new data", None),
-    ("serial_corrupt", "force (loadcell): serial line corrupt", 0.25),
+    ("serial_corrupt", "device 'loadcell': serial line corrupt", 0.25),
     ("modbus_timeout", "Modbus request failed", 0.25),
 ])
 def test_a_fault_on_each_transport_trips_safely_and_keeps_the_recording(tmp_path, sim_rig, fault, message, stale_s):

@@ -35,6 +35,9 @@ class Segment:
     record: bool = True  # a measurement (True) or a transition (ramp, wait)
     until: Callable[[dict], bool] | None = None  # ends it early on the readings
     target: tuple[str, float] | None = None  # (reading, value) `until` waits for: a wait of unknown length
+    # a cycling that `until` ends early runs on to its next whole cycle of this length [s],
+    # so the segment after it starts in phase (no setpoint jump)
+    cycle: float | None = None
 
 
 @dataclass

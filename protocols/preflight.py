@@ -56,9 +56,34 @@ def _samples(seg: Segment):
     return t, np.array([seg.x(ti) for ti in t])
 
 
-def forecast(segments, info: RigInfo) -> Forecast:
+JUMP_M = 1e-5  # a setpoint that moves more than this between segments is a jump
+
+
+def _end_x(seg: Segment):
+    """Where a segment leaves the setpoint; None if that depends on when a reading ends it
+    while it moves (the segment after it would start with a jump)."""
+    if seg.until is None:
+        return seg.x(seg.duration)
+    if seg.cycle:
+        return seg.x(seg.cycle * round(seg.duration / seg.cycle))
+    if _at_rest(seg) and _at_rest(seg, end=True) and abs(seg.x(seg.duration) - seg.x(0.0)) < JUMP_M:
+        return seg.x(0.0)
+    return None
+
+
+def forecast(segments, info: RigInfo, T=None) -> Forecast:
+    """The plan's forecast; T [K]: predict every segment at this temperature instead of the
+    ones it states (for a run that starts with the damper already there)."""
     out = Forecast()
-    for seg in segments:
+    for prev, seg in zip([None, *segments[:-1]], segments):
+        if prev is not None:
+            x_end = _end_x(prev)
+            if x_end is None:
+                raise ParamError(f"{prev.name}: ends on a reading while it moves, so {seg.name} would start "
+                                 f"with a jump (the plan needs Segment.cycle)")
+            if abs(seg.x(0.0) - x_end) > JUMP_M:
+                raise ParamError(f"{seg.name}: starts {1e3 * (seg.x(0.0) - x_end):+.2f} mm from where "
+                                 f"{prev.name} ends: a setpoint jump")
         if seg.until is None:
             out.duration_s += seg.duration
         else:
@@ -81,8 +106,8 @@ def forecast(segments, info: RigInfo) -> Forecast:
         if info.response is None:
             continue
         fp = gp = 0.0
-        for T in segment_temperatures(seg):
-            force, gas = info.response(t, x, v, T)
+        for Ts in ((T,) if T is not None else segment_temperatures(seg)):
+            force, gas = info.response(t, x, v, Ts)
             fp = max(fp, float(np.abs(force).max()))
             gp = max(gp, float(np.max(gas)) if gas is not None else 0.0)
         if fp > out.force_peak:
@@ -122,3 +147,31 @@ def summary(f: Forecast) -> str:
     force = f", force up to {f.force_peak:.0f} N" if f.force_peak else ""
     return (f"pre-flight: {_hours(f.duration_s)} of motion{waits}; stroke {f.x_range[0] * 1e3:.1f}.."
             f"{f.x_range[1] * 1e3:.1f} mm, velocity up to {f.v_peak:.2f} m/s{force}{gas} (damper model)")
+
+
+def _at_rest(seg: Segment, end=False):
+    """Does the segment start (end) with the actuator at rest? (setpoint speed ~ 0)."""
+    t = seg.duration if end else 0.0
+    h = 1e-4
+    a, b = (t - h, t) if end else (t, t + h)
+    return abs(seg.x(b) - seg.x(a)) / h < 1e-3
+
+
+def critical(segments, f: Forecast):
+    """The segments that decide the forecast's peak force and gas pressure, each with what
+    leads into it from rest and out of it back to rest: a shortened run that meets the
+    plan's hardest moments (a sweep's warm-up, the fastest sine), for checking a plan
+    against the rig in minutes instead of hours. [(first index, last index)]."""
+    names = [s.name for s in segments]
+    spans = []
+    for q in ("force", "gas"):
+        if q not in f.worst:
+            continue
+        i = j = names.index(f.worst[q])
+        while i > 0 and not _at_rest(segments[i]):
+            i -= 1
+        while j < len(segments) - 1 and not _at_rest(segments[j], end=True):
+            j += 1
+        if (i, j) not in spans:
+            spans.append((i, j))
+    return spans

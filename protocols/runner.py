@@ -8,6 +8,7 @@ trips with its error on that tick: the actuator stops safely and the other obser
 """
 from __future__ import annotations
 
+import math
 import sys
 import time
 
@@ -72,8 +73,7 @@ class ProgressLine:
         if r is None:
             return seg.name, None
         value = r.value
-        kelvin = name.startswith("T_")
-        shown = (f"{value - 273.15:.1f} of {target - 273.15:.0f} C" if kelvin else f"{value:.4g} of {target:.4g}")
+        shown = f"{_shown(name, value)} of {_shown(name, target)}"
         if ts < 5.0 or self.start is None or self.start[0] > ts:
             self.start = (ts, value) if ts >= 5.0 else None  # the first seconds: the ramp in
             return f"{seg.name} {shown}", None
@@ -83,6 +83,11 @@ class ProgressLine:
         return f"{seg.name} {shown}", min((target - value) / rate, seg.duration - ts)
 
 
+def _shown(name, value):
+    """A reading in the operator's unit: temperatures in C."""
+    return f"{value - 273.15:.1f} C" if name.startswith("T_") else f"{value:.4g}"
+
+
 def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progress=True):
     """Execute the plan; returns (LoopResult, [skipped (segment, reason)]). sinks: plain
     callables that get every drained sample batch."""
@@ -90,7 +95,7 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     skipped = module.check(params, info)
     segments = list(module.plan(params, info))
     bar = ProgressLine(segments, module.NAME) if progress else None
-    state = {"i": 0, "t0": None, "t_plan": 0.0, "t": 0.0}
+    state = {"i": 0, "t0": None, "t_plan": 0.0, "t": 0.0, "until": math.inf}
     set_t, set_x = [], []
 
     failed = {}  # observer -> what it raised
@@ -121,11 +126,24 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
             event(t, "segment_start", segments[0])
         seg = segments[state["i"]]
         ts = t - state["t0"]
-        while ts >= seg.duration or (seg.until is not None and seg.until(readings)):
+        while True:
+            end = min(state["until"], seg.duration)
+            reached = state["until"] < math.inf or (seg.until is not None and seg.until(readings))
+            if ts < end and not reached:
+                break
+            if seg.target is not None and not reached:  # a wait that ran out: its data would be mislabelled
+                name, value = seg.target
+                r = readings.get(name)
+                raise RigError(f"{seg.name}: {name} did not reach its target in {seg.duration:.0f} s "
+                               f"({'no reading' if r is None else _shown(name, r.value)} of {_shown(name, value)})")
+            if ts < end and seg.cycle:  # ended on its reading: run on to the whole cycle
+                end = state["until"] = min(math.ceil(ts / seg.cycle) * seg.cycle, seg.duration)
+                if ts < end:
+                    break
             # a segment that ran its time ended at its boundary, between ticks: the next
             # one starts there, so the motion runs on without a repeated setpoint
-            ended = ts >= seg.duration
-            t_end = state["t0"] + seg.duration if ended else t
+            t_end = state["t0"] + end if ts >= end else t
+            state["until"] = math.inf
             event(t_end, "segment_end", seg)
             state["t_plan"] += t_end - state["t0"]
             state["i"] += 1

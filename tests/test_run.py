@@ -234,7 +234,7 @@ def test_progress_counts_waits_by_their_approach_not_their_timeout():
     assert "ETA     5 s + 2 waits" in shown(1, 1.0, 300.0)  # how long the warming takes is not known yet
     shown(1, 5.0, 300.0)
     text = shown(1, 15.0, 310.0)  # 1 K/s, 10 K to go
-    assert "warm up 36.9 of 47 C" in text and "ETA    15 s + 1 wait" in text
+    assert "warm up 36.9 C of 46.9 C" in text and "ETA    15 s + 1 wait" in text
     assert "ETA     5 s + 2 waits" in shown(1, 20.0, 299.0)  # cooling while it should warm: not known
     text = shown(3, 1.0, 310.0)  # the last wait: the bar is not full before it is done
     assert "ETA     0 s + 1 wait" in text and " 99 %" in text

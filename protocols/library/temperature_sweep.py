@@ -103,7 +103,7 @@ def plan(p: Params, rig: RigInfo):
     Aw, fw = p.warm_amplitude_mm / 1e3, _warm_freq(p, rig)
     top = targets[0] + p.overshoot_c + 273.15
     yield Segment("warm up", {"until_c": top - 273.15, "freq_hz": fw}, p.max_warm_s, ramp_in(Aw, fw, 4, rig.x_mid),
-                  False, _above(top), ("T_body", top))
+                  False, _above(top), ("T_body", top), cycle=1 / fw)
     yield Segment("stop warming", {}, 2 / fw,
                   lambda t: rig.x_mid + Aw * max(1 - t * fw / 2, 0) * math.sin(2 * math.pi * fw * t), False)
     A, f = p.amplitude_mm / 1e3, p.freq_hz

@@ -1,0 +1,87 @@
+"""Pre-flight: every protocol's defaults on every preset are refused before motion or run
+without a trip; the forecast's force and gas pressure match what the virtual rig then
+measures. The shortened mode runs each plan's hardest moments (preflight.critical: the
+segments with the highest predicted force and gas pressure, from rest to rest, the plant
+at the temperature they state); spans predicted below half of every limit are not run."""
+import dataclasses
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from models.damper import load
+from protocols import preflight, runner
+from protocols.commands import rig_info
+from protocols.library import PROTOCOLS
+from protocols.plan import MARGIN, ParamError, Segment
+from rig import config
+from rig.loop import SimulatedPacer
+from rig.rig import Rig
+from rig.safety import Safety
+from sim_backend.virtual_rig import VirtualRig
+
+PRESETS = ("koni", "mechformance", "fox-light", "fox-heavy")
+HOLD_S = 3.0  # a wait (a settled force, a temperature) is cut to this: it starts at its temperature
+LONG_S = 30.0  # spans that move longer (the low-speed cycles) are quasi-static: not run
+
+
+def run_span(damper, params, segments, T0):
+    vr = VirtualRig(config.load("virtual"), damper=damper, T0=T0)
+    cfg = vr.start()
+    rig = Rig(cfg, clock=vr.clock)
+    rig.open()
+    peaks = {"force": 0.0, "P_gas": 0.0}
+
+    def sink(drained):
+        for k in peaks:
+            if len(drained[k][1]):
+                peaks[k] = max(peaks[k], float(np.max(np.abs(drained[k][1]))))
+    module = SimpleNamespace(NAME="span", check=lambda p, i: [], plan=lambda p, i: iter(segments))
+    try:
+        result, _ = runner.run(module, params, None, rig, SimulatedPacer(vr, cfg.rate_hz), Safety(cfg), sinks=[sink],
+                               progress=False)
+    finally:
+        rig.close()
+        vr.close()
+    return result, peaks
+
+
+@pytest.mark.parametrize("damper", PRESETS)
+def test_every_protocols_defaults_run_without_a_trip_or_are_refused_before_motion(damper):
+    cfg = config.load("virtual")
+    info = rig_info(cfg, load(damper))
+    L = cfg.limits
+    ran = 0
+    for name, module in PROTOCOLS.items():
+        params = module.Params()
+        try:
+            module.check(params, info)
+            segments = list(module.plan(params, info))
+            forecast = preflight.check(segments, info)
+        except ParamError as e:  # refused before anything moves, in one line naming why
+            assert "\n" not in str(e)
+            continue
+        assert forecast.force_peak <= MARGIN * L["force_max"] and forecast.gas_peak <= MARGIN * L["gas_pressure_max"]
+        for i, j in preflight.critical(segments, forecast):
+            span = [dataclasses.replace(s, duration=min(s.duration, HOLD_S)) if s.until else s
+                    for s in segments[i:j + 1]]
+            f = preflight.forecast(span, info)
+            if f.force_peak < 0.5 * L["force_max"] and f.gas_peak < 0.5 * L["gas_pressure_max"]:
+                continue
+            if sum(s.duration for s in span if not s.until) > LONG_S:
+                continue
+            temps = [T for s in span for T in preflight.segment_temperatures(s) if T is not None]
+            T0 = temps[0] - 1.0 if "until_c" in span[0].params else (temps[0] if temps else None)
+            f = preflight.forecast(span, info, T=T0)  # the damper starts at the span's temperature
+            x0, mid = span[0].x(0.0), info.x_mid  # the plant starts at mid-stroke: move there slowly
+            T = max(abs(x0 - mid) / 0.01, 1e-3)
+            span.insert(0, Segment("position", {}, T, lambda t, T=T, x0=x0: mid + (x0 - mid) * min(t / T, 1.0), False))
+            result, peaks = run_span(damper, params, span, T0)
+            ran += 1
+            where = f"{damper} {name} {span[0].name} .. {span[-1].name}"
+            assert result.fault is None, f"{where}: {result.fault}"
+            # the forecast is what the rig did, or more (it is conservative where the model is:
+            # a polytropic gas at rest, cold friction), never much less
+            assert 0.6 * f.force_peak <= peaks["force"] <= 1.15 * f.force_peak, (where, peaks, f)
+            assert 0.8 * f.gas_peak <= peaks["P_gas"] <= 1.05 * f.gas_peak, (where, peaks, f)
+    assert ran >= 2  # each damper meets a limit that matters somewhere

@@ -157,7 +157,7 @@ def rig_info(cfg, damper):
     L = cfg.limits
     peak = response = None
     x_mid, x_min, x_max = cfg.safe_position, L["x_min"], L["x_max"]
-    ambient = 293.15
+    ambient = cfg.thermal.get("ambient", 293.15)
     if damper is not None and getattr(damper, "layout", "") != "simplified":
         x_mid = damper.mid_stroke
         # never plan into the damper's own end stops: 2 mm inside its stroke at most
@@ -174,11 +174,12 @@ def rig_info(cfg, damper):
             of cold and reference and the gas of a damper that has not warmed."""
             runs = [simulate(d, t, x, v=v, T=Ti, compressible=False, x_e=d.mid_stroke)
                     for Ti in ((T,) if T is not None else temps)]
-            force = np.max([np.abs(r.force) for r in runs], axis=0)
-            return force, runs[0].P_gas
+            worst = max(runs, key=lambda r: np.max(np.abs(r.force)))
+            return worst.force, runs[0].P_gas
         peak = peak_force
     return RigInfo(x_mid, x_min, x_max, L["velocity_max"], L.get("frequency_max", 50.0),
-                   L["force_max"], L["temperature_max"], ambient, peak, response, L["gas_pressure_max"])
+                   L["force_max"], L["temperature_max"], ambient, peak, response, L["gas_pressure_max"],
+                   cfg.thermal.get("conductance"))
 
 
 def _output(args, name):

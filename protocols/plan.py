@@ -55,19 +55,22 @@ class RigInfo:
     # damper model: (t, x, v, T or None) -> (force [N], gas pressure [Pa] or None), per sample
     response: Callable | None = None
     gas_max: float = 0.0  # Pa, the rig's gas pressure limit (0: none)
+    conductance: float | None = None  # W/K, the damper's heat path to the cell air, if known
 
 
 def sine_peaks(rig: RigInfo, amplitude, freq, T=None):
-    """(peak |force| [N], peak gas pressure [Pa]) the damper model predicts for a steady
-    sine of `amplitude` [m] at `freq` [Hz] about mid-stroke at T [K] (None: see
-    RigInfo.response); (0, 0) without a model."""
+    """(peak |force| [N], peak gas pressure [Pa], mean power dissipated [W]) the damper
+    model predicts for a steady sine of `amplitude` [m] at `freq` [Hz] about mid-stroke at
+    T [K] (None: see RigInfo.response); zeros without a model."""
     import numpy as np
     if rig.response is None:
-        return 0.0, 0.0
-    t = np.linspace(0.0, 1.0 / freq, 129)
+        return 0.0, 0.0, 0.0
+    t = np.linspace(0.0, 1.0 / freq, 257)
     x = rig.x_mid + amplitude * np.sin(2 * np.pi * freq * t)
-    force, gas = rig.response(t, x, 2 * np.pi * freq * amplitude * np.cos(2 * np.pi * freq * t), T)
-    return float(np.max(force)), float(np.max(gas)) if gas is not None else 0.0
+    v = 2 * np.pi * freq * amplitude * np.cos(2 * np.pi * freq * t)
+    force, gas = rig.response(t, x, v, T)
+    power = float(np.mean((force * v)[:-1]))  # force and velocity positive in compression
+    return float(np.max(np.abs(force))), float(np.max(gas)) if gas is not None else 0.0, power
 
 
 def parse(cls, pairs):

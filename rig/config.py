@@ -74,7 +74,10 @@ LIMITS = {
     "stale_s": _num(required=True, above=0.0, hi=1.0),  # a watchdog slower than a second is none
     "frequency_max": _num(above=0.0, hi=1000.0),
 }
-TABLES = ("rig", "devices", "channels", "limits")
+# the damper's heat path in this cell, for the pre-flight's reachable temperatures (optional:
+# measured as heat capacity / the cooling time constant of a warm damper at rest)
+THERMAL = {"ambient": _num(above=173.15, hi=373.15), "conductance": _num(above=0.0, hi=1e4)}
+TABLES = ("rig", "devices", "channels", "limits", "thermal")
 
 
 @dataclass
@@ -114,6 +117,7 @@ class RigConfig:
     path: str = "<config>"
     text: str = field(default="", repr=False)
     actuator: str = ""  # name of the device that takes the setpoint
+    thermal: dict = field(default_factory=dict)  # ambient [K], conductance [W/K], if given
 
 
 def quantity(channel_name):
@@ -245,13 +249,14 @@ def parse(text: str, where="<config>") -> RigConfig:
     devices = _devices(c, c.table(data.get("devices", {}), ["devices"], "devices"))
     channels = _channels(c, c.table(data.get("channels", {}), ["channels"], "channels"), devices)
     limits = _limits(c, c.table(data.get("limits", {}), ["limits"], "limits"), devices)
+    thermal = c.fields(c.table(data.get("thermal", {}), ["thermal"], "thermal"), ["thermal"], THERMAL, "thermal")
     safe = float(rig.get("safe_position", (limits["x_min"] + limits["x_max"]) / 2))
     if not limits["x_min"] <= safe <= limits["x_max"]:
         c.fail(c.line(["rig"], "safe_position"), "rig.safe_position: must lie within the stroke limits "
                                                  f"{limits['x_min']:g}..{limits['x_max']:g} m")
     actuator = next(n for n, d in devices.items() if d.transport == "can" and d.params["node"] == "actuator")
     return RigConfig(rig.get("name", where), float(rig.get("rate_hz", 1000)), safe, devices, channels, limits,
-                     where, text, actuator)
+                     where, text, actuator, {k: float(v) for k, v in thermal.items()})
 
 
 def _devices(c, table):

@@ -9,6 +9,7 @@ from ..plan import MARGIN, ParamError, RigInfo, Segment, positive, ramp_in, sine
 
 NAME = "temperature-sweep"
 MARGIN_K = 5.0  # targets must lie this far inside ambient .. the rig's temperature limit
+REACH_K = 10.0  # warming must be able to go this far past its end point (it slows near its balance)
 
 
 @dataclass
@@ -59,20 +60,29 @@ def check(p: Params, rig: RigInfo):
 
 def _too_hot(p: Params, rig: RigInfo):
     """[(target C, why)] of the targets the damper model says would take the gas pressure
-    above MARGIN of the rig's limit: while cycling at the target, or while warming to just
-    above it when it would be the top target. The hottest first."""
+    above MARGIN of the rig's limit (while cycling at the target, or while warming to just
+    above it when it would be the top target), or that warming cannot reach: the power the
+    warm cycling dissipates there (mean F v) against the cell's conductance times the rise
+    over ambient. The hottest first."""
     out = []
-    if rig.response is None or not rig.gas_max:
+    if rig.response is None:
         return out
     fw = _warm_freq(p, rig) or p.warm_freq_hz
     for T in sorted(p.targets_c, reverse=True):
+        top = T + p.overshoot_c + 273.15
         gas = sine_peaks(rig, p.amplitude_mm / 1e3, p.freq_hz, T + 273.15)[1]
-        warm = sine_peaks(rig, p.warm_amplitude_mm / 1e3, fw, T + p.overshoot_c + 273.15)[1]
-        if max(gas, warm) <= MARGIN * rig.gas_max:
+        _, warm, power = sine_peaks(rig, p.warm_amplitude_mm / 1e3, fw, top)
+        if rig.gas_max and max(gas, warm) > MARGIN * rig.gas_max:
+            what = "cycling at it" if gas >= warm else f"warming to {top - 273.15:g} C"
+            out.append((T, f"gas pressure {max(gas, warm) / 1e6:.2f} MPa {what} (damper model), above "
+                           f"{100 * MARGIN:.0f} % of the rig's {rig.gas_max / 1e6:.2f} MPa"))
+        elif rig.conductance and power < rig.conductance * (top + REACH_K - rig.T_ambient):
+            # warming balances the cell's cooling below the target: it would never get there
+            out.append((T, f"warming at {fw:g} Hz cannot reach {top - 273.15:g} C: the damper model dissipates "
+                           f"{power:.0f} W there, the cell takes {rig.conductance:g} W/K x "
+                           f"{top + REACH_K - rig.T_ambient:.0f} K"))
+        else:
             break  # the rest are colder
-        what = "cycling at it" if gas >= warm else f"warming to {T + p.overshoot_c:g} C"
-        out.append((T, f"gas pressure {max(gas, warm) / 1e6:.2f} MPa {what} (damper model), above "
-                       f"{100 * MARGIN:.0f} % of the rig's {rig.gas_max / 1e6:.2f} MPa"))
     return out
 
 

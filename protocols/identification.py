@@ -66,6 +66,9 @@ def run(args):
         raise RigError(str(e)) from None
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:  # a fit that cannot proceed
         raise RigError(f"identification failed: {e}") from None
+    if not any(str(v).startswith("done") for v in res.steps.values()):
+        raise RigError(f"nothing to identify in {', '.join(args.recordings)}: no static holds, low-speed or sine "
+                       f"segments (no model written)")
     res.damper.name = f"{desc.name}-identified"
     res.damper.description = f"identified by dyno identify from {', '.join(Path(p).name for p in args.recordings)}"
     try:

@@ -9,7 +9,9 @@ trips with its error on that tick: the actuator stops safely and the other obser
 from __future__ import annotations
 
 import math
+import queue
 import sys
+import threading
 import time
 
 from rig.errors import RigError
@@ -83,6 +85,40 @@ class ProgressLine:
         return f"{seg.name} {shown}", min((target - value) / rate, seg.duration - ts)
 
 
+class Observers:
+    """The observers' calls, made in order on a thread of their own: the control loop never
+    waits for a disk, a viewer or the identification (a recorder's write and fsync took
+    0.6-4 ms in the loop's thread: late ticks, and a force notch at every segment start on
+    a wired cell). An observer that raises is not called again; `failed` names it, and the
+    runner trips the run on its next tick."""
+
+    def __init__(self, observers):
+        self.observers = observers
+        self.failed = {}  # observer -> what it raised
+        self.queue = queue.SimpleQueue()
+        self.thread = threading.Thread(target=self._run, name="observers", daemon=True)
+        self.thread.start()
+
+    def call(self, method, *args):
+        self.queue.put((method, args))
+
+    def _run(self):
+        while (item := self.queue.get()) is not None:
+            method, args = item
+            for o in self.observers:
+                if o in self.failed or not hasattr(o, method):
+                    continue
+                try:
+                    getattr(o, method)(*args)
+                except Exception as e:  # noqa: BLE001 - one observer's failure stops the run, not the others
+                    self.failed[o] = f"{type(o).__name__.lower()}: {describe(e)}"
+
+    def close(self):
+        """Wait until every call so far has been made."""
+        self.queue.put(None)
+        self.thread.join()
+
+
 def _shown(name, value):
     """A reading in the operator's unit: temperatures in C."""
     return f"{value - 273.15:.1f} C" if name.startswith("T_") else f"{value:.4g}"
@@ -98,16 +134,9 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     state = {"i": 0, "t0": None, "t_plan": 0.0, "t": 0.0, "until": math.inf}
     set_t, set_x = [], []
 
-    failed = {}  # observer -> what it raised
-
-    def notify(method, *args):
-        for o in observers:
-            if o in failed or not hasattr(o, method):
-                continue
-            try:
-                getattr(o, method)(*args)
-            except Exception as e:  # noqa: BLE001 - one observer's failure stops the run, not the others
-                failed[o] = f"{type(o).__name__.lower()}: {describe(e)}"
+    observed = Observers(observers)
+    failed = observed.failed
+    notify = observed.call
 
     def event(t, kind, seg=None, message="", name=None, params=None):
         if params is None:
@@ -164,12 +193,16 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
 
     def record(samples):
         notify("samples", samples)
-        notify("setpoints", set_t, set_x)
+        notify("setpoints", list(set_t), list(set_x))
         set_t.clear()
         set_x.clear()
 
     loop = ControlLoop(rig, pacer, safety, [record, *sinks])
-    result = loop.run(plan)
+    try:
+        result = loop.run(plan)
+    except BaseException:
+        observed.close()
+        raise
     if bar:
         bar.show(state["i"], 0.0, state["t_plan"], final="stopped" if result.fault else "done")
     t_end = state["t"]
@@ -177,4 +210,5 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
         kind = "operator_stop" if result.fault == "operator stop" else "fault"
         event(t_end, kind, segments[state["i"]] if state["i"] < len(segments) else None, result.fault)
     event(t_end, "run_end", name=module.NAME, params={}, message=result.fault or "completed")
+    observed.close()
     return result, skipped

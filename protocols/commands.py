@@ -273,13 +273,13 @@ def run_protocol(args):
         errors.insert(0, result.fault)
     if recorder.kept:
         print(f"recorded {result.duration_s:.1f} s of {module.NAME} to {recorder.path}", file=sys.stderr)
+    else:
+        print(f"nothing recorded: the run stopped before its first segment; {claim.target} "
+              f"{'kept as it was' if claim.target.exists() else 'not written'}", file=sys.stderr)
     if isinstance(pacer, RealTimePacer) and result.ticks:
         late = sum(1 for x in result.lateness_s if x > 1.0 / cfg.rate_hz)
         print(f"real time: {late} of {result.ticks} ticks late by more than a period "
               f"(worst {1e3 * max(result.lateness_s):.1f} ms, {result.missed} skipped)", file=sys.stderr)
-    else:
-        print(f"nothing recorded: the run stopped before its first segment; {claim.target} "
-              f"{'kept as it was' if claim.target.exists() else 'not written'}", file=sys.stderr)
     for later in errors[1:]:
         print(f"dyno: also: {later}", file=sys.stderr)
     if ident is not None and recorder.kept:

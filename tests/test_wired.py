@@ -104,3 +104,22 @@ def test_a_fault_on_each_transport_trips_safely_and_keeps_the_recording(tmp_path
         t_x = ch["x"][0]
         last = t_x[t_x <= t_fault][-1]
         assert t_fault - last <= 0.100, t_fault - last  # tripped within 100 ms of the last frame
+
+
+def test_rig_check_refuses_a_wrong_unit_id_and_flags_implausible_readings(tmp_path, sim_rig):
+    cfg = sim_rig_config(tmp_path, stale_s=0.25)
+    sim_rig(cfg)
+    text = cfg.read_text()
+    wrong_id = tmp_path / "wrong-id.toml"
+    wrong_id.write_text(text.replace("device_id = 2", "device_id = 1"))  # the analog module addressed as the tc's
+    p = dyno("rig", "check", "--rig", wrong_id, timeout=60)
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert "device 'analog': Modbus unit 1" in p.stderr and "identifies as 0x5443, not the analog-module's 0x4149" \
+        in p.stderr, p.stderr
+    no_offset = tmp_path / "no-offset.toml"  # degC read as K: 20 K is no damper's temperature
+    no_offset.write_text(text.replace("offset = 273.15         # degC -> K", "offset = 0.0", 1))
+    p = dyno("rig", "check", "--rig", no_offset, timeout=60)
+    assert p.returncode == 1, p.stdout + p.stderr
+    line = next(ln for ln in p.stdout.splitlines() if ln.startswith("T_body"))
+    assert "IMPLAUSIBLE: outside 173.15..773.15 K" in line
+    assert "T_body (tc: implausible" in p.stderr and len(p.stderr.strip().splitlines()) == 1

@@ -119,7 +119,8 @@ def _one(task):
     out = Path(folder) / f"{effect or 'null'}-{seed}.mcap"
     pairs = [f"{k}={','.join(str(x) for x in v) if isinstance(v, list) else v}" for k, v in prove["params"].items()]
     args = argparse.Namespace(protocol=prove["protocol"], params=pairs, rig=None, damper=None, out=str(out),
-                              realtime=False, live=False, rrd=None, identify=False, plain=True, seed=seed,
+                              overwrite=True, long=False, realtime=False, live=False, rrd=None, identify=False,
+                              plain=True, seed=seed,
                               effect=[f"{effect}={value}"] if effect else [], progress=False)
     import contextlib
     import io

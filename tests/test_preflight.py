@@ -63,7 +63,7 @@ def test_every_protocols_defaults_run_without_a_trip_or_are_refused_before_motio
             continue
         assert forecast.force_peak <= MARGIN * L["force_max"] and forecast.gas_peak <= MARGIN * L["gas_pressure_max"]
         for i, j in preflight.critical(segments, forecast):
-            span = [dataclasses.replace(s, duration=min(s.duration, HOLD_S)) if s.until else s
+            span = [dataclasses.replace(s, duration=min(s.duration, HOLD_S), target=None) if s.until else s
                     for s in segments[i:j + 1]]
             f = preflight.forecast(span, info)
             if f.force_peak < 0.5 * L["force_max"] and f.gas_peak < 0.5 * L["gas_pressure_max"]:

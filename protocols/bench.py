@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from rig import config as rig_config
+from rig.errors import RigError
 
 from .recording import Recorder
 
@@ -74,7 +75,8 @@ def bench_identify(recording=None, damper="koni"):
                            capture_output=True, text=True)
         wall = time.perf_counter() - t0
     if p.returncode:
-        raise RuntimeError(p.stderr.strip().splitlines()[-1])
+        last = p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}"
+        raise RigError(f"bench identify: {last.removeprefix('dyno: error: ')}")
     doc = json.loads(p.stdout)
     return {"recording": str(recording), "wall_s": wall, "goal_wall_s": GOAL_IDENTIFY_S,
             "goal_met": wall < GOAL_IDENTIFY_S, "heldout_nrmse": doc["heldout_nrmse"], "steps": doc["steps"]}

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from models.damper import DamperError, load
@@ -202,11 +203,37 @@ def _hidden_physics(p):
                    help="hide physics in the virtual rig: " + ", ".join(f"{n} [{u}]" for n, (u, _) in EFFECTS.items()))
     p.add_argument("--plain", action="store_true",
                    help="the plain cell dyno prove uses (sim_backend/plain.toml): nothing the minimal model leaves out")
-    p.add_argument("--seed", type=int, default=0, help="the virtual rig's noise seed (default 0)")
+    p.add_argument("--seed", type=number(0, 2**32 - 1, integer=True), default=0,
+                   help="the virtual rig's noise seed (default 0)")
+
+
+class Parser(argparse.ArgumentParser):
+    """Usage mistakes are one line, like every other bad input, and exit 2."""
+
+    def error(self, message):
+        where = self.prog.removeprefix("dyno").strip()
+        self.exit(2, f"dyno: error: {where + ': ' if where else ''}{message}\n")
+
+
+def number(lo=None, hi=None, integer=False, above=None):
+    """An argparse type: a finite number (an integer if asked) within [lo, hi], above `above`."""
+    def parse(text):
+        try:
+            v = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if integer else 'a number'}") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+        if above is not None and not v > above:
+            raise argparse.ArgumentTypeError(f"must be above {above:g}, got {text}")
+        if lo is not None and v < lo or hi is not None and v > hi:
+            raise argparse.ArgumentTypeError(f"must be within {lo if lo is not None else '-inf'}..{hi}, got {text}")
+        return v
+    return parse
 
 
 def parser():
-    p = argparse.ArgumentParser(prog="dyno", description="Damper dyno controller and damper model tools")
+    p = Parser(prog="dyno", description="Damper dyno controller and damper model tools")
     sub = p.add_subparsers(dest="cmd", required=True)
     v = sub.add_parser("validate", help="reproduce the thesis validation table")
     v.add_argument("--json", action="store_true", help="machine-readable {\"rows\": [...]}")
@@ -216,9 +243,9 @@ def parser():
     pd = plsub.add_parser("damper", help="loops, composite curve, temperature and pressure plots")
     pd.add_argument("damper", help="preset name (koni, mechformance, fox-light, fox-heavy) or FILE.json")
     pd.add_argument("--out", required=True, help="output directory")
-    pd.add_argument("--amplitude-mm", type=float, default=12.7, help="sine amplitude (default 12.7)")
-    pd.add_argument("--freq", type=float, nargs="+", default=[1, 2, 4, 8, 16], help="frequencies in Hz")
-    pd.add_argument("--temp", type=float, default=94.0, help="damper temperature in C (default 94)")
+    pd.add_argument("--amplitude-mm", type=number(), default=12.7, help="sine amplitude (default 12.7)")
+    pd.add_argument("--freq", type=number(), nargs="+", default=[1, 2, 4, 8, 16], help="frequencies in Hz")
+    pd.add_argument("--temp", type=number(), default=94.0, help="damper temperature in C (default 94)")
     pd.set_defaults(func=_plot_damper)
     for name, helptext, func in (
             ("quarter-car", "frequency and step responses of a quarter car (6.2)", _plot_quarter_car),
@@ -230,14 +257,15 @@ def parser():
         q.add_argument("--car", default="race-car" if name == "parametric" else "simulator",
                        help="quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json")
         q.add_argument("--out", required=True, help="output directory")
-        q.add_argument("--freq", type=float, nargs="+", default=None,
+        q.add_argument("--freq", type=number(), nargs="+", default=None,
                        help="excitation frequencies in Hz (default 1.25-20 in 0.25 Hz steps)")
         if name != "simplified":
-            q.add_argument("--amplitude-mm", type=float, nargs="+", default=[3.2, 12.7],
+            q.add_argument("--amplitude-mm", type=number(), nargs="+", default=[3.2, 12.7],
                            help="road amplitudes in mm (default 3.2 12.7)")
         if name == "quarter-car":
-            q.add_argument("--temp", type=float, default=90.0, help="damper temperature in C (default 90)")
-        q.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+            q.add_argument("--temp", type=number(), default=90.0, help="damper temperature in C (default 90)")
+        q.add_argument("--workers", type=number(1, 256, integer=True), default=None,
+                       help="processes (default: all cores)")
         q.set_defaults(func=func)
     from . import commands
     sr = sub.add_parser("sim-rig", help="serve the virtual rig as its own process (CAN socketcand, pty, Modbus TCP)")
@@ -245,7 +273,7 @@ def parser():
     sr.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
     sr.add_argument("--fault", action="append", metavar="NAME[@TIME]", help="inject a fault, at TIME s")
     _hidden_physics(sr)
-    sr.add_argument("--seconds", type=float, default=None, help="stop after this long")
+    sr.add_argument("--seconds", type=number(above=0), default=None, help="stop after this long")
     sr.set_defaults(func=commands.sim_rig)
     rn = sub.add_parser("run", help="run a test protocol and record it to MCAP")
     rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard")
@@ -288,12 +316,14 @@ def parser():
     dg.add_argument("--report", metavar="DIR", help="HTML report with residual maps and loops")
     dg.set_defaults(func=_diagnose)
     pv = sub.add_parser("prove", help="hide each effect in the virtual rig at the noise level and diagnose it")
-    pv.add_argument("--seeds", type=int, default=10, help="recordings per effect (default 10)")
+    pv.add_argument("--seeds", type=number(1, 10000, integer=True), default=10,
+                    help="recordings per effect (default 10)")
     pv.add_argument("--effects", help="comma-separated subset of effects (default: all, plus nulls)")
     pv.add_argument("--json", action="store_true")
     pv.add_argument("--calibrate", action="store_true",
                     help="find each effect's concealed value (contribution = force noise) and print it")
-    pv.add_argument("--jobs", type=int, default=2, help="recordings made and diagnosed in parallel (default 2)")
+    pv.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
+                    help="recordings made and diagnosed in parallel (default 2)")
     pv.set_defaults(func=_prove)
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
     im.add_argument("file", metavar="FILE.csv")
@@ -313,16 +343,17 @@ def parser():
     bsub = b.add_subparsers(dest="what", required=True)
     bs = bsub.add_parser("sim", help="compressible model speed vs a solve_ivp Radau reference")
     bs.add_argument("--json", action="store_true")
-    bs.add_argument("--seconds", type=float, default=10.0, help="simulated seconds (default 10)")
-    bs.add_argument("--ref-seconds", type=float, default=None,
+    bs.add_argument("--seconds", type=number(above=0, hi=3600), default=10.0, help="simulated seconds (default 10)")
+    bs.add_argument("--ref-seconds", type=number(above=0, hi=3600), default=None,
                     help="simulate only this much with the slow reference (default: all)")
     bs.set_defaults(func=_bench_sim)
     bw = bsub.add_parser("sweep", help="quarter-car frequency sweep time (2 amplitudes x 60 frequencies, Koni)")
     bw.add_argument("--json", action="store_true")
-    bw.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    bw.add_argument("--workers", type=number(1, 256, integer=True), default=None,
+                    help="processes (default: all cores)")
     bw.set_defaults(func=_bench_sweep)
     bg = bsub.add_parser("log", help="samples per second into MCAP against a protocol's data rate")
-    bg.add_argument("--seconds", type=float, default=5.0)
+    bg.add_argument("--seconds", type=number(above=0, hi=3600), default=5.0)
     bg.add_argument("--json", action="store_true")
     bg.set_defaults(func=_bench_log)
     bi = bsub.add_parser("identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")
@@ -332,13 +363,13 @@ def parser():
     bi.add_argument("--json", action="store_true")
     bi.set_defaults(func=_bench_identify)
     bd = bsub.add_parser("diagnose", help="dyno diagnose's time on 60 s recorded at 5 kHz (goal < 3 min)")
-    bd.add_argument("--seconds", type=float, default=60.0)
-    bd.add_argument("--rate", type=float, default=5000.0, help="sample rate [Hz] (default 5000)")
+    bd.add_argument("--seconds", type=number(above=0, hi=3600), default=60.0)
+    bd.add_argument("--rate", type=number(above=0, hi=100000), default=5000.0, help="sample rate [Hz] (default 5000)")
     bd.add_argument("--json", action="store_true")
     bd.set_defaults(func=_bench_diagnose)
     bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
-    bl.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
-    bl.add_argument("--seconds", type=float, default=30.0, help="duration (default 30)")
+    bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
+    bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
     bl.add_argument("--json", action="store_true")
     bl.set_defaults(func=_bench_loop)
     return p

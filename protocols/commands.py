@@ -1,6 +1,7 @@
 """The `dyno` commands for the cell: sim-rig, rig check, run, recover, report."""
 from __future__ import annotations
 
+import math
 import signal
 import sys
 import threading
@@ -10,6 +11,8 @@ from rig import config as rig_config
 from rig.errors import RigError
 from rig.rig import Rig
 from rig.safety import Safety
+
+from .files import writable_file
 
 CHECK_S = 0.5  # how long rig check listens
 
@@ -91,7 +94,9 @@ def parse_faults(specs):
         try:
             t = float(at) if at else 0.0
         except ValueError:
-            raise RigError(f"--fault {spec}: the time after @ must be seconds") from None
+            t = math.nan
+        if not (math.isfinite(t) and t >= 0):
+            raise RigError(f"--fault {spec}: the time after @ must be seconds from the start (0 or more)")
         out.append((t, name))
     return out
 
@@ -214,6 +219,11 @@ def run_protocol(args):
         raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
     plant = virtual_plant(args)
     damper = load_damper(plant.pop("damper"))
+    if damper.layout == "simplified":
+        raise RigError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
+                       f"rig; give a full damper (a preset or JSON)")
+    if args.rrd:
+        writable_file(args.rrd, "--rrd")
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     info = rig_info(cfg, damper)
     skipped = module.check(params, info)  # refuse before anything connects or moves
@@ -222,8 +232,6 @@ def run_protocol(args):
     forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
     print(preflight.summary(forecast), file=sys.stderr)
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
-    if identifying and (damper.layout == "simplified"):
-        identifying = False
     claim = _output(args, module.NAME)
     vr = rig = recorder = live = ident = result = None
     errors = []  # the first is the one that ended the run; later ones are reported after it

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rig.errors import RigError
 from sim_backend.effects import EFFECTS, plain_cell
 
 # the parameter of the diagnosis that estimates each effect (its own description differs)
@@ -162,6 +163,9 @@ def run(args):
         return 0
     concealed = prove.get("concealed", {})
     effects = [e for e in (args.effects.split(",") if args.effects else list(EFFECTS) + ["null"])]
+    unknown = [e for e in effects if e != "null" and e not in EFFECTS]
+    if unknown:
+        raise RigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null)")
     for e in effects:
         if e != "null" and e not in concealed:
             say(f"dyno: error: no concealed value for {e!r} in sim_backend/plain.toml (run dyno prove --calibrate)")

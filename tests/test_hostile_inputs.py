@@ -79,6 +79,16 @@ CASES = [
     (["run", "static", "approach_mm=50"], ["approach_mm: 50 mm leaves no stroke"]),
     (["run", "step", "steps_mm=5", "hold_s=inf"], ["hold_s: 'inf' is not a finite number"]),
     (["sim-rig", "--config", "{binary_toml}"], ["not a text"]),
+    (["sim-rig", "--fault", "can_bus_off@nan"], ["the time after @ must be seconds"]),
+    (["run", "sine-matrix", "--damper", "simplified-I"], ["a simplified model"]),
+    (["run", "sine-matrix", "--seed", "-5"], ["run: argument --seed: must be within"]),
+    (["run", "sine-matrix", "--rrd", "{regular}/x.rrd"], ["note.txt is a file, not a folder"]),
+    (["run", "static", "points=100000"], ["points: 2 to 200"]),
+    (["run", "temperature-sweep", "overshoot_c=-50"], ["overshoot_c: must not be negative"]),
+    (["bench", "diagnose", "--rate", "0"], ["bench diagnose: argument --rate: must be above 0"]),
+    (["bench", "identify", "{binary}"], ["not a readable recording"]),
+    (["prove", "--effects", "gremlins"], ["unknown effect 'gremlins'"]),
+    (["validate", "--json", "extra"], ["unrecognized arguments: extra"]),
 ]
 
 

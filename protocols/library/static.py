@@ -28,8 +28,8 @@ class Params:
 
 
 def check(p: Params, rig: RigInfo):
-    if p.points < 2:
-        raise ParamError(f"points: at least 2, got {p.points}")
+    if not 2 <= p.points <= 200:
+        raise ParamError(f"points: 2 to 200, got {p.points}")
     for name in ("approach_mm", "speed_mm_s", "dwell_min_s", "dwell_max_s", "settle_window_s", "settle_n"):
         if not getattr(p, name) > 0:
             raise ParamError(f"{name}: must be positive, got {getattr(p, name):g}")

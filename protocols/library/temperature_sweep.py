@@ -27,6 +27,9 @@ class Params:
 
 def check(p: Params, rig: RigInfo):
     positive("targets_c", p.targets_c)
+    if p.overshoot_c < 0:
+        raise ParamError(f"overshoot_c: must not be negative (the warm-up ends above the top target), "
+                         f"got {p.overshoot_c:g}")
     for name in ("amplitude_mm", "freq_hz", "cycles", "warm_amplitude_mm", "warm_freq_hz", "max_warm_s",
                  "max_cool_s"):
         positive(name, getattr(p, name))

@@ -47,6 +47,7 @@ def bench_log(seconds=5.0):
             rec.setpoints(list(t + np.arange(100) * 1e-3), list(rng.standard_normal(100)))
             n += 100
             t += 0.1
+        rec.commit()
         rec.close()
         wall = time.perf_counter() - t0
         size = path.stat().st_size

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from rig import config as rig_config
+from rig.devices import TRANSPORTS
 from rig.errors import RigError
 
 from .recording import Recorder
@@ -22,14 +23,16 @@ def protocol_rate(cfg):
     rate = cfg.rate_hz  # setpoints
     for ch in cfg.channels.values():
         d = cfg.devices[ch.device]
-        rate += float(d.params.get("poll_hz", 10)) if d.transport == "modbus" else cfg.rate_hz
+        rate += TRANSPORTS[d.transport].rate_hz(d.params, cfg.rate_hz)
     return rate
 
 
 def bench_log(seconds=5.0):
     cfg = rig_config.load("virtual")
     need = protocol_rate(cfg)
-    per_drain = {n: (100 if cfg.devices[c.device].transport != "modbus" else 10) for n, c in cfg.channels.items()}
+    per_drain = {n: round(TRANSPORTS[cfg.devices[c.device].transport].rate_hz(cfg.devices[c.device].params,
+                                                                               cfg.rate_hz) * 0.1)
+                 for n, c in cfg.channels.items()}  # samples a channel gives in one 0.1 s drain
     rng = np.random.default_rng(0)
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "bench.mcap"

@@ -103,10 +103,10 @@ def _bench_sweep(args):
 
 
 def _bench_loop(args):
-    from rig.bench import bench_loop, goals_met
+    from protocols.bench_loop import bench_loop, goals_met
     if not 0 < args.rate <= 5000 or not 0 < args.seconds <= 3600:
         raise RigError("--rate must be in (0, 5000] Hz and --seconds in (0, 3600]")
-    from rig.bench import baseline
+    from protocols.bench_loop import baseline
     stats = bench_loop(args.rate, args.seconds)
     stats["goals_met"] = goals_met(stats)
     stats["machine_baseline"] = baseline(args.rate, args.seconds)

@@ -8,6 +8,7 @@ import threading
 import time
 
 from rig import config as rig_config
+from rig.devices import TRANSPORTS
 from rig.errors import RigError
 from rig.rig import Rig
 from rig.safety import Safety
@@ -126,9 +127,7 @@ def sim_rig(args):
     except OSError as e:
         raise RigError(f"sim-rig: cannot serve {cfg.path} ({e.strerror or e})") from None
     for name, d in served.devices.items():
-        addr = {"can": lambda p: f"{p['interface']} {p['channel']} {p.get('host', '')}:{p.get('port', '')}".rstrip(":"), "serial": lambda p: p["port"],
-                "modbus": lambda p: f"{p['host']}:{p['port']} id {p['device_id']}"}[d.transport](d.params)
-        print(f"sim-rig: {name:12s} {d.transport:7s} {addr}")
+        print(f"sim-rig: {name:12s} {d.transport:7s} {TRANSPORTS[d.transport].address(d.params)}")
     print(f"sim-rig: serving {served.name!r} with damper {vr.plant.damper.name} in real time; Ctrl-C stops",
           flush=True)
     stop = threading.Event()
@@ -209,7 +208,7 @@ def run_protocol(args):
     from protocols.library import PROTOCOLS
     from protocols.plan import as_dict, parse
     from protocols.recording import Recorder
-    from rig.loop import RealTimePacer, SimulatedPacer
+    from rig.pacing import RealTimePacer, SimulatedPacer
 
     module = PROTOCOLS.get(args.protocol)
     if module is None:

@@ -10,18 +10,17 @@ rig/configs/virtual.toml (the embedded default), sim-rig.toml and example-cell.t
 from __future__ import annotations
 
 import difflib
-import math
 import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import modbus_map
+from .devices import TRANSPORTS
 from .errors import RigError
+from .schema import Checker, Field, line_of
+from .schema import number as _num
 
 CONFIG_DIR = Path(__file__).parent / "configs"
-CAN_NODES = {"actuator": ("position",), "daq": ("lvdt", "lvt")}
-SERIAL_SIGNALS = ("output",)
 REQUIRED_CHANNELS = ("force", "x")
 # what a channel measures, by its name: SI unit, and the range a working sensor can read
 QUANTITIES = (
@@ -34,35 +33,10 @@ QUANTITIES = (
 AUX_UNITS = ("1", "A", "V", "N", "m", "m/s", "m/s^2", "K", "Pa", "Hz", "W", "s", "rad", "rad/s")
 
 
-@dataclass(frozen=True)
-class Field:
-    kind: str  # "number", "integer", "string", "port" (an integer 1-65535 or "auto")
-    required: bool = False
-    lo: float | None = None
-    hi: float | None = None
-    above: float | None = None  # strictly greater than
-    choices: tuple = ()
-    nonzero: bool = False
-
-
-def _num(**kw):
-    return Field("number", **kw)
-
-
 RIG = {"name": Field("string"), "rate_hz": _num(above=0.0, hi=10000.0), "safe_position": _num()}
+# what the actuator declares it can do (on the device that takes setpoints): limits within
 ACTUATOR_RATINGS = {"stroke": _num(above=0.0, hi=2.0), "force_rating": _num(above=0.0),
                     "velocity_rating": _num(above=0.0, hi=50.0)}
-TRANSPORTS = {
-    "can": {"interface": Field("string", True), "channel": Field("string", True),
-            "node": Field("string", True, choices=tuple(CAN_NODES)), "bitrate": Field("integer", above=0),
-            "host": Field("string"), "port": Field("port"), "timeout_s": _num(above=0.0, hi=60.0),
-            "frame_hz": _num(above=0.0, hi=100000.0), **ACTUATOR_RATINGS},
-    "serial": {"port": Field("string", True), "baudrate": Field("integer", above=0),
-               "frame_hz": _num(above=0.0, hi=100000.0)},
-    "modbus": {"host": Field("string", True), "port": Field("port", True),
-               "device_id": Field("integer", True, lo=0, hi=247), "map": Field("string", True),
-               "poll_hz": _num(above=0.0, hi=1000.0), "timeout_s": _num(above=0.0, hi=10.0)},
-}
 CHANNEL = {"device": Field("string", True), "signal": Field("string", True),
            "gain": _num(required=True, nonzero=True), "offset": _num(), "unit": Field("string", True)}
 LIMITS = {
@@ -128,31 +102,6 @@ def quantity(channel_name):
     return None
 
 
-def _header(parts):
-    """Regex for the TOML table header [a.b.c], each part bare or quoted."""
-    body = r"\s*\.\s*".join(rf"(?:{re.escape(p)}|\"{re.escape(p)}\"|'{re.escape(p)}')" for p in parts)
-    return re.compile(rf"^\s*\[\s*{body}\s*\]")
-
-
-def _line(text, parts, key=None):
-    """1-based line of the table `parts` (or of `key` inside it) in the TOML text, 0 if
-    not found."""
-    lines = text.splitlines()
-    head = _header(parts)
-    for i, ln in enumerate(lines):
-        if head.match(ln):
-            if key is None:
-                return i + 1
-            keyre = re.compile(rf"^\s*(?:{re.escape(key)}|\"{re.escape(key)}\")\s*=")
-            for j in range(i + 1, len(lines)):
-                if lines[j].lstrip().startswith("["):
-                    break
-                if keyre.match(lines[j]):
-                    return j + 1
-            return i + 1
-    return 0
-
-
 def load(path_or_name=None) -> RigConfig:
     """A config file path, or the name of a shipped config (default: virtual)."""
     s = "virtual" if path_or_name is None else str(path_or_name)
@@ -171,78 +120,17 @@ def load(path_or_name=None) -> RigConfig:
     return parse(text, path.name)
 
 
-class _Checker:
-    """Checks tables of a parsed TOML document against the schema, naming FILE:LINE."""
-
-    def __init__(self, text, where):
-        self.text, self.where = text, where
-
-    def fail(self, line, msg):
-        raise RigError(f"{self.where}:{line or 1}: {msg}")
-
-    def line(self, parts, key=None):
-        return _line(self.text, parts, key) or (_line(self.text, parts[:1]) if len(parts) > 1 else 0)
-
-    def table(self, data, parts, what):
-        if not isinstance(data, dict):
-            self.fail(self.line(parts[:-1], parts[-1]) or self.line(parts), f"{what}: expected a table "
-                      f"[{'.'.join(parts)}], got {type(data).__name__} {data!r}"[:160])
-        return data
-
-    def fields(self, data, parts, schema, what):
-        """Checked values of one table: unknown keys refused, types and ranges enforced."""
-        for key in data:
-            if key not in schema:
-                near = difflib.get_close_matches(key, list(schema), n=1, cutoff=0.6)
-                self.fail(self.line(parts, key), f"{what}: unknown key {key!r}"
-                          + (f"; did you mean {near[0]!r}?" if near else f" (known: {', '.join(schema)})"))
-        out = {}
-        for key, f in schema.items():
-            if key not in data:
-                if f.required:
-                    self.fail(self.line(parts), f"{what}: missing {key!r}")
-                continue
-            out[key] = self.value(data[key], f, f"{what}: {key}", self.line(parts, key))
-        return out
-
-    def value(self, v, f, what, line):
-        if f.kind == "string":
-            if not isinstance(v, str) or not v.strip():
-                self.fail(line, f"{what}: expected a text in quotes, got {v!r}")
-            if f.choices and v not in f.choices:
-                self.fail(line, f"{what}: {v!r} is not one of {', '.join(f.choices)}")
-            return v
-        if f.kind == "port":
-            if v == "auto":
-                return v
-            if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 65535:
-                self.fail(line, f"{what}: expected a port number 1-65535, got {v!r}")
-            return v
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or (f.kind == "integer" and not isinstance(v, int)):
-            self.fail(line, f"{what}: expected {'an integer' if f.kind == 'integer' else 'a number'}, got {v!r}")
-        if not math.isfinite(v):
-            self.fail(line, f"{what}: must be a finite number, got {v!r}")
-        if f.nonzero and v == 0:
-            self.fail(line, f"{what}: must not be zero")
-        if f.above is not None and not v > f.above:
-            self.fail(line, f"{what}: must be above {f.above:g}, got {v!r}")
-        if f.lo is not None and v < f.lo or f.hi is not None and v > f.hi:
-            self.fail(line, f"{what}: must be within {f.lo if f.lo is not None else f.above:g}.."
-                            f"{f.hi:g}, got {v!r}")
-        return v
-
-
 def parse(text: str, where="<config>") -> RigConfig:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         m = re.search(r"line (\d+)", str(e))
         raise RigError(f"{where}:{m.group(1) if m else '?'}: {str(e).split(' (at')[0]}") from None
-    c = _Checker(text, where)
+    c = Checker(text, where)
     for name in data:
         if name not in TABLES:
             near = difflib.get_close_matches(name, TABLES, n=1, cutoff=0.6)
-            c.fail(c.line([name]) or _line(text, [name, *list(data[name])[:1]]),
+            c.fail(c.line([name]) or line_of(text, [name, *list(data[name])[:1]]),
                    f"unknown table [{name}]" + (f"; did you mean [{near[0]}]?" if near else
                                                f" (known: {', '.join(f'[{t}]' for t in TABLES)})"))
     rig = c.fields(c.table(data.get("rig", {}), ["rig"], "rig"), ["rig"], RIG, "rig")
@@ -254,7 +142,7 @@ def parse(text: str, where="<config>") -> RigConfig:
     if not limits["x_min"] <= safe <= limits["x_max"]:
         c.fail(c.line(["rig"], "safe_position"), "rig.safe_position: must lie within the stroke limits "
                                                  f"{limits['x_min']:g}..{limits['x_max']:g} m")
-    actuator = next(n for n, d in devices.items() if d.transport == "can" and d.params["node"] == "actuator")
+    actuator = next(n for n, d in devices.items() if TRANSPORTS[d.transport].takes_setpoints(d.params))
     return RigConfig(rig.get("name", where), float(rig.get("rate_hz", 1000)), safe, devices, channels, limits,
                      where, text, actuator, {k: float(v) for k, v in thermal.items()})
 
@@ -270,23 +158,23 @@ def _devices(c, table):
             c.fail(c.line(parts, "transport"), f"device {name!r}: " + (
                 "missing 'transport'" if t is None else f"unknown transport {t!r}") + (
                 f"; did you mean {near[0]!r}?" if near else f" (one of {', '.join(TRANSPORTS)})"))
-        params = c.fields({k: v for k, v in d.items() if k != "transport"}, parts, TRANSPORTS[t], f"device {name!r}")
-        if t == "can" and params["node"] != "actuator":
+        transport = TRANSPORTS[t]
+        params = c.fields({k: v for k, v in d.items() if k != "transport"}, parts,
+                          {**transport.schema, **ACTUATOR_RATINGS}, f"device {name!r}")
+        if not transport.takes_setpoints(params):
             for key in ACTUATOR_RATINGS:
                 if key in params:
-                    c.fail(c.line(parts, key), f"device {name!r}: {key} is a rating of the actuator node only")
-        if t == "modbus":
-            try:
-                modbus_map.load(params["map"])
-            except RigError as e:
-                c.fail(c.line(parts, "map"), f"device {name!r}: {e}")
+                    c.fail(c.line(parts, key), f"device {name!r}: {key} is a rating of the actuator only")
+        problem = transport.check(params)
+        if problem:
+            c.fail(c.line(parts, problem[0]), f"device {name!r}: {problem[1]}")
         devices[name] = Device(name, t, params, c.line(parts))
     if not devices:
         c.fail(1, "no [devices.NAME] tables")
-    actuators = [n for n, d in devices.items() if d.transport == "can" and d.params["node"] == "actuator"]
+    actuators = [n for n, d in devices.items() if TRANSPORTS[d.transport].takes_setpoints(d.params)]
     if len(actuators) != 1:
-        c.fail(c.line(["devices"]), f"exactly one actuator device (CAN node 'actuator') is needed, "
-                                    f"found {len(actuators)}")
+        c.fail(c.line(["devices"]), f"exactly one actuator device (one that takes setpoints: CAN node "
+                                    f"'actuator') is needed, found {len(actuators)}")
     return devices
 
 
@@ -328,7 +216,7 @@ def _limits(c, table, devices):
     L = {k: float(v) for k, v in c.fields(table, ["limits"], LIMITS, "limits").items()}
     if not L["x_min"] < L["x_max"]:
         c.fail(c.line(["limits"], "x_min"), "limits: x_min must be below x_max")
-    act = next(d for d in devices.values() if d.transport == "can" and d.params["node"] == "actuator")
+    act = next(d for d in devices.values() if TRANSPORTS[d.transport].takes_setpoints(d.params))
     for key, rating, what in (("x_max", "stroke", "m"), ("force_max", "force_rating", "N"),
                               ("velocity_max", "velocity_rating", "m/s")):
         if rating in act.params and L[key] > act.params[rating]:
@@ -338,8 +226,4 @@ def _limits(c, table, devices):
 
 
 def signals_of(dev: Device):
-    if dev.transport == "can":
-        return CAN_NODES[dev.params["node"]]
-    if dev.transport == "serial":
-        return SERIAL_SIGNALS
-    return tuple(v.name for v in modbus_map.load(dev.params["map"]).values)
+    return TRANSPORTS[dev.transport].signals(dev.params)

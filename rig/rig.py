@@ -22,10 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import devices
+from .codecs.actuator import STATES, alarm_texts
 from .errors import RigError
-
-STATES = {0: "off", 1: "holding", 2: "following", 3: "alarm"}
-ALARMS = ("hydraulic pressure low", "valve fault", "following error", "interlock open")
 
 
 @dataclass(frozen=True)
@@ -121,7 +119,7 @@ class Rig:
         if st is None:
             return "unknown", []
         state, alarm = st
-        return STATES.get(state, f"state {state}"), [a for i, a in enumerate(ALARMS) if alarm >> i & 1]
+        return STATES.get(state, f"state {state}"), alarm_texts(alarm)
 
     def close(self):
         for d in self.drivers.values():

@@ -7,6 +7,7 @@ position feedback and the actuator are healthy, fault latched.
 from __future__ import annotations
 
 from .config import RigConfig
+from .devices import TRANSPORTS
 
 # channel -> (limit key, test, words); values in SI
 RANGE_CHECKS = (
@@ -23,14 +24,12 @@ class Safety:
     def __init__(self, config: RigConfig):
         self.config = config
         self.L = config.limits
-        # a polled channel may be up to 10 poll periods old; streamed ones stale_s
+        # how old a channel's latest reading may be: stale_s, or what its transport needs
+        # (a polled module's reading, 10 poll periods)
         self.max_age = {}
         for ch in config.channels.values():
             d = config.devices[ch.device]
-            age = self.L["stale_s"]
-            if d.transport == "modbus":
-                age = max(age, 10.0 / float(d.params.get("poll_hz", 10)))
-            self.max_age[ch.name] = age
+            self.max_age[ch.name] = TRANSPORTS[d.transport].max_age(d.params, self.L["stale_s"])
         self._force = None  # (value, since when) to spot a frozen load cell
         self.started = None  # first check: a channel that never reported is stale from then
 

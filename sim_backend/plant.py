@@ -16,20 +16,23 @@ from pathlib import Path
 import numpy as np
 
 from models.damper import load as load_damper
+from rig.codecs.actuator import ALARM_BIT, MODES, STATES
 from models.simulate import Stepper
 
 from . import effects as fx_mod
 
 PARAMS = Path(__file__).parent / "plant.toml"
-MODE_OFF, MODE_HOLD, MODE_FOLLOW = 0, 1, 2
+MODE_OFF, MODE_HOLD, MODE_FOLLOW = MODES["off"], MODES["hold"], MODES["follow"]
 # The damper's force at the end of a step answers the motion X_LAG steps earlier (it is
 # driven by the step's mean velocity, and BDF2 weighs the step's end): the displacement is
 # reported from then, so force and motion readings agree in time. 0.46 measured on the
 # plain cell: `dyno diagnose` finds no lag between them (|tau| < 11 us) where 0.5 leaves
 # 21 us and 0 leaves 240 us.
 X_LAG = 0.46
-STATE_OFF, STATE_HOLDING, STATE_FOLLOWING, STATE_ALARM = 0, 1, 2, 3
-ALARM_FORCE, ALARM_VALVE = 1 << 0, 1 << 1  # see rig/dyno.dbc
+STATE_OFF, STATE_HOLDING, STATE_FOLLOWING, STATE_ALARM = (next(k for k, v in STATES.items() if v == name)
+                                                          for name in ("off", "holding", "following", "alarm"))
+# stalled against a force beyond its rating, the actuator cannot follow its setpoint
+ALARM_FORCE, ALARM_VALVE = ALARM_BIT["following error"], ALARM_BIT["valve fault"]
 
 
 def ramp_lag(y, u0, u, tau, h):

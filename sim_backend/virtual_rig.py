@@ -7,26 +7,19 @@
     ...
     vr.close()
 
-In process: CAN on python-can's virtual bus (or a socketcand server on 127.0.0.1), the load-cell amplifier on a pseudo-terminal,
-the Modbus modules on a TCP server at 127.0.0.1. Faults are injected with `inject(name)`.
+In process: CAN on python-can's virtual bus (or a socketcand server on 127.0.0.1), the
+load-cell amplifier on a pseudo-terminal, the Modbus modules on a TCP server at
+127.0.0.1 (sim_backend/emulators/). Faults are injected with `inject(name)`.
 """
 from __future__ import annotations
 
 import copy
 import gc
-import itertools
-import os
-import socket
 import time
 from pathlib import Path
 
-import can
-
-from .can_nodes import CanNodes
-from .loadcell_amp import LoadCellAmp
-from .modbus_modules import ModbusModules
+from .emulators import EMULATORS, free_port
 from .plant import Plant
-from .socketcand_link import SocketcandLink
 
 FAULTS = {
     "can_bus_off": "CAN nodes fall silent (bus-off)",
@@ -40,13 +33,6 @@ FAULTS = {
     "loadcell_saturated": "load cell amplifier saturated",
     "actuator_alarm": "actuator controller raises a valve alarm",
 }
-_ids = itertools.count()
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def sim_rig_config(folder, rate_hz=None, stale_s=None):
@@ -72,52 +58,18 @@ class VirtualRig:
         self.config = copy.deepcopy(config)
         self.plant = Plant(damper, T0=T0, seed=seed, params=params, effects=effects)
         self.t = 0.0
-        self.can = None
-        self.can_bus = None
-        self.amps = []
-        self.modbus = []
+        self.emulators = []
 
     def clock(self):
         return self.t
 
     def start(self):
-        """Start the emulators; returns the config with "auto" addresses filled in."""
+        """Start an emulator per transport; returns the config with "auto" addresses filled in."""
         cfg = self.config
-        channel = f"dyno-virtual-{os.getpid()}-{next(_ids)}"
-        ports = {}
-        for name, d in cfg.devices.items():
-            if d.transport == "can" and d.params["channel"] == "auto":
-                d.params["interface"], d.params["channel"] = "virtual", channel
-            elif d.transport == "serial":
-                amp = LoadCellAmp(cfg, name)
-                self.amps.append(amp)
-                if d.params["port"] == "auto":
-                    d.params["port"] = amp.path
-                else:  # a fixed path for a separate process: link it to our pty
-                    amp.link(d.params["port"])
-            elif d.transport == "modbus":
-                if d.params["port"] == "auto":
-                    d.params["port"] = ports.setdefault("auto", free_port())
-                ports.setdefault(d.params["port"], [])
-        can_devices = [d for d in cfg.devices.values() if d.transport == "can"]
-        if can_devices:
-            p = can_devices[0].params
-            if p["interface"] == "virtual":
-                self.can_bus = can.Bus(interface="virtual", channel=p["channel"])
-            elif p["interface"] == "socketcand" and p.get("host") == "127.0.0.1":
-                self.can_bus = SocketcandLink(int(p["port"]))
-            else:
-                raise ValueError(f"the virtual rig serves CAN as 'virtual' or 'socketcand' on 127.0.0.1, "
-                                 f"not {p['interface']} {p.get('host', '')} {p['channel']}")
-            self.can = CanNodes(self.can_bus, cfg, self.plant)
-        by_port = {}
-        for name, d in cfg.devices.items():
-            if d.transport == "modbus":
-                by_port.setdefault(int(d.params["port"]), []).append(name)
-        for port, names in by_port.items():
-            m = ModbusModules(cfg, names, port)
-            m.start()
-            self.modbus.append(m)
+        for transport, serve in EMULATORS.items():
+            names = [n for n, d in cfg.devices.items() if d.transport == transport]
+            if names:
+                self.emulators.append(serve(cfg, names, self.plant))
         self.plant.advance(self.plant.h)  # compiles the damper model before anyone listens
         self.publish()
         return cfg
@@ -125,20 +77,16 @@ class VirtualRig:
     def step(self, dt):
         """Apply received setpoints, advance the plant by dt [s] of simulated time, and
         publish one frame per device."""
-        if self.can:
-            self.can.service()
+        for e in self.emulators:
+            e.service()
         self.plant.advance(dt)
         self.t += dt
         self.publish()
 
     def publish(self):
         r = self.plant.readings()
-        if self.can:
-            self.can.publish(r)
-        for a in self.amps:
-            a.publish(r)
-        for m in self.modbus:
-            m.publish(r)
+        for e in self.emulators:
+            e.publish(r)
 
     def run_realtime(self, stop, dt=1e-3, faults=()):
         """Step in real time until the threading.Event `stop` is set; `faults`: (time s,
@@ -159,16 +107,9 @@ class VirtualRig:
     def inject(self, fault, on=True):
         if fault not in FAULTS:
             raise ValueError(f"unknown fault {fault!r} (known: {', '.join(FAULTS)})")
-        targets = [self.plant.faults] + [a.faults for a in self.amps] + [m.faults for m in self.modbus]
-        for t in targets:
+        for t in [self.plant.faults] + [e.faults for e in self.emulators]:
             (t.add if on else t.discard)(fault)
-        if self.can:
-            self.can.bus_off = "can_bus_off" in self.plant.faults
 
     def close(self):
-        for m in self.modbus:
-            m.close()
-        for a in self.amps:
-            a.close()
-        if self.can_bus is not None:
-            self.can_bus.shutdown()
+        for e in self.emulators:
+            e.close()

@@ -15,7 +15,7 @@ from protocols.commands import rig_info
 from protocols.library import PROTOCOLS
 from protocols.plan import MARGIN, ParamError, Segment
 from rig import config
-from rig.loop import SimulatedPacer
+from rig.pacing import SimulatedPacer
 from rig.rig import Rig
 from rig.safety import Safety
 from sim_backend.virtual_rig import VirtualRig

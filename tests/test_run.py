@@ -18,7 +18,7 @@ from protocols.plan import parse
 from protocols.recording import Recorder
 from protocols.commands import rig_info
 from rig import config
-from rig.loop import SimulatedPacer
+from rig.pacing import SimulatedPacer
 from rig.rig import Rig
 from rig.safety import Safety
 from sim_backend.virtual_rig import VirtualRig

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from rig import config
-from rig.loop import ControlLoop, RealTimePacer
+from rig.loop import ControlLoop
+from rig.pacing import RealTimePacer
 from rig.rig import Rig
 from rig.safety import Safety
 from sim_backend.virtual_rig import sim_rig_config

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from rig import config
-from rig.loop import ControlLoop, SimulatedPacer
+from rig.loop import ControlLoop
+from rig.pacing import SimulatedPacer
 from rig.rig import Rig
 from rig.safety import Safety
 from sim_backend.plant import MODE_HOLD, STATE_ALARM
@@ -137,7 +138,7 @@ def test_force_limit_trips(cell):
 def test_a_stalled_loop_trips_its_watchdog(cell):
     import time
 
-    from rig.loop import RealTimePacer
+    from rig.pacing import RealTimePacer
     vr, rig = cell
     stalled = []
 

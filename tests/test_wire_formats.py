@@ -6,7 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rig import can_codec, modbus_map, serial_frame
+from rig.codecs import can as can_codec
+from rig.codecs import loadcell as serial_frame
+from rig.codecs import registers as modbus_map
 from rig.errors import RigError
 
 # --- serial load-cell frames ---------------------------------------------------------------
@@ -130,7 +132,7 @@ def test_unknown_register_map_is_named():
 
 
 def test_socketcand_messages_are_byte_exact():
-    from rig import socketcand
+    from rig.codecs import socketcand
     assert socketcand.parse("< send 100 8 a 0 0 0 2 9 0 0 >") == ("send", 0x100, bytes([10, 0, 0, 0, 2, 9, 0, 0]))
     assert socketcand.parse("< open can0 >") == ("open", "can0")
     assert socketcand.frame(0x101, bytes([0x90, 0xD0]), 12.5) == "< frame 101 12.500000 90D0 >"
@@ -140,7 +142,7 @@ def test_socketcand_messages_are_byte_exact():
 
 @given(st.text(max_size=80))
 def test_socketcand_parse_returns_or_raises_rig_error(text):
-    from rig import socketcand
+    from rig.codecs import socketcand
     msgs, rest = socketcand.split_messages(text)
     assert len(rest) <= 256
     for m in msgs + [text]:
@@ -155,7 +157,7 @@ def test_python_can_socketcand_client_frames_parse(ident, data):
     # what python-can's socketcand client sends, we parse back to the same frame
     import can
     from can.interfaces.socketcand.socketcand import convert_can_message_to_ascii_message
-    from rig import socketcand
+    from rig.codecs import socketcand
     text = convert_can_message_to_ascii_message(can.Message(arbitration_id=ident, data=data, is_extended_id=False))
     assert socketcand.parse(text) == ("send", ident, data)
 

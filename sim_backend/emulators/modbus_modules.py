@@ -10,21 +10,21 @@ from pymodbus.constants import ExcCodes
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from rig import modbus_map
+from rig.codecs import registers as modbus_map
 
-from .emulated import outputs
+from .outputs import outputs
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
 
 
 class ModbusModules:
-    def __init__(self, config, devices, port):
+    def __init__(self, config, devices, port, faults):
         """devices: names of the config's Modbus devices served on this port."""
         self.config, self.port = config, port
         self.maps = {name: modbus_map.load(config.devices[name].params["map"]) for name in devices}
         self.ids = {name: int(config.devices[name].params["device_id"]) for name in devices}
         self.readings = {}  # the plant's latest; encoded only when a client reads
-        self.faults = set()  # modbus_exception, modbus_timeout, open_thermocouple
+        self.faults = faults  # modbus_exception, modbus_timeout, open_thermocouple
         self.loop = asyncio.new_event_loop()
         self.server = None
         self.ready = threading.Event()
@@ -81,3 +81,39 @@ class ModbusModules:
                 asyncio.run_coroutine_threadsafe(self.server.shutdown(), self.loop).result(5.0)
             self.loop.call_soon_threadsafe(self.loop.stop)
         self.thread.join(5.0)
+
+
+class ModbusServers:
+    """A Modbus TCP server on 127.0.0.1 per port of the configuration's modules ("auto":
+    one free port for all), each module at its device id."""
+
+    def __init__(self, config, names):
+        from . import free_port
+        self.faults = set()
+        by_port, auto = {}, None
+        for name in names:
+            p = config.devices[name].params
+            if p["port"] == "auto":
+                auto = auto or free_port()
+                p["port"] = auto
+            by_port.setdefault(int(p["port"]), []).append(name)
+        self.servers = []
+        for port, group in by_port.items():
+            m = ModbusModules(config, group, port, self.faults)
+            m.start()
+            self.servers.append(m)
+
+    def service(self):
+        pass
+
+    def publish(self, readings):
+        for m in self.servers:
+            m.publish(readings)
+
+    def close(self):
+        for m in self.servers:
+            m.close()
+
+
+def serve(config, names, plant):
+    return ModbusServers(config, names)

@@ -11,11 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import config
-from .errors import RigError
-from .loop import ControlLoop, RealTimePacer
-from .rig import Rig
-from .safety import Safety
+from rig import config
+from rig.errors import RigError
+from rig.loop import ControlLoop
+from rig.pacing import RealTimePacer
+from rig.rig import Rig
+from rig.safety import Safety
 
 GOALS = {1000: {"p99_us": 250.0, "overrun_fraction": 0.001}, 500: {"overruns": 0}}
 
@@ -75,8 +76,8 @@ def _pin(sim_pid):
 def baseline(rate_hz, seconds):
     """The machine alone: a bare sleep loop at the same rate and priority, no rig. Its
     late ticks are stalls of the OS or hypervisor that no controller code can avoid."""
-    from .loop import _realtime_priority
-    policy = _realtime_priority(50)
+    from rig.pacing import realtime_priority
+    policy = realtime_priority(50)
     import os
     try:
         dt = 1.0 / rate_hz

@@ -1,20 +1,31 @@
-"""The actuator controller and the LVDT/LVT conditioner as CAN nodes (rig/dyno.dbc) on
-any python-can bus: the in-process virtual bus, or the socketcand link of `dyno sim-rig`."""
+"""The actuator controller and the LVDT/LVT conditioner as CAN nodes (rig/codecs/dyno.dbc)
+on any python-can bus: the in-process virtual bus, or the socketcand server of
+`dyno sim-rig`."""
 from __future__ import annotations
+
+import itertools
+import os
 
 import can
 
-from rig import can_codec
+from rig.codecs import can as can_codec
 
-from .emulated import outputs
+from .outputs import outputs
+from .socketcand_server import SocketcandServer
+
+_ids = itertools.count()
 
 
 class CanNodes:
-    def __init__(self, bus, config, plant):
+    def __init__(self, bus, config, names, plant):
         self.bus, self.config, self.plant = bus, config, plant
-        self.devices = {d.params["node"]: name for name, d in config.devices.items() if d.transport == "can"}
+        self.devices = {config.devices[n].params["node"]: n for n in names}
         self.counter = 0
-        self.bus_off = False  # fault: the nodes fall silent
+        self.faults = set()  # can_bus_off: the nodes fall silent
+
+    @property
+    def bus_off(self):
+        return "can_bus_off" in self.faults
 
     def service(self):
         """Apply every setpoint frame received."""
@@ -48,5 +59,28 @@ class CanNodes:
                                   data=can_codec.encode(name, signals, strict=False)))
 
 
+    def close(self):
+        self.bus.shutdown()
+
+
 def _clip(volts, limit=16.7):
     return float(min(max(volts, -limit), limit))
+
+
+def serve(config, names, plant):
+    """The CAN nodes of `names` on the bus their configuration gives: "auto" becomes an
+    in-process virtual bus; socketcand on 127.0.0.1 is served on its port."""
+    params = [config.devices[n].params for n in names]
+    if params[0]["channel"] == "auto":
+        channel = f"dyno-virtual-{os.getpid()}-{next(_ids)}"
+        for p in params:
+            p["interface"], p["channel"] = "virtual", channel
+    p = params[0]
+    if p["interface"] == "virtual":
+        bus = can.Bus(interface="virtual", channel=p["channel"])
+    elif p["interface"] == "socketcand" and p.get("host") == "127.0.0.1":
+        bus = SocketcandServer(int(p["port"]))
+    else:
+        raise ValueError(f"the virtual rig serves CAN as 'virtual' or 'socketcand' on 127.0.0.1, "
+                         f"not {p['interface']} {p.get('host', '')} {p['channel']}")
+    return CanNodes(bus, config, names, plant)

@@ -11,11 +11,11 @@ import time
 
 import can
 
-from rig import socketcand
+from rig.codecs import socketcand
 from rig.errors import RigError
 
 
-class SocketcandLink:
+class SocketcandServer:
     def __init__(self, port):
         self.server = socket.create_server(("127.0.0.1", port))
         self.port = self.server.getsockname()[1]

@@ -7,22 +7,22 @@ import tty
 
 import numpy as np
 
-from rig import serial_frame
+from rig.codecs import loadcell as serial_frame
 
-from .emulated import outputs
+from .outputs import outputs
 
 FULL_SCALE = 10.0  # V
 
 
 class LoadCellAmp:
-    def __init__(self, config, device):
+    def __init__(self, config, device, faults):
         self.config, self.device = config, device
         self.master, self.slave = os.openpty()
         tty.setraw(self.slave)  # binary: no line discipline between us and the driver
         os.set_blocking(self.master, False)
         self.path = os.ttyname(self.slave)
         self.seq = 0
-        self.faults = set()  # serial_corrupt, serial_truncate, serial_garbage, loadcell_saturated
+        self.faults = faults  # serial_corrupt, serial_truncate, serial_garbage, loadcell_saturated
         self.rng = np.random.default_rng(7)
         self.overruns = 0
 
@@ -60,3 +60,34 @@ class LoadCellAmp:
                 os.close(fd)
             except OSError:
                 pass
+
+
+class LoadCellAmps:
+    """Every serial device of the configuration, one pseudo-terminal each."""
+
+    def __init__(self, config, names):
+        self.faults = set()
+        self.amps = []
+        for name in names:
+            amp = LoadCellAmp(config, name, self.faults)
+            self.amps.append(amp)
+            p = config.devices[name].params
+            if p["port"] == "auto":
+                p["port"] = amp.path
+            else:  # a fixed path for a separate process: link it to our pty
+                amp.link(p["port"])
+
+    def service(self):
+        pass
+
+    def publish(self, readings):
+        for a in self.amps:
+            a.publish(readings)
+
+    def close(self):
+        for a in self.amps:
+            a.close()
+
+
+def serve(config, names, plant):
+    return LoadCellAmps(config, names)

@@ -1,0 +1,139 @@
+"""Modbus TCP: modules polled for their register block (rig/codecs/registers/*.toml),
+each checked at connect by its identity register; on a real-time rig each on a thread of
+its own, so a slow or silent module never stalls the control loop."""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+
+from ..codecs import registers
+from ..errors import RigError
+from ..schema import Field, number
+from . import Transport
+
+logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors ourselves
+
+
+class ModbusModule:
+    """A Modbus TCP module polled for its register block (rig/registers/*.toml).
+
+    On a real-time rig (threaded=True) a thread of its own polls it, so a slow or silent
+    module never stalls the control loop; poll() then hands over what the thread read,
+    or the error it met. On the simulated clock, poll() requests in line when due."""
+
+    def __init__(self, name, params, threaded=False):
+        self.name, self.params, self.threaded = name, params, threaded
+        self.map = registers.load(params["map"])
+        self.period = 1.0 / float(params.get("poll_hz", 10))
+        self.next_poll = None
+        self.client = None
+        self.frames = 0
+        self._results, self._error = [], None
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = None
+
+    def open(self):
+        from pymodbus.client import ModbusTcpClient
+        p = self.params
+        self.client = ModbusTcpClient(p["host"], port=int(p["port"]), timeout=float(p.get("timeout_s", 0.1)),
+                                      retries=0)
+        if not self.client.connect():
+            raise RigError(f"device {self.name!r}: no Modbus server at {p['host']}:{p['port']}")
+        self._identify()
+        self.next_poll = None
+        if self.threaded:
+            self._stop.clear()
+            self._thread = threading.Thread(target=self._run, name=f"modbus:{self.name}", daemon=True)
+            self._thread.start()
+
+    def _identify(self):
+        """A module that says what it is must say it is this one: a wrong device_id would
+        otherwise read another module's registers as this one's values."""
+        from pymodbus.exceptions import ModbusException
+        m, p = self.map, self.params
+        if m.identity is None:
+            return
+        where = f"device {self.name!r}: Modbus unit {p['device_id']} at {p['host']}:{p['port']}"
+        read = self.client.read_input_registers if m.table == "input" else self.client.read_holding_registers
+        try:
+            r = read(m.identity[0], count=1, device_id=int(p["device_id"]))
+        except (ModbusException, OSError) as e:
+            raise RigError(f"{where}: no answer to the identity read ({str(e).split('] ')[-1]})") from None
+        if r.isError():
+            raise RigError(f"{where}: refuses the identity read of register {m.identity[0]} (exception code "
+                           f"{getattr(r, 'exception_code', '?')}); wrong device_id?")
+        if r.registers[0] != m.identity[1]:
+            raise RigError(f"{where}: identifies as 0x{r.registers[0]:04X}, not the {m.name}'s "
+                           f"0x{m.identity[1]:04X}: wrong device_id?")
+
+    def _run(self):
+        t0 = time.monotonic()
+        while not self._stop.is_set():
+            try:
+                out = self._request()
+            except RigError as e:
+                with self._lock:
+                    self._error = e
+                return
+            with self._lock:
+                self._results.extend(out)
+            self._stop.wait(max(0.0, self.period - (time.monotonic() - t0) % self.period))
+
+    def poll(self, now):
+        if self.threaded:
+            with self._lock:
+                out, self._results = self._results, []
+                if self._error is not None:
+                    raise self._error
+            return out
+        if self.next_poll is not None and now < self.next_poll:
+            return []
+        self.next_poll = now + self.period if self.next_poll is None else max(self.next_poll + self.period, now)
+        return self._request()
+
+    def _request(self):
+        from pymodbus.exceptions import ModbusException
+        m = self.map
+        read = self.client.read_input_registers if m.table == "input" else self.client.read_holding_registers
+        try:
+            r = read(m.start, count=m.count, device_id=int(self.params["device_id"]))
+        except (ModbusException, OSError) as e:
+            raise RigError(f"device {self.name!r}: Modbus request failed ({str(e).split('] ')[-1]})") from None
+        if r.isError():
+            raise RigError(f"device {self.name!r}: Modbus exception response, code {getattr(r, 'exception_code', '?')}")
+        self.frames += 1
+        return [(name, value, fault) for name, (value, fault) in registers.decode(m, r.registers).items()]
+
+    def close(self):
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(2.0)
+            self._thread = None
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+
+
+def _check(params):
+    try:
+        registers.load(params["map"])
+    except RigError as e:
+        return "map", str(e)
+    return None
+
+
+TRANSPORT = Transport(
+    name="modbus",
+    schema={"host": Field("string", True), "port": Field("port", True),
+            "device_id": Field("integer", True, lo=0, hi=247), "map": Field("string", True),
+            "poll_hz": number(above=0.0, hi=1000.0), "timeout_s": number(above=0.0, hi=10.0)},
+    signals=lambda p: tuple(v.name for v in registers.load(p["map"]).values),
+    drivers=lambda devices, threaded: {n: ModbusModule(n, d.params, threaded) for n, d in devices.items()},
+    address=lambda p: f"{p['host']}:{p['port']} id {p['device_id']}",
+    rate_hz=lambda p, loop_hz: float(p.get("poll_hz", 10)),
+    # a polled channel may be up to 10 poll periods old
+    max_age=lambda p, stale_s: max(stale_s, 10.0 / float(p.get("poll_hz", 10))),
+    check=_check,
+)

@@ -1,0 +1,69 @@
+"""Who owns time in the control loop: SimulatedPacer steps the virtual rig by one period
+per tick (as fast as the CPU allows); RealTimePacer sleeps to wall-clock deadlines and
+reports each tick's lateness. A pacer only paces: the time of a tick is the rig's clock."""
+from __future__ import annotations
+
+import os
+import time
+
+
+def realtime_priority(priority):
+    """Switch this thread to SCHED_FIFO; returns the policy to restore, or None if not
+    asked for or not allowed."""
+    if not priority or not hasattr(os, "SCHED_FIFO"):
+        return None
+    old = (os.sched_getscheduler(0), os.sched_getparam(0))
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(int(priority)))
+    except OSError:
+        return None
+    return old
+
+
+class SimulatedPacer:
+    """Simulated clock: each tick advances the virtual rig by one period."""
+
+    def __init__(self, virtual_rig, rate_hz):
+        self.vr, self.dt = virtual_rig, 1.0 / rate_hz
+
+    def wait_next(self):
+        self.vr.step(self.dt)
+        return 0.0
+
+
+class RealTimePacer:
+    """Wall clock: sleeps to each deadline (the last 0.1 ms spun for precision); returns
+    the tick's lateness. With a virtual rig, steps it by the elapsed time. It only paces:
+    the time of a tick is the rig's clock."""
+
+    def __init__(self, rate_hz, virtual_rig=None, spin_s=1e-4, fifo_priority=None):
+        """fifo_priority: run the loop thread under SCHED_FIFO at this priority (1-99)
+        while it runs, if the OS allows (Linux, privileged); as a dedicated cell would."""
+        self.dt, self.vr, self.spin = 1.0 / rate_hz, virtual_rig, spin_s
+        self.fifo_priority = fifo_priority
+        self.t0 = None
+        self.k = 0
+        self.missed = 0  # ticks skipped after stalls
+
+    def wait_next(self):
+        if self.t0 is None:
+            self.t0 = time.perf_counter()
+        self.k += 1
+        due = deadline = self.t0 + self.k * self.dt
+        behind = time.perf_counter() - deadline
+        skip = 0
+        if behind > self.dt:  # a stall: skip the ticks it swallowed rather than burst them
+            skip = int(behind / self.dt)
+            self.k += skip
+            self.missed += skip
+            deadline += skip * self.dt
+        while True:
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                break
+            if left > self.spin:
+                time.sleep(left - self.spin)
+        now = time.perf_counter()
+        if self.vr is not None:
+            self.vr.step(self.dt * (1 + skip))
+        return now - due  # lateness counts the stall

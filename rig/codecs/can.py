@@ -1,4 +1,4 @@
-"""CAN frame layouts, decoded and encoded through the DBC file (rig/dyno.dbc, documented
+"""CAN frame layouts, decoded and encoded through the DBC file (rig/codecs/dyno.dbc, documented
 in docs/wiring.md) with cantools: no hand-packed structs."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Modbus register maps as data (rig/registers/*.toml, documented in docs/wiring.md):
+"""Modbus register maps as data (rig/codecs/registers/*.toml, documented in docs/wiring.md):
 which registers hold which value, their type, word order, scale and fault bits.
 
 decode() turns a block of raw 16-bit registers into {value name: (value, fault or None)};

@@ -16,7 +16,7 @@ logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors our
 
 
 class ModbusModule:
-    """A Modbus TCP module polled for its register block (rig/registers/*.toml).
+    """A Modbus TCP module polled for its register block (rig/codecs/registers/*.toml).
 
     On a real-time rig (threaded=True) a thread of its own polls it, so a slow or silent
     module never stalls the control loop; poll() then hands over what the thread read,

@@ -1,5 +1,5 @@
 """The load-cell amplifier on a pseudo-terminal: the driver opens the slave like any tty.
-Frames as rig/serial_frame.py; an output beyond +/-10 V saturates and says so."""
+Frames as rig/codecs/loadcell.py; an output beyond +/-10 V saturates and says so."""
 from __future__ import annotations
 
 import os

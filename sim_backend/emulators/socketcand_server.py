@@ -1,5 +1,5 @@
 """The virtual rig's CAN bus served to another process as a socketcand daemon on
-127.0.0.1 (rig/socketcand.py): the controller opens it with python-can's socketcand
+127.0.0.1 (rig/codecs/socketcand.py): the controller opens it with python-can's socketcand
 interface, as it would a real socketcand on a cell's Linux box. To the CAN nodes it looks
 like a python-can bus (send, recv)."""
 from __future__ import annotations

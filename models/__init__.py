@@ -1,16 +1,25 @@
-"""Damper physics library (B. Warner 1996, chapters 3-4)."""
+"""Damper physics library (B. Warner 1996, chapters 3-6): the damper model as data
+(damper.py, presets/), its equations (physics/), and what is built on them: the
+identification (identify/), the diagnosis of missing physics (diagnose/), the quarter car
+(quarter_car/) and the thesis validation (validation/)."""
 import hashlib
 import os
 import sys
 from pathlib import Path
 
 
+# the sources of compiled code: the equations, and the kernels built on them elsewhere
+COMPILED = ("physics/*.py", "quarter_car/sim.py", "diagnose/candidates.py", "identify/valves.py")
+
+
 def _numba_cache_dir() -> str:
-    # Compiled kernels read layout constants from other modules (models/kernel.py), but
+    # Compiled kernels read layout constants from other modules (physics/kernel.py), but
     # numba's cache only watches each function's own file: an edit elsewhere would reuse
-    # stale machine code. Key the whole cache on all model sources instead.
+    # stale machine code. Key the whole cache on the compiled sources instead (not on
+    # every model file: editing the diagnosis's reports does not recompile the physics).
     h = hashlib.sha1()
-    for p in sorted(Path(__file__).parent.glob("*.py")):
+    root = Path(__file__).parent
+    for p in sorted(q for pattern in COMPILED for q in root.glob(pattern)):
         h.update(p.read_bytes())
     return str(Path.home() / ".cache" / "dyno" / f"numba-{h.hexdigest()[:12]}")
 

@@ -13,7 +13,7 @@ import typing
 from dataclasses import dataclass
 from pathlib import Path
 
-from .gas_spring import T_STD
+from models.physics.gas_spring import T_STD
 
 PRESET_DIR = Path(__file__).parent / "presets"
 T_MAX_RATED = 423.15  # K (150 C): top of the thesis's racing-damper temperature range
@@ -358,5 +358,7 @@ def check(model) -> None:
             if getattr(c, name) is None:
                 raise DamperError(f"compressibility.{name}: missing (or give beta_inv)")
         _positive(c.C_ibeta, "compressibility.C_ibeta")
+        # eq 3.32's slope: zero would be a constant modulus (give beta_inv), never capped
+        _positive(c.C_sbeta, "compressibility.C_sbeta")
         _positive(c.beta_min_inv, "compressibility.beta_min_inv")
     _positive(model.temperature.T_ref, "temperature.T_ref")

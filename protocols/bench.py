@@ -13,7 +13,7 @@ from rig import config as rig_config
 from rig.devices import TRANSPORTS
 from rig.errors import RigError
 
-from .recording import Recorder
+from protocols.recording import Recorder
 
 
 def protocol_rate(cfg):

@@ -10,18 +10,39 @@ from models.damper import DamperError, load
 from rig.errors import RigError
 
 
-def _validate(args):
-    from models.validation import format_table, rows
-    r = rows()
-    if args.json:
-        print(json.dumps({"rows": r}, indent=2))
+def _emit(args, title, result, text, body=None, note=""):
+    """A command's result: JSON (--json), a stamped Markdown page for docs/results
+    (--markdown; body defaults to a table of the result's values) or text lines."""
+    if getattr(args, "json", False):
+        print(json.dumps(result, indent=2))
+    elif getattr(args, "markdown", False):
+        from protocols.reports import markdown as md
+        print(md.document(title, body if body is not None else md.table(("quantity", "value"), md.flat(result)), note))
     else:
-        print(format_table(r))
+        print(text)
     return 0
 
 
+def _validate(args):
+    from models.validation import format_table, rows
+    from protocols.reports import markdown as md
+    r = rows()
+    body = []
+    for group in dict.fromkeys(x["group"] for x in r):
+        g = [x for x in r if x["group"] == group]
+        body.append(f"## {group} rows: {sum(x['pass'] for x in g)} of {len(g)} pass\n\n" + md.table(
+            ("source", "case", "unit", "thesis", "model", "error", "tolerance", "pass", "kind"),
+            [(x["source"], x["case"], x["unit"], f"{x['thesis']:.4g}", f"{x['model']:.4g}",
+              "-" if x["rel_error"] is None else f"{100 * x['rel_error']:.1f} %",
+              f"±{x['tolerance']:g} {x['unit']}" if x["tolerance_type"] == "absolute" else f"{100 * x['tolerance']:.0f} %",
+              "PASS" if x["pass"] else "**FAIL**", x["note"]) for x in g]))
+    n = sum(x["pass"] for x in r)
+    return _emit(args, "Validation against the thesis", {"rows": r}, format_table(r), "\n\n".join(body),
+                 f"{n} of {len(r)} rows pass. Why rows fail: docs/model.md.")
+
+
 def _plot_damper(args):
-    from models.plots import plot_damper
+    from protocols.reports.plots import plot_damper
     d = load(args.damper)
     if d.layout == "simplified":
         raise DamperError(f"{d.name}: simplified models have no loops to plot (damping only, eq 6.1/6.2)")
@@ -35,14 +56,14 @@ def _plot_damper(args):
 
 
 def _freqs(args):
-    from models.sweeps import FREQS
+    from models.quarter_car.sweeps import FREQS
     return FREQS if args.freq is None else args.freq
 
 
 def _plot_quarter_car(args):
     from models import quarter_car as qcm
-    from models import quarter_car_plots as qp
-    from models import sweeps
+    from protocols.reports import quarter_car as qp
+    from models.quarter_car import sweeps
     car = qcm.load(args.car)
     d = load(args.damper)
     T = float(args.temp) + 273.15
@@ -64,8 +85,8 @@ def _plot_quarter_car(args):
 
 def _plot_parametric(args):
     from models import quarter_car as qcm
-    from models import quarter_car_plots as qp
-    from models import sweeps
+    from protocols.reports import quarter_car as qp
+    from models.quarter_car import sweeps
     car = qcm.load(args.car)
     study = sweeps.parametric_study(car, args.damper, [a * 1e-3 for a in args.amplitude_mm], _freqs(args),
                                     workers=args.workers, progress=True)
@@ -76,8 +97,8 @@ def _plot_parametric(args):
 
 def _plot_simplified(args):
     from models import quarter_car as qcm
-    from models import quarter_car_plots as qp
-    from models import sweeps
+    from protocols.reports import quarter_car as qp
+    from models.quarter_car import sweeps
     res = sweeps.simplified_comparison(qcm.load(args.car), args.damper, freqs=_freqs(args),
                                        workers=args.workers, progress=True)
     print(qp.plot_simplified(res, _out_dir(args.out) / "simplified-models.png"))
@@ -90,16 +111,13 @@ def _out_dir(path):
 
 
 def _bench_sweep(args):
-    from models.bench import bench_sweep
+    from protocols.bench_sim import bench_sweep
     result = bench_sweep(workers=args.workers)
-    if args.json:
-        print(json.dumps(result, indent=2))
-        return 0
-    print(f"{result['damper']} sweep, {result['points']} points ({len(result['amplitudes_m'])} amplitudes x "
-          f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
-          f"{result['workers']} workers: {result['wall_s']:.1f} s wall "
-          f"(goal < {result['goal_wall_s']:.0f} s: {'met' if result['goal_met'] else 'NOT met'})")
-    return 0
+    text = (f"{result['damper']} sweep, {result['points']} points ({len(result['amplitudes_m'])} amplitudes x "
+            f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
+            f"{result['workers']} workers: {result['wall_s']:.1f} s wall "
+            f"(goal < {result['goal_wall_s']:.0f} s: {'met' if result['goal_met'] else 'NOT met'})")
+    return _emit(args, "Quarter-car sweep time (dyno bench sweep)", result, text)
 
 
 def _bench_loop(args):
@@ -110,71 +128,56 @@ def _bench_loop(args):
     stats = bench_loop(args.rate, args.seconds)
     stats["goals_met"] = goals_met(stats)
     stats["machine_baseline"] = baseline(args.rate, args.seconds)
-    if args.json:
-        print(json.dumps(stats, indent=2))
-        return 0
-    j = stats["jitter_us"]
-    print(f"loop at {stats['rate_hz_target']:g} Hz for {args.seconds:g} s against sim-rig: achieved "
+    j, b = stats["jitter_us"], stats["machine_baseline"]
+    lines = [f"loop at {stats['rate_hz_target']:g} Hz for {args.seconds:g} s against sim-rig: achieved "
           f"{stats['rate_hz']:.1f} Hz, jitter p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, p99.9 {j['p999']:.0f} us, "
           f"overruns {stats['overruns']} of {stats['ticks']} ticks"
-          + (f", FAULT: {stats['fault']}" if stats["fault"] else ""))
-    b = stats["machine_baseline"]
-    print(f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
-          f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us")
+          + (f", FAULT: {stats['fault']}" if stats["fault"] else ""),
+             f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
+          f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us"]
     if stats["goals_met"] is not None:
-        print("goals:", "met" if stats["goals_met"] else "NOT met")
-    return 0
+        lines.append("goals: " + ("met" if stats["goals_met"] else "NOT met"))
+    return _emit(args, "Control-loop timing (dyno bench loop)", stats, "\n".join(lines))
 
 
 def _bench_log(args):
     from protocols.bench import bench_log
     r = bench_log(args.seconds)
-    if args.json:
-        print(json.dumps(r, indent=2))
-        return 0
-    print(f"MCAP logging: {r['samples_per_s']:,.0f} samples/s sustained ({r['bytes_per_sample']:.1f} bytes/sample "
-          f"on disk), {r['ratio']:.0f}x the {r['protocol_samples_per_s']:,.0f} samples/s a protocol records "
-          f"(goal >= {r['goal_ratio']:.0f}x: {'met' if r['goal_met'] else 'NOT met'})")
-    return 0
+    text = (f"MCAP logging: {r['samples_per_s']:,.0f} samples/s sustained ({r['bytes_per_sample']:.1f} bytes/sample "
+            f"on disk), {r['ratio']:.0f}x the {r['protocol_samples_per_s']:,.0f} samples/s a protocol records "
+            f"(goal >= {r['goal_ratio']:.0f}x: {'met' if r['goal_met'] else 'NOT met'})")
+    return _emit(args, "MCAP logging rate (dyno bench log)", r, text)
 
 
 def _bench_diagnose(args):
-    import json
-
     from protocols.bench import bench_diagnose
     r = bench_diagnose(args.seconds, args.rate)
-    if args.json:
-        print(json.dumps(r))
-    else:
-        print(f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
-              f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}")
-    return 0
+    text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
+            f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}")
+    return _emit(args, "Diagnosis time (dyno bench diagnose)", r, text)
 
 
 def _bench_identify(args):
     from protocols.bench import bench_identify
     r = bench_identify(args.recording, args.damper)
-    if args.json:
-        print(json.dumps(r, indent=2))
-        return 0
-    print(f"identify {r['recording']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
-          f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %")
-    return 0
+    text = (f"identify {r['recording']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
+            f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %")
+    return _emit(args, "Identification time (dyno bench identify)", r, text)
 
 
 def _bench_sim(args):
-    from models.bench import bench
+    from protocols.bench_sim import bench
+    from protocols.reports import markdown as md
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
-    if args.json:
-        print(json.dumps(result, indent=2))
-        return 0
-    for name, c in result["cases"].items():
-        print(f"{name:10s} real-time factor {c['realtime_factor']:7.0f}x   "
-              f"vs solve_ivp Radau {c['speedup_vs_reference']:6.0f}x   "
-              f"max force diff {100 * c['max_force_diff_fraction']:.3f} % of peak")
-    print("goals (>= 200x real time, >= 10x reference, < 0.5 % force):",
-          "met" if result["goals_met"] else "NOT met")
-    return 0
+    goals = "goals (>= 200x real time, >= 10x reference, < 0.5 % force): " + ("met" if result["goals_met"] else "NOT met")
+    lines = [f"{name:10s} real-time factor {c['realtime_factor']:7.0f}x   "
+             f"vs solve_ivp Radau {c['speedup_vs_reference']:6.0f}x   "
+             f"max force diff {100 * c['max_force_diff_fraction']:.3f} % of peak" for name, c in result["cases"].items()]
+    body = md.table(("damper", "real-time factor", "vs solve_ivp Radau", "max force difference"),
+                    [(n, f"{c['realtime_factor']:.0f}x", f"{c['speedup_vs_reference']:.0f}x faster",
+                      f"{100 * c['max_force_diff_fraction']:.2f} % of peak") for n, c in result["cases"].items()])
+    return _emit(args, "Damper model speed (dyno bench sim)", result, "\n".join(lines + [goals]), body,
+                 f"{args.seconds:g} s simulated per damper, 12.7 mm at 16 Hz, output every 0.1 ms; {goals}.")
 
 
 def _identify(args):
@@ -235,8 +238,16 @@ def number(lo=None, hi=None, integer=False, above=None):
 def parser():
     p = Parser(prog="dyno", description="Damper dyno controller and damper model tools")
     sub = p.add_subparsers(dest="cmd", required=True)
+    for add in (_model_commands, _cell_commands, _analysis_commands, _bench_commands):
+        add(sub)
+    return p
+
+
+def _model_commands(sub):
+    """The damper model on its own: the thesis validation and plots."""
     v = sub.add_parser("validate", help="reproduce the thesis validation table")
     v.add_argument("--json", action="store_true", help="machine-readable {\"rows\": [...]}")
+    v.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     v.set_defaults(func=_validate)
     pl = sub.add_parser("plot", help="write plots as PNG")
     plsub = pl.add_subparsers(dest="what", required=True)
@@ -267,7 +278,11 @@ def parser():
         q.add_argument("--workers", type=number(1, 256, integer=True), default=None,
                        help="processes (default: all cores)")
         q.set_defaults(func=func)
-    from . import commands
+
+
+def _cell_commands(sub):
+    """The test cell: serve the virtual rig, run a protocol, recover and report recordings."""
+    from protocols import commands
     sr = sub.add_parser("sim-rig", help="serve the virtual rig as its own process (CAN socketcand, pty, Modbus TCP)")
     sr.add_argument("--config", default="sim-rig", help="rig config to serve (default: sim-rig)")
     sr.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
@@ -299,6 +314,16 @@ def parser():
     rp.add_argument("file")
     rp.add_argument("--out", required=True, help="output directory")
     rp.set_defaults(func=commands.report_file)
+    rg = sub.add_parser("rig", help="the test cell")
+    rgsub = rg.add_subparsers(dest="what", required=True)
+    rc = rgsub.add_parser("check", help="connect to every device and print each channel")
+    rc.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
+    rc.add_argument("--damper", default="koni", help="damper in the embedded virtual rig (default koni)")
+    rc.set_defaults(func=commands.rig_check)
+
+
+def _analysis_commands(sub):
+    """From recordings: identify, diagnose, prove the diagnosis, import CSV."""
     idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
     idf.add_argument("recordings", nargs="+", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
     idf.add_argument("--damper", default=None,
@@ -320,6 +345,7 @@ def parser():
                     help="recordings per effect (default 10)")
     pv.add_argument("--effects", help="comma-separated subset of effects (default: all, plus nulls)")
     pv.add_argument("--json", action="store_true")
+    pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     pv.add_argument("--calibrate", action="store_true",
                     help="find each effect's concealed value (contribution = force noise) and print it")
     pv.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
@@ -333,46 +359,49 @@ def parser():
                     help="time, displacement, velocity, force, temperature, pressure or aux.NAME; "
                          "units e.g. ms, mm, mm/s, kN, C, bar (default SI)")
     im.set_defaults(func=_import)
-    rg = sub.add_parser("rig", help="the test cell")
-    rgsub = rg.add_subparsers(dest="what", required=True)
-    rc = rgsub.add_parser("check", help="connect to every device and print each channel")
-    rc.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
-    rc.add_argument("--damper", default="koni", help="damper in the embedded virtual rig (default koni)")
-    rc.set_defaults(func=commands.rig_check)
+
+
+def _bench_commands(sub):
+    """Benchmarks (measured numbers, not tests)."""
     b = sub.add_parser("bench", help="benchmarks (not tests)")
     bsub = b.add_subparsers(dest="what", required=True)
     bs = bsub.add_parser("sim", help="compressible model speed vs a solve_ivp Radau reference")
     bs.add_argument("--json", action="store_true")
+    bs.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bs.add_argument("--seconds", type=number(above=0, hi=3600), default=10.0, help="simulated seconds (default 10)")
     bs.add_argument("--ref-seconds", type=number(above=0, hi=3600), default=None,
                     help="simulate only this much with the slow reference (default: all)")
     bs.set_defaults(func=_bench_sim)
     bw = bsub.add_parser("sweep", help="quarter-car frequency sweep time (2 amplitudes x 60 frequencies, Koni)")
     bw.add_argument("--json", action="store_true")
+    bw.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bw.add_argument("--workers", type=number(1, 256, integer=True), default=None,
                     help="processes (default: all cores)")
     bw.set_defaults(func=_bench_sweep)
     bg = bsub.add_parser("log", help="samples per second into MCAP against a protocol's data rate")
     bg.add_argument("--seconds", type=number(above=0, hi=3600), default=5.0)
     bg.add_argument("--json", action="store_true")
+    bg.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bg.set_defaults(func=_bench_log)
     bi = bsub.add_parser("identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")
     bi.add_argument("recording", nargs="?", default=None,
                     help="a standard-sequence recording (default: record one on the virtual rig first, ~4 min)")
     bi.add_argument("--damper", default="koni", help="damper for the recording made first (default koni)")
     bi.add_argument("--json", action="store_true")
+    bi.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bi.set_defaults(func=_bench_identify)
     bd = bsub.add_parser("diagnose", help="dyno diagnose's time on 60 s recorded at 5 kHz (goal < 3 min)")
     bd.add_argument("--seconds", type=number(above=0, hi=3600), default=60.0)
     bd.add_argument("--rate", type=number(above=0, hi=100000), default=5000.0, help="sample rate [Hz] (default 5000)")
     bd.add_argument("--json", action="store_true")
+    bd.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bd.set_defaults(func=_bench_diagnose)
     bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
     bl.add_argument("--json", action="store_true")
+    bl.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bl.set_defaults(func=_bench_loop)
-    return p
 
 
 def main(argv=None):

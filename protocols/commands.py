@@ -13,7 +13,7 @@ from rig.errors import RigError
 from rig.rig import Rig
 from rig.safety import Safety
 
-from .files import writable_file
+from protocols.files import writable_file
 
 CHECK_S = 0.5  # how long rig check listens
 
@@ -156,7 +156,7 @@ def rig_info(cfg, damper):
     model), the rig's limits, the damper model's response for the pre-flight check."""
     import numpy as np
 
-    from models.simulate import simulate
+    from models.physics.simulate import simulate
     from protocols.plan import RigInfo
     L = cfg.limits
     peak = response = None
@@ -202,50 +202,19 @@ def _output(args, name):
 def run_protocol(args):
     import json as _json
 
-    from models.damper import load as load_damper
     from models.damper import to_dict
-    from protocols import preflight, runner
-    from protocols.library import PROTOCOLS
-    from protocols.plan import as_dict, parse
+    from protocols import runner
+    from protocols.plan import as_dict
     from protocols.recording import Recorder
-    from rig.pacing import RealTimePacer, SimulatedPacer
 
-    module = PROTOCOLS.get(args.protocol)
-    if module is None:
-        raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
-    params = parse(module.Params, args.params)
-    if args.rig is not None and (args.effect or args.plain):
-        raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
-    plant = virtual_plant(args)
-    damper = load_damper(plant.pop("damper"))
-    if damper.layout == "simplified":
-        raise RigError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
-                       f"rig; give a full damper (a preset or JSON)")
-    if args.rrd:
-        writable_file(args.rrd, "--rrd")
-    cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
-    info = rig_info(cfg, damper)
-    skipped = module.check(params, info)  # refuse before anything connects or moves
-    for name, why in skipped:
-        print(f"skipping {name}: {why}", file=sys.stderr)
-    forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
-    print(preflight.summary(forecast), file=sys.stderr)
+    module, params, plant, damper, cfg, info = _plan_run(args)
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
     claim = _output(args, module.NAME)
-    vr = rig = recorder = live = ident = result = None
+    vr = rig = recorder = live = ident = result = pacer = None
     errors = []  # the first is the one that ended the run; later ones are reported after it
     previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
-        if args.rig is None:
-            from sim_backend.virtual_rig import VirtualRig
-            vr = VirtualRig(cfg, damper=damper, **plant)
-            cfg = vr.start()
-            rig = Rig(cfg, clock=vr.clock)
-            pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
-        else:
-            rig = Rig(cfg)
-            pacer = RealTimePacer(cfg.rate_hz)
-        rig.open()
+        vr, rig, cfg, pacer = _open_rig(args, cfg, damper, plant)
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
@@ -276,6 +245,71 @@ def run_protocol(args):
         if ident is not None:
             ident.cancel()
         raise RigError(errors[0] if errors else "run did not start")
+    return _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident)
+
+
+def _plan_run(args):
+    """What a run needs, checked before anything connects or moves: (protocol module,
+    params, virtual plant options, damper, rig config, RigInfo)."""
+    from models.damper import load as load_damper
+    from protocols import preflight
+    from protocols.library import PROTOCOLS
+    from protocols.plan import parse
+
+    module = PROTOCOLS.get(args.protocol)
+    if module is None:
+        raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
+    params = parse(module.Params, args.params)
+    if args.rig is not None and (args.effect or args.plain):
+        raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
+    plant = virtual_plant(args)
+    damper = load_damper(plant.pop("damper"))
+    if damper.layout == "simplified":
+        raise RigError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
+                       f"rig; give a full damper (a preset or JSON)")
+    if args.rrd:
+        writable_file(args.rrd, "--rrd")
+    cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
+    info = rig_info(cfg, damper)
+    skipped = module.check(params, info)  # refuse before anything connects or moves
+    for name, why in skipped:
+        print(f"skipping {name}: {why}", file=sys.stderr)
+    forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
+    print(preflight.summary(forecast), file=sys.stderr)
+    return module, params, plant, damper, cfg, info
+
+
+def _open_rig(args, cfg, damper, plant):
+    """(virtual rig or None, open Rig, config as served, pacer): the embedded virtual rig
+    unless --rig names a cell."""
+    from rig.pacing import RealTimePacer, SimulatedPacer
+    vr = None
+    if args.rig is None:
+        from sim_backend.virtual_rig import VirtualRig
+        vr = VirtualRig(cfg, damper=damper, **plant)
+        cfg = vr.start()
+        rig = Rig(cfg, clock=vr.clock)
+        pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
+    else:
+        rig = Rig(cfg)
+        pacer = RealTimePacer(cfg.rate_hz)
+    try:
+        rig.open()
+    except BaseException:
+        for close in (rig.close, vr and vr.close):
+            if close:
+                try:
+                    close()
+                except Exception:  # noqa: BLE001 - the open's error is the one to report
+                    pass
+        raise
+    return vr, rig, cfg, pacer
+
+
+def _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident):
+    """Say what was recorded and what stopped it, finish the live identification; the exit
+    status."""
+    from rig.pacing import RealTimePacer
     if result.fault:
         errors.insert(0, result.fault)
     if recorder.kept:

@@ -11,11 +11,11 @@ import numpy as np
 from models.diagnose import diagnose
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
-from models.diagnose_data import DiagnoseError
+from models.diagnose.data import DiagnoseError
 from protocols.files import make_dir
 from rig.errors import RigError
 
-from .report import load
+from protocols.report import load
 
 # how each accepted effect is said: (sentence, parameter shown, factor, unit)
 SAY = {
@@ -141,7 +141,8 @@ def to_json(res):
 
 
 def report(res, out_dir: Path):
-    from models.plots import plt
+    from protocols.reports.page import Page, save
+    from protocols.reports.plots import plt
     out_dir.mkdir(parents=True, exist_ok=True)
     d = res["data"]
     stages = [("baseline", res["baseline"]["residual"])] + [(f"+ {s['effect']}", s["residual_after"]) for s in res["steps"]]
@@ -151,9 +152,7 @@ def report(res, out_dir: Path):
             ax.plot(xv, r, ",", alpha=0.5)
             ax.set_xlabel(lab)
             ax.set_ylabel(f"residual [N] ({name})")
-    fig.tight_layout()
-    fig.savefig(out_dir / "residuals.png", dpi=80)
-    plt.close(fig)
+    save(fig, out_dir / "residuals.png")
     seg = int(np.argmax([np.ptp(d.F[d.segment == s]) for s in range(len(d.segments))]))
     k = d.segment == seg
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
@@ -169,18 +168,17 @@ def report(res, out_dir: Path):
     ax[1].plot(d.v[k], base[k], "C1", lw=0.6)
     ax[1].plot(d.v[k], res["final"]["force"][k], "C2", lw=0.6)
     ax[1].set_xlabel("velocity [m/s]")
-    fig.tight_layout()
-    fig.savefig(out_dir / "loops.png", dpi=80)
-    plt.close(fig)
-    rows = "".join(f"<tr><td>{c['effect']}</td><td>{c['round']}</td><td>{100 * c['nrmse_heldout']:.3f} %</td>"
-                   f"<td>{c['p_value']:.4f}</td><td>{c['relevance']:+.2f}</td></tr>" for c in res["candidates"])
-    text = summary(res).replace("\n", "</p><p>")
-    (out_dir / "index.html").write_text(
-        f"<html><head><meta charset='utf-8'><title>dyno diagnose</title></head><body><h1>Diagnosis</h1><p>{text}</p>"
-        f"<h2>Residual maps, before and after each accepted effect</h2><img src='residuals.png'>"
-        f"<h2>Loops</h2><img src='loops.png'><h2>Candidates</h2><table border=1><tr><th>effect</th><th>round</th>"
-        f"<th>held-out error</th><th>p</th><th>gain [noise variances]</th></tr>{rows}</table></body></html>")
-    return out_dir / "index.html"
+    save(fig, out_dir / "loops.png")
+    page = Page("Diagnosis")
+    for line in summary(res).splitlines():
+        page.paragraph(line)
+    page.figure("Residual maps, before and after each accepted effect", "residuals.png")
+    page.figure("Loops", "loops.png")
+    page.heading("Candidates")
+    page.table(("effect", "round", "held-out error", "p", "gain [noise variances]"),
+               [(c["effect"], c["round"], f"{100 * c['nrmse_heldout']:.3f} %", f"{c['p_value']:.4f}",
+                 f"{c['relevance']:+.2f}") for c in res["candidates"]])
+    return page.write(out_dir)
 
 
 def run(args):

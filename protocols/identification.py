@@ -14,6 +14,7 @@ from models import damper as dm
 from models.identify import IdentifyError, identify
 from protocols.files import make_dir, writable_file
 from protocols.report import load
+from protocols.reports.page import number
 from rig.errors import RigError
 
 
@@ -77,7 +78,7 @@ def run(args):
         raise RigError(f"--out {out}: cannot write the model ({e.strerror or e})") from None
     doc = summary(res)
     if truth is not None:
-        from models.identify_compare import compare
+        from models.identify.compare import compare
         T = float(np.mean([s.T for s in res.train + res.test])) if res.train else 293.15
         doc.update(compare(res, truth, T))
     if args.report:
@@ -114,18 +115,14 @@ def _clean(o):
     return o
 
 
-def _num(v):
-    return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
-
-
 def text(doc):
     lines = ["steps:"] + [f"  {k:10s} {v}" for k, v in doc["steps"].items()]
     if "parameters" in doc:
         lines.append("parameter                               identified        truth   error   95 % interval")
         for r in doc["parameters"]:
             err = "-" if r["rel_error"] is None else f"{100 * r['rel_error']:+.1f}%"
-            ci = "not identifiable" if not r["identifiable"] else f"{_num(r['ci_low'])} .. {_num(r['ci_high'])}"
-            lines.append(f"  {r['name']:36s} {_num(r['identified']):>12s} {_num(r['truth']):>12s} {err:>7s}   {ci}")
+            ci = "not identifiable" if not r["identifiable"] else f"{number(r['ci_low'])} .. {number(r['ci_high'])}"
+            lines.append(f"  {r['name']:36s} {number(r['identified']):>12s} {number(r['truth']):>12s} {err:>7s}   {ci}")
         c = doc["curve"]
         lines.append(f"peak force-velocity curve {c['speeds'][0]:g}-{c['speeds'][-1]:g} m/s at "
                      f"{c['T'] - 273.15:.0f} C: largest error {100 * c['max_rel_error']:.1f} %")
@@ -138,8 +135,8 @@ def text(doc):
         lines.append("parameter                               value           95 % interval")
         for e in doc["estimates"]:
             ci = f"not identifiable ({e['note']})" if not e["identifiable"] else \
-                f"{_num(e['ci_low'])} .. {_num(e['ci_high'])} {e['unit']}"
-            lines.append(f"  {e['name']:36s} {_num(e['value']):>12s}   {ci}")
+                f"{number(e['ci_low'])} .. {number(e['ci_high'])} {e['unit']}"
+            lines.append(f"  {e['name']:36s} {number(e['value']):>12s}   {ci}")
     for c in doc["correlated"]:
         lines.append(f"strongly correlated: {c['a']} and {c['b']} (rho {c['rho']:+.2f})")
     lines.append(f"held-out loop NRMSE: {100 * doc['heldout_nrmse']:.2f} % (mean over "

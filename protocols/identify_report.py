@@ -3,15 +3,14 @@ segment (held-out ones marked), the held-out errors, the parameter table and, wi
 --truth, the peak force-velocity curves of the identified and the true damper."""
 from __future__ import annotations
 
-import html
 from pathlib import Path
 
 import numpy as np
 
-from models.identify import _simulate, nrmse
-from models.plots import plt
-from protocols.identification import _num
-from protocols.report import _save
+from models.identify import simulate_segment
+from models.recording import nrmse
+from protocols.reports.plots import plt
+from protocols.reports.page import Page, number, save
 
 
 def _loops(res, segs, title, path):
@@ -20,7 +19,7 @@ def _loops(res, segs, title, path):
     rows = -(-n // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 3.2 * rows), squeeze=False)
     for ax, s in zip(axes.flat, segs):
-        F = _simulate(res.damper, s)
+        F = simulate_segment(res.damper, s)
         v = s.v[s.score_from:][:len(F)]
         Fm = s.F[s.score_from:][:len(F)]
         ax.plot(v, Fm, lw=0.7, color="0.5", label="measured")
@@ -34,7 +33,7 @@ def _loops(res, segs, title, path):
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
     fig.suptitle(title)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def _curve(doc, path):
@@ -50,7 +49,7 @@ def _curve(doc, path):
            title=f"Peak force-velocity at {c['T'] - 273.15:.0f} C: largest error {100 * c['max_rel_error']:.1f} %")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def write(res, doc, out_dir):
@@ -64,30 +63,22 @@ def write(res, doc, out_dir):
         figs.append(("Training segments", _loops(res, res.train, "training: measured vs model", out / "training.png")))
     if "curve" in doc:
         figs.append(("Identified against the true damper", _curve(doc, out / "curve.png")))
-    page = ["<!doctype html><meta charset='utf-8'><title>dyno identify</title>",
-            "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto}img{max-width:100%}"
-            "td,th{padding:2px 8px;text-align:right}td:first-child{text-align:left}</style>",
-            f"<h1>Identified model: {html.escape(res.damper.name)}</h1>",
-            f"<p>Held-out loop NRMSE {100 * doc['heldout_nrmse']:.2f} % over {len(doc['heldout'])} segments.</p>",
-            "<h2>Steps</h2><ul>" + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>"
-                                           for k, v in doc["steps"].items()) + "</ul>"]
+    page = Page(f"Identified model: {res.damper.name}")
+    page.paragraph(f"Held-out loop NRMSE {100 * doc['heldout_nrmse']:.2f} % over {len(doc['heldout'])} segments.")
+    page.heading("Steps")
+    page.items(doc["steps"].items())
     rows = doc.get("parameters") or [{"name": e["name"], "identified": e["value"], "truth": None, "rel_error": None,
                                       "ci_low": e["ci_low"], "ci_high": e["ci_high"], "identifiable": e["identifiable"],
                                       "note": e["note"]} for e in doc["estimates"]]
-    page.append("<h2>Parameters</h2><table><tr><th>parameter</th><th>identified</th><th>95 % interval</th>"
-                "<th>truth</th><th>error</th><th>note</th></tr>")
-    for r in rows:
-        ci = "not identifiable" if not r["identifiable"] else f"{_num(r['ci_low'])} .. {_num(r['ci_high'])}"
-        err = "" if r["rel_error"] is None else f"{100 * r['rel_error']:+.1f} %"
-        page.append(f"<tr><td>{html.escape(r['name'])}</td><td>{_num(r['identified'])}</td><td>{ci}</td>"
-                    f"<td>{_num(r['truth']) if r['truth'] is not None else ''}</td><td>{err}</td>"
-                    f"<td>{html.escape(r.get('note') or '')}</td></tr>")
-    page.append("</table>")
+    page.heading("Parameters")
+    page.table(("parameter", "identified", "95 % interval", "truth", "error", "note"), [
+        (r["name"], number(r["identified"]),
+         f"{number(r['ci_low'])} .. {number(r['ci_high'])}" if r["identifiable"] else "not identifiable",
+         number(r["truth"]) if r["truth"] is not None else "",
+         "" if r["rel_error"] is None else f"{100 * r['rel_error']:+.1f} %", r.get("note") or "") for r in rows])
     if doc["correlated"]:
-        page.append("<p>Strongly correlated: " + ", ".join(f"{html.escape(c['a'])} / {html.escape(c['b'])} "
-                                                          f"({c['rho']:+.2f})" for c in doc["correlated"]) + "</p>")
+        page.paragraph("Strongly correlated: " + ", ".join(f"{c['a']} / {c['b']} ({c['rho']:+.2f})"
+                                                          for c in doc["correlated"]))
     for title, png in figs:
-        page.append(f"<h2>{html.escape(title)}</h2><img src='{png}' alt='{html.escape(title)}'>")
-    index = out / "index.html"
-    index.write_text("\n".join(page))
-    return index
+        page.figure(title, png)
+    return page.write(out)

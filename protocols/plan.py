@@ -38,6 +38,9 @@ class Segment:
     # a cycling that `until` ends early runs on to its next whole cycle of this length [s],
     # so the segment after it starts in phase (no setpoint jump)
     cycle: float | None = None
+    # what the motion is (models.recording.KINDS), written into the events so analyses
+    # choose segments by it and not by their params' keys
+    kind: str = "transition"
 
 
 @dataclass

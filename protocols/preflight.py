@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .plan import MARGIN, ParamError, RigInfo, Segment
+from protocols.plan import MARGIN, ParamError, RigInfo, Segment
 
 MAX_MOTION_S = 2 * 3600.0  # s: a plan that moves longer than this needs --long
 SAMPLES = 400  # per segment, and at least POINTS_PER_CYCLE a cycle

@@ -4,16 +4,16 @@ peak force vs peak velocity curve, gas force and friction from static holds, low
 loops, force and temperature over time for temperature sweeps."""
 from __future__ import annotations
 
-import html
 import json
 from pathlib import Path
 
 import numpy as np
 from mcap.reader import make_reader
 
-from models.identify import segments  # noqa: F401  (re-exported: recordings as data)
-from models.identify_static import static_holds
-from models.plots import plt
+from models.recording import segments
+from models.identify.static import static_holds
+from protocols.reports.page import Page, save
+from protocols.reports.plots import plt
 from rig.errors import RigError
 
 
@@ -49,20 +49,32 @@ def _window(ch, names, t0, t1):
     return [first[k]] + [np.interp(tk, *ch[n]) if len(ch[n][0]) else np.full(len(tk), np.nan) for n in names[1:]]
 
 
-def _save(fig, path):
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path.name
-
-
 def report(path, out_dir):
     ch, events, meta = load(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
+    figures = (_sine_figures(ch, segs, out) + _static_figures(ch, events, segs, out) + _low_speed_figures(ch, segs, out)
+               + _temperature_figures(ch, segs, out))
+    ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
+    proto = meta.get("protocol", {})
+    damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
+    page = Page(f"Dyno report: {Path(path).name}")
+    page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
+                   f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}.")
+    page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)
+    for title, png in figures:
+        page.figure(title, png)
+    if not figures:
+        page.paragraph("No measured segments to plot.")
+    index = page.write(out)
+    return index, [out / png for _, png in figures]
+
+
+def _sine_figures(ch, segs, out):
+    """Loops per amplitude and the composite peak curve of the sine segments."""
     figures = []
-    sines = [s for s in segs if "freq_hz" in s[1] and "amplitude_mm" in s[1]]
+    sines = [s for s in segs if s[1]["kind"] == "sine" and "amplitude_mm" in s[1]]
     if sines and all(k in ch for k in ("force", "x", "v")):
         amps = sorted({s[1]["amplitude_mm"] for s in sines}, reverse=True)
         fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
@@ -85,7 +97,7 @@ def report(path, out_dir):
                 ax.grid(alpha=0.3)
                 ax.legend(fontsize=7)
         figures.append(("Force-velocity and force-displacement loops (compression positive)",
-                        _save(fig, out / "loops.png")))
+                        save(fig, out / "loops.png")))
         P = np.array(peaks)
         fig, ax = plt.subplots(figsize=(6, 4.5))
         order = np.argsort(P[:, 0])
@@ -96,8 +108,14 @@ def report(path, out_dir):
                ylabel="peak force [N]")
         ax.grid(alpha=0.3)
         ax.legend()
-        figures.append(("Composite peak force vs peak velocity", _save(fig, out / "composite.png")))
-    holds = [s for s in segs if "x_mm" in s[1]]
+        figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
+    return figures
+
+
+def _static_figures(ch, events, segs, out):
+    """Force at rest after each stroke direction, and the friction, of the static holds."""
+    figures = []
+    holds = [s for s in segs if s[1]["kind"] == "hold"]
     if holds and "force" in ch:
         x_at, up, down = static_holds(ch, events)
         xs = 1e3 * x_at
@@ -111,8 +129,14 @@ def report(path, out_dir):
         for a in ax:
             a.grid(alpha=0.3)
         ax[0].legend(fontsize=8)
-        figures.append(("Gas force and friction from the static test", _save(fig, out / "static.png")))
-    slow = [s for s in segs if s[0].startswith("low-speed")]
+        figures.append(("Gas force and friction from the static test", save(fig, out / "static.png")))
+    return figures
+
+
+def _low_speed_figures(ch, segs, out):
+    """The low-speed loops."""
+    figures = []
+    slow = [s for s in segs if s[1]["kind"] == "low-speed"]
     if slow and "force" in ch:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         for name, prm, t0, t1 in slow:
@@ -122,7 +146,13 @@ def report(path, out_dir):
         ax.set(title="Low-speed loops: gas force with friction", xlabel="displacement [mm]", ylabel="force [N]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-        figures.append(("Low-speed test", _save(fig, out / "low_speed.png")))
+        figures.append(("Low-speed test", save(fig, out / "low_speed.png")))
+    return figures
+
+
+def _temperature_figures(ch, segs, out):
+    """Force and temperatures over a temperature sweep."""
+    figures = []
     if any("target_c" in s[1] for s in segs) and "T_body" in ch:
         fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
         t, F = ch["force"]
@@ -139,22 +169,5 @@ def report(path, out_dir):
             a.grid(alpha=0.3)
         ax[1].legend(fontsize=8)
         figures.append(("Force and temperature over time (shaded: recorded sines)",
-                        _save(fig, out / "temperature.png")))
-    ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
-    proto = meta.get("protocol", {})
-    damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
-    page = ["<!doctype html><meta charset='utf-8'><title>dyno report</title>",
-            "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto}img{max-width:100%}</style>",
-            f"<h1>Dyno report: {html.escape(Path(path).name)}</h1>",
-            f"<p>Protocol <b>{html.escape(proto.get('name', '?'))}</b>, parameters "
-            f"<code>{html.escape(proto.get('params', ''))}</code>; damper <b>{html.escape(str(damper.get('name', '?')))}"
-            f"</b>; rig <b>{html.escape(meta.get('rig', {}).get('name', '?'))}</b>.</p>",
-            "<ul>" + "".join(f"<li>{html.escape(e['kind'])}: {html.escape(e['segment'])} "
-                             f"{html.escape(e.get('message', ''))}</li>" for e in ends) + "</ul>"]
-    for title, png in figures:
-        page.append(f"<h2>{html.escape(title)}</h2><img src='{png}' alt='{html.escape(title)}'>")
-    if not figures:
-        page.append("<p>No measured segments to plot.</p>")
-    index = out / "index.html"
-    index.write_text("\n".join(page))
-    return index, [out / png for _, png in figures]
+                        save(fig, out / "temperature.png")))
+    return figures

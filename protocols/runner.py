@@ -17,7 +17,7 @@ import time
 from rig.errors import RigError
 from rig.loop import ControlLoop, describe
 
-from .plan import as_dict
+from protocols.plan import as_dict
 
 
 class ProgressLine:
@@ -124,6 +124,83 @@ def _shown(name, value):
     return f"{value - 273.15:.1f} C" if name.startswith("T_") else f"{value:.4g}"
 
 
+class Sequence:
+    """The plan's segments stepped on the run clock: called by the control loop each tick
+    with (t, readings), returns the setpoint [m] or None when the plan is done, and emits
+    run_start, skipped, segment_start and segment_end events through `event`."""
+
+    def __init__(self, module, params, segments, skipped, event, failed, bar=None):
+        self.module, self.params, self.segments, self.skipped = module, params, segments, skipped
+        self.event, self.failed, self.bar = event, failed, bar
+        self.i, self.t0, self.t_plan, self.t, self.until = 0, None, 0.0, 0.0, math.inf
+        self.set_t, self.set_x = [], []
+
+    @property
+    def current(self):
+        return self.segments[self.i] if self.i < len(self.segments) else None
+
+    def __call__(self, t, readings):
+        self.t = t
+        if self.t0 is None:
+            self.event(t, "run_start", name=self.module.NAME, params=as_dict(self.params))
+            for name, why in self.skipped:
+                self.event(t, "skipped", name=name, params={}, message=why)
+            self.t0 = t
+            if not self.segments:
+                return None
+            self.event(t, "segment_start", self.segments[0])
+        ts = self._advance(t, readings)
+        if ts is None:
+            return None
+        if self.failed:
+            raise RigError(next(iter(self.failed.values())))
+        x = self.current.x(ts)
+        self.set_t.append(t)
+        self.set_x.append(x)
+        if self.bar:
+            self.bar.show(self.i, ts, self.t_plan + ts, readings)
+        return x
+
+    def _advance(self, t, readings):
+        """Seconds into the segment that runs at t (moving on past those that ended), or
+        None when the plan is done."""
+        seg = self.current
+        ts = t - self.t0
+        while True:
+            end = min(self.until, seg.duration)
+            reached = self.until < math.inf or (seg.until is not None and seg.until(readings))
+            if ts < end and not reached:
+                return ts
+            if seg.target is not None and not reached:  # a wait that ran out: its data would be mislabelled
+                name, value = seg.target
+                r = readings.get(name)
+                raise RigError(f"{seg.name}: {name} did not reach its target in {seg.duration:.0f} s "
+                               f"({'no reading' if r is None else _shown(name, r.value)} of {_shown(name, value)})")
+            if ts < end and seg.cycle:  # ended on its reading: run on to the whole cycle
+                end = self.until = min(math.ceil(ts / seg.cycle) * seg.cycle, seg.duration)
+                if ts < end:
+                    return ts
+            # a segment that ran its time ended at its boundary, between ticks: the next
+            # one starts there, so the motion runs on without a repeated setpoint
+            t_end = self.t0 + end if ts >= end else t
+            self.until = math.inf
+            self.event(t_end, "segment_end", seg)
+            self.t_plan += t_end - self.t0
+            self.i += 1
+            seg = self.current
+            if seg is None:
+                return None
+            self.t0 = t_end
+            ts = t - t_end
+            self.event(t_end, "segment_start", seg)
+
+    def drain_setpoints(self):
+        out = (list(self.set_t), list(self.set_x))
+        self.set_t.clear()
+        self.set_x.clear()
+        return out
+
+
 def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progress=True):
     """Execute the plan; returns (LoopResult, [skipped (segment, reason)]). sinks: plain
     callables that get every drained sample batch."""
@@ -131,84 +208,30 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     skipped = module.check(params, info)
     segments = list(module.plan(params, info))
     bar = ProgressLine(segments, module.NAME) if progress else None
-    state = {"i": 0, "t0": None, "t_plan": 0.0, "t": 0.0, "until": math.inf}
-    set_t, set_x = [], []
-
     observed = Observers(observers)
-    failed = observed.failed
-    notify = observed.call
 
     def event(t, kind, seg=None, message="", name=None, params=None):
         if params is None:
-            params = {**seg.params, "measured": seg.record} if seg else {}
-        notify("event", t, kind, name if name is not None else (seg.name if seg else ""), params, message)
+            params = {**seg.params, "kind": seg.kind, "measured": seg.record} if seg else {}
+        observed.call("event", t, kind, name if name is not None else (seg.name if seg else ""), params, message)
 
-    def plan(t, readings):
-        state["t"] = t
-        if state["t0"] is None:
-            event(t, "run_start", name=module.NAME, params=as_dict(params))
-            for name, why in skipped:
-                event(t, "skipped", name=name, params={}, message=why)
-            state["t0"] = t
-            if not segments:
-                return None
-            event(t, "segment_start", segments[0])
-        seg = segments[state["i"]]
-        ts = t - state["t0"]
-        while True:
-            end = min(state["until"], seg.duration)
-            reached = state["until"] < math.inf or (seg.until is not None and seg.until(readings))
-            if ts < end and not reached:
-                break
-            if seg.target is not None and not reached:  # a wait that ran out: its data would be mislabelled
-                name, value = seg.target
-                r = readings.get(name)
-                raise RigError(f"{seg.name}: {name} did not reach its target in {seg.duration:.0f} s "
-                               f"({'no reading' if r is None else _shown(name, r.value)} of {_shown(name, value)})")
-            if ts < end and seg.cycle:  # ended on its reading: run on to the whole cycle
-                end = state["until"] = min(math.ceil(ts / seg.cycle) * seg.cycle, seg.duration)
-                if ts < end:
-                    break
-            # a segment that ran its time ended at its boundary, between ticks: the next
-            # one starts there, so the motion runs on without a repeated setpoint
-            t_end = state["t0"] + end if ts >= end else t
-            state["until"] = math.inf
-            event(t_end, "segment_end", seg)
-            state["t_plan"] += t_end - state["t0"]
-            state["i"] += 1
-            if state["i"] == len(segments):
-                return None
-            seg = segments[state["i"]]
-            state["t0"] = t_end
-            ts = t - t_end
-            event(t_end, "segment_start", seg)
-        if failed:
-            raise RigError(next(iter(failed.values())))
-        x = seg.x(ts)
-        set_t.append(t)
-        set_x.append(x)
-        if bar:
-            bar.show(state["i"], ts, state["t_plan"] + ts, readings)
-        return x
+    sequence = Sequence(module, params, segments, skipped, event, observed.failed, bar)
 
     def record(samples):
-        notify("samples", samples)
-        notify("setpoints", list(set_t), list(set_x))
-        set_t.clear()
-        set_x.clear()
+        observed.call("samples", samples)
+        observed.call("setpoints", *sequence.drain_setpoints())
 
     loop = ControlLoop(rig, pacer, safety, [record, *sinks])
     try:
-        result = loop.run(plan)
+        result = loop.run(sequence)
     except BaseException:
         observed.close()
         raise
     if bar:
-        bar.show(state["i"], 0.0, state["t_plan"], final="stopped" if result.fault else "done")
-    t_end = state["t"]
+        bar.show(sequence.i, 0.0, sequence.t_plan, final="stopped" if result.fault else "done")
     if result.fault:
         kind = "operator_stop" if result.fault == "operator stop" else "fault"
-        event(t_end, kind, segments[state["i"]] if state["i"] < len(segments) else None, result.fault)
-    event(t_end, "run_end", name=module.NAME, params={}, message=result.fault or "completed")
+        event(sequence.t, kind, sequence.current, result.fault)
+    event(sequence.t, "run_end", name=module.NAME, params={}, message=result.fault or "completed")
     observed.close()
     return result, skipped

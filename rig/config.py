@@ -15,10 +15,10 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .devices import TRANSPORTS
-from .errors import RigError
-from .schema import Checker, Field, line_of
-from .schema import number as _num
+from rig.devices import TRANSPORTS
+from rig.errors import RigError
+from rig.schema import Checker, Field, line_of
+from rig.schema import number as _num
 
 CONFIG_DIR = Path(__file__).parent / "configs"
 REQUIRED_CHANNELS = ("force", "x")

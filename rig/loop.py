@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import RigError
-from .pacing import realtime_priority
-from .safe_stop import SafeStop
+from rig.errors import RigError
+from rig.pacing import realtime_priority
+from rig.safe_stop import SafeStop
 
 
 @dataclass

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import devices
-from .codecs.actuator import STATES, alarm_texts
-from .errors import RigError
+from rig import devices
+from rig.codecs.actuator import STATES, alarm_texts
+from rig.errors import RigError
 
 
 @dataclass(frozen=True)

@@ -6,8 +6,8 @@ position feedback and the actuator are healthy, fault latched.
 """
 from __future__ import annotations
 
-from .config import RigConfig
-from .devices import TRANSPORTS
+from rig.config import RigConfig
+from rig.devices import TRANSPORTS
 
 # channel -> (limit key, test, words); values in SI
 RANGE_CHECKS = (

@@ -9,7 +9,7 @@ import math
 import re
 from dataclasses import dataclass
 
-from .errors import RigError
+from rig.errors import RigError
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,7 @@ def plain_cell():
     import tomllib
     from pathlib import Path
 
-    from .plant import PARAMS
+    from sim_backend.plant import PARAMS
     plain = tomllib.loads((Path(__file__).parent / "plain.toml").read_text())
     params = tomllib.loads(PARAMS.read_text())
     for section in ("frame", "sensors", "thermal", "actuator"):

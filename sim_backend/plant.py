@@ -17,9 +17,9 @@ import numpy as np
 
 from models.damper import load as load_damper
 from rig.codecs.actuator import ALARM_BIT, MODES, STATES
-from models.simulate import Stepper
+from models.physics.simulate import Stepper
 
-from . import effects as fx_mod
+from sim_backend import effects as fx_mod
 
 PARAMS = Path(__file__).parent / "plant.toml"
 MODE_OFF, MODE_HOLD, MODE_FOLLOW = MODES["off"], MODES["hold"], MODES["follow"]
@@ -222,7 +222,7 @@ class Plant:
     def _damping_curve(self):
         """(v [m/s], F [N]): the damper's damping at steady speed, mid-stroke, at its present
         temperature (incompressible), rising with v; what a free rod floats on."""
-        from models.simulate import simulate
+        from models.physics.simulate import simulate
         v = np.r_[-np.geomspace(5.0, 1e-6, 120), 0.0, np.geomspace(1e-6, 5.0, 120)]
         x = np.full(len(v), self.stepper.x_e)
         F = simulate(self.damper, np.arange(len(v)) * 1e-3, x, v, T=self.T, compressible=False,

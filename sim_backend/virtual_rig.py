@@ -18,8 +18,9 @@ import gc
 import time
 from pathlib import Path
 
-from .emulators import EMULATORS, free_port
-from .plant import Plant
+from rig.devices import by_transport
+from sim_backend.emulators import EMULATORS, free_port
+from sim_backend.plant import Plant
 
 FAULTS = {
     "can_bus_off": "CAN nodes fall silent (bus-off)",
@@ -66,10 +67,8 @@ class VirtualRig:
     def start(self):
         """Start an emulator per transport; returns the config with "auto" addresses filled in."""
         cfg = self.config
-        for transport, serve in EMULATORS.items():
-            names = [n for n, d in cfg.devices.items() if d.transport == transport]
-            if names:
-                self.emulators.append(serve(cfg, names, self.plant))
+        for transport, names in by_transport(cfg).items():
+            self.emulators.append(EMULATORS[transport](cfg, names, self.plant))
         self.plant.advance(self.plant.h)  # compiles the damper model before anyone listens
         self.publish()
         return cfg

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from models import bench
+from protocols import bench_sim as bench
 from models.damper import DamperError, load
-from models.simulate import C_to_K, simulate, sine
+from models.physics.simulate import C_to_K, simulate, sine
 
 DAMPERS = ["koni", "mechformance", "fox-light", "fox-heavy"]
 

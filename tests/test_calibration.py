@@ -1,9 +1,9 @@
 """Unstated geometry in the presets is the documented calibration, reproducibly."""
 import pytest
 
-from models.calibrate import rod_area_for_rise
+from models.validation.calibrate import rod_area_for_rise
 from models.damper import load
-from models.simulate import C_to_K
+from models.physics.simulate import C_to_K
 
 
 @pytest.mark.parametrize("name, target, T1, T2", [

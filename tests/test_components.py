@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from models import compressibility, friction, gas_spring, simplified, temperature, valves
+from models.physics import compressibility, friction, gas_spring, simplified, temperature, valves
 from models.damper import load
-from models.kernel import pack
+from models.physics.kernel import pack
 
 K = 273.15
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from models.damper import DamperError, from_dict, load, preset_names, save, to_dict
-from models.simulate import simulate
+from models.physics.simulate import simulate
 
 
 @pytest.mark.parametrize("name", preset_names())

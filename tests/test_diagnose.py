@@ -7,9 +7,9 @@ import sys
 import numpy as np
 import pytest
 
-from models.candidates import _direction
+from models.diagnose.candidates import _direction
 from models.diagnose import diagnose
-from models.diagnose_data import DiagnoseError, prepare
+from models.diagnose.data import DiagnoseError, prepare
 from protocols.report import load
 
 DYNO = [sys.executable, "-m", "protocols.cli"]

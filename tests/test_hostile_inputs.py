@@ -176,7 +176,7 @@ def _leaves(obj, path=()):
 def test_any_edit_of_a_damper_json_loads_or_gives_one_line(data):
     """One value of a preset replaced by anything JSON holds: the model loads and gives
     finite forces, or the loader names the field."""
-    from models.simulate import simulate
+    from models.physics.simulate import simulate
     name = data.draw(st.sampled_from(["koni", "mechformance", "fox-heavy"]))
     doc = dm.to_dict(dm.load(name))
     path = data.draw(st.sampled_from(list(_leaves(doc))))
@@ -202,6 +202,15 @@ def test_any_edit_of_a_damper_json_loads_or_gives_one_line(data):
         return
     assert np.all(np.isfinite(r.force))
 
+
+
+def test_a_zero_pressure_slope_of_the_bulk_modulus_is_named():
+    """Found by the test above: eq 3.32 with C_sbeta = 0 divided by zero at its cap."""
+    doc = dm.to_dict(dm.load("fox-heavy"))
+    assert doc["compressibility"].get("C_sbeta") is not None
+    doc["compressibility"]["C_sbeta"] = 0.0
+    with pytest.raises(dm.DamperError, match="compressibility.C_sbeta: must be positive"):
+        dm.from_dict(doc)
 
 def test_two_runs_on_one_file_and_a_failed_start_lose_nothing(tmp_path, files):
     """A second writer of the same file is refused while the first runs; a run that fails

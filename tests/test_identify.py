@@ -9,12 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import identify_gas, identify_low_speed, identify_valves
+from models.identify import gas as identify_gas, low_speed as identify_low_speed, valves as identify_valves
 from models.damper import _check_direction, load, load_file
-from models.friction import dahl_series
-from models.identify import _direction_ranges, canonical, parameter_value, set_parameter
-from models.identify_static import settled
-from models.simulate import simulate, sine
+from models.physics.friction import dahl_series
+from models.identify import canonical, parameter_value, set_parameter
+from models.identify.dynamic import direction_ranges
+from models.identify.static import settled
+from models.physics.simulate import simulate, sine
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -100,7 +101,7 @@ def test_each_direction_is_scaled_by_its_own_force_range():
     t = np.linspace(0, 1, 1000, endpoint=False)
     v = np.cos(2 * np.pi * t)
     Fm = np.where(v > 0, 100.0 * v, 1000.0 * v)
-    scale = _direction_ranges(Fm, v)
+    scale = direction_ranges(Fm, v)
     assert np.allclose(scale[v > 0], np.ptp(Fm[v > 0])) and np.allclose(scale[v <= 0], np.ptp(Fm[v <= 0]))
 
 

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from models import gas_spring
+from models.physics import gas_spring
 from models.damper import load
-from models.identify_static import identify_static
+from models.identify.static import identify_static
 
 
 def test_static_step_recovers_charge_and_friction_exactly():

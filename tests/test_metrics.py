@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from models import metrics, road
+from models.quarter_car import metrics, road
 
 
 def second_order_step(zeta, wn, t):

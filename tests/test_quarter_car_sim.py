@@ -4,10 +4,10 @@ import pytest
 
 from linear_car import linear_car, transmissibility
 from models import quarter_car as qcm
-from models import quarter_car_sim as qs
-from models import simplified
+from models.quarter_car import sim as qs
+from models.physics import simplified
 from models.damper import load
-from models.simulate import C_to_K
+from models.physics.simulate import C_to_K
 
 
 @pytest.mark.parametrize("f", [1.5, 2.4, 6.0, 14.0])

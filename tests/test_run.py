@@ -81,7 +81,7 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     (["step", "steps_mm=0"], "steps_mm: needs non-zero steps"),
     (["temperature-sweep", "targets_c=200,60"], "targets_c: 200 C is above what the rig may reach"),
     (["temperature-sweep", "targets_c=60,15"], "targets_c: 15 C cannot be reached by cooling"),
-    (["static", "points=1"], "points: at least 2"),
+    (["static", "points=1"], "points: 2 to 200"),
     (["low-speed", "freqs_hz=2"], "freqs_hz: 2 Hz is not low speed"),
     (["squat"], "unknown protocol 'squat'"),
 ])
@@ -199,7 +199,7 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     import numpy as np
 
     from models.damper import load as load_damper
-    from models.identify_static import identify_static, static_holds
+    from models.identify.static import identify_static, static_holds
     koni = load_damper("koni")
     x, up, down = static_holds(ch, events)
     est = identify_static(x, up, down, koni.geometry.A_r)

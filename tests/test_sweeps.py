@@ -7,11 +7,11 @@ import pytest
 
 from linear_car import linear_car, transmissibility
 from models import quarter_car as qcm
-from models import quarter_car_validation as qv
-from models import sweeps
+from models.validation import quarter_car as qv
+from models.quarter_car import sweeps
 from models.damper import DamperError, SimplifiedDamper, SimplifiedDirection, load
 from models.parallel import run_all
-from models.simulate import simulate
+from models.physics.simulate import simulate
 
 
 def _square(x):

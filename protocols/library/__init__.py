@@ -1,4 +1,4 @@
 """The test protocols, one short file each (thesis chapter 2)."""
-from . import low_speed, sine_matrix, standard, static, step, temperature_sweep
+from protocols.library import low_speed, sine_matrix, standard, static, step, temperature_sweep
 
 PROTOCOLS = {m.NAME: m for m in (static, low_speed, sine_matrix, temperature_sweep, step, standard)}

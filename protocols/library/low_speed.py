@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..plan import ParamError, RigInfo, Segment, positive, ramp_in
+from protocols.plan import ParamError, RigInfo, Segment, positive, ramp_in
 
 NAME = "low-speed"
 
@@ -36,6 +36,6 @@ def plan(p: Params, rig: RigInfo):
         params = {"amplitude_mm": p.amplitude_mm, "freq_hz": f}
         yield Segment(f"ramp in {f:g} Hz", params, 1 / f, ramp_in(A, f, 1, rig.x_mid), False)
         yield Segment(f"low-speed {f:g} Hz", {**params, "cycles": p.cycles}, p.cycles / f,
-                      lambda t, f=f: rig.x_mid + A * math.sin(2 * math.pi * f * t))
+                      lambda t, f=f: rig.x_mid + A * math.sin(2 * math.pi * f * t), kind="low-speed")
         yield Segment(f"ramp out {f:g} Hz", params, 1 / f,
                       lambda t, f=f: rig.x_mid + A * max(1 - t * f, 0) * math.sin(2 * math.pi * f * t), False)

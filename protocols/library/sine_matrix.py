@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..plan import MARGIN, ParamError, RigInfo, Segment, positive, ramp_in
+from protocols.plan import MARGIN, ParamError, RigInfo, Segment, positive, ramp_in
 
 NAME = "sine-matrix"
 
@@ -65,7 +65,7 @@ def plan(p: Params, rig: RigInfo):
             if p.settle_cycles:
                 yield Segment(f"settle {a:g} mm {f:g} Hz", params, p.settle_cycles / f, _sine(A, f, rig.x_mid), False)
             yield Segment(_name(a, f), {**params, "cycles": p.record_cycles}, p.record_cycles / f,
-                          _sine(A, f, rig.x_mid))
+                          _sine(A, f, rig.x_mid), kind="sine")
             yield Segment(f"ramp out {a:g} mm {f:g} Hz", params, n / f, _sine(A, f, rig.x_mid, fade=n / f), False)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from . import low_speed, sine_matrix, static, temperature_sweep
+from protocols.library import low_speed, sine_matrix, static, temperature_sweep
 
 NAME = "standard"
 PARTS = (static, low_speed, sine_matrix, temperature_sweep)

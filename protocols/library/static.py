@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..plan import ParamError, RigInfo, Segment
+from protocols.plan import ParamError, RigInfo, Segment
 
 NAME = "static"
 
@@ -97,6 +97,6 @@ def plan(p: Params, rig: RigInfo):
                 yield Segment(f"{what} {xp * 1e3:.1f} mm {direction}", {}, T, f, False)
                 x = target
             yield Segment(f"hold {xp * 1e3:.1f} mm {direction}", {"x_mm": round(xp * 1e3, 3), "approach": direction},
-                          p.dwell_max_s, lambda t, xp=xp: xp, True, settled(p))
+                          p.dwell_max_s, lambda t, xp=xp: xp, True, settled(p), kind="hold")
     T, f = _move(x, rig.x_mid, speed)
     yield Segment("return to mid-stroke", {}, T, f, False)

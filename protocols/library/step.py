@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..plan import MARGIN, ParamError, RigInfo, Segment
+from protocols.plan import MARGIN, ParamError, RigInfo, Segment
 
 NAME = "step"
 
@@ -48,6 +48,6 @@ def plan(p: Params, rig: RigInfo):
     for s in p.steps_mm:
         d, rise = s / 1e3, rise_time(p, rig, s)
         yield Segment(f"step {s:+g} mm", {"step_mm": s, "rise_s": rise}, p.hold_s,
-                      lambda t, d=d, r=rise: rig.x_mid + d * min(t / r, 1.0))
+                      lambda t, d=d, r=rise: rig.x_mid + d * min(t / r, 1.0), kind="step")
         yield Segment(f"return from {s:+g} mm", {"step_mm": s, "rise_s": rise}, p.hold_s,
-                      lambda t, d=d, r=rise: rig.x_mid + d * max(1.0 - t / r, 0.0), False)
+                      lambda t, d=d, r=rise: rig.x_mid + d * max(1.0 - t / r, 0.0), False, kind="step")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..plan import MARGIN, ParamError, RigInfo, Segment, positive, ramp_in, sine_peaks
+from protocols.plan import MARGIN, ParamError, RigInfo, Segment, positive, ramp_in, sine_peaks
 
 NAME = "temperature-sweep"
 MARGIN_K = 5.0  # targets must lie this far inside ambient .. the rig's temperature limit
@@ -116,16 +116,16 @@ def plan(p: Params, rig: RigInfo):
     Aw, fw = p.warm_amplitude_mm / 1e3, _warm_freq(p, rig)
     top = targets[0] + p.overshoot_c + 273.15
     yield Segment("warm up", {"until_c": top - 273.15, "freq_hz": fw}, p.max_warm_s, ramp_in(Aw, fw, 4, rig.x_mid),
-                  False, _above(top), ("T_body", top), cycle=1 / fw)
+                  False, _above(top), ("T_body", top), cycle=1 / fw, kind="warm-up")
     yield Segment("stop warming", {}, 2 / fw,
                   lambda t: rig.x_mid + Aw * max(1 - t * fw / 2, 0) * math.sin(2 * math.pi * fw * t), False)
     A, f = p.amplitude_mm / 1e3, p.freq_hz
     for T in targets:
         yield Segment(f"cool to {T:g} C", {"target_c": T}, p.max_cool_s, lambda t: rig.x_mid, False,
-                      _below(T + 273.15), ("T_body", T + 273.15))
+                      _below(T + 273.15), ("T_body", T + 273.15), kind="rest")
         params = {"target_c": T, "amplitude_mm": p.amplitude_mm, "freq_hz": f, "cycles": p.cycles}
         yield Segment(f"ramp in at {T:g} C", params, 1 / f, ramp_in(A, f, 1, rig.x_mid), False)
         yield Segment(f"sine at {T:g} C", params, p.cycles / f,
-                      lambda t: rig.x_mid + A * math.sin(2 * math.pi * f * t))
+                      lambda t: rig.x_mid + A * math.sin(2 * math.pi * f * t), kind="sine")
         yield Segment(f"ramp out at {T:g} C", params, 1 / f,
                       lambda t: rig.x_mid + A * max(1 - t * f, 0) * math.sin(2 * math.pi * f * t), False)

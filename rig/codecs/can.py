@@ -7,7 +7,7 @@ from pathlib import Path
 
 import cantools
 
-from ..errors import RigError
+from rig.errors import RigError
 
 DBC = Path(__file__).parent / "dyno.dbc"
 

@@ -16,7 +16,7 @@ import binascii
 import struct
 from dataclasses import dataclass
 
-from ..errors import RigError
+from rig.errors import RigError
 
 SYNC = b"\xaa\x55"
 SIZE = 10

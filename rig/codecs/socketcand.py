@@ -9,7 +9,7 @@ side; `dyno sim-rig` uses this to serve its CAN bus on 127.0.0.1.
 """
 from __future__ import annotations
 
-from ..errors import RigError
+from rig.errors import RigError
 
 
 def split_messages(buffer: str):

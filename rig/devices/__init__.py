@@ -38,19 +38,25 @@ class Transport:
 
 
 def _registry():
-    from . import can, modbus, serial
+    from rig.devices import can, modbus, serial
     return {t.name: t for t in (can.TRANSPORT, serial.TRANSPORT, modbus.TRANSPORT)}
 
 
 TRANSPORTS = _registry()
 
 
+def by_transport(config):
+    """{transport name: [device names]} of a RigConfig's devices, for the transports it uses."""
+    out = {}
+    for name, d in config.devices.items():
+        out.setdefault(d.transport, []).append(name)
+    return out
+
+
 def make(config, threaded=False):
     """{device name: driver} for a RigConfig. threaded: polled devices get threads of their
     own (real time)."""
     out = {}
-    for name, t in TRANSPORTS.items():
-        devices = {n: d for n, d in config.devices.items() if d.transport == name}
-        if devices:
-            out.update(t.drivers(devices, threaded))
+    for name, names in by_transport(config).items():
+        out.update(TRANSPORTS[name].drivers({n: config.devices[n] for n in names}, threaded))
     return {n: out[n] for n in config.devices}  # in the configuration's order

@@ -7,12 +7,12 @@ import socket
 
 import can
 
-from ..codecs import can as can_codec
-from ..codecs.actuator import MODES
-from ..errors import RigError
-from ..schema import Field, number
-from ..stream_clock import StreamClock
-from . import Transport
+from rig.codecs import can as can_codec
+from rig.codecs.actuator import MODES
+from rig.errors import RigError
+from rig.schema import Field, number
+from rig.stream_clock import StreamClock
+from rig.devices import Transport
 
 NODES = {"actuator": ("position",), "daq": ("lvdt", "lvt")}  # node -> its signals
 ROUTES = {"ACT_STATUS": "actuator", "DAQ_MOTION": "daq"}  # frame -> node

@@ -7,10 +7,10 @@ import logging
 import threading
 import time
 
-from ..codecs import registers
-from ..errors import RigError
-from ..schema import Field, number
-from . import Transport
+from rig.codecs import registers
+from rig.errors import RigError
+from rig.schema import Field, number
+from rig.devices import Transport
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors ourselves
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import serial
 
-from ..codecs import loadcell
-from ..errors import RigError
-from ..schema import Field, number
-from ..stream_clock import StreamClock
-from . import Transport
+from rig.codecs import loadcell
+from rig.errors import RigError
+from rig.schema import Field, number
+from rig.stream_clock import StreamClock
+from rig.devices import Transport
 
 
 class SerialLoadCell:

@@ -15,6 +15,6 @@ def free_port():
         return s.getsockname()[1]
 
 
-from . import can_nodes, loadcell_amp, modbus_modules  # noqa: E402  (they use free_port)
+from sim_backend.emulators import can_nodes, loadcell_amp, modbus_modules  # noqa: E402  (they use free_port)
 
 EMULATORS = {"can": can_nodes.serve, "serial": loadcell_amp.serve, "modbus": modbus_modules.serve}

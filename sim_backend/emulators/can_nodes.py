@@ -10,8 +10,8 @@ import can
 
 from rig.codecs import can as can_codec
 
-from .outputs import outputs
-from .socketcand_server import SocketcandServer
+from sim_backend.emulators.outputs import outputs
+from sim_backend.emulators.socketcand_server import SocketcandServer
 
 _ids = itertools.count()
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from rig.codecs import loadcell as serial_frame
 
-from .outputs import outputs
+from sim_backend.emulators.outputs import outputs
 
 FULL_SCALE = 10.0  # V
 

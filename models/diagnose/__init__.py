@@ -1,0 +1,266 @@
+"""Missing-physics diagnosis: fit the baseline, locate where its residual lives, try each
+catalogue effect (models/candidates.py) with the baseline refitted, judge it only on
+held-out cycles, accept the best one whose improvement is significant, repeat. Two-fold
+cross-fitting (even cycles fit, odd judged, and back) judges every cycle once.
+
+Significance: the held-out improvement per block, log(SSE_baseline,b / SSE_candidate,b), so
+that every block counts alike whatever its force level and a block made worse weighs as
+much as one made better by the same factor, is tested by
+a bootstrap over blocks (quarter cycles) against zero, one-sided,
+Bonferroni-corrected for the candidates tried in that round (ALPHA over their number).
+An effect must also be worth having: its held-out mean-square improvement at least
+RELEVANCE times the force noise variance (the noise from the residual's sample-to-sample
+differences), so a structured misfit of the baseline a little smaller than the noise is
+not announced as physics; and at least SHARE of the held-out mean-square error it starts
+from, so that far above the noise an effect must still matter.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from models.diagnose.candidates import CATALOGUE, FromModel, Minimal, Model
+from models.diagnose.data import Data, prepare
+from models.recording import covariance, nrmse
+
+ALPHA = 0.01
+RELEVANCE = 0.1
+SHARE = 0.01
+BOOT = 2000
+
+
+def fit(model: Model, d: Data, train, start: dict):
+    """Least squares over the training samples; returns (values, sd per parameter)."""
+    names = [p.name for p in model.params]
+    lo = np.array([p.lo for p in model.params])
+    hi = np.array([p.hi for p in model.params])
+    z0 = np.clip([start.get(p.name, p.x0) for p in model.params], lo, hi)
+    scale = np.maximum(np.abs(hi - lo) * 1e-3, np.abs(z0) * 0.1)
+    Fs = max(float(np.std(d.F)), 1e-9)
+
+    def resid(z):
+        return (model.force(d, dict(zip(names, z)))[train] - d.F[train]) / Fs
+
+    for i, p in enumerate(model.params):  # parameters whose effect is piecewise: start from a grid
+        if p.grid and p.name not in start:
+            costs = []
+            values = [min(max(g, p.lo), p.hi) for g in p.grid]
+            for val in values:
+                z = z0.copy()
+                z[i] = val
+                costs.append(np.sum(resid(z) ** 2))
+            z0[i] = values[int(np.argmin(costs))]
+    r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=60 * len(z0), method="trf")
+    values = dict(zip(names, r.x))
+    try:
+        sd = dict(zip(names, covariance(r.jac, r.fun)[0]))
+    except np.linalg.LinAlgError:
+        sd = {n: float("nan") for n in names}
+    return values, sd
+
+
+def blocks(d: Data, per_cycle=4):
+    """Block number of each sample: each cycle cut into `per_cycle` equal parts (strokes
+    and reversals apart), the units the bootstrap resamples."""
+    out = np.empty(len(d.cycle), int)
+    starts = np.r_[0, np.nonzero(np.diff(d.cycle))[0] + 1, len(d.cycle)]
+    for a, b in zip(starts[:-1], starts[1:]):
+        out[a:b] = d.cycle[a] * per_cycle + (np.arange(b - a) * per_cycle) // (b - a)
+    return out
+
+
+def _block_sse(r, block, ids):
+    return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
+
+
+def p_value(d_c, rng, alpha=ALPHA):
+    """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
+    (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha."""
+    n = len(d_c)
+    if n < 3:
+        return 1.0
+    m = d_c.mean()
+    total = max(BOOT, int(np.ceil(20 / alpha)))
+    hits = 0
+    for k in range(0, total, BOOT):  # in chunks: a (resamples x blocks) index array each
+        boot = d_c[rng.integers(0, n, (min(BOOT, total - k), n))].mean(axis=1)
+        hits += int(np.sum(boot - m >= m))
+    return float((hits + 1) / (total + 1))
+
+
+def noise_sd(r, d: Data):
+    """Force noise [N] from sample-to-sample differences of the residual within cycles."""
+    same = np.diff(d.cycle) == 0
+    return float(np.median(np.abs(np.diff(r)[same])) / 0.6745 / np.sqrt(2))
+
+
+def available(d: Data, accepted):
+    out, skipped = [], []
+    for name, e in CATALOGUE.items():
+        if e.needs == "T" and d.T is None:
+            skipped.append(name)
+        elif e.needs == "aux":
+            out += [f"aux_channel:{n}" for n in d.aux if f"aux_channel:{n}" not in accepted]
+            if not d.aux:
+                skipped.append(name)
+        elif name not in accepted:
+            out.append(name)
+    return out, skipped
+
+
+def _cross_fit(model: Model, d: Data, folds, starts):
+    """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
+    sd per fold, residual [N] where every judged sample comes from a fit that never saw it)."""
+    r = np.zeros(len(d.F))
+    vals, sds = [], []
+    for (train, test), start in zip(folds, starts):
+        v, sd = fit(model, d, train, start)
+        r = np.where(test, model.force(d, v) - d.F, r)
+        vals.append(v)
+        sds.append(sd)
+    return vals, sds, r
+
+
+def _pooled(vals, sds):
+    """The folds' estimates averaged, with the sd of that mean (independent halves)."""
+    mean = {k: float(np.mean([v[k] for v in vals])) for k in vals[0]}
+    sd = {k: float(np.sqrt(sum(s[k] ** 2 for s in sds)) / len(sds)) for k in sds[0]}
+    return mean, sd
+
+
+def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None):
+    """The diagnosis as plain data (see protocols/diagnosis.py for its JSON). baseline:
+    None for `minimal`, or (name, damper model) to start from that model, refitted."""
+    d = prepare(channels, events)
+    if baseline is None:
+        base = Minimal(d)
+    else:
+        progress(f"simulating {baseline[0]} along the recorded motion")
+        base = FromModel(baseline[1], d, baseline[0])
+    rng = np.random.default_rng(seed)
+    # two folds: fitted on even cycles and judged on odd ones, and the other way round, so
+    # every cycle is judged once by a fit that never saw it. Samples within a sample period
+    # of a velocity reversal are neither fitted nor judged: the friction's sign there is set
+    # by where the reversal falls between samples, which no model of the physics can know
+    flip = np.zeros(len(d.v), bool)
+    k = np.nonzero(np.diff(np.sign(d.v)) != 0)[0]
+    flip[k] = flip[np.minimum(k + 1, len(flip) - 1)] = True
+    even, odd = (d.cycle % 2 == 0) & ~flip, (d.cycle % 2 == 1) & ~flip
+    folds = [(even, odd), (odd, even)]
+    test = even | odd
+    block = blocks(d)
+    test_blocks = np.unique(block[test])
+    model = Model(d, base=base)
+    fold_vals, sds, r0 = _cross_fit(model, d, folds, [{}, {}])
+    values, sd = _pooled(fold_vals, sds)
+    r_train = model.force(d, fold_vals[0]) - d.F
+    base_res = {"name": base.name, "parameters": values, "sd": sd, "nrmse_train": nrmse(d.F[even] + r_train[even], d.F[even]),
+                "nrmse_heldout": nrmse(d.F[test] + r0[test], d.F[test]), "residual": r0,
+                "model_gas_force": getattr(base, "Fg_m", None)}
+    sigma = noise_sd(r0, d)
+    progress(f"baseline: held-out error {100 * base_res['nrmse_heldout']:.2f} % of the force range, "
+             f"force noise {sigma:.2f} N")
+    accepted, steps, candidates = [], [], []
+    current, r_cur = fold_vals, r0
+    _, not_assessed = available(d, accepted)
+    n_test = int(np.sum(test))
+    for _ in range(max_effects):
+        names, _ = available(d, accepted)
+        alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
+        sse_cur = _block_sse(np.where(test, r_cur, 0.0), block, test_blocks)
+        n_before = len(Model(d, accepted, base).params)
+        round_ = []
+        for e in names:
+            m = Model(d, accepted + [e], base)
+            f_vals, f_sds, r = _cross_fit(m, d, folds, current)
+            vals, sds = _pooled(f_vals, f_sds)
+            d_c = sse_cur - _block_sse(np.where(test, r, 0.0), block, test_blocks)
+            gain = float(d_c.sum() / n_test)  # held-out mean-square improvement [N^2]
+            # each block counts alike whatever its force, and symmetrically: a block made ten
+            # times worse weighs what one made ten times better does
+            rel = np.log(np.maximum(sse_cur, 1e-30) / np.maximum(sse_cur - d_c, 1e-30))
+            own = {p.name: vals[p.name] for p in m.params[n_before:]}
+            round_.append({"effect": e, "parameters": own,
+                           "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
+                           "nrmse_heldout": nrmse(d.F[test] + r[test], d.F[test]), "p_value": p_value(rel, rng, alpha),
+                           "gain": gain, "relevance": gain / sigma ** 2, "round": len(accepted) + 1,
+                           "_values": vals, "_folds": f_vals, "_r": r})
+            progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.2g}"
+                     f"  gain {gain / sigma ** 2:+.3f} noise variances")
+        candidates += round_
+        mse = float(np.mean(r_cur[test] ** 2))
+        ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE
+              and c["gain"] >= SHARE * mse]
+        if not ok:
+            break
+        best = max(ok, key=lambda c: c["gain"])
+        steps.append({"effect": best["effect"], "before": nrmse(d.F[test] + r_cur[test], d.F[test]),
+                      "after": best["nrmse_heldout"], "parameters": best["parameters"], "ci": best["ci"],
+                      "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"]})
+        accepted.append(best["effect"])
+        values, current, r_cur = best["_values"], best["_folds"], best["_r"]
+        progress(f"accepted {best['effect']}")
+    final_model = Model(d, accepted, base)
+    return {"data": d, "baseline": base_res, "noise_sd": sigma, "locations": locate(d, r0),
+            "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
+            "final": {"nrmse_heldout": nrmse(d.F[test] + r_cur[test], d.F[test]), "parameters": values,
+                      "force": final_model.force(d, values)}}
+
+
+# --- where the residual lives ---------------------------------------------------------
+
+def locate(d: Data, r):
+    """[{where, energy_share, sample_share, mean_residual}] of regions holding more than
+    their share of the residual energy, strongest concentration first."""
+    E = r ** 2
+    tot = max(E.sum(), 1e-30)
+    vpk = np.array([np.max(np.abs(d.v[d.segment == s])) for s in range(len(d.segments))])[d.segment]
+    Fr = np.ptp(d.F)
+    regions = {
+        "in compression (v > 0)": d.v > 0,
+        "in rebound (v < 0)": d.v < 0,
+        "near velocity reversal (|v| < 5 % of the segment's peak)": np.abs(d.v) < 0.05 * vpk,
+        "at high speed (|v| > 80 % of the segment's peak)": np.abs(d.v) > 0.8 * vpk,
+        "near force zero-crossing (|F| < 5 % of its range)": np.abs(d.F) < 0.05 * Fr,
+        "at high acceleration (|a| > 80 % of the segment's peak)":
+            np.abs(d.a) > 0.8 * np.array([np.max(np.abs(d.a[d.segment == s])) for s in range(len(d.segments))])[d.segment],
+    }
+    lo, hi = np.percentile(d.x, [20, 80])
+    regions[f"at the compressed end (x > {hi * 1e3:.1f} mm)"] = d.x > hi
+    regions[f"at the extended end (x < {lo * 1e3:.1f} mm)"] = d.x < lo
+    mid = (d.x > np.percentile(d.x, 40)) & (d.x < np.percentile(d.x, 60))
+    regions[f"mid-stroke ({np.percentile(d.x, 40) * 1e3:.1f}-{np.percentile(d.x, 60) * 1e3:.1f} mm)"] = mid
+    for s, (name, f) in enumerate(d.segments):
+        regions[f"in segment {name}"] = d.segment == s
+    if d.T is not None:
+        Tq = np.percentile(d.T, 75)
+        regions[f"when hottest (T > {Tq - 273.15:.1f} C)"] = d.T > Tq
+    out = []
+    for where, k in regions.items():
+        n = k.mean()
+        if n < 0.01 or n > 0.9:
+            continue
+        share = E[k].sum() / tot
+        out.append({"where": where, "energy_share": float(share), "sample_share": float(n),
+                    "mean_residual": float(np.mean(r[k])), "concentration": float(share / n)})
+    out.sort(key=lambda o: -o["concentration"])
+    lag = best_lag(d, r)
+    if lag is not None:
+        out.append(lag)
+    return out
+
+
+def best_lag(d: Data, r):
+    """The residual against the force's rate of change: a lag between force and motion
+    leaves residual = -lag dF/dt."""
+    dF = np.gradient(d.F, d.t)
+    same = np.r_[True, np.diff(d.cycle) == 0]
+    k = same & np.isfinite(dF)
+    denom = float(np.sum(dF[k] ** 2))
+    if denom <= 0:
+        return None
+    lag = -float(np.sum(r[k] * dF[k]) / denom)
+    share = float(np.sum((lag * dF[k]) ** 2) / max(np.sum(r[k] ** 2), 1e-30))
+    return {"where": f"lag between force and displacement {1e3 * lag:+.3f} ms (force later when positive)",
+            "energy_share": share, "sample_share": 1.0, "mean_residual": 0.0, "concentration": share,
+            "lag_s": lag}

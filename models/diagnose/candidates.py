@@ -1,0 +1,333 @@
+"""The diagnosis's models: the minimal baseline and the catalogue of physics it may have
+left out, each a small model with bounded parameters (arrays in, force out, N).
+
+Baseline `minimal` (thesis chapter 3, reduced):
+  damping   two-stage asymmetric valve curve, low- and mid-speed paths in parallel
+            (eq 3.30): v = v_L(F) + v_M(F), v_L from F = c1 v + c2 v^2 (eq 3.26, the
+            polynomial low-speed valve), v_M = (F - F_cr)/C_lin above the mid valve's
+            cracking force (eq 3.27 with its constant); incompressible, per direction
+  gas       polytropic about the mean position at constant temperature (eq 3.19):
+            F_G = G0 (L / (L - (x - x_m)))^gamma, gamma = 1.38 (thesis 4.1.2)
+  friction  Coulomb (eq 3.3), sgn(v) softened over V_EPS
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+GAMMA = 1.38  # thesis section 4.1.2
+V_EPS = 5e-5  # m/s: friction sign softened over this (the model's velocity is low-passed)
+# the force channel's averaging time, in sample periods: a first-order anti-alias filter
+# at the Nyquist frequency averages over about 0.6 of one (a choice; the data cannot tell it
+# from the size of a short clearance crossing, which it scales)
+W_FORCE = 0.5
+LEAD = 20  # samples run before a stretch when a damper model is simulated along it
+
+
+@dataclass(frozen=True)
+class P:
+    name: str
+    x0: float
+    lo: float
+    hi: float
+    unit: str = ""
+    grid: tuple = ()  # start values tried first (a parameter whose effect is piecewise)
+
+
+def _direction(v, c1, c2, C, Fcr):
+    """Force magnitude [N] at speed v >= 0 [m/s] of low (c1 v + c2 v^2) and mid
+    ((F - Fcr)/C) paths in parallel, eq 3.30; closed form of the quadratic."""
+    FL = c1 * v + c2 * v * v
+    # above the cracking force: sqrt(c1^2 + 4 c2 F) = A - B F
+    A = 2 * c2 * v + c1 + 2 * c2 * Fcr / C
+    B = 2 * c2 / C
+    qa, qb, qc = B * B, -(2 * A * B + 4 * c2), A * A - c1 * c1
+    disc = np.sqrt(np.maximum(qb * qb - 4 * qa * qc, 0.0))
+    # the smaller root (A - B F >= 0), in the cancellation-free form
+    F_open = 2 * qc / np.maximum(-qb + disc, 1e-30)
+    return np.where(FL > Fcr, np.maximum(F_open, Fcr), FL)
+
+
+def damping(v, p):
+    """Damping force [N], positive in compression, from velocity v [m/s]."""
+    comp = _direction(np.maximum(v, 0), p["c1_c"], p["c2_c"], p["C_c"], p["Fcr_c"])
+    reb = _direction(np.maximum(-v, 0), p["c1_r"], p["c2_r"], p["C_r"], p["Fcr_r"])
+    return comp - reb
+
+
+def gas(x, x_m, p):
+    """Gas force [N]: polytropic about x_m (eq 3.19)."""
+    L = p["L"]
+    return p["G0"] * (L / np.maximum(L - (x - x_m), 1e-3 * L)) ** GAMMA
+
+
+def baseline_params(d):
+    """Start values and bounds of the minimal model from the data's ranges."""
+    Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
+    vmax = max(np.percentile(np.abs(d.v), 99), 1e-3)
+    c0 = Fmax / vmax
+    Fg = float(np.median(d.F))
+    return [P("c1_c", c0, 0.0, 50 * c0, "N s/m"), P("c2_c", c0 / vmax * 0.3, 0.0, 100 * c0 / vmax, "N s^2/m^2"),
+            P("C_c", c0, 0.01 * c0, 100 * c0, "N s/m"), P("Fcr_c", 0.5 * Fmax, 0.0, 3 * Fmax, "N"),
+            P("c1_r", c0, 0.0, 50 * c0, "N s/m"), P("c2_r", c0 / vmax * 0.3, 0.0, 100 * c0 / vmax, "N s^2/m^2"),
+            P("C_r", c0, 0.01 * c0, 100 * c0, "N s/m"), P("Fcr_r", 0.5 * Fmax, 0.0, 3 * Fmax, "N"),
+            P("G0", Fg, -Fmax, Fmax, "N"), P("L", 0.3, 0.005, 20.0, "m"),
+            P("F_c", 0.03 * Fmax, 0.0, 0.5 * Fmax, "N")]
+
+
+@njit(cache=True)
+def _lag(F, tau, h):
+    """F through a first-order lag of time constant tau[i] [s] (implicit Euler)."""
+    out = np.empty_like(F)
+    y = F[0]
+    for i in range(len(F)):
+        y += h[i] / (tau[i] + h[i]) * (F[i] - y)
+        out[i] = y
+    return out
+
+
+@njit(cache=True)
+def _integral(F, t, lo, hi):
+    """Integral over [lo, hi] of F linear between samples t (lo >= t[0])."""
+    j = max(np.searchsorted(t, lo) - 1, 0)
+    out = 0.0
+    while j < len(t) - 1 and t[j] < hi:
+        a, b = max(t[j], lo), min(t[j + 1], hi)
+        if b > a:
+            s = (F[j + 1] - F[j]) / (t[j + 1] - t[j])
+            out += (b - a) * (F[j] + s * (0.5 * (a + b) - t[j]))
+        j += 1
+    return out
+
+
+@njit(cache=True)
+def _plateau(F, S, t, c, W):
+    """Free play: the load cell reads zero while the mount crosses a clearance c [m].
+    When the force F [N] changes sign (at t_z, between samples) the rod leaves its contact
+    and floats where the damper's own force on it is zero; the mount then moves away from
+    it at the speed it would have needed to make the force, |F| / S (S: the damping's slope
+    dF/dv [N s/m]), so the gap closes at t_e where the integral of |F| / S from t_z is c.
+    Each sample holds the force's mean over a window W [s] about it (the amplifier's
+    anti-alias filter), so it loses what the part of its window inside the crossing would
+    have carried: the force depends smoothly on c and on where the crossing falls between
+    samples, and c = 0 is the model without. No crossing is begun across a gap."""
+    out = F.copy()
+    if c <= 0.0:
+        return out
+    n = len(F)
+    i = 1
+    while i < n:
+        h = t[i] - t[i - 1]
+        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
+            i += 1
+            continue
+        tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
+        side = 1.0 if F[i] > 0 else -1.0
+        s, t0, f0, te = 0.0, tz, 0.0, t[n - 1]
+        j = i
+        while j < n:
+            f1 = side * F[j]
+            if f1 < 0.0:  # back to the old side before the gap closed: contact resumes there
+                te = t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1)
+                break
+            dt = t[j] - t0
+            k = max(S[j], 1e-9)
+            ds = 0.5 * (f0 + f1) * dt / k
+            if s + ds >= c and dt > 0.0:
+                # |F| linear over the interval: s(tau) = (f0 tau + b tau^2 / 2) / k, b = (f1 - f0) / dt
+                b = (f1 - f0) / dt
+                need = (c - s) * k
+                if abs(b) * need < 1e-12 * f0 * f0:
+                    tau = need / max(f0, 1e-30)
+                else:
+                    tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
+                te = t0 + min(max(tau, 0.0), dt)
+                break
+            s += ds
+            t0, f0 = t[j], f1
+            j += 1
+        k = i - 1
+        while k < n and t[k] - 0.5 * W < te:
+            lo, hi = max(t[k] - 0.5 * W, tz), min(t[k] + 0.5 * W, te)
+            if hi > lo:
+                out[k] -= _integral(F, t, lo, hi) / W
+            k += 1
+        i = max(k, i + 1)
+    return out
+
+
+def _shift(y, t, tau):
+    return np.interp(t - tau, t, y)
+
+
+class Minimal:
+    """Baseline `minimal` (see the module's docstring), fitted whole."""
+    name = "minimal"
+
+    def __init__(self, d):
+        self.x_m = float(np.mean(d.x))
+
+    def params(self, d):
+        return baseline_params(d)
+
+    def parts(self, d, p, x, v, tau):
+        """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
+        along motion x, v (already shifted by the sensor delay tau)."""
+        return damping(v, p), gas(x, self.x_m, p), p["F_c"] * np.tanh(v / V_EPS), lambda: _slope(v, p)
+
+
+class FromModel:
+    """Baseline from a damper model (the presets' JSON): its damping, gas and friction
+    forces simulated once along the recorded motion (models/simulate.py, compressible), then
+    refitted where the data allows: a gain on the damping (valves), the static gas force and
+    a gain on its slope with stroke (charge pressure and volume), a gain on the friction."""
+
+    def __init__(self, damper, d, name):
+        from models.physics.simulate import simulate
+        self.name = name
+        T = float(np.mean(d.T)) if d.T is not None else 293.15
+        x_e = float(np.mean(d.x))
+        out = {k: np.empty(len(d.t)) for k in ("Fd", "Fg", "Ff", "slope")}
+        dv = 1e-3  # m/s, for the valves' slope (incompressible)
+        cut = np.r_[0, np.nonzero(np.diff(d.t) > 1.5 * d.h[1:])[0] + 1, len(d.t)]
+        for a, b in zip(cut[:-1], cut[1:]):
+            if b - a < 2:
+                out["Fd"][a:b] = out["Fg"][a:b] = out["Ff"][a:b] = out["slope"][a:b] = 0.0
+                continue
+            t = np.linspace(d.t[a], d.t[b - 1], b - a)  # uniform, as the compressible model needs
+            x, v = np.interp(t, d.t[a:b], d.x[a:b]), np.interp(t, d.t[a:b], d.v[a:b])
+            # a lead-in at the first sample's velocity, so the chambers are flowing when it starts
+            lead = np.arange(-LEAD, 0)
+            t = np.r_[t[0] + lead * (t[1] - t[0]), t]
+            x = np.r_[x[0] + v[0] * (t[:LEAD] - t[LEAD]), x]
+            v = np.r_[np.full(LEAD, v[0]), v]
+            r = simulate(damper, t, x, v, T=T, compressible=True, x_e=x_e, substeps=4)
+            up = simulate(damper, t, x, v + dv, T=T, compressible=False, x_e=x_e)
+            dn = simulate(damper, t, x, v - dv, T=T, compressible=False, x_e=x_e)
+            back = (lambda y: np.interp(d.t[a:b], t[LEAD:], y[LEAD:]))
+            out["Fd"][a:b], out["Fg"][a:b], out["Ff"][a:b] = back(r.damping), back(r.gas), back(r.friction)
+            out["slope"][a:b] = back(np.abs(up.damping - dn.damping) / (2 * dv))
+        self.Fd, self.Fg, self.Ff, self.slope = out["Fd"], out["Fg"], out["Ff"], out["slope"]
+        self.Fg_m = float(np.mean(self.Fg))
+
+    def params(self, d):
+        Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
+        return [P("k_damping", 1.0, 0.0, 5.0, "-"), P("G0", self.Fg_m, -Fmax, Fmax, "N"),
+                P("k_gas", 1.0, 0.0, 5.0, "-"), P("k_friction", 1.0, 0.0, 10.0, "-")]
+
+    def parts(self, d, p, x, v, tau):
+        s = (lambda y: _shift(y, d.t, -tau)) if tau else (lambda y: y)
+        return (p["k_damping"] * s(self.Fd), p["G0"] + p["k_gas"] * (s(self.Fg) - self.Fg_m),
+                p["k_friction"] * s(self.Ff), lambda: p["k_damping"] * s(self.slope))
+
+
+class Model:
+    """Baseline plus accepted effects, evaluated on Data: force(d, values) [N]."""
+
+    def __init__(self, d, effects=(), base=None):
+        self.base = base or Minimal(d)
+        self.x_m = float(np.mean(d.x))
+        self.params = self.base.params(d)
+        self.effects = list(effects)
+        for e in self.effects:
+            self.params += CATALOGUE[e.split(":")[0]].params(d, e)
+        # means the effects refer to (fixed from the data, not fitted)
+        self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
+        self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
+        self.h = float(np.median(d.h))  # s, the sample period
+        x0 = {p.name: p.x0 for p in self.params}
+        self.Fg_m = float(np.mean(self.base.parts(d, x0, d.x, d.v, 0.0)[1]))
+
+    def force(self, d, p, parts=False):
+        x, v, a, t = d.x, d.v, d.a, d.t
+        tau = p.get("tau", 0.0)
+        if tau:  # sensor_delay: the force answers the motion tau earlier than stamped
+            x, v, a = _shift(x, t, -tau), _shift(v, t, -tau), _shift(a, t, -tau)
+        Fd, Fg, Ff, slope = self.base.parts(d, p, x, v, tau)
+        if "k_dT" in p:
+            Fd = Fd * (1 + p["k_dT"] * (d.T - self.T_m))
+        if "inv_k_oil" in p:  # compressibility: the valve in series with the oil's spring
+            Fd = _lag(Fd, slope() * p["inv_k_oil"], d.h)
+        if "k_gT" in p:
+            Fg = Fg * (1 + p["k_gT"] * (d.T - self.T_m))
+        if "pf1" in p:
+            xi = (x - self.x_m) / 0.01
+            Ff = Ff * (1 + p["pf1"] * xi + p["pf2"] * xi * xi)
+        if "r_break" in p:  # the seal grips harder near rest, falling to sliding friction with
+            # speed (the thesis's friction falls with velocity, section 3.2.1); exponential
+            Ff = Ff * (1 + (p["r_break"] - 1) * np.exp(-np.abs(v) / p["v_break"]))
+        F = Fd + Fg + Ff
+        if "m_oil" in p:
+            F = F + p["m_oil"] * a
+        for e in self.effects:
+            if e.startswith("aux_channel:"):
+                name = e.split(":", 1)[1]
+                u = _shift(d.aux[name], t, p[f"lag:{name}"]) - self.aux_m[name]
+                F = F + (p[f"b0:{name}"] + p[f"b1:{name}"] * Fd) * u
+        if "Fcav_c" in p:  # cavitation: the force cannot rise past what the chambers hold; in
+            # compression that is the gas pressure on the piston less the floor on the annulus,
+            # so the cap follows the gas force (times about A_p / A_r)
+            cap = p["Fcav_c"] + p["kcav"] * (Fg - self.Fg_m)
+            F = np.where(v > 0, np.minimum(F, cap), np.maximum(F, -p["Fcav_r"]))
+        if "c_play" in p:
+            F = _plateau(F, slope(), t, p["c_play"], W_FORCE * self.h)
+        return (F, Fd, Fg, Ff) if parts else F
+
+
+def _slope(v, p):
+    """Local slope dF/dv of the damping curve [N s/m] (finite difference)."""
+    dv = 1e-3
+    return np.abs(damping(v + dv, p) - damping(v - dv, p)) / (2 * dv)
+
+
+@dataclass(frozen=True)
+class Effect:
+    name: str
+    what: str  # the physics, in an engineer's words
+    params: callable  # (d, effect id) -> [P]
+    needs: str = ""  # "T" or "aux": a channel it needs
+
+
+def _p(*ps):
+    return lambda d, e: list(ps)
+
+
+def _aux_params(d, e):
+    n = e.split(":", 1)[1]
+    s = float(np.std(d.aux[n])) or 1.0
+    Fs = float(np.std(d.F)) or 1.0
+    return [P(f"b0:{n}", 0.0, -10 * Fs / s, 10 * Fs / s, "N per unit"), P(f"b1:{n}", 0.0, -1 / s, 1 / s, "per unit"),
+            P(f"lag:{n}", 0.0, 0.0, 0.2, "s", (0.0, 0.01, 0.03, 0.1))]
+
+
+def _cav_params(d, e):
+    Fmax = float(np.max(np.abs(d.F)))
+    fc, fr = float(np.max(d.F)), float(-np.min(d.F))
+    return [P("Fcav_c", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fc * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
+            P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fr * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
+            P("kcav", 0.0, 0.0, 30.0, "-", (0.0, 5.0, 10.0))]
+
+
+CATALOGUE = {
+    "sensor_delay": Effect("sensor_delay", "a time lag between the displacement and force channels",
+                           _p(P("tau", 0.0, -0.02, 0.02, "s", (-2e-3, -2e-4, 0.0, 2e-4, 2e-3)))),
+    "free_play": Effect("free_play", "clearance (free play) in the damper's mounts",
+                        _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3)))),
+    "compressibility": Effect("compressibility", "compressible oil (entrained air) in series with the valves",
+                              _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N"))),
+    "breakaway_friction": Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
+                                 _p(P("r_break", 1.2, 1.0, 5.0, "-"),
+                                    P("v_break", 5e-3, 1e-5, 0.1, "m/s", (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)))),
+    "position_friction": Effect("position_friction", "seal friction varying along the bore",
+                                _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2"))),
+    "gas_temperature": Effect("gas_temperature", "gas-spring force rising with temperature",
+                              _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")), "T"),
+    "damping_temperature": Effect("damping_temperature", "damping changing with oil temperature",
+                                  _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")), "T"),
+    "fluid_inertia": Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
+                            _p(P("m_oil", 0.0, -20.0, 200.0, "kg"))),
+    "cavitation": Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params),
+    "aux_channel": Effect("aux_channel", "an auxiliary channel changing the force", _aux_params, "aux"),
+}

@@ -1,0 +1,175 @@
+"""A recording as the diagnosis sees it: one uniform time base per stretch of cycling,
+cut into whole cycles that are either fitted (train) or only judged (held out).
+
+Channels may come at different rates, with gaps and dropouts: everything is put on the
+force channel's clock (block-averaged to at most MAX_RATE_HZ), a stretch is cut wherever
+the force or displacement has a gap longer than GAP_PERIODS sample periods, and what
+could not be assessed is said in `notes`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from models.recording import cycle_blocks, segments, smooth
+
+MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
+GAP_PERIODS = 5
+MIN_CYCLES = 6  # fewer whole cycles than this cannot be split into train and held-out
+
+
+class DiagnoseError(ValueError):
+    """The recording cannot be diagnosed; the message says why."""
+
+
+@dataclass
+class Data:
+    t: np.ndarray  # s
+    x: np.ndarray  # m, low-passed (zero phase)
+    v: np.ndarray  # m/s, derivative of the low-passed displacement
+    a: np.ndarray  # m/s^2
+    F: np.ndarray  # N, measured
+    cycle: np.ndarray  # cycle number of each sample (-1: not in a whole cycle)
+    segment: np.ndarray  # index into `segments` of each sample
+    h: np.ndarray  # s, sample spacing of each sample's stretch
+    segments: list  # [(name, freq_hz)]
+    T: np.ndarray | None = None  # K, body temperature
+    aux: dict = field(default_factory=dict)  # {name: values}
+    notes: list = field(default_factory=list)  # what could not be assessed, and why
+
+    def take(self, k):
+        """The samples at index array/mask k (same fields)."""
+        return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
+                    self.h[k], self.segments, None if self.T is None else self.T[k],
+                    {n: a[k] for n, a in self.aux.items()}, self.notes)
+
+
+def _clean(t, v):
+    """Sorted, finite, unique time stamps (a repeated stamp keeps its last value)."""
+    t, v = np.asarray(t, float), np.asarray(v, float)
+    ok = np.isfinite(t) & np.isfinite(v)
+    t, v = t[ok], v[ok]
+    order = np.argsort(t, kind="stable")
+    t, v = t[order], v[order]
+    keep = np.append(np.diff(t) > 0, True)
+    return t[keep], v[keep]
+
+
+def _gaps(t, period):
+    """[(t_start, t_end)] of the gaps in a channel's stamps."""
+    d = np.diff(t)
+    k = np.nonzero(d > GAP_PERIODS * period)[0]
+    return [(t[i], t[i + 1]) for i in k]
+
+
+HARMONICS = 8
+
+
+def _periodic_motion(t, x, f):
+    """(x, v, a) of a periodic motion at f [Hz] as a sum of HARMONICS harmonics and a slow
+    drift, fitted to the displacement samples: differentiating the fit adds no transducer
+    noise, where a low-pass derivative at 10 f puts millimetres per second of it into the
+    velocity (tens of newtons through a valve). (None, None, None) when the motion is not
+    periodic at f to within 20 um RMS: then the caller low-passes."""
+    w = 2 * np.pi * f
+    tau = t - t[0]
+    cols = [np.ones_like(t), tau]
+    for k in range(1, HARMONICS + 1):
+        cols += [np.cos(k * w * tau), np.sin(k * w * tau)]
+    A = np.column_stack(cols)
+    coef, *_ = np.linalg.lstsq(A, x, rcond=None)
+    xf = A @ coef
+    if np.sqrt(np.mean((x - xf) ** 2)) > 2e-5:
+        return None, None, None
+    v = np.full_like(t, coef[1])
+    a = np.zeros_like(t)
+    for k in range(1, HARMONICS + 1):
+        c, s_ = coef[2 * k], coef[2 * k + 1]
+        kw = k * w
+        v += kw * (-c * np.sin(kw * tau) + s_ * np.cos(kw * tau))
+        a += -kw * kw * (c * np.cos(kw * tau) + s_ * np.sin(kw * tau))
+    return xf, v, a
+
+
+def prepare(channels, events) -> Data:
+    """Data from a recording's channels {name: (t, values)} and events."""
+    missing = [n for n in ("force", "x") if n not in channels or len(channels[n][0]) < 10]
+    if missing:
+        raise DiagnoseError(f"the recording has no {' or '.join(missing)} channel: diagnosis needs time, "
+                            f"displacement and force")
+    notes = []
+    tF, F = _clean(*channels["force"])
+    tx, x = _clean(*channels["x"])
+    period = float(np.median(np.diff(tF)))
+    gaps = _gaps(tF, period) + _gaps(tx, float(np.median(np.diff(tx))))
+    if gaps:
+        lost = sum(b - a for a, b in gaps)
+        notes.append(f"{len(gaps)} gap(s) in force or displacement ({lost:.2f} s in all): "
+                     f"the cycles they touch are left out")
+    spans = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in segments(events, kinds=("sine",))]
+    if not spans:
+        spans = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in cycle_blocks({"x": (tx, x)}, cycles=2)]
+    step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))
+    h = period * step
+    T_ch = next((n for n in ("T_body", "temperature", "T_reservoir") if n in channels and len(channels[n][0]) > 1), None)
+    aux = {n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10}
+    parts, seg_names, n_cycles = [], [], 0
+    for name, f, t0, t1 in spans:
+        # smooth over the stretch with a margin each side (the recording goes on around a
+        # segment), then keep the segment: a zero-phase filter's edges are not to be trusted
+        pad = min(max(1.0 / f, 0.1), 1.0)
+        te = np.arange(max(t0 - pad, tF[0], tx[0]), min(t1 + pad, tF[-1], tx[-1]), h)
+        keep = (te >= t0) & (te < t1)
+        t = te[keep]
+        if len(t) < 50 or t[0] - t0 > 2 * h or t1 - t[-1] > 2 * h:
+            continue
+        # block-average the force over the new sample period (anti-aliasing when decimating)
+        Fi = np.interp(t, tF, F) if step == 1 else np.interp(t, tF, np.convolve(F, np.ones(step) / step, "same"))
+        xs, v, a = _periodic_motion(t, np.interp(t, tx, x), f)
+        if xs is None:
+            xe = smooth(np.interp(te, tx, x), h, f)
+            ve = np.gradient(xe, h)
+            ae = np.gradient(smooth(ve, h, f), h)
+            xs, v, a = xe[keep], ve[keep], ae[keep]
+        # whole cycles: the motion's phase from the segment start (segments are whole cycles)
+        cyc = np.floor((t - t0) * f + 1e-9).astype(int)
+        whole = cyc < int(round((t1 - t0) * f - 1e-6))
+        for g0, g1 in gaps:  # a cycle touched by a gap is left out
+            hit = np.unique(cyc[(t >= g0 - 2 * h) & (t <= g1 + 2 * h)])
+            whole &= ~np.isin(cyc, hit)
+        cyc = np.where(whole, cyc + n_cycles, -1)
+        n_cycles = max(n_cycles, cyc.max() + 1)
+        parts.append((t, xs, v, a, Fi, cyc, np.full(len(t), len(seg_names)), np.full(len(t), h)))
+        seg_names.append((name, f))
+    if not parts:
+        raise DiagnoseError("the recording has no cycling to judge (no sine segments and no repeated strokes "
+                            "of at least 2 mm)")
+    cols = [np.concatenate(c) for c in zip(*parts)]
+    d = Data(*cols, segments=seg_names, notes=notes)
+    keep = d.cycle >= 0
+    d = d.take(keep)
+    if T_ch is None:
+        notes.append("no temperature channel: gas and damping temperature effects not assessed")
+    else:
+        tT, T = _clean(*channels[T_ch])
+        d.T = np.interp(d.t, tT, T)
+        if np.ptp(d.T) < 0.5:
+            notes.append(f"temperature spans only {np.ptp(d.T):.2f} K: temperature effects not assessed")
+            d.T = None
+    for n, (ta, va) in aux.items():
+        if ta[0] > d.t[0] + 1.0 or ta[-1] < d.t[-1] - 1.0:
+            notes.append(f"{n} does not cover the cycling: not assessed")
+            continue
+        d.aux[n] = np.interp(d.t, ta, va)
+    n_whole = len(np.unique(d.cycle))
+    if n_whole < MIN_CYCLES:
+        raise DiagnoseError(f"only {n_whole} whole cycle(s) without gaps: too short to judge "
+                            f"(at least {MIN_CYCLES} needed, half fitted and half held out)")
+    return d
+
+
+def split(d: Data):
+    """(train, held-out): alternate whole cycles within each segment."""
+    test = d.cycle % 2 == 1
+    return d.take(~test), d.take(test)

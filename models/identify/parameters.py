@@ -1,0 +1,101 @@
+"""Parameters by dotted name (`valves.piston.rebound.m`, `gas_spring.gamma`, ...), the
+scale each is fitted on, and the canonical form in which identified and known dampers
+are compared (module docstring of models.identify)."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from models.damper import Damper
+from models.identify import valves as identify_valves
+
+UNITS = {"C_seatw": "N s/m", "dP_seat_Aw": "N", "C_ifT": "-", "C_sfT": "1/K", "a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
+         "gamma": "-", "x_stick": "m", "beta_inv": "Pa", "C_ibeta": "Pa", "C_sbeta": "-", "beta_min_inv": "Pa"}
+
+
+def is_slope(name):
+    """A temperature coefficient [1/K]: K_effoil (eq 4.17) or the friction's C_sfT (eq 4.1)."""
+    return name.endswith("K_effoil") or name.endswith("C_sfT")
+
+
+def is_log(name):
+    """Positive quantities are fitted as logs (a step of 1e-3 is 0.1 %); temperature
+    coefficients in units of 1e-3 /K, gamma as it is."""
+    return not (is_slope(name) or name.endswith("gamma") or name.endswith("dP_seat_Aw"))
+
+
+def to_value(name, z):
+    if is_log(name):
+        with np.errstate(over="ignore"):  # the bound of an interval that has none
+            return float(np.exp(z))
+    return float(z) * (1e-3 if is_slope(name) else 1.0)
+
+
+def to_z(name, value):
+    if is_log(name):
+        with np.errstate(divide="ignore"):
+            return float(np.log(value))
+    return float(value) * (1e3 if is_slope(name) else 1.0)
+
+
+def determined(name, z, sd):
+    """Identifiable: an interval narrower than a factor e (logs) or than the value."""
+    return bool(np.isfinite(sd) and 1.96 * sd < (1.0 if is_log(name) else abs(z)))
+
+
+def set_parameter(d: Damper, structures, name: str, value: float):
+    """Inverse of `parameter_value`; a valve coefficient goes into its structure's
+    magnitudes (structures: (path, direction) -> (structure, magnitudes, ...)), which the
+    caller turns into the damper's valves."""
+    parts = name.split(".")
+    if parts[0] == "valves" and parts[1] == "bypass":
+        setattr(d.valves.bypass, parts[2], value)
+    elif parts[0] == "valves":
+        structures[(parts[1], parts[2])][1][parts[3]] = value
+    else:
+        obj = d
+        for p in parts[:-1]:
+            obj = getattr(obj, p)
+        setattr(obj, parts[-1], value)
+
+
+def parameter_value(d: Damper, name: str) -> float:
+    """A parameter by its dotted name; valve coefficients by magnitude (a, b, m, c, m2, c2)."""
+    parts = name.split(".")
+    if parts[0] == "valves" and parts[1] == "bypass":
+        return float(getattr(d.valves.bypass, parts[2])) if d.valves.bypass is not None else np.nan
+    if parts[0] == "valves":
+        _, path, tag, k = parts
+        sign = 1.0 if tag == "compression" else -1.0
+        return identify_valves.magnitudes(getattr(getattr(d.valves, path), tag), sign).get(k, np.nan)
+    obj = d
+    for p in parts:
+        obj = getattr(obj, p)
+    return float(obj) if obj is not None else np.nan
+
+
+def canonical(d: Damper) -> Damper:
+    """The equivalent damper with K_voint = 0 and C_fd = 0 (module docstring)."""
+    d = copy.deepcopy(d)
+    g = d.gas_spring
+    V0 = g.V0 - g.K_voint
+    g.P0, g.V0, g.K_voint = g.P0 * g.V0 / V0, V0, 0.0
+    for tag in ("compression", "rebound"):
+        tc = getattr(d.temperature, tag)
+        s = 1.0 + tc.C_fd
+        tc.K_effoil, tc.C_fd = tc.K_effoil / s, 0.0
+        for path in (d.valves.piston, d.valves.head):
+            if path is None:
+                continue
+            dr = getattr(path, tag)
+            dr.low.C_orrpw, dr.low.C_linpw, dr.low.C_ipw = (c / s for c in (dr.low.C_orrpw, dr.low.C_linpw,
+                                                                             dr.low.C_ipw))
+            for line in (dr.mid, dr.high):
+                if line is not None:
+                    line.C_linw, line.C_ilinw = line.C_linw / s, line.C_ilinw / s
+        if d.valves.bypass is not None and tag == "compression":
+            # its seating force compares the force itself: unchanged. Not exact in rebound,
+            # where the same seat coefficient meets the rebound C_fd (within 1e-4 of the peak)
+            d.valves.bypass.C_seatw /= s
+    return d

@@ -1,0 +1,63 @@
+"""The dynamic (sine) segments of a recording as the compressible fit uses them."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.physics.gas_spring import T_STD
+from models.recording import at, cycle_blocks, missing, segments, smooth
+
+WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
+
+
+
+@dataclass
+class Segment:
+    """A recorded test segment resampled on a uniform clock (the force's)."""
+    name: str
+    params: dict
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    F: np.ndarray
+    T: float  # mean body temperature [K]
+    P_gas: np.ndarray | None  # gas pressure on the segment's clock [Pa]
+    score_from: int  # samples before it are warm-up
+    tP: np.ndarray | None = None  # the gas pressure as sampled (scored part) [s]
+    P: np.ndarray | None = None  # [Pa]
+    chambers: dict | None = None  # {"t", "x", "v", "P1", "P2", "P_gas"} at the pressure samples
+
+    @property
+    def freq(self):
+        return float(self.params.get("freq_hz", 0.0))
+
+
+def dynamic_segments(channels, events):
+    """The sine segments (sine matrix, temperature sweep, imported cycling) as Segments."""
+    spans = segments(events, kinds=("sine",))
+    if not spans and not events:  # an imported recording: blocks of whole cycles
+        spans = cycle_blocks(channels)
+    tf = channels["force"][0]
+    h = float(np.median(np.diff(tf)))
+    out = []
+    for name, params, t0, t1 in spans:
+        start = max(t0 - WARMUP_S, tf[0])
+        t = np.arange(start, t1, h)
+        if len(t) < 20:
+            continue
+        f = params.get("freq_hz", 1.0)
+        x = smooth(at(channels, "x", t), h, f)
+        v = smooth(at(channels, "v", t) if "v" in channels else np.gradient(x, t), h, f)
+        T = float(at(channels, "T_body", t).mean()) if "T_body" in channels else T_STD
+        P = at(channels, "P_gas", t) if "P_gas" in channels else None
+        seg = Segment(name, params, t, x, v, at(channels, "force", t), T, P, int(np.searchsorted(t, t0)))
+        if P is not None:
+            tp, pv = channels["P_gas"]
+            k = (tp >= t0) & (tp <= t1)
+            seg.tP, seg.P = tp[k], pv[k]
+            if not missing(channels, ("P1", "P2")) and k.sum() > 4:
+                seg.chambers = {"t": seg.tP, "x": np.interp(seg.tP, t, x), "v": np.interp(seg.tP, t, v),
+                                "P_gas": seg.P, "P1": at(channels, "P1", seg.tP), "P2": at(channels, "P2", seg.tP)}
+        out.append(seg)
+    return out

@@ -1,0 +1,118 @@
+"""A recording as plain data, and the helpers every analysis of one shares.
+
+channels: {name: (t [s], values [SI])}; events: the recording's event dicts
+(docs/recording.md). A segment's kind is written into its params by the runner
+(`protocols/plan.py`); recordings made before that are read by inferring it from the
+params' keys (`segment_kind`), in this one place.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import butter, filtfilt
+
+# what a segment of motion is; the analyses choose segments by these
+KINDS = ("hold", "low-speed", "sine", "step", "rest", "warm-up", "transition")
+LOW_SPEED_HZ = 0.5  # recordings without kinds: cycling at or below this was the low-speed test
+
+
+def segment_kind(params: dict) -> str:
+    """The kind of a segment from its params (inferred for recordings without one)."""
+    if params.get("kind") in KINDS:
+        return params["kind"]
+    if "x_mm" in params:
+        return "hold"
+    if "step_mm" in params:
+        return "step"
+    if "until_c" in params:
+        return "warm-up"
+    if "cycles" in params and "freq_hz" in params:
+        return "low-speed" if params["freq_hz"] <= LOW_SPEED_HZ else "sine"
+    if "target_c" in params:
+        return "rest"
+    return "transition"
+
+
+def segments(events, measured=True, kinds=None):
+    """[(name, params, t0, t1)] of a recording's segments: measured ones only by default
+    (measured=False: all), of the given kinds if any. params carry their "kind"."""
+    out, open_ = [], {}
+    for e in events:
+        if e["kind"] == "segment_start":
+            open_ = {"name": e["segment"], "params": e["params"], "t0": e["t"]}
+        elif e["kind"] == "segment_end" and open_ and open_["name"] == e["segment"]:
+            params = {**open_["params"], "kind": segment_kind(open_["params"])}
+            if (not measured or params.get("measured", True)) and (kinds is None or params["kind"] in kinds):
+                out.append((open_["name"], params, open_["t0"], e["t"]))
+            open_ = {}
+    return out
+
+
+def missing(channels, names):
+    """Those of `names` the recording lacks (or has fewer than 2 samples of)."""
+    return [n for n in names if n not in channels or len(channels[n][0]) < 2]
+
+
+def at(channels, name, t):
+    """A channel interpolated at times t [s]."""
+    tc, vc = channels[name]
+    return np.interp(t, tc, vc)
+
+
+def smooth(y, h, freq):
+    """The motion a model is driven with: zero-phase low-pass at ten times the test
+    frequency (at least 20 Hz, at most 0.4 x Nyquist). The transducers' noise would
+    otherwise flip the sign of the model's friction and put noise into its damping
+    force, which the measured force does not have. h: sample period [s]."""
+    fc = min(max(10.0 * freq, 20.0), 0.2 / h)
+    if len(y) < 30:
+        return y
+    b, a = butter(2, fc * 2 * h)
+    return filtfilt(b, a, y)
+
+
+def cycle_blocks(channels, cycles=3):
+    """[(name, params, t0, t1)]: a recording without segment events cut into blocks of
+    `cycles` whole strokes (displacement rising through its median)."""
+    t, x = channels["x"]
+    up = np.nonzero((x[:-1] < np.median(x)) & (x[1:] >= np.median(x)))[0]
+    # a crossing counts once the motion has gone 1 mm the other way since the last one
+    starts = []
+    for i in up:
+        if not starts or np.ptp(x[starts[-1]:i + 1]) > 2e-3:
+            starts.append(i)
+    out = []
+    for k in range(0, len(starts) - cycles, cycles):
+        t0, t1 = float(t[starts[k]]), float(t[starts[k + cycles]])
+        params = {"freq_hz": cycles / (t1 - t0), "cycles": cycles, "kind": "sine"}
+        out.append((f"cycles {k + 1}-{k + cycles}", params, t0, t1))
+    return out
+
+
+def nrmse(F_model, F_meas):
+    """RMS error over the measured force's peak-to-peak range [-]."""
+    return float(np.sqrt(np.mean((F_model - F_meas) ** 2)) / max(np.ptp(F_meas), 1e-9))
+
+
+def covariance(jac, residual):
+    """(standard deviations, correlation matrix) of least-squares parameters from the
+    Jacobian: the residual variance per effective independent sample (neighbouring
+    samples' errors are correlated; one independent error per sign change of the
+    residual). A parameter without influence on the fit gets an infinite deviation."""
+    J, r = np.asarray(jac), np.asarray(residual)
+    n, p = J.shape
+    n_eff = max(int(np.sum(np.diff(np.sign(r)) != 0)), p + 1)
+    norms = np.linalg.norm(J, axis=0)
+    live = norms > 1e-6 * max(norms.max(), 1e-300)
+    sd = np.full(p, np.inf)
+    rho = np.zeros((p, p))
+    if live.any():
+        Jl = J[:, live]
+        # sigma^2 (J^T J)^-1 with the residual variance counted per independent error
+        cov = (r @ r) / max(n_eff - p, 1) * np.linalg.pinv(Jl.T @ Jl)
+        var = np.diag(cov)
+        # pinv gives a direction the data does not see no variance at all: not "exact"
+        sdl = np.where(var > 0, np.sqrt(np.abs(var)), np.inf)
+        sd[live] = sdl
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rho[np.ix_(live, live)] = np.clip(np.nan_to_num(cov / np.outer(sdl, sdl)), -1.0, 1.0)
+    return sd, rho

@@ -1,0 +1,1 @@
+"""Figures and HTML pages: what the report, identify and diagnose commands write."""

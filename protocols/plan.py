@@ -119,3 +119,38 @@ def ramp_in(amplitude, freq, cycles, x_mid):
 
 def as_dict(p):
     return {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in dataclasses.asdict(p).items()}
+
+
+def rig_info(cfg, damper):
+    """RigInfo for the plans: the damper's mid-stroke (or the safe position without a
+    model), the rig's limits, the damper model's response for the pre-flight check."""
+    import numpy as np
+
+    from models.physics.simulate import simulate
+    from protocols.plan import RigInfo
+    L = cfg.limits
+    peak = response = None
+    x_mid, x_min, x_max = cfg.safe_position, L["x_min"], L["x_max"]
+    ambient = cfg.thermal.get("ambient", 293.15)
+    if damper is not None and getattr(damper, "layout", "") != "simplified":
+        x_mid = damper.mid_stroke
+        # never plan into the damper's own end stops: 2 mm inside its stroke at most
+        x_min, x_max = max(x_min, 0.002), min(x_max, damper.geometry.stroke - 0.002)
+        temps = (ambient, damper.temperature.T_ref)  # cold or at its reference: the larger force
+
+        def peak_force(v, d=damper):
+            r = [simulate(d, np.array([0.0, 1.0]), np.array([d.mid_stroke] * 2), v=np.array([v, -v]),
+                          T=T, compressible=False) for T in temps]
+            return float(max(np.max(np.abs(x.force)) for x in r))
+
+        def response(t, x, v, T, d=damper):
+            """Force and gas pressure along a motion at T [K], or (T None) the worse force
+            of cold and reference and the gas of a damper that has not warmed."""
+            runs = [simulate(d, t, x, v=v, T=Ti, compressible=False, x_e=d.mid_stroke)
+                    for Ti in ((T,) if T is not None else temps)]
+            worst = max(runs, key=lambda r: np.max(np.abs(r.force)))
+            return worst.force, runs[0].P_gas
+        peak = peak_force
+    return RigInfo(x_mid, x_min, x_max, L["velocity_max"], L.get("frequency_max", 50.0),
+                   L["force_max"], L["temperature_max"], ambient, peak, response, L["gas_pressure_max"],
+                   cfg.thermal.get("conductance"))

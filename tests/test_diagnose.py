@@ -10,9 +10,9 @@ import pytest
 from models.diagnose.candidates import _direction
 from models.diagnose import diagnose
 from models.diagnose.data import DiagnoseError, prepare
-from protocols.report import load
+from protocols.io.reader import load_recording
 
-DYNO = [sys.executable, "-m", "protocols.cli"]
+DYNO = [sys.executable, "-m", "protocols.app.cli"]
 MATRIX = ["amplitudes_mm=12.7,3.2", "freqs_hz=1,4,16", "settle_cycles=1"]
 
 
@@ -42,13 +42,13 @@ def test_two_stage_valve_curve_solves_eq_3_30():
 
 
 def test_null_recording_accepts_nothing(recordings):
-    res = diagnose(*load(recordings["null"])[:2])
+    res = diagnose(*load_recording(recordings["null"])[:2])
     assert res["accepted"] == []
     assert res["baseline"]["nrmse_heldout"] < 0.005
 
 
 def test_a_hidden_lag_is_found_and_sized(recordings):
-    res = diagnose(*load(recordings["lag"])[:2])
+    res = diagnose(*load_recording(recordings["lag"])[:2])
     assert res["accepted"][0] == "sensor_delay"
     # a first-order filter of 1 ms delays a sine by about 1 ms at these frequencies
     # the force leads the filtered displacement (tau > 0); a 1 ms first-order filter reads as
@@ -58,7 +58,7 @@ def test_a_hidden_lag_is_found_and_sized(recordings):
 
 def test_two_hidden_effects_found_larger_first(recordings):
     # on this matrix the inertia adds 27.9 N RMS to the force, the 0.2 ms lag 14.7 N (offline plant)
-    res = diagnose(*load(recordings["inertia"])[:2])
+    res = diagnose(*load_recording(recordings["inertia"])[:2])
     assert res["accepted"][:2] == ["fluid_inertia", "sensor_delay"]
 
 
@@ -74,7 +74,7 @@ def test_cli_json_and_summary(recordings, tmp_path):
 
 
 def test_gaps_missing_temperature_and_too_short(recordings):
-    ch, ev, _ = load(recordings["null"])
+    ch, ev, _ = load_recording(recordings["null"])
     del ch["T_body"], ch["T_reservoir"]
     t, F = ch["force"]
     k = (t < 10.0) | (t > 10.3)  # a dropout of 0.3 s in the force
@@ -92,11 +92,11 @@ def test_a_damper_model_as_baseline(recordings):
     """--baseline PRESET: the plain cell's own damper model, simulated along the motion and
     refitted, leaves nothing on the null and finds the hidden inertia first."""
     from models.damper import load as load_damper
-    res = diagnose(*load(recordings["null"])[:2], baseline=("koni-plain", load_damper("koni-plain")))
+    res = diagnose(*load_recording(recordings["null"])[:2], baseline=("koni-plain", load_damper("koni-plain")))
     assert res["accepted"] == [] and res["baseline"]["name"] == "koni-plain"
     assert res["baseline"]["nrmse_heldout"] < 0.001  # within the noise: it is the rig's own damper
     assert abs(res["baseline"]["parameters"]["k_damping"] - 1.0) < 0.02
-    res = diagnose(*load(recordings["inertia"])[:2], baseline=("koni-plain", load_damper("koni-plain")))
+    res = diagnose(*load_recording(recordings["inertia"])[:2], baseline=("koni-plain", load_damper("koni-plain")))
     assert res["accepted"][0] == "fluid_inertia"
 
 

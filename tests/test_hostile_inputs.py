@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from models import damper as dm
-from protocols import csv_import
+from protocols.io import csv_import
 from rig.config import CONFIG_DIR
 from rig.errors import RigError
 

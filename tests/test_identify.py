@@ -190,7 +190,7 @@ def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     """A CSV with only time, displacement (mm) and force (kN): velocity derived, an empty
     column and a trailing separator ignored; identify skips the steps whose channels are
     missing, naming them, and still fits the valves."""
-    from protocols.report import load as load_rec
+    from protocols.io.reader import load_recording as load_rec
     from models.identify import dynamic_segments
     ch, events, _ = load_rec(koni_run[0])
     segs = [s for s in dynamic_segments(ch, events) if s.name.startswith("sine 12.7") or s.name.startswith("sine 3.2")]

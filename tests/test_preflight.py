@@ -11,7 +11,7 @@ import pytest
 
 from models.damper import load
 from protocols import preflight, runner
-from protocols.commands import rig_info
+from protocols.plan import rig_info
 from protocols.library import PROTOCOLS
 from protocols.plan import MARGIN, ParamError, Segment
 from rig import config

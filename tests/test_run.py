@@ -15,8 +15,8 @@ from mcap.reader import make_reader
 from protocols import runner
 from protocols.library import sine_matrix
 from protocols.plan import parse
-from protocols.recording import Recorder
-from protocols.commands import rig_info
+from protocols.io.recording import Recorder
+from protocols.plan import rig_info
 from rig import config
 from rig.pacing import SimulatedPacer
 from rig.rig import Rig
@@ -191,7 +191,8 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     for png in ("static.png", "loops.png", "composite.png"):
         assert png in page and (tmp_path / "rep" / png).stat().st_size > 20_000
     # the friction the seal held shows: half the difference of the two approaches
-    from protocols.report import load, segments
+    from protocols.io.reader import load_recording as load
+    from models.recording import segments
     ch, events, _ = load(out)
     holds = [s for s in segments(events) if "x_mm" in s[1]]
     assert len(holds) == 10 and {s[1]["approach"] for s in holds} == {"compression stroke", "extension stroke"}
@@ -243,7 +244,7 @@ def test_progress_counts_waits_by_their_approach_not_their_timeout():
 def test_recover_keeps_every_intact_chunk_after_damage_and_a_damaged_magic(tmp_path):
     from mcap.writer import CompressionType, Writer
 
-    from protocols.recording import recover
+    from protocols.io.recording import recover
     path = tmp_path / "many.mcap"
     with open(path, "wb") as f:
         w = Writer(f, chunk_size=2048, compression=CompressionType.ZSTD)

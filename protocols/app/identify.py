@@ -12,8 +12,8 @@ import numpy as np
 
 from models import damper as dm
 from models.identify import IdentifyError, identify
-from protocols.files import make_dir, writable_file
-from protocols.report import load
+from protocols.io.files import make_dir, writable_file
+from protocols.io.reader import load_recording
 from protocols.reports.page import number
 from rig.errors import RigError
 
@@ -23,7 +23,7 @@ def merge(paths):
     shifted in time to start 10 s after the one before ends."""
     channels, events, meta, offset = {}, [], None, 0.0
     for p in paths:
-        ch, ev, m = load(p)
+        ch, ev, m = load_recording(p)
         meta = meta if meta is not None else m
         end = offset
         for name, (t, v) in ch.items():
@@ -82,7 +82,7 @@ def run(args):
         T = float(np.mean([s.T for s in res.train + res.test])) if res.train else 293.15
         doc.update(compare(res, truth, T))
     if args.report:
-        from protocols.identify_report import write
+        from protocols.reports.identification import write
         index = write(res, doc, args.report)
         say(f"report: {index}")
     if args.json:

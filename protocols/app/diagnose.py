@@ -12,10 +12,10 @@ from models.diagnose import diagnose
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose.data import DiagnoseError
-from protocols.files import make_dir
+from protocols.io.files import make_dir
 from rig.errors import RigError
 
-from protocols.report import load
+from protocols.io.reader import load_recording
 
 # how each accepted effect is said: (sentence, parameter shown, factor, unit)
 SAY = {
@@ -194,7 +194,7 @@ def run(args):
         baseline = (Path(args.baseline).stem, model)
     if args.report:
         make_dir(args.report, "--report")
-    ch, events, _ = load(args.recording)
+    ch, events, _ = load_recording(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     try:
         res = diagnose(ch, events, progress=say, baseline=baseline)

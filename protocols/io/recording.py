@@ -25,7 +25,7 @@ from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from rig.errors import RigError
 
-from protocols.files import Claim
+from protocols.io.files import Claim
 
 FLUSH_S = 0.5
 SCHEMAS = {

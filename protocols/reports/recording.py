@@ -8,36 +8,12 @@ import json
 from pathlib import Path
 
 import numpy as np
-from mcap.reader import make_reader
 
 from models.recording import segments
+from protocols.io.reader import load_recording
 from models.identify.static import static_holds
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
-from rig.errors import RigError
-
-
-def load(path):
-    """(channels {name: (t, values)}, events [dict], metadata {name: dict})."""
-    path = Path(path)
-    if not path.exists():
-        raise RigError(f"{path}: no such file")
-    chans, events = {}, []
-    try:
-        with open(path, "rb") as f:
-            r = make_reader(f)
-            meta = {m.name: dict(m.metadata) for m in r.iter_metadata()}
-            for _, ch, m in r.iter_messages():
-                d = json.loads(m.data)
-                if ch.topic.startswith("/channels/"):
-                    ts, vs = chans.setdefault(ch.topic[len("/channels/"):], ([], []))
-                    ts.extend(d["t"])
-                    vs.extend(d["value"])
-                elif ch.topic == "/events":
-                    events.append(d)
-    except Exception as e:
-        raise RigError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
-    return {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, events, meta
 
 
 def _window(ch, names, t0, t1):
@@ -50,7 +26,7 @@ def _window(ch, names, t0, t1):
 
 
 def report(path, out_dir):
-    ch, events, meta = load(path)
+    ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)

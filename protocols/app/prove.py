@@ -32,7 +32,7 @@ GUESS = {"sensor_delay": 1e-4, "free_play": 2e-5, "compressibility": 2e10, "brea
 
 def _plan(override=None):
     from models.damper import load as load_damper
-    from protocols.commands import rig_info
+    from protocols.plan import rig_info
     from protocols.library import PROTOCOLS
     from rig import config as rig_config
     name, params, prove = plain_cell()
@@ -114,8 +114,8 @@ def _one(task):
     """Record one prove run through the wire protocols, diagnose it."""
     effect, value, seed, folder = task
     from models.diagnose import diagnose
-    from protocols.commands import run_protocol
-    from protocols.report import load
+    from protocols.app.run import run as run_protocol
+    from protocols.io.reader import load_recording
     _, _, prove = plain_cell()
     out = Path(folder) / f"{effect or 'null'}-{seed}.mcap"
     pairs = [f"{k}={','.join(str(x) for x in v) if isinstance(v, list) else v}" for k, v in prove["params"].items()]
@@ -127,7 +127,7 @@ def _one(task):
     import io
     with contextlib.redirect_stderr(io.StringIO()):
         run_protocol(args)
-    ch, ev, _ = load(out)
+    ch, ev, _ = load_recording(out)
     r = diagnose(ch, ev)
     first = r["accepted"][0].split(":")[0] if r["accepted"] else None
     est = None
@@ -139,10 +139,10 @@ def _one(task):
 
 
 def _measured_rms_diff(a, b):
-    from protocols.report import load
+    from protocols.io.reader import load_recording
     from models.recording import segments
-    ch, events, _ = load(a)
-    (ta, Fa), (tb, Fb) = ch["force"], load(b)[0]["force"]
+    ch, events, _ = load_recording(a)
+    (ta, Fa), (tb, Fb) = ch["force"], load_recording(b)[0]["force"]
     _, ia, ib = np.intersect1d(np.round(ta, 6), np.round(tb, 6), return_indices=True)
     t = ta[ia]
     measured = np.zeros(len(t), bool)

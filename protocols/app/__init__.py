@@ -1,0 +1,1 @@
+"""The `dyno` application: the parser table (cli.py) and one module per command."""

@@ -1,0 +1,82 @@
+"""`dyno bench sim|sweep|log|loop|identify|diagnose`: measured numbers, not tests; each
+prints text, --json, or --markdown for docs/results."""
+from __future__ import annotations
+
+from rig.errors import RigError
+
+from protocols.app.output import emit
+
+
+def sim(args):
+    from protocols.app.bench.sim import bench
+    from protocols.reports import markdown as md
+    result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
+    goals = "goals (>= 200x real time, >= 10x reference, < 0.5 % force): " + ("met" if result["goals_met"] else "NOT met")
+    lines = [f"{name:10s} real-time factor {c['realtime_factor']:7.0f}x   "
+             f"vs solve_ivp Radau {c['speedup_vs_reference']:6.0f}x   "
+             f"max force diff {100 * c['max_force_diff_fraction']:.3f} % of peak" for name, c in result["cases"].items()]
+    body = md.table(("damper", "real-time factor", "vs solve_ivp Radau", "max force difference"),
+                    [(n, f"{c['realtime_factor']:.0f}x", f"{c['speedup_vs_reference']:.0f}x faster",
+                      f"{100 * c['max_force_diff_fraction']:.2f} % of peak") for n, c in result["cases"].items()])
+    return emit(args, "Damper model speed (dyno bench sim)", result, "\n".join(lines + [goals]), body,
+                 f"{args.seconds:g} s simulated per damper, 12.7 mm at 16 Hz, output every 0.1 ms; {goals}.")
+
+
+
+def sweep(args):
+    from protocols.app.bench.sim import bench_sweep
+    result = bench_sweep(workers=args.workers)
+    text = (f"{result['damper']} sweep, {result['points']} points ({len(result['amplitudes_m'])} amplitudes x "
+            f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
+            f"{result['workers']} workers: {result['wall_s']:.1f} s wall "
+            f"(goal < {result['goal_wall_s']:.0f} s: {'met' if result['goal_met'] else 'NOT met'})")
+    return emit(args, "Quarter-car sweep time (dyno bench sweep)", result, text)
+
+
+
+def log(args):
+    from protocols.app.bench.log import bench_log
+    r = bench_log(args.seconds)
+    text = (f"MCAP logging: {r['samples_per_s']:,.0f} samples/s sustained ({r['bytes_per_sample']:.1f} bytes/sample "
+            f"on disk), {r['ratio']:.0f}x the {r['protocol_samples_per_s']:,.0f} samples/s a protocol records "
+            f"(goal >= {r['goal_ratio']:.0f}x: {'met' if r['goal_met'] else 'NOT met'})")
+    return emit(args, "MCAP logging rate (dyno bench log)", r, text)
+
+
+
+def loop(args):
+    from protocols.app.bench.loop import bench_loop, goals_met
+    if not 0 < args.rate <= 5000 or not 0 < args.seconds <= 3600:
+        raise RigError("--rate must be in (0, 5000] Hz and --seconds in (0, 3600]")
+    from protocols.app.bench.loop import baseline
+    stats = bench_loop(args.rate, args.seconds)
+    stats["goals_met"] = goals_met(stats)
+    stats["machine_baseline"] = baseline(args.rate, args.seconds)
+    j, b = stats["jitter_us"], stats["machine_baseline"]
+    lines = [f"loop at {stats['rate_hz_target']:g} Hz for {args.seconds:g} s against sim-rig: achieved "
+          f"{stats['rate_hz']:.1f} Hz, jitter p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, p99.9 {j['p999']:.0f} us, "
+          f"overruns {stats['overruns']} of {stats['ticks']} ticks"
+          + (f", FAULT: {stats['fault']}" if stats["fault"] else ""),
+             f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
+          f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us"]
+    if stats["goals_met"] is not None:
+        lines.append("goals: " + ("met" if stats["goals_met"] else "NOT met"))
+    return emit(args, "Control-loop timing (dyno bench loop)", stats, "\n".join(lines))
+
+
+
+def identify(args):
+    from protocols.app.bench.log import bench_identify
+    r = bench_identify(args.recording, args.damper)
+    text = (f"identify {r['recording']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
+            f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %")
+    return emit(args, "Identification time (dyno bench identify)", r, text)
+
+
+
+def diagnose(args):
+    from protocols.app.bench.log import bench_diagnose
+    r = bench_diagnose(args.seconds, args.rate)
+    text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
+            f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}")
+    return emit(args, "Diagnosis time (dyno bench diagnose)", r, text)

@@ -1,0 +1,23 @@
+"""How commands give their results: JSON, stamped Markdown for docs/results, or text."""
+from __future__ import annotations
+
+import json
+
+
+def emit(args, title, result, text, body=None, note=""):
+    """A command's result: JSON (--json), a stamped Markdown page for docs/results
+    (--markdown; body defaults to a table of the result's values) or text lines."""
+    if getattr(args, "json", False):
+        print(json.dumps(result, indent=2))
+    elif getattr(args, "markdown", False):
+        from protocols.reports import markdown as md
+        print(md.document(title, body if body is not None else md.table(("quantity", "value"), md.flat(result)), note))
+    else:
+        print(text)
+    return 0
+
+
+
+def out_dir(path):
+    from protocols.io.files import make_dir
+    return make_dir(path)

@@ -1,0 +1,13 @@
+"""`dyno recover FILE`: rebuild a recording cut short."""
+from __future__ import annotations
+
+
+def run(args):
+    from protocols.io.recording import recover
+    r = recover(args.file)
+    if r["intact"]:
+        print(f"{args.file}: intact, nothing to recover")
+    else:
+        print(f"{args.file}: recovered {r['messages']} messages, {r['metadata']} metadata, "
+              f"{r['attachments']} attachments; the damaged original is {r['damaged']}")
+    return 0

@@ -1,0 +1,170 @@
+"""`dyno run PROTOCOL [name=value ...]`: a protocol on the embedded virtual rig or a wired
+cell (--rig), pre-flight checked, recorded to MCAP, with the live view and identification
+as observers."""
+from __future__ import annotations
+
+import signal
+import sys
+
+from rig import config as rig_config
+from rig.errors import RigError
+from rig.rig import Rig
+from rig.safety import Safety
+
+from protocols.app.sim_rig import virtual_plant
+from protocols.io.files import writable_file
+from protocols.plan import rig_info
+
+
+def run(args):
+    import json as _json
+
+    from models.damper import to_dict
+    from protocols import runner
+    from protocols.plan import as_dict
+    from protocols.io.recording import Recorder
+
+    module, params, plant, damper, cfg, info = _plan_run(args)
+    identifying = args.identify if args.identify is not None else module.NAME == "standard"
+    claim = _output(args, module.NAME)
+    vr = rig = recorder = live = ident = result = pacer = None
+    errors = []  # the first is the one that ended the run; later ones are reported after it
+    previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    try:
+        vr, rig, cfg, pacer = _open_rig(args, cfg, damper, plant)
+        if args.live or args.rrd:
+            from protocols.live import LiveView
+            live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
+        recorder = Recorder(claim, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params),
+                            wall_start=rig.wall_start)
+        print(f"recording to {claim.target}", file=sys.stderr, flush=True)
+        if identifying:
+            from protocols.live_identify import LiveIdentify
+            ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live)
+        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live, ident],
+                               progress=getattr(args, "progress", True))
+    except KeyboardInterrupt:
+        errors.append("operator stop")
+    except RigError as e:
+        errors.append(str(e))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        for close in (recorder and recorder.close, live and live.close, rig and rig.close, vr and vr.close):
+            if close:
+                try:
+                    close()
+                except Exception as e:  # noqa: BLE001 - never hides the error that ended the run
+                    errors.append(str(e) if isinstance(e, RigError) else f"{type(e).__name__}: {e}")
+        if recorder is None:
+            claim.abandon()
+            claim.release()
+    if result is None:  # the run never started: nothing moved, nothing recorded
+        if ident is not None:
+            ident.cancel()
+        raise RigError(errors[0] if errors else "run did not start")
+    return _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident)
+
+
+
+def _plan_run(args):
+    """What a run needs, checked before anything connects or moves: (protocol module,
+    params, virtual plant options, damper, rig config, RigInfo)."""
+    from models.damper import load as load_damper
+    from protocols import preflight
+    from protocols.library import PROTOCOLS
+    from protocols.plan import parse
+
+    module = PROTOCOLS.get(args.protocol)
+    if module is None:
+        raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
+    params = parse(module.Params, args.params)
+    if args.rig is not None and (args.effect or args.plain):
+        raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
+    plant = virtual_plant(args)
+    damper = load_damper(plant.pop("damper"))
+    if damper.layout == "simplified":
+        raise RigError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
+                       f"rig; give a full damper (a preset or JSON)")
+    if args.rrd:
+        writable_file(args.rrd, "--rrd")
+    cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
+    info = rig_info(cfg, damper)
+    skipped = module.check(params, info)  # refuse before anything connects or moves
+    for name, why in skipped:
+        print(f"skipping {name}: {why}", file=sys.stderr)
+    forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
+    print(preflight.summary(forecast), file=sys.stderr)
+    return module, params, plant, damper, cfg, info
+
+
+
+def _open_rig(args, cfg, damper, plant):
+    """(virtual rig or None, open Rig, config as served, pacer): the embedded virtual rig
+    unless --rig names a cell."""
+    from rig.pacing import RealTimePacer, SimulatedPacer
+    vr = None
+    if args.rig is None:
+        from sim_backend.virtual_rig import VirtualRig
+        vr = VirtualRig(cfg, damper=damper, **plant)
+        cfg = vr.start()
+        rig = Rig(cfg, clock=vr.clock)
+        pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
+    else:
+        rig = Rig(cfg)
+        pacer = RealTimePacer(cfg.rate_hz)
+    try:
+        rig.open()
+    except BaseException:
+        for close in (rig.close, vr and vr.close):
+            if close:
+                try:
+                    close()
+                except Exception:  # noqa: BLE001 - the open's error is the one to report
+                    pass
+        raise
+    return vr, rig, cfg, pacer
+
+
+
+def _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident):
+    """Say what was recorded and what stopped it, finish the live identification; the exit
+    status."""
+    from rig.pacing import RealTimePacer
+    if result.fault:
+        errors.insert(0, result.fault)
+    if recorder.kept:
+        print(f"recorded {result.duration_s:.1f} s of {module.NAME} to {recorder.path}", file=sys.stderr)
+    else:
+        print(f"nothing recorded: the run stopped before its first segment; {claim.target} "
+              f"{'kept as it was' if claim.target.exists() else 'not written'}", file=sys.stderr)
+    if isinstance(pacer, RealTimePacer) and result.ticks:
+        late = sum(1 for x in result.lateness_s if x > 1.0 / cfg.rate_hz)
+        print(f"real time: {late} of {result.ticks} ticks late by more than a period "
+              f"(worst {1e3 * max(result.lateness_s):.1f} ms, {result.missed} skipped)", file=sys.stderr)
+    for later in errors[1:]:
+        print(f"dyno: also: {later}", file=sys.stderr)
+    if ident is not None and recorder.kept:
+        print("identify: final fit of the whole recording (the rig is already safe)", file=sys.stderr, flush=True)
+        model = ident.finish()
+        if model:
+            print(f"identify: model written to {model}", file=sys.stderr)
+    elif ident is not None:
+        ident.cancel()
+    if errors:
+        print(f"dyno: run stopped: {errors[0]}", file=sys.stderr)
+        return 130 if errors[0] == "operator stop" else 1
+    return 0
+
+
+
+def _output(args, name):
+    """The recording's Claim, taken before the rig opens (refuses an existing file without
+    --overwrite, and a target another run is writing)."""
+    from datetime import datetime
+    from pathlib import Path
+
+    from protocols.io.files import Claim, numbered
+    if args.out:
+        return Claim(args.out, overwrite=args.overwrite)
+    default = Path("recordings") / f"{name}-{datetime.now():%Y%m%d-%H%M%S}.mcap"
+    return Claim(numbered(default))

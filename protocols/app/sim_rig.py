@@ -1,0 +1,80 @@
+"""`dyno sim-rig`: the virtual rig served as its own process on the wire protocols a real
+cell speaks (socketcand, a pty, Modbus TCP), with faults to inject."""
+from __future__ import annotations
+
+import math
+import signal
+import threading
+
+from rig import config as rig_config
+from rig.devices import TRANSPORTS
+from rig.errors import RigError
+
+
+def parse_faults(specs):
+    """['open_thermocouple@2.5', 'can_bus_off'] -> [(2.5, 'open_thermocouple'), (0.0, 'can_bus_off')]."""
+    from sim_backend.virtual_rig import FAULTS
+    out = []
+    for spec in specs or ():
+        name, _, at = spec.partition("@")
+        if name not in FAULTS and name != "process_death":
+            raise RigError(f"--fault {spec}: unknown fault (known: {', '.join(FAULTS)}, process_death)")
+        try:
+            t = float(at) if at else 0.0
+        except ValueError:
+            t = math.nan
+        if not (math.isfinite(t) and t >= 0):
+            raise RigError(f"--fault {spec}: the time after @ must be seconds from the start (0 or more)")
+        out.append((t, name))
+    return out
+
+
+
+def virtual_plant(args):
+    """VirtualRig keywords from --damper, --effect, --plain and --seed."""
+    from sim_backend.effects import EffectError, parse, plain_cell
+    try:
+        effects = parse(args.effect)
+    except EffectError as e:
+        raise RigError(str(e)) from None
+    params = None
+    damper = args.damper
+    if args.plain:
+        name, params, _ = plain_cell()
+        damper = name if damper in (None, "koni") else damper
+    return {"damper": damper, "effects": effects, "params": params, "seed": args.seed}
+
+
+
+def run(args):
+    from sim_backend.virtual_rig import VirtualRig
+    faults = parse_faults(args.fault)
+    cfg = rig_config.load(args.config)
+    vr = VirtualRig(cfg, **virtual_plant(args))
+    try:
+        served = vr.start()
+    except OSError as e:
+        raise RigError(f"sim-rig: cannot serve {cfg.path} ({e.strerror or e})") from None
+    for name, d in served.devices.items():
+        print(f"sim-rig: {name:12s} {d.transport:7s} {TRANSPORTS[d.transport].address(d.params)}")
+    print(f"sim-rig: serving {served.name!r} with damper {vr.plant.damper.name} in real time; Ctrl-C stops",
+          flush=True)
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    timers = []
+    if args.seconds:
+        timers.append(threading.Timer(args.seconds, stop.set))
+    die = [t for t, n in faults if n == "process_death"]
+    if die:
+        import os
+        timers.append(threading.Timer(die[0], lambda: os._exit(3)))  # the whole emulator dies
+    for t in timers:
+        t.daemon = True  # never keep the process alive after a stop
+        t.start()
+    try:
+        vr.run_realtime(stop, faults=[f for f in faults if f[1] != "process_death"])
+    except KeyboardInterrupt:
+        pass
+    finally:
+        vr.close()
+    return 0

@@ -1,0 +1,1 @@
+"""Recordings on disk: MCAP writing and recovery, reading, CSV import, files never lost."""

@@ -1,0 +1,39 @@
+"""Reading a recording (docs/recording.md) into plain data: what reports, identification,
+diagnosis and any user's own analysis start from.
+
+    from protocols.io.reader import load_recording
+    channels, events, metadata = load_recording("run.mcap")
+    t, force = channels["force"]          # seconds on the run clock, newtons
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from mcap.reader import make_reader
+
+from rig.errors import RigError
+
+
+def load_recording(path):
+    """(channels {name: (t, values)}, events [dict], metadata {name: dict})."""
+    path = Path(path)
+    if not path.exists():
+        raise RigError(f"{path}: no such file")
+    chans, events = {}, []
+    try:
+        with open(path, "rb") as f:
+            r = make_reader(f)
+            meta = {m.name: dict(m.metadata) for m in r.iter_metadata()}
+            for _, ch, m in r.iter_messages():
+                d = json.loads(m.data)
+                if ch.topic.startswith("/channels/"):
+                    ts, vs = chans.setdefault(ch.topic[len("/channels/"):], ([], []))
+                    ts.extend(d["t"])
+                    vs.extend(d["value"])
+                elif ch.topic == "/events":
+                    events.append(d)
+    except Exception as e:
+        raise RigError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
+    return {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, events, meta

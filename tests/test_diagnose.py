@@ -114,7 +114,7 @@ def test_cli_refuses_a_recording_without_force(tmp_path):
 
 
 def test_prove_finds_a_concealed_effect_and_nothing_on_a_null():
-    """dyno prove in CI with one seed and two rows (the full proof: README)."""
+    """dyno prove in CI with one seed and two rows (the full proof: docs/results/prove.md)."""
     # free play: the effect hardest to see (one recording per core: the suite's time)
     r = subprocess.run([*DYNO, "prove", "--seeds", "1", "--effects", "free_play,null", "--json"],
                        capture_output=True, text=True, timeout=900)

@@ -22,8 +22,8 @@ MID = 0.0381
 
 
 def write_config(tmp_path):
-    # the CI machine is a VM that stalls for up to ~40 ms now and then (see the README's
-    # loop timing): these tests are about the path, not the 50 ms watchdog threshold
+    # the CI machine is a VM that stalls for up to ~40 ms now and then (dyno bench loop's machine
+    # baseline): these tests are about the path, not the 50 ms watchdog threshold
     return sim_rig_config(tmp_path, stale_s=0.25)
 
 

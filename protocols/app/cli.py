@@ -198,7 +198,9 @@ def _bench_commands(sub):
     bi = bsub.add_parser("identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")
     bi.add_argument("recording", nargs="?", default=None,
                     help="a standard-sequence recording (default: record one on the virtual rig first, ~4 min)")
-    bi.add_argument("--damper", default="koni", help="damper for the recording made first (default koni)")
+    bi.add_argument("--damper", default="koni",
+                    help="damper(s) for the recording made first, comma-separated (default koni)")
+    bi.add_argument("--truth", action="store_true", help="compare with the damper the rig ran (the round trip)")
     bi.add_argument("--json", action="store_true")
     bi.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bi.set_defaults(command="bench:identify")

@@ -8,7 +8,7 @@ from protocols.app.output import emit
 
 
 def sim(args):
-    from protocols.app.bench.sim import bench
+    from protocols.app.bench.speed import bench
     from protocols.reports import markdown as md
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
     goals = "goals (>= 200x real time, >= 10x reference, < 0.5 % force): " + ("met" if result["goals_met"] else "NOT met")
@@ -24,7 +24,7 @@ def sim(args):
 
 
 def sweep(args):
-    from protocols.app.bench.sim import bench_sweep
+    from protocols.app.bench.speed import bench_sweep
     result = bench_sweep(workers=args.workers)
     text = (f"{result['damper']} sweep, {result['points']} points ({len(result['amplitudes_m'])} amplitudes x "
             f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
@@ -35,7 +35,7 @@ def sweep(args):
 
 
 def log(args):
-    from protocols.app.bench.log import bench_log
+    from protocols.app.bench.throughput import bench_log
     r = bench_log(args.seconds)
     text = (f"MCAP logging: {r['samples_per_s']:,.0f} samples/s sustained ({r['bytes_per_sample']:.1f} bytes/sample "
             f"on disk), {r['ratio']:.0f}x the {r['protocol_samples_per_s']:,.0f} samples/s a protocol records "
@@ -45,10 +45,10 @@ def log(args):
 
 
 def loop(args):
-    from protocols.app.bench.loop import bench_loop, goals_met
+    from protocols.app.bench.timing import bench_loop, goals_met
     if not 0 < args.rate <= 5000 or not 0 < args.seconds <= 3600:
         raise RigError("--rate must be in (0, 5000] Hz and --seconds in (0, 3600]")
-    from protocols.app.bench.loop import baseline
+    from protocols.app.bench.timing import baseline
     stats = bench_loop(args.rate, args.seconds)
     stats["goals_met"] = goals_met(stats)
     stats["machine_baseline"] = baseline(args.rate, args.seconds)
@@ -65,17 +65,35 @@ def loop(args):
 
 
 
-def identify(args):
-    from protocols.app.bench.log import bench_identify
-    r = bench_identify(args.recording, args.damper)
-    text = (f"identify {r['recording']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
-            f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %")
-    return emit(args, "Identification time (dyno bench identify)", r, text)
+ROUND_TRIP = ("P0", "V0", "gas_spring.gamma", "K_voil", "friction at mid-stroke, 20 C")
 
+
+def identify(args):
+    from protocols.app.bench.throughput import bench_identify
+    from protocols.reports import markdown as md
+    dampers = args.damper.split(",")
+    if args.recording and len(dampers) > 1:
+        raise RigError("bench identify: one --damper with a RECORDING")
+    runs = [bench_identify(args.recording, d, truth=args.truth) for d in dampers]
+    text = "\n".join(f"identify {r['damper']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
+                     f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %"
+                     + (f", peak curve worst {100 * r['curve_max_rel_error']:.1f} %" if args.truth else "")
+                     for r in runs)
+    pct = (lambda v: "-" if v is None else f"{100 * v:+.1f} %")
+    header = ["damper", "wall time [s]", "held-out loop NRMSE"] + (
+        [*(f"{n} error" for n in ROUND_TRIP), "peak curve worst error 0.02-1 m/s"] if args.truth else [])
+    rows = [[r["damper"], f"{r['wall_s']:.1f}", f"{100 * r['heldout_nrmse']:.2f} %"]
+            + ([*(pct(r["errors"].get(n)) for n in ROUND_TRIP), f"{100 * r['curve_max_rel_error']:.1f} %"]
+               if args.truth else []) for r in runs]
+    note = ("The standard sequence recorded on the virtual rig, then `dyno identify`"
+            + (" --truth: errors against the damper the rig ran." if args.truth else ".")
+            + " Goals: P0, V0, gamma within 3 %, peak curve within 5 %, held-out under 3 %, under 2 min.")
+    return emit(args, "Identification round trip (dyno bench identify)", {"runs": runs}, text,
+                 md.table(header, rows), note)
 
 
 def diagnose(args):
-    from protocols.app.bench.log import bench_diagnose
+    from protocols.app.bench.throughput import bench_diagnose
     r = bench_diagnose(args.seconds, args.rate)
     text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
             f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}")

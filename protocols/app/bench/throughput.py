@@ -62,9 +62,10 @@ def bench_log(seconds=5.0):
 GOAL_IDENTIFY_S = 120.0
 
 
-def bench_identify(recording=None, damper="koni"):
+def bench_identify(recording=None, damper="koni", truth=False):
     """Wall time of `dyno identify` on a full standard-sequence recording (recorded first
-    on the virtual rig when none is given). Goal: under 2 minutes on the 2-core machine."""
+    on the virtual rig when none is given). Goal: under 2 minutes on the 2-core machine.
+    truth: compare with `damper` (the round trip: per-parameter errors, the peak curve)."""
     import json
     import subprocess
     import sys
@@ -75,15 +76,20 @@ def bench_identify(recording=None, damper="koni"):
             subprocess.run([dyno, "run", "standard", "--damper", damper, "--no-identify", "--out", recording],
                            check=True, capture_output=True)
         t0 = time.perf_counter()
-        p = subprocess.run([dyno, "identify", recording, "--json", "--out", str(Path(tmp) / "m.json")],
-                           capture_output=True, text=True)
+        p = subprocess.run([dyno, "identify", recording, "--json", "--out", str(Path(tmp) / "m.json")]
+                           + (["--truth", damper] if truth else []), capture_output=True, text=True)
         wall = time.perf_counter() - t0
     if p.returncode:
         last = p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}"
         raise RigError(f"bench identify: {last.removeprefix('dyno: error: ')}")
     doc = json.loads(p.stdout)
-    return {"recording": str(recording), "wall_s": wall, "goal_wall_s": GOAL_IDENTIFY_S,
-            "goal_met": wall < GOAL_IDENTIFY_S, "heldout_nrmse": doc["heldout_nrmse"], "steps": doc["steps"]}
+    out = {"recording": str(recording), "damper": damper, "wall_s": wall, "goal_wall_s": GOAL_IDENTIFY_S,
+           "goal_met": wall < GOAL_IDENTIFY_S, "heldout_nrmse": doc["heldout_nrmse"], "steps": doc["steps"]}
+    if truth:
+        out["errors"] = {r["name"]: r["rel_error"] for r in doc["parameters"] if r["rel_error"] is not None}
+        out["curve_max_rel_error"] = doc["curve"]["max_rel_error"]
+        out["curve_max_rel_error_tested"] = doc["curve"]["max_rel_error_tested"]
+    return out
 
 
 def bench_diagnose(seconds=60.0, rate_hz=5000.0):

@@ -1,31 +1,43 @@
 """Physics the virtual rig can hide in a run (`--effect NAME=VALUE`), so the diagnosis
-(models/diagnose.py) is tested against effects it was not told about.
+(models/diagnose/) is tested against effects it was not told about.
 
 Each is built into the plant's physics (sim_backend/plant.py), in a form different from
-the one the diagnosis fits (models/candidates.py): a first-order filter against a pure
+the one the diagnosis fits (models/diagnose/candidates.py): a first-order filter against a pure
 delay, a mount whose rod floats across the gap against a stationary one, a Stribeck seal
 against a breakaway that decays with travel, and so on.
 """
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
 from models.damper import Compressibility, Damper, TempCoeff, TemperatureSensitivity
 
-# name: (unit, what VALUE sets)
+
+
+@dataclass(frozen=True)
+class Hidden:
+    """How the plant hides an effect of the diagnosis's catalogue
+    (models/diagnose/candidates.py CATALOGUE, same names: tests/test_effects.py)."""
+    unit: str  # of VALUE
+    form: str  # what VALUE sets, in the plant's own form
+    guess: float  # a VALUE of roughly noise size: where `dyno prove --calibrate` starts
+
+
 EFFECTS = {
-    "sensor_delay": ("s", "time constant of a first-order filter in the LVDT/LVT conditioning"),
-    "free_play": ("m", "clearance in the damper's lower mount, in the load path"),
-    "compressibility": ("Pa", "effective bulk modulus of the oil (entrained air), constant"),
-    "breakaway_friction": ("-", "Stribeck seal: friction at rest over sliding friction"),
-    "position_friction": ("-", "a tight spot in the bore: extra friction at its peak over the table's"),
-    "gas_temperature": ("-", "share of the body's temperature rise the gas charge takes on"),
-    "damping_temperature": ("1/K", "K_effoil of eq 4.17 in both directions (oil density with temperature)"),
-    "fluid_inertia": ("kg", "mass of the oil column accelerated through the valves"),
-    "cavitation": ("Pa", "absolute pressure below which the oil releases air: chambers cannot go lower"),
-    "aux_channel": ("1/A", "damping change per ampere of the adjuster current aux.valve_current"),
+    "sensor_delay": Hidden("s", "time constant of a first-order filter in the LVDT/LVT conditioning", 1e-4),
+    "free_play": Hidden("m", "clearance in the damper's lower mount, in the load path", 2e-5),
+    "compressibility": Hidden("Pa", "effective bulk modulus of the oil (entrained air), constant", 2e10),
+    "breakaway_friction": Hidden("-", "Stribeck seal: friction at rest over sliding friction", 1.1),
+    "position_friction": Hidden("-", "a tight spot in the bore: extra friction at its peak over the table's", 0.1),
+    "gas_temperature": Hidden("-", "share of the body's temperature rise the gas charge takes on", 0.1),
+    "damping_temperature": Hidden("1/K", "K_effoil of eq 4.17 in both directions (oil density with temperature)",
+                                  1e-4),
+    "fluid_inertia": Hidden("kg", "mass of the oil column accelerated through the valves", 0.5),
+    "cavitation": Hidden("Pa", "absolute pressure below which the oil releases air: chambers cannot go lower", 3e5),
+    "aux_channel": Hidden("1/A", "damping change per ampere of the adjuster current aux.valve_current", 0.01),
 }
 STRIBECK_V = 0.005  # m/s: a seal's Stribeck velocity (a choice; seals run 1-10 mm/s)
 TIGHT_SPOT = (0.006, 0.004)  # m: the tight spot's centre above mid-stroke and its half-width
@@ -49,7 +61,7 @@ def parse(specs) -> dict:
         v = out[name]
         if not np.isfinite(v) or v < 0 or (name == "compressibility" and v == 0):
             raise EffectError(f"--effect {s}: VALUE must be a {'positive' if name == 'compressibility' else 'non-negative'} "
-                              f"number in {EFFECTS[name][0]}")
+                              f"number in {EFFECTS[name].unit}")
     return out
 
 

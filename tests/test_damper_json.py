@@ -93,5 +93,8 @@ def test_unknown_preset_and_bad_file(tmp_path):
 
 
 def test_preset_files_are_plain_data():
+    """Each preset is a JSON file any tool reads, named as it is called, holding the model."""
     for name in preset_names():
-        json.loads((load.__globals__["PRESET_DIR"] / f"{name}.json").read_text())
+        doc = json.loads((load.__globals__["PRESET_DIR"] / f"{name}.json").read_text())
+        assert doc["name"] == name
+        assert to_dict(from_dict(doc)) == to_dict(load(name))

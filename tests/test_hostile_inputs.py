@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from models import damper as dm
-from protocols.io import csv_import
+from protocols.app import import_csv
 from rig.config import CONFIG_DIR
 from rig.errors import RigError
 
@@ -152,7 +152,7 @@ def test_any_csv_imports_or_gives_one_line(tmp_path_factory, rows):
     args = SimpleNamespace(file=str(src), out=str(t / "out.mcap"), overwrite=False,
                            map=["time=t:s", "displacement=x:mm", "force=F:N"])
     try:
-        csv_import.run(args)
+        import_csv.run(args)
     except RigError as e:
         assert "\n" not in str(e)
         assert not (t / "out.mcap").exists()

@@ -287,6 +287,7 @@ class Effect:
     name: str
     what: str  # the physics, in an engineer's words
     params: callable  # (d, effect id) -> [P]
+    estimate: str  # the parameter that sizes the effect (what `dyno prove` reports)
     needs: str = ""  # "T" or "aux": a channel it needs
 
 
@@ -312,22 +313,22 @@ def _cav_params(d, e):
 
 CATALOGUE = {
     "sensor_delay": Effect("sensor_delay", "a time lag between the displacement and force channels",
-                           _p(P("tau", 0.0, -0.02, 0.02, "s", (-2e-3, -2e-4, 0.0, 2e-4, 2e-3)))),
+                           _p(P("tau", 0.0, -0.02, 0.02, "s", (-2e-3, -2e-4, 0.0, 2e-4, 2e-3))), "tau"),
     "free_play": Effect("free_play", "clearance (free play) in the damper's mounts",
-                        _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3)))),
+                        _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))), "c_play"),
     "compressibility": Effect("compressibility", "compressible oil (entrained air) in series with the valves",
-                              _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N"))),
+                              _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N")), "inv_k_oil"),
     "breakaway_friction": Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
                                  _p(P("r_break", 1.2, 1.0, 5.0, "-"),
-                                    P("v_break", 5e-3, 1e-5, 0.1, "m/s", (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)))),
+                                    P("v_break", 5e-3, 1e-5, 0.1, "m/s", (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2))), "r_break"),
     "position_friction": Effect("position_friction", "seal friction varying along the bore",
-                                _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2"))),
+                                _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2")), "pf1"),
     "gas_temperature": Effect("gas_temperature", "gas-spring force rising with temperature",
-                              _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")), "T"),
+                              _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")), "k_gT", "T"),
     "damping_temperature": Effect("damping_temperature", "damping changing with oil temperature",
-                                  _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")), "T"),
+                                  _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")), "k_dT", "T"),
     "fluid_inertia": Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
-                            _p(P("m_oil", 0.0, -20.0, 200.0, "kg"))),
-    "cavitation": Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params),
-    "aux_channel": Effect("aux_channel", "an auxiliary channel changing the force", _aux_params, "aux"),
+                            _p(P("m_oil", 0.0, -20.0, 200.0, "kg")), "m_oil"),
+    "cavitation": Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params, "Fcav_c"),
+    "aux_channel": Effect("aux_channel", "an auxiliary channel changing the force", _aux_params, "b1:aux.valve_current", "aux"),
 }

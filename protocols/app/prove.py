@@ -17,18 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
+from models.diagnose.candidates import CATALOGUE
+from models.recording import segments
 from rig.errors import RigError
 from sim_backend.effects import EFFECTS, plain_cell
-
-# the parameter of the diagnosis that estimates each effect (its own description differs)
-ESTIMATE = {"sensor_delay": "tau", "free_play": "c_play", "compressibility": "inv_k_oil",
-            "breakaway_friction": "r_break", "position_friction": "pf1", "gas_temperature": "k_gT",
-            "damping_temperature": "k_dT", "fluid_inertia": "m_oil", "cavitation": "Fcav_c",
-            "aux_channel": "b1:aux.valve_current"}
-GUESS = {"sensor_delay": 1e-4, "free_play": 2e-5, "compressibility": 2e10, "breakaway_friction": 1.1,
-         "position_friction": 0.1, "gas_temperature": 0.1, "damping_temperature": 1e-4, "fluid_inertia": 0.5,
-         "cavitation": 3e5, "aux_channel": 0.01}
-
 
 def _plan(override=None):
     from models.damper import load as load_damper
@@ -43,32 +35,46 @@ def _plan(override=None):
 
 
 def offline_recording(effects=None, seed=0, rate_hz=1000.0, params=None):
-    """The plain plant driven by the prove plan (or `params` of the prove protocol) without
-    the wires, sampled at rate_hz: (channels {name: (t, values)}, events, measured mask).
-    For calibration and the diagnosis benchmark; prove itself records through the wires."""
-    from sim_backend.plant import MODE_FOLLOW, Plant
+    """The plain plant driven by the prove plan (or `params` of the prove protocol) through
+    the runner, without the wires, sampled at rate_hz: (channels {name: (t, values)},
+    events, measured mask of the force samples). For calibration and the diagnosis
+    benchmark; prove itself records through the wires. RigError if the run tripped."""
+    import dataclasses
+
+    from protocols import runner
+    from rig import config as rig_config
+    from rig.pacing import SimulatedPacer
+    from rig.safety import Safety
+    from sim_backend.direct_rig import DirectRig
     module, p, info, name, plant_params, _ = _plan(params)
-    dt = 1.0 / rate_hz
-    plant = Plant(name, params=plant_params, effects=effects, seed=seed, h=min(5e-4, dt))
-    names = ("force", "x", "v", "T_body", "aux.valve_current")
-    cols = {n: [] for n in names}
-    ts, rec, events, t = [], [], [], 0.0
-    for seg in module.plan(p, info):
-        events.append({"kind": "segment_start", "segment": seg.name, "t": t,
-                       "params": {**seg.params, "kind": seg.kind, "measured": seg.record}})
-        for k in range(math.ceil(seg.duration / dt - 1e-9)):  # as the runner: while t < duration
-            plant.command(MODE_FOLLOW, seg.x(k * dt))
-            plant.advance(dt)
-            t += dt
-            r = plant.readings()
-            for n in names:
-                cols[n].append(r[n])
+    cfg = dataclasses.replace(rig_config.load("virtual"), rate_hz=rate_hz)
+    rig = DirectRig(cfg, damper=name, seed=seed, effects=effects, params=plant_params)
+    kept = _Kept()
+    result, _ = runner.run(module, p, info, rig, SimulatedPacer(rig, rate_hz), Safety(cfg), [kept], progress=False)
+    if result.fault:
+        raise RigError(f"offline run with {effects or 'no effects'}: {result.fault}")
+    channels = {n: (np.concatenate(ts), np.concatenate(vs)) for n, (ts, vs) in kept.channels.items()}
+    t = channels["force"][0]
+    measured = np.zeros(len(t), bool)
+    for _, _, t0, t1 in segments(kept.events):
+        measured |= (t > t0) & (t <= t1)
+    return channels, kept.events, measured
+
+
+class _Kept:
+    """An observer that keeps what a run sends, in memory."""
+
+    def __init__(self):
+        self.channels, self.events = {}, []
+
+    def samples(self, drained):
+        for n, (t, v) in drained.items():
+            ts, vs = self.channels.setdefault(n, ([], []))
             ts.append(t)
-            rec.append(seg.record)
-        events.append({"kind": "segment_end", "segment": seg.name, "t": t,
-                       "params": {**seg.params, "kind": seg.kind, "measured": seg.record}})
-    ts = np.array(ts)
-    return {n: (ts, np.array(v)) for n, v in cols.items()}, events, np.array(rec)
+            vs.append(v)
+
+    def event(self, t, kind, segment, params, message):
+        self.events.append({"t": t, "kind": kind, "segment": segment, "params": params, "message": message})
 
 
 def offline_force(effects, seed=0):
@@ -85,7 +91,10 @@ def contribution(effect, value, seed=0, null=None):
         t = np.arange(len(F0)) * 1e-3
         d = F0 - np.interp(t - value, t, F0)
     else:
-        F1, _ = offline_force({effect: value}, seed)
+        try:
+            F1, _ = offline_force({effect: value}, seed)
+        except RigError:  # so large the run tripped: far above any target
+            return math.inf
         d = F1 - F0
     return float(np.sqrt(np.mean(d[rec] ** 2)))
 
@@ -94,7 +103,7 @@ def calibrate(target, progress, effects=None):
     """{effect: value} with contribution == target, by bisection on a log scale."""
     null = offline_force({}, 0)
     out = {}
-    for e, g in GUESS.items():
+    for e, g in ((e, h.guess) for e, h in EFFECTS.items()):
         if effects and e not in effects:
             continue
         # strength s > 0 grows the effect; the value is g * s (bulk modulus: g / s; ratio: 1 + (g - 1) s)
@@ -106,7 +115,7 @@ def calibrate(target, progress, effects=None):
             c = contribution(e, value(s), 0, null)
             lo, hi = (s, hi) if c < target else (lo, s)
         out[e] = float(f"{value(lo):.4g}")
-        progress(f"{e} = {out[e]:g} {EFFECTS[e][0]} (contribution {contribution(e, out[e], 0, null):.2f} N)")
+        progress(f"{e} = {out[e]:g} {EFFECTS[e].unit} (contribution {contribution(e, out[e], 0, null):.2f} N)")
     return out
 
 
@@ -132,7 +141,7 @@ def _one(task):
     first = r["accepted"][0].split(":")[0] if r["accepted"] else None
     est = None
     if first and effect and first == effect:
-        est = r["steps"][0]["parameters"].get(ESTIMATE[effect])
+        est = r["steps"][0]["parameters"].get(CATALOGUE[effect].estimate)
     return {"effect": effect, "seed": seed, "accepted": r["accepted"], "first": first, "estimate": est,
             "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"],
             "file": str(out)}
@@ -140,7 +149,6 @@ def _one(task):
 
 def _measured_rms_diff(a, b):
     from protocols.io.reader import load_recording
-    from models.recording import segments
     ch, events, _ = load_recording(a)
     (ta, Fa), (tb, Fb) = ch["force"], load_recording(b)[0]["force"]
     _, ia, ib = np.intersect1d(np.round(ta, 6), np.round(tb, 6), return_indices=True)

@@ -212,6 +212,7 @@ def test_a_zero_pressure_slope_of_the_bulk_modulus_is_named():
     with pytest.raises(dm.DamperError, match="compressibility.C_sbeta: must be positive"):
         dm.from_dict(doc)
 
+@pytest.mark.realtime
 def test_two_runs_on_one_file_and_a_failed_start_lose_nothing(tmp_path, files):
     """A second writer of the same file is refused while the first runs; a run that fails
     before it starts leaves the file it was asked to overwrite as it was."""

@@ -150,6 +150,7 @@ def test_a_fitted_parameter_lands_in_the_damper(name):
 
 # --- the round trip on the virtual rig --------------------------------------------------
 
+@pytest.mark.xdist_group("koni_run")
 def test_live_identification_writes_the_model_next_to_the_recording(koni_run):
     out, log = koni_run
     assert "identify: " in log and "P0 " in log  # estimates shown while the test ran
@@ -159,6 +160,7 @@ def test_live_identification_writes_the_model_next_to_the_recording(koni_run):
     assert d.gas_spring.P0 == pytest.approx(canonical(load("koni")).gas_spring.P0, rel=0.03)
 
 
+@pytest.mark.xdist_group("koni_run")
 def test_identify_against_the_truth(koni_run, tmp_path):
     out, _ = koni_run
     p = subprocess.run([DYNO, "identify", str(out), "--truth", "koni", "--json", "--out", str(tmp_path / "m.json"),
@@ -186,6 +188,7 @@ def _csv(path, cols, rows, trailing=""):
             f.write(",".join("" if v is None else f"{v:.9g}" for v in r) + trailing + "\n")
 
 
+@pytest.mark.xdist_group("koni_run")
 def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     """A CSV with only time, displacement (mm) and force (kN): velocity derived, an empty
     column and a trailing separator ignored; identify skips the steps whose channels are

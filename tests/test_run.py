@@ -93,6 +93,7 @@ def test_bad_parameters_are_refused_before_motion(tmp_path, args, message):
     assert not out.exists()
 
 
+@pytest.mark.realtime
 def test_sigkill_then_recover_keeps_all_but_the_last_second(tmp_path):
     out = tmp_path / "killed.mcap"
     p = subprocess.Popen([DYNO, "run", "sine-matrix", "--realtime", "--out", str(out), "amplitudes_mm=6.4",
@@ -181,6 +182,7 @@ def test_live_view_logs_the_documented_entities():
     assert b"sine 6.4 mm 4 Hz" in data  # the events' text
 
 
+@pytest.mark.xdist_group("koni_run")
 def test_report_of_a_standard_run(koni_run, tmp_path):
     out, _ = koni_run  # static holds, low-speed, sine matrix, temperature sweep (conftest.py)
     r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,

@@ -17,6 +17,9 @@ from rig.rig import Rig
 from rig.safety import Safety
 from sim_backend.virtual_rig import sim_rig_config
 
+# against a process on real time: run apart from the parallel part of the suite (Makefile)
+pytestmark = pytest.mark.realtime
+
 DYNO = str(Path(sys.executable).parent / "dyno")
 MID = 0.0381
 

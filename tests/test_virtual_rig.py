@@ -135,6 +135,7 @@ def test_force_limit_trips(cell):
     assert vr.plant.x_act == pytest.approx(rig.config.safe_position, abs=2e-4)
 
 
+@pytest.mark.realtime
 def test_a_stalled_loop_trips_its_watchdog(cell):
     import time
 

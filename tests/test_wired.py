@@ -14,6 +14,9 @@ from mcap.reader import make_reader
 
 from sim_backend.virtual_rig import sim_rig_config
 
+# against a process on real time: run apart from the parallel part of the suite (Makefile)
+pytestmark = pytest.mark.realtime
+
 DYNO = str(Path(sys.executable).parent / "dyno")
 SINE = ["sine-matrix", "amplitudes_mm=6.4,3.2", "freqs_hz=2,8", "record_cycles=4"]
 

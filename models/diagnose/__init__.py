@@ -1,5 +1,5 @@
 """Missing-physics diagnosis: fit the baseline, locate where its residual lives, try each
-catalogue effect (models/candidates.py) with the baseline refitted, judge it only on
+catalogue effect (models/diagnose/candidates.py) with the baseline refitted, judge it only on
 held-out cycles, accept the best one whose improvement is significant, repeat. Two-fold
 cross-fitting (even cycles fit, odd judged, and back) judges every cycle once.
 
@@ -129,7 +129,7 @@ def _pooled(vals, sds):
 
 
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None):
-    """The diagnosis as plain data (see protocols/diagnosis.py for its JSON). baseline:
+    """The diagnosis as plain data (see protocols/app/diagnose.py for its JSON). baseline:
     None for `minimal`, or (name, damper model) to start from that model, refitted."""
     d = prepare(channels, events)
     if baseline is None:

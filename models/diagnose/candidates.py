@@ -180,7 +180,7 @@ class Minimal:
 
 class FromModel:
     """Baseline from a damper model (the presets' JSON): its damping, gas and friction
-    forces simulated once along the recorded motion (models/simulate.py, compressible), then
+    forces simulated once along the recorded motion (models/physics/simulate.py, compressible), then
     refitted where the data allows: a gain on the damping (valves), the static gas force and
     a gain on its slope with stroke (charge pressure and volume), a gain on the friction."""
 

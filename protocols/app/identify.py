@@ -1,5 +1,5 @@
 """`dyno identify RECORDING... [--damper D] [--out MODEL.json] [--truth PRESET|MODEL.json]
-[--json] [--report DIR]`: the damper model from recordings (models/identify.py), with the
+[--json] [--report DIR]`: the damper model from recordings (models/identify/), with the
 round-trip comparison against a known damper when --truth is given."""
 from __future__ import annotations
 

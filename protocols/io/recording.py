@@ -58,7 +58,7 @@ VERSION = "0.1.0"
 
 
 class Recorder:
-    """Writes a run to `path` through a Claim (protocols/files.py): to a partial file
+    """Writes a run to `path` through a Claim (protocols/io/files.py): to a partial file
     beside it, renamed onto `path` at the first segment_start event (the run has started
     cleanly); a run that never starts leaves no file and an existing one untouched.
 

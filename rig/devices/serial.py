@@ -12,7 +12,7 @@ from rig.devices import Transport
 
 
 class SerialLoadCell:
-    """The load-cell amplifier's binary stream (rig/loadcell.py) on a tty."""
+    """The load-cell amplifier's binary stream (rig/codecs/loadcell.py) on a tty."""
 
     def __init__(self, name, params):
         self.name, self.params = name, params

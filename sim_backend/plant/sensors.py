@@ -1,0 +1,60 @@
+"""The transducers: the load cell's filter, the LVDT/LVT conditioning (with a hidden
+sensor delay), noise, and the faults a sensor can have."""
+from __future__ import annotations
+
+import math
+
+# The damper's force at the end of a step answers the motion X_LAG steps earlier (it is
+# driven by the step's mean velocity, and BDF2 weighs the step's end): the displacement is
+# reported from then, so force and motion readings agree in time. 0.46 measured on the
+# plain cell: `dyno diagnose` finds no lag between them (|tau| < 11 us) where 0.5 leaves
+# 21 us and 0 leaves 240 us.
+X_LAG = 0.46
+
+
+def ramp_lag(y, u0, u, tau, h):
+    """A first-order lag's output (time constant tau [s]) after its input ramped from u0 to
+    u over h [s]: exact, so a filter far faster than the step still delays a ramp by tau."""
+    r = (u - u0) / h
+    return u - tau * r + (y - u0 + tau * r) * math.exp(-h / tau)
+
+
+def condition(pl, F, h):
+    """One step of the load cell's filter on the force F [N] and of the conditioning's
+    filter on the motion, when a sensor delay is hidden."""
+    s = pl.p["sensors"]
+    alpha = 1.0 - math.exp(-h / s["force_tau_s"]) if s["force_tau_s"] > 0 else 1.0
+    pl.F_meas += alpha * (F - pl.F_meas)
+    if "sensor_delay" in pl.fx and pl.fx["sensor_delay"] > 0:  # the conditioning's filter
+        x_mid = pl.x_d - X_LAG * h * pl.v_d  # see readings()
+        if pl.x_sens is None:
+            pl.x_sens, pl.v_sens, pl.u_sens = x_mid, pl.v_d, (x_mid, pl.v_d)
+        tau = pl.fx["sensor_delay"]
+        pl.x_sens = ramp_lag(pl.x_sens, pl.u_sens[0], x_mid, tau, h)
+        pl.v_sens = ramp_lag(pl.v_sens, pl.u_sens[1], pl.v_d, tau, h)
+        pl.u_sens = (x_mid, pl.v_d)
+
+
+def readings(pl):
+    """Sensor values in SI, as the transducers would report them, with noise."""
+    s, n = pl.p["sensors"], pl.rng.standard_normal(8)
+    force = pl.F_meas + s["force_noise"] * n[0]
+    if "loadcell_stuck" in pl.faults:
+        if pl.stuck_force is None:
+            pl.stuck_force = force
+        force = pl.stuck_force
+    # the displacement the force answered (X_LAG), else the force seems to lag by 0.24 ms
+    x_mid = pl.x_d - X_LAG * pl.h * pl.v_d
+    x, v = (x_mid, pl.v_d) if pl.x_sens is None else (pl.x_sens, pl.v_sens)
+    return {
+        "force": force,
+        "x": x + s["x_noise"] * n[1],
+        "v": v + s["v_noise"] * n[2],
+        "aux.valve_current": pl.i_valve + 0.005 * pl.aux_rng.standard_normal(),
+        "x_internal": pl.lag[0],
+        "T_body": pl.T + s["temperature_noise"] * n[3],
+        "T_reservoir": pl.T_res + s["temperature_noise"] * n[4],
+        "P_gas": pl.P[0] + s["pressure_noise"] * n[5],
+        "P1": pl.P[1] + s["pressure_noise"] * n[6],
+        "P2": pl.P[2] + s["pressure_noise"] * n[7],
+    }

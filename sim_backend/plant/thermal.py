@@ -1,0 +1,29 @@
+"""Heat: the damping power warms the body, convection cools it, the reservoir follows the
+body; the gas charge exchanges heat towards isothermal at its present position."""
+from __future__ import annotations
+
+from sim_backend.plant.load_path import damping_curve
+
+
+def gas_temperature(pl):
+    """The gas charge's temperature [K]: its share of the body's rise over the cell's."""
+    return pl.T_cell + pl.gas_share * (pl.T - pl.T_cell)
+
+
+def advance(pl, F_d, h):
+    """One step of h [s] with the damping force F_d [N] at the mount's velocity."""
+    th = pl.p["thermal"]
+    power = abs(F_d * pl.v_d)
+    pl.energy += power * h
+    pl.T += h * (power - th["conductance"] * (pl.T - th["ambient"])) / th["heat_capacity"]
+    pl.T_res += h * (pl.T - pl.T_res) / th["reservoir_tau_s"]
+    if abs(pl.T - pl.T_packed) > pl.repack_K:  # re-pack the model as it warms
+        pl.stepper.set_temperature(pl.T, gas_temperature(pl))
+        pl.T_packed = pl.T
+        if pl.curve is not None:
+            pl.curve = damping_curve(pl)
+    # the gas is polytropic about x_gas (eq 4.4) and exchanges heat towards isothermal
+    # at its present position over tau (what a static dwell waits for, eq 3.7)
+    pl.x_gas += h / th["gas_tau_s"] * (pl.x_d - pl.x_gas)
+    if abs(pl.x_gas - pl.stepper.x_e) > 1e-4:
+        pl.stepper.set_equilibrium(pl.x_gas)

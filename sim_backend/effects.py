@@ -1,7 +1,7 @@
 """Physics the virtual rig can hide in a run (`--effect NAME=VALUE`), so the diagnosis
 (models/diagnose/) is tested against effects it was not told about.
 
-Each is built into the plant's physics (sim_backend/plant.py), in a form different from
+Each is built into the plant's physics (sim_backend/plant/), in a form different from
 the one the diagnosis fits (models/diagnose/candidates.py): a first-order filter against a pure
 delay, a mount whose rod floats across the gap against a stationary one, a Stribeck seal
 against a breakaway that decays with travel, and so on.

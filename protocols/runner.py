@@ -13,6 +13,7 @@ import queue
 import sys
 import threading
 import time
+from typing import Protocol
 
 from rig.errors import RigError
 from rig.loop import ControlLoop, describe
@@ -83,6 +84,15 @@ class ProgressLine:
         if rate * (target - value) <= 0:  # not approaching (yet)
             return f"{seg.name} {shown}", None
         return f"{seg.name} {shown}", min((target - value) / rate, seg.duration - ts)
+
+
+class Observer(Protocol):
+    """What the runner calls on an observer (the recorder, the live view, the live
+    identification); an observer implements those it needs."""
+
+    def samples(self, drained: dict) -> None: ...  # {channel: (t [s], values [SI])} since the last call
+    def event(self, t: float, kind: str, segment: str, params: dict, message: str) -> None: ...
+    def setpoints(self, t: list, x: list) -> None: ...  # every setpoint sent [s], [m]
 
 
 class Observers:

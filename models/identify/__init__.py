@@ -1,17 +1,18 @@
 """The identification pipeline of thesis chapter 4: a recording in, a damper model out.
 
-Steps, each run when its data and channels are there (a step that cannot run says why):
-  static      friction look-up (eq 3.1) and the gas charge (eq 3.7)       identify_static
-  low-speed   dynamic breakaway friction and its temperature coefficients identify_low_speed
-  gas         oil thermal expansion K_voil from the gas pressure at rest (eq 4.6)
+Steps, each run when its data and channels are there (a step that cannot run says why),
+by segment kind (models/recording.py); the module of each:
+  static      friction look-up (eq 3.1) and the gas charge (eq 3.7)         static.py
+  gas         oil thermal expansion K_voil from the gas pressure at rest (eq 4.6)   here
+  low-speed   dynamic breakaway friction and its temperature coefficients   low_speed.py
   gamma       the polytropic exponent from the gas pressure in the sine segments, with
-              the oil the chambers store taken from their measured pressures   identify_gas
+              the oil the chambers store taken from their measured pressures   gas.py
   valves      valve structure and coefficients at low acceleration with the damping
-              temperature coefficient (eqs 4.12-4.14, 3.30, 4.17)          identify_valves
+              temperature coefficient (eqs 4.12-4.14, 3.30, 4.17)   valves.py, incompressible.py
   dynamic     the compressible model (eqs 3.31-3.56) refitted to whole training segments:
               valves, temperature coefficients, bulk modulus (constant or pressure
               dependent, chosen on held-out segments) and, when the gamma step could not
-              run, gamma (eq 4.3), using the gas pressure channel when recorded
+              run, gamma (eq 4.3), using the gas pressure channel when recorded   dynamic.py
 
 Input is plain data: channels {name: (t [s], values [SI])}, the recording's events
 (docs/recording.md) and a damper description giving what is measured with a calliper,

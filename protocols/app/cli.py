@@ -1,6 +1,5 @@
 """The `dyno` command line: the parser table. Each command is a module of protocols.app,
-imported when it runs (`dyno --help` loads no numerics). Errors in what the user gave us
-are one line and exit 2."""
+imported only when it runs. Errors in what the user gave us are one line and exit 2."""
 from __future__ import annotations
 
 import argparse
@@ -20,7 +19,6 @@ def _hidden_physics(p):
                    help="the plain cell dyno prove uses (sim_backend/plain.toml): nothing the minimal model leaves out")
     p.add_argument("--seed", type=number(0, 2**32 - 1, integer=True), default=0,
                    help="the virtual rig's noise seed (default 0)")
-
 
 
 class Parser(argparse.ArgumentParser):

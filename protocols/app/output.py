@@ -3,6 +3,9 @@ from __future__ import annotations
 
 import json
 
+from protocols.io.files import make_dir
+from protocols.reports import markdown as md
+
 
 def emit(args, title, result, text, body=None, note=""):
     """A command's result: JSON (--json), a stamped Markdown page for docs/results
@@ -10,14 +13,12 @@ def emit(args, title, result, text, body=None, note=""):
     if getattr(args, "json", False):
         print(json.dumps(result, indent=2))
     elif getattr(args, "markdown", False):
-        from protocols.reports import markdown as md
         print(md.document(title, body if body is not None else md.table(("quantity", "value"), md.flat(result)), note))
     else:
         print(text)
     return 0
 
 
-
 def out_dir(path):
-    from protocols.io.files import make_dir
+    """The output folder, created (or a one-line refusal) before any work."""
     return make_dir(path)

@@ -1,9 +1,10 @@
 """`dyno recover FILE`: rebuild a recording cut short."""
 from __future__ import annotations
 
+from protocols.io.recording import recover
+
 
 def run(args):
-    from protocols.io.recording import recover
     r = recover(args.file)
     if r["intact"]:
         print(f"{args.file}: intact, nothing to recover")

@@ -1,10 +1,11 @@
 """`dyno report FILE.mcap --out DIR`: the recording's HTML report."""
 from __future__ import annotations
 
+from protocols.io.files import make_dir
+from protocols.reports.recording import report
+
 
 def run(args):
-    from protocols.io.files import make_dir
-    from protocols.reports.recording import report
     make_dir(args.out)
     index, pngs = report(args.file, args.out)
     for p in pngs:

@@ -3,27 +3,24 @@ cell (--rig), pre-flight checked, recorded to MCAP, with the live view and ident
 as observers."""
 from __future__ import annotations
 
+import json
 import signal
 import sys
 
+from models.damper import to_dict
 from rig import config as rig_config
 from rig.errors import RigError
 from rig.rig import Rig
 from rig.safety import Safety
 
+from protocols import runner
 from protocols.app.sim_rig import virtual_plant
 from protocols.io.files import writable_file
-from protocols.plan import rig_info
+from protocols.io.recording import Recorder
+from protocols.plan import as_dict, rig_info
 
 
 def run(args):
-    import json as _json
-
-    from models.damper import to_dict
-    from protocols import runner
-    from protocols.plan import as_dict
-    from protocols.io.recording import Recorder
-
     module, params, plant, damper, cfg, info = _plan_run(args)
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
     claim = _output(args, module.NAME)
@@ -35,7 +32,7 @@ def run(args):
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
-        recorder = Recorder(claim, cfg, _json.dumps(to_dict(damper)), module.NAME, as_dict(params),
+        recorder = Recorder(claim, cfg, json.dumps(to_dict(damper)), module.NAME, as_dict(params),
                             wall_start=rig.wall_start)
         print(f"recording to {claim.target}", file=sys.stderr, flush=True)
         if identifying:

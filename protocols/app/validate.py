@@ -1,12 +1,12 @@
 """`dyno validate`: the thesis validation table."""
 from __future__ import annotations
 
+from models.validation import format_table, rows
 from protocols.app.output import emit
+from protocols.reports import markdown as md
 
 
 def run(args):
-    from models.validation import format_table, rows
-    from protocols.reports import markdown as md
     r = rows()
     body = []
     for group in dict.fromkeys(x["group"] for x in r):

@@ -29,3 +29,13 @@ def test_each_effect_is_sized_by_one_of_its_own_parameters():
 
 def test_every_hidden_effect_is_accepted_at_its_guess_by_the_plants_parser():
     assert parse([f"{n}={h.guess}" for n, h in EFFECTS.items()]) == {n: h.guess for n, h in EFFECTS.items()}
+
+
+def test_every_effect_acts_in_a_stated_place_and_order():
+    from models.diagnose.candidates import ORDER
+    assert sorted(ORDER) == sorted(CATALOGUE)
+    assert {e.acts_on for e in CATALOGUE.values()} <= {"motion", "parts", "total"}
+    # the motion is shifted before anything is computed from it; the total's caps and the
+    # free play's crossings come after every term of the total
+    place = {"motion": 0, "parts": 1, "total": 2}
+    assert [place[CATALOGUE[n].acts_on] for n in ORDER] == sorted(place[CATALOGUE[n].acts_on] for n in ORDER)

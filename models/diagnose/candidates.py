@@ -241,39 +241,83 @@ class Model:
         self.Fg_m = float(np.mean(self.base.parts(d, x0, d.x, d.v, 0.0)[1]))
 
     def force(self, d, p, parts=False):
-        x, v, a, t = d.x, d.v, d.a, d.t
-        tau = p.get("tau", 0.0)
-        if tau:  # sensor_delay: the force answers the motion tau earlier than stamped
-            x, v, a = _shift(x, t, -tau), _shift(v, t, -tau), _shift(a, t, -tau)
-        Fd, Fg, Ff, slope = self.base.parts(d, p, x, v, tau)
-        if "k_dT" in p:
-            Fd = Fd * (1 + p["k_dT"] * (d.T - self.T_m))
-        if "inv_k_oil" in p:  # compressibility: the valve in series with the oil's spring
-            Fd = _lag(Fd, slope() * p["inv_k_oil"], d.h)
-        if "k_gT" in p:
-            Fg = Fg * (1 + p["k_gT"] * (d.T - self.T_m))
-        if "pf1" in p:
-            xi = (x - self.x_m) / 0.01
-            Ff = Ff * (1 + p["pf1"] * xi + p["pf2"] * xi * xi)
-        if "r_break" in p:  # the seal grips harder near rest, falling to sliding friction with
-            # speed (the thesis's friction falls with velocity, section 3.2.1); exponential
-            Ff = Ff * (1 + (p["r_break"] - 1) * np.exp(-np.abs(v) / p["v_break"]))
-        F = Fd + Fg + Ff
-        if "m_oil" in p:
-            F = F + p["m_oil"] * a
-        for e in self.effects:
-            if e.startswith("aux_channel:"):
-                name = e.split(":", 1)[1]
-                u = _shift(d.aux[name], t, p[f"lag:{name}"]) - self.aux_m[name]
-                F = F + (p[f"b0:{name}"] + p[f"b1:{name}"] * Fd) * u
-        if "Fcav_c" in p:  # cavitation: the force cannot rise past what the chambers hold; in
-            # compression that is the gas pressure on the piston less the floor on the annulus,
-            # so the cap follows the gas force (times about A_p / A_r)
-            cap = p["Fcav_c"] + p["kcav"] * (Fg - self.Fg_m)
-            F = np.where(v > 0, np.minimum(F, cap), np.maximum(F, -p["Fcav_r"]))
-        if "c_play" in p:
-            F = _plateau(F, slope(), t, p["c_play"], W_FORCE * self.h)
-        return (F, Fd, Fg, Ff) if parts else F
+        """The baseline with the effects, each applied in its place: on the motion, on the
+        baseline's damping, gas or friction, or on the total (Effect.acts_on, in ORDER)."""
+        f = Forces(d)
+        staged = sorted(((CATALOGUE[e.split(":")[0]], e) for e in self.effects), key=lambda ce: ORDER.index(ce[0].name))
+        for c, e in staged:
+            if c.acts_on == "motion":
+                c.apply(self, d, p, f, e)
+        f.Fd, f.Fg, f.Ff, f.slope = self.base.parts(d, p, f.x, f.v, f.tau)
+        for c, e in staged:
+            if c.acts_on == "parts":
+                c.apply(self, d, p, f, e)
+        f.F = f.Fd + f.Fg + f.Ff
+        for c, e in staged:
+            if c.acts_on == "total":
+                c.apply(self, d, p, f, e)
+        return (f.F, f.Fd, f.Fg, f.Ff) if parts else f.F
+
+
+class Forces:
+    """What Model.force builds, stage by stage: the motion the force answers, the
+    baseline's parts (damping, gas, friction, the damping slope) and the total [N]."""
+
+    def __init__(self, d):
+        self.x, self.v, self.a, self.t, self.tau = d.x, d.v, d.a, d.t, 0.0
+        self.Fd = self.Fg = self.Ff = self.F = self.slope = None
+
+
+# the forms of the catalogue's effects: (model, data, values, Forces, effect id) -> None
+def _sensor_delay(m, d, p, f, e):
+    f.tau = p["tau"]
+    if f.tau:  # the force answers the motion tau earlier than stamped
+        f.x, f.v, f.a = _shift(f.x, f.t, -f.tau), _shift(f.v, f.t, -f.tau), _shift(f.a, f.t, -f.tau)
+
+
+def _damping_temperature(m, d, p, f, e):
+    f.Fd = f.Fd * (1 + p["k_dT"] * (d.T - m.T_m))
+
+
+def _compressibility(m, d, p, f, e):  # the valve in series with the oil's spring
+    f.Fd = _lag(f.Fd, f.slope() * p["inv_k_oil"], d.h)
+
+
+def _gas_temperature(m, d, p, f, e):
+    f.Fg = f.Fg * (1 + p["k_gT"] * (d.T - m.T_m))
+
+
+def _position_friction(m, d, p, f, e):
+    xi = (f.x - m.x_m) / 0.01
+    f.Ff = f.Ff * (1 + p["pf1"] * xi + p["pf2"] * xi * xi)
+
+
+def _breakaway_friction(m, d, p, f, e):
+    # the seal grips harder near rest, falling to sliding friction with speed (the
+    # thesis's friction falls with velocity, section 3.2.1); exponential
+    f.Ff = f.Ff * (1 + (p["r_break"] - 1) * np.exp(-np.abs(f.v) / p["v_break"]))
+
+
+def _fluid_inertia(m, d, p, f, e):
+    f.F = f.F + p["m_oil"] * f.a
+
+
+def _aux_channel(m, d, p, f, e):
+    name = e.split(":", 1)[1]
+    u = _shift(d.aux[name], f.t, p[f"lag:{name}"]) - m.aux_m[name]
+    f.F = f.F + (p[f"b0:{name}"] + p[f"b1:{name}"] * f.Fd) * u
+
+
+def _cavitation(m, d, p, f, e):
+    # the force cannot rise past what the chambers hold; in compression that is the gas
+    # pressure on the piston less the floor on the annulus, so the cap follows the gas
+    # force (times about A_p / A_r)
+    cap = p["Fcav_c"] + p["kcav"] * (f.Fg - m.Fg_m)
+    f.F = np.where(f.v > 0, np.minimum(f.F, cap), np.maximum(f.F, -p["Fcav_r"]))
+
+
+def _free_play(m, d, p, f, e):
+    f.F = _plateau(f.F, f.slope(), f.t, p["c_play"], W_FORCE * m.h)
 
 
 def _slope(v, p):
@@ -284,10 +328,14 @@ def _slope(v, p):
 
 @dataclass(frozen=True)
 class Effect:
+    """A physical effect the baseline may have left out: its parameters (bounds, starts),
+    its force and where that acts, and what sizes it."""
     name: str
     what: str  # the physics, in an engineer's words
     params: callable  # (d, effect id) -> [P]
     estimate: str  # the parameter that sizes the effect (what `dyno prove` reports)
+    apply: callable  # (model, d, values, Forces, effect id): its force, in place
+    acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
     needs: str = ""  # "T" or "aux": a channel it needs
 
 
@@ -311,24 +359,37 @@ def _cav_params(d, e):
             P("kcav", 0.0, 0.0, 30.0, "-", (0.0, 5.0, 10.0))]
 
 
-CATALOGUE = {
-    "sensor_delay": Effect("sensor_delay", "a time lag between the displacement and force channels",
-                           _p(P("tau", 0.0, -0.02, 0.02, "s", (-2e-3, -2e-4, 0.0, 2e-4, 2e-3))), "tau"),
-    "free_play": Effect("free_play", "clearance (free play) in the damper's mounts",
-                        _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))), "c_play"),
-    "compressibility": Effect("compressibility", "compressible oil (entrained air) in series with the valves",
-                              _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N")), "inv_k_oil"),
-    "breakaway_friction": Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
-                                 _p(P("r_break", 1.2, 1.0, 5.0, "-"),
-                                    P("v_break", 5e-3, 1e-5, 0.1, "m/s", (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2))), "r_break"),
-    "position_friction": Effect("position_friction", "seal friction varying along the bore",
-                                _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2")), "pf1"),
-    "gas_temperature": Effect("gas_temperature", "gas-spring force rising with temperature",
-                              _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")), "k_gT", "T"),
-    "damping_temperature": Effect("damping_temperature", "damping changing with oil temperature",
-                                  _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")), "k_dT", "T"),
-    "fluid_inertia": Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
-                            _p(P("m_oil", 0.0, -20.0, 200.0, "kg")), "m_oil"),
-    "cavitation": Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params, "Fcav_c"),
-    "aux_channel": Effect("aux_channel", "an auxiliary channel changing the force", _aux_params, "b1:aux.valve_current", "aux"),
-}
+CATALOGUE = {e.name: e for e in (
+    Effect("sensor_delay", "a time lag between the displacement and force channels",
+           _p(P("tau", 0.0, -0.02, 0.02, "s", (-2e-3, -2e-4, 0.0, 2e-4, 2e-3))),
+           estimate="tau", apply=_sensor_delay, acts_on="motion"),
+    Effect("free_play", "clearance (free play) in the damper's mounts",
+           _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
+           estimate="c_play", apply=_free_play, acts_on="total"),
+    Effect("compressibility", "compressible oil (entrained air) in series with the valves",
+           _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N")),
+           estimate="inv_k_oil", apply=_compressibility, acts_on="parts"),
+    Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
+           _p(P("r_break", 1.2, 1.0, 5.0, "-"), P("v_break", 5e-3, 1e-5, 0.1, "m/s", (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2))),
+           estimate="r_break", apply=_breakaway_friction, acts_on="parts"),
+    Effect("position_friction", "seal friction varying along the bore",
+           _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2")),
+           estimate="pf1", apply=_position_friction, acts_on="parts"),
+    Effect("gas_temperature", "gas-spring force rising with temperature",
+           _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
+           estimate="k_gT", apply=_gas_temperature, acts_on="parts", needs="T"),
+    Effect("damping_temperature", "damping changing with oil temperature",
+           _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
+           estimate="k_dT", apply=_damping_temperature, acts_on="parts", needs="T"),
+    Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
+           _p(P("m_oil", 0.0, -20.0, 200.0, "kg")),
+           estimate="m_oil", apply=_fluid_inertia, acts_on="total"),
+    Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
+           estimate="Fcav_c", apply=_cavitation, acts_on="total"),
+    Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
+           estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux"),
+)}
+# the order the effects act in, whatever order they were accepted in: multiplications
+# of one part, the total's sum, then its caps and the free play's zero-force crossings
+ORDER = ("sensor_delay", "damping_temperature", "compressibility", "gas_temperature", "position_friction",
+         "breakaway_friction", "fluid_inertia", "aux_channel", "cavitation", "free_play")

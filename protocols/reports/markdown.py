@@ -13,12 +13,16 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _commit():
+    """The commit the numbers come from, "-dirty" if the code differs from it (the results
+    pages themselves, rewritten one after another, do not count)."""
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=10).stdout.strip()
     try:
-        out = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True,
-                             text=True, timeout=10)
+        head = git("rev-parse", "--short", "HEAD")
+        changed = git("status", "--porcelain", "--", ".", ":(exclude)docs/results")
     except (OSError, subprocess.SubprocessError):
         return "unknown"
-    return out.stdout.strip() or "unknown"
+    return (head + ("-dirty" if changed else "")) if head else "unknown"
 
 
 def stamp() -> str:

@@ -5,11 +5,11 @@ from __future__ import annotations
 from rig.errors import RigError
 
 from protocols.app.output import emit
+from protocols.reports import markdown as md
 
 
 def sim(args):
     from protocols.app.bench.speed import bench
-    from protocols.reports import markdown as md
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
     goals = "goals (>= 200x real time, >= 10x reference, < 0.5 % force): " + ("met" if result["goals_met"] else "NOT met")
     lines = [f"{name:10s} real-time factor {c['realtime_factor']:7.0f}x   "
@@ -30,7 +30,13 @@ def sweep(args):
             f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
             f"{result['workers']} workers: {result['wall_s']:.1f} s wall "
             f"(goal < {result['goal_wall_s']:.0f} s: {'met' if result['goal_met'] else 'NOT met'})")
-    return emit(args, "Quarter-car sweep time (dyno bench sweep)", result, text)
+    f = result["freqs_hz"]
+    body = md.table(("damper", "points", "amplitudes [mm]", "frequencies [Hz]", "simulated [s]", "workers", "wall [s]"),
+                    [(result["damper"], result["points"], ", ".join(f"{1e3 * a:g}" for a in result["amplitudes_m"]),
+                      f"{len(f)} from {f[0]:g} to {f[-1]:g}", f"{result['simulated_s']:.0f}", result["workers"],
+                      f"{result['wall_s']:.1f}")])
+    return emit(args, "Quarter-car sweep time (dyno bench sweep)", result, text, body,
+                f"Goal: under {result['goal_wall_s']:.0f} s: {'met' if result['goal_met'] else 'NOT met'}.")
 
 
 
@@ -70,7 +76,6 @@ ROUND_TRIP = ("P0", "V0", "gas_spring.gamma", "K_voil", "friction at mid-stroke,
 
 def identify(args):
     from protocols.app.bench.throughput import bench_identify
-    from protocols.reports import markdown as md
     dampers = args.damper.split(",")
     if args.recording and len(dampers) > 1:
         raise RigError("bench identify: one --damper with a RECORDING")

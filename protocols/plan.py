@@ -127,7 +127,6 @@ def rig_info(cfg, damper):
     import numpy as np
 
     from models.physics.simulate import simulate
-    from protocols.plan import RigInfo
     L = cfg.limits
     peak = response = None
     x_mid, x_min, x_max = cfg.safe_position, L["x_min"], L["x_max"]

@@ -16,7 +16,6 @@ import numpy as np
 from models.damper import Compressibility, Damper, TempCoeff, TemperatureSensitivity
 
 
-
 @dataclass(frozen=True)
 class Hidden:
     """How the plant hides an effect of the diagnosis's catalogue

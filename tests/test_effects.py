@@ -39,3 +39,8 @@ def test_every_effect_acts_in_a_stated_place_and_order():
     # free play's crossings come after every term of the total
     place = {"motion": 0, "parts": 1, "total": 2}
     assert [place[CATALOGUE[n].acts_on] for n in ORDER] == sorted(place[CATALOGUE[n].acts_on] for n in ORDER)
+
+
+def test_the_diagnosis_says_every_effect_in_words():
+    from protocols.app.diagnose import SAY
+    assert set(SAY) == set(CATALOGUE)

@@ -214,7 +214,6 @@ def test_any_edit_of_a_damper_json_loads_or_gives_one_line(data):
     assert np.all(np.isfinite(r.force))
 
 
-
 def test_a_zero_pressure_slope_of_the_bulk_modulus_is_named():
     """Found by the test above: eq 3.32 with C_sbeta = 0 divided by zero at its cap."""
     doc = dm.to_dict(dm.load("fox-heavy"))

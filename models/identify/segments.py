@@ -11,7 +11,6 @@ from models.recording import at, cycle_blocks, missing, segments, smooth
 WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
 
 
-
 @dataclass
 class Segment:
     """A recorded test segment resampled on a uniform clock (the force's)."""

@@ -22,11 +22,9 @@ def damper(args):
     return 0
 
 
-
 def _freqs(args):
     from models.quarter_car.sweeps import FREQS
     return FREQS if args.freq is None else args.freq
-
 
 
 def quarter_car(args):
@@ -52,7 +50,6 @@ def quarter_car(args):
     return 0
 
 
-
 def parametric(args):
     from models import quarter_car as qcm
     from protocols.reports import quarter_car as qp
@@ -63,7 +60,6 @@ def parametric(args):
     for p in qp.plot_parametric(study, out_dir(args.out), args.damper):
         print(p)
     return 0
-
 
 
 def simplified(args):

@@ -13,7 +13,6 @@ from rig.rig import Rig
 CHECK_S = 0.5  # how long rig check listens
 
 
-
 def open_rig(args):
     """(rig, virtual rig or None, pacer step): the embedded virtual rig unless --rig."""
     if args.rig is None:
@@ -24,7 +23,6 @@ def open_rig(args):
         return rig, vr
     cfg = rig_config.load(args.rig)
     return Rig(cfg), None
-
 
 
 def run(args):

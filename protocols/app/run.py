@@ -7,17 +7,20 @@ import json
 import signal
 import sys
 
+from models.damper import load as load_damper
 from models.damper import to_dict
 from rig import config as rig_config
 from rig.errors import RigError
+from rig.pacing import RealTimePacer, SimulatedPacer
 from rig.rig import Rig
 from rig.safety import Safety
 
-from protocols import runner
+from protocols import preflight, runner
 from protocols.app.sim_rig import virtual_plant
 from protocols.io.files import writable_file
 from protocols.io.recording import Recorder
-from protocols.plan import as_dict, rig_info
+from protocols.library import PROTOCOLS
+from protocols.plan import as_dict, parse, rig_info
 
 
 def run(args):
@@ -62,15 +65,9 @@ def run(args):
     return _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident)
 
 
-
 def _plan_run(args):
     """What a run needs, checked before anything connects or moves: (protocol module,
     params, virtual plant options, damper, rig config, RigInfo)."""
-    from models.damper import load as load_damper
-    from protocols import preflight
-    from protocols.library import PROTOCOLS
-    from protocols.plan import parse
-
     module = PROTOCOLS.get(args.protocol)
     if module is None:
         raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
@@ -94,11 +91,9 @@ def _plan_run(args):
     return module, params, plant, damper, cfg, info
 
 
-
 def _open_rig(args, cfg, damper, plant):
     """(virtual rig or None, open Rig, config as served, pacer): the embedded virtual rig
     unless --rig names a cell."""
-    from rig.pacing import RealTimePacer, SimulatedPacer
     vr = None
     if args.rig is None:
         from sim_backend.virtual_rig import VirtualRig
@@ -122,11 +117,9 @@ def _open_rig(args, cfg, damper, plant):
     return vr, rig, cfg, pacer
 
 
-
 def _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident):
     """Say what was recorded and what stopped it, finish the live identification; the exit
     status."""
-    from rig.pacing import RealTimePacer
     if result.fault:
         errors.insert(0, result.fault)
     if recorder.kept:
@@ -151,7 +144,6 @@ def _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident):
         print(f"dyno: run stopped: {errors[0]}", file=sys.stderr)
         return 130 if errors[0] == "operator stop" else 1
     return 0
-
 
 
 def _output(args, name):

@@ -29,7 +29,6 @@ def parse_faults(specs):
     return out
 
 
-
 def virtual_plant(args):
     """VirtualRig keywords from --damper, --effect, --plain and --seed."""
     from sim_backend.effects import EffectError, parse, plain_cell
@@ -43,7 +42,6 @@ def virtual_plant(args):
         name, params, _ = plain_cell()
         damper = name if damper in (None, "koni") else damper
     return {"damper": damper, "effects": effects, "params": params, "seed": args.seed}
-
 
 
 def run(args):

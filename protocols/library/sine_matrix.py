@@ -24,6 +24,12 @@ class Params:
 
 
 def check(p: Params, rig: RigInfo):
+    _validate(p, rig)
+    return _matrix(p, rig)[1]
+
+
+def _validate(p: Params, rig: RigInfo):
+    """ParamError naming a parameter that cannot be run at all."""
     positive("amplitudes_mm", p.amplitudes_mm)
     positive("freqs_hz", p.freqs_hz)
     for name in ("ramp_cycles", "record_cycles"):
@@ -37,14 +43,11 @@ def check(p: Params, rig: RigInfo):
         if not (rig.x_min <= rig.x_mid - a / 1e3 and rig.x_mid + a / 1e3 <= rig.x_max):
             raise ParamError(f"amplitudes_mm: {a:g} mm leaves the stroke limits "
                              f"{rig.x_min * 1e3:.1f}..{rig.x_max * 1e3:.1f} mm about {rig.x_mid * 1e3:.1f} mm")
-    runs, skipped = _matrix(p, rig)
-    if not runs:
-        raise ParamError(f"nothing to run: every combination is skipped ({skipped[0][0]}: {skipped[0][1]})")
-    return skipped
 
 
 def _matrix(p: Params, rig: RigInfo):
-    """([(amplitude mm, frequency Hz)] to record, [(segment, why skipped or moved)])."""
+    """([(amplitude mm, frequency Hz)] to record, [(segment, why skipped or moved)]);
+    ParamError if nothing is left to record."""
     runs, skipped = [], []
     for a in p.amplitudes_mm:
         for f in p.freqs_hz:
@@ -62,6 +65,8 @@ def _matrix(p: Params, rig: RigInfo):
                 skipped.append((_name(a, f), why))
             else:
                 runs.append((a, f))
+    if not runs:
+        raise ParamError(f"nothing to run: every combination is skipped ({skipped[0][0]}: {skipped[0][1]})")
     return runs, skipped
 
 
@@ -81,7 +86,7 @@ def _name(a, f):
 
 
 def plan(p: Params, rig: RigInfo):
-    check(p, rig)
+    _validate(p, rig)
     for a, f in _matrix(p, rig)[0]:
         A, n = a / 1e3, p.ramp_cycles
         params = {"amplitude_mm": a, "freq_hz": f}

@@ -98,6 +98,7 @@ CASES = [
     (["run", "temperature-sweep", "overshoot_c=-50"], ["overshoot_c: must not be negative"]),
     (["bench", "diagnose", "--rate", "0"], ["bench diagnose: argument --rate: must be above 0"]),
     (["bench", "identify", "{binary}"], ["not a readable recording"]),
+    (["bench", "identify", "--damper", "nosuch"], ["recording nosuch: unknown damper preset 'nosuch'"]),
     (["prove", "--effects", "gremlins"], ["unknown effect 'gremlins'"]),
     (["validate", "--json", "extra"], ["unrecognized arguments: extra"]),
 ]

@@ -21,6 +21,8 @@ def load_recording(path):
     path = Path(path)
     if not path.exists():
         raise RigError(f"{path}: no such file")
+    if not path.is_file():
+        raise RigError(f"{path}: not a readable recording (a folder, not a file)")
     chans, events = {}, []
     try:
         with open(path, "rb") as f:

@@ -73,8 +73,11 @@ def bench_identify(recording=None, damper="koni", truth=False):
     with tempfile.TemporaryDirectory() as tmp:
         if recording is None:
             recording = str(Path(tmp) / "standard.mcap")
-            subprocess.run([dyno, "run", "standard", "--damper", damper, "--no-identify", "--out", recording],
-                           check=True, capture_output=True)
+            made = subprocess.run([dyno, "run", "standard", "--damper", damper, "--no-identify", "--out", recording],
+                                  capture_output=True, text=True)
+            if made.returncode:
+                last = made.stderr.strip().splitlines()[-1] if made.stderr.strip() else f"exit {made.returncode}"
+                raise RigError(f"bench identify: recording {damper}: {last.removeprefix('dyno: error: ')}")
         t0 = time.perf_counter()
         p = subprocess.run([dyno, "identify", recording, "--json", "--out", str(Path(tmp) / "m.json")]
                            + (["--truth", damper] if truth else []), capture_output=True, text=True)

@@ -24,6 +24,10 @@ def record(tmp_path, name, *extra):
     return out
 
 
+# one worker makes the three recordings once for every test that reads them
+ONE_WORKER = pytest.mark.xdist_group("diagnose_recordings")
+
+
 @pytest.fixture(scope="module")
 def recordings(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("diag")
@@ -41,12 +45,14 @@ def test_two_stage_valve_curve_solves_eq_3_30():
     assert np.allclose(vL + vM, v, atol=1e-9)
 
 
+@ONE_WORKER
 def test_null_recording_accepts_nothing(recordings):
     res = diagnose(*load_recording(recordings["null"])[:2])
     assert res["accepted"] == []
     assert res["baseline"]["nrmse_heldout"] < 0.005
 
 
+@ONE_WORKER
 def test_a_hidden_lag_is_found_and_sized(recordings):
     res = diagnose(*load_recording(recordings["lag"])[:2])
     assert res["accepted"][0] == "sensor_delay"
@@ -56,12 +62,14 @@ def test_a_hidden_lag_is_found_and_sized(recordings):
     assert 0.3e-3 < res["steps"][0]["parameters"]["tau"] < 1.3e-3
 
 
+@ONE_WORKER
 def test_two_hidden_effects_found_larger_first(recordings):
     # on this matrix the inertia adds 27.9 N RMS to the force, the 0.2 ms lag 14.7 N (offline plant)
     res = diagnose(*load_recording(recordings["inertia"])[:2])
     assert res["accepted"][:2] == ["fluid_inertia", "sensor_delay"]
 
 
+@ONE_WORKER
 def test_cli_json_and_summary(recordings, tmp_path):
     r = subprocess.run([*DYNO, "diagnose", str(recordings["lag"]), "--json", "--report", str(tmp_path / "rep")],
                        capture_output=True, text=True, timeout=300)
@@ -73,6 +81,7 @@ def test_cli_json_and_summary(recordings, tmp_path):
     assert (tmp_path / "rep" / "index.html").exists() and (tmp_path / "rep" / "residuals.png").exists()
 
 
+@ONE_WORKER
 def test_gaps_missing_temperature_and_too_short(recordings):
     ch, ev, _ = load_recording(recordings["null"])
     del ch["T_body"], ch["T_reservoir"]
@@ -88,6 +97,7 @@ def test_gaps_missing_temperature_and_too_short(recordings):
         prepare(short, [e for e in ev if e["t"] < 1.5])
 
 
+@ONE_WORKER
 def test_a_damper_model_as_baseline(recordings):
     """--baseline PRESET: the plain cell's own damper model, simulated along the motion and
     refitted, leaves nothing on the null and finds the hidden inertia first."""
@@ -102,6 +112,7 @@ def test_a_damper_model_as_baseline(recordings):
 
 @pytest.mark.parametrize("baseline, message", [("nosuch", "unknown damper preset"),
                                                ("simplified-I", "simplified model")])
+@ONE_WORKER
 def test_cli_refuses_a_baseline_it_cannot_use(recordings, baseline, message):
     r = subprocess.run([*DYNO, "diagnose", str(recordings["null"]), "--baseline", baseline],
                        capture_output=True, text=True, timeout=300)

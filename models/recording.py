@@ -11,7 +11,8 @@ import numpy as np
 from scipy.signal import butter, filtfilt
 
 # what a segment of motion is; the analyses choose segments by these
-KINDS = ("hold", "low-speed", "sine", "step", "rest", "warm-up", "transition")
+# road: motion a virtual car or a replayed history asks for (hardware-in-the-loop, replay)
+KINDS = ("hold", "low-speed", "sine", "step", "rest", "warm-up", "transition", "road")
 LOW_SPEED_HZ = 0.5  # recordings without kinds: cycling at or below this was the low-speed test
 
 

@@ -41,6 +41,11 @@ class Segment:
     # what the motion is (models.recording.KINDS), written into the events so analyses
     # choose segments by it and not by their params' keys
     kind: str = "transition"
+    # closed loop: an object whose setpoint(ts, readings) replaces x on the rig (x stays the
+    # prediction the pre-flight checks); optionally channels() -> {name: (t, values)} of
+    # its own to record, units {name: unit}, and after() -> (channels, measures) called
+    # once the rig is safe
+    control: object | None = None
 
 
 @dataclass
@@ -59,6 +64,8 @@ class RigInfo:
     response: Callable | None = None
     gas_max: float = 0.0  # Pa, the rig's gas pressure limit (0: none)
     conductance: float | None = None  # W/K, the damper's heat path to the cell air, if known
+    damper: object | None = None  # the damper model (models.damper), if any
+    rate_hz: float = 1000.0  # the control loop's rate
 
 
 def sine_peaks(rig: RigInfo, amplitude, freq, T=None):
@@ -95,12 +102,14 @@ def parse(cls, pairs):
                     raise ParamError(f"{name}: needs at least one value")
             elif kind is int:
                 kwargs[name] = int(text)
+            elif kind is str:
+                kwargs[name] = text
             else:
                 kwargs[name] = float(text)
         except ValueError:
             raise ParamError(f"{name}: {text!r} is not a number") from None
         values = kwargs[name] if isinstance(kwargs[name], list) else [kwargs[name]]
-        if not all(math.isfinite(v) for v in values):
+        if kind is not str and not all(math.isfinite(v) for v in values):
             raise ParamError(f"{name}: {text!r} is not a finite number")
     return cls(**kwargs)
 
@@ -152,4 +161,4 @@ def rig_info(cfg, damper):
         peak = peak_force
     return RigInfo(x_mid, x_min, x_max, L["velocity_max"], L.get("frequency_max", 50.0),
                    L["force_max"], L["temperature_max"], ambient, peak, response, L["gas_pressure_max"],
-                   cfg.thermal.get("conductance"))
+                   cfg.thermal.get("conductance"), damper, cfg.rate_hz)

@@ -47,8 +47,12 @@ def segment_temperatures(seg: Segment):
     return (None,)
 
 
-def _samples(seg: Segment):
-    """(t, x) of the segment's setpoints, fine enough for its fastest motion."""
+def _samples(seg: Segment, rate_hz):
+    """(t, x) of the segment's setpoints, fine enough for its fastest motion (a closed
+    loop's prediction at every tick: its content is not known ahead)."""
+    if seg.control is not None:
+        t = np.arange(0.0, seg.duration, 1.0 / rate_hz)
+        return t, np.array([seg.x(ti) for ti in t])
     f = float(seg.params.get("freq_hz", 0.0) or 0.0)
     span = seg.duration if f <= 0 else min(seg.duration, 32 / f)  # a long cycling repeats itself
     n = SAMPLES if f <= 0 else max(SAMPLES, int(span * f * POINTS_PER_CYCLE))
@@ -89,7 +93,7 @@ def forecast(segments, info: RigInfo, T=None) -> Forecast:
         else:
             out.waits += 1
             out.wait_max_s += seg.duration
-        t, x = _samples(seg)
+        t, x = _samples(seg, info.rate_hz)
         if not np.all(np.isfinite(x)):
             raise ParamError(f"{seg.name}: the plan gives a setpoint that is not a number")
         lo, hi = float(x.min()), float(x.max())

@@ -93,6 +93,7 @@ class Observer(Protocol):
     def samples(self, drained: dict) -> None: ...  # {channel: (t [s], values [SI])} since the last call
     def event(self, t: float, kind: str, segment: str, params: dict, message: str) -> None: ...
     def setpoints(self, t: list, x: list) -> None: ...  # every setpoint sent [s], [m]
+    def units(self, units: dict) -> None: ...  # {channel: unit} of channels a closed loop adds
 
 
 class Observers:
@@ -164,7 +165,8 @@ class Sequence:
             return None
         if self.failed:
             raise RigError(next(iter(self.failed.values())))
-        x = self.current.x(ts)
+        seg = self.current
+        x = seg.x(ts) if seg.control is None else seg.control.setpoint(ts, readings)
         self.set_t.append(t)
         self.set_x.append(x)
         if self.bar:
@@ -210,6 +212,42 @@ class Sequence:
         self.set_x.clear()
         return out
 
+    def controls(self):
+        """The segments' closed-loop controls, each once."""
+        return list({id(s.control): s.control for s in self.segments if s.control is not None}.values())
+
+    def drain_channels(self):
+        """{name: (t, values)} the closed-loop controls logged since the last call."""
+        out = {}
+        for c in self.controls():
+            if hasattr(c, "channels"):
+                out.update(c.channels())
+        return out
+
+    def after(self):
+        """(segment, channels, measures) of each started segment whose control measures
+        itself once the rig is safe."""
+        for seg in self.segments[:self.i + 1]:
+            if seg.control is not None and hasattr(seg.control, "after"):
+                yield seg, *seg.control.after()
+
+
+def _measure(sequence, observed, event):
+    """The closed-loop segments' measures, made once the loop has ended (the rig is safe):
+    their channels to the observers, a `result` event per segment; [(segment name,
+    measures)]."""
+    out = []
+    try:
+        for seg, channels, found in sequence.after():
+            if channels:
+                observed.call("samples", channels)
+            if found:
+                event(sequence.t, "result", seg, params={**seg.params, "kind": seg.kind, **found})
+                out.append((seg.name, found))
+    except Exception as e:  # noqa: BLE001 - the recording is kept whatever the measures do
+        print(f"dyno: measures not made: {describe(e)}", file=sys.stderr)
+    return out
+
 
 def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progress=True):
     """Execute the plan; returns (LoopResult, [skipped (segment, reason)]). sinks: plain
@@ -227,8 +265,14 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
 
     sequence = Sequence(module, params, segments, skipped, event, observed.failed, bar)
 
+    units = {}
+    for c in sequence.controls():
+        units.update(getattr(c, "units", {}))
+    if units:
+        observed.call("units", units)
+
     def record(samples):
-        observed.call("samples", samples)
+        observed.call("samples", {**samples, **sequence.drain_channels()})
         observed.call("setpoints", *sequence.drain_setpoints())
 
     loop = ControlLoop(rig, pacer, safety, [record, *sinks])
@@ -242,6 +286,7 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     if result.fault:
         kind = "operator_stop" if result.fault == "operator stop" else "fault"
         event(sequence.t, kind, sequence.current, result.fault)
+    result.measures = _measure(sequence, observed, event)
     event(sequence.t, "run_end", name=module.NAME, params={}, message=result.fault or "completed")
     observed.close()
     return result, skipped

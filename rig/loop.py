@@ -35,6 +35,7 @@ class LoopResult:
     sched_fifo: bool = False
     missed: int = 0  # ticks skipped after stalls (real time)
     lateness_s: list = field(default_factory=list, repr=False)
+    measures: list = field(default_factory=list)  # [(segment, {name: value})] the plan's closed loops measured
 
     def stats(self, rate_hz):
         late = np.array(self.lateness_s) if self.lateness_s else np.zeros(1)

@@ -47,3 +47,25 @@ def iso8608_variance(road_class, n_band=(0.01, 10.0)):
     """Closed-form road variance over the band: integral of G_d [m^2]."""
     a, b = n_band
     return ISO8608_GD0[road_class] * N0**2 * (1 / a - 1 / b)
+
+
+def sweep(t, f0, f1, amplitude):
+    """(y, v): a logarithmic sine sweep of peak amplitude [m] from f0 to f1 [Hz] over t
+    (equal time per octave, as transmissibility measurements use)."""
+    t = np.asarray(t, float)
+    T = t[-1] - t[0]
+    k = np.log(f1 / f0) / T
+    phase = 2 * np.pi * f0 * np.expm1(k * (t - t[0])) / k
+    f = f0 * np.exp(k * (t - t[0]))
+    return amplitude * np.sin(phase), amplitude * 2 * np.pi * f * np.cos(phase)
+
+
+def faded(t, y, fade_s):
+    """y faded in and out over fade_s [s] with half-cosine windows: a road that starts and
+    ends at rest (no velocity step at either end)."""
+    t = np.asarray(t, float)
+    w = np.ones_like(t)
+    a, b = t - t[0], t[-1] - t
+    w = np.where(a < fade_s, 0.5 - 0.5 * np.cos(np.pi * a / fade_s), w)
+    w = np.where(b < fade_s, 0.5 - 0.5 * np.cos(np.pi * b / fade_s), w)
+    return y * w

@@ -160,14 +160,16 @@ def simulate(qc: QuarterCar, damper_force, t, y_in, v_in=None, F_static=0.0, x_i
 
 
 @njit(cache=True)
-def _coupled_loop(layout, s, q, y_in, v_in, mode, y, prm, vp, vh, atol, hist, fx, fF, f_ratio, rec):
+def _coupled_loop(layout, s, q, y_in, v_in, mode, y, prm, vp, vh, atol, hist, fx, fF, f_ratio, x_stick, rec):
     """Car + damper model (assemblies.CODE `layout`), compiled together; mode 2:
-    compressible, 1: incompressible."""
+    compressible, 1: incompressible. x_stick > 0: the damper's friction in Dahl's form
+    (the damper model's friction.x_stick), part of its force rather than of the contact."""
     n = y_in.shape[0]
     xs, vs = np.empty(2), np.empty(2)
     out = np.empty((2, 5))
     x, v = _motion(s, q)
     xs[1], vs[1] = min(max(x, 0.0), q[STROKE]), v
+    Ff = 0.0
     for k in range(n):
         x, v = _motion(s, q)
         x = min(max(x, 0.0), q[STROKE])  # beyond the stroke the stops take over
@@ -178,7 +180,14 @@ def _coupled_loop(layout, s, q, y_in, v_in, mode, y, prm, vp, vh, atol, hist, fx
         else:
             incompressible(layout, xs[1:], vs[1:], prm, vp, vh, out[1:])
         Fc_d = np.interp(x, fx, fF) * f_ratio  # eq 3.3's magnitude; its sign is solved
-        _step(s, q, out[1, 0] + out[1, 1], Fc_d, y_in[k], v_in[k], v_in[min(k + 1, n - 1)], rec[k])
+        Fd = out[1, 0] + out[1, 1]
+        if x_stick > 0.0:  # friction.dahl_step
+            dx = xs[1] - xs[0]
+            if dx != 0.0:
+                target = Fc_d if dx > 0.0 else -Fc_d
+                Ff = target + (Ff - target) * np.exp(-abs(dx) / x_stick)
+            Fd, Fc_d = Fd + Ff, 0.0
+        _step(s, q, Fd, Fc_d, y_in[k], v_in[k], v_in[min(k + 1, n - 1)], rec[k])
 
 
 @njit(cache=True)
@@ -225,5 +234,44 @@ def run(qc: QuarterCar, damper, t, y_in, v_in=None, T=C_to_K(94.0), compressible
     fF = static_friction(fx, fr.x_table, fr.F_table)
     _coupled_loop(CODE[d.layout], s, q, y_in, v_in, 2 if compressible else 1, y, prm, vp, vh,
                   np.full(asm.NSTATE, ATOL_OIL), new_history(asm.NSTATE), fx, fF,
-                  float(breakaway_ratio(float(T), fr.C_sfT, fr.C_ifT)), rec)
+                  float(breakaway_ratio(float(T), fr.C_sfT, fr.C_ifT)), float(fr.x_stick), rec)
     return _result(qc, t, y_in, v_in, rec)
+
+
+class Stepper:
+    """The quarter car one step at a time, with the damper force from outside (the load
+    cell, in hardware-in-the-loop): `step(F)` takes the force [N] that answered the present
+    damper motion, advances the car one step of the road's period, and returns the damper
+    motion it asks for next (x [m] from full extension, v [m/s], a [m/s^2], compression
+    positive). Same equations and integrator as `simulate` (eqs 5.3-5.14)."""
+
+    def __init__(self, qc: QuarterCar, t, y_in, v_in=None, F_static=0.0, x_install=np.inf, stroke=np.inf,
+                 tire_travel=0.05):
+        self.qc = qc
+        self.t, self.y_in, self.v_in, self.q, self.s, self.rec = _setup(qc, t, y_in, v_in, F_static, x_install,
+                                                                        stroke, tire_travel)
+        self.k = 0
+        self.h = self.q[H]
+        self.a1 = self.a2 = 0.0  # sprung and unsprung accelerations over the last step [m/s^2]
+
+    @property
+    def done(self):
+        return self.k >= len(self.t)
+
+    def motion(self):
+        """(x, v, a) of the damper the car's present state asks for."""
+        x, v = _motion(self.s, self.q)
+        return x, v, -(self.a1 - self.a2)
+
+    def step(self, F):
+        k, n, s = self.k, len(self.t), self.s
+        v1, v2 = s[2], s[3]
+        _step(s, self.q, float(F), 0.0, self.y_in[k], self.v_in[k], self.v_in[min(k + 1, n - 1)], self.rec[k])
+        self.a1, self.a2 = (s[2] - v1) / self.h, (s[3] - v2) / self.h
+        self.k += 1
+        return self.motion()
+
+    def result(self) -> QuarterCarResult:
+        """The steps taken so far."""
+        k = self.k
+        return _result(self.qc, self.t[:k], self.y_in[:k], self.v_in[:k], self.rec[:k])

@@ -21,6 +21,7 @@ from protocols.io.files import writable_file
 from protocols.io.recording import Recorder
 from protocols.library import PROTOCOLS
 from protocols.plan import as_dict, parse, rig_info
+from protocols.rehearsal import rehearse
 
 
 def run(args):
@@ -71,7 +72,8 @@ def _plan_run(args):
     module = PROTOCOLS.get(args.protocol)
     if module is None:
         raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
-    params = parse(module.Params, args.params)
+    given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator") if getattr(args, n, None) is not None]
+    params = parse(module.Params, [*args.params, *given])
     if args.rig is not None and (args.effect or args.plain):
         raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
     plant = virtual_plant(args)
@@ -88,6 +90,9 @@ def _plan_run(args):
         print(f"skipping {name}: {why}", file=sys.stderr)
     forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
     print(preflight.summary(forecast), file=sys.stderr)
+    if getattr(module, "REHEARSE", False):
+        for name, found in rehearse(module, params, info, cfg, damper):
+            print(f"pre-flight (the run against the virtual plant): {name}: {module.summary(found)}", file=sys.stderr)
     return module, params, plant, damper, cfg, info
 
 
@@ -131,6 +136,8 @@ def _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident):
         late = sum(1 for x in result.lateness_s if x > 1.0 / cfg.rate_hz)
         print(f"real time: {late} of {result.ticks} ticks late by more than a period "
               f"(worst {1e3 * max(result.lateness_s):.1f} ms, {result.missed} skipped)", file=sys.stderr)
+    for name, found in result.measures:
+        print(f"{name}: {module.summary(found)}", file=sys.stderr)
     for later in errors[1:]:
         print(f"dyno: also: {later}", file=sys.stderr)
     if ident is not None and recorder.kept:

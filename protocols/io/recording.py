@@ -77,7 +77,7 @@ class Recorder:
         self.w.start(profile="", library=f"dyno {VERSION}")
         self.schema = {name: self.w.register_schema(name, "jsonschema", json.dumps(s).encode())
                        for name, s in SCHEMAS.items()}
-        self.units = {n: c.unit for n, c in config.channels.items()}
+        self.unit_of = {n: c.unit for n, c in config.channels.items()}
         self.topics, self.seq, self.n = {}, {}, {}
         for name in config.channels:
             self._topic(f"/channels/{name}", "dyno.Samples")
@@ -113,12 +113,19 @@ class Recorder:
         self.last_t = max(self.last_t, t)
 
     # sinks -------------------------------------------------------------------------------
+    def units(self, units):
+        """Channels the plan adds to the rig's (a closed loop's own), with their units."""
+        self.unit_of.update(units)
+        for name in units:
+            if f"/channels/{name}" not in self.topics:
+                self._topic(f"/channels/{name}", "dyno.Samples")
+
     def samples(self, drained):
         """A rig.drain() batch: {channel: (t array, value array)}."""
         for name, (t, v) in drained.items():
             if len(t):
                 n0 = self.n.get(name, 0)
-                self._write(f"/channels/{name}", float(t[0]), {"n0": n0, "unit": self.units.get(name, ""),
+                self._write(f"/channels/{name}", float(t[0]), {"n0": n0, "unit": self.unit_of.get(name, ""),
                                                                "t": t.tolist(), "value": v.tolist()})
                 self.n[name] = n0 + len(t)
         self.maybe_flush()

@@ -41,7 +41,7 @@ class Segment:
     # what the motion is (models.recording.KINDS), written into the events so analyses
     # choose segments by it and not by their params' keys
     kind: str = "transition"
-    # closed loop: an object whose setpoint(ts, readings) replaces x on the rig (x stays the
+    # closed loop: an object whose setpoint(t, ts, readings) replaces x on the rig (x stays the
     # prediction the pre-flight checks); optionally channels() -> {name: (t, values)} of
     # its own to record, units {name: unit}, and after() -> (channels, measures) called
     # once the rig is safe

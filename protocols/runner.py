@@ -166,7 +166,7 @@ class Sequence:
         if self.failed:
             raise RigError(next(iter(self.failed.values())))
         seg = self.current
-        x = seg.x(ts) if seg.control is None else seg.control.setpoint(ts, readings)
+        x = seg.x(ts) if seg.control is None else seg.control.setpoint(t, ts, readings)
         self.set_t.append(t)
         self.set_x.append(x)
         if self.bar:

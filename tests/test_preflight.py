@@ -11,9 +11,9 @@ import pytest
 
 from models.damper import load
 from protocols import preflight, runner
-from protocols.plan import rig_info
 from protocols.library import PROTOCOLS
-from protocols.plan import MARGIN, ParamError, Segment
+from protocols.plan import MARGIN, ParamError, Segment, rig_info
+from protocols.rehearsal import rehearse
 from rig import config
 from rig.pacing import SimulatedPacer
 from rig.rig import Rig
@@ -62,6 +62,12 @@ def test_every_protocols_defaults_run_without_a_trip_or_are_refused_before_motio
             assert "\n" not in str(e)
             continue
         assert forecast.force_peak <= MARGIN * L["force_max"] and forecast.gas_peak <= MARGIN * L["gas_pressure_max"]
+        if getattr(module, "REHEARSE", False):  # a closed loop: its pre-flight is the whole run, offline
+            try:
+                rehearse(module, params, info, cfg, load(damper))
+            except ParamError as e:
+                assert "\n" not in str(e)
+            continue
         for i, j in preflight.critical(segments, forecast):
             span = [dataclasses.replace(s, duration=min(s.duration, HOLD_S), target=None) if s.until else s
                     for s in segments[i:j + 1]]

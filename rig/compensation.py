@@ -100,10 +100,14 @@ class Adaptive:
     then re-fits its coefficients every UPDATE_S from the last WINDOW_S."""
     name = "adaptive"
 
-    def __init__(self, delay_s, period=1e-3):
+    def __init__(self, delay_s, period=1e-3, start=None):
+        """start: (coefficients, offset) of a fit made before (a probe's), else the
+        polynomial over delay_s."""
         self.h = period
         self.coef = np.array([1.0, delay_s, 0.5 * delay_s ** 2, 0.0])
         self.offset = 0.0
+        if start is not None and _plausible(start[0]):
+            self.coef, self.offset = np.asarray(start[0], float), float(start[1])
         n = int(round(WINDOW_S / period))
         self.c, self.m, self.f = deque(maxlen=n), deque(maxlen=n), deque(maxlen=n)
         self.every = max(1, int(round(UPDATE_S / period)))
@@ -131,14 +135,19 @@ class Adaptive:
         if r is None:
             return
         coef, offset = r
-        if not (A0[0] <= coef[0] <= A0[1] and 0.0 <= coef[1] / coef[0] <= DELAY_MAX_S):
+        if not _plausible(coef):
             return  # not an actuator's inverse (too little motion, a transient): keep the last
         self.coef, self.offset = coef, offset
         self.fits += 1
 
 
+def _plausible(coef):
+    return A0[0] <= coef[0] <= A0[1] and 0.0 <= coef[1] / coef[0] <= DELAY_MAX_S
+
+
 COMPENSATORS = {c.name: c for c in (NoCompensation, Polynomial, Adaptive)}
 
 
-def make(name, delay_s, period):
-    return COMPENSATORS[name](delay_s, period)
+def make(name, delay_s, period, start=None):
+    """A compensator by name; start: a fit made before, for the adaptive one."""
+    return Adaptive(delay_s, period, start) if name == Adaptive.name else COMPENSATORS[name](delay_s, period)

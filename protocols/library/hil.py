@@ -127,9 +127,10 @@ class _Watch:
 
     def setpoint(self, t, ts, readings):
         c = self.x(ts)
-        self.c.append(c)
-        self.m.append(readings["x"].value)
-        self.f.append(readings["force"].value)
+        if "x" in readings and "force" in readings:  # (the first ticks may have no reading yet)
+            self.c.append(c)
+            self.m.append(readings["x"].value)
+            self.f.append(readings["force"].value)
         return c
 
 
@@ -166,7 +167,7 @@ class CarLoop:
         d = self.rig.damper
         self.car = Stepper(self.qc, self.road.t, self.road.y, self.road.v, F_static, self.rig.x_mid,
                            d.geometry.stroke)
-        self.comp = make(self.p.compensator, delay, self.h)
+        self.comp = make(self.p.compensator, delay, self.h, start=r if self.p.delay_ms == 0 else None)
         self.next = self.car.motion()
         self.last = self.next[0]
 
@@ -174,6 +175,9 @@ class CarLoop:
         if self.car is None:
             self._start()
             self.t0 = ts
+        missing = [n for n in ("force", "x") if n not in readings]
+        if missing:
+            raise RigError(f"hil: no {' or '.join(missing)} reading: the car cannot be stepped")
         F, x_m = readings["force"].value, readings["x"].value
         if "T_body" in readings:
             self.temps.append(readings["T_body"].value)

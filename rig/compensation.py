@@ -44,9 +44,10 @@ def derivatives(x, h):
 
 
 def fit(commands, measured, forces, h, with_force=True):
-    """Coefficients [a0, a1, a2, a3] with command[k] = a0 x + a1 v + a2 a + a3 F, the
-    motion (x, v, a) measured one tick later (when the command has been acted on) and F
-    this tick; None without enough motion to fit (its RMS velocity under 1 mm/s)."""
+    """(coefficients [a0, a1, a2, a3], offset) with command[k] = offset + a0 x + a1 v +
+    a2 a + a3 F, the motion (x, v, a) measured one tick later (when the command has been
+    acted on) and F this tick (a3 = 0 without with_force); None without enough motion to
+    fit (its RMS velocity under 1 mm/s)."""
     c, m, f = (np.asarray(a, float) for a in (commands, measured, forces))
     if len(c) < 50:
         return None
@@ -58,13 +59,10 @@ def fit(commands, measured, forces, h, with_force=True):
     A = np.column_stack(cols)
     scale = np.maximum(np.sqrt(np.mean(A ** 2, axis=0)), 1e-12)
     sol, *_ = np.linalg.lstsq(A / scale, c - c.mean(), rcond=None)
-    coef = sol / scale
-    a0 = coef[0]
-    out = np.zeros(4)
-    out[:len(coef)] = coef
+    coef = np.zeros(4)
+    coef[:len(sol)] = sol / scale
     # the constant: the command's mean less what the coefficients explain of it
-    out_offset = c.mean() - a0 * x.mean() - (out[3] * f.mean())
-    return out, out_offset
+    return coef, c.mean() - coef[0] * x.mean() - coef[3] * f.mean()
 
 
 class NoCompensation:

@@ -3,9 +3,10 @@ rig. Each control tick the load cell's force advances the car one step (eqs 5.3-
 the car says where the damper must be next, and a compensator (rig/compensation.py)
 turns that into the actuator's command ahead of the servo's lag.
 
-Segments: a hold at the installed position (mid-stroke) whose mean force is the static
-force the car's spring preload is set against (eq 5.1); a probe (a small multi-sine) that
-estimates the actuator's delay; the road. The road segment's prediction (what the
+Segments: two holds at the installed position (mid-stroke), approached from compression
+and from extension, whose mean force is the gas force the car's spring preload is set
+against (eqs 3.7, 5.1); a probe (a small multi-sine) that estimates the actuator's delay;
+the road. The road segment's prediction (what the
 pre-flight checks) is the car with the damper model on the same road.
 
 The load cell's force is used as measured: on the virtual rig, as on a cell with the load

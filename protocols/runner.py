@@ -145,6 +145,8 @@ class Sequence:
         self.event, self.failed, self.bar = event, failed, bar
         self.i, self.t0, self.t_plan, self.t, self.until = 0, None, 0.0, 0.0, math.inf
         self.set_t, self.set_x = [], []
+        # the segments' closed-loop controls, each once
+        self.controls = list({id(s.control): s.control for s in segments if s.control is not None}.values())
 
     @property
     def current(self):
@@ -212,14 +214,10 @@ class Sequence:
         self.set_x.clear()
         return out
 
-    def controls(self):
-        """The segments' closed-loop controls, each once."""
-        return list({id(s.control): s.control for s in self.segments if s.control is not None}.values())
-
     def drain_channels(self):
         """{name: (t, values)} the closed-loop controls logged since the last call."""
         out = {}
-        for c in self.controls():
+        for c in self.controls:
             if hasattr(c, "channels"):
                 out.update(c.channels())
         return out
@@ -266,7 +264,7 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     sequence = Sequence(module, params, segments, skipped, event, observed.failed, bar)
 
     units = {}
-    for c in sequence.controls():
+    for c in sequence.controls:
         units.update(getattr(c, "units", {}))
     if units:
         observed.call("units", units)

@@ -47,13 +47,14 @@ def friction_force(x, v, T, x_table, F_table, C_sfT, C_ifT):
     return static_friction(x, x_table, F_table) * breakaway_ratio(T, C_sfT, C_ifT) * np.sign(v)
 
 
+@njit(cache=True)
 def dahl_step(F, dx, F_c, x_stick):
     """Friction force [N] after a displacement increment dx [m], Dahl's model (not the
     thesis's): the force approaches +-F_c (eq 3.3's magnitude) exponentially over x_stick of
     travel, F = sgn(dx) F_c + (F - sgn(dx) F_c) exp(-|dx| / x_stick), and stays put at rest.
     The virtual rig uses it: the seal holds what it carried when the motion stopped (what
     the static test measures), and an explicit loop with a compliant frame cannot chatter
-    on it as it would on sgn(v)."""
+    on it as it would on sgn(v). Compiled: the quarter car's loop calls it too."""
     if dx == 0.0 or F_c <= 0.0:
         return min(max(F, -F_c), F_c)
     target = F_c if dx > 0 else -F_c

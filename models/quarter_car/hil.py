@@ -10,8 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.quarter_car import QuarterCar
-from models.quarter_car.sim import QuarterCarResult, run
+from models.quarter_car.sim import QuarterCarResult
 
 
 def _ac(a):
@@ -46,12 +45,6 @@ def delay(x_from, x_to, h, max_s=0.05):
         den = c[i - 1] - 2 * c[i] + c[i + 1]
         frac = 0.5 * (c[i - 1] - c[i + 1]) / den if den < 0 else 0.0
     return float((lags[i] + frac) * h)
-
-
-def reference(qc: QuarterCar, damper, t, y_in, v_in, T) -> QuarterCarResult:
-    """The car with the damper model on the same road at T [K] (compiled, compressible),
-    on the same time step as the run."""
-    return run(qc, damper, t, y_in, v_in, T=T)
 
 
 def responses(r: QuarterCarResult):

@@ -30,7 +30,7 @@ from numba import njit
 
 from models.physics import simplified
 from models.damper import Damper, DamperError, SimplifiedDamper, load
-from models.physics.friction import breakaway_ratio, static_friction
+from models.physics.friction import breakaway_ratio, dahl_step, static_friction
 from models.physics.kernel import pack
 from models.quarter_car import G, QuarterCar, static_deflections
 from models.physics.simulate import ASSEMBLY, ATOL_OIL, NOUT, C_to_K
@@ -181,11 +181,8 @@ def _coupled_loop(layout, s, q, y_in, v_in, mode, y, prm, vp, vh, atol, hist, fx
             incompressible(layout, xs[1:], vs[1:], prm, vp, vh, out[1:])
         Fc_d = np.interp(x, fx, fF) * f_ratio  # eq 3.3's magnitude; its sign is solved
         Fd = out[1, 0] + out[1, 1]
-        if x_stick > 0.0:  # friction.dahl_step
-            dx = xs[1] - xs[0]
-            if dx != 0.0:
-                target = Fc_d if dx > 0.0 else -Fc_d
-                Ff = target + (Ff - target) * np.exp(-abs(dx) / x_stick)
+        if x_stick > 0.0:
+            Ff = dahl_step(Ff, xs[1] - xs[0], Fc_d, x_stick)
             Fd, Fc_d = Fd + Ff, 0.0
         _step(s, q, Fd, Fc_d, y_in[k], v_in[k], v_in[min(k + 1, n - 1)], rec[k])
 

@@ -26,6 +26,7 @@ from models.damper import DamperError
 from models.quarter_car import hil as measures
 from models.quarter_car import load as load_car
 from models.quarter_car.sim import Stepper
+from models.quarter_car.sim import run as run_car
 from rig.compensation import COMPENSATORS, fit, make
 from rig.errors import RigError
 
@@ -86,7 +87,7 @@ def plan(p: Params, rig: RigInfo):
     probe = _probe(rig.x_mid, p.probe_s)
     yield Segment("probe the actuator", {"probe_hz": list(PROBE_HZ), "probe_mm": PROBE_MM}, p.probe_s, probe,
                   record=False, control=loop.probe(probe))
-    ref = measures.reference(qc, rig.damper, road.t, road.y, road.v, rig.T_ambient)
+    ref = run_car(qc, rig.damper, road.t, road.y, road.v, T=rig.T_ambient)
     yield Segment(f"hil {p.road}", {"car": qc.name, "road": p.road, "compensator": p.compensator},
                   len(road.t) * h, lambda t: float(np.interp(t, ref.t, ref.damper_x)), kind="road", control=loop)
 
@@ -176,10 +177,10 @@ class CarLoop:
         if self.car is None:
             self._start()
             self.t0 = ts
-        missing = [n for n in ("force", "x") if n not in readings]
-        if missing:
-            raise RigError(f"hil: no {' or '.join(missing)} reading: the car cannot be stepped")
-        F, x_m = readings["force"].value, readings["x"].value
+        try:
+            F, x_m = readings["force"].value, readings["x"].value
+        except KeyError as e:
+            raise RigError(f"hil: no {e.args[0]} reading: the car cannot be stepped") from None
         if "T_body" in readings:
             self.temps.append(readings["T_body"].value)
         # the car keeps the rig's time: after ticks the loop skipped (a stall in real time)
@@ -232,7 +233,8 @@ class CarLoop:
             return {}, {}
         hil = self.car.result()
         T = float(np.mean(self.temps)) if self.temps else self.rig.T_ambient
-        ref = measures.reference(self.qc, self.rig.damper, hil.t, hil.y_in, hil.v_in, T)
+        # the reference: the same car, road and damper model, compressible, on the run's step
+        ref = run_car(self.qc, self.rig.damper, hil.t, hil.y_in, hil.v_in, T=T)
         n = len(self.x_meas)
         out = {"j2": measures.j2(self.x_meas, self.x_tgt[:n]),
                "delay_ms": 1e3 * self.comp.delay_s, "probe_delay_ms": 1e3 * self.delay_probe,

@@ -125,6 +125,10 @@ def test_the_loop_reproduces_the_reference_with_a_known_damper_model(tmp_path):
     ch, _, _ = load_recording(out)
     assert {"hil.x_target", "hil.error", "hil.ref.body_acc", "hil.tire_load"} <= set(ch)
     assert "J2" in p.stderr and "pre-flight (the run against the virtual plant)" in p.stderr
+    r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "hil-tracking.png" in page and "hil-responses.png" in page and "J2 [%]" in page
 
 
 def test_an_unstable_loop_trips_the_guard_and_stops_safely(tmp_path):
@@ -135,6 +139,8 @@ def test_an_unstable_loop_trips_the_guard_and_stops_safely(tmp_path):
     _, events, _ = load_recording(out)
     kinds = [e["kind"] for e in events]
     assert "fault" in kinds and kinds[-1] == "run_end"
+    r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
+    assert r.returncode == 0 and (tmp_path / "rep" / "hil-tracking.png").exists(), r.stderr  # where it diverged
 
 
 @pytest.mark.parametrize("args, message", [

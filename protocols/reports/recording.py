@@ -1,7 +1,8 @@
 """`dyno report FILE.mcap --out DIR`: an HTML page with the plots a damper engineer
 expects: force-velocity and force-displacement loops per measured segment, the composite
 peak force vs peak velocity curve, gas force and friction from static holds, low-speed
-loops, force and temperature over time for temperature sweeps."""
+loops, force and temperature over time for temperature sweeps, and a hardware-in-the-loop
+run's tracking and car responses (protocols/reports/hil.py)."""
 from __future__ import annotations
 
 import json
@@ -12,6 +13,7 @@ import numpy as np
 from models.recording import segments
 from protocols.io.reader import load_recording
 from models.identify.static import static_holds
+from protocols.reports import hil
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
 
@@ -31,7 +33,7 @@ def report(path, out_dir):
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
     figures = (_sine_figures(ch, segs, out) + _static_figures(ch, events, segs, out) + _low_speed_figures(ch, segs, out)
-               + _temperature_figures(ch, segs, out))
+               + _temperature_figures(ch, segs, out) + hil.figures(ch, events, out))
     ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
     proto = meta.get("protocol", {})
     damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
@@ -39,6 +41,9 @@ def report(path, out_dir):
     page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}.")
     page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)
+    if hil.results(events):
+        page.heading("Hardware in the loop: measures against the reference (docs/hil.md)")
+        page.table(hil.HEADER, hil.table(events))
     for title, png in figures:
         page.figure(title, png)
     if not figures:

@@ -1,0 +1,99 @@
+"""The hardware-in-the-loop part of a recording's report: the measures of each road
+segment, the damper's target against its measured motion, the car around the damper
+against the reference (the car around the damper model), and for a sweep the
+transmissibility of both."""
+from __future__ import annotations
+
+import numpy as np
+
+from models.quarter_car.hil import transmissibility
+from protocols.library import roads
+from protocols.reports.page import save
+from protocols.reports.plots import plt
+
+HEADER = ("segment", "compensator", "J2 [%]", "delay [ms]", "probe delay [ms]", "residual delay [ms]",
+          "body acc NRMSE [%]", "travel NRMSE [%]", "tire load NRMSE [%]", "damper [C]")
+
+
+def results(events):
+    """[(segment, measures)] of the recording's road segments."""
+    return [(e["segment"], e["params"]) for e in events if e["kind"] == "result" and "j2" in e["params"]]
+
+
+def table(events):
+    """Rows of the measures table (HEADER)."""
+    return [(name, m.get("compensator", "?"), f"{100 * m['j2']:.2f}", f"{m['delay_ms']:.2f}",
+             f"{m['probe_delay_ms']:.2f}", f"{m['residual_delay_ms']:+.2f}", f"{100 * m['body_acc_nrmse']:.2f}",
+             f"{100 * m['travel_nrmse']:.2f}", f"{100 * m['tire_load_nrmse']:.2f}", f"{m['T_c']:.1f}")
+            for name, m in results(events)]
+
+
+def figures(ch, events, out):
+    """[(title, png)] of the road segments' plots."""
+    found = results(events)
+    if not found or "hil.x_target" not in ch:
+        return []
+    figs = [("Damper motion: where the car wants it and where it was", save(_tracking(ch), out / "hil-tracking.png")),
+            ("The car around the damper against the car around the damper model",
+             save(_responses(ch), out / "hil-responses.png"))]
+    for name, m in found:
+        spec = m.get("road", "")
+        if spec.startswith("sweep:"):
+            figs.append((f"Transmissibility over the sweep ({spec})",
+                         save(_transmissibility(ch, roads.parse(spec, 1000.0).band_hz), out / "hil-transmissibility.png")))
+    return figs
+
+
+def _tracking(ch):
+    t, target = ch["hil.x_target"]
+    measured = np.interp(t, *ch["x"])
+    error = ch["hil.error"][1]
+    fig, ax = plt.subplots(3, 1, figsize=(11, 8))
+    ax[0].plot(t, 1e3 * target, label="target (the car)")
+    ax[0].plot(t, 1e3 * measured, ":", label="measured (LVDT)")
+    ax[0].set(ylabel="damper x [mm]", title="The whole road")
+    i = int(np.argmax(np.abs(error)))  # half a second around the largest error
+    k = (t >= t[i] - 0.25) & (t <= t[i] + 0.25)
+    ax[1].plot(t[k], 1e3 * target[k], label="target")
+    ax[1].plot(t[k], 1e3 * measured[k], ":", label="measured")
+    ax[1].plot(t[k], 1e3 * np.interp(t[k], *ch["hil.x_command"]), "--", lw=0.8, label="command sent")
+    ax[1].set(ylabel="damper x [mm]", title="Around the largest tracking error")
+    ax[2].plot(t, 1e3 * error, lw=0.6)
+    ax[2].set(xlabel="time [s]", ylabel="measured - target [mm]")
+    for a in ax:
+        a.grid(alpha=0.3)
+    ax[0].legend(fontsize=8)
+    ax[1].legend(fontsize=8)
+    return fig
+
+
+def _responses(ch):
+    fig, ax = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    for a, (hil, ref, label, scale) in zip(ax, (
+            ("hil.body_acc", "hil.ref.body_acc", "body acceleration [m/s^2]", 1.0),
+            ("hil.x_target", "hil.ref.travel", "suspension travel (damper x) [mm]", 1e3),
+            ("hil.tire_load", "hil.ref.tire_load", "tire load [N]", 1.0))):
+        a.plot(ch[ref][0], scale * ch[ref][1], lw=1.5, alpha=0.7, label="reference (damper model)")
+        a.plot(ch[hil][0], scale * ch[hil][1], lw=0.7, label="hardware in the loop")
+        a.set(ylabel=label)
+        a.grid(alpha=0.3)
+    ax[0].legend(fontsize=8)
+    ax[2].set(xlabel="time [s]")
+    return fig
+
+
+def _transmissibility(ch, band):
+    """Body over road: the acceleration ratio (the displacements' ratio, both differentiated
+    twice), of the run and of the reference."""
+    t, road = ch["hil.road"]
+    h = t[1] - t[0]
+    road_acc = np.gradient(np.gradient(road, h), h)
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for name, label in (("hil.ref.body_acc", "reference (damper model)"), ("hil.body_acc", "hardware in the loop")):
+        body = np.interp(t, *ch[name])
+        f, mag = transmissibility(t, road_acc, body, *band)
+        ax.loglog(f, mag, label=label)
+    ax.set(xlabel="frequency [Hz]", ylabel="|body / road|", title="Sprung-mass transmissibility")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    return fig

@@ -1,7 +1,8 @@
 """The live view in rerun: every channel on one timeline, the current segment's
 force-velocity and force-displacement loops as 2D points, protocol progress and events as
-text, in a blueprint laid out for an operator. Batches go out with `send_columns`, so
-the view never slows the loop.
+text, in a blueprint laid out for an operator; a hardware-in-the-loop run adds the car
+(target against measured motion, tracking error, body acceleration, tire load). Batches
+go out with `send_columns`, so the view never slows the loop.
 
 Entities (docs/recording.md): channels/<name> (Scalars), loops/force_velocity and
 loops/force_displacement (Points2D, current segment), events (TextLog), identify/<name>
@@ -63,20 +64,42 @@ class LiveView:
         self.channels = dict(channels)
         self.loop = {"x": [], "v": [], "force": []}
         self.segment = ""
-        forces = [f"channels/{n}" for n in self.channels if n == "force"]
-        motion = [f"channels/{n}" for n in self.channels if n in ("x", "x_internal", "v")]
-        rest = [f"channels/{n}" for n in self.channels if f"channels/{n}" not in forces + motion]
-        self.rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(
-            rrb.Vertical(rrb.TimeSeriesView(origin="/", contents=forces, name="force [N]"),
-                         rrb.TimeSeriesView(origin="/", contents=motion, name="motion [m, m/s]"),
-                         rrb.TimeSeriesView(origin="/", contents=rest, name="temperatures, pressures")),
-            rrb.Vertical(rrb.Spatial2DView(origin="loops/force_velocity", name="force vs velocity"),
-                         rrb.Spatial2DView(origin="loops/force_displacement", name="force vs displacement"),
-                         rrb.TimeSeriesView(origin="identify", name="identified (value, 95 % interval)"),
-                         rrb.TextLogView(origin="events", name="protocol")),
-            column_shares=[3, 2])))
+        self._layout()
+
+    def _layout(self):
+        """The blueprint for the channels known so far, and each channel's name with its
+        unit; a closed loop's channels (hardware in the loop) get a column of their own."""
+        ch = lambda *names: [f"channels/{n}" for n in names if n in self.channels]  # noqa: E731
+        forces = ch("force")
+        motion = ch("x", "x_internal", "v")
+        rest = [f"channels/{n}" for n in self.channels if f"channels/{n}" not in forces + motion
+                and not n.startswith("hil.")]
+        columns = [rrb.Vertical(rrb.TimeSeriesView(origin="/", contents=forces, name="force [N]"),
+                                rrb.TimeSeriesView(origin="/", contents=motion, name="motion [m, m/s]"),
+                                rrb.TimeSeriesView(origin="/", contents=rest, name="temperatures, pressures")),
+                   rrb.Vertical(rrb.Spatial2DView(origin="loops/force_velocity", name="force vs velocity"),
+                                rrb.Spatial2DView(origin="loops/force_displacement", name="force vs displacement"),
+                                rrb.TimeSeriesView(origin="identify", name="identified (value, 95 % interval)"),
+                                rrb.TextLogView(origin="events", name="protocol"))]
+        if "hil.x_target" in self.channels:
+            columns.append(rrb.Vertical(
+                rrb.TimeSeriesView(origin="/", contents=ch("hil.x_target", "x", "hil.x_command"),
+                                   name="damper: target, measured, command [m]"),
+                rrb.TimeSeriesView(origin="/", contents=ch("hil.error"), name="tracking error [m]"),
+                rrb.TimeSeriesView(origin="/", contents=ch("hil.body_acc", "hil.ref.body_acc"),
+                                   name="car: body acceleration [m/s^2]"),
+                rrb.TimeSeriesView(origin="/", contents=ch("hil.tire_load", "hil.ref.tire_load"),
+                                   name="car: tire load [N]"),
+                rrb.TimeSeriesView(origin="/", contents=ch("hil.sprung", "hil.unsprung", "hil.road"),
+                                   name="car: body, wheel, road [m]")))
+        self.rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(*columns, column_shares=[3, 2, 3][:len(columns)])))
         for n, unit in self.channels.items():
             self.rec.log(f"channels/{n}", rr.SeriesLines(names=f"{n} [{unit}]"), static=True)
+
+    def units(self, units):
+        """Channels a closed loop adds, with their units: laid out in the view."""
+        self.channels.update(units)
+        self._layout()
 
     def samples(self, drained):
         for name, (t, v) in drained.items():

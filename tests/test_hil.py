@@ -152,3 +152,14 @@ def test_an_unstable_loop_trips_the_guard_and_stops_safely(tmp_path):
 def test_the_pre_flight_refuses_before_anything_moves(tmp_path, args, message):
     p, out = _run(tmp_path, "--road", "sine:3:10", *args)
     assert p.returncode == 2 and message in p.stderr and not out.exists(), p.stderr[-2000:]
+
+
+def test_the_live_view_shows_the_car(tmp_path):
+    """`dyno run hil --rrd`: the car's channels and the tracking error reach the view."""
+    rrd = tmp_path / "hil.rrd"
+    p, out = _run(tmp_path, "--road", "sine:3:10", "--rrd", str(rrd))
+    assert p.returncode == 0, p.stderr[-2000:]
+    data = rrd.read_bytes()
+    for entity in ("channels/hil.x_target", "channels/hil.error", "channels/hil.body_acc", "channels/hil.tire_load",
+                   "channels/hil.ref.body_acc", "tracking error [m]", "car: body acceleration"):
+        assert entity.encode() in data, entity

@@ -24,6 +24,7 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
+from scipy.signal import savgol_filter  # imported here: never for the first time inside a control tick
 
 WINDOW_S = 1.0  # s of history each adaptive fit uses
 UPDATE_S = 0.1  # s between adaptive fits
@@ -36,7 +37,6 @@ DELAY_MAX_S = 0.05
 def derivatives(x, h):
     """(x, v, a) of a sampled motion (h [s]) from a local cubic (Savitzky-Golay) over
     SMOOTH_S: the measurement's noise is not differentiated raw."""
-    from scipy.signal import savgol_filter
     n = max(5, int(round(SMOOTH_S / h)) | 1)
     if len(x) < n:
         return x, np.gradient(x, h), np.zeros_like(x)

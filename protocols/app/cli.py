@@ -101,7 +101,7 @@ def _cell_commands(sub):
     sr.add_argument("--seconds", type=number(above=0), default=None, help="stop after this long")
     sr.set_defaults(command="sim_rig")
     rn = sub.add_parser("run", help="run a test protocol and record it to MCAP")
-    rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard, hil")
+    rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard, hil, replay")
     rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
     rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
@@ -118,7 +118,9 @@ def _cell_commands(sub):
                          "(default: on for the standard sequence)")
     for name, what in (("car", "hil: quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json"),
                        ("road", "hil: step:MM, sine:HZ:MM, sweep:F0:F1:MM, iso8608:CLASS:KMH[:SECONDS], file:CSV"),
-                       ("compensator", "hil: actuator delay compensation: none, polynomial, adaptive")):
+                       ("compensator", "hil: actuator delay compensation: none, polynomial, adaptive"),
+                       ("target", "replay: CSV of time [s], displacement [mm] about mid-stroke"),
+                       ("iterations", "replay: drive corrections to make (default 5)")):
         rn.add_argument(f"--{name}", default=None, help=what + " (the same as " + name + "=...)")
     rn.set_defaults(command="run")
     rv = sub.add_parser("recover", help="rebuild a recording cut short (the original is kept as FILE.damaged)")

@@ -72,7 +72,8 @@ def _plan_run(args):
     module = PROTOCOLS.get(args.protocol)
     if module is None:
         raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
-    given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator") if getattr(args, n, None) is not None]
+    given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator", "target", "iterations")
+             if getattr(args, n, None) is not None]
     params = parse(module.Params, [*args.params, *given])
     if args.rig is not None and (args.effect or args.plain):
         raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")

@@ -1,7 +1,8 @@
 """The hardware-in-the-loop part of a recording's report: the measures of each road
 segment, the damper's target against its measured motion, the car around the damper
 against the reference (the car around the damper model), and for a sweep the
-transmissibility of both."""
+transmissibility of both; for a replay, the error of each iteration and the last one's
+motion against its target."""
 from __future__ import annotations
 
 import numpy as np
@@ -30,6 +31,8 @@ def table(events):
 
 def figures(ch, events, out):
     """[(title, png)] of the road segments' plots."""
+    if "replay.target" in ch:
+        return _replay(ch, events, out)
     found = results(events)
     if not found or "hil.x_target" not in ch:
         return []
@@ -97,3 +100,30 @@ def _transmissibility(ch, band):
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     return fig
+
+
+def _replay(ch, events, out):
+    """The NRMS error by iteration, and the last iteration's target, measured motion and
+    drive."""
+    errors = [(e["params"]["iteration"], e["params"]["nrmse"]) for e in events
+              if e["kind"] == "result" and "nrmse" in e["params"]]
+    last = [e for e in events if e["kind"] == "segment_start" and e["params"].get("kind") == "road"]
+    if not errors or not last:
+        return []
+    fig, ax = plt.subplots(2, 1, figsize=(11, 7), gridspec_kw={"height_ratios": [1, 2]})
+    ax[0].semilogy([i for i, _ in errors], [100 * v for _, v in errors], "o-")
+    ax[0].set(xlabel="iteration", ylabel="NRMS error [%]", title="Drive correction by iteration",
+              xticks=[i for i, _ in errors])
+    t0 = last[-1]["t"]
+    for name, label, style in (("replay.target", "target", "-"), ("replay.drive", "drive sent", "--")):
+        t, v = ch[name]
+        k = t >= t0
+        ax[1].plot(t[k], 1e3 * v[k], style, lw=0.8, label=label)
+    t, e = ch["replay.error"]
+    k = t >= t0
+    ax[1].plot(t[k], 1e3 * (ch["replay.target"][1][k] + e[k]), ":", lw=0.8, label="measured")
+    ax[1].set(xlabel="time [s]", ylabel="damper x [mm]", title=f"The last iteration ({last[-1]['segment']})")
+    for a in ax:
+        a.grid(alpha=0.3, which="both")
+    ax[1].legend(fontsize=8)
+    return [("Replay: the drive corrected until the damper follows the target", save(fig, out / "replay.png"))]

@@ -20,10 +20,13 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from models.diagnose.candidates import CATALOGUE, FromModel, Minimal, Model
-from models.diagnose.data import Data, prepare
+from models.diagnose.data import Data, DiagnoseError, prepare
 from models.recording import covariance, nrmse
 
 ALPHA = 0.01
+TRADE = 0.7  # |correlation| between an accepted effect's parameters and an earlier one's: may be compensating its form
+SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
+MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
 RELEVANCE = 0.1
 SHARE = 0.01
 BOOT = 2000
@@ -41,15 +44,29 @@ def fit(model: Model, d: Data, train, start: dict):
     def resid(z):
         return (model.force(d, dict(zip(names, z)))[train] - d.F[train]) / Fs
 
-    for i, p in enumerate(model.params):  # parameters whose effect is piecewise: start from a grid
-        if p.grid and p.name not in start:
-            costs = []
-            values = [min(max(g, p.lo), p.hi) for g in p.grid]
-            for val in values:
-                z = z0.copy()
-                z[i] = val
-                costs.append(np.sum(resid(z) ** 2))
-            z0[i] = values[int(np.argmin(costs))]
+    # parameters whose effect is piecewise or far from linear start from a grid over their
+    # whole range: at each grid value the new effect's other parameters are fitted briefly
+    # (a size is zero until its shape is right), and the best start is kept
+    new = [i for i, p in enumerate(model.params) if p.name not in start]
+    for i, p in enumerate(model.params):
+        if not p.grid or p.name in start:
+            continue
+        free = [j for j in new if j != i and not model.params[j].grid]
+        best = (np.inf, z0)
+        for val in (min(max(g, p.lo), p.hi) for g in p.grid):
+            z = z0.copy()
+            z[i] = val
+            if free:
+                def part(y, z=z):
+                    zz = z.copy()
+                    zz[free] = y
+                    return resid(zz)
+                z[free] = least_squares(part, z[free], bounds=(lo[free], hi[free]), x_scale=scale[free],
+                                        max_nfev=SHORT * len(free), method="trf").x
+            cost = float(np.sum(resid(z) ** 2))
+            if cost < best[0]:
+                best = (cost, z)
+        z0 = best[1]
     r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=60 * len(z0), method="trf")
     values = dict(zip(names, r.x))
     try:
@@ -88,17 +105,22 @@ def p_value(d_c, rng, alpha=ALPHA):
     return float((hits + 1) / (total + 1))
 
 
-def noise_sd(r, d: Data):
-    """Force noise [N] from sample-to-sample differences of the residual within cycles."""
-    same = np.diff(d.cycle) == 0
+def noise_sd(r, d: Data, k):
+    """Force noise [N] from sample-to-sample differences of the residual within cycles, over
+    the samples k."""
+    same = (np.diff(d.cycle) == 0) & k[1:] & k[:-1]
     return float(np.median(np.abs(np.diff(r)[same])) / 0.6745 / np.sqrt(2))
 
 
 def available(d: Data, accepted):
     out, skipped = [], []
+    taken = {a.split(":")[0] for a in accepted}
     for name, e in CATALOGUE.items():
         if e.needs == "T" and d.T is None:
             skipped.append(name)
+        elif e.needs == "aux?":  # one of its forms at most
+            if name not in taken:
+                out += [name] + [f"{name}:{n}" for n in d.aux]
         elif e.needs == "aux":
             out += [f"aux_channel:{n}" for n in d.aux if f"aux_channel:{n}" not in accepted]
             if not d.aux:
@@ -128,9 +150,47 @@ def _pooled(vals, sds):
     return mean, sd
 
 
-def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None):
+def holdout_masks(d: Data, holdout="interleaved"):
+    """(folds [(train, held out)], judged, reported): the samples each fold fits and
+    predicts, those the candidates are judged on, those the held-out error is reported on.
+
+    "interleaved": two folds, fitted on even cycles and judged on odd ones and the other way
+    round, so every cycle is judged once by a fit that never saw it. A float F ("tail:F"):
+    a time split, as published results on measured data use: fitted on the first 1 - 2F of
+    the cycles, judged on the next F, reported on the last F, which no choice saw.
+    Samples within a sample period of a velocity reversal are neither fitted nor judged: the
+    friction's sign there is set by where the reversal falls between samples, which no
+    model of the physics can know."""
+    flip = np.zeros(len(d.v), bool)
+    k = np.nonzero(np.diff(np.sign(d.v)) != 0)[0]
+    flip[k] = flip[np.minimum(k + 1, len(flip) - 1)] = True
+    if holdout == "interleaved":
+        even, odd = (d.cycle % 2 == 0) & ~flip, (d.cycle % 2 == 1) & ~flip
+        return [(even, odd), (odd, even)], even | odd, even | odd
+    cycles = np.unique(d.cycle)  # numbered in time order
+    n = max(int(np.ceil(float(holdout) * len(cycles))), 1)
+    if len(cycles) < 2 * n + MIN_TRAIN:
+        raise DiagnoseError(f"--holdout tail:{holdout:g}: {len(cycles)} cycles or blocks are too few to hold out "
+                            f"2 x {n} and fit on at least {MIN_TRAIN}")
+    train = np.isin(d.cycle, cycles[:-2 * n]) & ~flip
+    judged = np.isin(d.cycle, cycles[-2 * n:-n]) & ~flip
+    tail = np.isin(d.cycle, cycles[-n:]) & ~flip
+    return [(train, judged | tail)], judged, tail
+
+
+def scores(F, r, k):
+    """Held-out measures of a residual r [N] on samples k: NRMSE (of the force range), RMSE
+    [N] and R^2."""
+    e = r[k]
+    sst = float(np.sum((F[k] - np.mean(F[k])) ** 2))
+    return {"nrmse_heldout": nrmse(F[k] + e, F[k]), "rmse_heldout": float(np.sqrt(np.mean(e ** 2))),
+            "r2_heldout": 1.0 - float(np.sum(e ** 2)) / max(sst, 1e-30)}
+
+
+def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None, holdout="interleaved"):
     """The diagnosis as plain data (see protocols/app/diagnose.py for its JSON). baseline:
-    None for `minimal`, or (name, damper model) to start from that model, refitted."""
+    None for `minimal`, or (name, damper model) to start from that model, refitted.
+    holdout: "interleaved" or the tail's fraction (holdout_masks)."""
     d = prepare(channels, events)
     if baseline is None:
         base = Minimal(d)
@@ -138,73 +198,94 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         progress(f"simulating {baseline[0]} along the recorded motion")
         base = FromModel(baseline[1], d, baseline[0])
     rng = np.random.default_rng(seed)
-    # two folds: fitted on even cycles and judged on odd ones, and the other way round, so
-    # every cycle is judged once by a fit that never saw it. Samples within a sample period
-    # of a velocity reversal are neither fitted nor judged: the friction's sign there is set
-    # by where the reversal falls between samples, which no model of the physics can know
-    flip = np.zeros(len(d.v), bool)
-    k = np.nonzero(np.diff(np.sign(d.v)) != 0)[0]
-    flip[k] = flip[np.minimum(k + 1, len(flip) - 1)] = True
-    even, odd = (d.cycle % 2 == 0) & ~flip, (d.cycle % 2 == 1) & ~flip
-    folds = [(even, odd), (odd, even)]
-    test = even | odd
+    folds, judged, shown = holdout_masks(d, holdout)
     block = blocks(d)
-    test_blocks = np.unique(block[test])
+    judged_blocks = np.unique(block[judged])
     model = Model(d, base=base)
-    fold_vals, sds, r0 = _cross_fit(model, d, folds, [{}, {}])
+    fold_vals, sds, r0 = _cross_fit(model, d, folds, [{}] * len(folds))
     values, sd = _pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
-    base_res = {"name": base.name, "parameters": values, "sd": sd, "nrmse_train": nrmse(d.F[even] + r_train[even], d.F[even]),
-                "nrmse_heldout": nrmse(d.F[test] + r0[test], d.F[test]), "residual": r0,
-                "model_gas_force": getattr(base, "Fg_m", None)}
-    sigma = noise_sd(r0, d)
+    fit0 = folds[0][0]
+    base_res = {"name": base.name, "parameters": values, "sd": sd, "nrmse_train": nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]),
+                **scores(d.F, r0, shown), "residual": r0, "model_gas_force": getattr(base, "Fg_m", None)}
+    sigma = noise_sd(r0, d, judged)
     progress(f"baseline: held-out error {100 * base_res['nrmse_heldout']:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
     current, r_cur = fold_vals, r0
     _, not_assessed = available(d, accepted)
-    n_test = int(np.sum(test))
+    n_judged = int(np.sum(judged))
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
-        sse_cur = _block_sse(np.where(test, r_cur, 0.0), block, test_blocks)
+        sse_cur = _block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         n_before = len(Model(d, accepted, base).params)
         round_ = []
         for e in names:
             m = Model(d, accepted + [e], base)
             f_vals, f_sds, r = _cross_fit(m, d, folds, current)
             vals, sds = _pooled(f_vals, f_sds)
-            d_c = sse_cur - _block_sse(np.where(test, r, 0.0), block, test_blocks)
-            gain = float(d_c.sum() / n_test)  # held-out mean-square improvement [N^2]
+            d_c = sse_cur - _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
+            gain = float(d_c.sum() / n_judged)  # held-out mean-square improvement [N^2]
             # each block counts alike whatever its force, and symmetrically: a block made ten
             # times worse weighs what one made ten times better does
             rel = np.log(np.maximum(sse_cur, 1e-30) / np.maximum(sse_cur - d_c, 1e-30))
             own = {p.name: vals[p.name] for p in m.params[n_before:]}
             round_.append({"effect": e, "parameters": own,
                            "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                           "nrmse_heldout": nrmse(d.F[test] + r[test], d.F[test]), "p_value": p_value(rel, rng, alpha),
+                           **scores(d.F, r, shown), "p_value": p_value(rel, rng, alpha),
                            "gain": gain, "relevance": gain / sigma ** 2, "round": len(accepted) + 1,
                            "_values": vals, "_folds": f_vals, "_r": r})
             progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.2g}"
                      f"  gain {gain / sigma ** 2:+.3f} noise variances")
         candidates += round_
-        mse = float(np.mean(r_cur[test] ** 2))
+        mse = float(np.mean(r_cur[judged] ** 2))
         ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE
               and c["gain"] >= SHARE * mse]
         if not ok:
             break
         best = max(ok, key=lambda c: c["gain"])
-        steps.append({"effect": best["effect"], "before": nrmse(d.F[test] + r_cur[test], d.F[test]),
+        steps.append({"effect": best["effect"], "before": scores(d.F, r_cur, shown)["nrmse_heldout"],
                       "after": best["nrmse_heldout"], "parameters": best["parameters"], "ci": best["ci"],
-                      "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"]})
+                      "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"],
+                      "trades_with": trades(Model(d, accepted + [best["effect"]], base), d, folds[0][0],
+                                            best["_folds"][0], accepted)})
         accepted.append(best["effect"])
         values, current, r_cur = best["_values"], best["_folds"], best["_r"]
         progress(f"accepted {best['effect']}")
     final_model = Model(d, accepted, base)
-    return {"data": d, "baseline": base_res, "noise_sd": sigma, "locations": locate(d, r0),
+    return {"data": d, "holdout": holdout, "baseline": base_res, "noise_sd": sigma, "locations": locate(d, r0),
             "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
-            "final": {"nrmse_heldout": nrmse(d.F[test] + r_cur[test], d.F[test]), "parameters": values,
-                      "force": final_model.force(d, values)}}
+            "final": {**scores(d.F, r_cur, shown), "parameters": values, "force": final_model.force(d, values)}}
+
+
+def trades(model: Model, d: Data, train, values, earlier):
+    """[(earlier effect, |correlation|)] whose parameters the newly accepted effect's (the
+    model's last) trade against beyond TRADE: then its gain may be a change in the form
+    of that effect, not physics of its own."""
+    if not earlier:
+        return []
+    names = [p.name for p in model.params]
+    own = set(names[-len(CATALOGUE[model.effects[-1].split(":")[0]].params(d, model.effects[-1])):])
+    z = np.array([values[n] for n in names])
+    Fs = max(float(np.std(d.F)), 1e-9)
+    scale = np.maximum(np.abs(z) * 1e-4, 1e-12)
+    base_r = model.force(d, values)[train]
+    J = np.empty((int(np.sum(train)), len(z)))
+    for i in range(len(z)):  # forward differences: one force evaluation per parameter
+        zi = z.copy()
+        zi[i] += scale[i]
+        J[:, i] = (model.force(d, dict(zip(names, zi)))[train] - base_r) / scale[i] / Fs
+    _, rho = covariance(J, (base_r - d.F[train]) / Fs)
+    out = []
+    for e in earlier:
+        theirs = {p.name for p in (CATALOGUE[e.split(":")[0]].params(d, e))}
+        ii = [i for i, n in enumerate(names) if n in own]
+        jj = [j for j, n in enumerate(names) if n in theirs]
+        c = float(np.max(np.abs(rho[np.ix_(ii, jj)]))) if ii and jj else 0.0
+        if c > TRADE:
+            out.append((e, c))
+    return out
 
 
 # --- where the residual lives ---------------------------------------------------------

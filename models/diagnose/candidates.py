@@ -158,6 +158,74 @@ def _plateau(F, S, t, c, W):
     return out
 
 
+@njit(cache=True)
+def _reset(t, h, i):
+    """Whether sample i starts a new stretch (the data jump over left-out cycles)."""
+    return i == 0 or t[i] - t[i - 1] > 1.5 * h[i]
+
+
+@njit(cache=True)
+def _dahl(x, t, h, x_stick):
+    """Pre-sliding state z [-] of a Dahl friction along displacement x [m]:
+    dz/dx = (1 - z sgn(dx)) / x_stick, exact over each sample (z -> sgn(dx) exponentially
+    over x_stick of travel); z starts sliding (sign of the first motion) in each stretch."""
+    z = np.empty_like(x)
+    zi = 0.0
+    for i in range(len(x)):
+        if _reset(t, h, i):
+            dx = x[i + 1] - x[i] if i + 1 < len(x) else 0.0
+            zi = 1.0 if dx > 0 else -1.0
+        else:
+            dx = x[i] - x[i - 1]
+            s = 1.0 if dx > 0 else -1.0
+            zi = s + (zi - s) * np.exp(-abs(dx) / x_stick)
+        z[i] = zi
+    return z
+
+
+@njit(cache=True)
+def _bw_up(z, s, x_y, gamma):
+    """Bouc-Wen state after travel s >= 0 [m] from z (dz/dx = (1 - c z^2) / x_y, c = 1
+    loading (z >= 0), c = 1 - 2 gamma unloading (z < 0)), in closed form."""
+    if z < 0.0:
+        c = 1.0 - 2.0 * gamma
+        r = np.sqrt(abs(c))
+        if c > 1e-9:
+            s0 = -np.arctanh(max(r * z, -1.0 + 1e-15)) / r * x_y
+        elif c < -1e-9:
+            s0 = -np.arctan(r * z) / r * x_y
+        else:
+            s0 = -z * x_y
+        if s < s0:
+            u = s / x_y
+            if c > 1e-9:
+                return np.tanh(np.arctanh(max(r * z, -1.0 + 1e-15)) + r * u) / r
+            if c < -1e-9:
+                return np.tan(np.arctan(r * z) + r * u) / r
+            return z + u
+        s -= s0
+        z = 0.0
+    return np.tanh(np.arctanh(min(z, 1.0 - 1e-15)) + s / x_y)
+
+
+@njit(cache=True)
+def _bouc_wen(x, t, h, x_y, gamma):
+    """Hysteretic state z [-] (|z| < 1) of a Bouc-Wen element with n = 2 (Spencer et al.
+    1997) along displacement x [m], normalised so that z -> 1 on loading:
+    dz/dt = (v - beta v z^2 - gamma |v| z |z|) / x_y, beta = 1 - gamma; x_y [m] is the
+    travel over which it yields. Exact for displacement linear between samples."""
+    z = np.empty_like(x)
+    zi = 0.0
+    for i in range(len(x)):
+        if _reset(t, h, i):
+            zi = 0.0
+        else:
+            dx = x[i] - x[i - 1]
+            zi = _bw_up(zi, dx, x_y, gamma) if dx >= 0 else -_bw_up(-zi, -dx, x_y, gamma)
+        z[i] = zi
+    return z
+
+
 def _shift(y, t, tau):
     return np.interp(t - tau, t, y)
 
@@ -171,6 +239,10 @@ class Minimal:
 
     def params(self, d):
         return baseline_params(d)
+
+    def friction_level(self, p):
+        """Sliding friction [N]."""
+        return p["F_c"]
 
     def parts(self, d, p, x, v, tau):
         """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
@@ -211,11 +283,15 @@ class FromModel:
             out["slope"][a:b] = back(np.abs(up.damping - dn.damping) / (2 * dv))
         self.Fd, self.Fg, self.Ff, self.slope = out["Fd"], out["Fg"], out["Ff"], out["slope"]
         self.Fg_m = float(np.mean(self.Fg))
+        self.Ff_level = float(np.percentile(np.abs(self.Ff), 90))  # sliding friction [N]
 
     def params(self, d):
         Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
         return [P("k_damping", 1.0, 0.0, 5.0, "-"), P("G0", self.Fg_m, -Fmax, Fmax, "N"),
                 P("k_gas", 1.0, 0.0, 5.0, "-"), P("k_friction", 1.0, 0.0, 10.0, "-")]
+
+    def friction_level(self, p):
+        return p["k_friction"] * self.Ff_level
 
     def parts(self, d, p, x, v, tau):
         s = (lambda y: _shift(y, d.t, -tau)) if tau else (lambda y: y)
@@ -298,6 +374,24 @@ def _breakaway_friction(m, d, p, f, e):
     f.Ff = f.Ff * (1 + (p["r_break"] - 1) * np.exp(-np.abs(f.v) / p["v_break"]))
 
 
+def _presliding_friction(m, d, p, f, e):
+    # the seal deforms before it slides: its friction builds over x_stick of travel after
+    # each reversal (Dahl), where the baseline's Coulomb law switches at once (eq 3.3)
+    f.Ff = m.base.friction_level(p) * _dahl(f.x, d.t, d.h, p["x_stick"])
+
+
+def _bouc_wen_force(m, d, p, f, e):
+    # Spencer's phenomenological MR model: a Bouc-Wen element in parallel with the
+    # baseline's viscous (valve) and stiffness (gas) terms; with an aux channel, its size
+    # follows that channel through a first-order lag (the coil's current behind its voltage)
+    alpha = p["alpha_bw"]
+    if ":" in e:
+        n = e.split(":", 1)[1]
+        u = _lag(d.aux[n], np.full(len(d.t), p[f"eta:{n}"]), d.h) - m.aux_m[n]
+        alpha = alpha + p[f"alpha_u:{n}"] * u
+    f.F = f.F + alpha * _bouc_wen(f.x, d.t, d.h, p["x_y"], p["gamma_bw"])
+
+
 def _fluid_inertia(m, d, p, f, e):
     f.F = f.F + p["m_oil"] * f.a
 
@@ -336,7 +430,7 @@ class Effect:
     estimate: str  # the parameter that sizes the effect (what `dyno prove` reports)
     apply: callable  # (model, d, values, Forces, effect id): its force, in place
     acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
-    needs: str = ""  # "T" or "aux": a channel it needs
+    needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel
 
 
 def _p(*ps):
@@ -349,6 +443,19 @@ def _aux_params(d, e):
     Fs = float(np.std(d.F)) or 1.0
     return [P(f"b0:{n}", 0.0, -10 * Fs / s, 10 * Fs / s, "N per unit"), P(f"b1:{n}", 0.0, -1 / s, 1 / s, "per unit"),
             P(f"lag:{n}", 0.0, 0.0, 0.2, "s", (0.0, 0.01, 0.03, 0.1))]
+
+
+def _bw_params(d, e):
+    Fmax = float(np.percentile(np.abs(d.F), 99)) or 1.0
+    ps = [P("alpha_bw", 0.0, -Fmax, 2 * Fmax, "N", tuple(Fmax * np.r_[0.03, 0.1, 0.3])),
+          P("x_y", 1e-3, 1e-7, 1e-2, "m", tuple(np.geomspace(1e-6, 3e-3, 8))),
+          P("gamma_bw", 0.5, 0.0, 1.0, "-")]
+    if ":" in e:
+        n = e.split(":", 1)[1]
+        s = float(np.std(d.aux[n])) or 1.0
+        ps += [P(f"alpha_u:{n}", 0.0, -3 * Fmax / s, 3 * Fmax / s, "N per unit"),
+               P(f"eta:{n}", 0.005, 2e-5, 0.05, "s", (2e-4, 2e-3, 1e-2, 3e-2))]
+    return ps
 
 
 def _cav_params(d, e):
@@ -386,10 +493,16 @@ CATALOGUE = {e.name: e for e in (
            estimate="m_oil", apply=_fluid_inertia, acts_on="total"),
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
            estimate="Fcav_c", apply=_cavitation, acts_on="total"),
+    Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
+           _p(P("x_stick", 1e-4, 1e-7, 2e-3, "m", tuple(np.geomspace(1e-6, 1e-3, 7)))),
+           estimate="x_stick", apply=_presliding_friction, acts_on="parts"),
+    Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
+           _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?"),
     Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
            estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux"),
 )}
 # the order the effects act in, whatever order they were accepted in: multiplications
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
-ORDER = ("sensor_delay", "damping_temperature", "compressibility", "gas_temperature", "position_friction",
-         "breakaway_friction", "fluid_inertia", "aux_channel", "cavitation", "free_play")
+ORDER = ("sensor_delay", "damping_temperature", "compressibility", "gas_temperature", "presliding_friction",
+         "position_friction", "breakaway_friction", "fluid_inertia", "bouc_wen", "aux_channel", "cavitation",
+         "free_play")

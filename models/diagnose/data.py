@@ -12,11 +12,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from models.diagnose import quality
 from models.recording import cycle_blocks, segments, smooth
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 GAP_PERIODS = 5
 MIN_CYCLES = 6  # fewer whole cycles than this cannot be split into train and held-out
+BLOCK_S = 0.5  # s: the unit of motion that does not repeat (random, road replay), as a cycle is of a sine
+REGULAR = 0.2  # strokes whose rates vary by more than this share do not repeat: judged in blocks
 
 
 class DiagnoseError(ValueError):
@@ -37,12 +40,13 @@ class Data:
     T: np.ndarray | None = None  # K, body temperature
     aux: dict = field(default_factory=dict)  # {name: values}
     notes: list = field(default_factory=list)  # what could not be assessed, and why
+    flags: list = field(default_factory=list)  # [quality.Flag]: samples excluded before fitting
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
-                    {n: a[k] for n, a in self.aux.items()}, self.notes)
+                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags)
 
 
 def _clean(t, v):
@@ -92,6 +96,35 @@ def _periodic_motion(t, x, f):
     return xf, v, a
 
 
+def _band(t, x, t0, t1):
+    """[Hz] below which 99 % of the displacement's power lies between t0 and t1 (at least
+    1 Hz): what a motion that does not repeat is smoothed at."""
+    k = (t >= t0) & (t < t1)
+    if k.sum() < 16:
+        return 1.0
+    h = float(np.median(np.diff(t[k])))
+    P = np.abs(np.fft.rfft(x[k] - np.mean(x[k]))) ** 2
+    c = np.cumsum(P) / max(P.sum(), 1e-300)
+    return max(float(np.fft.rfftfreq(int(k.sum()), h)[np.searchsorted(c, 0.99)]), 1.0)
+
+
+def _spans(events, tx, x):
+    """[(name, freq_hz or None, t0, t1)]: the sine segments; else strokes that repeat (cut
+    into blocks of two); else the road segments, or the whole recording, as motion that
+    does not repeat (freq None: judged in blocks of BLOCK_S)."""
+    spans = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in segments(events, kinds=("sine",))]
+    if spans:
+        return spans
+    others = [(n, None, t0, t1) for n, _, t0, t1 in segments(events, kinds=("road",))]
+    if others:
+        return others
+    blocks = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in cycle_blocks({"x": (tx, x)}, cycles=2)]
+    f = np.array([b[1] for b in blocks])
+    if len(f) >= MIN_CYCLES and np.std(f) <= REGULAR * np.mean(f):
+        return blocks
+    return [("random", None, float(tx[0]), float(tx[-1]))]
+
+
 def prepare(channels, events) -> Data:
     """Data from a recording's channels {name: (t, values)} and events."""
     missing = [n for n in ("force", "x") if n not in channels or len(channels[n][0]) < 10]
@@ -101,23 +134,35 @@ def prepare(channels, events) -> Data:
     notes = []
     tF, F = _clean(*channels["force"])
     tx, x = _clean(*channels["x"])
+    aux = {n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10}
+    flags = quality.check({"force": (tF, F), "x": (tx, x), **aux,
+                           **({"v": _clean(*channels["v"])} if "v" in channels else {})})
     period = float(np.median(np.diff(tF)))
-    gaps = _gaps(tF, period) + _gaps(tx, float(np.median(np.diff(tx))))
-    if gaps:
-        lost = sum(b - a for a, b in gaps)
-        notes.append(f"{len(gaps)} gap(s) in force or displacement ({lost:.2f} s in all): "
+    holes = _gaps(tF, period) + _gaps(tx, float(np.median(np.diff(tx))))
+    if holes:
+        lost = sum(b - a for a, b in holes)
+        notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
-    spans = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in segments(events, kinds=("sine",))]
-    if not spans:
-        spans = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in cycle_blocks({"x": (tx, x)}, cycles=2)]
+    bad = quality.excluded(flags)
+    if bad:  # flagged samples leave the channels; their spans count as gaps
+        def drop(t, y):
+            k = np.zeros(len(t), bool)
+            for a, b in bad:
+                k |= (t >= a) & (t <= b)
+            return t[~k], y[~k]
+        (tF, F), (tx, x) = drop(tF, F), drop(tx, x)
+        aux = {n: drop(*c) for n, c in aux.items()}
+    gaps = holes + bad
+    spans = _spans(events, tx, x)
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))
     h = period * step
     T_ch = next((n for n in ("T_body", "temperature", "T_reservoir") if n in channels and len(channels[n][0]) > 1), None)
-    aux = {n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10}
     parts, seg_names, n_cycles = [], [], 0
     for name, f, t0, t1 in spans:
         # smooth over the stretch with a margin each side (the recording goes on around a
         # segment), then keep the segment: a zero-phase filter's edges are not to be trusted
+        random = f is None
+        f = _band(tx, x, t0, t1) if random else f
         pad = min(max(1.0 / f, 0.1), 1.0)
         te = np.arange(max(t0 - pad, tF[0], tx[0]), min(t1 + pad, tF[-1], tx[-1]), h)
         keep = (te >= t0) & (te < t1)
@@ -126,15 +171,17 @@ def prepare(channels, events) -> Data:
             continue
         # block-average the force over the new sample period (anti-aliasing when decimating)
         Fi = np.interp(t, tF, F) if step == 1 else np.interp(t, tF, np.convolve(F, np.ones(step) / step, "same"))
-        xs, v, a = _periodic_motion(t, np.interp(t, tx, x), f)
+        xs, v, a = (None, None, None) if random else _periodic_motion(t, np.interp(t, tx, x), f)
         if xs is None:
             xe = smooth(np.interp(te, tx, x), h, f)
             ve = np.gradient(xe, h)
             ae = np.gradient(smooth(ve, h, f), h)
             xs, v, a = xe[keep], ve[keep], ae[keep]
-        # whole cycles: the motion's phase from the segment start (segments are whole cycles)
-        cyc = np.floor((t - t0) * f + 1e-9).astype(int)
-        whole = cyc < int(round((t1 - t0) * f - 1e-6))
+        # whole cycles: the motion's phase from the segment start (segments are whole
+        # cycles); motion that does not repeat is cut into blocks of BLOCK_S instead
+        per = 1.0 / BLOCK_S if random else f
+        cyc = np.floor((t - t0) * per + 1e-9).astype(int)
+        whole = cyc < (int(np.floor((t1 - t0) * per + 1e-6)) if random else int(round((t1 - t0) * f - 1e-6)))
         for g0, g1 in gaps:  # a cycle touched by a gap is left out
             hit = np.unique(cyc[(t >= g0 - 2 * h) & (t <= g1 + 2 * h)])
             whole &= ~np.isin(cyc, hit)
@@ -143,10 +190,10 @@ def prepare(channels, events) -> Data:
         parts.append((t, xs, v, a, Fi, cyc, np.full(len(t), len(seg_names)), np.full(len(t), h)))
         seg_names.append((name, f))
     if not parts:
-        raise DiagnoseError("the recording has no cycling to judge (no sine segments and no repeated strokes "
-                            "of at least 2 mm)")
+        raise DiagnoseError("the recording has no motion to judge (no segment and no stretch of at least "
+                            "50 samples without a gap)")
     cols = [np.concatenate(c) for c in zip(*parts)]
-    d = Data(*cols, segments=seg_names, notes=notes)
+    d = Data(*cols, segments=seg_names, notes=notes, flags=flags)
     keep = d.cycle >= 0
     d = d.take(keep)
     if T_ch is None:

@@ -46,6 +46,21 @@ def number(lo=None, hi=None, integer=False, above=None):
     return parse
 
 
+def holdout(text):
+    """An argparse type: "interleaved", or "tail:F" with 0 < F <= 0.3 (returned as F)."""
+    if text == "interleaved":
+        return text
+    kind, _, frac = text.partition(":")
+    if kind == "tail":
+        try:
+            f = float(frac)
+        except ValueError:
+            f = math.nan
+        if 0 < f <= 0.3:
+            return f
+    raise argparse.ArgumentTypeError(f"{text!r}: give interleaved or tail:FRACTION with 0 < FRACTION <= 0.3")
+
+
 def parser():
     p = Parser(prog="dyno", description="Damper dyno controller and damper model tools")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -155,6 +170,9 @@ def _analysis_commands(sub):
                     help="minimal (default: fitted whole), or a damper preset or model JSON, refitted")
     dg.add_argument("--json", action="store_true", help="machine-readable result")
     dg.add_argument("--report", metavar="DIR", help="HTML report with residual maps and loops")
+    dg.add_argument("--holdout", type=holdout, default="interleaved",
+                    help="interleaved (default: alternate cycles or blocks) or tail:FRACTION (a time split: fit on "
+                         "the first 1-2F, choose on the next F, report on the last F)")
     dg.set_defaults(command="diagnose")
     pv = sub.add_parser("prove", help="hide each effect in the virtual rig at the noise level and diagnose it")
     pv.add_argument("--seeds", type=number(1, 10000, integer=True), default=10,

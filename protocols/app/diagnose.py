@@ -11,6 +11,7 @@ import numpy as np
 from models.diagnose import diagnose
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
+from models.diagnose import quality
 from models.diagnose.data import DiagnoseError
 from protocols.io.files import make_dir
 from rig.errors import RigError
@@ -43,9 +44,19 @@ SAY = {
                       "m_oil", 1.0, "kg"),
     "cavitation": ("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
                    "charge or check for air.", None, 1.0, "N"),
+    "presliding_friction": ("Friction builds over {v} {u} of travel after each reversal before the seal slides "
+                            "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
+                            "corners of small-amplitude loops; keep it in the model when tuning low-speed valving.",
+                            "x_stick", 1e3, "mm"),
+    "bouc_wen": ("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
+                 "element, as in Spencer's magnetorheological damper model): a yield-stress fluid or a stiff "
+                 "element that gives way, which a valve curve cannot follow around the loops.{aux} Model the "
+                 "damper with the hysteretic element (its parameters are in the JSON).", "alpha_bw", 1.0, "N"),
     "aux_channel": ("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
                     "Hold it constant or include it in the model.", "lag", 1e3, "ms"),
 }
+
+NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction"}
 
 
 def sentence(step):
@@ -57,6 +68,14 @@ def sentence(step):
     if key == "cavitation":
         v = min(p["Fcav_c"], p["Fcav_r"])
         vs = f"{v:.0f}"
+    elif key == "bouc_wen":
+        aux = ""
+        if ":" in e:
+            ch = e.split(":", 1)[1]
+            aux = (f" Its size follows {ch}, {p[f'alpha_u:{ch}']:.3g} N per unit, through a first-order lag of "
+                   f"{1e3 * p[f'eta:{ch}']:.3g} ms: as an MR damper's yield force follows its coil current, which "
+                   f"lags the driver's voltage.")
+        return text.format(v=f"{p['alpha_bw']:.3g}", xy=f"{1e3 * p['x_y']:.3g}", aux=aux) + _change(step)
     elif key == "aux_channel":
         ch = e.split(":", 1)[1]
         name = f"lag:{ch}"
@@ -93,11 +112,19 @@ def _where(loc):
             f"{100 * loc['sample_share']:.0f} % of the samples")
 
 
+def _held(res):
+    h = res["holdout"]
+    return "alternate cycles held out" if h == "interleaved" else f"the last {100 * h:.0f} % held out, never chosen on"
+
+
 def summary(res):
     lines = []
     b = res["baseline"]
-    lines.append(f"Baseline ({b['name']}): held-out error {100 * b['nrmse_heldout']:.3g} % of the force range "
-                 f"(training {100 * b['nrmse_train']:.3g} %); force noise {res['noise_sd']:.2f} N.")
+    for line in quality.describe(res["data"].flags):
+        lines.append(f"Data quality: {line}.")
+    lines.append(f"Baseline ({b['name']}): held-out error {100 * b['nrmse_heldout']:.3g} % of the force range, "
+                 f"R^2 {b['r2_heldout']:.3f} ({_held(res)}; training {100 * b['nrmse_train']:.3g} %); "
+                 f"force noise {res['noise_sd']:.2f} N.")
     if "k_damping" in b["parameters"]:  # a damper model as the baseline: what the refit changed
         p = b["parameters"]
         lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
@@ -108,8 +135,18 @@ def summary(res):
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
     if res["accepted"]:
         for s in res["steps"]:
-            name = s["effect"].split(":")[0].replace("_", " ")
-            lines.append(f"Left out: {name}. " + sentence(s))
+            key = s["effect"].split(":")[0]
+            name = NAMES.get(key, key.replace("_", " "))
+            if s["trades_with"]:
+                other = ", ".join(f"{e.split(':')[0].replace('_', ' ')} (correlation {c:.2f})" for e, c in s["trades_with"])
+                lines.append(f"Accepted, but may be compensating the form of {other}: {name}, whose parameters trade "
+                             f"against it; the gain may be a different form of that effect, not physics of its own. "
+                             + _change(s))
+            else:
+                lines.append(f"Left out: {name}. " + sentence(s))
+        f = res["final"]
+        lines.append(f"Final: held-out error {100 * f['nrmse_heldout']:.3g} % of the force range, RMSE "
+                     f"{f['rmse_heldout']:.3g} N, R^2 {f['r2_heldout']:.3f}, {len(f['parameters'])} parameters.")
     else:
         lines.append("Nothing significant was left out: no candidate improved the held-out cycles beyond chance "
                      "and the noise.")
@@ -122,18 +159,23 @@ def to_json(res):
     def num(v):
         return float(v) if np.isfinite(v) else None
     b = res["baseline"]
+    held = ("nrmse_heldout", "rmse_heldout", "r2_heldout")
     return {
+        "holdout": res["holdout"] if res["holdout"] == "interleaved" else f"tail:{res['holdout']:g}",
+        "quality": [{"channel": f.channel, "kind": f.kind, "t0": num(f.t0), "t1": num(f.t1), "samples": f.samples,
+                     "message": f.message} for f in res["data"].flags],
         "baseline": {"name": b["name"], "parameters": {k: num(v) for k, v in b["parameters"].items()},
-                     "nrmse_train": b["nrmse_train"], "nrmse_heldout": b["nrmse_heldout"]},
+                     "nrmse_train": b["nrmse_train"], **{k: b[k] for k in held}},
         "noise_sd": res["noise_sd"],
         "locations": res["locations"],
         "candidates": [{"effect": c["effect"], "round": c["round"],
                         "parameters": {k: num(v) for k, v in c["parameters"].items()},
                         "ci": {k: [num(a), num(z)] for k, (a, z) in c["ci"].items()},
-                        "nrmse_heldout": c["nrmse_heldout"], "p_value": c["p_value"],
+                        **{k: c[k] for k in held}, "p_value": c["p_value"],
                         "gain_noise_variances": c["relevance"]} for c in res["candidates"]],
         "accepted": res["accepted"],
-        "final": {"nrmse_heldout": res["final"]["nrmse_heldout"],
+        "may_compensate": {s["effect"]: [e for e, _ in s["trades_with"]] for s in res["steps"] if s["trades_with"]},
+        "final": {**{k: res["final"][k] for k in held},
                   "parameters": {k: num(v) for k, v in res["final"]["parameters"].items()}},
         "not_assessed": res["data"].notes,
         "summary": summary(res),
@@ -197,7 +239,7 @@ def run(args):
     ch, events, _ = load_recording(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     try:
-        res = diagnose(ch, events, progress=say, baseline=baseline)
+        res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout)
     except (DiagnoseError, DamperError) as e:
         raise RigError(f"{args.recording}: {e}") from None
     if args.report:

@@ -1,0 +1,149 @@
+"""Data quality before diagnosis: samples no physics can explain are flagged, excluded and
+reported, never fitted.
+
+- saturated: a run of identical samples at the channel's extreme (an amplifier or ADC at
+  its rail);
+- spikes: one or two samples that leave both neighbours by far more than the channel's
+  sample-to-sample noise and by a visible share of its range (a dropout or a glitch);
+- unit mismatches: a displacement spanning more than a damper's stroke, a velocity channel
+  a power of ten away from the displacement's derivative. These are reported, not
+  excluded: no sample is wrong, the whole channel is.
+
+Thresholds are choices, stated here once.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+FLAT_MIN = 8  # identical samples in a row at the extreme: saturated
+SPIKE_SIGMA = 12.0  # spike: away from its neighbours' mean by this many noise sd ...
+SPIKE_RANGE = 0.02  # ... and by this share of the channel's 1-99 % range
+MARGIN_S = 0.02  # s excluded either side of a flagged run (the conditioning settles)
+MAX_STROKE = 0.5  # m: no damper strokes more
+CHANNELS = ("force", "x")  # the channels the model is fitted to
+
+
+@dataclass(frozen=True)
+class Flag:
+    channel: str
+    kind: str  # "saturated" | "spike" | "units"
+    t0: float  # s, excluded span (with margin); equal t0 = t1 = nan for a channel-wide note
+    t1: float
+    samples: int
+    message: str
+
+
+def _runs(mask):
+    """[(start, stop)] of the True runs of a boolean array."""
+    k = np.diff(np.r_[0, mask.astype(np.int8), 0])
+    return list(zip(np.nonzero(k == 1)[0], np.nonzero(k == -1)[0]))
+
+
+def saturated(name, t, y):
+    """Flags for runs of >= FLAT_MIN identical samples at the channel's max or min."""
+    out = []
+    if len(y) < FLAT_MIN:
+        return out
+    same = np.r_[np.diff(y) == 0, False]
+    for a, b in _runs(same):
+        n = b - a + 1
+        v = y[a]
+        if n >= FLAT_MIN and v in (y.max(), y.min()):
+            out.append(Flag(name, "saturated", t[a] - MARGIN_S, t[b] + MARGIN_S, int(n),
+                            f"{name} flat at {v:.6g} for {n} samples from {t[a]:.3f} s (saturated)"))
+    return out
+
+
+def spikes(name, t, y):
+    """Flags for one- or two-sample spikes."""
+    if len(y) < 10:
+        return []
+    # a spike leaves both neighbours the same way, they agree, and the signal is quiet on
+    # either side (a step, or the ringing after it, fails one of these): one sample, or a
+    # pair against the samples either side of it
+    n = len(y)
+    dev, dev2 = np.zeros(n), np.zeros(n)
+    i = np.arange(2, n - 2)
+    dl, dr = y[i] - y[i - 1], y[i] - y[i + 1]
+    m1 = np.minimum(np.abs(dl), np.abs(dr))
+    quiet = np.maximum.reduce([np.abs(y[i + 1] - y[i - 1]), np.abs(y[i - 1] - y[i - 2]), np.abs(y[i + 2] - y[i + 1])])
+    dev[i] = np.where((dl * dr > 0) & (quiet < 0.5 * m1), m1, 0.0)
+    i = np.arange(2, n - 3)
+    m2 = np.maximum(np.minimum(y[i], y[i + 1]) - np.maximum(y[i - 1], y[i + 2]),  # pair above both outer samples
+                    np.minimum(y[i - 1], y[i + 2]) - np.maximum(y[i], y[i + 1]))  # or below both
+    quiet = np.maximum.reduce([np.abs(y[i + 2] - y[i - 1]), np.abs(y[i - 1] - y[i - 2]), np.abs(y[i + 3] - y[i + 2])])
+    dev2[i] = np.where(quiet < 0.5 * m2, m2, 0.0)
+    sd = 1.4826 * float(np.median(np.abs(np.diff(y, 2)))) / np.sqrt(6) or 1e-12
+    span = float(np.subtract(*np.percentile(y, [99, 1])))
+    bound = max(SPIKE_SIGMA * sd, SPIKE_RANGE * span)
+    pair = dev2 > bound
+    hit = (dev > bound) | pair | np.r_[False, pair[:-1]]
+    out = []
+    for a, b in _runs(hit):
+        if b - a <= 3:  # longer departures are motion, not a glitch
+            out.append(Flag(name, "spike", t[a] - MARGIN_S, t[b - 1] + MARGIN_S, int(b - a),
+                            f"{name} spike at {t[a]:.3f} s ({b - a} sample(s), {max(np.max(dev[a:b]), np.max(dev2[a:b])):.3g} "
+                            f"beyond its neighbours)"))
+    return out
+
+
+def units(channels):
+    """Channel-wide unit notes (nothing excluded)."""
+    out = []
+    if "x" in channels and len(channels["x"][1]) > 1:
+        tx, x = channels["x"]
+        if np.ptp(x) > MAX_STROKE:
+            out.append(Flag("x", "units", np.nan, np.nan, 0,
+                            f"displacement spans {np.ptp(x):.3g} m, more than any damper's stroke: recorded in mm "
+                            f"and read as m?"))
+        if "v" in channels and len(channels["v"][1]) > 10:
+            tv, v = channels["v"]
+            dx = np.interp(tv, tx, np.gradient(x, tx))
+            ok = np.isfinite(dx) & np.isfinite(v)
+            if ok.sum() > 10 and np.std(dx[ok]) > 0:
+                ratio = float(np.dot(v[ok], dx[ok]) / np.dot(dx[ok], dx[ok]))
+                if abs(np.log10(max(abs(ratio), 1e-12))) > 0.5:
+                    out.append(Flag("v", "units", np.nan, np.nan, 0,
+                                    f"velocity channel is {ratio:.3g} times the displacement's derivative: "
+                                    f"a unit mismatch between them (the diagnosis uses the displacement's)"))
+    return out
+
+
+def check(channels):
+    """[Flag] for the channels the model is fitted to and its aux channels; channels
+    {name: (t, values)}, each sorted and finite."""
+    flags = []
+    for name, (t, y) in channels.items():
+        if name in CHANNELS or name.startswith("aux."):
+            flags += saturated(name, t, y) + spikes(name, t, y)
+    return flags + units(channels)
+
+
+def excluded(flags):
+    """[(t0, t1)] spans to leave out, merged."""
+    spans = sorted((f.t0, f.t1) for f in flags if np.isfinite(f.t0))
+    out = []
+    for a, b in spans:
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def describe(flags, most=3):
+    """One line per channel and kind: how many, how many samples, the first few."""
+    out = []
+    groups = {}
+    for f in flags:
+        groups.setdefault((f.channel, f.kind), []).append(f)
+    for (ch, kind), fs in groups.items():
+        if kind == "units":
+            out += [f.message for f in fs]
+            continue
+        shown = "; ".join(f.message for f in fs[:most]) + (f"; and {len(fs) - most} more" if len(fs) > most else "")
+        out.append(f"{len(fs)} {kind} run(s) in {ch}, {sum(f.samples for f in fs)} samples, excluded "
+                   f"with {1e3 * MARGIN_S:.0f} ms either side: {shown}")
+    return out

@@ -36,9 +36,14 @@ EFFECTS = {
                                   1e-4),
     "fluid_inertia": Hidden("kg", "mass of the oil column accelerated through the valves", 0.5),
     "cavitation": Hidden("Pa", "absolute pressure below which the oil releases air: chambers cannot go lower", 3e5),
+    "presliding_friction": Hidden("m", "the seal's pre-sliding travel (the plant's Dahl law, stepped with the frame)",
+                                  1e-5),
+    "bouc_wen": Hidden("N", "force at yield of a hysteretic element in the load path, Bouc-Wen with exponent "
+                            "n = 1 over BW_YIELD of travel (the diagnosis fits n = 2)", 1.0),
     "aux_channel": Hidden("1/A", "damping change per ampere of the adjuster current aux.valve_current", 0.01),
 }
 STRIBECK_V = 0.005  # m/s: a seal's Stribeck velocity (a choice; seals run 1-10 mm/s)
+BW_YIELD = 2e-4  # m: the hidden hysteretic element's yield travel (a choice: MR dampers yield over 0.1-1 mm)
 TIGHT_SPOT = (0.006, 0.004)  # m: the tight spot's centre above mid-stroke and its half-width
 
 

@@ -494,7 +494,7 @@ CATALOGUE = {e.name: e for e in (
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
            estimate="Fcav_c", apply=_cavitation, acts_on="total"),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
-           _p(P("x_stick", 1e-4, 1e-7, 2e-3, "m", tuple(np.geomspace(1e-6, 1e-3, 7)))),
+           _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
            estimate="x_stick", apply=_presliding_friction, acts_on="parts"),
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
            _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?"),

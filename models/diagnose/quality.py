@@ -1,8 +1,8 @@
 """Data quality before diagnosis: samples no physics can explain are flagged, excluded and
 reported, never fitted.
 
-- saturated: a run of identical samples at the channel's extreme (an amplifier or ADC at
-  its rail);
+- saturated: a run of identical samples at a measured channel's extreme (an amplifier or
+  ADC at its rail; an aux channel, often a command, may sit at its extreme);
 - spikes: one or two samples that leave both neighbours by far more than the channel's
   sample-to-sample noise and by a visible share of its range (a dropout or a glitch);
 - unit mismatches: a displacement spanning more than a damper's stroke, a velocity channel
@@ -116,8 +116,10 @@ def check(channels):
     {name: (t, values)}, each sorted and finite."""
     flags = []
     for name, (t, y) in channels.items():
-        if name in CHANNELS or name.startswith("aux."):
-            flags += saturated(name, t, y) + spikes(name, t, y)
+        if name in CHANNELS:
+            flags += saturated(name, t, y)
+        if name in CHANNELS or name.startswith("aux."):  # an aux command may sit at its extreme
+            flags += spikes(name, t, y)
     return flags + units(channels)
 
 

@@ -50,7 +50,7 @@ class Plant:
         self.alarm = 0
         self.faults = set()  # sensor/actuator faults injected by tests or `--fault`
         self.stuck_force = None
-        self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.p["frame"]["friction_x_stick"])
+        self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.fx.get("presliding_friction", self.p["frame"]["friction_x_stick"]))
         self.stepper.set_temperature(self.T, thermal.gas_temperature(self))
         # free play: the rod sits a gap (mount less rod, [m]) from the mount, bearing on it in
         # compression (contact +1), in rebound (-1) or crossing the clearance (0)
@@ -61,6 +61,7 @@ class Plant:
         self.curve = load_path.damping_curve(self) if self.gap else None
         self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
         self.a_f = 0.0  # acceleration through the oil column, low-passed [m/s^2]
+        self.z_bw, self.x_bw = 0.0, self.x_rod  # hysteretic element's state [-] and where it was [m]
         self.aux_rng = np.random.default_rng(seed + 7919)
         self.i_valve = self.i_lag = 1.0  # adjuster current [A] and what the valve has followed
         self.F_frame = 0.0  # force the frame deflects under (low-passed)

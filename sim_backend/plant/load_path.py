@@ -1,6 +1,6 @@
 """The damper between the frame's mount and the load cell, with the hidden effects that
 live in the load path (sim_backend/effects.py): free play in the mount, a Stribeck seal,
-oil-column inertia, the adjuster current's damping change, cavitation."""
+a hysteretic element, oil-column inertia, the adjuster current's damping change, cavitation."""
 from __future__ import annotations
 
 import math
@@ -22,6 +22,8 @@ def damper_step(pl, h, v_prev):
     F, F_d, F_g, F_f, P1, P2, Pg = pl.stepper.step(x_rod, v_rod)
     if fx.get("breakaway_friction", 1.0) != 1.0:  # Stribeck: the seal grips harder near rest
         F += F_f * (fx["breakaway_friction"] - 1.0) * math.exp(-(v_rod / fx_mod.STRIBECK_V) ** 2)
+    if fx.get("bouc_wen"):
+        F += fx["bouc_wen"] * hysteresis(pl, x_rod)
     if fx.get("fluid_inertia"):
         pl.a_f += h / 1e-3 * ((v_rod - v_prev) / h - pl.a_f)
         F += fx["fluid_inertia"] * pl.a_f
@@ -40,6 +42,23 @@ def damper_step(pl, h, v_prev):
         if pl.contact == 0:
             return 0.0, F_d, P1, P2, Pg  # crossing the clearance: the load cell feels nothing
     return F, F_d, P1, P2, Pg
+
+
+def hysteresis(pl, x):
+    """State z [-] of the hidden Bouc-Wen element (n = 1, beta = gamma = 1/2) at x [m]:
+    loading (z dx >= 0) dz/dx = (1 - |z|) / BW_YIELD, unloading dz/dx = 1 / BW_YIELD (linear
+    back to zero); exact over the step."""
+    dx, z, y = x - pl.x_bw, pl.z_bw, fx_mod.BW_YIELD
+    pl.x_bw = x
+    s = math.copysign(1.0, dx) if dx else 0.0
+    if s and z * s < 0:  # unloading: straight back to zero
+        back = min(abs(dx), abs(z) * y)
+        z += s * back / y
+        dx -= s * back
+    if s and abs(dx) > 0:
+        z = s * (1.0 - (1.0 - abs(z)) * math.exp(-abs(dx) / y))
+    pl.z_bw = z
+    return z
 
 
 def damping_curve(pl):

@@ -254,7 +254,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         values, current, r_cur = best["_values"], best["_folds"], best["_r"]
         progress(f"accepted {best['effect']}")
     final_model = Model(d, accepted, base)
-    return {"data": d, "holdout": holdout, "baseline": base_res, "noise_sd": sigma, "locations": locate(d, r0),
+    return {"data": d, "holdout": holdout, "held_out": judged | shown, "reported": shown, "baseline": base_res, "noise_sd": sigma, "locations": locate(d.take(judged | shown), r0[judged | shown]),
+            "remaining": locate(d.take(judged | shown), r_cur[judged | shown]),
             "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
             "final": {**scores(d.F, r_cur, shown), "parameters": values, "force": final_model.force(d, values)}}
 

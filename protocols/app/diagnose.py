@@ -147,6 +147,10 @@ def summary(res):
         f = res["final"]
         lines.append(f"Final: held-out error {100 * f['nrmse_heldout']:.3g} % of the force range, RMSE "
                      f"{f['rmse_heldout']:.3g} N, R^2 {f['r2_heldout']:.3f}, {len(f['parameters'])} parameters.")
+    left = [loc for loc in res["remaining"] if loc["concentration"] > 1.5][:2]
+    if left and res["final"]["rmse_heldout"] > 2 * res["noise_sd"]:
+        lines.append(f"Still unexplained ({res['final']['rmse_heldout'] / res['noise_sd']:.3g} times the force noise): "
+                     "no effect in the catalogue takes it further; it lives " + "; ".join(_where(loc) for loc in left) + ".")
     else:
         lines.append("Nothing significant was left out: no candidate improved the held-out cycles beyond chance "
                      "and the noise.")
@@ -168,6 +172,7 @@ def to_json(res):
                      "nrmse_train": b["nrmse_train"], **{k: b[k] for k in held}},
         "noise_sd": res["noise_sd"],
         "locations": res["locations"],
+        "remaining": res["remaining"],
         "candidates": [{"effect": c["effect"], "round": c["round"],
                         "parameters": {k: num(v) for k, v in c["parameters"].items()},
                         "ci": {k: [num(a), num(z)] for k, (a, z) in c["ci"].items()},
@@ -188,28 +193,33 @@ def report(res, out_dir: Path):
     out_dir.mkdir(parents=True, exist_ok=True)
     d = res["data"]
     stages = [("baseline", res["baseline"]["residual"])] + [(f"+ {s['effect']}", s["residual_after"]) for s in res["steps"]]
+    held = res["held_out"]  # the residual of a fit that never saw the sample: only there
     fig, axes = plt.subplots(len(stages), 3, figsize=(13, 3.2 * len(stages)), squeeze=False)
     for row, (name, r) in zip(axes, stages):
         for ax, (xv, lab) in zip(row, [(d.v, "velocity [m/s]"), (d.x * 1e3, "displacement [mm]"), (d.t, "time [s]")]):
-            ax.plot(xv, r, ",", alpha=0.5)
+            ax.plot(xv[held], r[held], ",", alpha=0.5)
             ax.set_xlabel(lab)
-            ax.set_ylabel(f"residual [N] ({name})")
+            ax.set_ylabel(f"held-out residual [N] ({name})")
     save(fig, out_dir / "residuals.png")
-    seg = int(np.argmax([np.ptp(d.F[d.segment == s]) for s in range(len(d.segments))]))
-    k = d.segment == seg
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
     base = d.F - res["baseline"]["residual"]
-    ax[0].plot(d.x[k] * 1e3, d.F[k], "k", lw=0.6, label="measured")
-    ax[0].plot(d.x[k] * 1e3, base[k], "C1", lw=0.6, label="baseline")
-    ax[0].plot(d.x[k] * 1e3, res["final"]["force"][k], "C2", lw=0.6, label="with accepted effects")
-    ax[0].set_xlabel("displacement [mm]")
+    if d.periodic:  # the held-out cycles of the segment with the largest force range
+        seg = int(np.argmax([np.ptp(d.F[(d.segment == s) & held]) if np.any((d.segment == s) & held) else -1.0
+                             for s in range(len(d.segments))]))
+        k = (d.segment == seg) & held
+        title = d.segments[seg][0]
+    else:  # motion that does not repeat: the first second reported, loops would be a tangle
+        t0 = float(d.t[res["reported"]][0])
+        k = res["reported"] & (d.t >= t0) & (d.t < t0 + 1.0)
+        title = f"held out, {t0:.1f}-{t0 + 1.0:.1f} s"
+    fig, ax = plt.subplots(1, 3, figsize=(16, 4.5))
+    for a, xv, lab in zip(ax, (d.t, d.x * 1e3, d.v), ("time [s]", "displacement [mm]", "velocity [m/s]")):
+        a.plot(xv[k], base[k], "C1", lw=0.7, label="baseline")
+        a.plot(xv[k], res["final"]["force"][k], "C2", lw=0.7, label="with accepted effects")
+        a.plot(xv[k], d.F[k], "k", lw=0.9, label="measured", zorder=3)
+        a.set_xlabel(lab)
     ax[0].set_ylabel("force [N]")
     ax[0].legend()
-    ax[0].set_title(d.segments[seg][0])
-    ax[1].plot(d.v[k], d.F[k], "k", lw=0.6)
-    ax[1].plot(d.v[k], base[k], "C1", lw=0.6)
-    ax[1].plot(d.v[k], res["final"]["force"][k], "C2", lw=0.6)
-    ax[1].set_xlabel("velocity [m/s]")
+    ax[1].set_title(title)
     save(fig, out_dir / "loops.png")
     page = Page("Diagnosis")
     for line in summary(res).splitlines():

@@ -23,13 +23,17 @@ class Hidden:
     unit: str  # of VALUE
     form: str  # what VALUE sets, in the plant's own form
     guess: float  # a VALUE of roughly noise size: where `dyno prove --calibrate` starts
+    forms: tuple = ()  # other forms the plant can hide it in (--effect NAME:FORM=VALUE); `form` is the default
 
 
 EFFECTS = {
-    "sensor_delay": Hidden("s", "time constant of a first-order filter in the LVDT/LVT conditioning", 1e-4),
+    "sensor_delay": Hidden("s", "time constant of a first-order filter in the LVDT/LVT conditioning", 1e-4,
+                           ("transport", "second_order")),
     "free_play": Hidden("m", "clearance in the damper's lower mount, in the load path", 2e-5),
-    "compressibility": Hidden("Pa", "effective bulk modulus of the oil (entrained air), constant", 2e10),
-    "breakaway_friction": Hidden("-", "Stribeck seal: friction at rest over sliding friction", 1.1),
+    "compressibility": Hidden("Pa", "effective bulk modulus of the oil (entrained air), constant", 2e10,
+                              ("pressure",)),
+    "breakaway_friction": Hidden("-", "Stribeck seal (Gaussian): friction at rest over sliding friction", 1.1,
+                                 ("exponential", "lorentzian")),
     "position_friction": Hidden("-", "a tight spot in the bore: extra friction at its peak over the table's", 0.1),
     "gas_temperature": Hidden("-", "share of the body's temperature rise the gas charge takes on", 0.1),
     "damping_temperature": Hidden("1/K", "K_effoil of eq 4.17 in both directions (oil density with temperature)",
@@ -42,6 +46,15 @@ EFFECTS = {
                             "n = 1 over BW_YIELD of travel (the diagnosis fits n = 2)", 1.0),
     "aux_channel": Hidden("1/A", "damping change per ampere of the adjuster current aux.valve_current", 0.01),
 }
+# the other forms, in the plant's words (VALUE keeps its meaning and unit in each)
+FORMS = {
+    "sensor_delay:transport": "a pure transport delay of VALUE in the LVDT/LVT signal",
+    "sensor_delay:second_order": "two first-order filters of VALUE / 2 in series (critically damped)",
+    "compressibility:pressure": "bulk modulus rising with chamber pressure (eq 3.32): VALUE / 4 at zero, "
+                                "VALUE at 2 MPa, at least VALUE / 10",
+    "breakaway_friction:exponential": "Stribeck seal, exp(-|v| / STRIBECK_V)",
+    "breakaway_friction:lorentzian": "Stribeck seal, 1 / (1 + (v / STRIBECK_V)^2)",
+}
 STRIBECK_V = 0.005  # m/s: a seal's Stribeck velocity (a choice; seals run 1-10 mm/s)
 BW_YIELD = 2e-4  # m: the hidden hysteretic element's yield travel (a choice: MR dampers yield over 0.1-1 mm)
 TIGHT_SPOT = (0.006, 0.004)  # m: the tight spot's centre above mid-stroke and its half-width
@@ -52,12 +65,19 @@ class EffectError(ValueError):
 
 
 def parse(specs) -> dict:
-    """{name: value} from ["NAME=VALUE", ...]; EffectError names a bad one."""
+    """{name: value} from ["NAME[:FORM]=VALUE", ...], with {"forms": {name: form}} when a
+    form other than the default is named; EffectError names a bad one."""
     out = {}
     for s in specs or ():
         name, sep, value = s.partition("=")
+        name, _, form = name.partition(":")
         if name not in EFFECTS:
             raise EffectError(f"--effect {s}: unknown effect {name!r} (known: {', '.join(EFFECTS)})")
+        if form:
+            if form not in EFFECTS[name].forms:
+                known = ", ".join(EFFECTS[name].forms) or "none"
+                raise EffectError(f"--effect {s}: {name} has no form {form!r} (other forms: {known})")
+            out.setdefault("forms", {})[name] = form
         try:
             out[name] = float(value) if sep else float("nan")
         except ValueError:
@@ -73,7 +93,10 @@ def damper_with(d: Damper, fx: dict) -> Damper:
     """The damper with the effects that live in its description: oil bulk modulus, damping
     temperature coefficients, friction along the bore."""
     if "compressibility" in fx:
-        d = dataclasses.replace(d, compressibility=Compressibility(beta_inv=fx["compressibility"]))
+        K = fx["compressibility"]
+        c = (Compressibility(C_ibeta=K / 4, C_sbeta=0.75 * K / 2e6, beta_min_inv=K / 10)
+             if fx.get("forms", {}).get("compressibility") == "pressure" else Compressibility(beta_inv=K))
+        d = dataclasses.replace(d, compressibility=c)
     if "damping_temperature" in fx:
         k = TempCoeff(K_effoil=fx["damping_temperature"], C_fd=0.0)
         d = dataclasses.replace(d, temperature=TemperatureSensitivity(d.temperature.T_ref, k, k))

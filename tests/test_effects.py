@@ -4,6 +4,7 @@ size from the parameter the catalogue names."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from models.diagnose.candidates import CATALOGUE
 from sim_backend.effects import EFFECTS, parse, plain_cell
@@ -44,3 +45,21 @@ def test_every_effect_acts_in_a_stated_place_and_order():
 def test_the_diagnosis_says_every_effect_in_words():
     from protocols.app.diagnose import SAY
     assert set(SAY) == set(CATALOGUE)
+
+
+def test_an_effect_in_another_form_is_parsed_and_a_wrong_form_named():
+    from sim_backend.effects import FORMS, EffectError
+    assert parse(["sensor_delay:transport=1e-4", "fluid_inertia=1"]) == {
+        "sensor_delay": 1e-4, "fluid_inertia": 1.0, "forms": {"sensor_delay": "transport"}}
+    assert {f"{n}:{f}" for n, h in EFFECTS.items() for f in h.forms} == set(FORMS)
+    with pytest.raises(EffectError, match="no form 'cubic'"):
+        parse(["breakaway_friction:cubic=1.2"])
+
+
+def test_the_transport_form_delays_by_its_value_between_steps():
+    from collections import deque
+
+    from sim_backend.plant.sensors import transport
+    past, h = deque(maxlen=10), 1e-3
+    out = [transport(past, (float(k), 0.0), 2.5e-3, h)[0] for k in range(8)]
+    assert out[3:] == pytest.approx([k - 2.5 for k in range(3, 8)], abs=1e-12)

@@ -370,8 +370,9 @@ def _position_friction(m, d, p, f, e):
 
 def _breakaway_friction(m, d, p, f, e):
     # the seal grips harder near rest, falling to sliding friction with speed (the
-    # thesis's friction falls with velocity, section 3.2.1); exponential
-    f.Ff = f.Ff * (1 + (p["r_break"] - 1) * np.exp(-np.abs(f.v) / p["v_break"]))
+    # thesis's friction falls with velocity, section 3.2.1); Stribeck's curve with its
+    # exponent free: 1 exponential, 2 Gaussian, between and beyond as the seal shows
+    f.Ff = f.Ff * (1 + (p["r_break"] - 1) * np.exp(-(np.abs(f.v) / p["v_break"]) ** p["d_break"]))
 
 
 def _presliding_friction(m, d, p, f, e):
@@ -442,7 +443,7 @@ def _aux_params(d, e):
     s = float(np.std(d.aux[n])) or 1.0
     Fs = float(np.std(d.F)) or 1.0
     return [P(f"b0:{n}", 0.0, -10 * Fs / s, 10 * Fs / s, "N per unit"), P(f"b1:{n}", 0.0, -1 / s, 1 / s, "per unit"),
-            P(f"lag:{n}", 0.0, 0.0, 0.2, "s", (0.0, 0.01, 0.03, 0.1))]
+            P(f"lag:{n}", 0.0, 0.0, 0.2, "s", (0.0, 1e-3, 3e-3, 0.01, 0.03, 0.1))]
 
 
 def _bw_params(d, e):
@@ -468,16 +469,18 @@ def _cav_params(d, e):
 
 CATALOGUE = {e.name: e for e in (
     Effect("sensor_delay", "a time lag between the displacement and force channels",
-           _p(P("tau", 0.0, -0.02, 0.02, "s", (-2e-3, -2e-4, 0.0, 2e-4, 2e-3))),
+           _p(P("tau", 0.0, -0.05, 0.05, "s", (-2e-2, -2e-3, -2e-4, -2e-5, 0.0, 2e-5, 2e-4, 2e-3, 2e-2))),
            estimate="tau", apply=_sensor_delay, acts_on="motion"),
     Effect("free_play", "clearance (free play) in the damper's mounts",
            _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
            estimate="c_play", apply=_free_play, acts_on="total"),
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
-           _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N")),
+           _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
            estimate="inv_k_oil", apply=_compressibility, acts_on="parts"),
     Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
-           _p(P("r_break", 1.2, 1.0, 5.0, "-"), P("v_break", 5e-3, 1e-5, 0.1, "m/s", (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2))),
+           _p(P("r_break", 1.2, 1.0, 5.0, "-"),
+              P("v_break", 5e-3, 2e-4, 0.1, "m/s", tuple(np.geomspace(5e-4, 5e-2, 7))),
+              P("d_break", 1.0, 0.5, 3.0, "-", (1.0, 2.0))),
            estimate="r_break", apply=_breakaway_friction, acts_on="parts"),
     Effect("position_friction", "seal friction varying along the bore",
            _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2")),

@@ -46,6 +46,17 @@ def number(lo=None, hi=None, integer=False, above=None):
     return parse
 
 
+def sizes(text):
+    """An argparse type: comma-separated positive numbers."""
+    try:
+        out = [float(v) for v in text.split(",")]
+    except ValueError:
+        out = []
+    if not out or not all(math.isfinite(v) and v > 0 for v in out):
+        raise argparse.ArgumentTypeError(f"{text!r}: give positive numbers separated by commas, e.g. 1,3,10")
+    return out
+
+
 def holdout(text):
     """An argparse type: "interleaved", or "tail:F" with 0 < F <= 0.3 (returned as F)."""
     if text == "interleaved":
@@ -178,6 +189,10 @@ def _analysis_commands(sub):
     pv.add_argument("--seeds", type=number(1, 10000, integer=True), default=10,
                     help="recordings per effect (default 10)")
     pv.add_argument("--effects", help="comma-separated subset of effects (default: all, plus nulls)")
+    pv.add_argument("--forms", choices=("default", "all"), default="default",
+                    help="all: each effect also in the plant's other forms (default: its calibrated form only)")
+    pv.add_argument("--sizes", type=sizes, default=[1.0],
+                    help="comma-separated multiples of each concealed value (default 1), e.g. 1,3,10")
     pv.add_argument("--json", action="store_true")
     pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     pv.add_argument("--calibrate", action="store_true",

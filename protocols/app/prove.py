@@ -121,17 +121,18 @@ def calibrate(target, progress, effects=None):
 
 def _one(task):
     """Record one prove run through the wire protocols, diagnose it."""
-    effect, value, seed, folder = task
+    effect, form, size, value, seed, folder = task
     from models.diagnose import diagnose
     from protocols.app.run import run as run_protocol
     from protocols.io.reader import load_recording
     _, _, prove = plain_cell()
-    out = Path(folder) / f"{effect or 'null'}-{seed}.mcap"
+    out = Path(folder) / f"{effect or 'null'}-{form or 'default'}-{size:g}-{seed}.mcap"
     pairs = [f"{k}={','.join(str(x) for x in v) if isinstance(v, list) else v}" for k, v in prove["params"].items()]
     args = argparse.Namespace(protocol=prove["protocol"], params=pairs, rig=None, damper=None, out=str(out),
                               overwrite=True, long=False, realtime=False, live=False, rrd=None, identify=False,
                               plain=True, seed=seed,
-                              effect=[f"{effect}={value}"] if effect else [], progress=False)
+                              effect=[f"{effect}{':' + form if form else ''}={value}"] if effect else [],
+                              progress=False)
     import contextlib
     import io
     with contextlib.redirect_stderr(io.StringIO()):
@@ -142,7 +143,8 @@ def _one(task):
     est = None
     if first and effect and first == effect:
         est = r["steps"][0]["parameters"].get(CATALOGUE[effect].estimate)
-    return {"effect": effect, "seed": seed, "accepted": r["accepted"], "first": first, "estimate": est,
+    return {"effect": effect, "form": form, "size": size, "seed": seed, "accepted": r["accepted"], "first": first,
+            "estimate": est,
             "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"],
             "file": str(out)}
 
@@ -171,6 +173,7 @@ def run(args):
         return 0
     concealed = prove.get("concealed", {})
     effects = [e for e in (args.effects.split(",") if args.effects else list(EFFECTS) + ["null"])]
+    args.sizes = getattr(args, "sizes", None) or [1.0]
     unknown = [e for e in effects if e != "null" and e not in EFFECTS]
     if unknown:
         raise RigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null)")
@@ -178,26 +181,35 @@ def run(args):
         if e != "null" and e not in concealed:
             say(f"dyno: error: no concealed value for {e!r} in sim_backend/plain.toml (run dyno prove --calibrate)")
             return 2
+    variants = [(e, None) for e in effects]
+    if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
+        variants = [v for e in effects for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e != "null" else ())]]
     tasks = []
     with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:
         for seed in range(args.seeds):
-            for e in effects:
-                tasks.append((None if e == "null" else e, concealed.get(e), seed, folder))
+            for e, form in variants:
+                for size in ([1.0] if e == "null" else args.sizes):
+                    tasks.append((None, None, 1.0, None, seed, folder) if e == "null"
+                                 else (e, form, size, concealed[e] * size, seed, folder))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
-                tasks.append((None, None, seed, folder))
+                tasks.append((None, None, 1.0, None, seed, folder))
         results = []
         with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
             for r in pool.map(_one, tasks):
                 results.append(r)
-                say(f"{r['effect'] or 'null':20s} seed {r['seed']:2d}: accepted {r['accepted'] or 'nothing'}")
+                say(f"{r['effect'] or 'null':20s} {r['form'] or '':13s} x{r['size']:<4g} seed {r['seed']:2d}: "
+                    f"accepted {r['accepted'] or 'nothing'}")
         nulls = {r["seed"]: r["file"] for r in results if r["effect"] is None}
         for r in results:
-            if r["effect"] and r["effect"] != "sensor_delay":
+            if r["effect"] and not (r["effect"] == "sensor_delay" and r["form"] is None and r["size"] == 1.0):
                 r["contribution"] = _measured_rms_diff(r["file"], nulls[r["seed"]])
     table = []
-    for e in effects:
-        rs = [r for r in results if (r["effect"] or "null") == e]
-        row = {"effect": e, "n": len(rs), "value": concealed.get(e),
+    rows = sorted({(r["effect"] or "null", r["form"], r["size"]) for r in results},
+                  key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", k[2]))
+    for e, form, size in rows:
+        rs = [r for r in results if ((r["effect"] or "null"), r["form"], r["size"]) == (e, form, size)]
+        row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "n": len(rs),
+               "value": concealed[e] * size if e != "null" else None,
                "detection": float(np.mean([r["first"] == e for r in rs])) if e != "null" else None,
                "wrong_effect": float(np.mean([r["first"] not in (None, e) for r in rs])) if e != "null" else None,
                "false_positive": float(np.mean([bool(r["accepted"]) for r in rs])) if e == "null" else None,
@@ -215,19 +227,23 @@ def run(args):
         print(json.dumps(doc, indent=1))
     elif getattr(args, "markdown", False):
         from protocols.reports import markdown as md
-        body = md.table(("effect", "hidden value", "force contribution RMS [N]", "detection", "wrong effect",
-                         "false positive", "estimate (median)", "held-out NRMSE before / after [%]"),
-                        [(r["effect"], f(r["value"], ".3g"), f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"),
-                          f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"), f(r["estimate"], ".3g"),
+        body = md.table(("effect", "form", "size", "hidden value", "force contribution RMS [N]", "detection",
+                         "wrong effect", "false positive", "estimate (median)", "held-out NRMSE before / after [%]"),
+                        [(r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f(r["value"], ".3g"),
+                          f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"), f(r["wrong_effect"], ".0%"),
+                          f(r["false_positive"], ".0%"), f(r["estimate"], ".3g"),
                           f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}") for r in table])
         print(md.document("Proof of the diagnosis (dyno prove)", body,
-                          f"{args.seeds} seeds per effect on the plain cell through the wires; force noise "
-                          f"{noise:g} N RMS. Goals: detection >= 90 %, false positives <= 5 %. Method: docs/diagnosis.md."))
+                          f"{args.seeds} seeds per row on the plain cell through the wires; force noise "
+                          f"{noise:g} N RMS. Size x1 is the concealed value (its contribution equals the noise "
+                          f"in the default form); forms: sim_backend/effects.py FORMS. Goals: detection >= 90 %, "
+                          f"false positives <= 5 %. Method: docs/diagnosis.md."))
     else:
-        print(f"{'effect':20s} {'value':>10s} {'contrib N':>9s} {'detect':>7s} {'wrong':>6s} {'FP':>5s} "
-              f"{'estimate':>10s} {'before %':>8s} {'after %':>8s}")
+        print(f"{'effect':20s} {'form':>13s} {'size':>5s} {'value':>10s} {'contrib N':>9s} {'detect':>7s} {'wrong':>6s} "
+              f"{'FP':>5s} {'estimate':>10s} {'before %':>8s} {'after %':>8s}")
         for r in table:
-            print(f"{r['effect']:20s} {f(r['value'], '10.3g')} {f(r['contribution_rms'], '9.2f')} "
-                  f"{f(r['detection'], '7.0%')} {f(r['wrong_effect'], '6.0%')} {f(r['false_positive'], '5.0%')} "
-                  f"{f(r['estimate'], '10.3g')} {100 * r['heldout_before']:8.3f} {100 * r['heldout_after']:8.3f}")
+            print(f"{r['effect']:20s} {f(r['form'], '>13s')} {'x' + format(r['size'], 'g'):>5s} {f(r['value'], '10.3g')} "
+                  f"{f(r['contribution_rms'], '9.2f')} {f(r['detection'], '7.0%')} {f(r['wrong_effect'], '6.0%')} "
+                  f"{f(r['false_positive'], '5.0%')} {f(r['estimate'], '10.3g')} {100 * r['heldout_before']:8.3f} "
+                  f"{100 * r['heldout_after']:8.3f}")
     return 0

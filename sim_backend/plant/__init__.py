@@ -29,8 +29,9 @@ class Plant:
     def __init__(self, damper="koni", T0=None, h=5e-4, seed=0, params=None, effects=None):
         self.p = params or tomllib.loads(PARAMS.read_text())
         self.fx = dict(effects or {})  # hidden physics, sim_backend/effects.py
+        self.forms = self.fx.pop("forms", {})  # {effect: form} other than the default
         damper = load_damper(damper) if isinstance(damper, str) else damper
-        self.damper = fx_mod.damper_with(damper, self.fx)
+        self.damper = fx_mod.damper_with(damper, {**self.fx, "forms": self.forms})
         self.h = h
         self.t = 0.0
         self.rng = np.random.default_rng(seed)
@@ -60,6 +61,8 @@ class Plant:
         self.v_rod = self.F_rest = self.F_grip = 0.0
         self.curve = load_path.damping_curve(self) if self.gap else None
         self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
+        self.sens_mid = None  # its first stage (second-order form)
+        self.sens_past = deque(maxlen=int(self.fx.get("sensor_delay", 0.0) / h) + 3)  # (x, v) (transport form)
         self.a_f = 0.0  # acceleration through the oil column, low-passed [m/s^2]
         self.z_bw, self.x_bw = 0.0, self.x_rod  # hysteretic element's state [-] and where it was [m]
         self.aux_rng = np.random.default_rng(seed + 7919)

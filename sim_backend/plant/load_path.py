@@ -21,7 +21,7 @@ def damper_step(pl, h, v_prev):
         x_rod, v_rod = pl.x_d, pl.v_d
     F, F_d, F_g, F_f, P1, P2, Pg = pl.stepper.step(x_rod, v_rod)
     if fx.get("breakaway_friction", 1.0) != 1.0:  # Stribeck: the seal grips harder near rest
-        F += F_f * (fx["breakaway_friction"] - 1.0) * math.exp(-(v_rod / fx_mod.STRIBECK_V) ** 2)
+        F += F_f * (fx["breakaway_friction"] - 1.0) * stribeck(v_rod / fx_mod.STRIBECK_V, pl.forms.get("breakaway_friction"))
     if fx.get("bouc_wen"):
         F += fx["bouc_wen"] * hysteresis(pl, x_rod)
     if fx.get("fluid_inertia"):
@@ -42,6 +42,16 @@ def damper_step(pl, h, v_prev):
         if pl.contact == 0:
             return 0.0, F_d, P1, P2, Pg  # crossing the clearance: the load cell feels nothing
     return F, F_d, P1, P2, Pg
+
+
+def stribeck(u, form=None):
+    """Breakaway share [-] at speed u in Stribeck velocities: Gaussian (default),
+    exponential or Lorentzian."""
+    if form == "exponential":
+        return math.exp(-abs(u))
+    if form == "lorentzian":
+        return 1.0 / (1.0 + u * u)
+    return math.exp(-u * u)
 
 
 def hysteresis(pl, x):

@@ -27,12 +27,36 @@ def condition(pl, F, h):
     pl.F_meas += alpha * (F - pl.F_meas)
     if "sensor_delay" in pl.fx and pl.fx["sensor_delay"] > 0:  # the conditioning's filter
         x_mid = pl.x_d - X_LAG * h * pl.v_d  # see readings()
+        tau, form = pl.fx["sensor_delay"], pl.forms.get("sensor_delay")
+        if form == "transport":
+            pl.x_sens, pl.v_sens = transport(pl.sens_past, (x_mid, pl.v_d), tau, h)
+            return
         if pl.x_sens is None:
             pl.x_sens, pl.v_sens, pl.u_sens = x_mid, pl.v_d, (x_mid, pl.v_d)
-        tau = pl.fx["sensor_delay"]
+            pl.sens_mid = (x_mid, pl.v_d, x_mid, pl.v_d)  # first stage's output and its last input
+        if form == "second_order":  # two stages of tau / 2; the second sees the first's output ramp
+            ym, vm, u0x, u0v = pl.sens_mid
+            ym2, vm2 = ramp_lag(ym, u0x, x_mid, tau / 2, h), ramp_lag(vm, u0v, pl.v_d, tau / 2, h)
+            pl.x_sens = ramp_lag(pl.x_sens, ym, ym2, tau / 2, h)
+            pl.v_sens = ramp_lag(pl.v_sens, vm, vm2, tau / 2, h)
+            pl.sens_mid = (ym2, vm2, x_mid, pl.v_d)
+            return
         pl.x_sens = ramp_lag(pl.x_sens, pl.u_sens[0], x_mid, tau, h)
         pl.v_sens = ramp_lag(pl.v_sens, pl.u_sens[1], pl.v_d, tau, h)
         pl.u_sens = (x_mid, pl.v_d)
+
+
+def transport(past, now, tau, h):
+    """The signal tau [s] ago (linear between steps), with `now` appended to `past` (a
+    deque of the last steps' values, newest last)."""
+    past.append(now)
+    back = tau / h
+    k = int(back)
+    if k + 1 >= len(past):  # not yet that long: the oldest
+        return past[0]
+    a, b = past[-1 - k], past[-2 - k]
+    f = back - k
+    return tuple((1 - f) * u + f * w for u, w in zip(a, b))
 
 
 def readings(pl):

@@ -1,9 +1,11 @@
 """`dyno prove`: hide each catalogue effect in the plain virtual rig (sim_backend/plain.toml)
-at the level where its RMS contribution to the force equals the force sensor's noise,
-record the prove sine matrix through the wire protocols, diagnose, and count.
+at the level where its RMS contribution to the force equals the force sensor's noise (or a
+multiple, --sizes; in the plant's other forms, --forms all; two at once, A+B), record the
+prove sine matrix through the wire protocols, diagnose, and count.
 
-Detection: the effect is the first accepted. Wrong effect: something else came first.
-False positive: anything accepted on a null recording (no hidden effect).
+Detection: the effect is the first accepted (a pair: both accepted). Wrong effect:
+something else came first (a pair: something else accepted). False positive: anything
+accepted on a null recording (no hidden effect).
 """
 from __future__ import annotations
 
@@ -121,7 +123,7 @@ def calibrate(target, progress, effects=None):
 
 def _one(task):
     """Record one prove run through the wire protocols, diagnose it."""
-    effect, form, size, value, seed, folder = task
+    effect, form, size, values, seed, folder = task
     from models.diagnose import diagnose
     from protocols.app.run import run as run_protocol
     from protocols.io.reader import load_recording
@@ -131,7 +133,7 @@ def _one(task):
     args = argparse.Namespace(protocol=prove["protocol"], params=pairs, rig=None, damper=None, out=str(out),
                               overwrite=True, long=False, realtime=False, live=False, rrd=None, identify=False,
                               plain=True, seed=seed,
-                              effect=[f"{effect}{':' + form if form else ''}={value}"] if effect else [],
+                              effect=[f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()],
                               progress=False)
     import contextlib
     import io
@@ -141,7 +143,7 @@ def _one(task):
     r = diagnose(ch, ev)
     first = r["accepted"][0].split(":")[0] if r["accepted"] else None
     est = None
-    if first and effect and first == effect:
+    if first and effect and first == effect:  # a single effect (a pair's name has a "+")
         est = r["steps"][0]["parameters"].get(CATALOGUE[effect].estimate)
     return {"effect": effect, "form": form, "size": size, "seed": seed, "accepted": r["accepted"], "first": first,
             "estimate": est,
@@ -174,23 +176,25 @@ def run(args):
     concealed = prove.get("concealed", {})
     effects = [e for e in (args.effects.split(",") if args.effects else list(EFFECTS) + ["null"])]
     args.sizes = getattr(args, "sizes", None) or [1.0]
-    unknown = [e for e in effects if e != "null" and e not in EFFECTS]
+    unknown = [e for e in effects if e != "null" and not set(e.split("+")) <= set(EFFECTS)]
     if unknown:
-        raise RigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null)")
-    for e in effects:
+        raise RigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
+                       f"A+B hidden together)")
+    for e in (part for e in effects for part in e.split("+")):
         if e != "null" and e not in concealed:
             say(f"dyno: error: no concealed value for {e!r} in sim_backend/plain.toml (run dyno prove --calibrate)")
             return 2
     variants = [(e, None) for e in effects]
     if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
-        variants = [v for e in effects for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e != "null" else ())]]
+        variants = [v for e in effects
+                    for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
     tasks = []
     with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:
         for seed in range(args.seeds):
             for e, form in variants:
                 for size in ([1.0] if e == "null" else args.sizes):
                     tasks.append((None, None, 1.0, None, seed, folder) if e == "null"
-                                 else (e, form, size, concealed[e] * size, seed, folder))
+                                 else (e, form, size, {p: concealed[p] * size for p in e.split("+")}, seed, folder))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
                 tasks.append((None, None, 1.0, None, seed, folder))
         results = []
@@ -208,10 +212,15 @@ def run(args):
                   key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", k[2]))
     for e, form, size in rows:
         rs = [r for r in results if ((r["effect"] or "null"), r["form"], r["size"]) == (e, form, size)]
+        parts = set(e.split("+"))
+        named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
         row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "n": len(rs),
-               "value": concealed[e] * size if e != "null" else None,
-               "detection": float(np.mean([r["first"] == e for r in rs])) if e != "null" else None,
-               "wrong_effect": float(np.mean([r["first"] not in (None, e) for r in rs])) if e != "null" else None,
+               "value": concealed[e] * size if e in concealed else None,
+               # a single effect: the first accepted; a pair: both accepted, in either order
+               "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
+                             else float(np.mean([parts <= n for n in named])) if e != "null" else None),
+               "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS
+                                else float(np.mean([bool(n - parts) for n in named])) if e != "null" else None),
                "false_positive": float(np.mean([bool(r["accepted"]) for r in rs])) if e == "null" else None,
                "heldout_before": float(np.median([r["before"] for r in rs])),
                "heldout_after": float(np.median([r["after"] for r in rs])),

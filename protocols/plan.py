@@ -14,6 +14,8 @@ import typing
 from dataclasses import dataclass
 from typing import Callable
 
+import numpy as np
+
 from rig.errors import RigError
 
 
@@ -46,6 +48,15 @@ class Segment:
     # its own to record, units {name: unit}, and after() -> (channels, measures) called
     # once the rig is safe
     control: object | None = None
+
+
+def drain(log):
+    """A closed-loop control's channels() from its log {name: ([t], [values])}, emptied."""
+    out = {n: (np.array(t), np.array(v)) for n, (t, v) in log.items()}
+    for t, v in log.values():
+        t.clear()
+        v.clear()
+    return out
 
 
 @dataclass

@@ -31,7 +31,7 @@ from rig.compensation import COMPENSATORS, fit, make
 from rig.errors import RigError
 
 from protocols.library import roads
-from protocols.plan import ParamError, RigInfo, Segment
+from protocols.plan import ParamError, RigInfo, Segment, drain
 
 NAME = "hil"
 REHEARSE = True  # pre-flight: the whole run against the virtual plant first (protocols/rehearsal.py)
@@ -221,11 +221,7 @@ class CarLoop:
             vs_.append(value)
 
     def channels(self):
-        out = {n: (np.array(t), np.array(v)) for n, (t, v) in self.log.items()}
-        for t, v in self.log.values():
-            t.clear()
-            v.clear()
-        return out
+        return drain(self.log)
 
     def after(self):
         """(reference channels, measures) of the steps the car took."""

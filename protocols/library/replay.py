@@ -23,7 +23,7 @@ from scipy.signal import csd, welch  # imported here: never for the first time i
 
 from rig.errors import RigError
 
-from protocols.plan import ParamError, RigInfo, Segment
+from protocols.plan import ParamError, RigInfo, Segment, drain
 
 NAME = "replay"
 # the correction's band: a road-driven damper history has content past the road's 20 Hz (the
@@ -175,11 +175,7 @@ class _Iteration:
         return d
 
     def channels(self):
-        out = {n: (np.array(t), np.array(v)) for n, (t, v) in self.log.items()}
-        for t, v in self.log.values():
-            t.clear()
-            v.clear()
-        return out
+        return drain(self.log)
 
     def after(self):
         m = self.l.measured.get(self.i)

@@ -106,3 +106,26 @@ def test_negative_mass_car_file_is_named(tmp_path):
     p = run("plot", "quarter-car", "--car", str(car), "--out", str(tmp_path))
     assert p.returncode == 2
     assert p.stderr.strip() == "dyno: error: car.json: m_s: must be positive, got -250.0"
+
+
+def test_every_protocol_parameter_is_described_and_nothing_else():
+    import dataclasses
+    import tomllib
+
+    from protocols.library import DESCRIPTIONS, PROTOCOLS
+    doc = tomllib.loads(DESCRIPTIONS.read_text())
+    assert set(doc) == set(PROTOCOLS)
+    for name, module in PROTOCOLS.items():
+        assert set(doc[name]["params"]) == {f.name for f in dataclasses.fields(module.Params)}, name
+        assert all(" | " in v for v in doc[name]["params"].values()), name
+
+
+def test_protocols_and_a_protocols_help_list_parameters_with_defaults_and_units():
+    p = run("protocols")
+    assert p.returncode == 0 and all(n in p.stdout for n in ("static", "sine-matrix", "hil", "replay"))
+    p = run("run", "--rig", "x.toml", "hil", "--help")
+    assert p.returncode == 0, p.stderr
+    line = next(ln for ln in p.stdout.splitlines() if ln.strip().startswith("guard_mm"))
+    assert line.split()[1:3] == ["2.0", "mm"]
+    p = run("run", "--help")
+    assert p.returncode == 0 and "dyno run PROTOCOL --help" in p.stdout

@@ -126,7 +126,9 @@ def _cell_commands(sub):
     _hidden_physics(sr)
     sr.add_argument("--seconds", type=number(above=0), default=None, help="stop after this long")
     sr.set_defaults(command="sim_rig")
-    rn = sub.add_parser("run", help="run a test protocol and record it to MCAP")
+    sub.add_parser("protocols", help="the test protocols, each in a line").set_defaults(command="protocols_list")
+    rn = sub.add_parser("run", help="run a test protocol and record it to MCAP",
+                        epilog="dyno run PROTOCOL --help lists its parameters; dyno protocols lists the protocols")
     rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard, hil, replay")
     rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
     rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
@@ -262,6 +264,11 @@ def _bench_commands(sub):
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["run"] and {"-h", "--help"} & set(argv):  # a protocol's own parameters
+        from protocols.app.protocols_list import protocol_help
+        if any(protocol_help(a) for a in argv[1:]):
+            return 0
     p = parser()
     args, extra = p.parse_known_args(argv)
     if extra:  # `dyno run` takes name=value anywhere among its options

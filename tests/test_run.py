@@ -71,6 +71,16 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert any(e["kind"] == "skipped" and e["segment"] == "sine 12.7 mm 20 Hz" for e in events)
     # 1 kHz for the whole run; the load cell's last frame may still be on the line at the stop
     assert n["/channels/x"] > 10000 and abs(n["/channels/force"] - n["/channels/x"]) <= 1
+    # the same recording as one wide table on the force clock, for pandas or a spreadsheet
+    table = tmp_path / "x.csv"
+    p = subprocess.run([DYNO, "export", str(out), "--csv", str(table), "--channels", "force,x,T_body"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    import csv
+    rows = list(csv.reader(table.open()))
+    assert rows[0] == ["t [s]", "segment", "kind", "force [N]", "x [m]", "T_body [K]"]
+    assert len(rows) - 1 == n["/channels/force"]
+    assert {(r[1], r[2]) for r in rows[1:] if r[2] == "sine"} >= {("sine 6.4 mm 2 Hz", "sine"), ("sine 12.7 mm 8 Hz", "sine")}
 
 
 @pytest.mark.parametrize("args, message", [

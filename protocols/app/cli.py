@@ -203,6 +203,12 @@ def _analysis_commands(sub):
     pv.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
                     help="recordings made and diagnosed in parallel (default 2)")
     pv.set_defaults(command="prove")
+    ex = sub.add_parser("export", help="a recording as one wide table (CSV or Parquet) on the force clock")
+    ex.add_argument("recording")
+    ex.add_argument("--csv", metavar="FILE", help="write CSV")
+    ex.add_argument("--parquet", metavar="FILE", help="write Parquet (needs pyarrow)")
+    ex.add_argument("--channels", help="comma-separated channels (default: all, force first)")
+    ex.set_defaults(command="export")
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
     im.add_argument("file", metavar="FILE.csv")
     im.add_argument("--out", required=True, metavar="FILE.mcap")

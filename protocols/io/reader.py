@@ -4,6 +4,12 @@ diagnosis and any user's own analysis start from.
     from protocols.io.reader import load_recording
     channels, events, metadata = load_recording("run.mcap")
     t, force = channels["force"]          # seconds on the run clock, newtons
+    metadata["units"]["force"]            # "N": each channel's unit as recorded
+    metadata["run"], metadata["protocol"] # the run and its protocol's parameters (docs/recording.md)
+
+A DataFrame with pandas: `dyno export run.mcap --csv run.csv`, or
+    pandas.DataFrame({n: v for n, (t, v) in channels.items() if len(t) == len(channels["force"][0])})
+for channels that share the force clock.
 """
 from __future__ import annotations
 
@@ -17,13 +23,14 @@ from rig.errors import RigError
 
 
 def load_recording(path):
-    """(channels {name: (t, values)}, events [dict], metadata {name: dict})."""
+    """(channels {name: (t, values)}, events [dict], metadata {name: dict}); metadata
+    "units" is {channel: unit} as recorded."""
     path = Path(path)
     if not path.exists():
         raise RigError(f"{path}: no such file")
     if not path.is_file():
         raise RigError(f"{path}: not a readable recording (a folder, not a file)")
-    chans, events = {}, []
+    chans, events, units = {}, [], {}
     try:
         with open(path, "rb") as f:
             r = make_reader(f)
@@ -34,8 +41,10 @@ def load_recording(path):
                     ts, vs = chans.setdefault(ch.topic[len("/channels/"):], ([], []))
                     ts.extend(d["t"])
                     vs.extend(d["value"])
+                    units.setdefault(ch.topic[len("/channels/"):], d.get("unit", ""))
                 elif ch.topic == "/events":
                     events.append(d)
     except Exception as e:
         raise RigError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
+    meta["units"] = units
     return {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, events, meta

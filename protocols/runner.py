@@ -18,6 +18,7 @@ from typing import Protocol
 from rig.errors import RigError
 from rig.loop import ControlLoop, describe
 
+from protocols.display import shown
 from protocols.plan import as_dict
 
 
@@ -132,7 +133,7 @@ class Observers:
 
 def _shown(name, value):
     """A reading in the operator's unit: temperatures in C."""
-    return f"{value - 273.15:.1f} C" if name.startswith("T_") else f"{value:.4g}"
+    return f"{shown(value, 'K')[0]:.1f} C" if name.startswith("T_") else f"{value:.4g}"
 
 
 class Sequence:

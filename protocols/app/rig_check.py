@@ -9,6 +9,8 @@ from rig import config as rig_config
 from rig.safety import Safety
 from rig.rig import Rig
 
+from protocols.display import shown
+
 
 CHECK_S = 0.5  # how long rig check listens
 
@@ -50,7 +52,7 @@ def run(args):
             r = readings.get(name)
             if r is None:
                 missing.append(f"{name} ({ch.device})")
-                print(f"{name:12s} {ch.device:12s} {'-':>14s} {ch.unit:5s} {'-':>8s}  NO DATA")
+                print(f"{name:12s} {ch.device:12s} {'-':>14s} {shown(0.0, ch.unit)[1]:5s} {'-':>8s}  NO DATA")
                 continue
             status = "ok" if r.fault is None else f"FAULT: {r.fault}"
             q = rig_config.quantity(name)
@@ -58,12 +60,14 @@ def run(args):
             if r.fault:
                 missing.append(f"{name} ({ch.device}: {r.fault})")
             elif q is not None and not q[1] <= r.value <= q[2]:
-                status = f"IMPLAUSIBLE: outside {q[1]:g}..{q[2]:g} {q[0]}: check gain, offset and wiring"
-                missing.append(f"{name} ({ch.device}: implausible {r.value:.6g} {ch.unit})")
+                (lo, u), (hi, _), (v, _) = shown(q[1], q[0]), shown(q[2], q[0]), shown(r.value, ch.unit)
+                status = f"IMPLAUSIBLE: outside {lo:g}..{hi:g} {u}: check gain, offset and wiring"
+                missing.append(f"{name} ({ch.device}: implausible {v:.6g} {u})")
             elif beyond:
                 status = f"BEYOND LIMIT: {beyond}"
                 missing.append(f"{name} ({ch.device}: beyond limit)")
-            print(f"{name:12s} {ch.device:12s} {r.value:14.6g} {ch.unit:5s} {1e3 * (now - r.t):6.0f} ms  {status}")
+            v, u = shown(r.value, ch.unit)
+            print(f"{name:12s} {ch.device:12s} {v:14.6g} {u:5s} {1e3 * (now - r.t):6.0f} ms  {status}")
         state, alarms = rig.actuator()
         print(f"actuator: {state}, {'alarms: ' + ', '.join(alarms) if alarms else 'no alarms'}")
         if state == "unknown":

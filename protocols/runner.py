@@ -15,6 +15,8 @@ import threading
 import time
 from typing import Protocol
 
+import numpy as np
+
 from rig.errors import RigError
 from rig.loop import ControlLoop, describe
 
@@ -129,6 +131,27 @@ class Observers:
         """Wait until every call so far has been made."""
         self.queue.put(None)
         self.thread.join()
+
+
+class Kept:
+    """An observer that keeps what a run sends, in memory (for work on a run's data
+    without a recording: calibration, commissioning)."""
+
+    def __init__(self):
+        self.channels, self.events = {}, []
+
+    def samples(self, drained):
+        for n, (t, v) in drained.items():
+            ts, vs = self.channels.setdefault(n, ([], []))
+            ts.append(t)
+            vs.append(v)
+
+    def event(self, t, kind, segment, params, message):
+        self.events.append({"t": t, "kind": kind, "segment": segment, "params": params, "message": message})
+
+    def arrays(self):
+        """{name: (t, values)} of everything kept."""
+        return {n: (np.concatenate(ts), np.concatenate(vs)) for n, (ts, vs) in self.channels.items()}
 
 
 def _shown(name, value):

@@ -120,3 +120,28 @@ def test_any_edit_of_a_config_loads_or_gives_one_line(data):
     assert all(math.isfinite(v) for v in L.values()) and L["x_min"] < L["x_max"]
     assert L["force_max"] > 0 and 0 < L["stale_s"] <= 1.0
     assert all(math.isfinite(c.gain) and c.gain != 0 for c in cfg.channels.values())
+
+
+def test_rig_zero_changes_one_offset_and_leaves_the_rest_of_the_file():
+    import pytest
+
+    from protocols.app.rig_zero import set_offset
+    from rig.errors import RigError
+    text = ('[channels.force]\ndevice = "loadcell"\ngain = 1032.0  # N/V\noffset = 0.0  # tared\nunit = "N"\n\n'
+            '[channels.x]\noffset = 0.0381\n')
+    out = set_offset(text, "force", -419.8, "dyno rig zero 2026-11-24: tared")
+    assert out.splitlines()[3:5] == ["offset = -419.8  # tared", "# dyno rig zero 2026-11-24: tared"]
+    assert out.replace("offset = -419.8  # tared\n# dyno rig zero 2026-11-24: tared", "offset = 0.0  # tared") == text
+    assert "offset = 0.0381" in set_offset(text, "force", 1.0, "x") and \
+        "offset = 0.04\n# y" in set_offset(text, "x", 0.04, "y")
+    with pytest.raises(RigError, match=r"no \[channels.v\] section"):
+        set_offset(text, "v", 1.0, "z")
+
+
+def test_rig_zero_on_the_embedded_rig_reports_and_writes_nothing():
+    import subprocess
+    import sys
+    p = subprocess.run([sys.executable, "-m", "protocols.app.cli", "rig", "zero", "--unloaded", "--x-mm", "38"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "force: offset 0 -> -4" in p.stdout and "within 5 %" in p.stdout and "nothing written" in p.stdout

@@ -141,3 +141,20 @@ def test_hardware_in_the_loop_over_the_wires(tmp_path, sim_rig):
     assert m["j2"] < 0.03 and m["steps"] >= 4000, m
     t = ch["hil.x_target"][0]
     assert np.all(np.diff(t) > 0) and t[-1] - t[0] > 3.9  # one car step per tick, on the run clock
+
+
+def test_rig_zero_tares_references_and_writes_the_cell_file(tmp_path, sim_rig):
+    cfg = sim_rig_config(tmp_path)
+    sim_rig(cfg)
+    p = dyno("rig", "zero", "--rig", cfg, "--unloaded", "--x-mm", "39", timeout=120)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "the LVT reads" in p.stdout and f"written to {cfg}" in p.stdout
+    from rig import config as rig_config
+    zeroed = rig_config.load(cfg)  # still a valid cell file, with the dated reasons beside the offsets
+    text = cfg.read_text()
+    assert text.count("# dyno rig zero ") == 2 and "load cell tared with the damper disconnected" in text
+    assert zeroed.channels["force"].offset < -100  # the damper's gas force at rest, taken off
+    # the cell now reads zero force at rest and 39 mm at mid-stroke
+    p = dyno("rig", "check", "--rig", cfg, timeout=60)
+    rows = {ln.split()[0]: ln.split() for ln in p.stdout.splitlines() if ln.split()}
+    assert abs(float(rows["force"][2])) < 30 and abs(float(rows["x"][2]) - 39.0) < 0.2

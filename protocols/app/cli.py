@@ -164,6 +164,13 @@ def _cell_commands(sub):
     rc.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rc.add_argument("--damper", default="koni", help="damper in the embedded virtual rig (default koni)")
     rc.set_defaults(command="rig_check")
+    rz = rgsub.add_parser("zero", help="tare the load cell, reference the position, check the LVT; offsets "
+                                       "written to the cell file")
+    rz.add_argument("--rig", default=None, help="rig config to zero and write (default: the embedded virtual rig)")
+    rz.add_argument("--damper", default="koni", help="damper preset or FILE.json: its mid-stroke is held (default koni)")
+    rz.add_argument("--unloaded", action="store_true", help="the damper is disconnected: tare the load cell to zero")
+    rz.add_argument("--x-mm", type=number(), default=None, help="the true position [mm] at mid-stroke, from a gauge")
+    rz.set_defaults(command="rig_zero")
 
 
 def _analysis_commands(sub):

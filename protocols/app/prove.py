@@ -51,32 +51,16 @@ def offline_recording(effects=None, seed=0, rate_hz=1000.0, params=None):
     module, p, info, name, plant_params, _ = _plan(params)
     cfg = dataclasses.replace(rig_config.load("virtual"), rate_hz=rate_hz)
     rig = DirectRig(cfg, damper=name, seed=seed, effects=effects, params=plant_params)
-    kept = _Kept()
+    kept = runner.Kept()
     result, _ = runner.run(module, p, info, rig, SimulatedPacer(rig, rate_hz), Safety(cfg), [kept], progress=False)
     if result.fault:
         raise RigError(f"offline run with {effects or 'no effects'}: {result.fault}")
-    channels = {n: (np.concatenate(ts), np.concatenate(vs)) for n, (ts, vs) in kept.channels.items()}
+    channels = kept.arrays()
     t = channels["force"][0]
     measured = np.zeros(len(t), bool)
     for _, _, t0, t1 in segments(kept.events):
         measured |= (t > t0) & (t <= t1)
     return channels, kept.events, measured
-
-
-class _Kept:
-    """An observer that keeps what a run sends, in memory."""
-
-    def __init__(self):
-        self.channels, self.events = {}, []
-
-    def samples(self, drained):
-        for n, (t, v) in drained.items():
-            ts, vs = self.channels.setdefault(n, ([], []))
-            ts.append(t)
-            vs.append(v)
-
-    def event(self, t, kind, segment, params, message):
-        self.events.append({"t": t, "kind": kind, "segment": segment, "params": params, "message": message})
 
 
 def offline_force(effects, seed=0):

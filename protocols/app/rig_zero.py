@@ -1,0 +1,91 @@
+"""`dyno rig zero [--rig CELL.toml] [--unloaded] [--x-mm MM]`: tare the load cell (damper
+disconnected), reference the position (the true position at mid-stroke, from a gauge),
+check the LVT against the LVDT's derivative; new offsets are written into the cell file
+with a dated comment (the embedded virtual rig: shown, not written)."""
+from __future__ import annotations
+
+import datetime
+import re
+import sys
+from argparse import Namespace
+from pathlib import Path
+
+from models.damper import load as load_damper
+from rig import config as rig_config
+from rig.errors import RigError
+from rig.safety import Safety
+
+from protocols import commissioning, runner
+from protocols.app.run import _open_rig
+from protocols.plan import rig_info
+
+
+def set_offset(text, channel, value, note):
+    """The cell file's text with [channels.CHANNEL]'s offset set to value and a comment
+    line after it; RigError if the section or its offset line is missing."""
+    head = re.search(rf"^\[channels\.{re.escape(channel)}\]\s*$", text, re.M)
+    if head is None:
+        raise RigError(f"no [channels.{channel}] section to write the offset into")
+    end = re.search(r"^\[", text[head.end():], re.M)
+    body_end = head.end() + (end.start() if end else len(text) - head.end())
+    body = text[head.end():body_end]
+    line = re.search(r"^offset\s*=\s*[^#\n]*(#[^\n]*)?$", body, re.M)
+    if line is None:
+        raise RigError(f"[channels.{channel}] has no offset line to change")
+    comment = f"  {line.group(1)}" if line.group(1) else ""
+    new = f"offset = {value:.9g}{comment}\n# {note}"
+    body = body[:line.start()] + new + body[line.end():]
+    return text[:head.end()] + body + text[body_end:]
+
+
+def run(args):
+    cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
+    damper = load_damper(args.damper)
+    info = rig_info(cfg, damper)
+    vr, rig, served, pacer = _open_rig(Namespace(rig=args.rig, realtime=False), cfg, damper, {})
+    kept = runner.Kept()
+    try:
+        result, _ = runner.run(commissioning, commissioning.Params(), info, rig, pacer, Safety(served), [kept],
+                               progress=False)
+    finally:
+        rig.close()
+        if vr is not None:
+            vr.close()
+    if result.fault:
+        raise RigError(f"rig zero stopped: {result.fault}")
+    found = commissioning.findings(kept.arrays(), kept.events)
+    today = datetime.date.today().isoformat()
+    changes = []
+    ch = cfg.channels
+    if args.unloaded:
+        changes.append(("force", ch["force"].offset - found["force_mean"],
+                        f"load cell tared with the damper disconnected: it read {found['force_mean']:.2f} N"))
+    else:
+        print(f"force: reads {found['force_mean']:.1f} N at rest with the damper in; not tared (give --unloaded "
+              f"with the damper disconnected, so the load cell carries nothing)")
+    if args.x_mm is not None:
+        changes.append(("x", ch["x"].offset + args.x_mm / 1e3 - found["x_mean"],
+                        f"position referenced: read {1e3 * found['x_mean']:.3f} mm where the gauge gave "
+                        f"{args.x_mm:g} mm"))
+    else:
+        print(f"x: reads {1e3 * found['x_mean']:.3f} mm at mid-stroke ({1e3 * info.x_mid:.3f} mm planned); "
+              f"not referenced (give --x-mm with the gauge's reading there)")
+    g = found["lvt_gain"]
+    lvt = "within" if abs(g - 1) <= commissioning.LVT_TOLERANCE else "OFF BY MORE THAN"
+    print(f"v: the LVT reads {100 * (g - 1):+.2f} % against the LVDT's derivative ({lvt} "
+          f"{100 * commissioning.LVT_TOLERANCE:g} %)" + ("" if lvt == "within" else
+          f": check its gain, {ch['v'].gain:.6g} now, {ch['v'].gain / g:.6g} would agree"))
+    for name, value, why in changes:
+        print(f"{name}: offset {ch[name].offset:.9g} -> {value:.9g} ({why})")
+    if changes and args.rig and (str(args.rig).endswith(".toml") or "/" in str(args.rig)):
+        path = Path(args.rig)
+        text = path.read_text(encoding="utf-8")
+        for name, value, why in changes:
+            text = set_offset(text, name, value, f"dyno rig zero {today}: {why} (offset was {ch[name].offset:.9g})")
+        path.write_text(text, encoding="utf-8")
+        rig_config.load(path)  # still a valid cell file
+        print(f"written to {path}")
+    elif changes:
+        print("nothing written: give --rig CELL.toml, the cell's own file (the embedded virtual rig and the "
+              "shipped configs are not changed)")
+    return 0 if lvt == "within" else 1

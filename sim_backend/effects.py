@@ -60,6 +60,17 @@ BW_YIELD = 2e-4  # m: the hidden hysteretic element's yield travel (a choice: MR
 TIGHT_SPOT = (0.006, 0.004)  # m: the tight spot's centre above mid-stroke and its half-width
 
 
+def scaled(name, value, s):
+    """The VALUE that makes effect `name` s times as strong as at `value`: a bulk modulus
+    falls (value / s), a breakaway ratio's excess grows (1 + (value - 1) s), the rest grow
+    in proportion."""
+    if name == "compressibility":
+        return value / s
+    if name == "breakaway_friction":
+        return 1 + (value - 1) * s
+    return value * s
+
+
 class EffectError(ValueError):
     pass
 

@@ -202,7 +202,7 @@ def _analysis_commands(sub):
     pv.add_argument("--forms", choices=("default", "all"), default="default",
                     help="all: each effect also in the plant's other forms (default: its calibrated form only)")
     pv.add_argument("--sizes", type=sizes, default=[1.0],
-                    help="comma-separated multiples of each concealed value (default 1), e.g. 1,3,10")
+                    help="comma-separated strengths: multiples of each concealed effect (default 1), e.g. 1,3,10")
     pv.add_argument("--json", action="store_true")
     pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     pv.add_argument("--calibrate", action="store_true",

@@ -22,7 +22,7 @@ import numpy as np
 from models.diagnose.candidates import CATALOGUE
 from models.recording import segments
 from rig.errors import RigError
-from sim_backend.effects import EFFECTS, plain_cell
+from sim_backend.effects import EFFECTS, plain_cell, scaled
 
 def _plan(override=None):
     from models.damper import load as load_damper
@@ -92,9 +92,8 @@ def calibrate(target, progress, effects=None):
     for e, g in ((e, h.guess) for e, h in EFFECTS.items()):
         if effects and e not in effects:
             continue
-        # strength s > 0 grows the effect; the value is g * s (bulk modulus: g / s; ratio: 1 + (g - 1) s)
-        def value(s, e=e, g=g):
-            return g / s if e == "compressibility" else 1 + (g - 1) * s if e == "breakaway_friction" else g * s
+        def value(s, e=e, g=g):  # strength s > 0 grows the effect
+            return scaled(e, g, s)
         lo, hi = 1e-3, 1e3
         for _ in range(14):
             s = math.sqrt(lo * hi)
@@ -178,7 +177,8 @@ def run(args):
             for e, form in variants:
                 for size in ([1.0] if e == "null" else args.sizes):
                     tasks.append((None, None, 1.0, None, seed, folder) if e == "null"
-                                 else (e, form, size, {p: concealed[p] * size for p in e.split("+")}, seed, folder))
+                                 else (e, form, size, {p: scaled(p, concealed[p], size) for p in e.split("+")},
+                                       seed, folder))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
                 tasks.append((None, None, 1.0, None, seed, folder))
         results = []
@@ -199,7 +199,7 @@ def run(args):
         parts = set(e.split("+"))
         named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
         row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "n": len(rs),
-               "value": concealed[e] * size if e in concealed else None,
+               "value": scaled(e, concealed[e], size) if e in concealed else None,
                # a single effect: the first accepted; a pair: both accepted, in either order
                "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
                              else float(np.mean([parts <= n for n in named])) if e != "null" else None),
@@ -229,7 +229,8 @@ def run(args):
         print(md.document("Proof of the diagnosis (dyno prove)", body,
                           f"{args.seeds} seeds per row on the plain cell through the wires; force noise "
                           f"{noise:g} N RMS. Size x1 is the concealed value (its contribution equals the noise "
-                          f"in the default form); forms: sim_backend/effects.py FORMS. Goals: detection >= 90 %, "
+                          f"in the default form); x10 ten times as strong (a bulk modulus divided by ten, a "
+                          f"breakaway ratio's excess times ten); forms: sim_backend/effects.py FORMS. Goals: detection >= 90 %, "
                           f"false positives <= 5 %. Method: docs/diagnosis.md."))
     else:
         print(f"{'effect':20s} {'form':>13s} {'size':>5s} {'value':>10s} {'contrib N':>9s} {'detect':>7s} {'wrong':>6s} "

@@ -1,7 +1,10 @@
 """Missing-physics diagnosis: fit the baseline, locate where its residual lives, try each
 catalogue effect (models/diagnose/candidates.py) with the baseline refitted, judge it only on
 held-out cycles, accept the best one whose improvement is significant, repeat. Two-fold
-cross-fitting (even cycles fit, odd judged, and back) judges every cycle once.
+cross-fitting (even cycles fit, odd judged, and back) judges every cycle once; a time
+split (holdout_masks) fits the past, chooses on the next stretch and reports on the last.
+An accepted effect whose parameters trade against an earlier one's (trades) is marked as
+possibly compensating that effect's form.
 
 Significance: the held-out improvement per block, log(SSE_baseline,b / SSE_candidate,b), so
 that every block counts alike whatever its force level and a block made worse weighs as

@@ -44,7 +44,8 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert p.returncode == 2 and "amplitudes_mm: 40 mm leaves the stroke limits" in p.stderr  # refused
     assert not out.exists()
     p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(out), "amplitudes_mm=6.4,12.7",
-                        "freqs_hz=2,8,20", "record_cycles=3"], capture_output=True, text=True, timeout=300)
+                        "freqs_hz=2,8,20", "record_cycles=3", "--operator", "A. Tester", "--serial", "K-0042"],
+                       capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     assert "skipping sine 12.7 mm 20 Hz: peak velocity 1.60 m/s" in p.stderr
     summary, meta, attachments, messages = read(out)
@@ -54,6 +55,8 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert all(s.encoding == "jsonschema" for s in summary.schemas.values())
     assert {"software", "rig", "calibration", "damper", "protocol"} <= set(meta)
     assert json.loads(meta["protocol"]["params"])["freqs_hz"] == [2.0, 8.0, 20.0]
+    assert (meta["run"]["operator"], meta["run"]["damper_serial"]) == ("A. Tester", "K-0042")
+    assert "note" not in meta["run"]
     assert attachments == ["rig.toml"]
     # no gaps: per topic the message counter and the sample index both run on
     seq, n = {}, {}

@@ -141,6 +141,9 @@ def _cell_commands(sub):
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
     rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
     rn.add_argument("--rrd", default=None, help="also save the live view to FILE.rrd")
+    rn.add_argument("--operator", default=None, help="who runs the test (recorded, shown on the report)")
+    rn.add_argument("--serial", default=None, help="the damper's serial number (recorded, shown on the report)")
+    rn.add_argument("--note", default=None, help="a note for the record (setup, clickers, ...)")
     rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
                     help="identify the damper while the test runs and write RECORDING.model.json "
                          "(default: on for the standard sequence)")

@@ -36,8 +36,10 @@ def run(args):
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
+        who = {"operator": "operator", "damper_serial": "serial", "note": "note"}  # metadata "run" <- --option
         recorder = Recorder(claim, cfg, json.dumps(to_dict(damper)), module.NAME, as_dict(params),
-                            wall_start=rig.wall_start)
+                            wall_start=rig.wall_start,
+                            run_info={k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)})
         print(f"recording to {claim.target}", file=sys.stderr, flush=True)
         if identifying:
             from protocols.live_identify import LiveIdentify

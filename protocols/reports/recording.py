@@ -38,6 +38,10 @@ def report(path, out_dir):
     proto = meta.get("protocol", {})
     damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
     page = Page(f"Dyno report: {Path(path).name}")
+    run = meta.get("run", {})
+    page.paragraph(" · ".join(f"{label}: {run[k]}" for k, label in (
+        ("wall_start", "started (UTC)"), ("operator", "operator"), ("damper_serial", "damper serial"), ("note", "note"))
+        if run.get(k)))
     page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}.")
     page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)

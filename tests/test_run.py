@@ -401,3 +401,23 @@ def test_no_repeated_setpoint_at_segment_boundaries():
         k = np.searchsorted(tf, b)
         d2 = np.abs(np.diff(F[k - 40:k + 40], 2))
         assert d2[36:42].max() < 6 * np.median(d2) + 20
+
+
+def test_report_of_a_step_run_measures_each_step(tmp_path):
+    out = tmp_path / "step.mcap"
+    p = subprocess.run([DYNO, "run", "step", "steps_mm=5,-5", "--out", str(out)], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr
+    p = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr
+    html = (tmp_path / "rep" / "index.html").read_text()
+    assert "No measured segments" not in html and "rise 10-90 % [ms]" in html and (tmp_path / "rep" / "steps.png").exists()
+    from protocols.io.reader import load_recording
+    from models.recording import segments
+    from protocols.reports.recording import step_measures
+    ch, events, _ = load_recording(out)
+    rows = step_measures(ch, segments(events))
+    # the 10 ms ramp through the 40 Hz servo: rise about the ramp's, settled within 100 ms, little overshoot
+    assert [r[1] for r in rows] == [5, -5]
+    assert all(5 < r[2] < 30 and r[3] < 5 and 0 < r[4] < 100 for r in rows), rows

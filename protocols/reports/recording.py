@@ -33,7 +33,7 @@ def report(path, out_dir):
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
     figures = (_sine_figures(ch, segs, out) + _static_figures(ch, events, segs, out) + _low_speed_figures(ch, segs, out)
-               + _temperature_figures(ch, segs, out) + hil.figures(ch, events, out))
+               + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out) + hil.figures(ch, events, out))
     ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
     proto = meta.get("protocol", {})
     damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
@@ -45,6 +45,11 @@ def report(path, out_dir):
     page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}.")
     page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)
+    steps = step_measures(ch, segs)
+    if steps:
+        page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")
+        page.table(("segment", "step [mm]", "rise 10-90 % [ms]", "overshoot [%]", "settling [ms]", "peak force [N]"),
+                   [(n, f"{s:+g}", f"{r:.1f}", f"{o:.1f}", f"{st:.0f}", f"{F:.0f}") for n, s, r, o, st, F in steps])
     if hil.results(events):
         page.heading("Hardware in the loop: measures against the reference (docs/hil.md)")
         page.table(hil.HEADER, hil.table(events))
@@ -95,6 +100,54 @@ def _sine_figures(ch, segs, out):
         ax.legend()
         figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
     return figures
+
+
+STEP_BAND = 0.02  # settled: within 2 % of the step of its target, to stay
+
+
+def step_measures(ch, segs):
+    """[(segment, step [mm], rise 10-90 % [ms], overshoot [%], settling [ms], peak force [N])]
+    of the measured step segments: the damper's displacement against its target."""
+    rows = []
+    for name, prm, t0, t1 in segs:
+        if prm["kind"] != "step" or "step_mm" not in prm or not {"x", "force"} <= set(ch):
+            continue
+        t, x = ch["x"]
+        k = (t >= t0) & (t <= t1)
+        if k.sum() < 10:
+            continue
+        tk, xk = t[k] - t0, x[k]
+        d = prm["step_mm"] / 1e3
+        u = (xk - xk[0]) / d  # 0 at the start, 1 at the target
+        up = lambda level: float(tk[np.argmax(u >= level)]) if np.any(u >= level) else float("nan")  # noqa: E731
+        out = np.nonzero(np.abs(u - 1) > STEP_BAND)[0]
+        settle = float(tk[out[-1] + 1]) if len(out) and out[-1] + 1 < len(tk) else (0.0 if not len(out) else float("nan"))
+        F = _window(ch, ("force",), t0, t1)[0]
+        rows.append((name, prm["step_mm"], 1e3 * (up(0.9) - up(0.1)), 100 * max(float(u.max()) - 1, 0.0),
+                     1e3 * settle, float(F[np.argmax(np.abs(F))])))
+    return rows
+
+
+def _step_figures(ch, segs, out):
+    """Displacement and force against time from each step's start."""
+    steps = [s for s in segs if s[1]["kind"] == "step" and "step_mm" in s[1]]
+    if not steps or not {"x", "force"} <= set(ch):
+        return []
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
+    for name, prm, t0, t1 in steps:
+        F, x = _window(ch, ("force", "x"), t0, t1)
+        tt = ch["force"][0][(ch["force"][0] >= t0) & (ch["force"][0] <= t1)] - t0
+        n = min(len(tt), len(x))
+        ax[0].plot(1e3 * tt[:n], 1e3 * (x[:n] - x[0]), lw=0.9, label=name)
+        ax[1].plot(1e3 * tt[:n], F[:n], lw=0.9, label=name)
+    ax[0].set(title="Displacement from the step's start", xlabel="time [ms]", ylabel="displacement [mm]")
+    ax[1].set(title="Force", xlabel="time [ms]", ylabel="force [N]")
+    settled = [r[4] for r in step_measures(ch, steps) if np.isfinite(r[4])]
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+        a.set_xlim(0, max(100.0, 5 * max(settled, default=20.0)))  # the response, not the whole hold
+    return [("Step responses (compression positive)", save(fig, out / "steps.png"))]
 
 
 def _static_figures(ch, events, segs, out):

@@ -27,12 +27,23 @@ def _window(ch, names, t0, t1):
     return [first[k]] + [np.interp(tk, *ch[n]) if len(ch[n][0]) else np.full(len(tk), np.nan) for n in names[1:]]
 
 
+def _damper_model(meta):
+    """The full damper model the recording was made with, or None (simplified or absent)."""
+    from models.damper import DamperError, from_dict
+    try:
+        d = from_dict(json.loads(meta.get("damper", {}).get("model", "") or "null"))
+    except (DamperError, ValueError, TypeError, KeyError):
+        return None
+    return None if getattr(d, "layout", "simplified") == "simplified" else d
+
+
 def report(path, out_dir):
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
-    figures = (_sine_figures(ch, segs, out) + _static_figures(ch, events, segs, out) + _low_speed_figures(ch, segs, out)
+    model = _damper_model(meta)
+    figures = (_sine_figures(ch, segs, out, model) + _static_figures(ch, events, segs, out) + _low_speed_figures(ch, segs, out)
                + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out) + hil.figures(ch, events, out))
     ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
     proto = meta.get("protocol", {})
@@ -61,14 +72,25 @@ def report(path, out_dir):
     return index, [out / png for _, png in figures]
 
 
-def _sine_figures(ch, segs, out):
-    """Loops per amplitude and the composite peak curve of the sine segments."""
+def _gas_friction(damper, x, v, T):
+    """Gas plus friction force [N] of the damper model at positions x [m], velocities v
+    [m/s] and temperature T [K] (what the thesis subtracts to plot the damping force)."""
+    from models.physics.simulate import simulate
+    r = simulate(damper, np.arange(len(x)) * 1e-3, np.asarray(x, float), np.asarray(v, float), T=T,
+                 compressible=False, x_e=damper.mid_stroke)
+    return r.gas + r.friction
+
+
+def _sine_figures(ch, segs, out, damper=None):
+    """Loops per amplitude and the composite curve of the sine segments: per amplitude and
+    temperature, peak damping force (measured less the damper model's gas and friction at
+    each peak, when the recording names a full damper model) against peak velocity."""
     figures = []
     sines = [s for s in segs if s[1]["kind"] == "sine" and "amplitude_mm" in s[1]]
     if sines and all(k in ch for k in ("force", "x", "v")):
         amps = sorted({s[1]["amplitude_mm"] for s in sines}, reverse=True)
         fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
-        peaks = []
+        peaks = {}  # (amplitude, target temperature) -> [(v_c, F_c, v_r, F_r)]
         for j, a in enumerate(amps):
             for name, prm, t0, t1 in sines:
                 if prm["amplitude_mm"] != a:
@@ -79,7 +101,13 @@ def _sine_figures(ch, segs, out):
                 axes[0, j].plot(v[:n], F[:n], lw=0.8, label=label)
                 axes[1, j].plot(1e3 * x[:n], F[:n], lw=0.8, label=label)
                 if n:
-                    peaks.append((v[:n].max(), F[:n].max(), v[:n].min(), F[:n].min()))
+                    ic, ir = int(np.argmax(v[:n])), int(np.argmin(v[:n]))
+                    Fc, Fr = F[ic], F[ir]
+                    if damper is not None:
+                        T = float(np.mean(_window(ch, ("T_body",), t0, t1)[0])) if "T_body" in ch else 293.15
+                        Fc, Fr = np.array([Fc, Fr]) - _gas_friction(damper, x[[ic, ir]], v[[ic, ir]], T)
+                    key = (a, prm.get("target_c"))
+                    peaks.setdefault(key, []).append((v[ic], Fc, v[ir], Fr))
             axes[0, j].set(title=f"{a:g} mm: force vs velocity", xlabel="velocity [m/s]", ylabel="force [N]")
             axes[1, j].set(title=f"{a:g} mm: force vs displacement", xlabel="displacement [mm]",
                            ylabel="force [N]")
@@ -88,16 +116,17 @@ def _sine_figures(ch, segs, out):
                 ax.legend(fontsize=7)
         figures.append(("Force-velocity and force-displacement loops (compression positive)",
                         save(fig, out / "loops.png")))
-        P = np.array(peaks)
-        fig, ax = plt.subplots(figsize=(6, 4.5))
-        order = np.argsort(P[:, 0])
-        ax.plot(P[order, 0], P[order, 1], "o-", label="compression")
-        order = np.argsort(-P[:, 2])
-        ax.plot(-P[order, 2], -P[order, 3], "s-", label="rebound (magnitudes)")
-        ax.set(title="Composite: peak force vs peak velocity", xlabel="peak velocity [m/s]",
-               ylabel="peak force [N]")
+        fig, ax = plt.subplots(figsize=(7, 5))
+        for (a, T), pts in sorted(peaks.items(), key=lambda kv: (-kv[0][0], kv[0][1] or 0)):
+            P = np.array(sorted(pts))
+            label = f"{a:g} mm" + (f", {T:g} C" if T is not None else "")
+            line = ax.plot(P[:, 0], P[:, 1], "o-", label=f"{label} compression")[0]
+            ax.plot(-P[:, 2], -P[:, 3], "s--", color=line.get_color(), label=f"{label} rebound")
+        what = "damping force (measured - gas - friction of the damper model)" if damper else "peak force"
+        ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity", xlabel="peak velocity [m/s]",
+               ylabel=f"{what} [N]")
         ax.grid(alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize=7)
         figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
     return figures
 

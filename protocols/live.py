@@ -19,7 +19,11 @@ import rerun.blueprint as rrb
 
 from rig.errors import RigError
 
+from protocols.display import shown
+
 TIMELINE = "t"
+UNIT_ORDER = ("N", "mm", "mm/s", "C", "bar")  # the views, top to bottom; other units after
+UNIT_NAMES = {"N": "force", "mm": "displacement", "mm/s": "velocity", "C": "temperatures", "bar": "pressures"}
 LOOP_POINTS = 4000  # the most recent samples of the segment shown in the loops
 
 
@@ -70,31 +74,32 @@ class LiveView:
         """The blueprint for the channels known so far, and each channel's name with its
         unit; a closed loop's channels (hardware in the loop) get a column of their own."""
         ch = lambda *names: [f"channels/{n}" for n in names if n in self.channels]  # noqa: E731
-        forces = ch("force")
-        motion = ch("x", "x_internal", "v")
-        rest = [f"channels/{n}" for n in self.channels if f"channels/{n}" not in forces + motion
-                and not n.startswith("hil.")]
-        columns = [rrb.Vertical(rrb.TimeSeriesView(origin="/", contents=forces, name="force [N]"),
-                                rrb.TimeSeriesView(origin="/", contents=motion, name="motion [m, m/s]"),
-                                rrb.TimeSeriesView(origin="/", contents=rest, name="temperatures, pressures")),
-                   rrb.Vertical(rrb.Spatial2DView(origin="loops/force_velocity", name="force vs velocity"),
+        # one view per unit, in the operator's units (force, displacement, velocity,
+        # temperatures in C, pressures in bar, then any other)
+        by_unit = {}
+        for n, unit in self.channels.items():
+            if not n.startswith("hil."):
+                by_unit.setdefault(shown(0.0, unit)[1], []).append(f"channels/{n}")
+        order = sorted(by_unit, key=lambda u: (UNIT_ORDER.index(u) if u in UNIT_ORDER else len(UNIT_ORDER), u))
+        columns = [rrb.Vertical(*[rrb.TimeSeriesView(origin="/", contents=by_unit[u], name=f"{UNIT_NAMES.get(u, u)} [{u}]")
+                                  for u in order]),                   rrb.Vertical(rrb.Spatial2DView(origin="loops/force_velocity", name="force vs velocity"),
                                 rrb.Spatial2DView(origin="loops/force_displacement", name="force vs displacement"),
                                 rrb.TimeSeriesView(origin="identify", name="identified (value, 95 % interval)"),
                                 rrb.TextLogView(origin="events", name="protocol"))]
         if "hil.x_target" in self.channels:
             columns.append(rrb.Vertical(
                 rrb.TimeSeriesView(origin="/", contents=ch("hil.x_target", "x", "hil.x_command"),
-                                   name="damper: target, measured, command [m]"),
-                rrb.TimeSeriesView(origin="/", contents=ch("hil.error"), name="tracking error [m]"),
+                                   name="damper: target, measured, command [mm]"),
+                rrb.TimeSeriesView(origin="/", contents=ch("hil.error"), name="tracking error [mm]"),
                 rrb.TimeSeriesView(origin="/", contents=ch("hil.body_acc", "hil.ref.body_acc"),
                                    name="car: body acceleration [m/s^2]"),
                 rrb.TimeSeriesView(origin="/", contents=ch("hil.tire_load", "hil.ref.tire_load"),
                                    name="car: tire load [N]"),
                 rrb.TimeSeriesView(origin="/", contents=ch("hil.sprung", "hil.unsprung", "hil.road"),
-                                   name="car: body, wheel, road [m]")))
+                                   name="car: body, wheel, road [mm]")))
         self.rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(*columns, column_shares=[3, 2, 3][:len(columns)])))
         for n, unit in self.channels.items():
-            self.rec.log(f"channels/{n}", rr.SeriesLines(names=f"{n} [{unit}]"), static=True)
+            self.rec.log(f"channels/{n}", rr.SeriesLines(names=f"{n} [{shown(0.0, unit)[1]}]"), static=True)
 
     def units(self, units):
         """Channels a closed loop adds, with their units: laid out in the view."""
@@ -103,9 +108,10 @@ class LiveView:
 
     def samples(self, drained):
         for name, (t, v) in drained.items():
-            if len(t):
+            if len(t):  # in the operator's units: C, bar, mm, mm/s
                 self.rec.send_columns(f"channels/{name}", indexes=[rr.TimeColumn(TIMELINE, duration=t)],
-                                      columns=rr.Scalars.columns(scalars=v))
+                                      columns=rr.Scalars.columns(scalars=shown(np.asarray(v, float),
+                                                                               self.channels.get(name, ""))[0]))
         if all(len(drained.get(k, ((), ()))[0]) for k in self.loop):
             n = min(len(drained[k][1]) for k in self.loop)
             for k in self.loop:

@@ -161,7 +161,7 @@ def test_the_live_view_shows_the_car(tmp_path):
     assert p.returncode == 0, p.stderr[-2000:]
     data = rrd.read_bytes()
     for entity in ("channels/hil.x_target", "channels/hil.error", "channels/hil.body_acc", "channels/hil.tire_load",
-                   "channels/hil.ref.body_acc", "tracking error [m]", "car: body acceleration"):
+                   "channels/hil.ref.body_acc", "tracking error [mm]", "car: body acceleration", "temperatures [C]"):
         assert entity.encode() in data, entity
 
 

@@ -1,10 +1,11 @@
-"""A recording as the diagnosis sees it: one uniform time base per stretch of cycling,
-cut into whole cycles that are either fitted (train) or only judged (held out).
+"""A recording as the diagnosis sees it: one uniform time base per stretch of motion,
+cut into whole cycles (or, for motion that does not repeat, blocks of BLOCK_S) that are
+either fitted (train) or only judged (held out).
 
-Channels may come at different rates, with gaps and dropouts: everything is put on the
-force channel's clock (block-averaged to at most MAX_RATE_HZ), a stretch is cut wherever
-the force or displacement has a gap longer than GAP_PERIODS sample periods, and what
-could not be assessed is said in `notes`.
+Channels may come at different rates, with gaps and dropouts: samples the data-quality
+check flags (models/diagnose/quality.py) are left out first, everything is put on the
+force channel's clock (block-averaged to at most MAX_RATE_HZ), a cycle touched by a gap
+or a flagged span is left out, and what could not be assessed is said in `notes`.
 """
 from __future__ import annotations
 

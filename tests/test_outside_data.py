@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from models.diagnose import holdout_masks, quality, trades
-from models.diagnose.candidates import Model, _bouc_wen, _dahl
+from models.diagnose.candidates import Model
+from models.diagnose.kernels import bouc_wen, dahl
 from models.diagnose.data import Data
 
 DYNO = [sys.executable, "-m", "protocols.app.cli"]
@@ -86,11 +87,11 @@ def test_bouc_wen_and_dahl_states_follow_their_equations():
     t = np.arange(len(x)) * 1e-3
     h = np.full(len(x), 1e-3)
     x_y, g = 2e-4, 0.7
-    z = _bouc_wen(x, t, h, x_y, g)
+    z = bouc_wen(x, t, h, x_y, g)
     # dz/dt = (v - beta v z^2 - gamma |v| z |z|) / x_y with beta = 1 - gamma
     ref = _kernel_reference(x, lambda z, dx: (1 - (1 - g) * z * z - g * np.sign(dx) * z * abs(z)) / x_y)
     assert np.max(np.abs(z - ref)) < 1e-3 and np.max(np.abs(z)) < 1
-    zd = _dahl(x, t, h, 1e-4)
+    zd = dahl(x, t, h, 1e-4)
     ref = _kernel_reference(x, lambda z, dx: (1 - z * np.sign(dx)) / 1e-4, z0=1.0)
     assert np.max(np.abs(zd - ref)) < 1e-3
 

@@ -15,7 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+
+from models.diagnose import kernels
 
 GAMMA = 1.38  # thesis section 4.1.2
 V_EPS = 5e-5  # m/s: friction sign softened over this (the model's velocity is low-passed)
@@ -75,155 +76,6 @@ def baseline_params(d):
             P("C_r", c0, 0.01 * c0, 100 * c0, "N s/m"), P("Fcr_r", 0.5 * Fmax, 0.0, 3 * Fmax, "N"),
             P("G0", Fg, -Fmax, Fmax, "N"), P("L", 0.3, 0.005, 20.0, "m"),
             P("F_c", 0.03 * Fmax, 0.0, 0.5 * Fmax, "N")]
-
-
-@njit(cache=True)
-def _lag(F, tau, h):
-    """F through a first-order lag of time constant tau[i] [s] (implicit Euler)."""
-    out = np.empty_like(F)
-    y = F[0]
-    for i in range(len(F)):
-        y += h[i] / (tau[i] + h[i]) * (F[i] - y)
-        out[i] = y
-    return out
-
-
-@njit(cache=True)
-def _integral(F, t, lo, hi):
-    """Integral over [lo, hi] of F linear between samples t (lo >= t[0])."""
-    j = max(np.searchsorted(t, lo) - 1, 0)
-    out = 0.0
-    while j < len(t) - 1 and t[j] < hi:
-        a, b = max(t[j], lo), min(t[j + 1], hi)
-        if b > a:
-            s = (F[j + 1] - F[j]) / (t[j + 1] - t[j])
-            out += (b - a) * (F[j] + s * (0.5 * (a + b) - t[j]))
-        j += 1
-    return out
-
-
-@njit(cache=True)
-def _plateau(F, S, t, c, W):
-    """Free play: the load cell reads zero while the mount crosses a clearance c [m].
-    When the force F [N] changes sign (at t_z, between samples) the rod leaves its contact
-    and floats where the damper's own force on it is zero; the mount then moves away from
-    it at the speed it would have needed to make the force, |F| / S (S: the damping's slope
-    dF/dv [N s/m]), so the gap closes at t_e where the integral of |F| / S from t_z is c.
-    Each sample holds the force's mean over a window W [s] about it (the amplifier's
-    anti-alias filter), so it loses what the part of its window inside the crossing would
-    have carried: the force depends smoothly on c and on where the crossing falls between
-    samples, and c = 0 is the model without. No crossing is begun across a gap."""
-    out = F.copy()
-    if c <= 0.0:
-        return out
-    n = len(F)
-    i = 1
-    while i < n:
-        h = t[i] - t[i - 1]
-        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
-            i += 1
-            continue
-        tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
-        side = 1.0 if F[i] > 0 else -1.0
-        s, t0, f0, te = 0.0, tz, 0.0, t[n - 1]
-        j = i
-        while j < n:
-            f1 = side * F[j]
-            if f1 < 0.0:  # back to the old side before the gap closed: contact resumes there
-                te = t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1)
-                break
-            dt = t[j] - t0
-            k = max(S[j], 1e-9)
-            ds = 0.5 * (f0 + f1) * dt / k
-            if s + ds >= c and dt > 0.0:
-                # |F| linear over the interval: s(tau) = (f0 tau + b tau^2 / 2) / k, b = (f1 - f0) / dt
-                b = (f1 - f0) / dt
-                need = (c - s) * k
-                if abs(b) * need < 1e-12 * f0 * f0:
-                    tau = need / max(f0, 1e-30)
-                else:
-                    tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
-                te = t0 + min(max(tau, 0.0), dt)
-                break
-            s += ds
-            t0, f0 = t[j], f1
-            j += 1
-        k = i - 1
-        while k < n and t[k] - 0.5 * W < te:
-            lo, hi = max(t[k] - 0.5 * W, tz), min(t[k] + 0.5 * W, te)
-            if hi > lo:
-                out[k] -= _integral(F, t, lo, hi) / W
-            k += 1
-        i = max(k, i + 1)
-    return out
-
-
-@njit(cache=True)
-def _reset(t, h, i):
-    """Whether sample i starts a new stretch (the data jump over left-out cycles)."""
-    return i == 0 or t[i] - t[i - 1] > 1.5 * h[i]
-
-
-@njit(cache=True)
-def _dahl(x, t, h, x_stick):
-    """Pre-sliding state z [-] of a Dahl friction along displacement x [m]:
-    dz/dx = (1 - z sgn(dx)) / x_stick, exact over each sample (z -> sgn(dx) exponentially
-    over x_stick of travel); z starts sliding (sign of the first motion) in each stretch."""
-    z = np.empty_like(x)
-    zi = 0.0
-    for i in range(len(x)):
-        if _reset(t, h, i):
-            dx = x[i + 1] - x[i] if i + 1 < len(x) else 0.0
-            zi = 1.0 if dx > 0 else -1.0
-        else:
-            dx = x[i] - x[i - 1]
-            s = 1.0 if dx > 0 else -1.0
-            zi = s + (zi - s) * np.exp(-abs(dx) / x_stick)
-        z[i] = zi
-    return z
-
-
-@njit(cache=True)
-def _bw_up(z, s, x_y, gamma):
-    """Bouc-Wen state after travel s >= 0 [m] from z (dz/dx = (1 - c z^2) / x_y, c = 1
-    loading (z >= 0), c = 1 - 2 gamma unloading (z < 0)), in closed form."""
-    if z < 0.0:
-        c = 1.0 - 2.0 * gamma
-        r = np.sqrt(abs(c))
-        if c > 1e-9:
-            s0 = -np.arctanh(max(r * z, -1.0 + 1e-15)) / r * x_y
-        elif c < -1e-9:
-            s0 = -np.arctan(r * z) / r * x_y
-        else:
-            s0 = -z * x_y
-        if s < s0:
-            u = s / x_y
-            if c > 1e-9:
-                return np.tanh(np.arctanh(max(r * z, -1.0 + 1e-15)) + r * u) / r
-            if c < -1e-9:
-                return np.tan(np.arctan(r * z) + r * u) / r
-            return z + u
-        s -= s0
-        z = 0.0
-    return np.tanh(np.arctanh(min(z, 1.0 - 1e-15)) + s / x_y)
-
-
-@njit(cache=True)
-def _bouc_wen(x, t, h, x_y, gamma):
-    """Hysteretic state z [-] (|z| < 1) of a Bouc-Wen element with n = 2 (Spencer et al.
-    1997) along displacement x [m], normalised so that z -> 1 on loading:
-    dz/dt = (v - beta v z^2 - gamma |v| z |z|) / x_y, beta = 1 - gamma; x_y [m] is the
-    travel over which it yields. Exact for displacement linear between samples."""
-    z = np.empty_like(x)
-    zi = 0.0
-    for i in range(len(x)):
-        if _reset(t, h, i):
-            zi = 0.0
-        else:
-            dx = x[i] - x[i - 1]
-            zi = _bw_up(zi, dx, x_y, gamma) if dx >= 0 else -_bw_up(-zi, -dx, x_y, gamma)
-        z[i] = zi
-    return z
 
 
 def _shift(y, t, tau):
@@ -356,7 +208,7 @@ def _damping_temperature(m, d, p, f, e):
 
 
 def _compressibility(m, d, p, f, e):  # the valve in series with the oil's spring
-    f.Fd = _lag(f.Fd, f.slope() * p["inv_k_oil"], d.h)
+    f.Fd = kernels.lag(f.Fd, f.slope() * p["inv_k_oil"], d.h)
 
 
 def _gas_temperature(m, d, p, f, e):
@@ -378,7 +230,7 @@ def _breakaway_friction(m, d, p, f, e):
 def _presliding_friction(m, d, p, f, e):
     # the seal deforms before it slides: its friction builds over x_stick of travel after
     # each reversal (Dahl), where the baseline's Coulomb law switches at once (eq 3.3)
-    f.Ff = m.base.friction_level(p) * _dahl(f.x, d.t, d.h, p["x_stick"])
+    f.Ff = m.base.friction_level(p) * kernels.dahl(f.x, d.t, d.h, p["x_stick"])
 
 
 def _bouc_wen_force(m, d, p, f, e):
@@ -388,9 +240,9 @@ def _bouc_wen_force(m, d, p, f, e):
     alpha = p["alpha_bw"]
     if ":" in e:
         n = e.split(":", 1)[1]
-        u = _lag(d.aux[n], np.full(len(d.t), p[f"eta:{n}"]), d.h) - m.aux_m[n]
+        u = kernels.lag(d.aux[n], np.full(len(d.t), p[f"eta:{n}"]), d.h) - m.aux_m[n]
         alpha = alpha + p[f"alpha_u:{n}"] * u
-    f.F = f.F + alpha * _bouc_wen(f.x, d.t, d.h, p["x_y"], p["gamma_bw"])
+    f.F = f.F + alpha * kernels.bouc_wen(f.x, d.t, d.h, p["x_y"], p["gamma_bw"])
 
 
 def _fluid_inertia(m, d, p, f, e):
@@ -412,7 +264,7 @@ def _cavitation(m, d, p, f, e):
 
 
 def _free_play(m, d, p, f, e):
-    f.F = _plateau(f.F, f.slope(), f.t, p["c_play"], W_FORCE * m.h)
+    f.F = kernels.plateau(f.F, f.slope(), f.t, p["c_play"], W_FORCE * m.h)
 
 
 def _slope(v, p):

@@ -127,6 +127,20 @@ def _spans(events, tx, x):
     return [("random", None, float(tx[0]), float(tx[-1]))]
 
 
+def _screened(channels, force, x, aux):
+    """(flags, excluded spans, force, x, aux): the data-quality check's flags and the
+    channels without the flagged spans."""
+    flags = quality.check({"force": force, "x": x, **aux, **({"v": _clean(*channels["v"])} if "v" in channels else {})})
+    bad = quality.excluded(flags)
+
+    def drop(t, y):
+        k = np.zeros(len(t), bool)
+        for a, b in bad:
+            k |= (t >= a) & (t <= b)
+        return t[~k], y[~k]
+    return flags, bad, drop(*force), drop(*x), {n: drop(*c) for n, c in aux.items()}
+
+
 def prepare(channels, events) -> Data:
     """Data from a recording's channels {name: (t, values)} and events."""
     missing = [n for n in ("force", "x") if n not in channels or len(channels[n][0]) < 10]
@@ -137,23 +151,13 @@ def prepare(channels, events) -> Data:
     tF, F = _clean(*channels["force"])
     tx, x = _clean(*channels["x"])
     aux = {n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10}
-    flags = quality.check({"force": (tF, F), "x": (tx, x), **aux,
-                           **({"v": _clean(*channels["v"])} if "v" in channels else {})})
     period = float(np.median(np.diff(tF)))
     holes = _gaps(tF, period) + _gaps(tx, float(np.median(np.diff(tx))))
     if holes:
         lost = sum(b - a for a, b in holes)
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
-    bad = quality.excluded(flags)
-    if bad:  # flagged samples leave the channels; their spans count as gaps
-        def drop(t, y):
-            k = np.zeros(len(t), bool)
-            for a, b in bad:
-                k |= (t >= a) & (t <= b)
-            return t[~k], y[~k]
-        (tF, F), (tx, x) = drop(tF, F), drop(tx, x)
-        aux = {n: drop(*c) for n, c in aux.items()}
+    flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
     spans = _spans(events, tx, x)
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))

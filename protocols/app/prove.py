@@ -146,6 +146,34 @@ def _measured_rms_diff(a, b):
     return float(np.sqrt(np.mean((Fa[ia] - Fb[ib])[measured] ** 2)))
 
 
+def _table(results, effects, concealed):
+    """A row per (effect, form, size) of the runs' results: detection, wrong effect, false
+    positives, medians of the estimate, contribution and held-out errors."""
+    table = []
+    rows = sorted({(r["effect"] or "null", r["form"], r["size"]) for r in results},
+                  key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", k[2]))
+    for e, form, size in rows:
+        rs = [r for r in results if ((r["effect"] or "null"), r["form"], r["size"]) == (e, form, size)]
+        parts = set(e.split("+"))
+        named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
+        row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "n": len(rs),
+               "value": scaled(e, concealed[e], size) if e in concealed else None,
+               # a single effect: the first accepted; a pair: both accepted, in either order
+               "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
+                             else float(np.mean([parts <= n for n in named])) if e != "null" else None),
+               "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS
+                                else float(np.mean([bool(n - parts) for n in named])) if e != "null" else None),
+               "false_positive": float(np.mean([bool(r["accepted"]) for r in rs])) if e == "null" else None,
+               "heldout_before": float(np.median([r["before"] for r in rs])),
+               "heldout_after": float(np.median([r["after"] for r in rs])),
+               "estimate": (float(np.median([r["estimate"] for r in rs if r["estimate"] is not None]))
+                            if any(r["estimate"] is not None for r in rs) else None),
+               "contribution_rms": (float(np.median([r["contribution"] for r in rs if "contribution" in r]))
+                                    if any("contribution" in r for r in rs) else None)}
+        table.append(row)
+    return table
+
+
 def run(args):
     _, params, prove = plain_cell()
     say = (lambda s: print(s, file=sys.stderr, flush=True))
@@ -191,28 +219,7 @@ def run(args):
         for r in results:
             if r["effect"] and not (r["effect"] == "sensor_delay" and r["form"] is None and r["size"] == 1.0):
                 r["contribution"] = _measured_rms_diff(r["file"], nulls[r["seed"]])
-    table = []
-    rows = sorted({(r["effect"] or "null", r["form"], r["size"]) for r in results},
-                  key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", k[2]))
-    for e, form, size in rows:
-        rs = [r for r in results if ((r["effect"] or "null"), r["form"], r["size"]) == (e, form, size)]
-        parts = set(e.split("+"))
-        named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
-        row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "n": len(rs),
-               "value": scaled(e, concealed[e], size) if e in concealed else None,
-               # a single effect: the first accepted; a pair: both accepted, in either order
-               "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
-                             else float(np.mean([parts <= n for n in named])) if e != "null" else None),
-               "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS
-                                else float(np.mean([bool(n - parts) for n in named])) if e != "null" else None),
-               "false_positive": float(np.mean([bool(r["accepted"]) for r in rs])) if e == "null" else None,
-               "heldout_before": float(np.median([r["before"] for r in rs])),
-               "heldout_after": float(np.median([r["after"] for r in rs])),
-               "estimate": (float(np.median([r["estimate"] for r in rs if r["estimate"] is not None]))
-                            if any(r["estimate"] is not None for r in rs) else None),
-               "contribution_rms": (float(np.median([r["contribution"] for r in rs if "contribution" in r]))
-                                    if any("contribution" in r for r in rs) else None)}
-        table.append(row)
+    table = _table(results, effects, concealed)
     doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table,
            "goals": {"detection": 0.9, "false_positive": 0.05}}
     f = (lambda v, fmt: format(v, fmt) if v is not None else "-")

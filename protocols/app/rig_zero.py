@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import datetime
 import re
-import sys
 from argparse import Namespace
 from pathlib import Path
 
@@ -16,7 +15,7 @@ from rig.errors import RigError
 from rig.safety import Safety
 
 from protocols import commissioning, runner
-from protocols.app.run import _open_rig
+from protocols.app.run import open_rig
 from protocols.plan import rig_info
 
 
@@ -42,7 +41,7 @@ def run(args):
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     damper = load_damper(args.damper)
     info = rig_info(cfg, damper)
-    vr, rig, served, pacer = _open_rig(Namespace(rig=args.rig, realtime=False), cfg, damper, {})
+    vr, rig, served, pacer = open_rig(Namespace(rig=args.rig, realtime=False), cfg, damper, {})
     kept = runner.Kept()
     try:
         result, _ = runner.run(commissioning, commissioning.Params(), info, rig, pacer, Safety(served), [kept],

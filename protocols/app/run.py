@@ -32,7 +32,7 @@ def run(args):
     errors = []  # the first is the one that ended the run; later ones are reported after it
     previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
-        vr, rig, cfg, pacer = _open_rig(args, cfg, damper, plant)
+        vr, rig, cfg, pacer = open_rig(args, cfg, damper, plant)
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
@@ -99,7 +99,7 @@ def _plan_run(args):
     return module, params, plant, damper, cfg, info
 
 
-def _open_rig(args, cfg, damper, plant):
+def open_rig(args, cfg, damper, plant):
     """(virtual rig or None, open Rig, config as served, pacer): the embedded virtual rig
     unless --rig names a cell."""
     vr = None

@@ -1,0 +1,155 @@
+"""The diagnosis's compiled kernels (numba): state and filter loops over a recording's
+samples that numpy cannot vectorise. Arrays in, arrays out; SI units."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def lag(F, tau, h):
+    """F through a first-order lag of time constant tau[i] [s] (implicit Euler)."""
+    out = np.empty_like(F)
+    y = F[0]
+    for i in range(len(F)):
+        y += h[i] / (tau[i] + h[i]) * (F[i] - y)
+        out[i] = y
+    return out
+
+
+@njit(cache=True)
+def integral(F, t, lo, hi):
+    """Integral over [lo, hi] of F linear between samples t (lo >= t[0])."""
+    j = max(np.searchsorted(t, lo) - 1, 0)
+    out = 0.0
+    while j < len(t) - 1 and t[j] < hi:
+        a, b = max(t[j], lo), min(t[j + 1], hi)
+        if b > a:
+            s = (F[j + 1] - F[j]) / (t[j + 1] - t[j])
+            out += (b - a) * (F[j] + s * (0.5 * (a + b) - t[j]))
+        j += 1
+    return out
+
+
+@njit(cache=True)
+def plateau(F, S, t, c, W):
+    """Free play: the load cell reads zero while the mount crosses a clearance c [m].
+    When the force F [N] changes sign (at t_z, between samples) the rod leaves its contact
+    and floats where the damper's own force on it is zero; the mount then moves away from
+    it at the speed it would have needed to make the force, |F| / S (S: the damping's slope
+    dF/dv [N s/m]), so the gap closes at t_e where the integral of |F| / S from t_z is c.
+    Each sample holds the force's mean over a window W [s] about it (the amplifier's
+    anti-alias filter), so it loses what the part of its window inside the crossing would
+    have carried: the force depends smoothly on c and on where the crossing falls between
+    samples, and c = 0 is the model without. No crossing is begun across a gap."""
+    out = F.copy()
+    if c <= 0.0:
+        return out
+    n = len(F)
+    i = 1
+    while i < n:
+        h = t[i] - t[i - 1]
+        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
+            i += 1
+            continue
+        tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
+        side = 1.0 if F[i] > 0 else -1.0
+        s, t0, f0, te = 0.0, tz, 0.0, t[n - 1]
+        j = i
+        while j < n:
+            f1 = side * F[j]
+            if f1 < 0.0:  # back to the old side before the gap closed: contact resumes there
+                te = t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1)
+                break
+            dt = t[j] - t0
+            k = max(S[j], 1e-9)
+            ds = 0.5 * (f0 + f1) * dt / k
+            if s + ds >= c and dt > 0.0:
+                # |F| linear over the interval: s(tau) = (f0 tau + b tau^2 / 2) / k, b = (f1 - f0) / dt
+                b = (f1 - f0) / dt
+                need = (c - s) * k
+                if abs(b) * need < 1e-12 * f0 * f0:
+                    tau = need / max(f0, 1e-30)
+                else:
+                    tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
+                te = t0 + min(max(tau, 0.0), dt)
+                break
+            s += ds
+            t0, f0 = t[j], f1
+            j += 1
+        k = i - 1
+        while k < n and t[k] - 0.5 * W < te:
+            lo, hi = max(t[k] - 0.5 * W, tz), min(t[k] + 0.5 * W, te)
+            if hi > lo:
+                out[k] -= integral(F, t, lo, hi) / W
+            k += 1
+        i = max(k, i + 1)
+    return out
+
+
+@njit(cache=True)
+def reset(t, h, i):
+    """Whether sample i starts a new stretch (the data jump over left-out cycles)."""
+    return i == 0 or t[i] - t[i - 1] > 1.5 * h[i]
+
+
+@njit(cache=True)
+def dahl(x, t, h, x_stick):
+    """Pre-sliding state z [-] of a Dahl friction along displacement x [m]:
+    dz/dx = (1 - z sgn(dx)) / x_stick, exact over each sample (z -> sgn(dx) exponentially
+    over x_stick of travel); z starts sliding (sign of the first motion) in each stretch."""
+    z = np.empty_like(x)
+    zi = 0.0
+    for i in range(len(x)):
+        if reset(t, h, i):
+            dx = x[i + 1] - x[i] if i + 1 < len(x) else 0.0
+            zi = 1.0 if dx > 0 else -1.0
+        else:
+            dx = x[i] - x[i - 1]
+            s = 1.0 if dx > 0 else -1.0
+            zi = s + (zi - s) * np.exp(-abs(dx) / x_stick)
+        z[i] = zi
+    return z
+
+
+@njit(cache=True)
+def bw_up(z, s, x_y, gamma):
+    """Bouc-Wen state after travel s >= 0 [m] from z (dz/dx = (1 - c z^2) / x_y, c = 1
+    loading (z >= 0), c = 1 - 2 gamma unloading (z < 0)), in closed form."""
+    if z < 0.0:
+        c = 1.0 - 2.0 * gamma
+        r = np.sqrt(abs(c))
+        if c > 1e-9:
+            s0 = -np.arctanh(max(r * z, -1.0 + 1e-15)) / r * x_y
+        elif c < -1e-9:
+            s0 = -np.arctan(r * z) / r * x_y
+        else:
+            s0 = -z * x_y
+        if s < s0:
+            u = s / x_y
+            if c > 1e-9:
+                return np.tanh(np.arctanh(max(r * z, -1.0 + 1e-15)) + r * u) / r
+            if c < -1e-9:
+                return np.tan(np.arctan(r * z) + r * u) / r
+            return z + u
+        s -= s0
+        z = 0.0
+    return np.tanh(np.arctanh(min(z, 1.0 - 1e-15)) + s / x_y)
+
+
+@njit(cache=True)
+def bouc_wen(x, t, h, x_y, gamma):
+    """Hysteretic state z [-] (|z| < 1) of a Bouc-Wen element with n = 2 (Spencer et al.
+    1997) along displacement x [m], normalised so that z -> 1 on loading:
+    dz/dt = (v - beta v z^2 - gamma |v| z |z|) / x_y, beta = 1 - gamma; x_y [m] is the
+    travel over which it yields. Exact for displacement linear between samples."""
+    z = np.empty_like(x)
+    zi = 0.0
+    for i in range(len(x)):
+        if reset(t, h, i):
+            zi = 0.0
+        else:
+            dx = x[i] - x[i - 1]
+            zi = bw_up(zi, dx, x_y, gamma) if dx >= 0 else -bw_up(-zi, -dx, x_y, gamma)
+        z[i] = zi
+    return z

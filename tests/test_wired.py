@@ -154,7 +154,9 @@ def test_rig_zero_tares_references_and_writes_the_cell_file(tmp_path, sim_rig):
     text = cfg.read_text()
     assert text.count("# dyno rig zero ") == 2 and "load cell tared with the damper disconnected" in text
     assert zeroed.channels["force"].offset < -100  # the damper's gas force at rest, taken off
-    # the cell now reads zero force at rest and 39 mm at mid-stroke
+    # the cell now reads 39 mm at mid-stroke, and at rest no gas force (420 N) is left, only
+    # the seal's friction (up to +-70 N here, its sign set by the last motion: the sim-rig's
+    # damper cannot be disconnected)
     p = dyno("rig", "check", "--rig", cfg, timeout=60)
     rows = {ln.split()[0]: ln.split() for ln in p.stdout.splitlines() if ln.split()}
-    assert abs(float(rows["force"][2])) < 30 and abs(float(rows["x"][2]) - 39.0) < 0.2
+    assert abs(float(rows["force"][2])) < 200 and abs(float(rows["x"][2]) - 39.0) < 0.2

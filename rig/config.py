@@ -102,10 +102,16 @@ def quantity(channel_name):
     return None
 
 
+def path_of(path_or_name=None) -> Path:
+    """The file of a config path, or of the name of a shipped config (default: virtual)."""
+    s = "virtual" if path_or_name is None else str(path_or_name)
+    return Path(s) if s.endswith(".toml") or "/" in s else CONFIG_DIR / f"{s}.toml"
+
+
 def load(path_or_name=None) -> RigConfig:
     """A config file path, or the name of a shipped config (default: virtual)."""
     s = "virtual" if path_or_name is None else str(path_or_name)
-    path = Path(s) if s.endswith(".toml") or "/" in s else CONFIG_DIR / f"{s}.toml"
+    path = path_of(s)
     if not path.exists():
         raise RigError(f"{s}: no such rig config (shipped: "
                        f"{', '.join(sorted(p.stem for p in CONFIG_DIR.glob('*.toml')))})")

@@ -218,6 +218,7 @@ def _analysis_commands(sub):
     ex.add_argument("--csv", metavar="FILE", help="write CSV")
     ex.add_argument("--parquet", metavar="FILE", help="write Parquet (needs pyarrow)")
     ex.add_argument("--channels", help="comma-separated channels (default: all, force first)")
+    ex.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     ex.set_defaults(command="export")
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
     im.add_argument("file", metavar="FILE.csv")

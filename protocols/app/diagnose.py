@@ -59,6 +59,12 @@ SAY = {
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction"}
 
 
+def said(effect):
+    """An effect id ("aux_channel:aux.x") in words."""
+    key = effect.split(":")[0]
+    return NAMES.get(key, key.replace("_", " "))
+
+
 def sentence(step):
     e = step["effect"]
     key = e.split(":")[0]
@@ -135,10 +141,9 @@ def summary(res):
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
     if res["accepted"]:
         for s in res["steps"]:
-            key = s["effect"].split(":")[0]
-            name = NAMES.get(key, key.replace("_", " "))
+            name = said(s["effect"])
             if s["trades_with"]:
-                other = ", ".join(f"{e.split(':')[0].replace('_', ' ')} (correlation {c:.2f})" for e, c in s["trades_with"])
+                other = ", ".join(f"{said(e)} (correlation {c:.2f})" for e, c in s["trades_with"])
                 lines.append(f"Accepted, but may be compensating the form of {other}: {name}, whose parameters trade "
                              f"against it; the gain may be a different form of that effect, not physics of its own. "
                              + _change(s))

@@ -5,6 +5,7 @@ an empty segment. Parquet through pyarrow (rerun-sdk installs it)."""
 from __future__ import annotations
 
 import csv
+from pathlib import Path
 
 import numpy as np
 
@@ -41,10 +42,15 @@ def table(channels, events, units, names=None):
 def run(args):
     if bool(args.csv) == bool(args.parquet):
         raise RigError("give one of --csv FILE or --parquet FILE")
+    if Path(args.csv or args.parquet).resolve() == Path(args.recording).resolve():
+        raise RigError(f"{args.csv or args.parquet}: that is the recording itself")
     channels, events, meta = load_recording(args.recording)
     names = [n.strip() for n in args.channels.split(",")] if args.channels else None
     cols, data = table(channels, events, meta.get("units", {}), names)
-    out = writable_file(args.csv or args.parquet, "--csv" if args.csv else "--parquet")
+    what = "--csv" if args.csv else "--parquet"
+    out = writable_file(args.csv or args.parquet, what)
+    if out.exists() and not args.overwrite:  # nothing already there is lost, the recording least of all
+        raise RigError(f"{what} {out}: exists; give --overwrite to replace it")
     if args.parquet:
         try:
             import pyarrow as pa

@@ -7,7 +7,6 @@ from __future__ import annotations
 import datetime
 import re
 from argparse import Namespace
-from pathlib import Path
 
 from models.damper import load as load_damper
 from rig import config as rig_config
@@ -76,8 +75,8 @@ def run(args):
           f": check its gain, {ch['v'].gain:.6g} now, {ch['v'].gain / g:.6g} would agree"))
     for name, value, why in changes:
         print(f"{name}: offset {ch[name].offset:.9g} -> {value:.9g} ({why})")
-    if changes and args.rig and (str(args.rig).endswith(".toml") or "/" in str(args.rig)):
-        path = Path(args.rig)
+    path = rig_config.path_of(args.rig)
+    if changes and path.resolve().parent != rig_config.CONFIG_DIR.resolve():  # never a shipped config
         text = path.read_text(encoding="utf-8")
         for name, value, why in changes:
             text = set_offset(text, name, value, f"dyno rig zero {today}: {why} (offset was {ch[name].offset:.9g})")

@@ -60,7 +60,8 @@ def report(path, out_dir):
     if steps:
         page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")
         page.table(("segment", "step [mm]", "rise 10-90 % [ms]", "overshoot [%]", "settling [ms]", "peak force [N]"),
-                   [(n, f"{s:+g}", f"{r:.1f}", f"{o:.1f}", f"{st:.0f}", f"{F:.0f}") for n, s, r, o, st, F in steps])
+                   [(n, f"{s:+g}", *(f"{v:.{p}f}" if np.isfinite(v) else "-" for v, p in ((r, 1), (o, 1), (st, 0))),
+                     f"{F:.0f}") for n, s, r, o, st, F in steps])
     if hil.results(events):
         page.heading("Hardware in the loop: measures against the reference (docs/hil.md)")
         page.table(hil.HEADER, hil.table(events))
@@ -134,6 +135,17 @@ def _sine_figures(ch, segs, out, damper=None):
 STEP_BAND = 0.02  # settled: within 2 % of the step of its target, to stay
 
 
+def _step_origin(ch, t0):
+    """Where the damper was when a step began at t0 [m]; nan when the displacement's record
+    begins after it (a wired stream's first frames arrive late)."""
+    t, x = ch["x"]
+    before = np.nonzero(t < t0)[0]
+    if len(before) and t0 - t[before[-1]] < 0.05:
+        return float(x[before[-1]])
+    after = np.nonzero(t >= t0)[0]
+    return float(x[after[0]]) if len(after) and t[after[0]] - t0 < 0.005 else np.nan
+
+
 def step_measures(ch, segs):
     """[(segment, step [mm], rise 10-90 % [ms], overshoot [%], settling [ms], peak force [N])]
     of the measured step segments: the damper's displacement against its target."""
@@ -147,13 +159,18 @@ def step_measures(ch, segs):
             continue
         tk, xk = t[k] - t0, x[k]
         d = prm["step_mm"] / 1e3
-        u = (xk - xk[0]) / d  # 0 at the start, 1 at the target
+        x0 = _step_origin(ch, t0)
+        F = _window(ch, ("force",), t0, t1)[0]
+        peak = float(F[np.argmax(np.abs(F))])
+        if not np.isfinite(x0):
+            rows.append((name, prm["step_mm"], np.nan, np.nan, np.nan, peak))
+            continue
+        u = (xk - x0) / d  # 0 at the start, 1 at the target
         up = lambda level: float(tk[np.argmax(u >= level)]) if np.any(u >= level) else float("nan")  # noqa: E731
         out = np.nonzero(np.abs(u - 1) > STEP_BAND)[0]
         settle = float(tk[out[-1] + 1]) if len(out) and out[-1] + 1 < len(tk) else (0.0 if not len(out) else float("nan"))
-        F = _window(ch, ("force",), t0, t1)[0]
-        rows.append((name, prm["step_mm"], 1e3 * (up(0.9) - up(0.1)), 100 * max(float(u.max()) - 1, 0.0),
-                     1e3 * settle, float(F[np.argmax(np.abs(F))])))
+        rows.append((name, prm["step_mm"], 1e3 * (up(0.9) - up(0.1)), 100 * max(float(np.max(u)) - 1, 0.0),
+                     1e3 * settle, peak))
     return rows
 
 
@@ -163,12 +180,14 @@ def _step_figures(ch, segs, out):
     if not steps or not {"x", "force"} <= set(ch):
         return []
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
-    for name, prm, t0, t1 in steps:
+    for i, (name, prm, t0, t1) in enumerate(steps):
         F, x = _window(ch, ("force", "x"), t0, t1)
         tt = ch["force"][0][(ch["force"][0] >= t0) & (ch["force"][0] <= t1)] - t0
         n = min(len(tt), len(x))
-        ax[0].plot(1e3 * tt[:n], 1e3 * (x[:n] - x[0]), lw=0.9, label=name)
-        ax[1].plot(1e3 * tt[:n], F[:n], lw=0.9, label=name)
+        x0 = _step_origin(ch, t0)
+        if np.isfinite(x0):
+            ax[0].plot(1e3 * tt[:n], 1e3 * (x[:n] - x0), lw=0.9, color=f"C{i % 10}", label=name)
+        ax[1].plot(1e3 * tt[:n], F[:n], lw=0.9, color=f"C{i % 10}", label=name)
     ax[0].set(title="Displacement from the step's start", xlabel="time [ms]", ylabel="displacement [mm]")
     ax[1].set(title="Force", xlabel="time [ms]", ylabel="force [N]")
     settled = [r[4] for r in step_measures(ch, steps) if np.isfinite(r[4])]

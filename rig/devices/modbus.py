@@ -14,6 +14,8 @@ from rig.devices import Transport
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors ourselves
 
+IDENTIFY_TRIES = 3  # identity reads at open before a module counts as silent
+
 
 class ModbusModule:
     """A Modbus TCP module polled for its register block (rig/codecs/registers/*.toml).
@@ -57,10 +59,14 @@ class ModbusModule:
             return
         where = f"device {self.name!r}: Modbus unit {p['device_id']} at {p['host']}:{p['port']}"
         read = self.client.read_input_registers if m.table == "input" else self.client.read_holding_registers
-        try:
-            r = read(m.identity[0], count=1, device_id=int(p["device_id"]))
-        except (ModbusException, OSError) as e:
-            raise RigError(f"{where}: no answer to the identity read ({str(e).split('] ')[-1]})") from None
+        for attempt in range(IDENTIFY_TRIES):  # at open, not in the loop: a busy module may miss one
+            try:
+                r = read(m.identity[0], count=1, device_id=int(p["device_id"]))
+                break
+            except (ModbusException, OSError) as e:
+                if attempt == IDENTIFY_TRIES - 1:
+                    raise RigError(f"{where}: no answer to the identity read after {IDENTIFY_TRIES} tries "
+                                   f"({str(e).split('] ')[-1]})") from None
         if r.isError():
             raise RigError(f"{where}: refuses the identity read of register {m.identity[0]} (exception code "
                            f"{getattr(r, 'exception_code', '?')}); wrong device_id?")

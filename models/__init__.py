@@ -9,7 +9,7 @@ from pathlib import Path
 
 
 # the sources of compiled code: the equations, and the kernels built on them elsewhere
-COMPILED = ("physics/*.py", "quarter_car/sim.py", "diagnose/candidates.py", "identify/valves.py")
+COMPILED = ("physics/*.py", "quarter_car/sim.py", "diagnose/kernels.py", "identify/valves.py")
 
 
 def _numba_cache_dir() -> str:

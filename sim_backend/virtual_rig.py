@@ -73,14 +73,19 @@ class VirtualRig:
         self.publish()
         return cfg
 
-    def step(self, dt):
+    def step(self, dt, settle=True):
         """Apply received setpoints, advance the plant by dt [s] of simulated time, and
-        publish one frame per device."""
+        publish one frame per device. settle: return once the driver can read them
+        (simulated time does not pass while a transport moves a frame); not when a
+        driver in another process reads them in real time."""
         for e in self.emulators:
             e.service()
         self.plant.advance(dt)
         self.t += dt
         self.publish()
+        if settle:
+            for e in self.emulators:
+                e.settle()
 
     def publish(self):
         r = self.plant.readings()
@@ -98,7 +103,7 @@ class VirtualRig:
             k += 1
             while pending and pending[0][0] <= self.t:
                 self.inject(pending.pop(0)[1])
-            self.step(dt)
+            self.step(dt, settle=False)
             left = t0 + k * dt - time.perf_counter()
             if left > 0:
                 time.sleep(left)

@@ -2,7 +2,11 @@
 Frames as rig/codecs/loadcell.py; an output beyond +/-10 V saturates and says so."""
 from __future__ import annotations
 
+import fcntl
 import os
+import struct
+import termios
+import time
 import tty
 
 import numpy as np
@@ -25,6 +29,11 @@ class LoadCellAmp:
         self.faults = faults  # serial_corrupt, serial_truncate, serial_garbage, loadcell_saturated
         self.rng = np.random.default_rng(7)
         self.overruns = 0
+        self.expect = 0  # bytes the reader's side should hold once the kernel has moved our last frame
+
+    def _queued(self):
+        """Bytes the reader's side of the pty holds now."""
+        return struct.unpack("i", fcntl.ioctl(self.slave, termios.FIONREAD, b"\0\0\0\0"))[0]
 
     def link(self, path):
         """Make `path` a symlink to our pty (what a fixed-path config opens)."""
@@ -48,9 +57,24 @@ class LoadCellAmp:
         if "serial_garbage" in self.faults:
             frame = self.rng.integers(0, 256, 7, dtype=np.uint8).tobytes() + frame
         try:
+            queued = self._queued()
             os.write(self.master, frame)
+            self.expect = queued + len(frame)
         except BlockingIOError:
             self.overruns += 1  # nobody reads: the line overruns, as a real one would
+            self.expect = 0
+
+    def settle(self, timeout_s=0.02):
+        """Wait until the reader's side holds our last frame: the kernel moves pty bytes on
+        a work queue, so under load a frame can reach the driver a tick late. Simulated
+        time stands still meanwhile, which makes the embedded rig's readings the tick's
+        own; a reader that lets the line fill (the line discipline holds 4 KiB) is not
+        waited for."""
+        if not 0 < self.expect < 2048:
+            return
+        end = time.perf_counter() + timeout_s
+        while self._queued() < self.expect and time.perf_counter() < end:
+            time.sleep(0)
 
     def close(self):
         if getattr(self, "link_path", None) and os.path.islink(self.link_path):
@@ -79,6 +103,10 @@ class LoadCellAmps:
 
     def service(self):
         pass
+
+    def settle(self):
+        for a in self.amps:
+            a.settle()
 
     def publish(self, readings):
         for a in self.amps:

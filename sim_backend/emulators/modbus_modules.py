@@ -106,6 +106,9 @@ class ModbusServers:
     def service(self):
         pass
 
+    def settle(self):
+        pass  # polled: a read's answer is this tick's registers
+
     def publish(self, readings):
         for m in self.servers:
             m.publish(readings)

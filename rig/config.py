@@ -9,6 +9,7 @@ rig/configs/virtual.toml (the embedded default), sim-rig.toml and example-cell.t
 """
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import re
 import tomllib
@@ -92,6 +93,14 @@ class RigConfig:
     text: str = field(default="", repr=False)
     actuator: str = ""  # name of the device that takes the setpoint
     thermal: dict = field(default_factory=dict)  # ambient [K], conductance [W/K], if given
+
+
+def at_rate(config: RigConfig, hz: float) -> RigConfig:
+    """The config with its loop, and every device that streams frames, at hz (a virtual
+    cell that samples faster: its emulators send a frame per device each tick)."""
+    devices = {n: dataclasses.replace(d, params={**d.params, "frame_hz": hz})
+               if "frame_hz" in TRANSPORTS[d.transport].schema else d for n, d in config.devices.items()}
+    return dataclasses.replace(config, rate_hz=hz, devices=devices)
 
 
 def quantity(channel_name):

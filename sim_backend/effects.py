@@ -126,9 +126,9 @@ def plain_cell():
     import tomllib
     from pathlib import Path
 
-    from sim_backend.plant import PARAMS
+    from sim_backend.plant import plant_params
     plain = tomllib.loads((Path(__file__).parent / "plain.toml").read_text())
-    params = tomllib.loads(PARAMS.read_text())
+    params = plant_params()
     for section in ("frame", "sensors", "thermal", "actuator"):
         params[section].update(plain.get(section, {}))
     return plain["damper"], params, plain["prove"]

@@ -14,13 +14,16 @@ load-cell amplifier on a pseudo-terminal, the Modbus modules on a TCP server at
 from __future__ import annotations
 
 import copy
+import math
 import gc
 import time
 from pathlib import Path
 
-from rig.devices import by_transport
+from rig.devices import FRAME_HZ, TRANSPORTS, by_transport, frame_hz
 from sim_backend.emulators import EMULATORS, free_port
 from sim_backend.plant import Plant
+
+PLANT_STEP = 5e-4  # s: the plant's longest integration step
 
 FAULTS = {
     "can_bus_off": "CAN nodes fall silent (bus-off)",
@@ -57,7 +60,12 @@ class VirtualRig:
         """effects: hidden physics {name: value} (sim_backend/effects.py); params: the
         plant's parameters if not sim_backend/plant.toml."""
         self.config = copy.deepcopy(config)
-        self.plant = Plant(damper, T0=T0, seed=seed, params=params, effects=effects)
+        # the emulators send a frame per device each step: in real time at the devices' rate
+        self.frame_hz = max((frame_hz(d.params) for d in self.config.devices.values()
+                             if "frame_hz" in TRANSPORTS[d.transport].schema), default=FRAME_HZ)
+        tick = 1.0 / max(self.config.rate_hz, self.frame_hz)  # a whole number of plant steps per tick
+        self.plant = Plant(damper, T0=T0, h=tick / math.ceil(tick / PLANT_STEP - 1e-9), seed=seed, params=params,
+                           effects=effects)
         self.t = 0.0
         self.emulators = []
 
@@ -92,9 +100,11 @@ class VirtualRig:
         for e in self.emulators:
             e.publish(r)
 
-    def run_realtime(self, stop, dt=1e-3, faults=()):
-        """Step in real time until the threading.Event `stop` is set; `faults`: (time s,
-        name) injected when the clock reaches them."""
+    def run_realtime(self, stop, faults=()):
+        """Step in real time, a frame per device each period of the devices' rate, until the
+        threading.Event `stop` is set; `faults`: (time s, name) injected when the clock
+        reaches them."""
+        dt = 1.0 / self.frame_hz
         pending = sorted(faults)
         gc.disable()  # no collector pauses in the real-time plant (it makes no cycles)
         t0 = time.perf_counter()

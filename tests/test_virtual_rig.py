@@ -179,3 +179,23 @@ def test_unreachable_device_names_its_config_line():
     rig.drivers = {"tc": rig.drivers["tc"]}
     with pytest.raises(RigError, match=r"^sim-rig.toml:\d+: device 'tc': no Modbus server at 127.0.0.1:1$"):
         rig.open()
+
+
+def test_a_cell_at_5_khz_streams_and_dates_every_frame_at_5_khz():
+    cfg = config.at_rate(config.load("virtual"), 5000.0)
+    vr = VirtualRig(cfg, damper="koni")
+    cfg = vr.start()
+    rig = Rig(cfg, clock=vr.clock)
+    rig.open()
+    try:
+        for _ in range(1000):
+            vr.step(1.0 / cfg.rate_hz)
+            rig.poll()
+        got = rig.drain()
+    finally:
+        rig.close()
+        vr.close()
+    assert vr.plant.h == pytest.approx(2e-4)
+    for name in ("force", "x", "v"):
+        t = got[name][0]
+        assert len(t) >= 999 and np.allclose(np.diff(t), 2e-4, atol=1e-6), name

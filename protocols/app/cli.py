@@ -206,6 +206,11 @@ def _analysis_commands(sub):
                     help="all: each effect also in the plant's other forms (default: its calibrated form only)")
     pv.add_argument("--sizes", type=sizes, default=[1.0],
                     help="comma-separated strengths: multiples of each concealed effect (default 1), e.g. 1,3,10")
+    pv.add_argument("--noise", type=sizes, default=[1.0],
+                    help="comma-separated multiples of the cell's sensor noise (default 1), e.g. 1,3,10; sizes "
+                         "scale with it (x1 is the noise floor at each level)")
+    pv.add_argument("--rates", type=sizes, default=[1000.0],
+                    help="comma-separated loop and sampling rates [Hz] (default 1000), e.g. 1000,5000")
     pv.add_argument("--json", action="store_true")
     pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     pv.add_argument("--calibrate", action="store_true",

@@ -106,16 +106,16 @@ def calibrate(target, progress, effects=None):
 
 def _one(task):
     """Record one prove run through the wire protocols, diagnose it."""
-    effect, form, size, values, seed, folder = task
+    effect, form, size, values, seed, noise, rate, folder = task
     from models.diagnose import diagnose
     from protocols.app.run import run as run_protocol
     from protocols.io.reader import load_recording
     _, _, prove = plain_cell()
-    out = Path(folder) / f"{effect or 'null'}-{form or 'default'}-{size:g}-{seed}.mcap"
+    out = Path(folder) / f"{effect or 'null'}-{form or 'default'}-{size:g}-{noise:g}-{rate:g}-{seed}.mcap"
     pairs = [f"{k}={','.join(str(x) for x in v) if isinstance(v, list) else v}" for k, v in prove["params"].items()]
     args = argparse.Namespace(protocol=prove["protocol"], params=pairs, rig=None, damper=None, out=str(out),
                               overwrite=True, long=False, realtime=False, live=False, rrd=None, identify=False,
-                              plain=True, seed=seed,
+                              plain=True, seed=seed, noise=noise, rate_hz=rate,
                               effect=[f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()],
                               progress=False)
     import contextlib
@@ -128,7 +128,8 @@ def _one(task):
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
         est = r["steps"][0]["parameters"].get(CATALOGUE[effect].estimate)
-    return {"effect": effect, "form": form, "size": size, "seed": seed, "accepted": r["accepted"], "first": first,
+    return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
+            "accepted": r["accepted"], "first": first,
             "estimate": est,
             "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"],
             "file": str(out)}
@@ -150,14 +151,14 @@ def _table(results, effects, concealed):
     """A row per (effect, form, size) of the runs' results: detection, wrong effect, false
     positives, medians of the estimate, contribution and held-out errors."""
     table = []
-    rows = sorted({(r["effect"] or "null", r["form"], r["size"]) for r in results},
-                  key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", k[2]))
-    for e, form, size in rows:
-        rs = [r for r in results if ((r["effect"] or "null"), r["form"], r["size"]) == (e, form, size)]
+    key = (lambda r: (r["effect"] or "null", r["form"], r["size"], r["noise"], r["rate"]))
+    rows = sorted({key(r) for r in results}, key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", *k[2:]))
+    for e, form, size, noise, rate in rows:
+        rs = [r for r in results if key(r) == (e, form, size, noise, rate)]
         parts = set(e.split("+"))
         named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
-        row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "n": len(rs),
-               "value": scaled(e, concealed[e], size) if e in concealed else None,
+        row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "noise": noise,
+               "rate_hz": rate, "n": len(rs), "value": scaled(e, concealed[e], size * noise) if e in concealed else None,
                # a single effect: the first accepted; a pair: both accepted, in either order
                "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
                              else float(np.mean([parts <= n for n in named])) if e != "null" else None),
@@ -195,56 +196,68 @@ def run(args):
         if e != "null" and e not in concealed:
             say(f"dyno: error: no concealed value for {e!r} in sim_backend/plain.toml (run dyno prove --calibrate)")
             return 2
+    if not all(200.0 <= r <= 10000.0 for r in args.rates):
+        raise RigError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in args.rates)}")
     variants = [(e, None) for e in effects]
     if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
         variants = [v for e in effects
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
     tasks = []
+    levels = [(n, r) for n in args.noise for r in args.rates]
     with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:
         for seed in range(args.seeds):
-            for e, form in variants:
-                for size in ([1.0] if e == "null" else args.sizes):
-                    tasks.append((None, None, 1.0, None, seed, folder) if e == "null"
-                                 else (e, form, size, {p: scaled(p, concealed[p], size) for p in e.split("+")},
-                                       seed, folder))
-            if "null" not in effects:  # the contribution is measured against the null of the same seed
-                tasks.append((None, None, 1.0, None, seed, folder))
+            for noise, rate in levels:
+                for e, form in variants:
+                    for size in ([1.0] if e == "null" else args.sizes):
+                        # a size is a multiple of the noise floor at this noise level
+                        values = None if e == "null" else {p: scaled(p, concealed[p], size * noise) for p in e.split("+")}
+                        tasks.append((None if e == "null" else e, form, size, values, seed, noise, rate, folder))
+                if "null" not in effects:  # the contribution is measured against the null of the same seed
+                    tasks.append((None, None, 1.0, None, seed, noise, rate, folder))
         results = []
         with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
             for r in pool.map(_one, tasks):
                 results.append(r)
-                say(f"{r['effect'] or 'null':20s} {r['form'] or '':13s} x{r['size']:<4g} seed {r['seed']:2d}: "
-                    f"accepted {r['accepted'] or 'nothing'}")
-        nulls = {r["seed"]: r["file"] for r in results if r["effect"] is None}
+                say(f"{r['effect'] or 'null':20s} {r['form'] or '':13s} x{r['size']:<4g} noise x{r['noise']:<3g} "
+                    f"{r['rate']:5.0f} Hz seed {r['seed']:2d}: accepted {r['accepted'] or 'nothing'}")
+        nulls = {(r["seed"], r["noise"], r["rate"]): r["file"] for r in results if r["effect"] is None}
         for r in results:
-            if r["effect"] and not (r["effect"] == "sensor_delay" and r["form"] is None and r["size"] == 1.0):
-                r["contribution"] = _measured_rms_diff(r["file"], nulls[r["seed"]])
+            if r["effect"]:
+                r["contribution"] = _measured_rms_diff(r["file"], nulls[r["seed"], r["noise"], r["rate"]])
     table = _table(results, effects, concealed)
     doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table,
            "goals": {"detection": 0.9, "false_positive": 0.05}}
-    f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
     if args.json:
         print(json.dumps(doc, indent=1))
-    elif getattr(args, "markdown", False):
-        from protocols.reports import markdown as md
-        body = md.table(("effect", "form", "size", "hidden value", "force contribution RMS [N]", "detection",
-                         "wrong effect", "false positive", "estimate (median)", "held-out NRMSE before / after [%]"),
-                        [(r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f(r["value"], ".3g"),
-                          f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"), f(r["wrong_effect"], ".0%"),
-                          f(r["false_positive"], ".0%"), f(r["estimate"], ".3g"),
-                          f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}") for r in table])
-        print(md.document("Proof of the diagnosis (dyno prove)", body,
-                          f"{args.seeds} seeds per row on the plain cell through the wires; force noise "
-                          f"{noise:g} N RMS. Size x1 is the concealed value (its contribution equals the noise "
-                          f"in the default form); x10 ten times as strong (a bulk modulus divided by ten, a "
-                          f"breakaway ratio's excess times ten); forms: sim_backend/effects.py FORMS. Goals: detection >= 90 %, "
-                          f"false positives <= 5 %. Method: docs/diagnosis.md."))
     else:
-        print(f"{'effect':20s} {'form':>13s} {'size':>5s} {'value':>10s} {'contrib N':>9s} {'detect':>7s} {'wrong':>6s} "
-              f"{'FP':>5s} {'estimate':>10s} {'before %':>8s} {'after %':>8s}")
-        for r in table:
-            print(f"{r['effect']:20s} {f(r['form'], '>13s')} {'x' + format(r['size'], 'g'):>5s} {f(r['value'], '10.3g')} "
-                  f"{f(r['contribution_rms'], '9.2f')} {f(r['detection'], '7.0%')} {f(r['wrong_effect'], '6.0%')} "
-                  f"{f(r['false_positive'], '5.0%')} {f(r['estimate'], '10.3g')} {100 * r['heldout_before']:8.3f} "
-                  f"{100 * r['heldout_after']:8.3f}")
+        _print(table, args, noise)
     return 0
+
+
+HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",
+          "wrong effect", "false positive", "estimate (median)", "held-out NRMSE before / after [%]")
+
+
+def _cells(r):
+    f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
+    return (r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f"x{r['noise']:g}", f"{r['rate_hz']:g}",
+            f(r["value"], ".3g"), f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"),
+            f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"), f(r["estimate"], ".3g"),
+            f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}")
+
+
+def _print(table, args, noise):
+    rows = [_cells(r) for r in table]
+    if not getattr(args, "markdown", False):
+        widths = [max(len(c) for c in col) for col in zip(HEADER, *rows)]
+        for row in (HEADER, *rows):
+            print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+        return
+    from protocols.reports import markdown as md
+    print(md.document("Proof of the diagnosis (dyno prove)", md.table(HEADER, rows),
+                      f"{args.seeds} seeds per row on the plain cell through the wires; force noise {noise:g} N RMS "
+                      f"at noise x1 (every sensor's noise times the noise column). Size x1 is the concealed value "
+                      f"at that noise (its contribution equals the force noise, in the default form); x10 ten times "
+                      f"as strong (a bulk modulus divided by ten, a breakaway ratio's excess times ten); forms: "
+                      f"sim_backend/effects.py FORMS. Goals: detection >= 90 %, false positives <= 5 %. Method: "
+                      f"docs/diagnosis.md."))

@@ -87,6 +87,8 @@ def _plan_run(args):
     if args.rrd:
         writable_file(args.rrd, "--rrd")
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
+    if getattr(args, "rate_hz", None):  # `dyno prove --rates`: the virtual cell at another loop rate
+        cfg = rig_config.at_rate(cfg, args.rate_hz)
     info = rig_info(cfg, damper)
     skipped = module.check(params, info)  # refuse before anything connects or moves
     for name, why in skipped:

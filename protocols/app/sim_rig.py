@@ -32,6 +32,7 @@ def parse_faults(specs):
 def virtual_plant(args):
     """VirtualRig keywords from --damper, --effect, --plain and --seed."""
     from sim_backend.effects import EffectError, parse, plain_cell
+    from sim_backend.plant import plant_params
     try:
         effects = parse(args.effect)
     except EffectError as e:
@@ -41,6 +42,10 @@ def virtual_plant(args):
     if args.plain:
         name, params, _ = plain_cell()
         damper = name if damper in (None, "koni") else damper
+    noise = getattr(args, "noise", 1.0)  # `dyno prove --noise`: the sensors' noise times this
+    if noise != 1.0:
+        params = params or plant_params()
+        params["sensors"].update({k: v * noise for k, v in params["sensors"].items() if k.endswith("_noise")})
     return {"damper": damper, "effects": effects, "params": params, "seed": args.seed}
 
 

@@ -20,7 +20,6 @@ from rig.errors import RigError
 
 SYNC = b"\xaa\x55"
 SIZE = 10
-RATE_HZ = 1000.0  # frames per second the amplifier streams
 SATURATED, SENSOR_FAULT = 1, 2
 
 

@@ -18,6 +18,13 @@ from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
 
+FRAME_HZ = 1000.0  # frames per second a streaming device sends unless its config says (frame_hz)
+
+
+def frame_hz(params) -> float:
+    return float(params.get("frame_hz", FRAME_HZ))
+
+
 class Device(Protocol):
     def open(self) -> None: ...
     def poll(self, now: float) -> list: ...

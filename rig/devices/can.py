@@ -12,7 +12,7 @@ from rig.codecs.actuator import MODES
 from rig.errors import RigError
 from rig.schema import Field, number
 from rig.stream_clock import StreamClock
-from rig.devices import Transport
+from rig.devices import FRAME_HZ, Transport, frame_hz
 
 NODES = {"actuator": ("position",), "daq": ("lvdt", "lvt")}  # node -> its signals
 ROUTES = {"ACT_STATUS": "actuator", "DAQ_MOTION": "daq"}  # frame -> node
@@ -103,7 +103,7 @@ class CanNode:
     """The actuator controller or the LVDT/LVT conditioner on a CanBus; each streams its
     frames at frame_hz with a counter, which dates them (rig/stream_clock.py)."""
 
-    def __init__(self, name, bus: CanBus, node, frame_hz=1000.0):
+    def __init__(self, name, bus: CanBus, node, frame_hz=FRAME_HZ):
         self.name, self.bus, self.node = name, bus, node
         self.counter = 0
         self.state = None  # actuator: (state, alarm)
@@ -145,7 +145,7 @@ def _drivers(devices, threaded):
         key = (d.params["interface"], str(d.params["channel"]))
         if key not in buses:
             buses[key] = CanBus(d.params, f"device {name!r}")
-        out[name] = CanNode(name, buses[key], d.params["node"], d.params.get("frame_hz", 1000.0))
+        out[name] = CanNode(name, buses[key], d.params["node"], frame_hz(d.params))
     return out
 
 
@@ -164,5 +164,5 @@ TRANSPORT = Transport(
     drivers=_drivers,
     address=_address,
     takes_setpoints=lambda p: p["node"] == "actuator",
-    rate_hz=lambda p, loop_hz: p.get("frame_hz", loop_hz),
+    rate_hz=lambda p, loop_hz: frame_hz(p),
 )

@@ -8,7 +8,7 @@ from rig.codecs import loadcell
 from rig.errors import RigError
 from rig.schema import Field, number
 from rig.stream_clock import StreamClock
-from rig.devices import Transport
+from rig.devices import Transport, frame_hz
 
 
 class SerialLoadCell:
@@ -20,7 +20,7 @@ class SerialLoadCell:
         self.parser = loadcell.Parser()
         self.frames = 0
         self.glitches = []  # frame counts at which bytes were dropped or frames lost
-        self.clock = StreamClock(1.0 / params.get("frame_hz", loadcell.RATE_HZ))
+        self.clock = StreamClock(1.0 / frame_hz(params))
         self.dropped_at_frame = 0  # parser.dropped when the last valid frame came
 
     def open(self):
@@ -74,5 +74,5 @@ TRANSPORT = Transport(
     signals=lambda p: ("output",),
     drivers=lambda devices, threaded: {n: SerialLoadCell(n, d.params) for n, d in devices.items()},
     address=lambda p: p["port"],
-    rate_hz=lambda p, loop_hz: p.get("frame_hz", loop_hz),
+    rate_hz=lambda p, loop_hz: frame_hz(p),
 )

@@ -22,12 +22,17 @@ from sim_backend.plant import actuator, frame, load_path, sensors, thermal
 from sim_backend.plant.actuator import (MODE_FOLLOW, MODE_HOLD, MODE_OFF, STATE_ALARM,  # noqa: F401
                                         STATE_FOLLOWING, STATE_HOLDING, STATE_OFF)
 
-PARAMS = Path(__file__).parent.parent / "plant.toml"
+PARAMS = Path(__file__).parent.parent / "plant.toml"  # the plant's parameters
+
+
+def plant_params() -> dict:
+    """The plant's parameters as shipped (sim_backend/plant.toml)."""
+    return tomllib.loads(PARAMS.read_text())
 
 
 class Plant:
     def __init__(self, damper="koni", T0=None, h=5e-4, seed=0, params=None, effects=None):
-        self.p = params or tomllib.loads(PARAMS.read_text())
+        self.p = params or plant_params()
         self.fx = dict(effects or {})  # hidden physics, sim_backend/effects.py
         self.forms = self.fx.pop("forms", {})  # {effect: form} other than the default
         damper = load_damper(damper) if isinstance(damper, str) else damper

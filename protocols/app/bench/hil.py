@@ -7,7 +7,6 @@ from __future__ import annotations
 import dataclasses
 import tempfile
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,7 @@ from rig.compensation import COMPENSATORS, make
 from rig.pacing import SimulatedPacer
 from rig.rig import Rig
 from rig.safety import Safety
-from sim_backend.plant import PARAMS
+from sim_backend.plant import plant_params
 from sim_backend.virtual_rig import VirtualRig
 
 from protocols import runner
@@ -36,7 +35,7 @@ def known_model(damper):
     (sim_backend/plant.toml [frame] friction_x_stick): the plant's damper is then exactly
     the model, and what is left between the run and the reference is the loop's own."""
     d = load_damper(damper) if isinstance(damper, str) else damper
-    x_stick = tomllib.loads(PARAMS.read_text())["frame"]["friction_x_stick"]
+    x_stick = plant_params()["frame"]["friction_x_stick"]
     return dataclasses.replace(d, name=f"{d.name}, friction pre-sliding {1e3 * x_stick:g} mm",
                                friction=dataclasses.replace(d.friction, x_stick=x_stick))
 

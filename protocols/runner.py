@@ -37,6 +37,7 @@ class ProgressLine:
         self.t_wall0 = time.monotonic()
         self.last = 0.0
         self.start = None  # (ts, value) of the current wait, a few seconds in
+        self.shown = 0.0  # the fraction shown last
 
     def show(self, i, ts, done_s, readings=None, final=None):
         """i: current segment, ts: seconds into it, done_s: seconds run so far; final: the
@@ -64,6 +65,8 @@ class ProgressLine:
         # a wait of unknown length is left
         frac = 1.0 if final == "done" else done_s / max(done_s + eta, 1e-9)
         frac = min(frac, 0.99) if waits else frac
+        # never backwards: a wait's estimate that grows (or becomes unknown) holds the bar
+        frac = self.shown = max(frac, self.shown)
         pace = (now - self.t_wall0) / done_s if done_s > 10 else 1.0  # wall seconds per rig second
         bar = "#" * int(25 * frac) + "." * (25 - int(25 * frac))
         tail = "" if final else f"ETA {eta * pace:5.0f} s" + (f" + {waits} wait{'s' * (waits > 1)}" if waits else "")

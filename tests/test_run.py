@@ -224,6 +224,28 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     assert P0.ci_low <= P0.value <= P0.ci_high and V0.ci_low <= V0.value <= V0.ci_high
     _, friction = est["friction"]
     assert np.all(friction > 50) and np.all(friction < 200)  # the Koni's seal, 55-95 N static x 1.7 moving
+    # the recording's own damper overlaid: the model's peaks are the plant's; damping force
+    # (measured less gas and friction) is negative in rebound at every speed
+    r = subprocess.run([DYNO, "report", str(out), "--model", "koni", "--out", str(tmp_path / "model")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "Model overlaid: koni." in (tmp_path / "model" / "index.html").read_text()
+    import csv
+    rows = list(csv.DictReader(open(tmp_path / "model" / "peaks.csv")))
+    assert len(rows) == 13  # 4 amplitudes x 3 frequencies and the sweep's sine
+    for row in rows:
+        for side in ("comp", "reb"):
+            F, Fm = float(row[f"F_{side}"]), float(row[f"model_{side}"])
+            assert abs(Fm - F) < 0.03 * abs(F) + 20.0, (row["segment"], side, F, Fm)
+        assert float(row["Fd_reb"]) < 0 < float(row["Fd_comp"]), row
+    r = subprocess.run([DYNO, "report", str(out), str(out), "--out", str(tmp_path / "cmp")], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "cmp" / "index.html").read_text()
+    assert page.count("<td>+0.0</td>") == 2 * 13 and "compare_composite.png" in page
+    bad = subprocess.run([DYNO, "report", str(out), "--model", str(tmp_path / "none.json"), "--out", str(tmp_path)],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "none.json: no such file" in bad.stderr
     bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no such file" in bad.stderr
@@ -251,6 +273,9 @@ def test_progress_counts_waits_by_their_approach_not_their_timeout():
     shown(1, 5.0, 300.0)
     text = shown(1, 15.0, 310.0)  # 1 K/s, 10 K to go
     assert "warm up 36.9 C of 46.9 C" in text and "ETA    15 s + 1 wait" in text
+    percent = (lambda text: int(text.split("]")[1].split("%")[0]))
+    before = percent(text)
+    assert percent(shown(1, 60.0, 301.0)) >= before > 0  # the warming stalls: a longer wait, the bar holds
     assert "ETA     5 s + 2 waits" in shown(1, 20.0, 299.0)  # cooling while it should warm: not known
     text = shown(3, 1.0, 310.0)  # the last wait: the bar is not full before it is done
     assert "ETA     0 s + 1 wait" in text and " 99 %" in text

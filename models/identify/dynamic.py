@@ -82,8 +82,10 @@ def dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
     cannot determine is fixed at 0 and the model refitted without it. fit_gamma=False keeps
     d's gamma (identified from the gas pressure by the gamma step)."""
     keep = set() if fit_gamma else {"gas_spring.gamma"}
-    val = res.train[3::4]
-    fit_on = [s for s in res.train if s not in val]
+    # every fourth training segment validates; with fewer than four, the last (one alone
+    # is fitted and scored on itself)
+    val = res.train[3::4] or res.train[-1:]
+    fit_on = [s for s in res.train if s not in val] or res.train
 
     def score(trial):
         return float(np.mean([nrmse(simulate_segment(trial, s), s.F[s.score_from:]) for s in val]))

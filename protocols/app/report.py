@@ -1,13 +1,38 @@
-"""`dyno report FILE.mcap --out DIR`: the recording's HTML report."""
+"""`dyno report FILE.mcap [OTHER.mcap] --out DIR [--model FILE]`: the recording's HTML
+report (with the damper model overlaid: --model, or the run's identified
+FILE.model.json), or two recordings compared."""
 from __future__ import annotations
 
+from pathlib import Path
+
+from models.damper import DamperError
+from models.damper import load as load_damper
+from rig.errors import RigError
+
 from protocols.io.files import make_dir
+from protocols.reports.comparison import compare
 from protocols.reports.recording import report
+
+
+def _model(args):
+    path = args.model or Path(args.file).with_suffix(".model.json")
+    if args.model is None and not Path(path).is_file():
+        return None
+    try:
+        return load_damper(str(path))
+    except (DamperError, OSError, ValueError) as e:
+        raise RigError(f"--model: {e}") from None
 
 
 def run(args):
     make_dir(args.out)
-    index, pngs = report(args.file, args.out)
+    if args.other:
+        index, pngs = compare(args.file, args.other, args.out)
+    else:
+        model = _model(args)
+        if model is not None:
+            print(f"model overlaid: {model.name}")
+        index, pngs = report(args.file, args.out, model)
     for p in pngs:
         print(p)
     print(index)

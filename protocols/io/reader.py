@@ -35,7 +35,10 @@ def load_recording(path):
         with open(path, "rb") as f:
             r = make_reader(f)
             meta = {m.name: dict(m.metadata) for m in r.iter_metadata()}
-            for _, ch, m in r.iter_messages():
+            summary = r.get_summary()  # None in a file cut short: then every topic is read
+            topics = None if summary is None else [c.topic for c in summary.channels.values()
+                                                   if c.topic.startswith("/channels/") or c.topic == "/events"]
+            for _, ch, m in r.iter_messages(topics=topics):
                 d = json.loads(m.data)
                 if ch.topic.startswith("/channels/"):
                     ts, vs = chans.setdefault(ch.topic[len("/channels/"):], ([], []))

@@ -53,7 +53,23 @@ SCHEMAS = {
                        "segment": {"type": "string"}, "params": {"type": "object"},
                        "message": {"type": "string"}},
         "required": ["seq", "t", "kind"]},
+    "dyno.Sample": {
+        "type": "object", "title": "dyno.Sample",
+        "description": "One sample of a channel, at its log time, SI unit (the channel's metadata 'unit'): for "
+                       "plotting tools that plot a field over time (Foxglove's Plot panel: /plot/force.value).",
+        "properties": {"value": {"type": "number"}}, "required": ["value"]},
+    # Foxglove's Log panel reads this schema by name (docs.foxglove.dev, message schemas: Log)
+    "foxglove.Log": {
+        "type": "object", "title": "foxglove.Log", "description": "The run's events as log lines",
+        "properties": {"timestamp": {"type": "object", "title": "time",
+                                     "properties": {"sec": {"type": "integer", "minimum": 0},
+                                                    "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}},
+                       "level": {"type": "integer", "description": "2 info, 3 warning, 4 error"},
+                       "message": {"type": "string"}, "name": {"type": "string"}, "file": {"type": "string"},
+                       "line": {"type": "integer", "minimum": 0}},
+        "required": ["timestamp", "level", "message", "name", "file", "line"]},
 }
+LOG_LEVEL = {"fault": 4, "operator_stop": 3, "skipped": 3}  # foxglove.Log levels; other events: 2 (info)
 VERSION = "0.1.0"
 
 
@@ -80,9 +96,10 @@ class Recorder:
         self.unit_of = {n: c.unit for n, c in config.channels.items()}
         self.topics, self.seq, self.n = {}, {}, {}
         for name in config.channels:
-            self._topic(f"/channels/{name}", "dyno.Samples")
+            self._channel(name)
         self._topic("/actuator/setpoint", "dyno.Setpoints")
         self._topic("/events", "dyno.Event")
+        self._topic("/log", "foxglove.Log")
         self.w.add_metadata("software", {"name": "dyno", "version": VERSION})
         started = datetime.fromtimestamp(self.wall_start, timezone.utc)
         self.w.add_metadata("run", {"wall_start": started.isoformat(timespec="microseconds"),
@@ -100,9 +117,24 @@ class Recorder:
         self.last_flush = time.monotonic()
         self.last_t = 0.0
 
-    def _topic(self, topic, schema):
-        self.topics[topic] = self.w.register_channel(topic, "json", self.schema[schema])
+    def _topic(self, topic, schema, metadata=None):
+        self.topics[topic] = self.w.register_channel(topic, "json", self.schema[schema], metadata or {})
         self.seq[topic] = 0
+
+    def _channel(self, name):
+        """A channel's batched topic and its per-sample one for plotting tools."""
+        self._topic(f"/channels/{name}", "dyno.Samples")
+        self._topic(f"/plot/{name}", "dyno.Sample", {"unit": self.unit_of.get(name, "")})
+
+    def _plot(self, name, t, v):
+        """One message per sample on /plot/NAME at its own log time."""
+        topic = f"/plot/{name}"
+        cid, n, add = self.topics[topic], self.seq[topic], self.w.add_message
+        for i, (ti, vi) in enumerate(zip(t.tolist(), v.tolist())):
+            ns = self.t0_ns + int(max(ti, 0.0) * 1e9 + 0.5)
+            add(cid, ns, f'{{"value":{vi:.7g}}}'.encode() if -1e308 < vi < 1e308 else b'{"value":null}', ns,
+                sequence=n + i)  # 7 digits plot (the batches keep all); JSON has no nan or inf
+        self.seq[topic] = n + len(t)
 
     def _write(self, topic, t, payload):
         payload = {"seq": self.seq[topic], **payload}
@@ -118,7 +150,7 @@ class Recorder:
         self.unit_of.update(units)
         for name in units:
             if f"/channels/{name}" not in self.topics:
-                self._topic(f"/channels/{name}", "dyno.Samples")
+                self._channel(name)
 
     def samples(self, drained):
         """A rig.drain() batch: {channel: (t array, value array)}."""
@@ -127,6 +159,7 @@ class Recorder:
                 n0 = self.n.get(name, 0)
                 self._write(f"/channels/{name}", float(t[0]), {"n0": n0, "unit": self.unit_of.get(name, ""),
                                                                "t": t.tolist(), "value": v.tolist()})
+                self._plot(name, t, v)
                 self.n[name] = n0 + len(t)
         self.maybe_flush()
 
@@ -137,6 +170,10 @@ class Recorder:
     def event(self, t, kind, segment="", params=None, message=""):
         self._write("/events", t, {"t": t, "kind": kind, "segment": segment, "params": params or {},
                                    "message": message})
+        ns = self.t0_ns + int(round(max(t, 0.0) * 1e9))
+        self._write("/log", t, {"timestamp": {"sec": ns // 10**9, "nsec": ns % 10**9},
+                                "level": LOG_LEVEL.get(kind, 2), "name": "dyno", "file": "", "line": 0,
+                                "message": " ".join(p for p in (kind, segment, message) if p)})
         self.flush()  # events are rare and matter: never leave one in an open chunk
         if kind == "segment_start":
             self.commit()

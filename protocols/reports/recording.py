@@ -1,8 +1,9 @@
-"""`dyno report FILE.mcap --out DIR`: an HTML page with the plots a damper engineer
-expects: force-velocity and force-displacement loops per measured segment, the composite
-peak force vs peak velocity curve, gas force and friction from static holds, low-speed
-loops, force and temperature over time for temperature sweeps, and a hardware-in-the-loop
-run's tracking and car responses (protocols/reports/hil.py)."""
+"""`dyno report FILE.mcap --out DIR [--model M]`: an HTML page with what a damper engineer
+expects (docs/report.md): the header, the peak-force table (protocols/reports/peaks.py,
+also peaks.csv), loops and the composite damping-force curve with the model overlaid, peak
+force against temperature, gas force and friction from static holds, low-speed loops, a
+sweep's temperatures, step responses, and a hardware-in-the-loop run's tracking and car
+responses (protocols/reports/hil.py)."""
 from __future__ import annotations
 
 import json
@@ -13,49 +14,29 @@ import numpy as np
 from models.recording import segments
 from protocols.io.reader import load_recording
 from models.identify.static import static_holds
-from protocols.reports import hil
+from protocols.reports import hil, peaks
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
 
 
-def _window(ch, names, t0, t1):
-    """The channels `names` between t0 and t1 on the first one's clock (the others
-    interpolated to its sample times: channels arrive at their own rates and delays)."""
-    t, first = ch[names[0]]
-    k = (t >= t0) & (t <= t1)
-    tk = t[k]
-    return [first[k]] + [np.interp(tk, *ch[n]) if len(ch[n][0]) else np.full(len(tk), np.nan) for n in names[1:]]
-
-
-def _damper_model(meta):
-    """The full damper model the recording was made with, or None (simplified or absent)."""
-    from models.damper import DamperError, from_dict
-    try:
-        d = from_dict(json.loads(meta.get("damper", {}).get("model", "") or "null"))
-    except (DamperError, ValueError, TypeError, KeyError):
-        return None
-    return None if getattr(d, "layout", "simplified") == "simplified" else d
-
-
-def report(path, out_dir):
+def report(path, out_dir, model=None):
+    """Write DIR/index.html with its PNGs and peaks.csv; model: a damper model to overlay
+    (the run's identified RECORDING.model.json when there is one). (index, [PNG paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
-    model = _damper_model(meta)
-    figures = (_sine_figures(ch, segs, out, model) + _static_figures(ch, events, segs, out) + _low_speed_figures(ch, segs, out)
-               + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out) + hil.figures(ch, events, out))
-    ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
-    proto = meta.get("protocol", {})
-    damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
+    full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
+    rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
+    figures = (_sine_figures(ch, segs, out, rows, model) + _static_figures(ch, events, segs, out)
+               + _low_speed_figures(ch, segs, out) + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out)
+               + hil.figures(ch, events, out))
     page = Page(f"Dyno report: {Path(path).name}")
-    run = meta.get("run", {})
-    page.paragraph(" · ".join(f"{label}: {run[k]}" for k, label in (
-        ("wall_start", "started (UTC)"), ("operator", "operator"), ("damper_serial", "damper serial"), ("note", "note"))
-        if run.get(k)))
-    page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
-                   f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}.")
-    page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)
+    _header(page, meta, events, model)
+    if rows:
+        peaks.write_csv(rows, out / "peaks.csv")
+        page.heading("Peak forces per sine segment (also peaks.csv)")
+        page.table(*peaks.table(rows))
     steps = step_measures(ch, segs)
     if steps:
         page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")
@@ -73,63 +54,97 @@ def report(path, out_dir):
     return index, [out / png for _, png in figures]
 
 
-def _gas_friction(damper, x, v, T):
-    """Gas plus friction force [N] of the damper model at positions x [m], velocities v
-    [m/s] and temperature T [K] (what the thesis subtracts to plot the damping force)."""
-    from models.physics.simulate import simulate
-    r = simulate(damper, np.arange(len(x)) * 1e-3, np.asarray(x, float), np.asarray(v, float), T=T,
-                 compressible=False, x_e=damper.mid_stroke)
-    return r.gas + r.friction
+def _header(page, meta, events, model):
+    """Who ran what on which damper and rig, how it ended, and the model overlaid."""
+    proto = meta.get("protocol", {})
+    damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
+    run = meta.get("run", {})
+    page.paragraph(" · ".join(f"{label}: {run[k]}" for k, label in (
+        ("wall_start", "started (UTC)"), ("operator", "operator"), ("damper_serial", "damper serial"), ("note", "note"))
+        if run.get(k)))
+    page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
+                   f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}."
+                   + (f" Model overlaid: {model.name}." if model is not None else ""))
+    ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
+    page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)
 
 
-def _sine_figures(ch, segs, out, damper=None):
-    """Loops per amplitude and the composite curve of the sine segments: per amplitude and
-    temperature, peak damping force (measured less the damper model's gas and friction at
-    each peak, when the recording names a full damper model) against peak velocity."""
-    figures = []
-    sines = [s for s in segs if s[1]["kind"] == "sine" and "amplitude_mm" in s[1]]
-    if sines and all(k in ch for k in ("force", "x", "v")):
-        amps = sorted({s[1]["amplitude_mm"] for s in sines}, reverse=True)
-        fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
-        peaks = {}  # (amplitude, target temperature) -> [(v_c, F_c, v_r, F_r)]
-        for j, a in enumerate(amps):
-            for name, prm, t0, t1 in sines:
-                if prm["amplitude_mm"] != a:
-                    continue
-                F, x, v = _window(ch, ("force", "x", "v"), t0, t1)
-                n = len(F)
-                label = f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
-                axes[0, j].plot(v[:n], F[:n], lw=0.8, label=label)
-                axes[1, j].plot(1e3 * x[:n], F[:n], lw=0.8, label=label)
-                if n:
-                    ic, ir = int(np.argmax(v[:n])), int(np.argmin(v[:n]))
-                    Fc, Fr = F[ic], F[ir]
-                    if damper is not None:
-                        T = float(np.mean(_window(ch, ("T_body",), t0, t1)[0])) if "T_body" in ch else 293.15
-                        Fc, Fr = np.array([Fc, Fr]) - _gas_friction(damper, x[[ic, ir]], v[[ic, ir]], T)
-                    key = (a, prm.get("target_c"))
-                    peaks.setdefault(key, []).append((v[ic], Fc, v[ir], Fr))
-            axes[0, j].set(title=f"{a:g} mm: force vs velocity", xlabel="velocity [m/s]", ylabel="force [N]")
-            axes[1, j].set(title=f"{a:g} mm: force vs displacement", xlabel="displacement [mm]",
-                           ylabel="force [N]")
-            for ax in axes[:, j]:
-                ax.grid(alpha=0.3)
-                ax.legend(fontsize=7)
-        figures.append(("Force-velocity and force-displacement loops (compression positive)",
-                        save(fig, out / "loops.png")))
-        fig, ax = plt.subplots(figsize=(7, 5))
-        for (a, T), pts in sorted(peaks.items(), key=lambda kv: (-kv[0][0], kv[0][1] or 0)):
-            P = np.array(sorted(pts))
-            label = f"{a:g} mm" + (f", {T:g} C" if T is not None else "")
-            line = ax.plot(P[:, 0], P[:, 1], "o-", label=f"{label} compression")[0]
-            ax.plot(-P[:, 2], -P[:, 3], "s--", color=line.get_color(), label=f"{label} rebound")
-        what = "damping force (measured - gas - friction of the damper model)" if damper else "peak force"
-        ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity", xlabel="peak velocity [m/s]",
-               ylabel=f"{what} [N]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-        figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
-    return figures
+def _sine_figures(ch, segs, out, rows, model=None):
+    """Loops per amplitude (with the model's force along the same motion, dashed) and the
+    composite curve: per amplitude and temperature, peak damping force (measured less gas
+    and friction, when a full damper model is known) against peak velocity."""
+    sine = peaks.sines(segs)
+    if not sine or not rows:
+        return []
+    amps = sorted({s[1]["amplitude_mm"] for s in sine}, reverse=True)
+    fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
+    for j, a in enumerate(amps):
+        for i, (name, prm, t0, t1) in enumerate(s for s in sine if s[1]["amplitude_mm"] == a):
+            t, (F, x, v) = peaks.window(ch, ("force", "x", "v"), t0, t1)
+            if len(F) < 10:
+                continue
+            label = f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
+            c = f"C{i % 10}"
+            axes[0, j].plot(v, F, lw=0.8, color=c, label=label)
+            axes[1, j].plot(1e3 * x, F, lw=0.8, color=c, label=label)
+            if model is not None:
+                Fm = peaks.simulate_segment(model, t, x, v, peaks.segment_temperature(ch, t0, t1)).force
+                k = t >= t[0] + peaks.settled_after(prm)
+                axes[0, j].plot(v[k], Fm[k], "--", lw=0.8, color=c, alpha=0.8)
+                axes[1, j].plot(1e3 * x[k], Fm[k], "--", lw=0.8, color=c, alpha=0.8)
+        axes[0, j].set(title=f"{a:g} mm: force vs velocity", xlabel="velocity [m/s]", ylabel="force [N]")
+        axes[1, j].set(title=f"{a:g} mm: force vs displacement", xlabel="displacement [mm]", ylabel="force [N]")
+        for ax in axes[:, j]:
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7, title="dashed: model" if model is not None else None, title_fontsize=7)
+    figures = [("Force-velocity and force-displacement loops (compression positive)", save(fig, out / "loops.png"))]
+    damping = all(np.isfinite(p.Fd_comp) for p in rows)
+    fig, ax = plt.subplots(figsize=(7, 5))
+    groups = {}
+    for p in rows:
+        groups.setdefault((p.amplitude_mm, p.target_c), []).append(p)
+    for (a, T), ps in sorted(groups.items(), key=lambda kv: (-kv[0][0], np.nan_to_num(kv[0][1]))):
+        ps = sorted(ps, key=lambda p: p.v_comp)
+        vc, vr = np.array([p.v_comp for p in ps]), -np.array([p.v_reb for p in ps])
+        Fc = np.array([p.Fd_comp if damping else p.F_comp for p in ps])
+        Fr = -np.array([p.Fd_reb if damping else p.F_reb for p in ps])
+        label = f"{a:g} mm" + ("" if np.isnan(T) else f", {T:g} C")
+        line = ax.plot(vc, Fc, "o-", label=f"{label} compression")[0]
+        ax.plot(vr, Fr, "s--", color=line.get_color(), label=f"{label} rebound")
+        if model is not None:
+            gas = np.array([(p.F_comp - p.Fd_comp) if damping else 0.0 for p in ps])
+            gas_r = np.array([(p.F_reb - p.Fd_reb) if damping else 0.0 for p in ps])
+            ax.plot(vc, [p.model_comp for p in ps] - gas, "x", color=line.get_color(), ms=8)
+            ax.plot(vr, -(np.array([p.model_reb for p in ps]) - gas_r), "x", color=line.get_color(), ms=8)
+    what = "damping force (measured - gas - friction)" if damping else "peak force"
+    ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity" + (" (x: model)" if model is not None else ""),
+           xlabel="peak velocity [m/s]", ylabel=f"{what} [N], rebound as magnitude")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
+    return figures + force_temperature_figure(rows, out)
+
+
+def force_temperature_figure(rows, out):
+    """Peak forces against the measured temperature, per amplitude and frequency run at
+    temperatures at least 5 C apart (a temperature sweep, or a sweep and the sine matrix)."""
+    groups = {}
+    for p in rows:
+        groups.setdefault((p.amplitude_mm, p.freq_hz), []).append(p)
+    groups = {k: sorted(ps, key=lambda p: p.T_c) for k, ps in groups.items()
+              if max(p.T_c for p in ps) - min(p.T_c for p in ps) >= 5.0}
+    if not groups:
+        return []
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for i, (key, ps) in enumerate(sorted(groups.items())):
+        c = f"C{i % 10}"
+        ax.plot([p.T_c for p in ps], [p.F_comp for p in ps], "o-", color=c, label=f"{key[0]:g} mm {key[1]:g} Hz")
+        ax.plot([p.T_c for p in ps], [-p.F_reb for p in ps], "s--", color=c)
+    ax.set(title="Peak force against temperature (o compression, s rebound magnitude)", xlabel="body temperature [C]",
+           ylabel="peak force [N]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return [("Peak force against temperature", save(fig, out / "force_temperature.png"))]
 
 
 STEP_BAND = 0.02  # settled: within 2 % of the step of its target, to stay
@@ -160,7 +175,7 @@ def step_measures(ch, segs):
         tk, xk = t[k] - t0, x[k]
         d = prm["step_mm"] / 1e3
         x0 = _step_origin(ch, t0)
-        F = _window(ch, ("force",), t0, t1)[0]
+        F = peaks.window(ch, ("force",), t0, t1)[1][0]
         peak = float(F[np.argmax(np.abs(F))])
         if not np.isfinite(x0):
             rows.append((name, prm["step_mm"], np.nan, np.nan, np.nan, peak))
@@ -181,7 +196,7 @@ def _step_figures(ch, segs, out):
         return []
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
     for i, (name, prm, t0, t1) in enumerate(steps):
-        F, x = _window(ch, ("force", "x"), t0, t1)
+        _, (F, x) = peaks.window(ch, ("force", "x"), t0, t1)
         tt = ch["force"][0][(ch["force"][0] >= t0) & (ch["force"][0] <= t1)] - t0
         n = min(len(tt), len(x))
         x0 = _step_origin(ch, t0)
@@ -226,7 +241,7 @@ def _low_speed_figures(ch, segs, out):
     if slow and "force" in ch:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         for name, prm, t0, t1 in slow:
-            F, x = _window(ch, ("force", "x"), t0, t1)
+            _, (F, x) = peaks.window(ch, ("force", "x"), t0, t1)
             n = len(F)
             ax.plot(1e3 * x[:n], F[:n], lw=0.8, label=name)
         ax.set(title="Low-speed loops: gas force with friction", xlabel="displacement [mm]", ylabel="force [N]")

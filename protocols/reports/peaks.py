@@ -1,0 +1,169 @@
+"""The numbers a damper engineer reads off a sine test: per measured sine segment, the peak
+force at the peak compression and rebound velocity, the damping force there (measured less
+gas and friction, as the thesis plots it, chapter 4), and what a damper model predicts; a
+table (HTML and CSV) and the comparison of two recordings segment by segment."""
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import astuple, dataclass, fields
+
+import numpy as np
+
+T_ROOM = 293.15  # K: a segment's temperature when the recording has no body thermocouple
+
+
+@dataclass
+class Peak:
+    segment: str
+    amplitude_mm: float
+    freq_hz: float
+    target_c: float  # nan: not a temperature sweep
+    T_c: float  # measured body temperature over the segment [C]
+    v_comp: float  # peak compression velocity [m/s]
+    F_comp: float  # measured force there [N]
+    v_reb: float  # peak rebound velocity [m/s] (negative)
+    F_reb: float  # [N] (negative)
+    Fd_comp: float = np.nan  # damping force: measured - gas - friction [N]
+    Fd_reb: float = np.nan
+    model_comp: float = np.nan  # the model's force at the same instants [N]
+    model_reb: float = np.nan
+
+    @property
+    def key(self):
+        """What makes two recordings' segments comparable."""
+        return (self.amplitude_mm, self.freq_hz, None if np.isnan(self.target_c) else self.target_c)
+
+
+HEADER = tuple(f.name for f in fields(Peak))
+
+
+def recorded_damper(meta):
+    """The full damper model the recording was made with, or None (simplified or absent)."""
+    from models.damper import DamperError, from_dict
+    try:
+        d = from_dict(json.loads(meta.get("damper", {}).get("model", "") or "null"))
+    except (DamperError, ValueError, TypeError, KeyError):
+        return None
+    return None if getattr(d, "layout", "simplified") == "simplified" else d
+
+
+def window(ch, names, t0, t1):
+    """(t, [values...]) of the channels `names` between t0 and t1 on the first one's clock
+    (the others interpolated to its sample times: channels arrive at their own rates)."""
+    t, first = ch[names[0]]
+    k = (t >= t0) & (t <= t1)
+    tk = t[k]
+    return tk, [first[k]] + [np.interp(tk, *ch[n]) if len(ch[n][0]) else np.full(len(tk), np.nan)
+                             for n in names[1:]]
+
+
+def sines(segs):
+    return [s for s in segs if s[1]["kind"] == "sine" and "amplitude_mm" in s[1]]
+
+
+def simulate_segment(damper, t, x, v, T):
+    """A full damper model's force [N] along measured motion (x [m], v [m/s]) at T [K]:
+    the compressible model (eq 3.19-3.32) on a uniform clock, with the gas spring's rest
+    position at mid-stroke (eq 4.4) as on the rig."""
+    from models.physics.simulate import simulate
+    tu = np.linspace(t[0], t[-1], len(t))
+    stroke = damper.geometry.stroke
+    r = simulate(damper, tu, np.clip(x, 0.0, stroke), v, T=T, compressible=True, x_e=damper.mid_stroke)
+    return r
+
+
+def settled_after(prm):
+    """Seconds into a sine segment after which a model started at rest along it has
+    forgotten its start (one cycle)."""
+    return 1.0 / prm["freq_hz"]
+
+
+def segment_temperature(ch, t0, t1):
+    """The body's mean temperature over [t0, t1] [K]."""
+    if "T_body" not in ch:
+        return T_ROOM
+    _, (T,) = window(ch, ("T_body",), t0, t1)
+    return float(np.mean(T)) if len(T) else T_ROOM
+
+
+def peaks(ch, segs, damper=None, model=None):
+    """[Peak] of the sine segments. damper: a full model whose gas and friction are taken
+    off for the damping force; model: a full model simulated along each segment."""
+    out = []
+    if not {"force", "x", "v"} <= set(ch):
+        return out
+    for name, prm, t0, t1 in sines(segs):
+        t, (F, x, v) = window(ch, ("force", "x", "v"), t0, t1)
+        if len(F) < 10:
+            continue
+        late = t >= t[0] + settled_after(prm)  # a model simulated along the segment has settled
+        late = late if late.sum() > 10 else np.ones(len(t), bool)
+        ic, ir = (int(np.flatnonzero(late)[0] + f(v[late])) for f in (np.argmax, np.argmin))
+        T = segment_temperature(ch, t0, t1)
+        p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T - 273.15,
+                 float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]))
+        if damper is not None:
+            from models.physics.simulate import simulate
+            r = simulate(damper, np.arange(2) * 1e-3, x[[ic, ir]], v[[ic, ir]], T=T, compressible=False,
+                         x_e=damper.mid_stroke)
+            p.Fd_comp, p.Fd_reb = np.array([p.F_comp, p.F_reb]) - (r.gas + r.friction)
+        if model is not None:
+            r = simulate_segment(model, t, x, v, T)
+            p.model_comp, p.model_reb = float(r.force[ic]), float(r.force[ir])
+        out.append(p)
+    return out
+
+
+def write_csv(rows, path):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(HEADER)
+        for p in rows:
+            w.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in astuple(p)])
+    return path
+
+
+def table(rows):
+    """(header, rows) for the page: what an operator reads, in mm, m/s, N, C."""
+    has_d = any(np.isfinite(p.Fd_comp) for p in rows)
+    has_m = any(np.isfinite(p.model_comp) for p in rows)
+    head = ["segment", "amplitude [mm]", "freq [Hz]", "T [C]", "v comp [m/s]", "F comp [N]", "v reb [m/s]",
+            "F reb [N]"] + (["damping comp [N]", "damping reb [N]"] if has_d else []) + \
+        (["model comp [N]", "model reb [N]", "model error comp/reb [%]"] if has_m else [])
+    body = []
+    for p in rows:
+        r = [p.segment, f"{p.amplitude_mm:g}", f"{p.freq_hz:g}", f"{p.T_c:.1f}", f"{p.v_comp:.3f}",
+             f"{p.F_comp:.0f}", f"{p.v_reb:.3f}", f"{p.F_reb:.0f}"]
+        if has_d:
+            r += [f"{p.Fd_comp:.0f}", f"{p.Fd_reb:.0f}"]
+        if has_m:
+            r += [f"{p.model_comp:.0f}", f"{p.model_reb:.0f}",
+                  f"{_pct(p.model_comp, p.F_comp):+.1f} / {_pct(p.model_reb, p.F_reb):+.1f}"]
+        body.append(r)
+    return head, body
+
+
+def _pct(b, a):
+    return 100 * (b - a) / abs(a) if a else np.nan
+
+
+def compare(a, b):
+    """(header, rows): the segments both recordings ran (same amplitude, frequency and
+    target temperature), the peak forces of each and B's difference from A (positive:
+    B's force is the stronger, in compression and in rebound)."""
+    by_b = {}
+    for p in b:
+        by_b.setdefault(p.key, p)
+    head = ("amplitude [mm]", "freq [Hz]", "target [C]", "v comp A/B [m/s]", "F comp A [N]", "F comp B [N]",
+            "diff comp [%]", "F reb A [N]", "F reb B [N]", "diff reb [%]")
+    rows = []
+    for p in a:
+        q = by_b.pop(p.key, None)
+        if q is None:
+            continue
+        rows.append((f"{p.amplitude_mm:g}", f"{p.freq_hz:g}", "-" if np.isnan(p.target_c) else f"{p.target_c:g}",
+                     f"{p.v_comp:.3f} / {q.v_comp:.3f}", f"{p.F_comp:.0f}", f"{q.F_comp:.0f}",
+                     f"{_pct(q.F_comp, p.F_comp):+.1f}", f"{p.F_reb:.0f}", f"{q.F_reb:.0f}",
+                     f"{_pct(-q.F_reb, -p.F_reb):+.1f}"))
+    return head, rows

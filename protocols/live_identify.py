@@ -171,7 +171,8 @@ def _worker(inbox, outbox, description, model_path, ending):
             except dm.DamperError as e:
                 outbox.put(("error", f"identified model not written: {e}"))
                 return
-            outbox.put(("note", f"held-out loop NRMSE {100 * res.heldout_nrmse:.2f} %"))
+            outbox.put(("note", f"held-out loop NRMSE {100 * res.heldout_nrmse:.2f} %" if res.heldout
+                        else "no segment held out (too few): the model is not validated"))
             outbox.put(("model", model_path))
             return
     outbox.put(("error", "no data to identify"))

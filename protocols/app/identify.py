@@ -140,5 +140,7 @@ def text(doc):
     for c in doc["correlated"]:
         lines.append(f"strongly correlated: {c['a']} and {c['b']} (rho {c['rho']:+.2f})")
     lines.append(f"held-out loop NRMSE: {100 * doc['heldout_nrmse']:.2f} % (mean over "
-                 f"{len(doc['heldout'])} segments never used for fitting)")
+                 f"{len(doc['heldout'])} segments never used for fitting)" if doc["heldout"] else
+                 "held-out loop NRMSE: none (too few sine segments to hold one out: the fit is not validated; "
+                 "record more amplitudes or frequencies)")
     return "\n".join(lines)

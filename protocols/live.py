@@ -1,12 +1,17 @@
-"""The live view in rerun: every channel on one timeline, the current segment's
-force-velocity and force-displacement loops as 2D points, protocol progress and events as
-text, in a blueprint laid out for an operator; a hardware-in-the-loop run adds the car
-(target against measured motion, tracking error, body acceleration, tire load). Batches
-go out with `send_columns`, so the view never slows the loop.
+"""The live view in rerun: every channel on one timeline, one view per unit in the
+operator's units, the current segment's force-velocity and force-displacement loops as 2D
+points scaled to fill their view (a labelled frame gives the full scale), protocol
+progress and events as text, and the live identification: each parameter relative to its
+first estimate, and the model's force against the last segment's measurement; a
+hardware-in-the-loop run adds the car (target against measured motion, tracking error,
+body acceleration, tire load). Batches go out with `send_columns`, so the view never
+slows the loop.
 
 Entities (docs/recording.md): channels/<name> (Scalars), loops/force_velocity and
-loops/force_displacement (Points2D, current segment), events (TextLog), identify/<name>
-(Scalars: the live identification's estimate and its 95 % interval).
+loops/force_displacement (Points2D, current segment, with a frame .../scale), events
+(TextLog), identify/params/<name> (Scalars: estimate and 95 % interval over the first
+estimate), identify/fit/measured and identify/fit/model (Points2D: force against
+velocity of the last segment identified).
 """
 from __future__ import annotations
 
@@ -28,6 +33,10 @@ LOOP_POINTS = 4000  # the most recent samples of the segment shown in the loops
 
 
 VIEWER_PORT = 9876  # rerun's default
+
+
+def _full_scale(a):
+    return max(float(np.max(np.abs(a))), 1e-12) if len(a) else 1.0
 
 
 def _listening(port, wait_s=5.0):
@@ -68,6 +77,7 @@ class LiveView:
         self.channels = dict(channels)
         self.loop = {"x": [], "v": [], "force": []}
         self.segment = ""
+        self.first, self.named = {}, set()  # each parameter's first estimate; its series named
         self._layout()
 
     def _layout(self):
@@ -84,7 +94,9 @@ class LiveView:
         columns = [rrb.Vertical(*[rrb.TimeSeriesView(origin="/", contents=by_unit[u], name=f"{UNIT_NAMES.get(u, u)} [{u}]")
                                   for u in order]),                   rrb.Vertical(rrb.Spatial2DView(origin="loops/force_velocity", name="force vs velocity"),
                                 rrb.Spatial2DView(origin="loops/force_displacement", name="force vs displacement"),
-                                rrb.TimeSeriesView(origin="identify", name="identified (value, 95 % interval)"),
+                                rrb.TimeSeriesView(origin="identify/params",
+                                                   name="identified / first estimate (value, 95 % interval)"),
+                                rrb.Spatial2DView(origin="identify/fit", name="model (colour) vs measured (grey)"),
                                 rrb.TextLogView(origin="events", name="protocol"))]
         if "hil.x_target" in self.channels:
             columns.append(rrb.Vertical(
@@ -120,10 +132,23 @@ class LiveView:
             t_last = float(drained["force"][0][-1])
             self.rec.set_time(TIMELINE, duration=t_last)
             F = np.array(self.loop["force"])
-            # velocity in mm/s and displacement in mm keep both axes readable against N
-            self.rec.log("loops/force_velocity", rr.Points2D(np.c_[1e3 * np.array(self.loop["v"]), -F], radii=0.5))
-            self.rec.log("loops/force_displacement",
-                         rr.Points2D(np.c_[1e3 * np.array(self.loop["x"]), -F], radii=0.5))
+            x = np.array(self.loop["x"])
+            self._loop("loops/force_velocity", np.array(self.loop["v"]), F, "velocity", 1e3, "mm/s")
+            self._loop("loops/force_displacement", x - np.mean(x), F, "displacement about the mean", 1e3, "mm")
+
+    def _loop(self, entity, u, F, what, to_unit, unit):
+        """Points (u, F) scaled to +-100 in both directions, so a loop fills its square view
+        whatever its units, in a frame labelled with the full scale."""
+        su, sF = _full_scale(u), _full_scale(F)
+        self._points(entity, u / su, F / sF)
+        self._frame(entity, f"{what} +-{to_unit * su:.3g} {unit} (across), force +-{sF:.0f} N (up)")
+
+    def _points(self, entity, u, F, color=None):
+        """Points scaled to +-1; 2D draws y down, so the force is negated to point up."""
+        self.rec.log(entity, rr.Points2D(np.c_[100 * u, -100 * F], radii=0.6, colors=color))
+
+    def _frame(self, entity, label):
+        self.rec.log(f"{entity}/scale", rr.Boxes2D(mins=[-100, -100], sizes=[200, 200], labels=[label]))
 
     def event(self, t, kind, segment, params, message):
         self.rec.set_time(TIMELINE, duration=t)
@@ -134,14 +159,31 @@ class LiveView:
         self.rec.log("events", rr.TextLog(f"{kind}: {segment} {message}".strip(), level=level))
 
     def estimates(self, t, estimates):
-        """The identification's current estimates (protocols/live_identify.py): each as
-        identify/<name> with its 95 % interval as two more series, and a text line."""
+        """The identification's current estimates (protocols/live_identify.py), named as in
+        the model JSON: each as identify/params/<name>, over its first estimate (one axis
+        for gamma and a bulk modulus alike), with its 95 % interval; and a text line."""
         self.rec.set_time(TIMELINE, duration=t)
-        for e in estimates:
-            if e["identifiable"]:
-                self.rec.log(f"identify/{e['name']}", rr.Scalars([e["value"], e["ci_low"], e["ci_high"]]))
-        self.rec.log("events", rr.TextLog("identify: " + ", ".join(
-            f"{e['name']} {e['value']:.4g}" for e in estimates if e["identifiable"]), level=rr.TextLogLevel.INFO))
+        shown_ = [e for e in estimates if e["identifiable"] and np.isfinite(e["value"])]
+        for e in shown_:
+            ref = self.first.setdefault(e["name"], abs(e["value"]) or 1.0)
+            if e["name"] not in self.named:
+                self.named.add(e["name"])
+                self.rec.log(f"identify/params/{e['name']}", rr.SeriesLines(
+                    names=[f"{e['name']} / {ref:.4g}", "95 % low", "95 % high"]), static=True)
+            self.rec.log(f"identify/params/{e['name']}",
+                         rr.Scalars([e["value"] / ref, e["ci_low"] / ref, e["ci_high"] / ref]))
+        if shown_:
+            self.rec.log("events", rr.TextLog("identify: " + ", ".join(f"{e['name']} {e['value']:.4g}" for e in shown_),
+                                              level=rr.TextLogLevel.INFO))
+
+    def prediction(self, t, v, F, F_model):
+        """The identified model's force (orange) along the last identified segment's motion
+        against the measured force (grey), on one scale."""
+        self.rec.set_time(TIMELINE, duration=t)
+        sv, sF = _full_scale(v), max(_full_scale(F), _full_scale(F_model))
+        self._points("identify/fit/measured", v / sv, F / sF, [150, 150, 150])
+        self._points("identify/fit/model", v / sv, F_model / sF, [230, 120, 20])
+        self._frame("identify/fit", f"velocity +-{1e3 * sv:.3g} mm/s (across), force +-{sF:.0f} N (up)")
 
     def close(self):
         self.rec.flush(timeout_sec=5.0)

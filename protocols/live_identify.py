@@ -71,6 +71,10 @@ class LiveIdentify:
                 self.stream.write("\nidentify: " + "; ".join(parts) + "\n")
             if self.live is not None and hasattr(self.live, "estimates"):
                 self.live.estimates(body["t"], body["estimates"])
+        elif kind == "prediction":
+            if self.live is not None and hasattr(self.live, "prediction"):
+                self.live.prediction(body["t"], body["v"], body["F"], body["F_model"])
+            return
         elif kind in ("note", "error"):
             self.stream.write(f"\nidentify: {body}\n")
         self.stream.flush()
@@ -124,6 +128,30 @@ def _fmt(e):
     return f"{e['value']:.4g} ({e['ci_low']:.4g}..{e['ci_high']:.4g})"
 
 
+def predicted_force(damper, channels, events, points=2000):
+    """{v, F, F_model}: the model's force along the last measured sine or low-speed
+    segment's motion (at the segment's temperature) and the measured force
+    there, at most `points` samples; None without such a segment or if the model fails."""
+    from models.physics.simulate import simulate
+    from models.recording import segments
+    segs = [s for s in segments(events) if s[1].get("kind") in ("sine", "low-speed")]
+    if not segs or not {"force", "x", "v"} <= set(channels):
+        return None
+    _, _, t0, t1 = segs[-1]
+    t, F = channels["force"]
+    k = np.flatnonzero((t >= t0) & (t <= t1))[::max(1, int(np.sum((t >= t0) & (t <= t1))) // points)]
+    if len(k) < 10:
+        return None
+    x, v = (np.interp(t[k], *channels[n]) for n in ("x", "v"))
+    T = float(np.mean(np.interp(t[k], *channels["T_body"]))) if "T_body" in channels else 293.15
+    try:
+        r = simulate(damper, np.linspace(t[k[0]], t[k[-1]], len(k)), np.clip(x, 0.0, damper.geometry.stroke), v,
+                     T=T, x_e=damper.mid_stroke)  # compressible (eq 3.19-3.32): the loop's phase
+    except Exception:  # noqa: BLE001 - a model that cannot run yet shows nothing, the fit goes on
+        return None
+    return {"v": v, "F": F[k], "F_model": r.force}
+
+
 def _worker(inbox, outbox, description, model_path, ending):
     """Accumulate segments; after each batch re-identify (without the slow compressible
     step); at the end identify everything and save the model. Once the run is over
@@ -163,6 +191,10 @@ def _worker(inbox, outbox, description, model_path, ending):
         outbox.put(("estimates", {"t": t_now, "estimates": [
             {"name": e.name, "value": float(e.value), "ci_low": float(e.ci_low), "ci_high": float(e.ci_high),
              "identifiable": bool(e.identifiable)} for e in res.estimates]}))
+        if not done:
+            predicted = predicted_force(res.damper, channels, events)
+            if predicted is not None:
+                outbox.put(("prediction", {"t": t_now, **predicted}))
         if done:
             res.damper.name = f"{desc.name}-identified"
             res.damper.description = "identified live by dyno run"

@@ -179,18 +179,39 @@ def test_live_view_logs_the_documented_entities():
     memory = rec.memory_recording()
     live = LiveView({n: c.unit for n, c in cfg.channels.items()}, recording=rec)
     params = parse(sine_matrix.Params, ["amplitudes_mm=6.4", "freqs_hz=4", "record_cycles=4"])
+    kept = runner.Kept()
     try:
         result, _ = runner.run(sine_matrix, params, rig_info(cfg, vr.plant.damper), rig, SimulatedPacer(vr, 1000),
-                               Safety(cfg), [live], progress=False)
+                               Safety(cfg), [live, kept], progress=False)
+        # the live identification's estimates (gamma beside a bulk modulus) and its model's
+        # force along the last segment: the plant's own damper predicts it
+        live.estimates(1.0, [{"name": "gas_spring.gamma", "value": 1.3, "ci_low": 1.2, "ci_high": 1.4,
+                              "identifiable": True},
+                             {"name": "compressibility.beta_inv", "value": 1e8, "ci_low": 0.9e8, "ci_high": 1.1e8,
+                              "identifiable": True}])
+        logged, log = [], live.rec.log
+        live.rec.log = lambda path, *a, **k: (logged.append(path), log(path, *a, **k))
+        live.estimates(2.0, [{"name": "friction.C_ifT", "value": 2.0, "ci_low": 0.0, "ci_high": 9.0,
+                              "identifiable": False}])
+        assert logged == []  # nothing identifiable: no plot, no empty "identify:" line
+        live.rec.log = log
+        from protocols.live_identify import predicted_force
+        p = predicted_force(vr.plant.damper, kept.arrays(), kept.events)
+        live.prediction(3.0, p["v"], p["F"], p["F_model"])
     finally:
         live.close()
         rig.close()
         vr.close()
     assert result.fault is None
+    assert np.sqrt(np.mean((p["F_model"] - p["F"]) ** 2)) < 0.05 * np.ptp(p["F"])
     data = memory.drain_as_bytes()
-    for entity in [f"channels/{c}" for c in CHANNELS] + ["loops/force_velocity", "loops/force_displacement",
-                                                        "events"]:
+    for entity in [f"channels/{c}" for c in CHANNELS] + [
+            "loops/force_velocity", "loops/force_displacement", "loops/force_velocity/scale", "events",
+            "identify/params/gas_spring.gamma", "identify/params/compressibility.beta_inv", "identify/fit/model",
+            "identify/fit/measured"]:
         assert entity.encode() in data, entity
+    assert b"identify/params/friction.C_ifT" not in data, "an unidentifiable estimate is not plotted"
+    assert b"gas_spring.gamma 1.3" in data  # the text line (compressed: "identify: " is a back-reference)
     assert b"channels/not_a_channel" not in data
     assert b"sine 6.4 mm 4 Hz" in data  # the events' text
 

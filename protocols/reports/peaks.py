@@ -130,16 +130,17 @@ def table(rows):
     has_m = any(np.isfinite(p.model_comp) for p in rows)
     head = ["segment", "amplitude [mm]", "freq [Hz]", "T [C]", "v comp [m/s]", "F comp [N]", "v reb [m/s]",
             "F reb [N]"] + (["damping comp [N]", "damping reb [N]"] if has_d else []) + \
-        (["model comp [N]", "model reb [N]", "model error comp/reb [%]"] if has_m else [])
+        (["model comp [N]", "model reb [N]", "model error comp/reb [% of the segment's force range]"] if has_m else [])
     body = []
     for p in rows:
+        span = max(p.F_comp - p.F_reb, 1e-9)
         r = [p.segment, f"{p.amplitude_mm:g}", f"{p.freq_hz:g}", f"{p.T_c:.1f}", f"{p.v_comp:.3f}",
              f"{p.F_comp:.0f}", f"{p.v_reb:.3f}", f"{p.F_reb:.0f}"]
         if has_d:
             r += [f"{p.Fd_comp:.0f}", f"{p.Fd_reb:.0f}"]
         if has_m:
             r += [f"{p.model_comp:.0f}", f"{p.model_reb:.0f}",
-                  f"{_pct(p.model_comp, p.F_comp):+.1f} / {_pct(p.model_reb, p.F_reb):+.1f}"]
+                  f"{100 * (p.model_comp - p.F_comp) / span:+.1f} / {100 * (p.model_reb - p.F_reb) / span:+.1f}"]
         body.append(r)
     return head, body
 

@@ -219,6 +219,8 @@ def _analysis_commands(sub):
                     help="find each effect's concealed value (contribution = force noise) and print it")
     pv.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
                     help="recordings made and diagnosed in parallel (default 2)")
+    pv.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
+                    help="run the recordings on Dask distributed instead (docs/cluster.md; pip install 'dyno[cluster]')")
     pv.set_defaults(command="prove")
     ex = sub.add_parser("export", help="a recording as one wide table (CSV or Parquet) on the force clock")
     ex.add_argument("recording")

@@ -14,7 +14,6 @@ import json
 import math
 import sys
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ import numpy as np
 from models.diagnose.candidates import CATALOGUE
 from models.recording import segments
 from rig.errors import RigError
+from protocols import cluster
 from sim_backend.effects import EFFECTS, plain_cell, scaled
 
 def _plan(override=None):
@@ -106,7 +106,12 @@ def calibrate(target, progress, effects=None):
 
 def _one(task):
     """Record one prove run through the wire protocols, diagnose it."""
-    effect, form, size, values, seed, noise, rate, folder = task
+    effect, form, size, values, seed, noise, rate = task
+    with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:  # on the worker's own disk
+        return _recorded(effect, form, size, values, seed, noise, rate, folder)
+
+
+def _recorded(effect, form, size, values, seed, noise, rate, folder):
     from models.diagnose import diagnose
     from protocols.app.run import run as run_protocol
     from protocols.io.reader import load_recording
@@ -128,23 +133,21 @@ def _one(task):
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
         est = r["steps"][0]["parameters"].get(CATALOGUE[effect].estimate)
+    t, F = ch["force"]
+    measured = np.zeros(len(t), bool)
+    for _, _, t0, t1 in segments(ev):
+        measured |= (t >= t0) & (t < t1)
+    # what the caller needs travels back with the result: the workers share no disk
     return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
-            "accepted": r["accepted"], "first": first,
+            "accepted": r["accepted"], "first": first, "force_t": t, "force": F, "measured": measured,
             "estimate": est,
-            "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"],
-            "file": str(out)}
+            "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"]}
 
 
 def _measured_rms_diff(a, b):
-    from protocols.io.reader import load_recording
-    ch, events, _ = load_recording(a)
-    (ta, Fa), (tb, Fb) = ch["force"], load_recording(b)[0]["force"]
-    _, ia, ib = np.intersect1d(np.round(ta, 6), np.round(tb, 6), return_indices=True)
-    t = ta[ia]
-    measured = np.zeros(len(t), bool)
-    for _, _, t0, t1 in segments(events):
-        measured |= (t >= t0) & (t < t1)
-    return float(np.sqrt(np.mean((Fa[ia] - Fb[ib])[measured] ** 2)))
+    """RMS [N] of the force difference of two prove results over a's measured samples."""
+    _, ia, ib = np.intersect1d(np.round(a["force_t"], 6), np.round(b["force_t"], 6), return_indices=True)
+    return float(np.sqrt(np.mean((a["force"][ia] - b["force"][ib])[a["measured"][ia]] ** 2)))
 
 
 def _table(results, effects, concealed):
@@ -203,27 +206,25 @@ def run(args):
         variants = [v for e in effects
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
     tasks = []
-    levels = [(n, r) for n in args.noise for r in args.rates]
-    with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:
-        for seed in range(args.seeds):
-            for noise, rate in levels:
-                for e, form in variants:
-                    for size in ([1.0] if e == "null" else args.sizes):
-                        # a size is a multiple of the noise floor at this noise level
-                        values = None if e == "null" else {p: scaled(p, concealed[p], size * noise) for p in e.split("+")}
-                        tasks.append((None if e == "null" else e, form, size, values, seed, noise, rate, folder))
-                if "null" not in effects:  # the contribution is measured against the null of the same seed
-                    tasks.append((None, None, 1.0, None, seed, noise, rate, folder))
-        results = []
-        with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            for r in pool.map(_one, tasks):
-                results.append(r)
-                say(f"{r['effect'] or 'null':20s} {r['form'] or '':13s} x{r['size']:<4g} noise x{r['noise']:<3g} "
-                    f"{r['rate']:5.0f} Hz seed {r['seed']:2d}: accepted {r['accepted'] or 'nothing'}")
-        nulls = {(r["seed"], r["noise"], r["rate"]): r["file"] for r in results if r["effect"] is None}
-        for r in results:
-            if r["effect"]:
-                r["contribution"] = _measured_rms_diff(r["file"], nulls[r["seed"], r["noise"], r["rate"]])
+    for seed in range(args.seeds):
+        for noise, rate in [(n, r) for n in args.noise for r in args.rates]:
+            for e, form in variants:
+                for size in ([1.0] if e == "null" else args.sizes):
+                    # a size is a multiple of the noise floor at this noise level
+                    values = None if e == "null" else {p: scaled(p, concealed[p], size * noise) for p in e.split("+")}
+                    tasks.append((None if e == "null" else e, form, size, values, seed, noise, rate))
+            if "null" not in effects:  # the contribution is measured against the null of the same seed
+                tasks.append((None, None, 1.0, None, seed, noise, rate))
+    results = []
+    with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
+        for r in pool.map(_one, tasks):
+            results.append(r)
+            say(f"{r['effect'] or 'null':20s} {r['form'] or '':13s} x{r['size']:<4g} noise x{r['noise']:<3g} "
+                f"{r['rate']:5.0f} Hz seed {r['seed']:2d}: accepted {r['accepted'] or 'nothing'}")
+    nulls = {(r["seed"], r["noise"], r["rate"]): r for r in results if r["effect"] is None}
+    for r in results:
+        if r["effect"]:
+            r["contribution"] = _measured_rms_diff(r, nulls[r["seed"], r["noise"], r["rate"]])
     table = _table(results, effects, concealed)
     doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table,
            "goals": {"detection": 0.9, "false_positive": 0.05}}

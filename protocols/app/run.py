@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import signal
 import sys
+import threading
 
 from models.damper import load as load_damper
 from models.damper import to_dict
@@ -30,7 +31,10 @@ def run(args):
     claim = _output(args, module.NAME)
     vr = rig = recorder = live = ident = result = pacer = None
     errors = []  # the first is the one that ended the run; later ones are reported after it
-    previous = signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    # SIGTERM stops the run as Ctrl-C does; only the main thread may set it (a cluster
+    # worker runs `dyno prove`'s recordings on a thread of its own)
+    main = threading.current_thread() is threading.main_thread()
+    previous = main and signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
         vr, rig, cfg, pacer = open_rig(args, cfg, damper, plant)
         if args.live or args.rrd:
@@ -51,7 +55,8 @@ def run(args):
     except RigError as e:
         errors.append(str(e))
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        if main:
+            signal.signal(signal.SIGTERM, previous)
         for close in (recorder and recorder.close, live and live.close, rig and rig.close, vr and vr.close):
             if close:
                 try:

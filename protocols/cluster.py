@@ -1,0 +1,73 @@
+"""`--cluster local[:WORKERS] | tcp://HOST:PORT`: fan-out work on Dask distributed instead of
+a local process pool. Dask is optional (`pip install 'dyno[cluster]'`); the executor it
+gives is a concurrent.futures one, so the callers' map stays as it is.
+
+    with executor("local:2") as (pool, workers):
+        results = list(pool.map(task, jobs))   # in job order; a task whose worker died is re-run
+"""
+from __future__ import annotations
+
+import contextlib
+import re
+
+from rig.errors import RigError
+
+INSTALL = "pip install 'dyno[cluster]' (Dask distributed)"
+
+
+def parse(spec: str):
+    """("local", workers or None) or ("tcp", address); RigError names a bad one."""
+    m = re.fullmatch(r"local(?::(\d+))?", spec)
+    if m:
+        workers = int(m.group(1)) if m.group(1) else None
+        if workers is not None and not 1 <= workers <= 1024:
+            raise RigError(f"--cluster {spec}: WORKERS must be 1-1024")
+        return "local", workers
+    if re.fullmatch(r"tcp://[^\s:/]+:\d+", spec):
+        return "tcp", spec
+    raise RigError(f"--cluster {spec!r}: give local, local:WORKERS or tcp://HOST:PORT (a Dask scheduler)")
+
+
+@contextlib.contextmanager
+def pool(spec, jobs):
+    """(Executor, workers): the Dask cluster `spec`, or without one a local process pool
+    of `jobs` processes."""
+    if spec:
+        with executor(spec) as out:
+            yield out
+        return
+    from concurrent.futures import ProcessPoolExecutor
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as local:
+        yield local, max(1, jobs)
+
+
+@contextlib.contextmanager
+def executor(spec: str):
+    """(concurrent.futures Executor, number of workers) on the cluster `spec`; a local one
+    is started for the call (processes, one thread each, everything on 127.0.0.1) and
+    stopped after it."""
+    kind, arg = parse(spec)
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise RigError(f"--cluster needs Dask: {INSTALL}") from None
+    cluster = None
+    try:
+        if kind == "local":
+            import os
+            cluster = LocalCluster(n_workers=arg or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                                   host="127.0.0.1", dashboard_address=None, silence_logs=40)
+            client = Client(cluster)
+        else:
+            client = Client(arg, timeout="10s")
+    except OSError as e:
+        if cluster is not None:
+            cluster.close()
+        raise RigError(f"--cluster {spec}: cannot connect ({e})") from None
+    try:
+        workers = len(client.scheduler_info()["workers"])
+        yield client.get_executor(pure=False), workers
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

@@ -1,0 +1,52 @@
+"""--cluster on a real Dask LocalCluster (2 worker processes on 127.0.0.1): the same results
+as in this process, a task whose worker dies is re-run elsewhere, bad specs are named."""
+import os
+
+import numpy as np
+import pytest
+
+from models.damper import load as load_damper
+from models.physics.simulate import simulate, sine
+from protocols import cluster
+from rig.errors import RigError
+
+
+def _force(freq):
+    """The Koni's force over two cycles of a 12.7 mm sine at freq [Hz] (compressible model)."""
+    d = load_damper("koni")
+    t, x, v = sine(0.0127, freq, 2, d.mid_stroke, samples_per_cycle=400)
+    return simulate(d, t, x, v).force
+
+
+def _dies_once(marker):
+    """Kill this worker process the first time (marker absent), answer the second."""
+    if not os.path.exists(marker):
+        open(marker, "w").close()
+        os._exit(3)
+    return os.getpid()
+
+
+@pytest.mark.xdist_group("cluster")
+def test_a_local_cluster_gives_what_this_process_gives_and_survives_a_dead_worker(tmp_path):
+    freqs = [1.0, 4.0, 8.0, 16.0]
+    with cluster.pool("local:2", jobs=1) as (pool, workers):
+        assert workers == 2
+        remote = list(pool.map(_force, freqs))
+        pid = pool.submit(_dies_once, str(tmp_path / "died")).result(timeout=120)
+    for f, r in zip(freqs, remote):
+        assert np.array_equal(r, _force(f))
+    assert pid != os.getpid() and (tmp_path / "died").exists()
+
+
+@pytest.mark.parametrize("spec, message", [("locl", "give local, local:WORKERS or tcp://HOST:PORT"),
+                                           ("local:0", "WORKERS must be 1-1024"),
+                                           ("tcp://127.0.0.1", "give local")])
+def test_a_bad_cluster_is_named(spec, message):
+    with pytest.raises(RigError, match=message):
+        cluster.parse(spec)
+
+
+def test_an_unreachable_scheduler_is_named():
+    with pytest.raises(RigError, match="cannot connect"):
+        with cluster.executor("tcp://127.0.0.1:9"):
+            pass

@@ -50,3 +50,28 @@ def test_an_unreachable_scheduler_is_named():
     with pytest.raises(RigError, match="cannot connect"):
         with cluster.executor("tcp://127.0.0.1:9"):
             pass
+
+
+@pytest.mark.xdist_group("cluster")
+def test_batch_diagnosis_on_the_cluster_equals_the_local_one_and_a_bad_file_fails_alone(tmp_path):
+    import csv
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+    dyno = str(Path(sys.executable).parent / "dyno")
+    good, bad = tmp_path / "good.mcap", tmp_path / "bad.mcap"
+    p = subprocess.run([dyno, "run", "sine-matrix", "amplitudes_mm=6.4", "freqs_hz=2,8", "record_cycles=4",
+                        "--plain", "--out", str(good)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    bad.write_text("not a recording\n")
+    docs = []
+    for how in (["--jobs", "1"], ["--cluster", "local:2"]):
+        summary = tmp_path / f"summary{len(docs)}.csv"
+        p = subprocess.run([dyno, "diagnose", "--batch", str(good), str(bad), "--summary", str(summary), *how],
+                           capture_output=True, text=True, timeout=600)
+        assert p.returncode == 1, p.stderr[-2000:]  # one recording failed
+        rows = {Path(r["recording"]).name: r for r in csv.DictReader(open(summary))}
+        assert "not a readable recording" in rows["bad.mcap"]["error"] and rows["good.mcap"]["error"] == ""
+        docs.append(json.loads(good.with_suffix(".diagnosis.json").read_text()))
+    assert docs[0]["final"] == docs[1]["final"] and docs[0]["accepted"] == docs[1]["accepted"]

@@ -190,7 +190,14 @@ def _analysis_commands(sub):
     idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
     idf.set_defaults(command="identify")
     dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
-    dg.add_argument("recording")
+    dg.add_argument("recording", nargs="?")
+    dg.add_argument("--batch", nargs="+", metavar="FILE",
+                    help="diagnose many recordings, one task each: FILE.diagnosis.json beside each and a summary table")
+    dg.add_argument("--summary", default=None, help="--batch's summary CSV (default diagnosis-summary.csv)")
+    dg.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
+                    help="--batch on Dask distributed (docs/cluster.md)")
+    dg.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
+                    help="--batch without --cluster: recordings diagnosed in parallel (default 2)")
     dg.add_argument("--baseline", default="minimal",
                     help="minimal (default: fitted whole), or a damper preset or model JSON, refitted")
     dg.add_argument("--json", action="store_true", help="machine-readable result")

@@ -249,6 +249,12 @@ def run(args):
             raise RigError(f"--baseline {args.baseline}: a simplified model has no gas spring or friction to refit; "
                            f"give a full damper model")
         baseline = (Path(args.baseline).stem, model)
+    if getattr(args, "batch", None):
+        from models.damper import to_dict
+        from protocols.app import diagnose_batch
+        return diagnose_batch.run(args, baseline and (baseline[0], to_dict(baseline[1])))
+    if args.recording is None:
+        raise RigError("diagnose: give a RECORDING, or --batch FILE...")
     if args.report:
         make_dir(args.report, "--report")
     ch, events, _ = load_recording(args.recording)

@@ -207,14 +207,14 @@ def run(args):
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
     tasks = []
     for seed in range(args.seeds):
-        for noise, rate in [(n, r) for n in args.noise for r in args.rates]:
+        for level, rate in [(n, r) for n in args.noise for r in args.rates]:
             for e, form in variants:
                 for size in ([1.0] if e == "null" else args.sizes):
                     # a size is a multiple of the noise floor at this noise level
-                    values = None if e == "null" else {p: scaled(p, concealed[p], size * noise) for p in e.split("+")}
-                    tasks.append((None if e == "null" else e, form, size, values, seed, noise, rate))
+                    values = None if e == "null" else {p: scaled(p, concealed[p], size * level) for p in e.split("+")}
+                    tasks.append((None if e == "null" else e, form, size, values, seed, level, rate))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
-                tasks.append((None, None, 1.0, None, seed, noise, rate))
+                tasks.append((None, None, 1.0, None, seed, level, rate))
     results = []
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
         for r in pool.map(_one, tasks):

@@ -34,7 +34,7 @@ def read(path):
                 events.append(d)
             elif ch.topic == "/actuator/setpoint":
                 sp += d["t"]
-            else:
+            elif ch.topic.startswith("/channels/"):  # the batches; /plot/ repeats them per sample
                 t, v = chans.setdefault(ch.topic.split("/")[-1], ([], []))
                 t += d["t"]
                 v += d["value"]

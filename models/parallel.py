@@ -5,6 +5,10 @@ It only needs an executor with the `concurrent.futures.Executor` interface (`sub
 returning futures with `result()` and `add_done_callback`), so a distributed executor
 (dask.distributed's `client.get_executor()`, mpi4py.futures' `MPIPoolExecutor`, ...)
 plugs in where the default process pool sits. fn and the jobs must pickle.
+
+A job that raises is run once more (a worker's passing trouble: memory, a lost
+connection) and, if it fails again, stops the call with TaskFailed naming it; a job whose
+worker process died is re-run by a Dask executor itself.
 """
 from __future__ import annotations
 
@@ -13,6 +17,25 @@ import sys
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+
+
+class TaskFailed(RuntimeError):
+    """A job failed twice; the message names it."""
+
+
+def warm():
+    """Compile the physics kernels in this process, or load them from numba's cache, so
+    that a worker's first task is not charged for it (a pool's initializer, Dask's
+    client.run)."""
+    from models.damper import load
+    from models.physics.simulate import simulate, sine
+    from models.quarter_car import load as load_car
+    from models.quarter_car.sim import run
+    d = load("koni")
+    t, x, v = sine(0.002, 2.0, 1, d.mid_stroke, samples_per_cycle=40)
+    simulate(d, t, x, v)
+    run(load_car("race-car"), d, t, x - x[0], v)
 
 
 class Progress:
@@ -24,6 +47,12 @@ class Progress:
         self.done = 0
         self.t0 = time.monotonic()
         self._lock = threading.Lock()
+
+    def note(self, text):
+        """A line of its own above the bar."""
+        with self._lock:
+            self.stream.write(f"\r{text}\n")
+            self.stream.flush()
 
     def advance(self, n=1):
         with self._lock:
@@ -38,42 +67,70 @@ class Progress:
             self.stream.flush()
 
 
-def run_all(fn, jobs, executor=None, workers=None, progress=None, label=""):
+def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", names=None):
     """[fn(job) for job in jobs], in parallel.
 
     executor: an Executor to submit to (left open); by default a process pool of
-    `workers` processes (the machine's cores) is made for the call. workers=1 without an
-    executor runs in this process. progress: a stream for the progress bar, True for
-    stderr, None for none.
+    `workers` processes (the machine's cores, each warmed once) is made for the call.
+    workers=1 without an executor runs in this process. progress: a stream for the
+    progress bar, True for stderr, None for none. names: each job's name in messages
+    (default: its number).
     """
     jobs = list(jobs)
+    names = [f"{label or 'job'} {i + 1}" for i in range(len(jobs))] if names is None else list(names)
     bar = None
     if progress and jobs:
         bar = Progress(len(jobs), label, None if progress is True else progress)
     try:
-        return _run(fn, jobs, executor, workers or os.cpu_count() or 1, bar)
+        return _run(fn, jobs, names, executor, workers or os.cpu_count() or 1, bar)
     except BaseException:
         if bar and bar.done < bar.total:
             bar.stream.write("\n")  # an error message after us starts on its own line
         raise
 
 
-def _run(fn, jobs, executor, workers, bar):
+def _retried(name, error, bar):
+    text = f"{name} failed ({type(error).__name__}: {error}): run again"
+    if bar:
+        bar.note(text)
+    else:
+        print(text, file=sys.stderr, flush=True)
+
+
+def _run(fn, jobs, names, executor, workers, bar):
     if executor is None and (workers == 1 or len(jobs) == 1):
         out = []
-        for job in jobs:
-            out.append(fn(job))
+        for job, name in zip(jobs, names):
+            try:
+                out.append(fn(job))
+            except Exception as e:  # noqa: BLE001 - once more, then named
+                _retried(name, e, bar)
+                try:
+                    out.append(fn(job))
+                except Exception as e2:  # noqa: BLE001
+                    raise TaskFailed(f"{name} failed twice: {e2}") from e2
             if bar:
                 bar.advance()
         return out
     own = executor is None
-    ex = ProcessPoolExecutor(max_workers=min(workers, len(jobs))) if own else executor
+    ex = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=warm) if own else executor
     try:
         futures = [ex.submit(fn, job) for job in jobs]
-        if bar:
-            for f in futures:
-                f.add_done_callback(lambda _: bar.advance())
-        return [f.result() for f in futures]
+        out = []
+        for i, f in enumerate(futures):
+            try:
+                out.append(f.result())
+            except BrokenProcessPool:
+                raise
+            except Exception as e:  # noqa: BLE001 - once more, then named
+                _retried(names[i], e, bar)
+                try:
+                    out.append(ex.submit(fn, jobs[i]).result())
+                except Exception as e2:  # noqa: BLE001
+                    raise TaskFailed(f"{names[i]} failed twice: {e2}") from e2
+            if bar:
+                bar.advance()
+        return out
     finally:
         if own:
             ex.shutdown(cancel_futures=True)

@@ -1,15 +1,18 @@
 """`--cluster local[:WORKERS] | tcp://HOST:PORT`: fan-out work on Dask distributed instead of
 a local process pool. Dask is optional (`pip install 'dyno[cluster]'`); the executor it
-gives is a concurrent.futures one, so the callers' map stays as it is.
+gives is a concurrent.futures one, for models.parallel.run_all (progress over the tasks,
+a failed task run once more and then named). Every worker compiles the physics kernels
+once when it joins (models.parallel.warm), not inside the first task.
 
-    with executor("local:2") as (pool, workers):
-        results = list(pool.map(task, jobs))   # in job order; a task whose worker died is re-run
+    with pool("local:2", jobs=2) as (ex, workers):
+        results = run_all(task, jobs, ex, progress=True)  # in job order; a dead worker's task is re-run
 """
 from __future__ import annotations
 
 import contextlib
 import re
 
+from models.parallel import warm
 from rig.errors import RigError
 
 INSTALL = "pip install 'dyno[cluster]' (Dask distributed)"
@@ -37,8 +40,21 @@ def pool(spec, jobs):
             yield out
         return
     from concurrent.futures import ProcessPoolExecutor
-    with ProcessPoolExecutor(max_workers=max(1, jobs)) as local:
+    with ProcessPoolExecutor(max_workers=max(1, jobs), initializer=warm) as local:
         yield local, max(1, jobs)
+
+
+def _warm_plugin():
+    """A Dask worker plugin (Dask wants the subclass): models.parallel.warm() once in each
+    worker as it starts."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class Warm(WorkerPlugin):
+        name = "dyno-warm"
+
+        def setup(self, worker):
+            warm()
+    return Warm()
 
 
 @contextlib.contextmanager
@@ -66,6 +82,7 @@ def executor(spec: str):
         raise RigError(f"--cluster {spec}: cannot connect ({e})") from None
     try:
         workers = len(client.scheduler_info()["workers"])
+        client.register_plugin(_warm_plugin())  # also on workers that join later
         yield client.get_executor(pure=False), workers
     finally:
         client.close()

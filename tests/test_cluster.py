@@ -1,6 +1,11 @@
 """--cluster on a real Dask LocalCluster (2 worker processes on 127.0.0.1): the same results
 as in this process, a task whose worker dies is re-run elsewhere, bad specs are named."""
+import csv
+import json
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,6 +14,8 @@ from models.damper import load as load_damper
 from models.physics.simulate import simulate, sine
 from protocols import cluster
 from rig.errors import RigError
+
+DYNO = str(Path(sys.executable).parent / "dyno")
 
 
 def _force(freq):
@@ -52,26 +59,47 @@ def test_an_unreachable_scheduler_is_named():
             pass
 
 
-@pytest.mark.xdist_group("cluster")
-def test_batch_diagnosis_on_the_cluster_equals_the_local_one_and_a_bad_file_fails_alone(tmp_path):
-    import csv
-    import json
-    import subprocess
-    import sys
-    from pathlib import Path
-    dyno = str(Path(sys.executable).parent / "dyno")
-    good, bad = tmp_path / "good.mcap", tmp_path / "bad.mcap"
-    p = subprocess.run([dyno, "run", "sine-matrix", "amplitudes_mm=6.4", "freqs_hz=2,8", "record_cycles=4",
+@pytest.fixture(scope="module")
+def archive(tmp_path_factory):
+    """(good, bad): a short sine-matrix recording and a file that is not one."""
+    folder = tmp_path_factory.mktemp("archive")
+    good, bad = folder / "good.mcap", folder / "bad.mcap"
+    p = subprocess.run([DYNO, "run", "sine-matrix", "amplitudes_mm=6.4,3.2", "freqs_hz=2,8", "record_cycles=4",
                         "--plain", "--out", str(good)], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr[-2000:]
     bad.write_text("not a recording\n")
+    return good, bad
+
+
+@pytest.mark.xdist_group("cluster")
+@pytest.mark.parametrize("command, suffix, compare", [("diagnose", ".diagnosis.json", ("final", "accepted")),
+                                                      ("identify", ".model.json", ("model", "summary"))])
+def test_a_batch_on_the_cluster_equals_the_local_one_and_a_bad_file_fails_alone(archive, tmp_path, command, suffix,
+                                                                                  compare):
+    good, bad = archive
     docs = []
     for how in (["--jobs", "1"], ["--cluster", "local:2"]):
         summary = tmp_path / f"summary{len(docs)}.csv"
-        p = subprocess.run([dyno, "diagnose", "--batch", str(good), str(bad), "--summary", str(summary), *how],
+        p = subprocess.run([DYNO, command, "--batch", str(good), str(bad), "--summary", str(summary), *how],
                            capture_output=True, text=True, timeout=600)
         assert p.returncode == 1, p.stderr[-2000:]  # one recording failed
         rows = {Path(r["recording"]).name: r for r in csv.DictReader(open(summary))}
         assert "not a readable recording" in rows["bad.mcap"]["error"] and rows["good.mcap"]["error"] == ""
-        docs.append(json.loads(good.with_suffix(".diagnosis.json").read_text()))
-    assert docs[0]["final"] == docs[1]["final"] and docs[0]["accepted"] == docs[1]["accepted"]
+        assert "Traceback" not in p.stderr
+        docs.append(json.loads(good.with_suffix(suffix).read_text()))
+    for key in compare:
+        assert docs[0][key] == docs[1][key]
+    if command == "identify":  # the identified parameters are the summary's columns
+        assert float(rows["good.mcap"]["gas_spring.gamma"]) == docs[0]["model"]["gas_spring"]["gamma"]
+
+
+@pytest.mark.xdist_group("cluster")
+def test_a_sweep_on_the_cluster_equals_the_serial_one():
+    from models.quarter_car import load as load_car
+    from models.quarter_car.sweeps import frequency_response
+    car, freqs = load_car("simulator"), [2.0, 9.0, 15.0]
+    serial = frequency_response(car, "koni", [0.0032], freqs, workers=1)
+    with cluster.pool("local:2", jobs=1) as (pool, _):
+        remote = frequency_response(car, "koni", [0.0032], freqs, executor=pool)
+    for k, v in serial.values.items():
+        assert np.array_equal(v, remote.values[k]), k

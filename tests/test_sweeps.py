@@ -1,5 +1,6 @@
 """Sweeps, the parallel runner and the parametric variations on cases with known answers."""
 import io
+import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -10,7 +11,7 @@ from models import quarter_car as qcm
 from models.validation import quarter_car as qv
 from models.quarter_car import sweeps
 from models.damper import DamperError, SimplifiedDamper, SimplifiedDirection, load
-from models.parallel import run_all
+from models.parallel import TaskFailed, run_all
 from models.physics.simulate import simulate
 
 
@@ -26,6 +27,29 @@ def test_run_all_keeps_job_order_in_processes_and_any_executor():
         assert run_all(_square, jobs, executor=ex, progress=stream, label="squares") == [j * j for j in jobs]
     assert "squares" in stream.getvalue() and "12/12" in stream.getvalue()
 
+
+def _fails_once(marker):
+    """Raise the first time (marker absent), answer the second."""
+    if not os.path.exists(marker):
+        open(marker, "w").close()
+        raise OSError("a passing fault")
+    return marker
+
+
+def _two_is_bad(job):
+    if job == 2:
+        raise ValueError(f"bad job {job}")
+    return job
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_run_all_runs_a_failed_job_once_more_and_names_one_that_fails_twice(tmp_path, workers):
+    jobs = [str(tmp_path / "a"), str(tmp_path / "b")]
+    stream = io.StringIO()
+    assert run_all(_fails_once, jobs, workers=workers, progress=stream, names=["job A", "job B"]) == jobs
+    assert "job A failed (OSError: a passing fault): run again" in stream.getvalue()
+    with pytest.raises(TaskFailed, match="job B failed twice: bad job 2"):
+        run_all(_two_is_bad, [1, 2], workers=workers, names=["job A", "job B"])
 
 def linear_damper(c):
     side = SimplifiedDirection(c_low=c, c_mid=c)

@@ -8,6 +8,7 @@ import math
 import sys
 
 from models.damper import DamperError
+from models.parallel import TaskFailed
 from rig.errors import RigError
 
 
@@ -114,6 +115,7 @@ def _model_commands(sub):
             q.add_argument("--temp", type=number(), default=90.0, help="damper temperature in C (default 90)")
         q.add_argument("--workers", type=number(1, 256, integer=True), default=None,
                        help="processes (default: all cores)")
+        _cluster_option(q)
         q.set_defaults(command=command)
 
 
@@ -178,26 +180,35 @@ def _cell_commands(sub):
     rz.set_defaults(command="rig_zero")
 
 
+def _batch_options(p, what, beside):
+    p.add_argument("--batch", nargs="+", metavar="FILE",
+                   help=f"many recordings, one task each: {beside} beside each and a summary table")
+    p.add_argument("--summary", default=None, help=f"--batch's summary CSV (default {what}-summary.csv)")
+    _cluster_option(p)
+    p.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
+                   help="--batch without --cluster: recordings analysed in parallel (default 2)")
+
+
+def _cluster_option(p):
+    p.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
+                   help="fan out on Dask distributed (docs/cluster.md; pip install 'dyno[cluster]')")
+
+
 def _analysis_commands(sub):
     """From recordings: identify, diagnose, prove the diagnosis, import CSV."""
     idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
-    idf.add_argument("recordings", nargs="+", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
+    idf.add_argument("recordings", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
     idf.add_argument("--damper", default=None,
                      help="description giving layout and geometry (default: the damper the recording names)")
     idf.add_argument("--out", default=None, help="model JSON (default: RECORDING.model.json)")
     idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
     idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
+    _batch_options(idf, "identify", "FILE.model.json")
     idf.set_defaults(command="identify")
     dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
     dg.add_argument("recording", nargs="?")
-    dg.add_argument("--batch", nargs="+", metavar="FILE",
-                    help="diagnose many recordings, one task each: FILE.diagnosis.json beside each and a summary table")
-    dg.add_argument("--summary", default=None, help="--batch's summary CSV (default diagnosis-summary.csv)")
-    dg.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
-                    help="--batch on Dask distributed (docs/cluster.md)")
-    dg.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
-                    help="--batch without --cluster: recordings diagnosed in parallel (default 2)")
+    _batch_options(dg, "diagnosis", "FILE.diagnosis.json")
     dg.add_argument("--baseline", default="minimal",
                     help="minimal (default: fitted whole), or a damper preset or model JSON, refitted")
     dg.add_argument("--json", action="store_true", help="machine-readable result")
@@ -226,8 +237,7 @@ def _analysis_commands(sub):
                     help="find each effect's concealed value (contribution = force noise) and print it")
     pv.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
                     help="recordings made and diagnosed in parallel (default 2)")
-    pv.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
-                    help="run the recordings on Dask distributed instead (docs/cluster.md; pip install 'dyno[cluster]')")
+    _cluster_option(pv)
     pv.set_defaults(command="prove")
     ex = sub.add_parser("export", help="a recording as one wide table (CSV or Parquet) on the force clock")
     ex.add_argument("recording")
@@ -262,6 +272,7 @@ def _bench_commands(sub):
     bw.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bw.add_argument("--workers", type=number(1, 256, integer=True), default=None,
                     help="processes (default: all cores)")
+    _cluster_option(bw)
     bw.set_defaults(command="bench:sweep")
     bg = bsub.add_parser("log", help="samples per second into MCAP against a protocol's data rate")
     bg.add_argument("--seconds", type=number(above=0, hi=3600), default=5.0)
@@ -288,6 +299,15 @@ def _bench_commands(sub):
     bh.add_argument("--json", action="store_true")
     bh.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     bh.set_defaults(command="bench:hil")
+    bc = bsub.add_parser("cluster", help="prove and a sweep on one worker and on a Dask LocalCluster")
+    bc.add_argument("--workers", type=number(1, 64, integer=True), default=2, help="cluster workers (default 2)")
+    bc.add_argument("--prove-tasks", type=number(1, 1000, integer=True), default=6,
+                    help="prove runs (default 6, about a minute each)")
+    bc.add_argument("--sweep-tasks", type=number(1, 10000, integer=True), default=60,
+                    help="harmonic points (default 60)")
+    bc.add_argument("--json", action="store_true")
+    bc.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
+    bc.set_defaults(command="bench:cluster")
     bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
@@ -315,6 +335,9 @@ def main(argv=None):
     except (DamperError, RigError) as e:
         print(f"dyno: error: {e}", file=sys.stderr)
         return 2
+    except TaskFailed as e:  # a fanned-out task failed twice (models/parallel.py)
+        print(f"dyno: error: {e}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
 

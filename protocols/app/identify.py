@@ -46,19 +46,11 @@ def description(arg, meta):
     return dm.from_dict(json.loads(text))
 
 
-def run(args):
-    for p in args.recordings:
-        if not Path(p).exists():
-            raise RigError(f"{p}: no such file")
-    out = writable_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), "--out")
-    if args.report:
-        make_dir(args.report, "--report")
-    channels, events, meta = merge(args.recordings)
-    desc = description(args.damper, meta)
+def model_of(channels, events, desc, names, say):
+    """The identification (models/identify) of a recording's data into the layout and
+    geometry of desc; RigError when nothing can be identified."""
     if desc.layout == "simplified":
         raise dm.DamperError(f"{desc.name}: a simplified model has no layout or geometry to identify into")
-    truth = dm.load(args.truth) if args.truth else None
-    say = (lambda m: print(m, file=sys.stderr)) if args.json else print
     say(f"identify: {desc.layout} with the geometry of '{desc.name}' (layout, geometry, T0 and T_ref are taken "
         f"from the description; everything else from the data)")
     try:
@@ -68,10 +60,55 @@ def run(args):
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:  # a fit that cannot proceed
         raise RigError(f"identification failed: {e}") from None
     if not any(str(v).startswith("done") for v in res.steps.values()):
-        raise RigError(f"nothing to identify in {', '.join(args.recordings)}: no static holds, low-speed or sine "
+        raise RigError(f"nothing to identify in {', '.join(names)}: no static holds, low-speed or sine "
                        f"segments (no model written)")
     res.damper.name = f"{desc.name}-identified"
-    res.damper.description = f"identified by dyno identify from {', '.join(Path(p).name for p in args.recordings)}"
+    res.damper.description = f"identified by dyno identify from {', '.join(Path(p).name for p in names)}"
+    return res
+
+
+def _one(task):
+    """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one
+    recording's bytes; desc: the --damper description as a dict, or None."""
+    name, data, desc = task
+    from protocols.app import batch
+    with batch.unpacked(name, data) as path:
+        try:
+            channels, events, meta = load_recording(path)
+            d = dm.from_dict(desc) if desc is not None else description(None, meta)
+            res = model_of(channels, events, d, [name], lambda m: None)
+        except (RigError, dm.DamperError) as e:
+            return name, None, str(e).replace(str(path), name)
+    return name, {"model": dm.to_dict(res.damper), "summary": _clean(summary(res))}, None
+
+
+def _row(name, doc, error):
+    if doc is None:
+        return {"recording": name, "error": error}
+    s = doc["summary"]
+    return {"recording": name, "error": "", "heldout_nrmse": s["heldout_nrmse"],
+            **{e["name"]: e["value"] for e in s["estimates"]}}
+
+
+def run(args):
+    if getattr(args, "batch", None):
+        from protocols.app import batch
+        desc = dm.to_dict(dm.load(args.damper)) if args.damper else None
+        args.summary = args.summary or "identify-summary.csv"
+        return batch.run(args, _one, (desc,), ".model.json", _row, "identify")
+    if not args.recordings:
+        raise RigError("identify: give RECORDING..., or --batch FILE...")
+    for p in args.recordings:
+        if not Path(p).exists():
+            raise RigError(f"{p}: no such file")
+    out = writable_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), "--out")
+    if args.report:
+        make_dir(args.report, "--report")
+    channels, events, meta = merge(args.recordings)
+    desc = description(args.damper, meta)
+    truth = dm.load(args.truth) if args.truth else None
+    say = (lambda m: print(m, file=sys.stderr)) if args.json else print
+    res = model_of(channels, events, desc, args.recordings, say)
     try:
         dm.save(res.damper, out)
     except OSError as e:

@@ -1,10 +1,12 @@
 """`dyno plot damper|quarter-car|parametric|simplified`: PNG figures of the model."""
 from __future__ import annotations
 
+import os
 import sys
 
 from models.damper import DamperError, load
 
+from protocols import cluster
 from protocols.app.output import out_dir
 
 
@@ -35,8 +37,9 @@ def quarter_car(args):
     d = load(args.damper)
     T = float(args.temp) + 273.15
     out = out_dir(args.out)
-    fr = sweeps.frequency_response(car, d, [a * 1e-3 for a in args.amplitude_mm], _freqs(args), T=T,
-                                   workers=args.workers, progress=True)
+    with cluster.pool(args.cluster, args.workers or os.cpu_count() or 1) as (ex, _):
+        fr = sweeps.frequency_response(car, d, [a * 1e-3 for a in args.amplitude_mm], _freqs(args), T=T,
+                                       executor=ex, progress=True)
     print(qp.plot_frequency_response(fr, out / f"frequency-response-{d.name}.png"))
     if d.layout != "simplified":
         steps = [(A, *sweeps.step_response(car, d, A, T=T)) for A in (0.025, -0.025, 0.0508)]
@@ -55,8 +58,9 @@ def parametric(args):
     from protocols.reports import quarter_car as qp
     from models.quarter_car import sweeps
     car = qcm.load(args.car)
-    study = sweeps.parametric_study(car, args.damper, [a * 1e-3 for a in args.amplitude_mm], _freqs(args),
-                                    workers=args.workers, progress=True)
+    with cluster.pool(args.cluster, args.workers or os.cpu_count() or 1) as (ex, _):
+        study = sweeps.parametric_study(car, args.damper, [a * 1e-3 for a in args.amplitude_mm], _freqs(args),
+                                        executor=ex, progress=True)
     for p in qp.plot_parametric(study, out_dir(args.out), args.damper):
         print(p)
     return 0
@@ -66,7 +70,8 @@ def simplified(args):
     from models import quarter_car as qcm
     from protocols.reports import quarter_car as qp
     from models.quarter_car import sweeps
-    res = sweeps.simplified_comparison(qcm.load(args.car), args.damper, freqs=_freqs(args),
-                                       workers=args.workers, progress=True)
+    with cluster.pool(args.cluster, args.workers or os.cpu_count() or 1) as (ex, _):
+        res = sweeps.simplified_comparison(qcm.load(args.car), args.damper, freqs=_freqs(args), executor=ex,
+                                           progress=True)
     print(qp.plot_simplified(res, out_dir(args.out) / "simplified-models.png"))
     return 0

@@ -21,6 +21,7 @@ import numpy as np
 from models.diagnose.candidates import CATALOGUE
 from models.recording import segments
 from rig.errors import RigError
+from models.parallel import run_all
 from protocols import cluster
 from sim_backend.effects import EFFECTS, plain_cell, scaled
 
@@ -215,12 +216,12 @@ def run(args):
                     tasks.append((None if e == "null" else e, form, size, values, seed, level, rate))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
                 tasks.append((None, None, 1.0, None, seed, level, rate))
-    results = []
+    names = [f"{e or 'null'} {form or ''} x{size:g} noise x{level:g} {rate:g} Hz seed {seed}"
+             for e, form, size, _, seed, level, rate in tasks]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-        for r in pool.map(_one, tasks):
-            results.append(r)
-            say(f"{r['effect'] or 'null':20s} {r['form'] or '':13s} x{r['size']:<4g} noise x{r['noise']:<3g} "
-                f"{r['rate']:5.0f} Hz seed {r['seed']:2d}: accepted {r['accepted'] or 'nothing'}")
+        results = run_all(_one, tasks, pool, progress=True, label="prove", names=names)
+    for name, r in zip(names, results):
+        say(f"{name}: accepted {r['accepted'] or 'nothing'}")
     nulls = {(r["seed"], r["noise"], r["rate"]): r for r in results if r["effect"] is None}
     for r in results:
         if r["effect"]:

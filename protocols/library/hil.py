@@ -38,6 +38,11 @@ REHEARSE = True  # pre-flight: the whole run against the virtual plant first (pr
 PROBE_HZ = (3.0, 7.0, 13.0, 19.0)  # the probe's sines, each PROBE_MM peak
 PROBE_MM = 0.4
 APPROACH_MM = 1.0  # each hold is approached from this far out
+# the tracking guard trips on an error over guard_mm held this long, or on twice guard_mm at
+# once: an unstable loop's error grows without bound within a few of its periods, while a
+# stall of the host (a late tick on a machine without a real-time kernel) leaves an error
+# the servo takes back within its own lag (4 ms)
+GUARD_HOLD_S = 0.02
 UNITS = {"hil.x_target": "m", "hil.x_command": "m", "hil.error": "m", "hil.road": "m", "hil.body_acc": "m/s^2",
          "hil.tire_load": "N", "hil.sprung": "m", "hil.unsprung": "m", "hil.delay": "s",
          "hil.ref.body_acc": "m/s^2", "hil.ref.travel": "m", "hil.ref.tire_load": "N"}
@@ -49,7 +54,7 @@ class Params:
     road: str = "iso8608:C:50"  # see protocols/library/roads.py
     compensator: str = "adaptive"  # none, polynomial, adaptive
     delay_ms: float = 0.0  # the actuator's delay; 0: estimated by the probe
-    guard_mm: float = 2.0  # the most the damper may be from where the car wants it
+    guard_mm: float = 2.0  # the most the damper may be from where the car wants it (for GUARD_HOLD_S)
     correction_mm: float = 10.0  # the most the compensator may move the command from the target
     hold_s: float = 1.0
     probe_s: float = 2.0
@@ -151,6 +156,7 @@ class CarLoop:
         self.log = {n: ([], []) for n in UNITS if not n.startswith("hil.ref")}
         self.x_meas, self.x_tgt, self.times, self.temps = [], [], [], []
         self.next = None  # (x, v, a) the car asked for at the last tick
+        self.over_since = None  # time the tracking error went over guard_mm
 
     def probe(self, x):
         self._probe = _Watch(x)
@@ -197,7 +203,9 @@ class CarLoop:
         the command for the next tick, the car's channels."""
         x_t = self.next[0]
         error = x_m - x_t
-        if abs(error) > self.p.guard_mm / 1e3:
+        over = abs(error) > self.p.guard_mm / 1e3
+        self.over_since = (self.over_since if self.over_since is not None else t) if over else None
+        if over and (abs(error) > 2 * self.p.guard_mm / 1e3 or t - self.over_since >= GUARD_HOLD_S):
             raise RigError(f"hil guard: the damper is {error * 1e3:+.2f} mm from where the car wants it (guard "
                            f"{self.p.guard_mm:g} mm; compensator {self.comp.name}): the loop is not following")
         self.x_meas.append(x_m)

@@ -1,4 +1,4 @@
-"""`dyno bench sim|sweep|log|loop|identify|diagnose`: measured numbers, not tests; each
+"""`dyno bench sim|sweep|log|loop|identify|diagnose|hil|cluster`: measured numbers, not tests; each
 prints text, --json, or --markdown for docs/results."""
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def sim(args):
 
 def sweep(args):
     from protocols.app.bench.speed import bench_sweep
-    result = bench_sweep(workers=args.workers)
+    result = bench_sweep(workers=args.workers, spec=args.cluster)
     text = (f"{result['damper']} sweep, {result['points']} points ({len(result['amplitudes_m'])} amplitudes x "
             f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
             f"{result['workers']} workers: {result['wall_s']:.1f} s wall "
@@ -124,3 +124,19 @@ def hil(args):
             f"the plant's friction form, where what is left is the loop's. Per tick: {cost}. {replayed[0].upper()}"
             f"{replayed[1:]}. Goals: {goals}.")
     return emit(args, "Hardware-in-the-loop tracking (dyno bench hil)", r, text, md.table(head, rows), note)
+
+
+def cluster(args):
+    from protocols.app.bench.cluster import bench
+    r = bench(args.workers, args.prove_tasks, args.sweep_tasks)
+    head = ("work", "tasks", "workers", "task [s]", "serial [s]", "cluster [s]", "start-up [s]", "speed-up",
+            "efficiency", "overhead per task [s]", "identical")
+    rows = [(x["name"], x["tasks"], x["workers"], f"{x['task_s']:.2f}", f"{x['serial_s']:.1f}",
+             f"{x['cluster_s']:.1f}", f"{x['startup_s']:.1f}", f"{x['speedup']:.2f}x", f"{100 * x['efficiency']:.0f} %",
+             f"{x['overhead_per_task_s']:+.3f}", "yes" if x["identical"] else "NO") for x in r["rows"]]
+    text = "\n".join("  ".join(f"{str(c):>12s}" for c in row) for row in [head, *rows])
+    note = ("Serial: one worker in this process; cluster: a Dask LocalCluster of worker processes on 127.0.0.1, "
+            "timed from the first submission to the last result (its start-up, with each worker compiling the "
+            "kernels once as it joins, apart). Overhead per task = (cluster time x workers - serial time) / tasks. "
+            "Goals: >= 1.8x with 2 workers; overhead < 5 % of a task of 2 s or more (docs/cluster.md).")
+    return emit(args, "Fan-out on Dask distributed (dyno bench cluster)", r, text, md.table(head, rows), note)

@@ -94,19 +94,20 @@ def bench(seconds=10.0, ref_seconds=None):
     return {"cases": cases, "goals": goals, "goals_met": ok}
 
 
-def bench_sweep(workers=None, damper="koni", goal_wall_s=60.0):
+def bench_sweep(workers=None, damper="koni", goal_wall_s=60.0, spec=None):
     """Issue 3's sweep: comprehensive compressible Koni on the simulator, 0.32 and 1.27 cm
-    x 60 frequencies 1.25-20 Hz, in parallel; wall time includes process start-up and
-    compilation in the workers, as a user sees it."""
+    x 60 frequencies 1.25-20 Hz, in parallel (spec: a --cluster); wall time includes
+    process start-up and compilation in the workers, as a user sees it."""
     import os
 
     from models import quarter_car as qcm
     from models.quarter_car import sweeps
+    from protocols import cluster
     freqs = np.linspace(1.25, 20.0, 60)
-    workers = workers or os.cpu_count() or 1
     t0 = time.perf_counter()
-    fr = sweeps.frequency_response(qcm.load("simulator"), damper, sweeps.AMPLITUDES, freqs,
-                                   workers=workers, progress=True)
+    with cluster.pool(spec, workers or os.cpu_count() or 1) as (ex, workers):
+        fr = sweeps.frequency_response(qcm.load("simulator"), damper, sweeps.AMPLITUDES, freqs,
+                                       executor=ex, progress=True)
     wall = time.perf_counter() - t0
     simulated = float(sum((math.ceil(max(sweeps.SETTLE[0] * f, sweeps.SETTLE[1]))
                            + math.ceil(max(sweeps.MEASURE[0] * f, sweeps.MEASURE[1]))) / f for f in freqs)

@@ -1,0 +1,56 @@
+"""`dyno identify|diagnose --batch FILE... [--summary S.csv] [--cluster SPEC | --jobs N]`: a
+lab's archive, one task per recording, on a local process pool or Dask
+(protocols/cluster.py). Each task gets the recording's bytes (the workers share no disk)
+and sends back a JSON document, written beside the recording (FILE.model.json,
+FILE.diagnosis.json); one summary table has a row per recording. A recording that
+cannot be analysed fails its own row, with its message, and the rest go on (exit 1)."""
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+from models.parallel import run_all
+from rig.errors import RigError
+
+from protocols import cluster
+
+
+@contextlib.contextmanager
+def unpacked(name, data):
+    """The recording's bytes as a file in a temporary folder of this worker's."""
+    with tempfile.TemporaryDirectory(prefix="dyno-batch-") as folder:
+        path = Path(folder) / Path(name).name
+        path.write_bytes(data)
+        yield path
+
+
+def run(args, task, extra, suffix, row, label):
+    """task((name, bytes, *extra)) -> (name, document or None, error or None); row(name,
+    document, error) -> {column: value}; the document is written to FILE + suffix."""
+    files = [Path(f) for f in args.batch]
+    missing = [f for f in files if not f.is_file()]
+    if missing:
+        raise RigError(f"--batch: {missing[0]}: no such file")
+    summary = Path(args.summary)
+    tasks = [(str(f), f.read_bytes(), *extra) for f in files]
+    with cluster.pool(args.cluster, args.jobs) as (pool, workers):
+        print(f"{label}: {len(tasks)} recordings on {workers} workers", file=sys.stderr, flush=True)
+        done = run_all(task, tasks, pool, progress=True, label=label, names=[str(f) for f in files])
+    rows, failed = [], 0
+    for name, doc, error in done:
+        if doc is not None:
+            Path(name).with_suffix(suffix).write_text(json.dumps(doc, indent=1))
+        failed += doc is None
+        rows.append(row(name, doc, error))
+        print(f"{name}: " + (f"FAILED: {error}" if doc is None else "ok"), file=sys.stderr, flush=True)
+    columns = list(dict.fromkeys(k for r in rows for k in r))  # every row's columns, in first-seen order
+    with open(summary, "w", newline="") as f:
+        w = csv.DictWriter(f, columns)
+        w.writeheader()
+        w.writerows(rows)
+    print(summary)
+    return 1 if failed else 0

@@ -51,3 +51,13 @@ def sim_rig():
                 p.wait(10)
             except subprocess.TimeoutExpired:
                 p.kill()
+
+
+# The longest tests (a prove run each: several recordings through the wires and their
+# diagnoses) start first, so that the two workers end together instead of one of them
+# running a long test alone at the end.
+LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_finds")
+
+
+def pytest_collection_modifyitems(items):
+    items.sort(key=lambda item: not item.nodeid.split("/")[-1].startswith(LONGEST))

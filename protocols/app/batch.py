@@ -28,9 +28,9 @@ def unpacked(name, data):
         yield path
 
 
-def run(args, task, extra, suffix, row, label):
+def run(args, task, extra, suffix, row, label, kept=lambda doc: doc):
     """task((name, bytes, *extra)) -> (name, document or None, error or None); row(name,
-    document, error) -> {column: value}; the document is written to FILE + suffix."""
+    document, error) -> {column: value}; kept(document) is written to FILE + suffix."""
     files = [Path(f) for f in args.batch]
     missing = [f for f in files if not f.is_file()]
     if missing:
@@ -43,7 +43,7 @@ def run(args, task, extra, suffix, row, label):
     rows, failed = [], 0
     for name, doc, error in done:
         if doc is not None:
-            Path(name).with_suffix(suffix).write_text(json.dumps(doc, indent=1))
+            Path(name).with_suffix(suffix).write_text(json.dumps(kept(doc), indent=1))
         failed += doc is None
         rows.append(row(name, doc, error))
         print(f"{name}: " + (f"FAILED: {error}" if doc is None else "ok"), file=sys.stderr, flush=True)

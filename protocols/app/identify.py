@@ -95,7 +95,8 @@ def run(args):
         from protocols.app import batch
         desc = dm.to_dict(dm.load(args.damper)) if args.damper else None
         args.summary = args.summary or "identify-summary.csv"
-        return batch.run(args, _one, (desc,), ".model.json", _row, "identify")
+        # FILE.model.json is the damper model, as `dyno identify FILE` writes it (dyno report overlays it)
+        return batch.run(args, _one, (desc,), ".model.json", _row, "identify", kept=lambda doc: doc["model"])
     if not args.recordings:
         raise RigError("identify: give RECORDING..., or --batch FILE...")
     for p in args.recordings:

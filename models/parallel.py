@@ -2,7 +2,7 @@
 
 `run_all(fn, jobs)` evaluates fn(job) for every job and returns the results in job order.
 It only needs an executor with the `concurrent.futures.Executor` interface (`submit`
-returning futures with `result()` and `add_done_callback`), so a distributed executor
+returning futures with `result()`), so a distributed executor
 (dask.distributed's `client.get_executor()`, mpi4py.futures' `MPIPoolExecutor`, ...)
 plugs in where the default process pool sits. fn and the jobs must pickle.
 
@@ -26,8 +26,8 @@ class TaskFailed(RuntimeError):
 
 def warm():
     """Compile the physics kernels in this process, or load them from numba's cache, so
-    that a worker's first task is not charged for it (a pool's initializer, Dask's
-    client.run)."""
+    that a worker's first task is not charged for it (a process pool's initializer, a
+    Dask worker plugin)."""
     from models.damper import load
     from models.physics.simulate import simulate, sine
     from models.quarter_car import load as load_car
@@ -89,26 +89,30 @@ def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", name
         raise
 
 
-def _retried(name, error, bar):
-    text = f"{name} failed ({type(error).__name__}: {error}): run again"
-    if bar:
-        bar.note(text)
-    else:
-        print(text, file=sys.stderr, flush=True)
+def _once_more(name, result, again, bar):
+    """result(), or if it raises, again() once (with a line naming the job); TaskFailed
+    naming the job if that fails too."""
+    try:
+        return result()
+    except BrokenProcessPool:  # the pool is gone: nothing to run it again on
+        raise
+    except Exception as e:  # noqa: BLE001 - once more, then named
+        text = f"{name} failed ({type(e).__name__}: {e}): run again"
+        if bar:
+            bar.note(text)
+        else:
+            print(text, file=sys.stderr, flush=True)
+    try:
+        return again()
+    except Exception as e:  # noqa: BLE001
+        raise TaskFailed(f"{name} failed twice: {e}") from e
 
 
 def _run(fn, jobs, names, executor, workers, bar):
     if executor is None and (workers == 1 or len(jobs) == 1):
         out = []
         for job, name in zip(jobs, names):
-            try:
-                out.append(fn(job))
-            except Exception as e:  # noqa: BLE001 - once more, then named
-                _retried(name, e, bar)
-                try:
-                    out.append(fn(job))
-                except Exception as e2:  # noqa: BLE001
-                    raise TaskFailed(f"{name} failed twice: {e2}") from e2
+            out.append(_once_more(name, lambda: fn(job), lambda: fn(job), bar))
             if bar:
                 bar.advance()
         return out
@@ -117,17 +121,8 @@ def _run(fn, jobs, names, executor, workers, bar):
     try:
         futures = [ex.submit(fn, job) for job in jobs]
         out = []
-        for i, f in enumerate(futures):
-            try:
-                out.append(f.result())
-            except BrokenProcessPool:
-                raise
-            except Exception as e:  # noqa: BLE001 - once more, then named
-                _retried(names[i], e, bar)
-                try:
-                    out.append(ex.submit(fn, jobs[i]).result())
-                except Exception as e2:  # noqa: BLE001
-                    raise TaskFailed(f"{names[i]} failed twice: {e2}") from e2
+        for f, job, name in zip(futures, jobs, names):
+            out.append(_once_more(name, f.result, lambda: ex.submit(fn, job).result(), bar))
             if bar:
                 bar.advance()
         return out

@@ -105,7 +105,7 @@ def calibrate(target, progress, effects=None):
     return out
 
 
-def _one(task):
+def run_task(task):
     """Record one prove run through the wire protocols, diagnose it."""
     effect, form, size, values, seed, noise, rate = task
     with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:  # on the worker's own disk
@@ -224,7 +224,7 @@ def run(args):
     names = [f"{e or 'null'} {form or ''} x{size:g} noise x{level:g} {rate:g} Hz seed {seed}"
              for e, form, size, _, seed, level, rate in tasks]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-        results = run_all(_one, tasks, pool, progress=True, label="prove", names=names)
+        results = run_all(run_task, tasks, pool, progress=True, label="prove", names=names)
     for name, r in zip(names, results):
         say(f"{name}: accepted {r['accepted'] or 'nothing'}")
     nulls = {(r["seed"], r["noise"], r["rate"]): r for r in results if r["effect"] is None}

@@ -62,7 +62,7 @@ def measure(name, fn, tasks, workers):
 
 def bench(workers=2, prove_tasks=6, sweep_tasks=60):
     from models.quarter_car.sweeps import harmonic_point
-    from protocols.app.prove import _one
-    rows = [measure("prove", _one, _prove_tasks(prove_tasks), workers),
+    from protocols.app.prove import run_task
+    rows = [measure("prove", run_task, _prove_tasks(prove_tasks), workers),
             measure("sweep", harmonic_point, _sweep_tasks(sweep_tasks), workers)]
     return {"rows": rows, "goals": {"speedup": 1.8, "overhead_share_for_2s_tasks": 0.05}}

@@ -294,12 +294,20 @@ def trades(model: Model, d: Data, train, values, earlier):
 
 # --- where the residual lives ---------------------------------------------------------
 
+def _segment_peak(d: Data, y):
+    """Each sample's segment's largest y (0 for a segment none of d's samples are in: the
+    samples taken may leave a segment out)."""
+    peak = np.zeros(len(d.segments))
+    np.maximum.at(peak, d.segment, y)
+    return peak[d.segment]
+
+
 def locate(d: Data, r):
     """[{where, energy_share, sample_share, mean_residual}] of regions holding more than
     their share of the residual energy, strongest concentration first."""
     E = r ** 2
     tot = max(E.sum(), 1e-30)
-    vpk = np.array([np.max(np.abs(d.v[d.segment == s])) for s in range(len(d.segments))])[d.segment]
+    vpk, apk = _segment_peak(d, np.abs(d.v)), _segment_peak(d, np.abs(d.a))
     Fr = np.ptp(d.F)
     regions = {
         "in compression (v > 0)": d.v > 0,
@@ -308,7 +316,7 @@ def locate(d: Data, r):
         "at high speed (|v| > 80 % of the segment's peak)": np.abs(d.v) > 0.8 * vpk,
         "near force zero-crossing (|F| < 5 % of its range)": np.abs(d.F) < 0.05 * Fr,
         "at high acceleration (|a| > 80 % of the segment's peak)":
-            np.abs(d.a) > 0.8 * np.array([np.max(np.abs(d.a[d.segment == s])) for s in range(len(d.segments))])[d.segment],
+            np.abs(d.a) > 0.8 * apk,
     }
     lo, hi = np.percentile(d.x, [20, 80])
     regions[f"at the compressed end (x > {hi * 1e3:.1f} mm)"] = d.x > hi

@@ -119,7 +119,9 @@ class Learning:
         """Correct the drive from iteration i's error (before iteration i + 1 starts)."""
         m = self.measured[i]
         seen = np.isfinite(m)
-        if seen.sum() < 0.99 * len(m):  # the run stopped inside the iteration: nothing to learn
+        # ticks a real-time loop skipped after a stall (a few %) are interpolated; with most
+        # of the iteration unseen there is nothing to learn from
+        if seen.sum() < 0.9 * len(m):
             return
         k = np.arange(len(m))
         m = np.interp(k, k[seen], m[seen])  # a tick without a reading, or one the segment did not reach
@@ -168,6 +170,9 @@ class _Iteration:
         d = float(L.drive[k])
         if "x" in readings:
             x = readings["x"].value
+            # by the tick it was read at, not the sample's own time: over the wires that
+            # time carries the transport's jitter, while the tick's lag repeats from one
+            # iteration to the next and the learned correction takes it up
             L.measured[self.i][k] = x
             for name, value in (("replay.drive", d), ("replay.target", L.target[k]), ("replay.error", x - L.target[k])):
                 self.log[name][0].append(t)

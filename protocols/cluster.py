@@ -71,17 +71,8 @@ def executor(spec: str):
     try:
         if kind == "local":
             import os
-
-            import dask
-            # Dask starts workers with one BLAS thread (OMP/MKL/OPENBLAS_NUM_THREADS=1); a
-            # least-squares fit then sums in another order than in this process and the
-            # diagnoses differ in their last digits. The local workers keep this
-            # process's environment, so their numbers are this process's.
-            environ = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items()
-                       if not k.endswith("_NUM_THREADS")}
-            with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-                cluster = LocalCluster(n_workers=arg or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                                       host="127.0.0.1", dashboard_address=None, silence_logs=40)
+            cluster = LocalCluster(n_workers=arg or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                                   host="127.0.0.1", dashboard_address=None, silence_logs=40)
             client = Client(cluster)
         else:
             client = Client(arg, timeout="10s")

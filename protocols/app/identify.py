@@ -93,6 +93,9 @@ def _row(name, doc, error):
 def run(args):
     if getattr(args, "batch", None):
         from protocols.app import batch
+        if args.recordings or args.out or args.report or args.truth:
+            raise RigError("--batch writes FILE.model.json beside each recording and one summary: RECORDING, "
+                           "--out, --report and --truth are for a single identification")
         desc = dm.to_dict(dm.load(args.damper)) if args.damper else None
         args.summary = args.summary or "identify-summary.csv"
         # FILE.model.json is the damper model, as `dyno identify FILE` writes it (dyno report overlays it)

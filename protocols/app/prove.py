@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from models.diagnose.candidates import CATALOGUE
+from models.parallel import run_all
 from models.recording import segments
 from rig.errors import RigError
-from models.parallel import run_all
 from protocols import cluster
 from sim_backend.effects import EFFECTS, plain_cell, scaled
 

@@ -1,6 +1,7 @@
 """`dyno bench cluster`: what Dask distributed gives over one worker, for the two kinds of
 fan-out work: prove (few long tasks: a recording through the wires and its diagnosis) and
-a quarter-car sweep (many short tasks: one harmonic point each).
+a quarter-car sweep, one harmonic point a task (many short tasks) and 70 points a task
+(about 2 s each, the size the overhead goal is set for).
 
 Each workload runs once on one worker in this process (serial) and once on a
 LocalCluster of `workers` processes; the cluster's time is counted from the submission of
@@ -31,6 +32,18 @@ def _sweep_tasks(n):
     from models.quarter_car.sweeps import Harmonic, T_BASE
     car, d = load_car("simulator"), load("koni")
     return [Harmonic(car, d, 0.0127, float(f), T_BASE, True) for f in np.linspace(1.25, 20.0, n)]
+
+
+def _points(jobs):
+    """A batch of harmonic points as one task."""
+    from models.quarter_car.sweeps import harmonic_point
+    return [harmonic_point(j) for j in jobs]
+
+
+def _batched_sweep_tasks(n, per_task):
+    """n tasks of per_task harmonic points each (about 30 ms a point)."""
+    points = _sweep_tasks(n * per_task)
+    return [points[i::n] for i in range(n)]  # each task a spread of frequencies, so tasks take alike
 
 
 def _same(a, b):
@@ -64,5 +77,6 @@ def bench(workers=2, prove_tasks=6, sweep_tasks=60):
     from models.quarter_car.sweeps import harmonic_point
     from protocols.app.prove import run_task
     rows = [measure("prove", run_task, _prove_tasks(prove_tasks), workers),
-            measure("sweep", harmonic_point, _sweep_tasks(sweep_tasks), workers)]
+            measure("sweep", harmonic_point, _sweep_tasks(sweep_tasks), workers),
+            measure("sweep, 70 points a task", _points, _batched_sweep_tasks(8, 70), workers)]
     return {"rows": rows, "goals": {"speedup": 1.8, "overhead_share_for_2s_tasks": 0.05}}

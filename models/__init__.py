@@ -32,6 +32,6 @@ if "NUMBA_CACHE_DIR" not in os.environ:
 # One BLAS thread, as every Dask worker has: a least-squares fit sums in an order that
 # depends on the thread count, so a diagnosis on one machine and on a cluster would differ
 # in their last digits. Only where numpy is not loaded yet (the dyno command, a worker).
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    if "numpy" not in sys.modules:
+if "numpy" not in sys.modules:
+    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(_var, "1")

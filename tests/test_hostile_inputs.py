@@ -89,6 +89,7 @@ CASES = [
     (["identify"], ["give RECORDING..., or --batch FILE..."]),
     (["identify", "--batch", "{rec}", "--out", "{folder}/m.json"], ["--out, --report and --truth are for a single"]),
     (["diagnose", "--batch", "{folder}/nope.mcap"], ["--batch: ", "nope.mcap: no such file"]),
+    (["diagnose", "--batch", "{rec}", "--summary", "{rec}"], ["that is one of the recordings"]),
     (["import", "{rec}", "--out", "{folder}/c.mcap", *MAP], ["not a text (CSV) file"]),
     (["run", "sine-matrix", "amplitudes_mm=30", "freqs_hz=16"], ["nothing to run: every combination is skipped"]),
     (["run", "sine-matrix", "amplitudes_mm="], ["amplitudes_mm: needs at least one value"]),

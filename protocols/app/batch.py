@@ -36,6 +36,8 @@ def run(args, task, extra, suffix, row, label, kept=lambda doc: doc):
     if missing:
         raise RigError(f"--batch: {missing[0]}: no such file")
     summary = Path(args.summary)
+    if summary.resolve() in {f.resolve() for f in files}:
+        raise RigError(f"--summary {summary}: that is one of the recordings")
     tasks = [(str(f), f.read_bytes(), *extra) for f in files]
     with cluster.pool(args.cluster, args.jobs) as (pool, workers):
         print(f"{label}: {len(tasks)} recordings on {workers} workers", file=sys.stderr, flush=True)

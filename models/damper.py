@@ -102,11 +102,13 @@ class Valves:
 @dataclass
 class Compressibility:
     """Constant effective bulk modulus beta_inv, or eq 3.32: K = C_ibeta + C_sbeta P
-    capped at beta_min_inv. Set either beta_inv or the three others."""
+    capped at beta_min_inv. Set either beta_inv or the three others. With beta_inv,
+    air_fraction > 0 adds free air entrained in the oil (models/physics/compressibility.py)."""
     beta_inv: float | None = None  # [Pa]
     C_ibeta: float | None = None  # [Pa]
     C_sbeta: float | None = None  # [-]
     beta_min_inv: float | None = None  # [Pa]
+    air_fraction: float = 0.0  # [-] volume of free air per volume of oil at atmospheric pressure
 
 
 @dataclass
@@ -351,8 +353,12 @@ def check(model) -> None:
     if v.bypass is not None:
         _positive(v.bypass.C_seatw, "valves.bypass.C_seatw")
     c = model.compressibility
+    if not 0.0 <= c.air_fraction < 0.2:
+        raise DamperError(f"compressibility.air_fraction: {c.air_fraction} is not in [0, 0.2)")
     if c.beta_inv is not None:
         _positive(c.beta_inv, "compressibility.beta_inv")
+    elif c.air_fraction:
+        raise DamperError("compressibility.air_fraction: needs the oil's constant modulus beta_inv")
     else:
         for name in ("C_ibeta", "C_sbeta", "beta_min_inv"):
             if getattr(c, name) is None:

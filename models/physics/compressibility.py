@@ -12,6 +12,12 @@ oil of reference volume u gives
 Using the oil content rather than the pressure as the state conserves oil mass exactly;
 integrating dP/dt = K/V * net inflow instead drops the term from V changing with stroke
 and lets oil creep from one side of the piston to the other cycle after cycle.
+
+Entrained air (the cause section 3.3.2 gives for the low effective moduli; its form is our
+choice, the thesis fits only eq 3.32): free air of volume fraction phi at atmospheric
+pressure P_atm, compressed isothermally, in oil of constant modulus K. Its volume at P is
+phi P_atm / P, so 1 / K_eff(P) = 1 / K + A / P^2 with A = phi P_atm [Pa]: soft at low
+pressure, the oil's own modulus at high.
 """
 from __future__ import annotations
 
@@ -59,6 +65,24 @@ def strains(P, P_ref, K_const, a, b, K_max):
     for i in range(P.shape[0]):
         out[i] = strain(P[i], P_ref, K_const, a, b, K_max)
     return out
+
+
+P_ATM = 101325.0  # Pa
+
+
+@njit(cache=True)
+def strain_air(P, P_ref, K, A):
+    """integral of dP / K_eff(P) from P_ref to P [-] with entrained air A = phi P_atm [Pa]
+    (P > 0)."""
+    return (P - P_ref) / K + A * (1.0 / P_ref - 1.0 / max(P, 1.0))
+
+
+@njit(cache=True)
+def pressure_air(lam, P_ref, K, A):
+    """Inverse of `strain_air` [Pa]: the positive root of P^2 - b P - K A = 0."""
+    b = P_ref + K * lam - K * A / P_ref
+    r = math.sqrt(b * b + 4.0 * K * A)
+    return 0.5 * (b + r) if b >= 0.0 else 2.0 * K * A / (r - b)
 
 
 def cap_point(P_ref, K_const, a, b, K_max):

@@ -12,12 +12,12 @@ import numpy as np
 from numba import njit
 
 from models.physics import gas_spring, temperature, valves
-from models.physics.compressibility import cap_point, pressure, strain
+from models.physics.compressibility import P_ATM, cap_point, pressure, pressure_air, strain, strain_air
 from models.damper import Damper, Direction, ValvePath, check_temperature
 
 (AP, AR, AW, V10, V20, XE, VXE, PXE, GAMMA,
- KCONST, CIB, CSB, KMAX, KPC, KGC, SEATC, SEATF, SEATOPEN) = range(18)
-NPRM = 18
+ KCONST, CIB, CSB, KMAX, KPC, KGC, SEATC, SEATF, SEATOPEN, KAIR) = range(19)
+NPRM = 19
 
 
 def _direction_row(d: Direction, f_T: float) -> np.ndarray:
@@ -54,6 +54,7 @@ def pack(d: Damper, T: float, x_e: float, T_gas: float | None = None):
     prm[XE], prm[VXE], prm[PXE], prm[GAMMA] = x_e, V_e, P_e, g.gamma
     if c.beta_inv is not None:
         prm[KCONST] = c.beta_inv
+        prm[KAIR] = c.air_fraction * P_ATM
     else:
         prm[CIB], prm[CSB], prm[KMAX] = c.C_ibeta, c.C_sbeta, c.beta_min_inv
     prm[KPC], prm[KGC] = cap_point(P_e, prm[KCONST], prm[CIB], prm[CSB], prm[KMAX])
@@ -79,12 +80,16 @@ def chamber_pressure(prm, excess, V):
     """Pressure [Pa] of a chamber of volume V [m^3] holding `excess` m^3 of oil beyond V
     (at the run's reference pressure, the gas equilibrium pressure): eqs 3.31-3.32."""
     lam = math.log1p(max(excess / V, -0.5))
+    if prm[KAIR] > 0.0:
+        return pressure_air(lam, prm[PXE], prm[KCONST], prm[KAIR])
     return pressure(lam, prm[PXE], prm[KCONST], prm[CIB], prm[CSB], prm[KMAX], prm[KPC], prm[KGC])
 
 
 @njit(cache=True)
 def excess_at(prm, P, V):
     """Oil beyond the chamber volume V [m^3] that puts the chamber at pressure P."""
+    if prm[KAIR] > 0.0:
+        return V * math.expm1(strain_air(P, prm[PXE], prm[KCONST], prm[KAIR]))
     return V * math.expm1(strain(P, prm[PXE], prm[KCONST], prm[CIB], prm[CSB], prm[KMAX]))
 
 

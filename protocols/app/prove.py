@@ -70,39 +70,48 @@ def offline_force(effects, seed=0):
     return ch["force"][1], rec
 
 
-def contribution(effect, value, seed=0, null=None):
-    """RMS [N] of what the effect adds to the measured force (same noise seed, so the noise
-    cancels); for a sensor lag, of the force against itself shifted by the lag."""
+def contribution(effect, value, seed=0, null=None, form=None):
+    """RMS [N] of what the effect (in the plant's `form`, default None) adds to the
+    measured force (same noise seed, so the noise cancels); for a sensor lag, of the force
+    against itself shifted by the lag (every form delays by about its value)."""
     F0, rec = null if null is not None else offline_force({}, seed)
     if effect == "sensor_delay":
         t = np.arange(len(F0)) * 1e-3
         d = F0 - np.interp(t - value, t, F0)
     else:
         try:
-            F1, _ = offline_force({effect: value}, seed)
+            F1, _ = offline_force({effect: value, **({"forms": {effect: form}} if form else {})}, seed)
         except RigError:  # so large the run tripped: far above any target
             return math.inf
         d = F1 - F0
     return float(np.sqrt(np.mean(d[rec] ** 2)))
 
 
-def calibrate(target, progress, effects=None):
-    """{effect: value} with contribution == target, by bisection on a log scale."""
+def calibrate_one(task):
+    """(value, its contribution [N]): the largest VALUE of effect e in `form` whose
+    contribution is at most `target`, by bisection on a log scale."""
+    e, form, target = task
     null = offline_force({}, 0)
-    out = {}
-    for e, g in ((e, h.guess) for e, h in EFFECTS.items()):
-        if effects and e not in effects:
-            continue
-        def value(s, e=e, g=g):  # strength s > 0 grows the effect
-            return scaled(e, g, s)
-        lo, hi = 1e-3, 1e3
-        for _ in range(14):
-            s = math.sqrt(lo * hi)
-            c = contribution(e, value(s), 0, null)
-            lo, hi = (s, hi) if c < target else (lo, s)
-        out[e] = float(f"{value(lo):.4g}")
-        progress(f"{e} = {out[e]:g} {EFFECTS[e].unit} (contribution {contribution(e, out[e], 0, null):.2f} N)")
-    return out
+    lo, hi = 1e-3, 1e3  # strengths about the guess
+    for _ in range(12):
+        s = math.sqrt(lo * hi)
+        c = contribution(e, scaled(e, EFFECTS[e].guess, s), 0, null, form)
+        lo, hi = (s, hi) if c < target else (lo, s)
+    value = float(f"{scaled(e, EFFECTS[e].guess, lo):.4g}")
+    return value, contribution(e, value, 0, null, form)
+
+
+def calibrate(target, progress, effects=None, forms=False, pool=None):
+    """{EFFECT or EFFECT:FORM: value} with contribution == target, in the default form of
+    each effect (and in every other form, forms=True)."""
+    keys = [(e, f) for e in EFFECTS if not effects or e in effects
+            for f in [None, *(EFFECTS[e].forms if forms else ())]]
+    names = [f"{e}:{f}" if f else e for e, f in keys]
+    results = run_all(calibrate_one, [(e, f, target) for e, f in keys], pool, progress=True, label="calibrate",
+                      names=names)
+    for n, (e, _), (v, c) in zip(names, keys, results):
+        progress(f"{n} = {v:g} {EFFECTS[e].unit} (contribution {c:.2f} N)")
+    return {n: v for n, (v, _) in zip(names, results)}
 
 
 def run_task(task):
@@ -139,8 +148,14 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder):
     for _, _, t0, t1 in segments(ev):
         measured |= (t >= t0) & (t < t1)
     # what the caller needs travels back with the result: the workers share no disk
+    # an effect accepted beside the hidden ones: said as left-out physics, or as "may be
+    # compensating the form of" an earlier one (docs/diagnosis.md)
+    hidden = set(effect.split("+")) if effect else set()
+    extra = [s for s in r["steps"] if s["effect"].split(":")[0] not in hidden]
     return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
-            "accepted": r["accepted"], "first": first, "force_t": t, "force": F, "measured": measured,
+            "accepted": r["accepted"], "first": first,
+            "extra_left_out": any(not s["trades_with"] for s in extra),
+            "extra_compensating": any(s["trades_with"] for s in extra), "force_t": t, "force": F, "measured": measured,
             "estimate": est,
             "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"]}
 
@@ -162,13 +177,18 @@ def _table(results, effects, concealed):
         parts = set(e.split("+"))
         named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
         row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "noise": noise,
-               "rate_hz": rate, "n": len(rs), "value": scaled(e, concealed[e], size * noise) if e in concealed else None,
+               "rate_hz": rate, "n": len(rs),
+               "value": (scaled(e, concealed[f"{e}:{form}" if form else e], size * noise)
+                         if (f"{e}:{form}" if form else e) in concealed else None),
                # a single effect: the first accepted; a pair: both accepted, in either order
                "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
                              else float(np.mean([parts <= n for n in named])) if e != "null" else None),
                "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS
                                 else float(np.mean([bool(n - parts) for n in named])) if e != "null" else None),
                "false_positive": float(np.mean([bool(r["accepted"]) for r in rs])) if e == "null" else None,
+               # beside the hidden effect(s): another said as left out, or as may be compensating
+               "extra_left_out": float(np.mean([r["extra_left_out"] for r in rs])) if e != "null" else None,
+               "extra_compensating": float(np.mean([r["extra_compensating"] for r in rs])) if e != "null" else None,
                "heldout_before": float(np.median([r["before"] for r in rs])),
                "heldout_after": float(np.median([r["after"] for r in rs])),
                "estimate": (float(np.median([r["estimate"] for r in rs if r["estimate"] is not None]))
@@ -184,10 +204,11 @@ def run(args):
     say = (lambda s: print(s, file=sys.stderr, flush=True))
     noise = params["sensors"]["force_noise"]
     if args.calibrate:
-        vals = calibrate(noise, say, args.effects.split(",") if args.effects else None)
+        with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
+            vals = calibrate(noise, say, args.effects.split(",") if args.effects else None, args.forms == "all", pool)
         print("[prove.concealed]")
         for e, v in vals.items():
-            print(f"{e} = {v:g}")
+            print(f'"{e}" = {v:g}' if ":" in e else f"{e} = {v:g}")
         return 0
     concealed = prove.get("concealed", {})
     named = args.effects.split(",") if args.effects else list(EFFECTS) + ["null"]
@@ -201,23 +222,27 @@ def run(args):
     if unknown:
         raise RigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
                        f"A+B hidden together)")
-    for e in (part for e in effects for part in e.split("+")):
-        if e != "null" and e not in concealed:
-            say(f"dyno: error: no concealed value for {e!r} in sim_backend/plain.toml (run dyno prove --calibrate)")
-            return 2
     if not all(200.0 <= r <= 10000.0 for r in args.rates):
         raise RigError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in args.rates)}")
     variants = [(e, picked[e] if e in picked else None) for e in effects]
     if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
         variants = [v for e in effects
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
+    for e, form in variants:  # each form at its own noise floor
+        for part in (e.split("+") if e != "null" else ()):
+            key = f"{part}:{form}" if form else part
+            if key not in concealed:
+                say(f"dyno: error: no concealed value for {key!r} in sim_backend/plain.toml "
+                    f"(run dyno prove --calibrate{' --forms all' if form else ''})")
+                return 2
     tasks = []
     for seed in range(args.seeds):
         for level, rate in [(n, r) for n in args.noise for r in args.rates]:
             for e, form in variants:
                 for size in ([1.0] if e == "null" else args.sizes):
                     # a size is a multiple of the noise floor at this noise level
-                    values = None if e == "null" else {p: scaled(p, concealed[p], size * level) for p in e.split("+")}
+                    values = None if e == "null" else {
+                        p: scaled(p, concealed[f"{p}:{form}" if form else p], size * level) for p in e.split("+")}
                     tasks.append((None if e == "null" else e, form, size, values, seed, level, rate))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
                 tasks.append((None, None, 1.0, None, seed, level, rate))
@@ -242,14 +267,16 @@ def run(args):
 
 
 HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",
-          "wrong effect", "false positive", "estimate (median)", "held-out NRMSE before / after [%]")
+          "wrong effect", "false positive", "also named: left out / may compensate", "estimate (median)",
+          "held-out NRMSE before / after [%]")
 
 
 def _cells(r):
     f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
     return (r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f"x{r['noise']:g}", f"{r['rate_hz']:g}",
             f(r["value"], ".3g"), f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"),
-            f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"), f(r["estimate"], ".3g"),
+            f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"),
+            f"{f(r['extra_left_out'], '.0%')} / {f(r['extra_compensating'], '.0%')}", f(r["estimate"], ".3g"),
             f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}")
 
 

@@ -56,24 +56,32 @@ class Plant:
         self.alarm = 0
         self.faults = set()  # sensor/actuator faults injected by tests or `--fault`
         self.stuck_force = None
-        self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.fx.get("presliding_friction", self.p["frame"]["friction_x_stick"]))
+        # the plant's own Dahl friction hides pre-sliding in the default form; the other forms
+        # build on Coulomb friction in the load path
+        x_stick = self.p["frame"]["friction_x_stick"]
+        if "presliding_friction" not in self.forms:
+            x_stick = self.fx.get("presliding_friction", x_stick)
+        self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=x_stick)
+        self.z_pre, self.x_pre = [0.0] * 4, self.x_act  # pre-sliding elements' states [-] and where [m]
+        self.T_gas_lag = self.T  # the body's temperature through the gas's lag (gas_temperature:lagged)
         self.stepper.set_temperature(self.T, thermal.gas_temperature(self))
         # free play: the rod sits a gap (mount less rod, [m]) from the mount, bearing on it in
         # compression (contact +1), in rebound (-1) or crossing the clearance (0)
         self.gap = self.fx.get("free_play", 0.0) / 2
         self.x_rod = self.x_act - self.gap
+        self.give = 0.0  # the contact's deflection under load (free_play:contact, hertz) [m]
         self.contact = 1
         self.v_rod = self.F_rest = self.F_grip = 0.0
         self.curve = load_path.damping_curve(self) if self.gap else None
         self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
         self.sens_mid = None  # its first stage (second-order form)
         self.sens_past = deque(maxlen=int(self.fx.get("sensor_delay", 0.0) / h) + 3)  # (x, v) (transport form)
-        self.a_f = 0.0  # acceleration through the oil column, low-passed [m/s^2]
+        self.a_f = self.a_f_rate = 0.0  # acceleration through the oil column [m/s^2] and its rate
         self.z_bw, self.x_bw = 0.0, self.x_rod  # hysteretic element's state [-] and where it was [m]
         self.aux_rng = np.random.default_rng(seed + 7919)
         self.i_valve = self.i_lag = 1.0  # adjuster current [A] and what the valve has followed
         self.F_frame = 0.0  # force the frame deflects under (low-passed)
-        self.T_packed = self.T
+        self.T_packed = self.T_gas_packed = self.T
         self.x_gas = self.x_act  # where the gas last reached thermal equilibrium
         self.F = self.F_d = 0.0
         self.P = (0.0, 0.0, 0.0)

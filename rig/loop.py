@@ -25,6 +25,8 @@ from rig.errors import RigError
 from rig.pacing import realtime_priority
 from rig.safe_stop import SafeStop
 
+STALLED_TICKS = 100  # failed ticks in a row, the clock standing still: the stop cannot settle
+
 
 @dataclass
 class LoopResult:
@@ -95,6 +97,7 @@ class ControlLoop:
         except Exception as e:  # noqa: BLE001 - every error trips
             stop.trip(describe(e))
         started = t = clock()
+        failing = 0  # ticks in a row that failed with the clock standing still
         while not stop.done:
             try:
                 late = self.pacer.wait_next()
@@ -124,6 +127,13 @@ class ControlLoop:
             except Exception as e:  # noqa: BLE001 - a bug in the loop itself: stop safely
                 stop.trip(f"control loop: {describe(e)}")
                 stop.cannot_move()
+                # a clock that no longer advances (a virtual rig whose plant fails every
+                # step) can never settle the stop: hold, and end the run
+                failing = failing + 1 if clock() == t else 0
+                if failing >= STALLED_TICKS:
+                    break
+            else:
+                failing = 0
         r.fault = stop.reason
         r.duration_s = t - started
         r.missed = getattr(self.pacer, "missed", 0)

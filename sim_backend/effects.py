@@ -44,7 +44,7 @@ EFFECTS = {
     "fluid_inertia": Hidden("kg", "mass of the oil column accelerated through the valves (1 ms lag)", 0.5,
                             ("resonant", "direction")),
     "cavitation": Hidden("Pa", "absolute pressure below which the oil releases air: chambers cannot go lower", 3e5,
-                         ("rebound_chamber", "soft")),
+                         ("lingering", "soft")),
     "presliding_friction": Hidden("m", "the seal's pre-sliding travel (the plant's Dahl law, stepped with the frame)",
                                   1e-5, ("jenkins", "iwan")),
     "bouc_wen": Hidden("N", "force at yield of a hysteretic element in the load path, Bouc-Wen with exponent "
@@ -79,7 +79,8 @@ FORMS = {
     "fluid_inertia:resonant": "the oil column on the oil's spring: its force through a 150 Hz resonance, "
                               "damping ratio 0.3",
     "fluid_inertia:direction": "1.5 VALUE while oil flows in compression, 0.5 VALUE in rebound (longer path)",
-    "cavitation:rebound_chamber": "only the rebound chamber releases air (the compression chamber is gas-backed)",
+    "cavitation:lingering": "the air released below VALUE redissolves over CAV_REDISSOLVE_S: the lost push "
+                            "recovers with that lag",
     "cavitation:soft": "air comes out of solution from twice VALUE down: the chamber approaches VALUE "
                        "exponentially",
     "presliding_friction:jenkins": "friction builds linearly over VALUE of travel, then slides (elasto-plastic)",
@@ -98,6 +99,7 @@ TIGHT_SPOT = (0.006, 0.004)  # m: the tight spot's centre above mid-stroke and i
 NARROW_SPOT = (-0.003, 0.00075)  # m: the narrow form's
 CONTACT_F = 5000.0  # N: the load under which a free play's contact gives way one clearance more (a choice:
 # about the cell's force range, so the clearance, not the contact's spring, dominates)
+CAV_REDISSOLVE_S = 0.005  # s: how fast released air goes back into solution (a choice)
 P_REF_AIR = 2e6  # Pa: where the air form's effective modulus is VALUE (the pressure form's reference)
 
 

@@ -15,9 +15,10 @@ def test_the_plant_hides_exactly_the_catalogues_effects():
     assert all(name == e.name for name, e in CATALOGUE.items())
 
 
-def test_prove_conceals_every_effect():
+def test_prove_conceals_every_effect_in_every_form():
+    from sim_backend.effects import FORMS
     _, _, prove = plain_cell()
-    assert set(prove["concealed"]) == set(CATALOGUE)
+    assert set(prove["concealed"]) == set(CATALOGUE) | set(FORMS)
 
 
 def test_each_effect_is_sized_by_one_of_its_own_parameters():

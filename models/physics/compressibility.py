@@ -17,7 +17,7 @@ Entrained air (the cause section 3.3.2 gives for the low effective moduli; its f
 choice, the thesis fits only eq 3.32): free air of volume fraction phi at atmospheric
 pressure P_atm, compressed isothermally, in oil of constant modulus K. Its volume at P is
 phi P_atm / P, so 1 / K_eff(P) = 1 / K + A / P^2 with A = phi P_atm [Pa]: soft at low
-pressure, the oil's own modulus at high.
+pressure, the oil's own modulus at high (held below AIR_P_MIN).
 """
 from __future__ import annotations
 
@@ -68,19 +68,34 @@ def strains(P, P_ref, K_const, a, b, K_max):
 
 
 P_ATM = 101325.0  # Pa
+# Below this the entrained air's modulus is held at its value here (a choice: the air would
+# otherwise expand without bound as the pressure falls, and the chamber model has no
+# solution; cavitation, not air, governs that range)
+AIR_P_MIN = 2e5  # Pa
+
+
+@njit(cache=True)
+def _air_strain(P, K, A):
+    """integral of dP / K_eff from AIR_P_MIN to P [-], 1 / K_eff = 1/K + A / max(P, AIR_P_MIN)^2."""
+    if P >= AIR_P_MIN:
+        return (P - AIR_P_MIN) / K + A * (1.0 / AIR_P_MIN - 1.0 / P)
+    return (P - AIR_P_MIN) * (1.0 / K + A / (AIR_P_MIN * AIR_P_MIN))
 
 
 @njit(cache=True)
 def strain_air(P, P_ref, K, A):
-    """integral of dP / K_eff(P) from P_ref to P [-] with entrained air A = phi P_atm [Pa]
-    (P > 0)."""
-    return (P - P_ref) / K + A * (1.0 / P_ref - 1.0 / max(P, 1.0))
+    """integral of dP / K_eff(P) from P_ref to P [-] with entrained air A = phi P_atm [Pa]."""
+    return _air_strain(P, K, A) - _air_strain(P_ref, K, A)
 
 
 @njit(cache=True)
 def pressure_air(lam, P_ref, K, A):
-    """Inverse of `strain_air` [Pa]: the positive root of P^2 - b P - K A = 0."""
-    b = P_ref + K * lam - K * A / P_ref
+    """Inverse of `strain_air` [Pa]: above AIR_P_MIN the positive root of
+    P^2 - b P - K A = 0, below it linear."""
+    g = lam + _air_strain(P_ref, K, A)
+    if g < 0.0:
+        return AIR_P_MIN + g / (1.0 / K + A / (AIR_P_MIN * AIR_P_MIN))
+    b = AIR_P_MIN + K * g - K * A / AIR_P_MIN
     r = math.sqrt(b * b + 4.0 * K * A)
     return 0.5 * (b + r) if b >= 0.0 else 2.0 * K * A / (r - b)
 

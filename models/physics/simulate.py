@@ -14,6 +14,7 @@ import numpy as np
 
 from models.physics import assemblies, friction, simplified
 from models.damper import Damper, DamperError, SimplifiedDamper
+from models.physics.compressibility import P_ATM
 from models.physics.kernel import SEATOPEN, pack
 from models.physics.stiff import integrate, new_history
 
@@ -27,7 +28,10 @@ ATOL_OIL = 5e-12
 def oil_atol(damper) -> float:
     """Newton tolerance on the stored oil [m^3]: ATOL_OIL is sized for 100 MPa; a stiffer
     oil needs the stored volume proportionally finer."""
-    beta = damper.compressibility.beta_inv
+    c = damper.compressibility
+    beta = c.beta_inv
+    if beta and c.air_fraction:  # entrained air: the modulus at the gas charge's pressure
+        beta = 1.0 / (1.0 / beta + c.air_fraction * P_ATM / damper.gas_spring.P0 ** 2)
     return ATOL_OIL * min(1.0, 1e8 / beta) if beta else ATOL_OIL
 
 

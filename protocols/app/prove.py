@@ -288,10 +288,19 @@ def _print(table, args, noise):
             print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
         return
     from protocols.reports import markdown as md
-    print(md.document("Proof of the diagnosis (dyno prove)", md.table(HEADER, rows),
+    from sim_backend.effects import FORMS
+    used = sorted({(r["effect"], r["form"]) for r in table if r["form"] not in (None, "default")},
+                  key=lambda k: (list(EFFECTS).index(k[0]) if k[0] in EFFECTS else 99, k[1]))
+    forms = [(e, "default", EFFECTS[e].form) for e in dict.fromkeys(e for e, _ in used) if e in EFFECTS]
+    forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
+    body = md.table(HEADER, rows)
+    if forms:
+        body += "\n\nThe forms (sim_backend/effects.py):\n\n" + md.table(("effect", "form", "in the plant"),
+                                                                       sorted(forms, key=lambda r: (list(EFFECTS).index(r[0]), r[1] != "default", r[1])))
+    print(md.document("Proof of the diagnosis (dyno prove)", body,
                       f"{args.seeds} seeds per row on the plain cell through the wires; force noise {noise:g} N RMS "
                       f"at noise x1 (every sensor's noise times the noise column). Size x1 is the concealed value "
-                      f"at that noise (its contribution equals the force noise, in the default form); x10 ten times "
+                      f"at that noise (its contribution equals the force noise, each form calibrated on its own); x10 ten times "
                       f"as strong (a bulk modulus divided by ten, a breakaway ratio's excess times ten); forms: "
                       f"sim_backend/effects.py FORMS. Goals: detection >= 90 %, false positives <= 5 %. Method: "
                       f"docs/diagnosis.md."))

@@ -76,6 +76,7 @@ class Plant:
         self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
         self.sens_mid = None  # its first stage (second-order form)
         self.sens_past = deque(maxlen=int(self.fx.get("sensor_delay", 0.0) / h) + 3)  # (x, v) (transport form)
+        self.cav_loss = (0.0, 0.0)  # pressure the released air still holds per chamber [Pa]
         self.a_f = self.a_f_rate = 0.0  # acceleration through the oil column [m/s^2] and its rate
         self.z_bw, self.x_bw = 0.0, self.x_rod  # hysteretic element's state [-] and where it was [m]
         self.aux_rng = np.random.default_rng(seed + 7919)

@@ -44,7 +44,11 @@ def damper_step(pl, h, v_prev):
         F += fx["aux_channel"] * ((i * i - 1.0) / 2 if forms.get("aux_channel") == "quadratic" else i - 1.0) * F_d
     if "cavitation" in fx:  # a chamber below the floor holds the floor: the piston loses that push
         geo, floor, form = pl.damper.geometry, fx["cavitation"], forms.get("cavitation")
-        P2c, P1c = (floored(P2, floor, form), P1 if form == "rebound_chamber" else floored(P1, floor, form))
+        P1c, P2c = floored(P1, floor, form), floored(P2, floor, form)
+        if form == "lingering":  # the released air redissolves over CAV_REDISSOLVE_S
+            keep = math.exp(-h / fx_mod.CAV_REDISSOLVE_S)
+            pl.cav_loss = (max(P1c - P1, pl.cav_loss[0] * keep), max(P2c - P2, pl.cav_loss[1] * keep))
+            P1c, P2c = P1 + pl.cav_loss[0], P2 + pl.cav_loss[1]
         F += (P1c - P1) * geo.A_p - (P2c - P2) * (geo.A_p - geo.A_r)
         P1, P2 = P1c, P2c
     if c > 0:

@@ -61,7 +61,7 @@ FORMS = {
     "free_play:hertz": "the clearance closes onto a Hertzian contact, deflection (F / CONTACT_F)^(2/3) VALUE "
                        "(a worn ball joint)",
     "compressibility:pressure": "bulk modulus rising with chamber pressure (eq 3.32): VALUE / 4 at zero, "
-                                "VALUE at 2 MPa, at least VALUE / 10",
+                                "VALUE at 2 MPa, at most 4 VALUE (from 10 MPa)",
     "compressibility:air": "free air entrained in the oil, compressed isothermally: effective modulus VALUE "
                            "at 2 MPa, softer below, stiffer above",
     "breakaway_friction:exponential": "Stribeck seal, exp(-|v| / 2 mm/s)",
@@ -150,7 +150,7 @@ def damper_with(d: Damper, fx: dict) -> Damper:
     if "compressibility" in fx:
         K, form = fx["compressibility"], forms.get("compressibility")
         if form == "pressure":
-            c = Compressibility(C_ibeta=K / 4, C_sbeta=0.75 * K / P_REF_AIR, beta_min_inv=K / 10)
+            c = Compressibility(C_ibeta=K / 4, C_sbeta=0.75 * K / P_REF_AIR, beta_min_inv=4 * K)
         elif form == "air":  # 1/K = 1/K_oil + A/P^2 at P_REF_AIR (models/physics/compressibility.py)
             K_oil = d.compressibility.beta_inv or 1.37e9  # pure oil, thesis 3.3.2
             A = max(P_REF_AIR ** 2 * (1 / K - 1 / K_oil), 0.0)

@@ -28,11 +28,12 @@ ATOL_OIL = 5e-12
 def oil_atol(damper) -> float:
     """Newton tolerance on the stored oil [m^3]: ATOL_OIL is sized for 100 MPa; a stiffer
     oil needs the stored volume proportionally finer."""
-    c = damper.compressibility
-    beta = c.beta_inv
-    if beta and c.air_fraction:  # entrained air: the modulus at the gas charge's pressure
-        beta = 1.0 / (1.0 / beta + c.air_fraction * P_ATM / damper.gas_spring.P0 ** 2)
-    return ATOL_OIL * min(1.0, 1e8 / beta) if beta else ATOL_OIL
+    c, P0 = damper.compressibility, damper.gas_spring.P0
+    if c.beta_inv is None:  # eq 3.32 at the gas charge's pressure
+        beta = min(c.C_ibeta + c.C_sbeta * P0, c.beta_min_inv)
+    else:  # with entrained air, at the gas charge's pressure
+        beta = 1.0 / (1.0 / c.beta_inv + c.air_fraction * P_ATM / P0 ** 2)
+    return ATOL_OIL * min(1.0, 1e8 / beta)
 
 
 def C_to_K(T_C):
@@ -143,6 +144,7 @@ class Stepper:
         self.damper, self.h, self.x_e = damper, float(h), float(x0)
         self.x_stick = float(x_stick or damper.friction.x_stick)
         self.F_f = 0.0
+        self.nsub = 1  # implicit steps per call
         self.asm = ASSEMBLY[damper.layout]
         self.code = assemblies.CODE[damper.layout]
         self.prm = None
@@ -178,7 +180,7 @@ class Stepper:
         x = min(max(float(x), 0.0), self.damper.geometry.stroke)
         self.xs[0], self.vs[0] = self.xs[1], self.vs[1]
         self.xs[1], self.vs[1] = x, float(v)
-        integrate(self.code, self.y, self.xs, self.vs, 1, self.h, self.prm, self.vp, self.vh, self.atol,
+        integrate(self.code, self.y, self.xs, self.vs, self.nsub, self.h, self.prm, self.vp, self.vh, self.atol,
                   self.out, self.hist)
         f = self.damper.friction
         if self.x_stick > 0:

@@ -93,6 +93,8 @@ def calibrate_one(task):
     e, form, target = task
     null = offline_force({}, 0)
     lo, hi = 1e-3, 1e3  # strengths about the guess
+    if e == "compressibility":  # no stiffer than the plain cell's oil (1e12 Pa)
+        lo = EFFECTS[e].guess / 1e12
     for _ in range(12):
         s = math.sqrt(lo * hi)
         c = contribution(e, scaled(e, EFFECTS[e].guess, s), 0, null, form)

@@ -62,6 +62,8 @@ class Plant:
         if "presliding_friction" not in self.forms:
             x_stick = self.fx.get("presliding_friction", x_stick)
         self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=x_stick)
+        if self.forms.get("compressibility"):  # a modulus that varies tenfold over a cycle: Newton
+            self.stepper.nsub = 4                # converges on a quarter of the step
         self.z_pre, self.x_pre = [0.0] * 4, self.x_act  # pre-sliding elements' states [-] and where [m]
         self.T_gas_lag = self.T  # the body's temperature through the gas's lag (gas_temperature:lagged)
         self.stepper.set_temperature(self.T, thermal.gas_temperature(self))

@@ -221,7 +221,7 @@ def _analysis_commands(sub):
     pv.add_argument("--seeds", type=number(1, 10000, integer=True), default=10,
                     help="recordings per effect (default 10)")
     pv.add_argument("--effects", help="comma-separated subset of effects, A+B for two hidden together, "
-                                      "EFFECT:FORM for one of its other forms (default: all, plus nulls)")
+                                      "EFFECT:FORM for one of its other forms, ALL for every effect (default: all, plus nulls)")
     pv.add_argument("--forms", choices=("default", "all"), default="default",
                     help="all: each effect also in the plant's other forms (default: its calibrated form only)")
     pv.add_argument("--sizes", type=sizes, default=[1.0],

@@ -213,7 +213,8 @@ def run(args):
             print(f'"{e}" = {v:g}' if ":" in e else f"{e} = {v:g}")
         return 0
     concealed = prove.get("concealed", {})
-    named = args.effects.split(",") if args.effects else list(EFFECTS) + ["null"]
+    named = ([n for e in args.effects.split(",") for n in (EFFECTS if e == "ALL" else [e])] if args.effects
+             else list(EFFECTS) + ["null"])  # ALL: every effect
     effects = list(dict.fromkeys(e.partition(":")[0] for e in named))  # EFFECT:FORM proves that form only
     picked = {e.partition(":")[0]: e.partition(":")[2] for e in named if ":" in e}
     bad = [f"{e}:{f}" for e, f in picked.items() if e in EFFECTS and f not in EFFECTS[e].forms]

@@ -8,14 +8,14 @@ import sys
 
 def test_prove_runs_another_form_and_a_pair():
     r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects",
-                        "compressibility:pressure,fluid_inertia+sensor_delay,null", "--sizes", "10",
+                        "free_play:hertz,fluid_inertia+sensor_delay,null", "--sizes", "10",
                         "--seeds", "1", "--jobs", "1", "--json"], capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     rows = {(row["effect"], row["form"]): row for row in json.loads(r.stdout)["effects"]}
-    assert set(rows) == {("compressibility", "pressure"), ("fluid_inertia+sensor_delay", "default"), ("null", None)}
-    # ten times the noise floor: compressibility in the plant's pressure-dependent form is
-    # named first, the pair both
-    assert rows[("compressibility", "pressure")]["detection"] == 1.0
+    assert set(rows) == {("free_play", "hertz"), ("fluid_inertia+sensor_delay", "default"), ("null", None)}
+    # ten times the noise floor: free play closing onto a Hertzian contact (the candidate's
+    # contact is rigid) is named first, the pair both
+    assert rows[("free_play", "hertz")]["detection"] == 1.0
     assert rows[("fluid_inertia+sensor_delay", "default")]["detection"] == 1.0
     assert rows[("null", None)]["false_positive"] == 0.0
     assert all(row["contribution_rms"] > 1.5 for k, row in rows.items() if k[0] != "null")

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.signal import savgol_coeffs
 
 from models.diagnose import quality
 from models.recording import cycle_blocks, segments, smooth
@@ -175,8 +176,10 @@ def prepare(channels, events) -> Data:
         t = te[keep]
         if len(t) < 50 or t[0] - t0 > 2 * h or t1 - t[-1] > 2 * h:
             continue
-        # block-average the force over the new sample period (anti-aliasing when decimating)
-        Fi = np.interp(t, tF, F) if step == 1 else np.interp(t, tF, np.convolve(F, np.ones(step) / step, "same"))
+        # anti-aliasing when decimating: a quadratic Savitzky-Golay smoother over two new
+        # sample periods (a box average over one bent the force's curvature, a bias of
+        # F'' w^2 / 24: 2.7 N on a 5 kHz null recording, named as fluid inertia)
+        Fi = np.interp(t, tF, F if step == 1 else np.convolve(F, savgol_coeffs(2 * step + 1, 2), "same"))
         xs, v, a = (None, None, None) if random else _periodic_motion(t, np.interp(t, tx, x), f)
         if xs is None:
             xe = smooth(np.interp(te, tx, x), h, f)

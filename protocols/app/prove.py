@@ -216,8 +216,8 @@ def run(args):
     named = ([n for e in args.effects.split(",") for n in (EFFECTS if e == "ALL" else [e])] if args.effects
              else list(EFFECTS) + ["null"])  # ALL: every effect
     effects = list(dict.fromkeys(e.partition(":")[0] for e in named))  # EFFECT:FORM proves that form only
-    picked = {e.partition(":")[0]: e.partition(":")[2] for e in named if ":" in e}
-    bad = [f"{e}:{f}" for e, f in picked.items() if e in EFFECTS and f not in EFFECTS[e].forms]
+    variants = list(dict.fromkeys((e.partition(":")[0], e.partition(":")[2] or None) for e in named))
+    bad = [f"{e}:{f}" for e, f in variants if f and e in EFFECTS and f not in EFFECTS[e].forms]
     if bad:
         raise RigError(f"--effects: {bad[0]}: no such form (sim_backend/effects.py FORMS)")
     args.sizes = getattr(args, "sizes", None) or [1.0]
@@ -227,7 +227,6 @@ def run(args):
                        f"A+B hidden together)")
     if not all(200.0 <= r <= 10000.0 for r in args.rates):
         raise RigError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in args.rates)}")
-    variants = [(e, picked[e] if e in picked else None) for e in effects]
     if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
         variants = [v for e in effects
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]

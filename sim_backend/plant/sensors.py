@@ -4,12 +4,19 @@ from __future__ import annotations
 
 import math
 
-# The damper's force at the end of a step answers the motion X_LAG steps earlier (it is
-# driven by the step's mean velocity, and BDF2 weighs the step's end): the displacement is
-# reported from then, so force and motion readings agree in time. 0.46 measured on the
-# plain cell: `dyno diagnose` finds no lag between them (|tau| < 11 us) where 0.5 leaves
-# 21 us and 0 leaves 240 us.
-X_LAG = 0.46
+# The damper's force at the end of a step answers the motion X_LAG steps and X_LAG_S
+# seconds earlier (it is driven by the step's mean velocity, and BDF2 weighs the step's
+# end): the displacement is reported from then, so force and motion readings agree in time.
+# Measured with `dyno diagnose` on null recordings of the plain cell: at 1 kHz (two 0.5 ms
+# steps a tick) 0.46 steps leave no lag (|tau| < 11 us; 0.5 leaves 21 us, 0 leaves 240 us);
+# at 5 kHz (one 0.2 ms step) the same 0.46 steps left the force 10.7 us late. Two
+# measurements, two numbers: 0.423 steps and 18.3 us give 230 us at 1 kHz and 103 us at 5.
+X_LAG, X_LAG_S = 0.423, 18.3e-6
+
+
+def x_lag(h):
+    """How long before the end of a plant step of h [s] the force's motion was [s]."""
+    return X_LAG * h + X_LAG_S
 
 
 def ramp_lag(y, u0, u, tau, h):
@@ -26,7 +33,7 @@ def condition(pl, F, h):
     alpha = 1.0 - math.exp(-h / s["force_tau_s"]) if s["force_tau_s"] > 0 else 1.0
     pl.F_meas += alpha * (F - pl.F_meas)
     if "sensor_delay" in pl.fx and pl.fx["sensor_delay"] > 0:  # the conditioning's filter
-        x_mid = pl.x_d - X_LAG * h * pl.v_d  # see readings()
+        x_mid = pl.x_d - x_lag(h) * pl.v_d  # see readings()
         tau, form = pl.fx["sensor_delay"], pl.forms.get("sensor_delay")
         if form == "transport":
             pl.x_sens, pl.v_sens = transport(pl.sens_past, (x_mid, pl.v_d), tau, h)
@@ -67,8 +74,8 @@ def readings(pl):
         if pl.stuck_force is None:
             pl.stuck_force = force
         force = pl.stuck_force
-    # the displacement the force answered (X_LAG), else the force seems to lag by 0.24 ms
-    x_mid = pl.x_d - X_LAG * pl.h * pl.v_d
+    # the displacement the force answered (x_lag), else the force seems to lag by 0.24 ms
+    x_mid = pl.x_d - x_lag(pl.h) * pl.v_d
     x, v = (x_mid, pl.v_d) if pl.x_sens is None else (pl.x_sens, pl.v_sens)
     return {
         "force": force,

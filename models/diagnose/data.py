@@ -176,10 +176,7 @@ def prepare(channels, events) -> Data:
         t = te[keep]
         if len(t) < 50 or t[0] - t0 > 2 * h or t1 - t[-1] > 2 * h:
             continue
-        # anti-aliasing when decimating: a quadratic Savitzky-Golay smoother over two new
-        # sample periods (a box average over one bent the force's curvature, a bias of
-        # F'' w^2 / 24: 2.7 N on a 5 kHz null recording, named as fluid inertia)
-        Fi = np.interp(t, tF, F if step == 1 else np.convolve(F, savgol_coeffs(2 * step + 1, 2), "same"))
+        Fi = _decimated(tF, F, t, step)
         xs, v, a = (None, None, None) if random else _periodic_motion(t, np.interp(t, tx, x), f)
         if xs is None:
             xe = smooth(np.interp(te, tx, x), h, f)
@@ -223,6 +220,14 @@ def prepare(channels, events) -> Data:
         raise DiagnoseError(f"only {n_whole} whole cycle(s) without gaps: too short to judge "
                             f"(at least {MIN_CYCLES} needed, half fitted and half held out)")
     return d
+
+
+def _decimated(tF, F, t, step):
+    """The force at times t, `step` of its samples per new sample period. Anti-aliased by
+    a quadratic Savitzky-Golay smoother over two new periods: a box average over one bends
+    the force's curvature (a bias of F'' w^2 / 24: 2.7 N on a 5 kHz null recording, named
+    as fluid inertia)."""
+    return np.interp(t, tF, F if step == 1 else np.convolve(F, savgol_coeffs(2 * step + 1, 2), "same"))
 
 
 def split(d: Data):

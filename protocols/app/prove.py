@@ -87,6 +87,11 @@ def contribution(effect, value, seed=0, null=None, form=None):
     return float(np.sqrt(np.mean(d[rec] ** 2)))
 
 
+def key(effect, form=None):
+    """An effect's key in plain.toml's [prove.concealed]: EFFECT, or EFFECT:FORM."""
+    return f"{effect}:{form}" if form else effect
+
+
 def calibrate_one(task):
     """(value, its contribution [N]): the largest VALUE of effect e in `form` whose
     contribution is at most `target`, by bisection on a log scale."""
@@ -108,7 +113,7 @@ def calibrate(target, progress, effects=None, forms=False, pool=None):
     each effect (and in every other form, forms=True)."""
     keys = [(e, f) for e in EFFECTS if not effects or e in effects
             for f in [None, *(EFFECTS[e].forms if forms else ())]]
-    names = [f"{e}:{f}" if f else e for e, f in keys]
+    names = [key(e, f) for e, f in keys]
     results = run_all(calibrate_one, [(e, f, target) for e, f in keys], pool, progress=True, label="calibrate",
                       names=names)
     for n, (e, _), (v, c) in zip(names, keys, results):
@@ -172,16 +177,16 @@ def _table(results, effects, concealed):
     """A row per (effect, form, size) of the runs' results: detection, wrong effect, false
     positives, medians of the estimate, contribution and held-out errors."""
     table = []
-    key = (lambda r: (r["effect"] or "null", r["form"], r["size"], r["noise"], r["rate"]))
-    rows = sorted({key(r) for r in results}, key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", *k[2:]))
+    row_key = (lambda r: (r["effect"] or "null", r["form"], r["size"], r["noise"], r["rate"]))
+    rows = sorted({row_key(r) for r in results}, key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", *k[2:]))
     for e, form, size, noise, rate in rows:
-        rs = [r for r in results if key(r) == (e, form, size, noise, rate)]
+        rs = [r for r in results if row_key(r) == (e, form, size, noise, rate)]
         parts = set(e.split("+"))
         named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
         row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "noise": noise,
                "rate_hz": rate, "n": len(rs),
-               "value": (scaled(e, concealed[f"{e}:{form}" if form else e], size * noise)
-                         if (f"{e}:{form}" if form else e) in concealed else None),
+               "value": (scaled(e, concealed[key(e, form)], size * noise) if key(e, form) in concealed
+                         else None),
                # a single effect: the first accepted; a pair: both accepted, in either order
                "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
                              else float(np.mean([parts <= n for n in named])) if e != "null" else None),
@@ -232,9 +237,8 @@ def run(args):
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
     for e, form in variants:  # each form at its own noise floor
         for part in (e.split("+") if e != "null" else ()):
-            key = f"{part}:{form}" if form else part
-            if key not in concealed:
-                say(f"dyno: error: no concealed value for {key!r} in sim_backend/plain.toml "
+            if key(part, form) not in concealed:
+                say(f"dyno: error: no concealed value for {key(part, form)!r} in sim_backend/plain.toml "
                     f"(run dyno prove --calibrate{' --forms all' if form else ''})")
                 return 2
     tasks = []
@@ -244,7 +248,7 @@ def run(args):
                 for size in ([1.0] if e == "null" else args.sizes):
                     # a size is a multiple of the noise floor at this noise level
                     values = None if e == "null" else {
-                        p: scaled(p, concealed[f"{p}:{form}" if form else p], size * level) for p in e.split("+")}
+                        p: scaled(p, concealed[key(p, form)], size * level) for p in e.split("+")}
                     tasks.append((None if e == "null" else e, form, size, values, seed, level, rate))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
                 tasks.append((None, None, 1.0, None, seed, level, rate))

@@ -225,8 +225,8 @@ def prepare(channels, events) -> Data:
 def _decimated(tF, F, t, step):
     """The force at times t, `step` of its samples per new sample period. Anti-aliased by
     a quadratic Savitzky-Golay smoother over two new periods: a box average over one bends
-    the force's curvature (a bias of F'' w^2 / 24: 2.7 N on a 5 kHz null recording, named
-    as fluid inertia)."""
+    the force's curvature (a bias of F'' w^2 / 24; on a 5 kHz null recording it named
+    fluid inertia)."""
     return np.interp(t, tF, F if step == 1 else np.convolve(F, savgol_coeffs(2 * step + 1, 2), "same"))
 
 

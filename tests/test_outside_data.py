@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.diagnose import holdout_masks, quality, trades
+from models.diagnose import form_share, holdout_masks, quality, trades
 from models.diagnose.candidates import Model
 from models.diagnose.kernels import bouc_wen, dahl
 from models.diagnose.data import Data
@@ -134,6 +134,25 @@ def test_an_effect_that_trades_against_an_earlier_one_is_said_so():
     Fm = float(np.max(np.abs(d.F)))
     assert trades(m, d, train, {**start, "inv_k_oil": 2e-6, "Fcav_c": 3 * Fm, "Fcav_r": 3 * Fm, "kcav": 0.0},
                   ["compressibility"]) == []
+
+
+def test_an_effect_that_stands_in_for_an_earlier_ones_form_is_said_so():
+    """Oil inertia that acts in compression only, fitted as inertia in both directions: what
+    is left is the inertia's direction dependence. A second effect that takes it up (here a
+    force like it, plus a little of its own) gains mostly what a change in the inertia's form
+    would: it may be compensating that form. One that explains something else does not."""
+    d = _data(n_cycles=16)
+    rng = np.random.default_rng(1)
+    m = 2.0
+    truth = m * d.a * (d.v > 0)  # the plant's form: in compression only
+    fitted = 0.5 * m * d.a  # the candidate's: both directions, half the size
+    other = 30.0 * np.sin(2 * np.pi * 11 * d.t)  # physics of its own, unlike the inertia
+    folds, judged, _ = holdout_masks(d)
+    for y, hidden, expect_form in ((0.9 * (truth - fitted) + 0.3 * other, 0.0, True), (other, other, False)):
+        d.F = 500.0 + truth + hidden + rng.normal(0, 0.5, len(d.t))
+        pred = [np.full(len(d.t), 500.0) + fitted] * 2  # the model before the second effect, per fold
+        share = form_share(d, folds, judged, pred, [fitted] * 2, [y] * 2)
+        assert (share >= 0.5) == expect_form, share
 
 
 def test_random_motion_is_judged_in_blocks_and_the_effect_found(tmp_path):

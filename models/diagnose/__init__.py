@@ -3,8 +3,9 @@ catalogue effect (models/diagnose/candidates.py) with the baseline refitted, jud
 held-out cycles, accept the best one whose improvement is significant, repeat. Two-fold
 cross-fitting (even cycles fit, odd judged, and back) judges every cycle once; a time
 split (holdout_masks) fits the past, chooses on the next stretch and reports on the last.
-An accepted effect whose parameters trade against an earlier one's (trades) is marked as
-possibly compensating that effect's form.
+An accepted effect whose parameters trade against an earlier one's (trades), or whose gain a
+change in an earlier one's form also brings (form_share), is marked as possibly compensating
+that effect's form.
 
 Significance: the held-out improvement per block, log(SSE_baseline,b / SSE_candidate,b), so
 that every block counts alike whatever its force level and a block made worse weighs as
@@ -28,6 +29,7 @@ from models.recording import covariance, nrmse
 
 ALPHA = 0.01
 TRADE = 0.7  # |correlation| between an accepted effect's parameters and an earlier one's: may be compensating its form
+FORM_SHARE = 0.5  # share of a later effect's held-out gain that a change in an earlier one's form also brings: the same
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
 RELEVANCE = 0.1
@@ -216,6 +218,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
     current, r_cur = fold_vals, r0
+    # each fold's prediction [N] on every sample after each round: what an effect changed
+    preds = [[model.force(d, v) for v in fold_vals]]
     _, not_assessed = available(d, accepted)
     n_judged = int(np.sum(judged))
     for _ in range(max_effects):
@@ -248,11 +252,18 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         if not ok:
             break
         best = max(ok, key=lambda c: c["gain"])
+        m_best = Model(d, accepted + [best["effect"]], base)
+        preds.append([m_best.force(d, v) for v in best["_folds"]])
+        shares = [(e, form_share(d, folds, judged, preds[-2], _changes(preds, j + 1), _changes(preds, len(preds) - 1)))
+                  for j, e in enumerate(accepted)]
+        traded = trades(m_best, d, folds[0][0], best["_folds"][0], accepted)
+        form_of = [(e, sh) for e, sh in shares if sh >= FORM_SHARE]
         steps.append({"effect": best["effect"], "before": scores(d.F, r_cur, shown)["nrmse_heldout"],
                       "after": best["nrmse_heldout"], "parameters": best["parameters"], "ci": best["ci"],
                       "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"],
-                      "trades_with": trades(Model(d, accepted + [best["effect"]], base), d, folds[0][0],
-                                            best["_folds"][0], accepted)})
+                      "trades_with": traded, "form_of": form_of, "form_shares": dict(shares),
+                      # the earlier effects whose form this one may be compensating, in acceptance order
+                      "compensates": [e for e in accepted if e in dict(traded) or e in dict(form_of)]})
         accepted.append(best["effect"])
         values, current, r_cur = best["_values"], best["_folds"], best["_r"]
         progress(f"accepted {best['effect']}")
@@ -290,6 +301,42 @@ def trades(model: Model, d: Data, train, values, earlier):
         if c > TRADE:
             out.append((e, c))
     return out
+
+
+def _changes(preds, k):
+    """Per fold, what round k's accepted effect changed in the prediction [N] (its force and
+    the refit of the rest)."""
+    return [b - a for a, b in zip(preds[k - 1], preds[k])]
+
+
+def reshapes(d: Data, c):
+    """Columns [N] of the forms an effect's contribution c [N] may take that its one fitted
+    shape lacks: c itself, and c sized by direction, with speed, along the stroke and with
+    its own size, and c lagged (its rate of change over a sample period)."""
+    rms = (lambda y: float(np.sqrt(np.mean(y ** 2))) or 1.0)
+    dc = np.gradient(c, d.t) * float(np.median(d.h))
+    dc[1:][np.diff(d.cycle) != 0] = 0.0  # not across a gap
+    x = d.x - np.mean(d.x)
+    return np.column_stack([c, c * np.sign(d.v), c * np.abs(d.v) / rms(d.v), c * x / rms(x), c * np.abs(c) / rms(c), dc])
+
+
+def form_share(d: Data, folds, judged, pred, c_x, c_y):
+    """Share (0-1) of a newly accepted effect's held-out gain that a change in an earlier
+    effect's form also brings. Linearised about the model before the new effect (each fold's
+    prediction `pred` [N]): the residual regressed on the new effect's change c_y alone,
+    on the earlier one's reshapes (reshapes of c_x), and on both; judged held out. When
+    adding c_y to the reshapes gains little of what c_y gains alone, the new effect's gain
+    may be the difference between the earlier effect's real form and the candidate's."""
+    def sse(cols, r, train, test):
+        beta = np.linalg.lstsq(cols[train], -r[train], rcond=None)[0]
+        return float(np.sum((r + cols @ beta)[test] ** 2))
+    alone = with_form = 0.0
+    for (train, test), p, cx, cy in zip(folds, pred, c_x, c_y):
+        r, test = p - d.F, test & judged
+        B, y = reshapes(d, cx), cy[:, None]
+        alone += float(np.sum(r[test] ** 2)) - sse(y, r, train, test)
+        with_form += sse(B, r, train, test) - sse(np.hstack([B, y]), r, train, test)
+    return float(np.clip(1.0 - with_form / alone, 0.0, 1.0)) if alone > 0 else 0.0
 
 
 # --- where the residual lives ---------------------------------------------------------

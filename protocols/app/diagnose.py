@@ -142,11 +142,13 @@ def summary(res):
     if res["accepted"]:
         for s in res["steps"]:
             name = said(s["effect"])
-            if s["trades_with"]:
-                other = ", ".join(f"{said(e)} (correlation {c:.2f})" for e, c in s["trades_with"])
-                lines.append(f"Accepted, but may be compensating the form of {other}: {name}, whose parameters trade "
-                             f"against it; the gain may be a different form of that effect, not physics of its own. "
-                             + _change(s))
+            if s["compensates"]:
+                why = [f"its parameters trade against {said(e)}'s (correlation {c:.2f})" for e, c in s["trades_with"]]
+                why += [f"a change in {said(e)}'s form (by direction, speed, stroke position, size or lag) brings "
+                        f"{100 * sh:.0f} % of its gain" for e, sh in s["form_of"]]
+                lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s['compensates']))}: "
+                             f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
+                             f"of its own. " + _change(s))
             else:
                 lines.append(f"Left out: {name}. " + sentence(s))
         f = res["final"]
@@ -184,7 +186,7 @@ def to_json(res):
                         **{k: c[k] for k in held}, "p_value": c["p_value"],
                         "gain_noise_variances": c["relevance"]} for c in res["candidates"]],
         "accepted": res["accepted"],
-        "may_compensate": {s["effect"]: [e for e, _ in s["trades_with"]] for s in res["steps"] if s["trades_with"]},
+        "may_compensate": {s["effect"]: s["compensates"] for s in res["steps"] if s["compensates"]},
         "final": {**{k: res["final"][k] for k in held},
                   "parameters": {k: num(v) for k, v in res["final"]["parameters"].items()}},
         "not_assessed": res["data"].notes,

@@ -161,8 +161,8 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder):
     extra = [s for s in r["steps"] if s["effect"].split(":")[0] not in hidden]
     return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
             "accepted": r["accepted"], "first": first,
-            "extra_left_out": any(not s["trades_with"] for s in extra),
-            "extra_compensating": any(s["trades_with"] for s in extra), "force_t": t, "force": F, "measured": measured,
+            "extra_left_out": any(not s["compensates"] for s in extra),
+            "extra_compensating": any(s["compensates"] for s in extra), "force_t": t, "force": F, "measured": measured,
             "estimate": est,
             "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"]}
 

@@ -143,12 +143,13 @@ def summary(res):
         for s in res["steps"]:
             name = said(s["effect"])
             if s["compensates"]:
-                why = [f"its parameters trade against {said(e)}'s (correlation {c:.2f})" for e, c in s["trades_with"]]
-                why += [f"a change in {said(e)}'s form (by direction, speed, stroke position, size or lag) brings "
-                        f"{100 * sh:.0f} % of its gain" for e, sh in s["form_of"]]
+                why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
+                       for e, c in s["trades_with"]]
+                why += [f"changing the form of {said(e)} (its size by direction, with speed, along the stroke or with "
+                        f"its own size, or a lag) brings {100 * sh:.0f} % of its gain" for e, sh in s["form_of"]]
                 lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s['compensates']))}: "
                              f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
-                             f"of its own. " + _change(s))
+                             f"of its own." + _change(s))
             else:
                 lines.append(f"Left out: {name}. " + sentence(s))
         f = res["final"]

@@ -42,4 +42,5 @@ results: $(STAMP)
 	$(VENV)/bin/dyno prove --seeds 3 --markdown > docs/results/prove.md.tmp && mv docs/results/prove.md.tmp docs/results/prove.md
 	$(VENV)/bin/dyno prove --seeds 2 --noise 1,3,10 --markdown > docs/results/prove-noise.md.tmp && mv docs/results/prove-noise.md.tmp docs/results/prove-noise.md
 	$(VENV)/bin/dyno prove --forms all --effects ALL,fluid_inertia+sensor_delay,breakaway_friction+compressibility,null --seeds 1 --markdown > docs/results/prove-forms.md.tmp && mv docs/results/prove-forms.md.tmp docs/results/prove-forms.md
-	$(VENV)/bin/dyno prove --effects fluid_inertia,free_play,compressibility:air,breakaway_friction,null --rates 5000 --seeds 2 --markdown > docs/results/prove-5k.md.tmp && mv docs/results/prove-5k.md.tmp docs/results/prove-5k.md
+	$(VENV)/bin/dyno prove --effects ALL,null --forms all --rates 5000 --seeds 1 --markdown > docs/results/prove-5k.md.tmp && mv docs/results/prove-5k.md.tmp docs/results/prove-5k.md
+	$(VENV)/bin/dyno prove --effects breakaway_friction:lorentzian,breakaway_friction:power,cavitation:lingering,cavitation:soft,presliding_friction,presliding_friction:jenkins,presliding_friction:iwan --sizes 10 --seeds 1 --markdown > docs/results/prove-x10.md.tmp && mv docs/results/prove-x10.md.tmp docs/results/prove-x10.md

@@ -29,7 +29,7 @@ from models.recording import covariance, nrmse
 
 ALPHA = 0.01
 TRADE = 0.7  # |correlation| between an accepted effect's parameters and an earlier one's: may be compensating its form
-FORM_SHARE = 0.5  # share of a later effect's held-out gain that a change in an earlier one's form also brings: the same
+FORM_SHARE = 0.5  # share of a later effect's held-out gain that a change in an earlier one's form also brings: may be compensating it
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
 RELEVANCE = 0.1
@@ -261,7 +261,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         steps.append({"effect": best["effect"], "before": scores(d.F, r_cur, shown)["nrmse_heldout"],
                       "after": best["nrmse_heldout"], "parameters": best["parameters"], "ci": best["ci"],
                       "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"],
-                      "trades_with": traded, "form_of": form_of, "form_shares": dict(shares),
+                      "trades_with": traded, "form_of": form_of,
                       # the earlier effects whose form this one may be compensating, in acceptance order
                       "compensates": [e for e in accepted if e in dict(traded) or e in dict(form_of)]})
         accepted.append(best["effect"])

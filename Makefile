@@ -16,7 +16,7 @@ DAMPER ?= koni
 
 run: $(STAMP)
 	$(VENV)/bin/dyno run standard --damper $(DAMPER) --out recordings/standard-$(DAMPER).mcap --overwrite
-	$(VENV)/bin/dyno report recordings/standard-$(DAMPER).mcap --out reports/standard-$(DAMPER)
+	$(VENV)/bin/dyno report recordings/standard-$(DAMPER).mcap --out reports/standard-$(DAMPER) --overwrite
 
 # the suite in two parts: in parallel on two workers, then the tests against the wall clock
 # alone (a loaded machine would delay their processes past the 50 ms watchdog)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import types
 import typing
 from dataclasses import dataclass
@@ -19,17 +20,27 @@ PRESET_DIR = Path(__file__).parent / "presets"
 T_MAX_RATED = 423.15  # K (150 C): top of the thesis's racing-damper temperature range
 
 
+T_MIN_RATED = 233.15  # K (-40 C): the coldest a damper is stored or tested at
+GAS_TO_OIL_MAX = 2.0  # gas volume V0 over oil volume V_total: the presets span 0.34-1.04
+
+
 class DamperError(ValueError):
     """A damper description that is incomplete, malformed or non-physical."""
 
 
+def q(unit, lo, hi, default=dataclasses.MISSING):
+    """A field's SI unit and physical range [lo, hi], declared beside it; build() refuses a
+    value outside, naming the field, the value and the range."""
+    return dataclasses.field(default=default, metadata={"unit": unit, "range": (lo, hi)})
+
+
 @dataclass
 class Geometry:
-    A_p: float  # piston area [m^2]
-    A_r: float  # rod area [m^2]
-    stroke: float  # usable stroke from full extension [m]
-    V_total: float  # oil volume of chambers 1 + 2 at full extension [m^3] (Tables 4.5-4.8)
-    V20: float  # chamber 2 (rebound side) volume at full extension [m^3]
+    A_p: float = q("m^2", 1e-5, 1e-2)  # piston area (bore 3.6-113 mm)
+    A_r: float = q("m^2", 1e-6, 5e-3)  # rod area
+    stroke: float = q("m", 1e-3, 1.0)  # usable stroke from full extension
+    V_total: float = q("m^3", 1e-7, 1e-2)  # oil volume of chambers 1 + 2 at full extension (Tables 4.5-4.8)
+    V20: float = q("m^3", 1e-9, 1e-2)  # chamber 2 (rebound side) volume at full extension
 
     @property
     def A_w(self) -> float:
@@ -39,37 +50,37 @@ class Geometry:
 
 @dataclass
 class GasSpring:
-    P0: float  # charge pressure at full extension and T0 [Pa abs] (Table 4.1)
-    V0: float  # gas volume at full extension and T0 [m^3] (Table 4.1)
-    T0: float  # charge temperature [K]
-    gamma: float  # polytropic exponent [-] (4.2.2.2)
-    K_voil: float  # effective thermal expansion [m^3/K] (Table 4.4)
-    K_voint: float  # regression intercept [m^3] (Table 4.4)
+    P0: float = q("Pa", 1e4, 2e7)  # charge pressure at full extension and T0, absolute (Table 4.1)
+    V0: float = q("m^3", 1e-8, 1e-2)  # gas volume at full extension and T0 (Table 4.1)
+    T0: float = q("K", 200.0, 450.0)  # charge temperature
+    gamma: float = q("-", 1.0, 1.67)  # polytropic exponent, isothermal to adiabatic (4.2.2.2)
+    K_voil: float = q("m^3/K", -1e-5, 1e-5)  # effective thermal expansion (Table 4.4)
+    K_voint: float = q("m^3", -1e-3, 1e-3)  # regression intercept (Table 4.4)
 
 
 @dataclass
 class Friction:
-    x_table: list[float]  # displacements [m] (eq 3.1)
-    F_table: list[float]  # static breakaway friction at 20 C [N] (eq 3.1)
-    C_sfT: float  # temperature slope of the breakaway ratio [1/K] (Table 4.2)
-    C_ifT: float  # breakaway ratio at 20 C [-] (Table 4.2, or Table 4.3 mean)
-    x_stick: float = 0.0  # pre-sliding travel of Dahl's model [m] (friction.dahl_step); 0: eq 3.3's sgn(v)
+    x_table: list[float] = q("m", -1.0, 2.0)  # displacements (eq 3.1)
+    F_table: list[float] = q("N", 0.0, 1e4)  # static breakaway friction at 20 C (eq 3.1)
+    C_sfT: float = q("1/K", -0.1, 0.1)  # temperature slope of the breakaway ratio (Table 4.2)
+    C_ifT: float = q("-", 0.0, 20.0)  # breakaway ratio at 20 C (Table 4.2, or Table 4.3 mean)
+    x_stick: float = q("m", 0.0, 1e-3, 0.0)  # pre-sliding travel of Dahl's model (friction.dahl_step); 0: eq 3.3's sgn(v)
 
 
 @dataclass
 class Branch:
     """One restriction in weighted form F = C_orrpw v^2 + C_linpw v + C_ipw (eq 4.14);
     an orifice has C_linpw = 0, a flow-compensating valve C_orrpw = 0 (eqs 4.12, 4.13)."""
-    C_orrpw: float = 0.0  # [N s^2/m^2]
-    C_linpw: float = 0.0  # [N s/m]
-    C_ipw: float = 0.0  # constant / cracking force [N]
+    C_orrpw: float = q("N s^2/m^2", -1e8, 1e8, 0.0)  # sign of the direction
+    C_linpw: float = q("N s/m", 0.0, 1e6, 0.0)
+    C_ipw: float = q("N", -1e4, 1e4, 0.0)  # constant / cracking force
 
 
 @dataclass
 class Line:
     """A linear valve F = C_linw v + C_ilinw (eq 4.13): passes flow beyond |C_ilinw|."""
-    C_linw: float  # [N s/m]
-    C_ilinw: float  # [N]
+    C_linw: float = q("N s/m", 0.0, 1e6)
+    C_ilinw: float = q("N", -1e5, 1e5)
 
 
 @dataclass
@@ -88,8 +99,8 @@ class ValvePath:
 @dataclass
 class Bypass:
     """Mis-seated bypass disc (eqs 4.15-4.16): open while F = dP12 A_w > dP_seat_Aw."""
-    C_seatw: float  # [N s/m]
-    dP_seat_Aw: float  # seating force [N]
+    C_seatw: float = q("N s/m", 0.0, 1e6)
+    dP_seat_Aw: float = q("N", -1e5, 1e5)  # seating force
 
 
 @dataclass
@@ -104,22 +115,22 @@ class Compressibility:
     """Constant effective bulk modulus beta_inv, or eq 3.32: K = C_ibeta + C_sbeta P
     capped at beta_min_inv. Set either beta_inv or the three others. With beta_inv,
     air_fraction > 0 adds free air entrained in the oil (models/physics/compressibility.py)."""
-    beta_inv: float | None = None  # [Pa]
-    C_ibeta: float | None = None  # [Pa]
-    C_sbeta: float | None = None  # [-]
-    beta_min_inv: float | None = None  # [Pa]
-    air_fraction: float = 0.0  # [-] volume of free air per volume of oil at atmospheric pressure
+    beta_inv: float | None = q("Pa", 1e5, 1e13, None)  # 1e12 and above: incompressible
+    C_ibeta: float | None = q("Pa", 1e5, 1e11, None)
+    C_sbeta: float | None = q("-", 0.0, 1e4, None)
+    beta_min_inv: float | None = q("Pa", 1e5, 1e11, None)
+    air_fraction: float = q("-", 0.0, 0.2, 0.0)  # free air per volume of oil at atmospheric pressure
 
 
 @dataclass
 class TempCoeff:
-    K_effoil: float  # [1/K] (Table 4.10, eq 4.17)
-    C_fd: float  # [-]
+    K_effoil: float = q("1/K", -1.0, 1.0)  # (Table 4.10, eq 4.17)
+    C_fd: float = q("-", -10.0, 10.0)
 
 
 @dataclass
 class TemperatureSensitivity:
-    T_ref: float  # temperature the valve coefficients refer to [K]
+    T_ref: float = q("K", 200.0, 450.0)  # temperature the valve coefficients refer to
     compression: TempCoeff
     rebound: TempCoeff
 
@@ -135,7 +146,7 @@ class Damper:
     compressibility: Compressibility
     temperature: TemperatureSensitivity
     description: str = ""
-    x_mid: float | None = None  # default equilibrium point [m]; mid-stroke if None
+    x_mid: float | None = q("m", 0.0, 1.0, None)  # default equilibrium point; mid-stroke if None
 
     @property
     def mid_stroke(self) -> float:
@@ -144,9 +155,9 @@ class Damper:
 
 @dataclass
 class SimplifiedDirection:
-    c_low: float  # low-speed damping coefficient [N s/m]
-    c_mid: float  # mid-speed damping coefficient [N s/m]
-    v_transition: float | None = None  # transition velocity [m/s] (alpha, eq 6.2)
+    c_low: float = q("N s/m", 0.0, 1e6)  # low-speed damping coefficient
+    c_mid: float = q("N s/m", 0.0, 1e6)  # mid-speed damping coefficient
+    v_transition: float | None = q("m/s", -10.0, 10.0, None)  # transition velocity (alpha, eq 6.2)
 
 
 @dataclass
@@ -197,9 +208,13 @@ def _value(tp, value, path):
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise DamperError(f"{path}: expected a number, got {value!r}")
-        if value != value or value in (float("inf"), float("-inf")):
+        try:
+            out = float(value)
+        except OverflowError:  # an integer beyond any float
+            out = float("inf")
+        if not math.isfinite(out):
             raise DamperError(f"{path}: must be finite")
-        return float(value)
+        return out
     if tp is str:
         if not isinstance(value, str):
             raise DamperError(f"{path}: expected a string")
@@ -234,7 +249,7 @@ def save(model, path) -> None:
 def load_file(path) -> Damper | SimplifiedDamper:
     path = Path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(read_text(path), object_pairs_hook=unique_keys)
     except FileNotFoundError:
         raise DamperError(f"{path}: no such file") from None
     except json.JSONDecodeError as e:
@@ -243,10 +258,29 @@ def load_file(path) -> Damper | SimplifiedDamper:
         raise DamperError(f"{path}: not a text (JSON) file") from None
     except (OSError, RecursionError) as e:
         raise DamperError(f"{path}: cannot read ({getattr(e, 'strerror', None) or type(e).__name__})") from None
+    except DamperError as e:
+        raise DamperError(f"{path}: {e}") from None
     try:
         return from_dict(data)
     except DamperError as e:
         raise DamperError(f"{path.name}: {e}") from None
+
+
+def unique_keys(pairs):
+    """json's object_pairs_hook: a key given twice is refused (json would keep the last)."""
+    out = {}
+    for k, v in pairs:
+        if k in out:
+            raise DamperError(f"key {k!r} given twice in one object")
+        out[k] = v
+    return out
+
+
+def read_text(path: Path) -> str:
+    """A regular file's text: a FIFO or device would block or never end."""
+    if path.exists() and not path.is_file():
+        raise DamperError("not a regular file (a FIFO, socket or device is not read)")
+    return path.read_text(encoding="utf-8")
 
 
 def preset_names() -> list[str]:
@@ -266,6 +300,22 @@ def load(name_or_path) -> Damper | SimplifiedDamper:
 
 
 # --- physical checks ----------------------------------------------------------------------
+
+def check_ranges(obj, where="") -> None:
+    """Every field declared with q() within its range, through nested dataclasses."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        path = f"{where}.{f.name}" if where else f.name
+        if dataclasses.is_dataclass(value):
+            check_ranges(value, path)
+        elif "range" in f.metadata:
+            lo, hi = f.metadata["range"]
+            unit = "" if f.metadata["unit"] == "-" else f" {f.metadata['unit']}"
+            for i, v in enumerate(value if isinstance(value, list) else [value]):
+                if v is not None and not lo <= v <= hi:
+                    at = f"{path}[{i}]" if isinstance(value, list) else path
+                    raise DamperError(f"{at}: {v:g}{unit} is outside {lo:g}..{hi:g}{unit}")
+
 
 def _positive(value, path):
     if not value > 0:
@@ -305,12 +355,15 @@ def check_temperature(d: Damper, T: float) -> None:
     if not T > 0:
         raise DamperError(f"temperature {T} K is not physical")
     if gas_volume_min(d, T) <= 0.05 * d.gas_spring.V0:
-        raise DamperError(f"{d.name}: gas volume exhausted at full stroke and "
-                          f"{T - 273.15:.0f} C (stroke x rod area plus oil expansion "
-                          f"exceed 95 % of V0)")
+        raise DamperError(f"gas_spring: gas volume exhausted at full stroke and {T - 273.15:.0f} C (V0 "
+                          f"{d.gas_spring.V0:g} m^3 less stroke x A_r and the oil's expansion by K_voil, K_voint "
+                          f"leaves {gas_volume_min(d, T):.3g} m^3, under 5 % of V0)")
 
 
 def check(model) -> None:
+    """The declared ranges, then the relations between fields; DamperError naming the first
+    field that is not physical."""
+    check_ranges(model)
     if isinstance(model, SimplifiedDamper):
         for tag in ("compression", "rebound"):
             d = getattr(model, tag)
@@ -324,15 +377,29 @@ def check(model) -> None:
         _positive(getattr(geo, name), f"geometry.{name}")
     if geo.A_r >= geo.A_p:
         raise DamperError("geometry.A_r: rod area must be smaller than piston area A_p")
-    if model.layout == "remote_reservoir" and geo.V_total - geo.V20 - geo.stroke * geo.A_p <= 0:
-        raise DamperError("geometry.V_total: chamber 1 volume goes negative over the stroke")
+    if geo.V20 >= geo.V_total:
+        raise DamperError(f"geometry.V20: {geo.V20:g} m^3 is not below V_total {geo.V_total:g} m^3 "
+                          f"(chamber 2 is part of the oil volume)")
+    # chamber 1 gives up A_p per metre of stroke, less the rod's share in a monotube (eqs 3.33, 3.46)
+    swept = geo.stroke * (geo.A_p if model.layout == "remote_reservoir" else geo.A_p - geo.A_r)
+    if geo.V_total - geo.V20 - swept <= 0:
+        raise DamperError(f"geometry.V_total: chamber 1 ({geo.V_total - geo.V20:g} m^3 at full extension) "
+                          f"goes negative over the {geo.stroke:g} m stroke ({swept:g} m^3 swept)")
+    if model.x_mid is not None and not 0 < model.x_mid < geo.stroke:
+        raise DamperError(f"x_mid: {model.x_mid:g} m is outside the stroke 0..{geo.stroke:g} m")
     for name in ("P0", "V0", "T0"):
         _positive(getattr(g, name), f"gas_spring.{name}")
     if not 1.0 <= g.gamma <= 1.67:
         raise DamperError(f"gas_spring.gamma: must lie between 1 (isothermal) and 1.67, got {g.gamma}")
+    if g.V0 >= GAS_TO_OIL_MAX * geo.V_total:
+        raise DamperError(f"gas_spring.V0: {g.V0:g} m^3 of gas is more than {GAS_TO_OIL_MAX:g} x the oil volume "
+                          f"V_total {geo.V_total:g} m^3: larger than the damper")
     if g.V0 - geo.stroke * geo.A_r <= 0.05 * g.V0:
         raise DamperError("gas_spring.V0: gas volume exhausted by the stroke (stroke x A_r >= V0)")
-    check_temperature(model, T_MAX_RATED)
+    # the gas volume is linear in T (eq 4.4): positive at both ends of the range keeps the
+    # gas pressure positive and finite over the whole stroke at every rated temperature
+    for T in (T_MIN_RATED, T_MAX_RATED, model.temperature.T_ref, g.T0):
+        check_temperature(model, T)
     f = model.friction
     if len(f.x_table) != len(f.F_table) or not f.x_table:
         raise DamperError("friction.F_table: must have one value per x_table entry")

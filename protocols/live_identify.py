@@ -159,6 +159,8 @@ def _worker(inbox, outbox, description, model_path, ending):
     data would delay the final fit (by a minute on the tests' short run)."""
     from models import damper as dm
     from models.identify import identify
+    from protocols.io.files import written
+    from rig.errors import RigError
     desc = dm.from_dict(description)
     channels, events = {}, []
     done = False
@@ -199,8 +201,9 @@ def _worker(inbox, outbox, description, model_path, ending):
             res.damper.name = f"{desc.name}-identified"
             res.damper.description = "identified live by dyno run"
             try:
-                dm.save(res.damper, model_path)
-            except dm.DamperError as e:
+                with written(model_path, "--identify") as tmp:
+                    dm.save(res.damper, tmp)
+            except (dm.DamperError, RigError) as e:
                 outbox.put(("error", f"identified model not written: {e}"))
                 return
             outbox.put(("note", f"held-out loop NRMSE {100 * res.heldout_nrmse:.2f} %" if res.heldout

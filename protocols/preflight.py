@@ -21,6 +21,9 @@ import numpy as np
 from protocols.plan import MARGIN, ParamError, RigInfo, Segment
 
 MAX_MOTION_S = 2 * 3600.0  # s: a plan that moves longer than this needs --long
+# s: ... and one that may last longer than this with every wait at its longest (the standard
+# sequence: 4 min of motion, its 18 waits at most 2 h 7 min; a wait usually ends far sooner)
+MAX_RUN_S = 4 * 3600.0
 SAMPLES = 400  # per segment, and at least POINTS_PER_CYCLE a cycle
 POINTS_PER_CYCLE = 64
 
@@ -138,6 +141,10 @@ def check(segments, info: RigInfo, long=False) -> Forecast:
     if f.duration_s > MAX_MOTION_S and not long:
         raise ParamError(f"the plan moves for {_hours(f.duration_s)}, more than {_hours(MAX_MOTION_S)}: "
                          f"check its parameters, or give --long")
+    if f.duration_s + f.wait_max_s > MAX_RUN_S and not long:
+        raise ParamError(f"the plan may run for {_hours(f.duration_s + f.wait_max_s)} ({_hours(f.duration_s)} of "
+                         f"motion and {f.waits} waits of at most {_hours(f.wait_max_s)} in all), more than "
+                         f"{_hours(MAX_RUN_S)}: check its parameters, or give --long")
     return f
 
 

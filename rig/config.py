@@ -145,8 +145,10 @@ def parse(text: str, where="<config>") -> RigConfig:
     for name in data:
         if name not in TABLES:
             near = difflib.get_close_matches(name, TABLES, n=1, cutoff=0.6)
-            c.fail(c.line([name]) or line_of(text, [name, *list(data[name])[:1]]),
-                   f"unknown table [{name}]" + (f"; did you mean [{near[0]}]?" if near else
+            c.fail(c.line([name]) or line_of(text, [name, *list(data[name])[:1]]) if isinstance(data[name], dict)
+                   else _key_line(text, name),
+                   f"unknown {'table [' + name + ']' if isinstance(data[name], dict) else 'key ' + repr(name)}"
+                   + (f"; did you mean [{near[0]}]?" if near else
                                                f" (known: {', '.join(f'[{t}]' for t in TABLES)})"))
     rig = c.fields(c.table(data.get("rig", {}), ["rig"], "rig"), ["rig"], RIG, "rig")
     devices = _devices(c, c.table(data.get("devices", {}), ["devices"], "devices"))
@@ -162,8 +164,18 @@ def parse(text: str, where="<config>") -> RigConfig:
                      where, text, actuator, {k: float(v) for k, v in thermal.items()})
 
 
+def _key_line(text, key):
+    """1-based line of a top-level `key = ...` (before any table), 1 if not found."""
+    for i, ln in enumerate(text.splitlines()):
+        if ln.lstrip().startswith("["):
+            break
+        if re.match(rf"^\s*[\"']?{re.escape(key)}[\"']?\s*=", ln):
+            return i + 1
+    return 1
+
+
 def _devices(c, table):
-    devices = {}
+    devices, where = {}, {}
     for name, d in table.items():
         parts = ["devices", name]
         d = c.table(d, parts, f"devices.{name}")
@@ -184,6 +196,13 @@ def _devices(c, table):
         if problem:
             c.fail(c.line(parts, problem[0]), f"device {name!r}: {problem[1]}")
         devices[name] = Device(name, t, params, c.line(parts))
+        # one device per address: a serial port, a Modbus host:port and id, a CAN node kind on a bus
+        address = (t, transport.address(params), params.get("node"))
+        if address in where:
+            c.fail(c.line(parts), f"device {name!r}: {transport.address(params)}"
+                                  f"{' node ' + params['node'] if 'node' in params else ''} is taken by device "
+                                  f"{where[address]!r} (one device per address)")
+        where[address] = name
     if not devices:
         c.fail(1, "no [devices.NAME] tables")
     actuators = [n for n, d in devices.items() if TRANSPORTS[d.transport].takes_setpoints(d.params)]

@@ -63,7 +63,7 @@ def test_incomplete_damper_json_names_the_field(tmp_path):
     data = json.loads(Path(__file__).parents[1].joinpath("models/presets/koni.json").read_text())
     del data["friction"]["C_sfT"]
     f.write_text(json.dumps(data))
-    p = run("plot", "damper", str(f), "--out", str(tmp_path))
+    p = run("plot", "damper", str(f), "--out", str(tmp_path / "plots"))
     assert p.returncode == 2
     assert p.stderr.strip() == "dyno: error: mine.json: friction.C_sfT: missing"
 
@@ -103,7 +103,7 @@ def test_negative_mass_car_file_is_named(tmp_path):
     car = tmp_path / "car.json"
     car.write_text(json.dumps({"name": "bad", "m_s": -250.0, "m_u": 45.0, "k_s": 7e4, "k_t": 3.5e5,
                                "c_tire": 0.0, "F_c1": 0.0, "F_c3": 0.0}))
-    p = run("plot", "quarter-car", "--car", str(car), "--out", str(tmp_path))
+    p = run("plot", "quarter-car", "--car", str(car), "--out", str(tmp_path / "plots"))
     assert p.returncode == 2
     assert p.stderr.strip() == "dyno: error: car.json: m_s: must be positive, got -250.0"
 

@@ -49,12 +49,12 @@ def test_unknown_field_and_layout():
 def test_negative_volume():
     d = koni_dict()
     d["geometry"]["V20"] = -1e-6
-    assert error_of(d) == "geometry.V20: must be positive, got -1e-06"
+    assert error_of(d) == "geometry.V20: -1e-06 m^3 is outside 1e-09..0.01 m^3"
 
 
 def test_gas_volume_exhausted_by_stroke():
     d = koni_dict()
-    d["geometry"]["stroke"] = 0.4
+    d["gas_spring"]["V0"] = 1e-5  # the stroke sweeps 1.2e-5 m^3 of rod
     assert "exhausted by the stroke" in error_of(d)
 
 

@@ -268,10 +268,10 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "cmp" / "index.html").read_text()
     assert page.count("<td>+0.0</td>") == 2 * 13 and "compare_composite.png" in page
-    bad = subprocess.run([DYNO, "report", str(out), "--model", str(tmp_path / "none.json"), "--out", str(tmp_path)],
+    bad = subprocess.run([DYNO, "report", str(out), "--model", str(tmp_path / "none.json"), "--out", str(tmp_path / "r")],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "none.json: no such file" in bad.stderr
-    bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path)],
+    bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "r")],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no such file" in bad.stderr
 

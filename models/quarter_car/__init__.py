@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from models.damper import DamperError, build
+from models.damper import DamperError, build, read_text, unique_keys
 
 G = 9.81  # m/s^2
 PRESET_DIR = Path(__file__).parent.parent / "presets" / "quarter-car"
@@ -42,10 +42,14 @@ def load(name_or_path) -> QuarterCar:
         known = ", ".join(sorted(p.stem for p in PRESET_DIR.glob("*.json")))
         raise DamperError(f"unknown quarter-car {s!r} (known: {known})")
     try:
-        qc = build(QuarterCar, json.loads(path.read_text()), "")
+        qc = build(QuarterCar, json.loads(read_text(path), object_pairs_hook=unique_keys), "")
         check(qc)
     except json.JSONDecodeError as e:
         raise DamperError(f"{path.name}: not valid JSON (line {e.lineno}: {e.msg})") from None
+    except UnicodeDecodeError:
+        raise DamperError(f"{path.name}: not a text (JSON) file") from None
+    except (OSError, RecursionError) as e:
+        raise DamperError(f"{path.name}: cannot read ({getattr(e, 'strerror', None) or type(e).__name__})") from None
     except DamperError as e:
         raise DamperError(f"{path.name}: {e}") from None
     return qc

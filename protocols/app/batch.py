@@ -17,6 +17,7 @@ from models.parallel import run_all
 from rig.errors import RigError
 
 from protocols import cluster
+from protocols.io.files import input_file, output_file, written
 
 
 @contextlib.contextmanager
@@ -31,13 +32,12 @@ def unpacked(name, data):
 def run(args, task, extra, suffix, row, label, kept=lambda doc: doc):
     """task((name, bytes, *extra)) -> (name, document or None, error or None); row(name,
     document, error) -> {column: value}; kept(document) is written to FILE + suffix."""
-    files = [Path(f) for f in args.batch]
-    missing = [f for f in files if not f.is_file()]
-    if missing:
-        raise RigError(f"--batch: {missing[0]}: no such file")
-    summary = Path(args.summary)
-    if summary.resolve() in {f.resolve() for f in files}:
-        raise RigError(f"--summary {summary}: that is one of the recordings")
+    files = [input_file(f, "--batch:") for f in args.batch]
+    overwrite = getattr(args, "overwrite", False)
+    beside = {f: f.with_suffix(suffix) for f in files}
+    for out in beside.values():  # every output is checked before any work
+        output_file(out, files, overwrite, "--batch:")
+    summary = output_file(args.summary, [*files, *beside.values()], overwrite, "--summary")
     tasks = [(str(f), f.read_bytes(), *extra) for f in files]
     with cluster.pool(args.cluster, args.jobs) as (pool, workers):
         print(f"{label}: {len(tasks)} recordings on {workers} workers", file=sys.stderr, flush=True)
@@ -45,12 +45,13 @@ def run(args, task, extra, suffix, row, label, kept=lambda doc: doc):
     rows, failed = [], 0
     for name, doc, error in done:
         if doc is not None:
-            Path(name).with_suffix(suffix).write_text(json.dumps(kept(doc), indent=1))
+            with written(beside[Path(name)]) as tmp:
+                tmp.write_text(json.dumps(kept(doc), indent=1))
         failed += doc is None
         rows.append(row(name, doc, error))
         print(f"{name}: " + (f"FAILED: {error}" if doc is None else "ok"), file=sys.stderr, flush=True)
     columns = list(dict.fromkeys(k for r in rows for k in r))  # every row's columns, in first-seen order
-    with open(summary, "w", newline="") as f:
+    with written(summary, "--summary") as tmp, open(tmp, "w", newline="") as f:
         w = csv.DictWriter(f, columns)
         w.writeheader()
         w.writerows(rows)

@@ -22,6 +22,11 @@ def _hidden_physics(p):
                    help="the virtual rig's noise seed (default 0)")
 
 
+def _overwrite(p, what="the output"):
+    p.add_argument("--overwrite", action="store_true",
+                   help=f"replace {what} if it exists (never an input; a folder's other files are kept)")
+
+
 class Parser(argparse.ArgumentParser):
     """Usage mistakes are one line, like every other bad input, and exit 2."""
 
@@ -95,6 +100,7 @@ def _model_commands(sub):
     pd.add_argument("--amplitude-mm", type=number(), default=12.7, help="sine amplitude (default 12.7)")
     pd.add_argument("--freq", type=number(), nargs="+", default=[1, 2, 4, 8, 16], help="frequencies in Hz")
     pd.add_argument("--temp", type=number(), default=94.0, help="damper temperature in C (default 94)")
+    _overwrite(pd, "the figures in --out")
     pd.set_defaults(command="plot:damper")
     for name, helptext, command in (
             ("quarter-car", "frequency and step responses of a quarter car (6.2)", "plot:quarter_car"),
@@ -106,6 +112,7 @@ def _model_commands(sub):
         q.add_argument("--car", default="race-car" if name == "parametric" else "simulator",
                        help="quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json")
         q.add_argument("--out", required=True, help="output directory")
+        _overwrite(q, "the figures in --out")
         q.add_argument("--freq", type=number(), nargs="+", default=None,
                        help="excitation frequencies in Hz (default 1.25-20 in 0.25 Hz steps)")
         if name != "simplified":
@@ -164,6 +171,7 @@ def _cell_commands(sub):
     rp.add_argument("other", nargs="?", help="a second recording: compare it (B) with the first (A)")
     rp.add_argument("--model", default=None, help="damper model JSON to overlay (default: FILE.model.json if present)")
     rp.add_argument("--out", required=True, help="output directory")
+    _overwrite(rp, "the report's files in --out")
     rp.set_defaults(command="report")
     rg = sub.add_parser("rig", help="the test cell")
     rgsub = rg.add_subparsers(dest="what", required=True)
@@ -204,6 +212,7 @@ def _analysis_commands(sub):
     idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
     idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
+    _overwrite(idf, "--out, --report's files and --batch's outputs")
     _batch_options(idf, "identify", "FILE.model.json")
     idf.set_defaults(command="identify")
     dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
@@ -213,6 +222,7 @@ def _analysis_commands(sub):
                     help="minimal (default: fitted whole), or a damper preset or model JSON, refitted")
     dg.add_argument("--json", action="store_true", help="machine-readable result")
     dg.add_argument("--report", metavar="DIR", help="HTML report with residual maps and loops")
+    _overwrite(dg, "--report's files and --batch's outputs")
     dg.add_argument("--holdout", type=holdout, default="interleaved",
                     help="interleaved (default: alternate cycles or blocks) or tail:FRACTION (a time split: fit on "
                          "the first 1-2F, choose on the next F, report on the last F)")
@@ -244,12 +254,12 @@ def _analysis_commands(sub):
     ex.add_argument("--csv", metavar="FILE", help="write CSV")
     ex.add_argument("--parquet", metavar="FILE", help="write Parquet (needs pyarrow)")
     ex.add_argument("--channels", help="comma-separated channels (default: all, force first)")
-    ex.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    _overwrite(ex)
     ex.set_defaults(command="export")
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
     im.add_argument("file", metavar="FILE.csv")
     im.add_argument("--out", required=True, metavar="FILE.mcap")
-    im.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    _overwrite(im, "--out")
     im.add_argument("--map", action="append", required=True, metavar="NAME=COLUMN[:UNIT]",
                     help="time, displacement, velocity, force, temperature, pressure or aux.NAME; "
                          "units e.g. ms, mm, mm/s, kN, C, bar (default SI)")

@@ -13,7 +13,7 @@ from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose import quality
 from models.diagnose.data import DiagnoseError
-from protocols.io.files import make_dir
+from protocols.io.files import existing_files, filled, output_folder
 from rig.errors import RigError
 
 from protocols.io.reader import load_recording
@@ -259,7 +259,7 @@ def run(args):
     if args.recording is None:
         raise RigError("diagnose: give a RECORDING, or --batch FILE...")
     if args.report:
-        make_dir(args.report, "--report")
+        output_folder(args.report, existing_files(args.recording, args.baseline), args.overwrite, "--report")
     ch, events, _ = load_recording(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     try:
@@ -267,8 +267,9 @@ def run(args):
     except (DiagnoseError, DamperError) as e:
         raise RigError(f"{args.recording}: {e}") from None
     if args.report:
-        page = report(res, Path(args.report))
-        say(f"report: {page}")
+        with filled(args.report, "--report") as folder:
+            page = report(res, folder)
+        say(f"report: {Path(args.report) / page.name}")
     if args.json:
         print(json.dumps(to_json(res), indent=1))
     else:

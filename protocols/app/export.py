@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from models.recording import segments
-from protocols.io.files import writable_file
+from protocols.io.files import output_file, written
 from protocols.io.reader import load_recording
 from rig.errors import RigError
 
@@ -42,15 +42,18 @@ def table(channels, events, units, names=None):
 def run(args):
     if bool(args.csv) == bool(args.parquet):
         raise RigError("give one of --csv FILE or --parquet FILE")
-    if Path(args.csv or args.parquet).resolve() == Path(args.recording).resolve():
-        raise RigError(f"{args.csv or args.parquet}: that is the recording itself")
+    what = "--csv" if args.csv else "--parquet"
+    out = output_file(args.csv or args.parquet, [args.recording], args.overwrite, what)
     channels, events, meta = load_recording(args.recording)
     names = [n.strip() for n in args.channels.split(",")] if args.channels else None
     cols, data = table(channels, events, meta.get("units", {}), names)
-    what = "--csv" if args.csv else "--parquet"
-    out = writable_file(args.csv or args.parquet, what)
-    if out.exists() and not args.overwrite:  # nothing already there is lost, the recording least of all
-        raise RigError(f"{what} {out}: exists; give --overwrite to replace it")
+    with written(out, what) as tmp:
+        _write(args, cols, data, tmp)
+    print(f"{out}: {len(data[0])} rows, {len(cols)} columns ({', '.join(cols[3:])})")
+    return 0
+
+
+def _write(args, cols, data, out):
     if args.parquet:
         try:
             import pyarrow as pa
@@ -63,5 +66,3 @@ def run(args):
             w = csv.writer(f)
             w.writerow(cols)
             w.writerows(zip(*[d.tolist() for d in data]))
-    print(f"{out}: {len(data[0])} rows, {len(cols)} columns ({', '.join(cols[3:])})")
-    return 0

@@ -12,7 +12,7 @@ import numpy as np
 
 from models import damper as dm
 from models.identify import IdentifyError, identify
-from protocols.io.files import make_dir, writable_file
+from protocols.io.files import existing_files, filled, output_file, output_folder, written
 from protocols.io.reader import load_recording
 from protocols.reports.page import number
 from rig.errors import RigError
@@ -105,18 +105,17 @@ def run(args):
     for p in args.recordings:
         if not Path(p).exists():
             raise RigError(f"{p}: no such file")
-    out = writable_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), "--out")
+    inputs = existing_files(args.recordings, args.damper, args.truth)
+    out = output_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), inputs, args.overwrite)
     if args.report:
-        make_dir(args.report, "--report")
+        output_folder(args.report, inputs, args.overwrite, "--report")
     channels, events, meta = merge(args.recordings)
     desc = description(args.damper, meta)
     truth = dm.load(args.truth) if args.truth else None
     say = (lambda m: print(m, file=sys.stderr)) if args.json else print
     res = model_of(channels, events, desc, args.recordings, say)
-    try:
-        dm.save(res.damper, out)
-    except OSError as e:
-        raise RigError(f"--out {out}: cannot write the model ({e.strerror or e})") from None
+    with written(out) as tmp:
+        dm.save(res.damper, tmp)
     doc = summary(res)
     if truth is not None:
         from models.identify.compare import compare
@@ -124,8 +123,9 @@ def run(args):
         doc.update(compare(res, truth, T))
     if args.report:
         from protocols.reports.identification import write
-        index = write(res, doc, args.report)
-        say(f"report: {index}")
+        with filled(args.report, "--report") as folder:
+            index = write(res, doc, folder)
+        say(f"report: {Path(args.report) / index.name}")
     if args.json:
         print(json.dumps(_clean(doc), indent=2))
     else:

@@ -9,12 +9,21 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from protocols.io.files import Claim
 from protocols.io.csv_import import CHANNELS, SI, parse_map, read, velocity_from
 from protocols.io.recording import Recorder
 
 
 def run(args):
     mapping = parse_map(args.map)
+    claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the CSV is read
+    try:
+        return _import(args, mapping, claim)
+    finally:
+        claim.release()
+
+
+def _import(args, mapping, claim):
     data, units = read(args.file, mapping)
     t = data.pop("time")
     if "velocity" not in data:
@@ -38,8 +47,8 @@ def run(args):
     duration = float(t[-1] - t[0])
     # the CSV's own start is unknown: its file time less its duration stands for it
     wall_start = os.path.getmtime(args.file) - duration
-    rec = Recorder(args.out, cfg, "", "import", {"source": str(args.file), "map": args.map}, wall_start=wall_start,
-                   overwrite=args.overwrite, run_info={"wall_start_source": "CSV file time less its duration"})
+    rec = Recorder(claim, cfg, "", "import", {"source": str(args.file), "map": args.map}, wall_start=wall_start,
+                   run_info={"wall_start_source": "CSV file time less its duration"})
     try:
         for n, (tt, v, _) in channels.items():
             for i in range(0, len(tt), 5000):
@@ -47,7 +56,7 @@ def run(args):
         rec.commit()
     finally:
         rec.close()
-    print(f"{args.out}: {len(t)} rows, channels " + ", ".join(
+    print(f"{rec.path}: {len(t)} rows, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
     return 0

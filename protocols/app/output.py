@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 
-from protocols.io.files import make_dir
 from protocols.reports import markdown as md
 
 
@@ -18,7 +17,3 @@ def emit(args, title, result, text, body=None, note=""):
         print(text)
     return 0
 
-
-def out_dir(path):
-    """The output folder, created (or a one-line refusal) before any work."""
-    return make_dir(path)

@@ -9,7 +9,7 @@ from models.damper import DamperError
 from models.damper import load as load_damper
 from rig.errors import RigError
 
-from protocols.io.files import make_dir
+from protocols.io.files import existing_files, filled, output_folder
 from protocols.reports.comparison import compare
 from protocols.reports.recording import report
 
@@ -25,15 +25,15 @@ def _model(args):
 
 
 def run(args):
-    make_dir(args.out)
-    if args.other:
-        index, pngs = compare(args.file, args.other, args.out)
-    else:
-        model = _model(args)
-        if model is not None:
-            print(f"model overlaid: {model.name}")
-        index, pngs = report(args.file, args.out, model)
-    for p in pngs:
-        print(p)
-    print(index)
+    out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
+    with filled(out) as folder:
+        if args.other:
+            index, pngs = compare(args.file, args.other, folder)
+        else:
+            model = _model(args)
+            if model is not None:
+                print(f"model overlaid: {model.name}")
+            index, pngs = report(args.file, folder, model)
+    for p in [*pngs, index]:
+        print(out / Path(p).name)
     return 0

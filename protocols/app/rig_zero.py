@@ -15,6 +15,7 @@ from rig.safety import Safety
 
 from protocols import commissioning, runner
 from protocols.app.run import open_rig
+from protocols.io.files import written
 from protocols.plan import rig_info
 
 
@@ -80,8 +81,9 @@ def run(args):
         text = path.read_text(encoding="utf-8")
         for name, value, why in changes:
             text = set_offset(text, name, value, f"dyno rig zero {today}: {why} (offset was {ch[name].offset:.9g})")
-        path.write_text(text, encoding="utf-8")
-        rig_config.load(path)  # still a valid cell file
+        rig_config.parse(text, path.name)  # still a valid cell file, before it replaces the old one
+        with written(path, "--rig") as tmp:
+            tmp.write_text(text, encoding="utf-8")
         print(f"written to {path}")
     elif changes:
         print("nothing written: give --rig CELL.toml, the cell's own file (the embedded virtual rig and the "

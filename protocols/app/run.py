@@ -18,7 +18,7 @@ from rig.safety import Safety
 
 from protocols import preflight, runner
 from protocols.app.sim_rig import virtual_plant
-from protocols.io.files import writable_file
+from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder
 from protocols.library import PROTOCOLS
 from protocols.plan import as_dict, parse, rig_info
@@ -28,7 +28,7 @@ from protocols.rehearsal import rehearse
 def run(args):
     module, params, plant, damper, cfg, info = _plan_run(args)
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
-    claim = _output(args, module.NAME)
+    claim = _output(args, module.NAME, identifying)
     vr = rig = recorder = live = ident = result = pacer = None
     errors = []  # the first is the one that ended the run; later ones are reported after it
     # SIGTERM stops the run as Ctrl-C does; only the main thread may set it (a cluster
@@ -90,7 +90,7 @@ def _plan_run(args):
         raise RigError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
                        f"rig; give a full damper (a preset or JSON)")
     if args.rrd:
-        writable_file(args.rrd, "--rrd")
+        output_file(args.rrd, _inputs(args), args.overwrite, "--rrd")
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     if getattr(args, "rate_hz", None):  # `dyno prove --rates`: the virtual cell at another loop rate
         cfg = rig_config.at_rate(cfg, args.rate_hz)
@@ -163,14 +163,25 @@ def _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident):
     return 0
 
 
-def _output(args, name):
+def _inputs(args):
+    """The files a run reads: no output may be one of them."""
+    return existing_files(args.damper, args.rig and str(rig_config.path_of(args.rig)), args.params,
+                          *(getattr(args, n, None) for n in ("car", "road", "target")))
+
+
+def _output(args, name, identifying):
     """The recording's Claim, taken before the rig opens (refuses an existing file without
     --overwrite, and a target another run is writing)."""
     from datetime import datetime
     from pathlib import Path
 
-    from protocols.io.files import Claim, numbered
-    if args.out:
-        return Claim(args.out, overwrite=args.overwrite)
-    default = Path("recordings") / f"{name}-{datetime.now():%Y%m%d-%H%M%S}.mcap"
-    return Claim(numbered(default))
+    inputs = _inputs(args)
+    claim = Claim(args.out or numbered(Path("recordings") / f"{name}-{datetime.now():%Y%m%d-%H%M%S}.mcap"),
+                  overwrite=args.overwrite, inputs=inputs)
+    if identifying:
+        try:
+            output_file(claim.target.with_suffix(".model.json"), inputs, args.overwrite, "--identify")
+        except RigError:
+            claim.release()
+            raise
+    return claim

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import savgol_filter
 
+from protocols.io.files import input_file
 from rig.config import quantity
 from rig.errors import RigError
 
@@ -66,7 +67,7 @@ def read(path, mapping):
     """{channel: SI array} from the CSV. Unmapped and empty columns and a trailing
     separator are ignored; unknown mapped columns, non-numbers and time that does not
     goes backwards are refused, naming the row."""
-    path = Path(path)
+    path = input_file(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
@@ -120,6 +121,12 @@ def read(path, mapping):
     if not t[keep][-1] > t[keep][0]:
         column = next(c for n, c, _ in mapping if n == "time")
         raise RigError(f"{path}: the time column {column!r} does not advance (all {t[keep][0]:g} s)")
+    for name, column, _ in mapping:  # an empty optional column is left out; one number is no channel
+        have = int(np.sum(~np.isnan(data[name][keep])))
+        need = 10 if name in ("time", "displacement", "force") else 2
+        if 0 < have < need or (have == 0 and need == 10):
+            raise RigError(f"{path}: column {column!r} ({name}) holds {have} number{'s' * (have != 1)} "
+                           f"with a time (needs at least {need})")
     return {k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}
 
 

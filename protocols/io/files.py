@@ -1,21 +1,37 @@
-"""Output files that are never lost, checked before any work starts.
+"""The one rule for what dyno reads and writes, checked before any work starts.
+
+Inputs are regular files: a folder, a FIFO or a device is refused by name (a FIFO would
+hang the reader).
+
+Every output:
+- never aliases an input: not the same path, not a hard or symbolic link to it, and an
+  output folder never holds one;
+- is kept if it already exists (a file, or a folder with anything in it) unless the
+  caller asked to overwrite it;
+- is written to a temporary name beside its target and renamed onto it only when complete,
+  so an error, a full disk or Ctrl-C halfway leaves the target as it was.
+
+An output folder is filled the same way: the new files are made in a temporary folder and
+moved in when all are written; with overwrite, files of the same names are replaced and
+anything else in the folder is left alone.
 
 A recording is written to a partial file beside its target (`.NAME.partial`) and renamed
-onto the target only once the run has started cleanly (Claim.commit), so a run that fails
-at its start leaves an existing file as it was. An existing target is kept unless the
-caller asked to overwrite it; a lock file (`NAME.lock`, flock) refuses a second writer of
-the same target for as long as the first one lives.
-
-Derived outputs (a model JSON, a report folder) are re-made from recordings, so they may
-be replaced; their folders are created, or refused with the reason, before the work.
+onto the target once the run has started cleanly (Claim.commit); a lock file (`NAME.lock`,
+flock) refuses a second writer of the same target for as long as the first one lives.
 """
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import os
+import shutil
+import stat
+import tempfile
 from pathlib import Path
 
 from rig.errors import RigError
+
+TEMP_ROOM = 32  # characters the temporary names add to a file name
 
 
 def _why(e: OSError) -> str:
@@ -33,43 +49,167 @@ def numbered(path: Path) -> Path:
     return out
 
 
-def make_dir(path, what="--out") -> Path:
-    """The folder `path`, created with its parents; RigError if it cannot be (a file in the
-    way, no permission)."""
+def input_file(path, what="") -> Path:
+    """`path` if it is a regular file that can be opened; RigError naming the problem."""
     path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise RigError(f"{what} {path}: exists and is not a folder")
+    label = f"{what} {path}".strip()
     try:
-        path.mkdir(parents=True, exist_ok=True)
+        st = path.stat()
+    except FileNotFoundError:
+        raise RigError(f"{label}: no such file") from None
     except OSError as e:
-        raise RigError(f"{what} {path}: cannot create the folder ({_why(e)})") from None
-    if not os.access(path, os.W_OK):
-        raise RigError(f"{what} {path}: folder not writable")
+        raise RigError(f"{label}: cannot read ({_why(e)})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise RigError(f"{label}: a folder, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        raise RigError(f"{label}: not a regular file (a FIFO, socket or device is not read)")
+    if not os.access(path, os.R_OK):
+        raise RigError(f"{label}: cannot read (permission denied)")
     return path
 
 
-def writable_file(path, what="--out") -> Path:
-    """A file that will be (re)written when the work is done: its folder is created now
-    and the target must be a regular file or absent."""
+def existing_files(*values) -> list[Path]:
+    """The files named among values (paths, lists of them, and the path in a "name=PATH" or
+    "kind:PATH" text): the inputs no output may alias."""
+    out = []
+    for v in values:
+        if isinstance(v, (list, tuple)):
+            out += existing_files(*v)
+        elif isinstance(v, (str, Path)):
+            s = str(v)
+            for c in {s, s.partition("=")[2], s.rpartition(":")[2]} - {""}:
+                with contextlib.suppress(OSError, ValueError):
+                    if Path(c).is_file():
+                        out.append(Path(c))
+    return out
+
+
+def _same(a: Path, b: Path) -> bool:
+    """a and b are one file: the same path, or links (hard or symbolic) to one inode."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
+
+
+def _name_fits(path: Path, what):
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        limit = os.pathconf(folder if folder.exists() else "/", "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    if len(path.name.encode()) + TEMP_ROOM > limit:
+        raise RigError(f"{what} {path.name[:40]}...: file name too long ({len(path.name)} characters; "
+                       f"at most {limit - TEMP_ROOM})")
+
+
+def _make_folder(folder: Path, what, label):
+    if folder.exists() and not folder.is_dir():
+        raise RigError(f"{what} {label}: {folder} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise RigError(f"{what} {label}: cannot create its folder ({_why(e)})") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise RigError(f"{what} {label}: folder {folder} not writable")
+
+
+def output_file(path, inputs=(), overwrite=False, what="--out") -> Path:
+    """A file to be written when the work is done, checked now: not an input, kept if it
+    exists unless overwrite, its folder created."""
     path = Path(path)
+    _name_fits(path, what)
+    for i in inputs:
+        if i is not None and _same(path, Path(i)):
+            raise RigError(f"{what} {path}: that is an input of this command (an output never replaces one); give another name")
     if path.is_dir():
         raise RigError(f"{what} {path}: is a folder, not a file")
     if path.exists() and not path.is_file():
         raise RigError(f"{what} {path}: not a regular file")
-    folder = path.parent
-    if folder.exists() and not folder.is_dir():
-        raise RigError(f"{what} {path}: {folder} is a file, not a folder")
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise RigError(f"{what} {path}: cannot create its folder ({_why(e)})") from None
-    if not os.access(folder, os.W_OK):
-        raise RigError(f"{what} {path}: folder {folder} not writable")
+    _make_folder(path.parent, what, path)
+    if not overwrite and (path.exists() or path.is_symlink()):
+        raise RigError(f"{what} {path}: exists; give --overwrite to replace it, or another name "
+                       f"(free: {numbered(path).name})")
     return path
 
 
+def output_folder(path, inputs=(), overwrite=False, what="--out") -> Path:
+    """A folder to be filled when the work is done, checked now: it holds no input, and
+    if it holds anything it is kept unless overwrite."""
+    path = Path(path)
+    _name_fits(path, what)
+    if path.exists() and not path.is_dir():
+        raise RigError(f"{what} {path}: exists and is not a folder")
+    here = path.resolve()
+    for i in inputs:
+        if i is not None and here in Path(i).resolve().parents:
+            raise RigError(f"{what} {path}: holds the input {i}; give a folder of its own")
+    _make_folder(path.parent, what, path)
+    if not overwrite and path.is_dir() and any(path.iterdir()):
+        raise RigError(f"{what} {path}: folder exists and is not empty; give --overwrite to replace "
+                       f"the files it writes, or another folder")
+    if path.is_dir() and not os.access(path, os.W_OK | os.X_OK):
+        raise RigError(f"{what} {path}: folder not writable")
+    return path
+
+
+@contextlib.contextmanager
+def written(path, what="--out"):
+    """A temporary path beside `path` to write to; it becomes `path` when the block ends
+    without an error, and is removed otherwise."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".partial", dir=path.parent)
+    os.close(fd)
+    try:
+        os.chmod(tmp, stat.S_IMODE(path.stat().st_mode) if path.exists() else _default_mode())
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except OSError as e:
+        raise RigError(f"{what} {path}: cannot write ({_why(e)})") from None
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+
+
+def _default_mode():
+    """What open() would give a new file: 0o666 less the umask (mkstemp gives 0o600)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def _move_into(src: Path, dst: Path):
+    for p in src.iterdir():
+        q = dst / p.name
+        if p.is_dir() and q.is_dir():
+            _move_into(p, q)
+        else:
+            if q.is_dir():
+                shutil.rmtree(q)
+            os.replace(p, q)
+
+
+@contextlib.contextmanager
+def filled(path, what="--out"):
+    """A temporary folder beside `path` to write into; its files move into `path` when the
+    block ends without an error, and it is removed otherwise."""
+    path = Path(path)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name[:200]}.", suffix=".partial", dir=path.parent))
+    try:
+        yield tmp
+        if not path.exists():
+            os.rename(tmp, path)
+        else:
+            _move_into(tmp, path)
+    except OSError as e:
+        raise RigError(f"{what} {path}: cannot write ({_why(e)})") from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
 class Claim:
-    """The right to write `target`: the lock, and the partial file it is written to.
+    """The right to write a recording `target`: the lock, and the partial file it is
+    written to.
 
         claim = Claim(path, overwrite=False)    # RigError if it exists or is being written
         f = claim.open()                        # the partial file, binary
@@ -77,13 +217,9 @@ class Claim:
         claim.release()                         # abandon() first if never committed
     """
 
-    def __init__(self, target, overwrite=False, what="--out"):
-        self.target = Path(target)
+    def __init__(self, target, overwrite=False, what="--out", inputs=()):
+        self.target = output_file(target, inputs, overwrite, what)
         self.what = what
-        writable_file(self.target, what)
-        if not overwrite and (self.target.exists() or self.target.is_symlink()):
-            raise RigError(f"{what} {self.target}: exists; give --overwrite to replace it, or another name "
-                           f"(free: {numbered(self.target).name})")
         self.overwrite = overwrite
         self.lock_path = self.target.with_name(self.target.name + ".lock")
         self.partial = self.target.with_name(f".{self.target.name}.partial")

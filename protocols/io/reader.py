@@ -14,22 +14,22 @@ for channels that share the force clock.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 from mcap.reader import make_reader
 
+from protocols.io.files import input_file
 from rig.errors import RigError
+
+
+JSON_METADATA = {"damper": ("model",), "protocol": ("params",), "calibration": None}  # None: every key
 
 
 def load_recording(path):
     """(channels {name: (t, values)}, events [dict], metadata {name: dict}); metadata
-    "units" is {channel: unit} as recorded."""
-    path = Path(path)
-    if not path.exists():
-        raise RigError(f"{path}: no such file")
-    if not path.is_file():
-        raise RigError(f"{path}: not a readable recording (a folder, not a file)")
+    "units" is {channel: unit} as recorded. Whatever the file holds is checked here:
+    RigError naming the topic or metadata record that is not as docs/recording.md says."""
+    path = input_file(path)
     chans, events, units = {}, [], {}
     try:
         with open(path, "rb") as f:
@@ -39,15 +39,61 @@ def load_recording(path):
             topics = None if summary is None else [c.topic for c in summary.channels.values()
                                                    if c.topic.startswith("/channels/") or c.topic == "/events"]
             for _, ch, m in r.iter_messages(topics=topics):
-                d = json.loads(m.data)
                 if ch.topic.startswith("/channels/"):
-                    ts, vs = chans.setdefault(ch.topic[len("/channels/"):], ([], []))
-                    ts.extend(d["t"])
-                    vs.extend(d["value"])
-                    units.setdefault(ch.topic[len("/channels/"):], d.get("unit", ""))
+                    name = ch.topic[len("/channels/"):]
+                    t, v, unit = _batch(json.loads(m.data), ch.topic)
+                    ts, vs = chans.setdefault(name, ([], []))
+                    ts.extend(t)
+                    vs.extend(v)
+                    units.setdefault(name, unit)
                 elif ch.topic == "/events":
-                    events.append(d)
-    except Exception as e:
+                    events.append(_event(json.loads(m.data)))
+        _check_metadata(meta)
+    except RigError as e:
+        raise RigError(f"{path}: {e}") from None
+    except Exception as e:  # noqa: BLE001 - whatever the MCAP reader or JSON refuses
         raise RigError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
+    if not chans:
+        raise RigError(f"{path}: no dyno channels (/channels/NAME): not a recording dyno run or import wrote")
     meta["units"] = units
-    return {k: (np.array(t), np.array(v)) for k, (t, v) in chans.items()}, events, meta
+    out = {}
+    for name, (t, v) in chans.items():
+        try:
+            out[name] = (np.array(t, dtype=float), np.array(v, dtype=float))
+        except (TypeError, ValueError):
+            raise RigError(f"{path}: /channels/{name}: values are not numbers") from None
+        if not np.all(np.isfinite(out[name][0])):
+            raise RigError(f"{path}: /channels/{name}: a time that is not a finite number")
+    return out, events, meta
+
+
+def _batch(d, topic):
+    """(t, value, unit) of one batch of samples, as docs/recording.md gives it."""
+    if not isinstance(d, dict) or not isinstance(d.get("t"), list) or not isinstance(d.get("value"), list):
+        raise RigError(f"{topic}: a message without the lists t and value")
+    if len(d["t"]) != len(d["value"]):
+        raise RigError(f"{topic}: a message with {len(d['t'])} times and {len(d['value'])} values")
+    unit = d.get("unit", "")
+    return d["t"], d["value"], unit if isinstance(unit, str) else str(unit)
+
+
+def _event(d):
+    """An event with its fields: t [s] a finite number, kind and segment texts, params an object."""
+    ok = isinstance(d, dict) and isinstance(d.get("kind"), str) and isinstance(d.get("t"), (int, float)) \
+        and not isinstance(d.get("t"), bool) and np.isfinite(d["t"]) \
+        and isinstance(d.setdefault("segment", ""), str) and isinstance(d.setdefault("params", {}), dict)
+    if not ok or (d["kind"].startswith("segment_") and not d["segment"]):
+        raise RigError(f"/events: an event without its fields (t, kind, segment, params): {str(d)[:80]}")
+    return d
+
+
+def _check_metadata(meta):
+    for name, keys in JSON_METADATA.items():
+        record = meta.get(name, {})
+        for key in (record if keys is None else keys):
+            text = record.get(key)
+            if text:
+                try:
+                    json.loads(text)
+                except ValueError:
+                    raise RigError(f"metadata {name}.{key}: not JSON") from None

@@ -25,7 +25,7 @@ from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from rig.errors import RigError
 
-from protocols.io.files import Claim
+from protocols.io.files import Claim, input_file, output_file, written
 
 FLUSH_S = 0.5
 SCHEMAS = {
@@ -284,11 +284,7 @@ def recover(path) -> dict:
     corrupted file): every intact record is kept, also those after a damaged part. The
     original is kept beside it as PATH.damaged (PATH.damaged-2 ... if that exists).
     Returns counts of what was restored."""
-    path = Path(path)
-    if not path.exists():
-        raise RigError(f"{path}: no such file")
-    if not path.is_file():
-        raise RigError(f"{path}: not a file")
+    path = input_file(path)
     try:
         with open(path, "rb") as f:
             make_reader(f).get_summary()
@@ -309,28 +305,35 @@ def recover(path) -> dict:
     damaged, k = path.with_name(path.name + ".damaged"), 2
     while damaged.exists():
         damaged, k = path.with_name(f"{path.name}.damaged-{k}"), k + 1
-    os.replace(path, damaged)
+    output_file(damaged, [path], what="recover:")  # a writable folder, checked before any work
     counts = {"intact": False, "messages": len(messages), "metadata": 0, "attachments": 0,
               "bytes_skipped": skipped, "damaged": str(damaged)}
-    with open(path, "wb") as out:
-        w = Writer(out, chunk_size=1 << 20, compression=CompressionType.ZSTD)
-        w.start(profile="", library=f"dyno {VERSION} recover")
-        sid = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
-        cid = {i: w.register_channel(c.topic, c.message_encoding, sid.get(c.schema_id, 0), c.metadata)
-               for i, c in channels.items()}
-        seen = set()
-        for rec in records:
-            if isinstance(rec, Metadata):
-                w.add_metadata(rec.name, rec.metadata)
-                counts["metadata"] += 1
-            elif isinstance(rec, Attachment):
-                w.add_attachment(rec.create_time, rec.log_time, rec.name, rec.media_type, rec.data)
-                counts["attachments"] += 1
-            elif isinstance(rec, Message) and rec.channel_id in cid:
-                key = (rec.channel_id, rec.sequence, rec.log_time)
-                if key not in seen:  # a chunk can only be counted once
-                    seen.add(key)
-                    w.add_message(cid[rec.channel_id], rec.log_time, rec.data, rec.publish_time, rec.sequence)
-        counts["messages"] = len(seen)
-        w.finish()
+    with written(path, "recover:") as tmp:
+        with open(tmp, "wb") as out:
+            _rewrite(out, records, schemas, channels, counts)
+        os.link(path, damaged)  # the original kept under its new name before the rebuilt one replaces it
     return counts
+
+
+def _rewrite(out, records, schemas, channels, counts):
+    """The intact records, written as a new indexed MCAP; counts what was kept."""
+    w = Writer(out, chunk_size=1 << 20, compression=CompressionType.ZSTD)
+    w.start(profile="", library=f"dyno {VERSION} recover")
+    sid = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
+    cid = {i: w.register_channel(c.topic, c.message_encoding, sid.get(c.schema_id, 0), c.metadata)
+           for i, c in channels.items()}
+    seen = set()
+    for rec in records:
+        if isinstance(rec, Metadata):
+            w.add_metadata(rec.name, rec.metadata)
+            counts["metadata"] += 1
+        elif isinstance(rec, Attachment):
+            w.add_attachment(rec.create_time, rec.log_time, rec.name, rec.media_type, rec.data)
+            counts["attachments"] += 1
+        elif isinstance(rec, Message) and rec.channel_id in cid:
+            key = (rec.channel_id, rec.sequence, rec.log_time)
+            if key not in seen:  # a chunk can only be counted once
+                seen.add(key)
+                w.add_message(cid[rec.channel_id], rec.log_time, rec.data, rec.publish_time, rec.sequence)
+    counts["messages"] = len(seen)
+    w.finish()

@@ -42,12 +42,20 @@ class RegisterMap:
     identity: tuple | None = None  # (address, value): a register holding the module's type code
 
 
+def _int_or_none(v):
+    if v is not None and (isinstance(v, bool) or not isinstance(v, int)):
+        raise ValueError(f"expected an integer, got {v!r}")
+    return v
+
+
 def load(name_or_path) -> RegisterMap:
     s = str(name_or_path)
     path = Path(s) if s.endswith(".toml") else MAP_DIR / f"{s}.toml"
     if not path.exists():
         known = ", ".join(sorted(p.stem for p in MAP_DIR.glob("*.toml")))
         raise RigError(f"unknown register map {s!r} (known: {known})")
+    if not path.is_file():
+        raise RigError(f"register map {s}: not a file")
     try:
         data = tomllib.loads(path.read_text())
         values = []
@@ -56,7 +64,8 @@ def load(name_or_path) -> RegisterMap:
                 raise RigError(f"{path.name}: values.{vname}.type: one of {', '.join(TYPES)}")
             values.append(Value(vname, int(v["address"]), v["type"], v.get("word_order", "big"),
                                 float(v.get("scale", 1.0)), float(v.get("offset", 0.0)), v.get("unit", ""),
-                                v.get("fault_address"), v.get("fault_bit"), v.get("fault", "fault")))
+                                _int_or_none(v.get("fault_address")), _int_or_none(v.get("fault_bit")),
+                                str(v.get("fault", "fault"))))
         ident = data.get("identity")
         identity = (int(ident["address"]), int(ident["value"])) if ident is not None else None
         m = RegisterMap(path.stem, data.get("description", ""), data.get("table", "input"),
@@ -67,10 +76,20 @@ def load(name_or_path) -> RegisterMap:
         raise RigError(f"{path.name}: missing {e.args[0]!r}") from None
     except (TypeError, ValueError, AttributeError) as e:
         raise RigError(f"{path.name}: malformed ({e})") from None
+    except OSError as e:
+        raise RigError(f"{path.name}: cannot read ({e.strerror})") from None
+    owner = {}
     for v in m.values:
         last = v.address + TYPES[v.type][1] - 1
         if v.address < m.start or last >= m.start + m.count or v.word_order not in ("big", "little"):
             raise RigError(f"{path.name}: values.{v.name}: address or word order outside the block")
+        for a in range(v.address, last + 1):
+            if a in owner:
+                raise RigError(f"{path.name}: values.{v.name}: register {a} also holds values.{owner[a]}")
+            owner[a] = v.name
+        if v.fault_address is not None and (not m.start <= v.fault_address < m.start + m.count
+                                            or v.fault_bit is None or not 0 <= v.fault_bit <= 15):
+            raise RigError(f"{path.name}: values.{v.name}: fault_address outside the block or fault_bit not 0-15")
     return m
 
 

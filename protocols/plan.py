@@ -94,6 +94,9 @@ def sine_peaks(rig: RigInfo, amplitude, freq, T=None):
     return float(np.max(np.abs(force))), float(np.max(gas)) if gas is not None else 0.0, power
 
 
+TINY = 1e-9  # a parameter this close to zero, in its unit (mm, Hz, s, C), is a typing mistake
+
+
 def parse(cls, pairs):
     """A Params dataclass from CLI "name=value" strings; lists as comma-separated."""
     hints = typing.get_type_hints(cls)
@@ -122,8 +125,10 @@ def parse(cls, pairs):
         except ValueError:
             raise ParamError(f"{name}: {text!r} is not a number") from None
         values = kwargs[name] if isinstance(kwargs[name], list) else [kwargs[name]]
-        if kind is not str and not all(math.isfinite(v) for v in values):
-            raise ParamError(f"{name}: {text!r} is not a finite number")
+        if kind is not str and not all(abs(v) < 1e15 if isinstance(v, int) else math.isfinite(v) for v in values):
+            raise ParamError(f"{name}: {text[:40]!r} is not a finite number")
+        if kind is not str and any(0 < abs(v) < TINY for v in values):  # 1e-320 Hz would overflow a count
+            raise ParamError(f"{name}: {text[:40]!r} is too close to zero to be a setting (below {TINY:g})")
     return cls(**kwargs)
 
 

@@ -101,7 +101,7 @@ class Checker:
             return v
         if isinstance(v, bool) or not isinstance(v, (int, float)) or (f.kind == "integer" and not isinstance(v, int)):
             self.fail(line, f"{what}: expected {'an integer' if f.kind == 'integer' else 'a number'}, got {v!r}")
-        if not math.isfinite(v):
+        if not (abs(v) < 1e300 if isinstance(v, int) else math.isfinite(v)):  # an int beyond any float
             self.fail(line, f"{what}: must be a finite number, got {v!r}")
         if f.nonzero and v == 0:
             self.fail(line, f"{what}: must not be zero")

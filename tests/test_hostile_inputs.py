@@ -54,7 +54,8 @@ def csv(tmp_path, rows, name="cell.csv"):
 
 @pytest.fixture()
 def files(tmp_path):
-    """A binary file, a regular file, a folder, and a short recording to keep."""
+    """A binary file, a regular file, a folder, a short recording to keep, and the hostile
+    files of HOSTILE beside them."""
     binary = tmp_path / "bin.dat"
     binary.write_bytes(bytes(range(256)) * 8)
     regular = tmp_path / "note.txt"
@@ -63,7 +64,87 @@ def files(tmp_path):
     rec = tmp_path / "kept.mcap"
     p = dyno("import", csv(tmp_path, rows), "--out", rec, *MAP)
     assert p.returncode == 0, p.stderr
-    return SimpleNamespace(binary=binary, regular=regular, folder=tmp_path, rec=rec, rec_bytes=rec.read_bytes())
+    names = {"binary": binary, "regular": regular, "folder": tmp_path, "rec": rec, "csv": tmp_path / "cell.csv"}
+    for name, make in HOSTILE.items():
+        names[name] = make(tmp_path, rec)
+    return SimpleNamespace(names=names, folder=tmp_path, rec=rec, rec_bytes=rec.read_bytes(), regular=regular)
+
+
+def _damper(tmp, name, **edits):
+    """koni.json with edits {"section.field": value} as a file."""
+    doc = dm.to_dict(dm.load("koni"))
+    for key, value in edits.items():
+        *path, last = key.split(".")
+        target = doc
+        for k in path:
+            target = target[k]
+        target[last] = value
+    out = tmp / name
+    out.write_text(json.dumps(doc, indent=1))
+    return out
+
+
+def _cell(tmp, name, edit):
+    out = tmp / name
+    out.write_text(edit(CONFIG_DIR.joinpath("example-cell.toml").read_text()))
+    return out
+
+
+def _fifo(tmp, name):
+    os.mkfifo(tmp / name)
+    return tmp / name
+
+
+def _mcap(name, **kw):
+    def make(tmp, rec):
+        from tests.mcap_files import good_channels, write
+        return write(tmp / name, **{"channels": good_channels(), **kw})
+    return make
+
+
+_SEG = {"t": 0.0, "kind": "segment_start", "segment": "s1", "params": {}}
+# name -> maker(tmp folder, kept recording) -> path; each is a case class of issue 28
+HOSTILE = {
+    "damper_json": lambda t, r: _damper(t, "damper.json"),
+    "dup_json": lambda t, r: _write(t / "dup.json", _damper(t, "dup.json").read_text().replace(
+        '"name": "koni",', '"name": "koni", "name": "other",')),
+    "gas_big": lambda t, r: _damper(t, "gas.json", **{"gas_spring.V0": 5e-3}),
+    "cold_ref": lambda t, r: _damper(t, "cold.json", **{"temperature.T_ref": 1e-6}),
+    "neg_flow": lambda t, r: _damper(t, "flow.json", **{"valves.piston.rebound.low.C_linpw": -50.0}),
+    "big_load": lambda t, r: _damper(t, "load.json", **{"gas_spring.K_voint": 1e6}),
+    "huge_int": lambda t, r: _write(t / "huge.json", _damper(t, "huge.json").read_text().replace(
+        '"P0": 2510000.0', '"P0": 1' + "0" * 400)),
+    "link": lambda t, r: (os.link(r, t / "link.mcap"), t / "link.mcap")[1],
+    "sym": lambda t, r: ((t / "sym.mcap").symlink_to(r), t / "sym.mcap")[1],
+    "busy": lambda t, r: (_write((t / "busy").mkdir() or t / "busy" / "mine.txt", "mine\n"), t / "busy")[1],
+    "fifo_csv": lambda t, r: _fifo(t, "pipe.csv"),
+    "fifo_json": lambda t, r: _fifo(t, "pipe.json"),
+    "fifo_toml": lambda t, r: _fifo(t, "pipe.toml"),
+    "fifo_mcap": lambda t, r: _fifo(t, "pipe.mcap"),
+    "long": lambda t, r: t / ("a" * 300 + ".csv"),
+    "stray_key": lambda t, r: _cell(t, "stray.toml", lambda s: "stray = 1\n" + s),
+    "two_ports": lambda t, r: _cell(t, "ports.toml", lambda s: s + '\n[devices.lc2]\ntransport = "serial"\n'
+                                    'port = "/dev/serial/by-id/usb-LOADCELL-AMP-if00"\n'),
+    "two_nodes": lambda t, r: _cell(t, "nodes.toml", lambda s: s + '\n[devices.daq2]\ntransport = "can"\n'
+                                    'interface = "socketcan"\nchannel = "can0"\nnode = "daq"\n'),
+    "two_ids": lambda t, r: _cell(t, "ids.toml", lambda s: s.replace('host = "ai-module.cell2.local"',
+                                                                     'host = "tc-module.cell2.local"')),
+    "map_dir": lambda t, r: ((t / "maps.toml").mkdir(), _cell(t, "mapdir.toml", lambda s: s.replace(
+        'map = "tc-module"', f'map = "{t}/maps.toml"')))[1],
+    "dup_regs": lambda t, r: (_write(t / "regs.toml", CONFIG_DIR.parent.joinpath(
+        "codecs/registers/tc-module.toml").read_text().replace("[values.tc2]\naddress = 2", "[values.tc2]\naddress = 1")),
+        _cell(t, "dupregs.toml", lambda s: s.replace('map = "tc-module"', f'map = "{t}/regs.toml"')))[1],
+    "mismatch": _mcap("mismatch.mcap", channels={"force": [{"t": [0.0, 0.001, 0.002], "value": [1.0, 2.0]}]}),
+    "strings": _mcap("strings.mcap", channels={"force": [{"t": [0.0, 0.001], "value": ["a", "b"]}]}),
+    "bad_meta": _mcap("meta.mcap", metadata={"protocol": {"name": "x", "params": "{not json"}}),
+    "no_segment": _mcap("noseg.mcap", events=[{"t": 0.0, "kind": "segment_start", "params": {}}]),
+    "foreign": _mcap("foreign.mcap", channels={}, topics={"/camera": [b"\x00\x01"]}),
+}
+
+
+def _write(path, text):
+    path.write_text(text)
+    return path
 
 
 CASES = [
@@ -109,21 +190,68 @@ CASES = [
     (["bench", "identify", "--damper", "nosuch"], ["recording nosuch: unknown damper preset 'nosuch'"]),
     (["prove", "--effects", "gremlins"], ["unknown effect 'gremlins'"]),
     (["validate", "--json", "extra"], ["unrecognized arguments: extra"]),
+    # issue 28: outputs never lose an input or an existing file
+    (["identify", "{rec}", "--out", "{rec}"], ["that is an input"]),
+    (["identify", "{rec}", "--damper", "{damper_json}", "--out", "{damper_json}", "--overwrite"], ["that is an input"]),
+    (["identify", "{rec}", "--out", "{regular}"], ["exists; give --overwrite"]),
+    (["import", "{csv}", "--out", "{csv}", "--overwrite", *MAP], ["that is an input"]),
+    (["report", "{rec}", "--out", "{folder}", "--overwrite"], ["holds the input"]),
+    (["report", "{rec}", "--out", "{busy}"], ["not empty; give --overwrite"]),
+    (["plot", "damper", "{damper_json}", "--out", "{folder}"], ["holds the input"]),
+    (["plot", "damper", "koni", "--out", "{busy}"], ["not empty; give --overwrite"]),
+    (["diagnose", "{rec}", "--report", "{folder}"], ["holds the input"]),
+    (["export", "{rec}", "--csv", "{link}", "--overwrite"], ["that is an input"]),
+    (["export", "{rec}", "--csv", "{sym}", "--overwrite"], ["that is an input"]),
+    (["export", "{link}", "--csv", "{rec}", "--overwrite"], ["that is an input"]),
+    (["export", "{rec}", "--csv", "{long}"], ["file name too long"]),
+    (["run", "sine-matrix", "--damper", "{damper_json}", "--out", "{damper_json}", "--overwrite"],
+     ["that is an input"]),
+    (["run", "sine-matrix", "--damper", "{damper_json}", "--rrd", "{damper_json}", "--overwrite"],
+     ["that is an input"]),
+    # nonsense refused, naming the field, the value and the range
+    (["run", "sine-matrix", "--damper", "{gas_big}"], ["gas_spring.V0: 0.005 m^3 of gas is more than 2 x the oil"]),
+    (["run", "sine-matrix", "--damper", "{cold_ref}"], ["temperature.T_ref: 1e-06 K is outside 200..450 K"]),
+    (["run", "sine-matrix", "--damper", "{neg_flow}"], ["rebound.low.C_linpw: -50 N s/m is outside 0..1e+06"]),
+    (["run", "sine-matrix", "--damper", "{big_load}"], ["gas_spring.K_voint: 1e+06 m^3 is outside"]),
+    (["run", "sine-matrix", "--damper", "{huge_int}"], ["gas_spring.P0: must be finite"]),
+    (["run", "sine-matrix", "--damper", "{dup_json}"], ["key 'name' given twice"]),
+    (["run", "sine-matrix", "freqs_hz=1", "freqs_hz=2"], ["freqs_hz: given twice"]),
+    (["run", "hil", "car=race-car", "--car", "simulator"], ["car: given twice"]),
+    (["run", "static", "dwell_max_s=1e9"], ["the plan may run for", "--long"]),
+    (["rig", "check", "--rig", "{stray_key}"], ["stray.toml:1: unknown key 'stray'"]),
+    (["rig", "check", "--rig", "{two_ports}"], ["device 'lc2'", "taken by device 'loadcell'"]),
+    (["rig", "check", "--rig", "{two_nodes}"], ["device 'daq2'", "node daq is taken by device 'conditioner'"]),
+    (["rig", "check", "--rig", "{two_ids}"], ["device 'analog'", "id 1 is taken by device 'tc'"]),
+    (["rig", "check", "--rig", "{map_dir}"], ["maps.toml: not a file"]),
+    (["rig", "check", "--rig", "{dup_regs}"], ["values.tc2: register 1 also holds values.tc1"]),
+    # readers that distrust their input
+    (["import", "{fifo_csv}", "--out", "{folder}/f.mcap", *MAP], ["not a regular file"]),
+    (["run", "sine-matrix", "--damper", "{fifo_json}"], ["not a regular file"]),
+    (["rig", "check", "--rig", "{fifo_toml}"], ["not a file"]),
+    (["report", "{fifo_mcap}", "--out", "{folder}/r"], ["not a regular file"]),
+    (["export", "{mismatch}", "--csv", "{folder}/m.csv"], ["/channels/force: a message with 3 times and 2 values"]),
+    (["report", "{strings}", "--out", "{folder}/r"], ["/channels/force: values are not numbers"]),
+    (["identify", "{bad_meta}"], ["metadata protocol.params: not JSON"]),
+    (["diagnose", "{no_segment}"], ["/events: an event without its fields"]),
+    (["report", "{foreign}", "--out", "{folder}/r"], ["no dyno channels"]),
 ]
 
 
 @pytest.mark.parametrize("args, words", CASES, ids=[" ".join(a[:2]) + f" {i}" for i, (a, _) in enumerate(CASES)])
 def test_bad_input_is_one_line_and_loses_nothing(files, args, words):
     t = files.folder
-    names = {"binary": files.binary, "regular": files.regular, "folder": t, "rec": files.rec}
+    names = dict(files.names)
     for ext in ("toml", "json", "csv"):
         p = t / f"bin.{ext}"
-        p.write_bytes(files.binary.read_bytes())
+        p.write_bytes(names["binary"].read_bytes())
         names[f"binary_{ext}"] = p
+    before = {p: p.read_bytes() for p in t.rglob("*") if p.is_file() and not p.is_symlink()}
     p = dyno(*[a.format(**names) for a in args])
     one_line_error(p, *words)
+    assert {p: p.read_bytes() for p in before if p.exists()} == before  # nothing changed, nothing gone
     assert files.rec.read_bytes() == files.rec_bytes and files.regular.read_text() == "keep me\n"
-    assert not list(t.glob("*.partial")) and not list(t.glob(".*.partial")) and not list(t.glob("*.lock"))
+    left = [p.name for p in t.rglob("*") if p.name.endswith((".partial", ".lock"))]
+    assert not left, left
 
 
 @pytest.mark.parametrize("rows, words", [

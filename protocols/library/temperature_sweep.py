@@ -41,6 +41,14 @@ def check(p: Params, rig: RigInfo):
         if T < lo:
             raise ParamError(f"targets_c: {T:g} C cannot be reached by cooling (ambient "
                              f"{rig.T_ambient - 273.15:g} C, at least {lo:g} C)")
+    for A, f, what in ((p.amplitude_mm, p.freq_hz, ""), (p.warm_amplitude_mm, p.warm_freq_hz, "warm_")):
+        # the rig's limits first: they are cheap, and the force checks below search over frequency
+        if f > rig.f_max:
+            raise ParamError(f"{what}freq_hz: {f:g} Hz is above the rig's {rig.f_max:g} Hz")
+        if 2 * math.pi * f * A / 1e3 > rig.v_max:
+            raise ParamError(f"{what}freq_hz: {A:g} mm at {f:g} Hz is faster than the rig's {rig.v_max:g} m/s")
+        if not (rig.x_min <= rig.x_mid - A / 1e3 and rig.x_mid + A / 1e3 <= rig.x_max):
+            raise ParamError(f"{what}amplitude_mm: {A:g} mm leaves the stroke limits")
     if rig.peak_force is not None:
         v = 2 * math.pi * p.freq_hz * p.amplitude_mm / 1e3
         if rig.peak_force(v) > MARGIN * rig.force_max:
@@ -53,11 +61,6 @@ def check(p: Params, rig: RigInfo):
     skipped = [(f"sine at {T:g} C", why) for T, why in _too_hot(p, rig)]
     if len(skipped) == len(p.targets_c):
         raise ParamError(f"targets_c: none can be run on this damper: {skipped[-1][1]}")
-    for A, f, what in ((p.amplitude_mm, p.freq_hz, ""), (p.warm_amplitude_mm, p.warm_freq_hz, "warm_")):
-        if 2 * math.pi * f * A / 1e3 > rig.v_max:
-            raise ParamError(f"{what}freq_hz: {A:g} mm at {f:g} Hz is faster than the rig's {rig.v_max:g} m/s")
-        if not (rig.x_min <= rig.x_mid - A / 1e3 and rig.x_mid + A / 1e3 <= rig.x_max):
-            raise ParamError(f"{what}amplitude_mm: {A:g} mm leaves the stroke limits")
     return skipped
 
 

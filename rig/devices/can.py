@@ -19,6 +19,9 @@ ROUTES = {"ACT_STATUS": "actuator", "DAQ_MOTION": "daq"}  # frame -> node
 CONNECT_TIMEOUT_S = 2.0  # every network wait has one
 
 
+SOCKETCAND = ("127.0.0.1", 29536)  # host and port when the cell file gives none
+
+
 def _probe_socketcand(host, port, where, timeout):
     """Connect and read the daemon's greeting with a timeout: python-can's client retries a
     refused connection for 10 s and waits for the greeting forever."""
@@ -40,7 +43,7 @@ def open_can_bus(params: dict, where: str):
     timeout = float(params.get("timeout_s", CONNECT_TIMEOUT_S))
     old_timeout = socket.getdefaulttimeout()
     if params["interface"] == "socketcand":
-        host, port = params.get("host", "127.0.0.1"), int(params.get("port", 29536))
+        host, port = params.get("host", SOCKETCAND[0]), int(params.get("port", SOCKETCAND[1]))
         _probe_socketcand(host, port, where, timeout)
         kwargs.update(host=host, port=port, tcp_tune=True)
         # it warns on every split read and logs tracebacks for errors we report ourselves
@@ -150,7 +153,7 @@ def _drivers(devices, threaded):
 
 
 def _address(p):
-    where = f" {p['host']}:{p['port']}" if "host" in p else ""
+    where = f" {p['host']}:{p.get('port', SOCKETCAND[1])}" if "host" in p else ""
     return f"{p['interface']} {p['channel']}{where}"
 
 

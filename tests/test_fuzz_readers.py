@@ -1,0 +1,246 @@
+"""Fuzzing every reader of what a user hands dyno: cell files, damper files, protocol
+parameters, CSV and MCAP. Whatever the input, the reader gives a valid result or one line
+naming the problem (RigError, DamperError), never a traceback, never a hang past a few
+seconds, and never changes the file it read.
+
+The suite runs a few dozen examples per reader; `make fuzz` runs 10,000 each
+(DYNO_FUZZ_EXAMPLES sets the number)."""
+import contextlib
+import json
+import os
+import signal
+from types import SimpleNamespace
+
+import numpy as np
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+
+from models import damper as dm
+from protocols import preflight
+from protocols.app import import_csv
+from protocols.io.reader import load_recording
+from protocols.library import PROTOCOLS
+from protocols.plan import parse, rig_info
+from rig import config as rig_config
+from rig.errors import RigError
+
+# no explain phase: its tracing slows every call tenfold and a slow call would read as a hang
+FUZZ = settings(max_examples=int(os.environ.get("DYNO_FUZZ_EXAMPLES", "30")), deadline=None, database=None,
+                suppress_health_check=list(HealthCheck), phases=set(Phase) - {Phase.explain})
+HANG_S = 5  # a reader still busy after this long is taken as hung
+
+
+@contextlib.contextmanager
+def within(seconds=HANG_S):
+    """Raise TimeoutError in the block after `seconds` (the test fails: a hang)."""
+    def ring(*_):
+        raise TimeoutError(f"still reading after {seconds} s")
+    previous = signal.signal(signal.SIGALRM, ring)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def refused_in_one_line(e):
+    assert isinstance(e, (RigError, dm.DamperError)), f"{type(e).__name__}: {e}"
+    assert str(e) and "\n" not in str(e), repr(str(e))
+
+
+def read(path, reader):
+    """reader(path) within HANG_S; (result or None, the refusal or None); the file unchanged."""
+    before = path.read_bytes()
+    try:
+        with within():
+            result, error = reader(path), None
+    except (RigError, dm.DamperError) as e:
+        refused_in_one_line(e)
+        result, error = None, e
+    assert path.read_bytes() == before, "the reader changed its input"
+    return result, error
+
+
+# values a careless or hostile user types
+NUMBERS = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**30, 10**30),
+                    st.sampled_from([0, -1, 1e-320, 1e308, 10**400, 0.5, 2]))
+WORDS = st.one_of(st.text(max_size=8), st.sampled_from(["", "nan", "inf", "-inf", "1e999", "true", "[]", "{}",
+                                                        "0x10", "1,2", ",", "1e-9", "-0"]))
+
+
+def _edit_lines(text, data):
+    """The text with one to three lines replaced, deleted, duplicated or inserted."""
+    lines = text.splitlines()
+    for _ in range(data.draw(st.integers(1, 3))):
+        i = data.draw(st.integers(0, len(lines) - 1))
+        what = data.draw(st.sampled_from(["value", "delete", "duplicate", "insert", "garble"]))
+        if what == "value" and "=" in lines[i] or what == "value" and ":" in lines[i]:
+            sep = "=" if "=" in lines[i] else ":"
+            key = lines[i].split(sep)[0]
+            value = data.draw(st.one_of(NUMBERS.map(lambda v: json.dumps(v) if not isinstance(v, float) or
+                                                    np.isfinite(v) else str(v)),
+                                        WORDS.map(json.dumps), WORDS))
+            lines[i] = f"{key}{sep} {value}{',' if lines[i].rstrip().endswith(',') else ''}"
+        elif what == "delete":
+            del lines[i]
+        elif what == "duplicate":
+            lines.insert(i, lines[i])
+        elif what == "insert":
+            lines.insert(i, data.draw(st.sampled_from(["stray = 1", '"x": 1,', "[devices.extra]", "[rig]",
+                                                       'transport = "serial"', '"name": "again",'])))
+        else:
+            j = data.draw(st.integers(0, max(len(lines[i]) - 1, 0)))
+            lines[i] = lines[i][:j] + data.draw(st.text(max_size=4)) + lines[i][j + 1:]
+        if not lines:
+            lines = [""]
+    return "\n".join(lines) + "\n"
+
+
+@FUZZ
+@given(st.data())
+def test_any_cell_file_loads_or_gives_one_line(tmp_path_factory, data):
+    name = data.draw(st.sampled_from(["example-cell", "sim-rig", "virtual"]))
+    path = tmp_path_factory.mktemp("cell") / "cell.toml"
+    path.write_text(_edit_lines(rig_config.path_of(name).read_text(), data))
+    cfg, error = read(path, rig_config.load)
+    if error is None:
+        assert cfg.limits["x_min"] < cfg.limits["x_max"] and cfg.actuator in cfg.devices
+        assert set(rig_config.REQUIRED_CHANNELS) <= set(cfg.channels)
+
+
+@FUZZ
+@given(st.data())
+def test_any_damper_file_loads_or_gives_one_line(tmp_path_factory, data):
+    from models.physics.simulate import simulate
+    name = data.draw(st.sampled_from(["koni", "mechformance", "fox-heavy", "simplified-II"]))
+    path = tmp_path_factory.mktemp("damper") / "d.json"
+    path.write_text(_edit_lines(dm.PRESET_DIR.joinpath(f"{name}.json").read_text(), data))
+    d, error = read(path, dm.load_file)
+    if error is None and d.layout != "simplified":
+        t = np.linspace(0, 0.5, 101)
+        x = d.mid_stroke + 0.005 * np.sin(2 * np.pi * 2 * t)
+        try:
+            with within():
+                r = simulate(d, t, x, T=313.15, compressible=False)
+        except dm.DamperError as e:
+            refused_in_one_line(e)
+            return
+        assert np.all(np.isfinite(r.force))
+
+
+PLANNED = ("static", "low-speed", "sine-matrix", "temperature-sweep", "step")
+
+
+@FUZZ
+@given(st.data())
+def test_any_protocol_parameters_plan_or_give_one_line(data):
+    """parse, the protocol's own check and the pre-flight, as `dyno run` calls them."""
+    name = data.draw(st.sampled_from(PLANNED))
+    module = PROTOCOLS[name]
+    fields = [f for f in module.Params.__dataclass_fields__]
+    pairs = data.draw(st.lists(st.tuples(st.sampled_from([*fields, "nope", ""]), st.one_of(
+        NUMBERS.map(str), WORDS, st.lists(NUMBERS.map(str), max_size=4).map(",".join))), max_size=4))
+    info = _rig_info()
+    try:
+        with within(HANG_S * 4):  # the pre-flight predicts every segment with the damper model
+            params = parse(module.Params, [f"{k}={v}" if k else v for k, v in pairs])
+            module.check(params, info)
+            f = preflight.check(list(module.plan(params, info)), info)
+    except RigError as e:
+        refused_in_one_line(e)
+        return
+    assert f.duration_s + f.wait_max_s <= preflight.MAX_RUN_S and f.duration_s <= preflight.MAX_MOTION_S
+
+
+_INFO = []
+
+
+def _rig_info():
+    """The embedded rig's RigInfo, its damper model compiled (numba) before any timing."""
+    if not _INFO:
+        info = rig_info(rig_config.load("virtual"), dm.load("koni"))
+        t = np.linspace(0.0, 0.1, 11)
+        info.response(t, info.x_mid + 0.001 * np.sin(20 * t), 0.02 * np.cos(20 * t), 313.15)
+        _INFO.append(info)
+    return _INFO[0]
+
+
+CELLS = st.one_of(NUMBERS.map(str), WORDS, st.just(""))
+
+
+@FUZZ
+@given(st.data())
+def test_any_csv_imports_or_gives_one_line(tmp_path_factory, data):
+    folder = tmp_path_factory.mktemp("csv")
+    src = folder / "in.csv"
+    header = data.draw(st.lists(st.sampled_from(["t", "x", "F", "T", "v", "", "t"]), min_size=1, max_size=6))
+    n = data.draw(st.integers(0, 40))
+    regular = data.draw(st.booleans())  # a plausible recording, then spoiled here and there
+    rows = []
+    for i in range(n):
+        row = [str(i * 1e-3) if h == "t" else f"{30 + 5 * np.sin(i / 5):.4f}" if h == "x" else
+               f"{100 * np.cos(i / 5):.2f}" if regular else data.draw(CELLS) for h in header]
+        if data.draw(st.integers(0, 9)) == 0:
+            row[data.draw(st.integers(0, len(row) - 1))] = data.draw(CELLS)
+        rows.append(row)
+    sep = data.draw(st.sampled_from([",", ";", "\t"]))
+    src.write_text(sep.join(header) + "\n" + "\n".join(sep.join(r) for r in rows) + "\n")
+    units = data.draw(st.tuples(st.sampled_from(["s", "ms"]), st.sampled_from(["mm", "m", "in"]),
+                                st.sampled_from(["N", "kN"])))
+    maps = [f"time=t:{units[0]}", f"displacement=x:{units[1]}", f"force=F:{units[2]}"]
+    if data.draw(st.booleans()):
+        maps.append(data.draw(st.sampled_from(["temperature=T:C", "velocity=v:mm/s", "aux.v=v"])))
+    out = folder / "out.mcap"
+    args = SimpleNamespace(file=str(src), out=str(out), overwrite=False, map=maps)
+    _, error = read(src, lambda p: import_csv.run(args))
+    if error is not None:
+        assert not out.exists()
+        return
+    channels, _, _ = load_recording(out)
+    assert {"x", "force"} <= set(channels) and all(len(t) == len(v) for t, v in channels.values())
+
+
+def _good_mcap(folder):
+    from tests.mcap_files import good_channels, write
+    events = [{"t": 0.0, "kind": "segment_start", "segment": "s1", "params": {"kind": "sine"}},
+              {"t": 0.19, "kind": "segment_end", "segment": "s1", "params": {}}]
+    return write(folder / "good.mcap", good_channels(), events,
+                 {"protocol": {"name": "x", "params": "{}"}, "damper": {"model": ""}})
+
+
+JSONISH = st.recursive(st.one_of(st.none(), st.booleans(), NUMBERS.filter(lambda v: not isinstance(v, int) or
+                                                                           abs(v) < 10**300), st.text(max_size=5)),
+                       lambda inner: st.one_of(st.lists(inner, max_size=4),
+                                               st.dictionaries(st.sampled_from(["t", "value", "unit", "kind",
+                                                                                "segment", "params"]), inner,
+                                                               max_size=5)), max_leaves=12)
+
+
+@FUZZ
+@given(st.data())
+def test_any_mcap_reads_or_gives_one_line(tmp_path_factory, data):
+    from tests.mcap_files import write
+    folder = tmp_path_factory.mktemp("mcap")
+    how = data.draw(st.sampled_from(["flip", "cut", "payloads"]))
+    if how == "payloads":
+        path = write(folder / "x.mcap",
+                     {data.draw(st.sampled_from(["force", "x", "T_body"])): data.draw(st.lists(JSONISH, max_size=3))
+                      for _ in range(data.draw(st.integers(0, 2)))},
+                     data.draw(st.lists(JSONISH, max_size=3)),
+                     {data.draw(st.sampled_from(["protocol", "damper", "calibration", "run"])):
+                      {data.draw(st.sampled_from(["params", "model", "force", "name"])): data.draw(st.text(max_size=8))}})
+    else:
+        path = _good_mcap(folder)
+        raw = bytearray(path.read_bytes())
+        if how == "cut":
+            raw = raw[:data.draw(st.integers(0, len(raw) - 1))]
+        else:
+            for _ in range(data.draw(st.integers(1, 8))):
+                raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
+        path.write_bytes(bytes(raw))
+    result, error = read(path, load_recording)
+    if error is None:
+        channels, events, meta = result
+        assert channels and all(len(t) == len(v) and np.all(np.isfinite(t)) for t, v in channels.values())
+        assert all(isinstance(e["t"], (int, float)) and isinstance(e["kind"], str) for e in events)

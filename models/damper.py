@@ -21,6 +21,7 @@ T_MAX_RATED = 423.15  # K (150 C): top of the thesis's racing-damper temperature
 
 
 T_MIN_RATED = 233.15  # K (-40 C): the coldest a damper is stored or tested at
+LOW_BRANCH_MIN = 1.0  # N at 1 m/s: the always-open restriction of the weakest valve (Fox head: 150)
 GAS_TO_OIL_MAX = 2.0  # gas volume V0 over oil volume V_total: the presets span 0.34-1.04
 
 
@@ -324,8 +325,9 @@ def _positive(value, path):
 
 def _check_direction(d: Direction, sign: float, path: str):
     b = d.low
-    if b.C_orrpw == 0 and b.C_linpw == 0:
-        raise DamperError(f"{path}.low: needs C_orrpw or C_linpw")
+    if abs(b.C_orrpw) + b.C_linpw < LOW_BRANCH_MIN:  # a closed valve: the flow through it is infinite
+        raise DamperError(f"{path}.low: needs C_orrpw or C_linpw (together at least {LOW_BRANCH_MIN:g} N at 1 m/s, "
+                          f"got {abs(b.C_orrpw) + b.C_linpw:g})")
     if b.C_orrpw * sign < 0 or b.C_linpw < 0 or b.C_ipw * sign < 0:
         raise DamperError(f"{path}.low: coefficient signs do not give a "
                           f"{'positive' if sign > 0 else 'negative'} force")

@@ -94,7 +94,8 @@ def sine_peaks(rig: RigInfo, amplitude, freq, T=None):
     return float(np.max(np.abs(force))), float(np.max(gas)) if gas is not None else 0.0, power
 
 
-TINY = 1e-9  # a parameter this close to zero, in its unit (mm, Hz, s, C), is a typing mistake
+# a parameter this close to zero or this large, in its unit (mm, Hz, s, C, a count), is a typing mistake
+TINY, HUGE = 1e-9, 1e9
 
 
 def parse(cls, pairs):
@@ -127,8 +128,8 @@ def parse(cls, pairs):
         values = kwargs[name] if isinstance(kwargs[name], list) else [kwargs[name]]
         if kind is not str and not all(abs(v) < 1e15 if isinstance(v, int) else math.isfinite(v) for v in values):
             raise ParamError(f"{name}: {text[:40]!r} is not a finite number")
-        if kind is not str and any(0 < abs(v) < TINY for v in values):  # 1e-320 Hz would overflow a count
-            raise ParamError(f"{name}: {text[:40]!r} is too close to zero to be a setting (below {TINY:g})")
+        if kind is not str and any(0 < abs(v) < TINY or abs(v) > HUGE for v in values):  # 1e-320 Hz: an
+            raise ParamError(f"{name}: {text[:40]!r} is no setting (give 0 or {TINY:g}..{HUGE:g})")  # overflow
     return cls(**kwargs)
 
 

@@ -4,7 +4,7 @@ PY ?= python3
 VENV := .venv
 STAMP := $(VENV)/.installed
 
-.PHONY: run test results clean
+.PHONY: run test fuzz results clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -23,6 +23,11 @@ run: $(STAMP)
 test: $(STAMP)
 	$(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup -m "not slow and not realtime"
 	$(VENV)/bin/python -m pytest -q -m "realtime and not slow"
+
+# the readers' fuzzers at length (the suite runs 30 examples each): 10,000 examples per reader
+FUZZ_EXAMPLES ?= 10000
+fuzz: $(STAMP)
+	DYNO_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(VENV)/bin/python -m pytest -q -p no:cacheprovider -n 2 tests/test_fuzz_readers.py
 
 clean:
 	rm -rf $(VENV)

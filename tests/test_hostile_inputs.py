@@ -258,6 +258,8 @@ def test_bad_input_is_one_line_and_loses_nothing(files, args, words):
     ([(0.0, 1, 1)] * 20, ["the time column 't' does not advance"]),
     ([(i * 1e-3, 30, 1e300 if i == 5 else 1) for i in range(20)], [":7: column 'F'", "not a plausible force"]),
     ([(i * 1e-3, "inf" if i == 3 else 30, 1) for i in range(20)], [":5: column 'x': 'inf' is not a finite number"]),
+    ([(i * 1e-3, 30, "") for i in range(20)], ["column 'F' (force) holds 0 numbers", "needs at least 10"]),
+    ([(i * 1e-3, 30, 5 if i == 7 else "") for i in range(20)], ["column 'F' (force) holds 1 number "]),
 ])
 def test_bad_csv_values_are_refused_with_their_row(tmp_path, rows, words):
     p = dyno("import", csv(tmp_path, rows), "--out", tmp_path / "x.mcap", *MAP)

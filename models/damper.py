@@ -65,7 +65,8 @@ class Friction:
     F_table: list[float] = q("N", 0.0, 1e4)  # static breakaway friction at 20 C (eq 3.1)
     C_sfT: float = q("1/K", -0.1, 0.1)  # temperature slope of the breakaway ratio (Table 4.2)
     C_ifT: float = q("-", 0.0, 20.0)  # breakaway ratio at 20 C (Table 4.2, or Table 4.3 mean)
-    x_stick: float = q("m", 0.0, 1e-3, 0.0)  # pre-sliding travel of Dahl's model (friction.dahl_step); 0: eq 3.3's sgn(v)
+    # pre-sliding travel of Dahl's model (friction.dahl_step); 0: eq 3.3's sgn(v)
+    x_stick: float = q("m", 0.0, 1e-3, 0.0)
 
 
 @dataclass

@@ -229,7 +229,8 @@ def test_any_mcap_reads_or_gives_one_line(tmp_path_factory, data):
                       for _ in range(data.draw(st.integers(0, 2)))},
                      data.draw(st.lists(JSONISH, max_size=3)),
                      {data.draw(st.sampled_from(["protocol", "damper", "calibration", "run"])):
-                      {data.draw(st.sampled_from(["params", "model", "force", "name"])): data.draw(st.text(max_size=8))}})
+                      {data.draw(st.sampled_from(["params", "model", "force", "name"])):
+                       data.draw(st.text(max_size=8))}})
     else:
         path = _good_mcap(folder)
         raw = bytearray(path.read_bytes())

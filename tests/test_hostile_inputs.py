@@ -132,7 +132,8 @@ HOSTILE = {
     "map_dir": lambda t, r: ((t / "maps.toml").mkdir(), _cell(t, "mapdir.toml", lambda s: s.replace(
         'map = "tc-module"', f'map = "{t}/maps.toml"')))[1],
     "dup_regs": lambda t, r: (_write(t / "regs.toml", CONFIG_DIR.parent.joinpath(
-        "codecs/registers/tc-module.toml").read_text().replace("[values.tc2]\naddress = 2", "[values.tc2]\naddress = 1")),
+        "codecs/registers/tc-module.toml").read_text().replace("[values.tc2]\naddress = 2",
+                                                               "[values.tc2]\naddress = 1")),
         _cell(t, "dupregs.toml", lambda s: s.replace('map = "tc-module"', f'map = "{t}/regs.toml"')))[1],
     "mismatch": _mcap("mismatch.mcap", channels={"force": [{"t": [0.0, 0.001, 0.002], "value": [1.0, 2.0]}]}),
     "strings": _mcap("strings.mcap", channels={"force": [{"t": [0.0, 0.001], "value": ["a", "b"]}]}),

@@ -44,12 +44,13 @@ class Data:
     notes: list = field(default_factory=list)  # what could not be assessed, and why
     flags: list = field(default_factory=list)  # [quality.Flag]: samples excluded before fitting
     periodic: bool = True  # False: motion that does not repeat, judged in blocks of BLOCK_S
+    smear: float = 0.0  # s: half-width of the smoother the force was decimated through (_decimated)
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
-                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic)
+                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.smear)
 
 
 def _clean(t, v):
@@ -199,7 +200,8 @@ def prepare(channels, events) -> Data:
         raise DiagnoseError("the recording has no motion to judge (no segment and no stretch of at least "
                             "50 samples without a gap)")
     cols = [np.concatenate(c) for c in zip(*parts)]
-    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans))
+    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans),
+             smear=period * step if step > 1 else 0.0)
     keep = d.cycle >= 0
     d = d.take(keep)
     if T_ch is None:

@@ -121,7 +121,8 @@ def output_file(path, inputs=(), overwrite=False, what="--out") -> Path:
     _name_fits(path, what)
     for i in inputs:
         if i is not None and _same(path, Path(i)):
-            raise RigError(f"{what} {path}: that is an input of this command (an output never replaces one); give another name")
+            raise RigError(f"{what} {path}: that is an input of this command (an output never replaces one); "
+                           f"give another name")
     if path.is_dir():
         raise RigError(f"{what} {path}: is a folder, not a file")
     if path.exists() and not path.is_file():

@@ -165,15 +165,10 @@ def holdout_masks(d: Data, holdout="interleaved"):
     the cycles, judged on the next F, reported on the last F, which no choice saw.
     Samples within a sample period of a velocity reversal are neither fitted nor judged: the
     friction's sign there is set by where the reversal falls between samples, which no
-    model of the physics can know. Nor are those whose decimation smoother reached over
-    the reversal (d.smear): they hold part of the friction's step, weighted by where it
-    fell between the raw samples; fitted, that reads as friction building over a few
-    microns of travel (hysteresis, pre-sliding) on every reversal of a 5 kHz null."""
+    model of the physics can know."""
     flip = np.zeros(len(d.v), bool)
     k = np.nonzero(np.diff(np.sign(d.v)) != 0)[0]
-    reach = int(np.ceil(d.smear / np.min(d.h) - 1e-9)) if len(d.h) else 0
-    for j in range(-reach, reach + 2):
-        flip[np.clip(k + j, 0, len(flip) - 1)] = True
+    flip[k] = flip[np.minimum(k + 1, len(flip) - 1)] = True
     if holdout == "interleaved":
         even, odd = (d.cycle % 2 == 0) & ~flip, (d.cycle % 2 == 1) & ~flip
         return [(even, odd), (odd, even)], even | odd, even | odd

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import savgol_coeffs
 
 from models.diagnose import quality
 from models.recording import cycle_blocks, segments, smooth
@@ -44,13 +43,12 @@ class Data:
     notes: list = field(default_factory=list)  # what could not be assessed, and why
     flags: list = field(default_factory=list)  # [quality.Flag]: samples excluded before fitting
     periodic: bool = True  # False: motion that does not repeat, judged in blocks of BLOCK_S
-    smear: float = 0.0  # s: half-width of the smoother the force was decimated through (_decimated)
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
-                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.smear)
+                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic)
 
 
 def _clean(t, v):
@@ -177,7 +175,7 @@ def prepare(channels, events) -> Data:
         t = te[keep]
         if len(t) < 50 or t[0] - t0 > 2 * h or t1 - t[-1] > 2 * h:
             continue
-        Fi = _decimated(tF, F, t, step)
+        Fi = _decimated(tF, F, t)
         xs, v, a = (None, None, None) if random else _periodic_motion(t, np.interp(t, tx, x), f)
         if xs is None:
             xe = smooth(np.interp(te, tx, x), h, f)
@@ -200,8 +198,7 @@ def prepare(channels, events) -> Data:
         raise DiagnoseError("the recording has no motion to judge (no segment and no stretch of at least "
                             "50 samples without a gap)")
     cols = [np.concatenate(c) for c in zip(*parts)]
-    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans),
-             smear=period * step if step > 1 else 0.0)
+    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans))
     keep = d.cycle >= 0
     d = d.take(keep)
     if T_ch is None:
@@ -224,12 +221,14 @@ def prepare(channels, events) -> Data:
     return d
 
 
-def _decimated(tF, F, t, step):
-    """The force at times t, `step` of its samples per new sample period. Anti-aliased by
-    a quadratic Savitzky-Golay smoother over two new periods: a box average over one bends
-    the force's curvature (a bias of F'' w^2 / 24; on a 5 kHz null recording it named
-    fluid inertia)."""
-    return np.interp(t, tF, F if step == 1 else np.convolve(F, savgol_coeffs(2 * step + 1, 2), "same"))
+def _decimated(tF, F, t):
+    """The force at times t: the raw samples at those instants (interpolated between the
+    two nearest), no smoother. A smoother is a filter the model's prediction would need
+    too: a box average bent the force's curvature (F'' w^2 / 24, named fluid inertia on a
+    5 kHz null), a Savitzky-Golay one its fourth derivative (a few newtons at 10 Hz, named
+    a hysteretic element on every white-noise null at 5 and 10 kHz) and it spread each
+    friction reversal over the neighbouring samples. The noise keeps its raw variance."""
+    return np.interp(t, tF, F)
 
 
 def split(d: Data):

@@ -185,10 +185,11 @@ def test_a_bad_holdout_is_one_line(spec, tmp_path):
     assert r.returncode == 2 and "--holdout" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_a_sharp_friction_reversal_seen_through_the_decimation_is_not_physics(tmp_path):
+def test_a_sharp_friction_reversal_at_5_khz_is_not_physics(tmp_path):
     """A 5 kHz null from the second generator (tests/outside_generator.py): Coulomb friction
-    whose sign flips within one raw sample, 16-bit force. The decimation's smoother reaches
-    over each reversal; fitted there, the step read as hysteresis (Bouc-Wen) on every run."""
+    whose sign flips within one raw sample, 16-bit force, white noise. While the diagnosis
+    smoothed the force before decimating (and not its prediction), the smoother's bias and
+    its spread of each friction step read as hysteresis (Bouc-Wen) on every such run."""
     from tests.outside_generator import record
     rec = record(tmp_path / "null.mcap", rate=5000.0, seed=0)
     r = dyno("diagnose", rec, "--json")

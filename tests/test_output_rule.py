@@ -74,6 +74,9 @@ def test_a_folder_is_filled_when_complete_and_keeps_what_it_did_not_write(tmp_pa
     with filled(tmp_path / "fresh") as tmp:
         (tmp / "x").write_text("x")
     assert (tmp_path / "fresh" / "x").read_text() == "x"
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (tmp_path / "fresh").stat().st_mode & 0o777 == 0o777 & ~mask  # as mkdir would make it
 
 
 def test_inputs_are_found_in_plain_paths_name_value_and_kind_path(tmp_path):

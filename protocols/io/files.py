@@ -162,7 +162,7 @@ def written(path, what="--out"):
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".partial", dir=path.parent)
     os.close(fd)
     try:
-        os.chmod(tmp, stat.S_IMODE(path.stat().st_mode) if path.exists() else _default_mode())
+        os.chmod(tmp, stat.S_IMODE(path.stat().st_mode) if path.exists() else _default_mode(0o666))
         yield Path(tmp)
         os.replace(tmp, path)
     except OSError as e:
@@ -172,11 +172,12 @@ def written(path, what="--out"):
             os.unlink(tmp)
 
 
-def _default_mode():
-    """What open() would give a new file: 0o666 less the umask (mkstemp gives 0o600)."""
+def _default_mode(full):
+    """What open() or mkdir() would give: full (0o666, 0o777) less the umask (the temporary
+    ones are made 0o600 and 0o700)."""
     mask = os.umask(0)
     os.umask(mask)
-    return 0o666 & ~mask
+    return full & ~mask
 
 
 def _move_into(src: Path, dst: Path):
@@ -197,6 +198,7 @@ def filled(path, what="--out"):
     path = Path(path)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name[:200]}.", suffix=".partial", dir=path.parent))
     try:
+        os.chmod(tmp, _default_mode(0o777))
         yield tmp
         if not path.exists():
             os.rename(tmp, path)

@@ -80,7 +80,8 @@ def test_a_batch_on_the_cluster_equals_the_local_one_and_a_bad_file_fails_alone(
     docs = []
     for how in (["--jobs", "1"], ["--cluster", "local:2"]):
         summary = tmp_path / f"summary{len(docs)}.csv"
-        p = subprocess.run([DYNO, command, "--batch", str(good), str(bad), "--summary", str(summary), *how],
+        p = subprocess.run([DYNO, command, "--batch", str(good), str(bad), "--summary", str(summary), *how,
+                            "--overwrite"],  # the second run replaces the first's FILE.diagnosis.json
                            capture_output=True, text=True, timeout=600)
         assert p.returncode == 1, p.stderr[-2000:]  # one recording failed
         rows = {Path(r["recording"]).name: r for r in csv.DictReader(open(summary))}

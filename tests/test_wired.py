@@ -116,12 +116,18 @@ def test_rig_check_refuses_a_wrong_unit_id_and_flags_implausible_readings(tmp_pa
     cfg = sim_rig_config(tmp_path, stale_s=0.25)
     sim_rig(cfg)
     text = cfg.read_text()
-    wrong_id = tmp_path / "wrong-id.toml"
-    wrong_id.write_text(text.replace("device_id = 2", "device_id = 1"))  # the analog module addressed as the tc's
+    same_id = tmp_path / "same-id.toml"  # two devices at one address: refused before anything connects
+    same_id.write_text(text.replace("device_id = 2", "device_id = 1"))
+    p = dyno("rig", "check", "--rig", same_id, timeout=60)
+    assert p.returncode == 2 and "id 1 is taken by device 'tc'" in p.stderr, p.stderr
+    wrong_id = tmp_path / "wrong-id.toml"  # the two modules' ids swapped: each answers as the other
+    wrong_id.write_text(text.replace("device_id = 1", "device_id = @").replace("device_id = 2", "device_id = 1")
+                        .replace("device_id = @", "device_id = 2"))
     p = dyno("rig", "check", "--rig", wrong_id, timeout=60)
     assert p.returncode == 2 and "Traceback" not in p.stderr
-    assert "device 'analog': Modbus unit 1" in p.stderr and "identifies as 0x5443, not the analog-module's 0x4149" \
-        in p.stderr, p.stderr
+    assert ("device 'analog': Modbus unit 1" in p.stderr and "identifies as 0x5443, not the analog-module's 0x4149"
+            in p.stderr) or ("device 'tc': Modbus unit 2" in p.stderr and "identifies as 0x4149, not the "
+                             "tc-module's 0x5443" in p.stderr), p.stderr
     no_offset = tmp_path / "no-offset.toml"  # degC read as K: 20 K is no damper's temperature
     no_offset.write_text(text.replace("offset = 273.15         # degC -> K", "offset = 0.0", 1))
     p = dyno("rig", "check", "--rig", no_offset, timeout=60)

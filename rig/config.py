@@ -145,11 +145,12 @@ def parse(text: str, where="<config>") -> RigConfig:
     for name in data:
         if name not in TABLES:
             near = difflib.get_close_matches(name, TABLES, n=1, cutoff=0.6)
-            c.fail(c.line([name]) or line_of(text, [name, *list(data[name])[:1]]) if isinstance(data[name], dict)
-                   else _key_line(text, name),
-                   f"unknown {'table [' + name + ']' if isinstance(data[name], dict) else 'key ' + repr(name)}"
-                   + (f"; did you mean [{near[0]}]?" if near else
-                                               f" (known: {', '.join(f'[{t}]' for t in TABLES)})"))
+            if isinstance(data[name], dict):
+                line, what = c.line([name]) or line_of(text, [name, *list(data[name])[:1]]), f"table [{name}]"
+            else:  # a stray top-level key = value
+                line, what = _key_line(text, name), f"key {name!r}"
+            c.fail(line, f"unknown {what}" + (f"; did you mean [{near[0]}]?" if near else
+                                              f" (known: {', '.join(f'[{t}]' for t in TABLES)})"))
     rig = c.fields(c.table(data.get("rig", {}), ["rig"], "rig"), ["rig"], RIG, "rig")
     devices = _devices(c, c.table(data.get("devices", {}), ["devices"], "devices"))
     channels = _channels(c, c.table(data.get("channels", {}), ["channels"], "channels"), devices)

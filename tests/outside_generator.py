@@ -50,12 +50,13 @@ def noise(rng, n, sigma, colour):
 
 
 def record(path, rate=5000.0, friction=60.0, law="quadratic", colour="white", loadcell_hz=None, misalign=0.0,
-           quantise=True, sigma_F=1.5, sigma_x=5e-6, sigma_v=2e-3, extra=None, seed=0, cycles=8):
+           quantise=True, sigma_F=1.5, sigma_x=5e-6, sigma_v=2e-3, extra=None, extra_rms=None, seed=0, cycles=8):
     """Write a sine-matrix recording to path; returns path. extra(x, v, t) -> N adds
-    physics the catalogue may not hold."""
+    physics the catalogue may not hold; extra_rms [N], when given, scales it to that RMS
+    over the recording."""
     rng = np.random.default_rng(seed)
     h = 1.0 / rate
-    t_all, x_all, v_all, F_all, events = [], [], [], [], []
+    t_all, x_all, v_all, F_all, E_all, events = [], [], [], [], [], []
     t0 = 0.0
     for A in AMPLITUDES_M:
         for f in FREQS_HZ:
@@ -77,15 +78,17 @@ def record(path, rate=5000.0, friction=60.0, law="quadratic", colour="white", lo
             ts = t - misalign  # the force channel's clock runs `misalign` behind the motion's
             xs, vs = motion(ts)
             F = valves(vs, law) + gas(xs) + friction * np.sign(vs)
-            if extra is not None:
-                F = F + extra(xs, vs, ts)
+            E_all.append(extra(xs, vs, ts) if extra is not None else np.zeros(n))
             name = f"sine {A * 1e3:g} mm {f:g} Hz"
             events += [{"t": float(t0 + 2 / f), "kind": "segment_start", "segment": name,
                         "params": {"kind": "sine", "freq_hz": f, "amplitude_mm": A * 1e3, "cycles": cycles}},
                        {"t": float(t0 + (cycles + 2) / f), "kind": "segment_end", "segment": name, "params": {}}]
             t_all.append(t), x_all.append(x), v_all.append(v), F_all.append(F)
             t0 = t[-1] + h
-    t, x, v, F = (np.concatenate(a) for a in (t_all, x_all, v_all, F_all))
+    t, x, v, F, E = (np.concatenate(a) for a in (t_all, x_all, v_all, F_all, E_all))
+    if extra_rms is not None:
+        E = E * extra_rms / max(float(np.sqrt(np.mean(E ** 2))), 1e-300)
+    F = F + E
     if loadcell_hz:
         a = math.exp(-2 * math.pi * loadcell_hz * h)
         out, acc = np.empty_like(F), F[0]

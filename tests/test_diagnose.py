@@ -77,7 +77,10 @@ def test_cli_json_and_summary(recordings, tmp_path):
     doc = json.loads(r.stdout)
     assert set(doc) >= {"baseline", "locations", "candidates", "accepted", "final"}
     assert doc["accepted"][0] == "sensor_delay" and doc["final"]["nrmse_heldout"] < doc["baseline"]["nrmse_heldout"]
-    assert "Left out: sensor delay" in doc["summary"] and "displacement reading lags the force by" in doc["summary"]
+    assert "In the cell, not the damper: a timing offset of the cell." in doc["summary"]
+    assert "displacement reading lags the force by" in doc["summary"]
+    lag = doc["effects"][0]
+    assert lag["nature"] == "cell" and lag["depends_on"] == ["time"] and lag["size_rms_n"] > 0
     assert (tmp_path / "rep" / "index.html").exists() and (tmp_path / "rep" / "residuals.png").exists()
 
 

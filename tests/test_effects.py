@@ -34,18 +34,22 @@ def test_every_hidden_effect_is_accepted_at_its_guess_by_the_plants_parser():
 
 
 def test_every_effect_acts_in_a_stated_place_and_order():
-    from models.diagnose.candidates import ORDER
-    assert sorted(ORDER) == sorted(CATALOGUE)
-    assert {e.acts_on for e in CATALOGUE.values()} <= {"motion", "parts", "total"}
+    from models.diagnose.candidates import EFFECTS, ORDER
+    assert sorted(ORDER) == sorted(EFFECTS)
+    assert {e.acts_on for e in EFFECTS.values()} <= {"motion", "parts", "total"}
     # the motion is shifted before anything is computed from it; the total's caps and the
     # free play's crossings come after every term of the total
     place = {"motion": 0, "parts": 1, "total": 2}
-    assert [place[CATALOGUE[n].acts_on] for n in ORDER] == sorted(place[CATALOGUE[n].acts_on] for n in ORDER)
+    assert [place[EFFECTS[n].acts_on] for n in ORDER] == sorted(place[EFFECTS[n].acts_on] for n in ORDER)
 
 
-def test_the_diagnosis_says_every_effect_in_words():
-    from protocols.app.diagnose import SAY
-    assert set(SAY) == set(CATALOGUE)
+def test_every_effect_and_term_says_itself_and_what_it_depends_on():
+    from models.diagnose.candidates import EFFECTS
+    from models.diagnose.spec import NATURES, VARIABLES
+    for name, e in EFFECTS.items():
+        assert len(e.say) == 4 and e.say[0], name
+        assert e.depends_on and set(e.depends_on) <= set(VARIABLES), name
+        assert e.nature in NATURES, name
 
 
 def test_an_effect_in_another_form_is_parsed_and_a_wrong_form_named():

@@ -23,7 +23,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from models.diagnose.candidates import CATALOGUE, FromModel, Minimal, Model
+from models.diagnose.candidates import EFFECTS, FromModel, Minimal, Model
+from models.diagnose.terms import TERMS, tone
 from models.diagnose.data import Data, DiagnoseError, prepare
 from models.recording import covariance, nrmse
 
@@ -33,30 +34,36 @@ FORM_SHARE = 0.5  # share of a later effect's held-out gain that a change in an 
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
 RELEVANCE = 0.1
+REFIT_EFFORT = 4  # function evaluations per parameter when an accepted term is refitted with the rest
+LAG_RESOLVED = 0.02  # of a sample period: a lag shorter than this, its interval reaching zero, is not resolved
 SHARE = 0.01
 BOOT = 2000
 
 
-def fit(model: Model, d: Data, train, start: dict):
-    """Least squares over the training samples; returns (values, sd per parameter)."""
-    names = [p.name for p in model.params]
-    lo = np.array([p.lo for p in model.params])
-    hi = np.array([p.hi for p in model.params])
-    z0 = np.clip([start.get(p.name, p.x0) for p in model.params], lo, hi)
+def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
+    """Least squares over the training samples; returns (values, sd per parameter).
+    Parameters named in `hold` stay at their start (sd nan); at most `effort` function
+    evaluations per free parameter."""
+    params = [p for p in model.params if p.name not in hold]
+    names = [p.name for p in params]
+    held = {p.name: start.get(p.name, p.x0) for p in model.params if p.name in hold}
+    lo = np.array([p.lo for p in params])
+    hi = np.array([p.hi for p in params])
+    z0 = np.clip([start.get(p.name, p.x0) for p in params], lo, hi)
     scale = np.maximum(np.abs(hi - lo) * 1e-3, np.abs(z0) * 0.1)
     Fs = max(float(np.std(d.F)), 1e-9)
 
     def resid(z):
-        return (model.force(d, dict(zip(names, z)))[train] - d.F[train]) / Fs
+        return (model.force(d, {**held, **dict(zip(names, z))})[train] - d.F[train]) / Fs
 
     # parameters whose effect is piecewise or far from linear start from a grid over their
     # whole range: at each grid value the new effect's other parameters are fitted briefly
     # (a size is zero until its shape is right), and the best start is kept
-    new = [i for i, p in enumerate(model.params) if p.name not in start]
-    for i, p in enumerate(model.params):
+    new = [i for i, p in enumerate(params) if p.name not in start]
+    for i, p in enumerate(params):
         if not p.grid or p.name in start:
             continue
-        free = [j for j in new if j != i and not model.params[j].grid]
+        free = [j for j in new if j != i and not params[j].grid]
         best = (np.inf, z0)
         for val in (min(max(g, p.lo), p.hi) for g in p.grid):
             z = z0.copy()
@@ -72,13 +79,13 @@ def fit(model: Model, d: Data, train, start: dict):
             if cost < best[0]:
                 best = (cost, z)
         z0 = best[1]
-    r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=60 * len(z0), method="trf")
-    values = dict(zip(names, r.x))
+    r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=effort * len(z0), method="trf")
+    values = {**held, **dict(zip(names, r.x))}
     try:
         sd = dict(zip(names, covariance(r.jac, r.fun)[0]))
     except np.linalg.LinAlgError:
         sd = {n: float("nan") for n in names}
-    return values, sd
+    return values, {**{n: float("nan") for n in held}, **sd}
 
 
 def blocks(d: Data, per_cycle=4):
@@ -110,19 +117,53 @@ def p_value(d_c, rng, alpha=ALPHA):
     return float((hits + 1) / (total + 1))
 
 
+NOISE_HARMONICS = 60  # at most, and at most a third of a cycle's samples
+
+
 def noise_sd(r, d: Data, k):
-    """Force noise [N] from sample-to-sample differences of the residual within cycles, over
-    the samples k."""
+    """Force noise [N] in the residual r over the samples k: what no periodic misfit
+    explains. Per sine segment the residual is fitted with the motion's harmonics, each
+    with an amplitude that may change linearly over the segment (warm-up), and a quadratic
+    trend; the rest, with its degrees of freedom, is noise of any colour. The median over
+    segments keeps one badly fitted segment from setting it. Sample-to-sample differences
+    (the fallback for motion that does not repeat) see only the white part: first-order
+    noise with a pole at 0.95 per sample reads as a third of its size, and every structured
+    misfit above that third was then announced as physics."""
     same = (np.diff(d.cycle) == 0) & k[1:] & k[:-1]
-    return float(np.median(np.abs(np.diff(r)[same])) / 0.6745 / np.sqrt(2))
+    diff = float(np.median(np.abs(np.diff(r)[same])) / 0.6745 / np.sqrt(2))
+    if not d.periodic:
+        return diff
+    out = []
+    for s, (_, f) in enumerate(d.segments):
+        j = (d.segment == s) & k
+        n = int(j.sum())
+        h = float(np.median(d.h[j])) if n else 0.0
+        K = min(NOISE_HARMONICS, int(1.0 / (3 * f * h))) if n else 0
+        if K < 2:
+            continue
+        tau = d.t[j] - d.t[j].mean()
+        u = tau / max(np.ptp(tau), 1e-9)
+        cols = [np.ones(n), u, u * u]
+        for m in range(1, K + 1):
+            c, sn = np.cos(2 * np.pi * m * f * tau), np.sin(2 * np.pi * m * f * tau)
+            cols += [c, sn, u * c, u * sn]
+        A = np.column_stack(cols)
+        if n < 2 * A.shape[1]:
+            continue
+        e = r[j] - A @ np.linalg.lstsq(A, r[j], rcond=None)[0]
+        out.append(float(np.sqrt(np.sum(e ** 2) / (n - A.shape[1]))))
+    return float(np.median(out)) if out else diff
 
 
 def available(d: Data, accepted):
     out, skipped = [], []
     taken = {a.split(":")[0] for a in accepted}
-    for name, e in CATALOGUE.items():
+    for name, e in EFFECTS.items():
         if e.needs == "T" and d.T is None:
             skipped.append(name)
+        elif e.needs == "tone":
+            if d.tone_hz is not None and name not in accepted:
+                out.append(name)
         elif e.needs == "aux?":  # one of its forms at most
             if name not in taken:
                 out += [name] + [f"{name}:{n}" for n in d.aux]
@@ -135,17 +176,67 @@ def available(d: Data, accepted):
     return out, skipped
 
 
-def _cross_fit(model: Model, d: Data, folds, starts):
+def _cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60):
     """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
     sd per fold, residual [N] where every judged sample comes from a fit that never saw it)."""
     r = np.zeros(len(d.F))
     vals, sds = [], []
     for (train, test), start in zip(folds, starts):
-        v, sd = fit(model, d, train, start)
+        v, sd = fit(model, d, train, start, hold, effort)
         r = np.where(test, model.force(d, v) - d.F, r)
         vals.append(v)
         sds.append(sd)
     return vals, sds, r
+
+
+def _linear_fit(model: Model, d: Data, folds, starts, hold=()):
+    """_cross_fit for a model whose last effect is an open term (terms.py), by one
+    Gauss-Newton step from the current model's values (`starts`): the term's coefficients
+    (it is linear in them: its columns are the force's change per unit coefficient) and a
+    step in every other free parameter, solved together by linear least squares on each
+    fold's training samples. A nonlinear refit of a dozen spline coefficients with every
+    other parameter costs tens of times more; the step lets the baseline give way where
+    the term takes over (a valve curve reshaped needs the baseline's valve to move with it)."""
+    own = model.params[-len(EFFECTS[model.effects[-1].split(":")[0]].params(d, model.effects[-1])):]
+    own_names = {p.name for p in own}
+    rest = [p for p in model.params if p.name not in own_names and p.name not in hold]
+    r = np.zeros(len(d.F))
+    vals, sds = [], []
+    for (train, test), start in zip(folds, starts):
+        z = {**{p.name: p.x0 for p in model.params}, **start, **{p.name: 0.0 for p in own}}
+        F0 = model.force(d, z)
+        cols = [model.force(d, {**z, p.name: 1.0}) - F0 for p in own]
+        steps_ = [max(abs(z[p.name]) * 1e-4, (p.hi - p.lo) * 1e-7) for p in rest]
+        cols += [(model.force(d, {**z, p.name: z[p.name] + dz}) - F0) / dz for p, dz in zip(rest, steps_)]
+        A = np.column_stack(cols)
+        y = (d.F - F0)[train]
+        # the term alone, and the term with a damped step in the rest (their columns are
+        # nearly collinear with a spline's); whichever the model itself fits better wins
+        c = np.linalg.lstsq(A[train][:, :len(own)], y, rcond=None)[0]
+        v = {**z, **{p.name: float(np.clip(ci, p.lo, p.hi)) for p, ci in zip(own, c)}}
+        F1 = model.force(d, v)
+        if rest:
+            norm = np.maximum(np.linalg.norm(A[train], axis=0), 1e-300)
+            As = A[train] / norm
+            lam = 1e-3 * float(np.linalg.norm(As, 2)) ** 2
+            damp = np.r_[np.zeros(len(own)), np.full(len(rest), lam)]
+            sol = np.linalg.solve(As.T @ As + np.diag(damp), As.T @ y) / norm
+            w = dict(z)
+            for p, ci in zip(own + rest, sol[:len(own)].tolist() + [z[q.name] + dq for q, dq in zip(rest, sol[len(own):])]):
+                w[p.name] = float(np.clip(ci, p.lo, p.hi))
+            F2 = model.force(d, w)
+            if np.sum((F2 - d.F)[train] ** 2) < np.sum((F1 - d.F)[train] ** 2):
+                v, F1 = w, F2
+        sd = covariance(A[train][:, :len(own)], (F1 - d.F)[train])[0]
+        r = np.where(test, F1 - d.F, r)
+        vals.append(v)
+        sds.append({**{k: float("nan") for k in v}, **{p.name: float(s_) for p, s_ in zip(own, sd)}})
+    return vals, sds, r
+
+
+def _open_params(d: Data, effects):
+    """Names of the open terms' coefficients among effects."""
+    return {p.name for e in effects if e in TERMS for p in TERMS[e].params(d, e)}
 
 
 def _pooled(vals, sds):
@@ -214,6 +305,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     base_res = {"name": base.name, "parameters": values, "sd": sd, "nrmse_train": nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]),
                 **scores(d.F, r0, shown), "residual": r0, "model_gas_force": getattr(base, "Fg_m", None)}
     sigma = noise_sd(r0, d, judged)
+    d.tone_hz = tone(d, r0, judged)
     progress(f"baseline: held-out error {100 * base_res['nrmse_heldout']:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
@@ -230,7 +322,10 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         round_ = []
         for e in names:
             m = Model(d, accepted + [e], base)
-            f_vals, f_sds, r = _cross_fit(m, d, folds, current)
+            if e in TERMS:
+                f_vals, f_sds, r = _linear_fit(m, d, folds, current, hold=_open_params(d, accepted))
+            else:  # the open terms' coefficients held: they are refitted with the rest once accepted
+                f_vals, f_sds, r = _cross_fit(m, d, folds, current, hold=_open_params(d, accepted))
             vals, sds = _pooled(f_vals, f_sds)
             d_c = sse_cur - _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
             gain = float(d_c.sum() / n_judged)  # held-out mean-square improvement [N^2]
@@ -248,11 +343,15 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         candidates += round_
         mse = float(np.mean(r_cur[judged] ** 2))
         ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE
-              and c["gain"] >= SHARE * mse]
+              and c["gain"] >= SHARE * mse and resolved(d, c["effect"], c["parameters"], c["ci"])]
         if not ok:
             break
         best = max(ok, key=lambda c: c["gain"])
         m_best = Model(d, accepted + [best["effect"]], base)
+        if _open_params(d, accepted + [best["effect"]]):  # screened with parts held: now all refitted
+            # from the screening's values, close to the optimum: a few evaluations per parameter
+            best["_folds"], f_sds, best["_r"] = _cross_fit(m_best, d, folds, best["_folds"], effort=REFIT_EFFORT)
+            best["_values"] = _pooled(best["_folds"], f_sds)[0]
         preds.append([m_best.force(d, v) for v in best["_folds"]])
         shares = [(e, form_share(d, folds, judged, preds[-2], _changes(preds, j + 1), _changes(preds, len(preds) - 1)))
                   for j, e in enumerate(accepted)]
@@ -267,11 +366,114 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         accepted.append(best["effect"])
         values, current, r_cur = best["_values"], best["_folds"], best["_r"]
         progress(f"accepted {best['effect']}")
+    accepted, values, current, r_cur, replaced = _replaced(d, base, folds, judged, block, judged_blocks, accepted,
+                                                           values, current, r_cur, progress)
+    for st in steps:
+        st["replaced_by"] = replaced.get(st["effect"])
     final_model = Model(d, accepted, base)
-    return {"data": d, "holdout": holdout, "held_out": judged | shown, "reported": shown, "baseline": base_res, "noise_sd": sigma, "locations": locate(d.take(judged | shown), r0[judged | shown]),
-            "remaining": locate(d.take(judged | shown), r_cur[judged | shown]),
+    held = judged | shown
+    for st in steps:
+        if st["effect"] in accepted:
+            st.update(describe(d, st["effect"], st["residual_after"] - st["residual_before"], held))
+    return {"data": d, "holdout": holdout, "held_out": held, "reported": shown, "baseline": base_res,
+            "noise_sd": sigma, "locations": locate(d.take(held), r0[held], sigma),
+            "remaining": locate(d.take(held), r_cur[held], sigma),
             "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
+            "left_over": left_over(r_cur, judged, block, judged_blocks, sigma, rng),
             "final": {**scores(d.F, r_cur, shown), "parameters": values, "force": final_model.force(d, values)}}
+
+
+def _replaced(d, base, folds, judged, block, judged_blocks, accepted, values, current, r_cur, progress):
+    """A term outside the catalogue replaces catalogue names whose sum it explains better:
+    each catalogue effect accepted before an open term is dropped again when the model
+    without it, refitted, does as well on the held-out cycles (its gain no longer
+    significant, by the test that accepted it). Returns the new (accepted, values, per fold
+    values, residual, {dropped: replacing term})."""
+    replaced = {}
+    open_ = [e for e in accepted if e in TERMS]
+    if not open_:
+        return accepted, values, current, r_cur, replaced
+    rng = np.random.default_rng(1)
+    for e in [e for e in accepted if e not in TERMS and accepted.index(e) < accepted.index(open_[0])]:
+        rest = [a for a in accepted if a != e]
+        m = Model(d, rest, base)
+        f_vals, f_sds, r = _cross_fit(m, d, folds, current)
+        sse_with = _block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
+        sse_without = _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
+        rel = np.log(np.maximum(sse_without, 1e-30) / np.maximum(sse_with, 1e-30))
+        if p_value(rel, rng, ALPHA) >= ALPHA:
+            replaced[e] = open_[0]
+            progress(f"{e} dropped: {open_[0]} explains it as well without it")
+            accepted, current, r_cur = rest, f_vals, r
+            values = _pooled(f_vals, f_sds)[0]
+    return accepted, values, current, r_cur, replaced
+
+
+def resolved(d: Data, effect, params, ci):
+    """False when an effect's size is below what one sample can resolve: a pre-sliding
+    travel shorter than the rod moves in the first sample after a reversal (half the
+    reversal's acceleration times the sample period squared, the median over segments), or
+    a lag under LAG_RESOLVED of a sample period whose interval reaches zero."""
+    key = effect.split(":")[0]
+    h = float(np.median(d.h))
+    if key == "presliding_friction":
+        a = [np.max(np.abs(d.a[d.segment == s])) for s in np.unique(d.segment)]
+        return params["x_stick"] >= 0.5 * float(np.median(a)) * h * h
+    if key == "sensor_delay":
+        lo, hi = ci["tau"]
+        return abs(params["tau"]) >= LAG_RESOLVED * h or lo * hi > 0
+    return True
+
+
+def describe(d: Data, effect, change, k):
+    """What an accepted effect is, from what accepting it changed in the held-out
+    prediction (`change` [N], its force and the refit of the rest, over the samples k): its
+    size (RMS and peak [N]), where it lives (the band of the variable it depends on where
+    it is above half its peak, and the directions that hold a quarter of its energy or
+    more), whether it stores or dissipates energy (the net work it takes from the rod over
+    the cycles against the work it exchanges), what it depends on and what kind of thing it
+    is (spec.NATURES)."""
+    spec = EFFECTS[effect.split(":")[0]]
+    c = change[k]
+    x, v, t = d.x[k], d.v[k], d.t[k]
+    E = c * c
+    comp = float(E[v > 0].sum() / max(E.sum(), 1e-30))
+    dirs = ("both directions" if 0.25 <= comp <= 0.75 else "in compression" if comp > 0.75 else "in rebound")
+    if "displacement" in spec.depends_on:
+        var, scale, unit, name = x, 1e3, "mm", "displacement"
+    elif "velocity" in spec.depends_on:
+        var, scale, unit, name = np.abs(v), 1.0, "m/s", "speed"
+    elif "time" in spec.depends_on:
+        var, scale, unit, name = t, 1.0, "s", "time"
+    else:
+        var = None
+    region = dirs
+    if var is not None and np.ptp(var) > 0:
+        edges = np.linspace(var.min(), var.max(), 13)
+        i = np.clip(np.digitize(var, edges) - 1, 0, 11)
+        rms = np.sqrt(np.bincount(i, weights=E, minlength=12) / np.maximum(np.bincount(i, minlength=12), 1))
+        big = np.nonzero(rms >= 0.5 * rms.max())[0]
+        region = f"{name} {edges[big.min()] * scale:.3g}-{edges[big.max() + 1] * scale:.3g} {unit}, {dirs}"
+    work = float(np.sum(c * v)), float(np.sum(np.abs(c * v)))
+    ratio = work[0] / max(work[1], 1e-30)
+    character = ("independent of the motion" if set(spec.depends_on) <= {"time", "temperature", "aux"}
+                 else "dissipative" if ratio > 0.5 else "elastic" if abs(ratio) < 0.2 else "both elastic and dissipative")
+    return {"depends_on": list(spec.depends_on), "nature": spec.nature, "region": region, "character": character,
+            "size_rms_n": float(np.sqrt(np.mean(E))), "size_peak_n": float(np.max(np.abs(c))),
+            **({"tone_hz": d.tone_hz} if spec.needs == "tone" else {})}
+
+
+def left_over(r, judged, block, judged_blocks, sigma, rng):
+    """Is the final held-out residual within the noise? The excess over the noise variance
+    per block, log(SSE_b / (n_b sigma^2 (1 + RELEVANCE))), tested against zero by the
+    catalogue's bootstrap; with the RMS above the noise [N]."""
+    sse = _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
+    n = np.bincount(block, weights=judged.astype(float), minlength=judged_blocks.max() + 1)[judged_blocks]
+    ok = n > 0
+    rel = np.log(np.maximum(sse[ok], 1e-30) / (n[ok] * sigma ** 2 * (1 + RELEVANCE)))
+    mse = float(np.mean(r[judged] ** 2))
+    return {"p_value": p_value(rel, rng), "above_noise_rms_n": float(np.sqrt(max(mse - sigma ** 2, 0.0))),
+            "within_noise": bool(p_value(rel, rng) >= ALPHA)}
 
 
 def trades(model: Model, d: Data, train, values, earlier):
@@ -281,7 +483,7 @@ def trades(model: Model, d: Data, train, values, earlier):
     if not earlier:
         return []
     names = [p.name for p in model.params]
-    own = set(names[-len(CATALOGUE[model.effects[-1].split(":")[0]].params(d, model.effects[-1])):])
+    own = set(names[-len(EFFECTS[model.effects[-1].split(":")[0]].params(d, model.effects[-1])):])
     z = np.array([values[n] for n in names])
     Fs = max(float(np.std(d.F)), 1e-9)
     scale = np.maximum(np.abs(z) * 1e-4, 1e-12)
@@ -294,7 +496,7 @@ def trades(model: Model, d: Data, train, values, earlier):
     _, rho = covariance(J, (base_r - d.F[train]) / Fs)
     out = []
     for e in earlier:
-        theirs = {p.name for p in (CATALOGUE[e.split(":")[0]].params(d, e))}
+        theirs = {p.name for p in (EFFECTS[e.split(":")[0]].params(d, e))}
         ii = [i for i, n in enumerate(names) if n in own]
         jj = [j for j, n in enumerate(names) if n in theirs]
         c = float(np.max(np.abs(rho[np.ix_(ii, jj)]))) if ii and jj else 0.0
@@ -349,10 +551,16 @@ def _segment_peak(d: Data, y):
     return peak[d.segment]
 
 
-def locate(d: Data, r):
+GAIN_ERROR = 0.02  # a load cell's and a valve curve's proportional misfit: the share of the force a residual is judged against
+
+
+def locate(d: Data, r, sigma=0.0):
     """[{where, energy_share, sample_share, mean_residual}] of regions holding more than
-    their share of the residual energy, strongest concentration first."""
-    E = r ** 2
+    their share of the residual energy, strongest concentration first. The residual is
+    judged against the force level (each sample's square weighed by 1 / (sigma^2 +
+    (GAIN_ERROR F)^2)), so that a proportional misfit does not point at the high-force
+    bins, and over single variables and pairs (stroke band x direction, speed x direction)."""
+    E = r ** 2 / np.maximum(sigma ** 2 + (GAIN_ERROR * d.F) ** 2, 1e-30)
     tot = max(E.sum(), 1e-30)
     vpk, apk = _segment_peak(d, np.abs(d.v)), _segment_peak(d, np.abs(d.a))
     Fr = np.ptp(d.F)
@@ -372,6 +580,14 @@ def locate(d: Data, r):
     regions[f"mid-stroke ({np.percentile(d.x, 40) * 1e3:.1f}-{np.percentile(d.x, 60) * 1e3:.1f} mm)"] = mid
     for s, (name, f) in enumerate(d.segments):
         regions[f"in segment {name}"] = d.segment == s
+    bands = np.linspace(d.x.min(), d.x.max(), 6)
+    for a, b in zip(bands[:-1], bands[1:]):
+        band = (d.x >= a) & (d.x <= b)
+        for word, side in (("compression", d.v > 0), ("rebound", d.v < 0)):
+            regions[f"at displacement {a * 1e3:.1f}-{b * 1e3:.1f} mm in {word}"] = band & side
+    for word, side in (("compression", d.v > 0), ("rebound", d.v < 0)):
+        regions[f"at low speed in {word} (|v| < 30 % of the segment's peak)"] = side & (np.abs(d.v) < 0.3 * vpk)
+        regions[f"at high speed in {word} (|v| > 70 % of the segment's peak)"] = side & (np.abs(d.v) > 0.7 * vpk)
     if d.T is not None:
         Tq = np.percentile(d.T, 75)
         regions[f"when hottest (T > {Tq - 273.15:.1f} C)"] = d.T > Tq

@@ -12,29 +12,18 @@ Baseline `minimal` (thesis chapter 3, reduced):
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from models.diagnose import kernels
+from models.diagnose.spec import V_EPS, Effect, P
+from models.diagnose.terms import TERMS
 
 GAMMA = 1.38  # thesis section 4.1.2
-V_EPS = 5e-5  # m/s: friction sign softened over this (the model's velocity is low-passed)
 # the force channel's averaging time, in sample periods: a first-order anti-alias filter
 # at the Nyquist frequency averages over about 0.6 of one (a choice; the data cannot tell it
 # from the size of a short clearance crossing, which it scales)
 W_FORCE = 0.5
 LEAD = 20  # samples run before a stretch when a damper model is simulated along it
-
-
-@dataclass(frozen=True)
-class P:
-    name: str
-    x0: float
-    lo: float
-    hi: float
-    unit: str = ""
-    grid: tuple = ()  # start values tried first (a parameter whose effect is piecewise)
 
 
 def _direction(v, c1, c2, C, Fcr):
@@ -159,8 +148,9 @@ class Model:
         self.x_m = float(np.mean(d.x))
         self.params = self.base.params(d)
         self.effects = list(effects)
+        self.cache = {}  # bases the open terms build once (terms.py)
         for e in self.effects:
-            self.params += CATALOGUE[e.split(":")[0]].params(d, e)
+            self.params += EFFECTS[e.split(":")[0]].params(d, e)
         # means the effects refer to (fixed from the data, not fitted)
         self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
         self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
@@ -172,7 +162,7 @@ class Model:
         """The baseline with the effects, each applied in its place: on the motion, on the
         baseline's damping, gas or friction, or on the total (Effect.acts_on, in ORDER)."""
         f = Forces(d)
-        staged = sorted(((CATALOGUE[e.split(":")[0]], e) for e in self.effects), key=lambda ce: ORDER.index(ce[0].name))
+        staged = sorted(((EFFECTS[e.split(":")[0]], e) for e in self.effects), key=lambda ce: ORDER.index(ce[0].name))
         for c, e in staged:
             if c.acts_on == "motion":
                 c.apply(self, d, p, f, e)
@@ -273,19 +263,6 @@ def _slope(v, p):
     return np.abs(damping(v + dv, p) - damping(v - dv, p)) / (2 * dv)
 
 
-@dataclass(frozen=True)
-class Effect:
-    """A physical effect the baseline may have left out: its parameters (bounds, starts),
-    its force and where that acts, and what sizes it."""
-    name: str
-    what: str  # the physics, in an engineer's words
-    params: callable  # (d, effect id) -> [P]
-    estimate: str  # the parameter that sizes the effect (what `dyno prove` reports)
-    apply: callable  # (model, d, values, Forces, effect id): its force, in place
-    acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
-    needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel
-
-
 def _p(*ps):
     return lambda d, e: list(ps)
 
@@ -320,44 +297,84 @@ def _cav_params(d, e):
 
 
 CATALOGUE = {e.name: e for e in (
-    Effect("sensor_delay", "a time lag between the displacement and force channels",
+    Effect("sensor_delay", "a timing offset between the displacement and force channels",
            _p(P("tau", 0.0, -0.05, 0.05, "s", (-2e-2, -2e-3, -2e-4, -2e-5, 0.0, 2e-5, 2e-4, 2e-3, 2e-2))),
-           estimate="tau", apply=_sensor_delay, acts_on="motion"),
+           estimate="tau", apply=_sensor_delay, acts_on="motion", depends_on=("time",), nature="cell",
+           say=("The {late} by {v} {u}: a timing offset of the cell (a filter or transport lag in a sensor's "
+                "signal chain, or the channels' clocks), not the damper. Align the channels (or fix the "
+                "conditioning) before fitting valves.", "tau", 1e3, "ms")),
     Effect("free_play", "clearance (free play) in the damper's mounts",
            _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
-           estimate="c_play", apply=_free_play, acts_on="total"),
+           estimate="c_play", apply=_free_play, acts_on="total", depends_on=("velocity", "direction"),
+           say=("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
+                "meanwhile where the damper's own force on it is zero) each time it changes sign: "
+                "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
+                "c_play", 1e3, "mm")),
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
-           estimate="inv_k_oil", apply=_compressibility, acts_on="parts"),
+           estimate="inv_k_oil", apply=_compressibility, acts_on="parts", depends_on=("velocity", "frequency"),
+           say=("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
+                "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
+                "inv_k_oil", None, "kN/mm")),
     Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
            _p(P("r_break", 1.2, 1.0, 5.0, "-"),
               P("v_break", 5e-3, 2e-4, 0.1, "m/s", tuple(np.geomspace(5e-4, 5e-2, 7))),
               P("d_break", 1.0, 0.5, 3.0, "-", (1.0, 2.0))),
-           estimate="r_break", apply=_breakaway_friction, acts_on="parts"),
+           estimate="r_break", apply=_breakaway_friction, acts_on="parts", depends_on=("velocity", "direction"),
+           say=("Friction is higher just after each velocity reversal, static/dynamic ratio {v}: "
+                "seal breakaway. It sets the force near zero velocity; check seal and rod finish.",
+                "r_break", 1.0, "")),
     Effect("position_friction", "seal friction varying along the bore",
            _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2")),
-           estimate="pf1", apply=_position_friction, acts_on="parts"),
+           estimate="pf1", apply=_position_friction, acts_on="parts", depends_on=("displacement", "direction"),
+           say=("Friction changes along the stroke ({v} {u} per cm from mid-stroke): a tight spot or "
+                "wear in the bore or seal. Inspect the bore and rod.", "pf1", 100.0, "%")),
     Effect("gas_temperature", "gas-spring force rising with temperature",
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
-           estimate="k_gT", apply=_gas_temperature, acts_on="parts", needs="T"),
+           estimate="k_gT", apply=_gas_temperature, acts_on="parts", needs="T",
+           depends_on=("temperature", "displacement"),
+           say=("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
+                "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%")),
     Effect("damping_temperature", "damping changing with oil temperature",
            _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
-           estimate="k_dT", apply=_damping_temperature, acts_on="parts", needs="T"),
+           estimate="k_dT", apply=_damping_temperature, acts_on="parts", needs="T",
+           depends_on=("temperature", "velocity", "direction"),
+           say=("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
+                "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%")),
     Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
            _p(P("m_oil", 0.0, -20.0, 200.0, "kg")),
-           estimate="m_oil", apply=_fluid_inertia, acts_on="total"),
+           estimate="m_oil", apply=_fluid_inertia, acts_on="total", depends_on=("acceleration",),
+           say=("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
+                "(or unsupported mass in the load path). It matters in step and high-frequency tests.",
+                "m_oil", 1.0, "kg")),
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
-           estimate="Fcav_c", apply=_cavitation, acts_on="total"),
+           estimate="Fcav_c", apply=_cavitation, acts_on="total", depends_on=("velocity", "direction", "displacement"),
+           say=("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
+                "charge or check for air.", None, 1.0, "N")),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
            _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
-           estimate="x_stick", apply=_presliding_friction, acts_on="parts"),
+           estimate="x_stick", apply=_presliding_friction, acts_on="parts", depends_on=("displacement", "direction"),
+           say=("Friction builds over {v} {u} of travel after each reversal before the seal slides "
+                "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
+                "corners of small-amplitude loops; keep it in the model when tuning low-speed valving.",
+                "x_stick", 1e3, "mm")),
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
-           _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?"),
+           _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
+           depends_on=("displacement", "direction"),
+           say=("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
+                "element, as in Spencer's magnetorheological damper model): a yield-stress fluid or a stiff "
+                "element that gives way, which a valve curve cannot follow around the loops.{aux} Model the "
+                "damper with the hysteretic element (its parameters are in the JSON).", "alpha_bw", 1.0, "N")),
     Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
-           estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux"),
+           estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux", depends_on=("aux",),
+           say=("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
+                "Hold it constant or include it in the model.", "lag", 1e3, "ms")),
 )}
+# the catalogue and the open terms (models/diagnose/terms.py), which compete in every round
+EFFECTS = {**CATALOGUE, **TERMS}
 # the order the effects act in, whatever order they were accepted in: multiplications
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
-ORDER = ("sensor_delay", "damping_temperature", "compressibility", "gas_temperature", "presliding_friction",
-         "position_friction", "breakaway_friction", "fluid_inertia", "bouc_wen", "aux_channel", "cavitation",
+ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_temperature", "compressibility", "gas_temperature",
+         "elastic_stroke", "presliding_friction", "position_friction", "stroke_friction", "breakaway_friction",
+         "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "cavitation",
          "free_play")

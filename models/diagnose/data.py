@@ -43,12 +43,13 @@ class Data:
     notes: list = field(default_factory=list)  # what could not be assessed, and why
     flags: list = field(default_factory=list)  # [quality.Flag]: samples excluded before fitting
     periodic: bool = True  # False: motion that does not repeat, judged in blocks of BLOCK_S
+    tone_hz: float | None = None  # a line in the residual unrelated to the motion (terms.tone)
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
-                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic)
+                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.tone_hz)
 
 
 def _clean(t, v):

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from models.diagnose import diagnose
+from models.diagnose.candidates import EFFECTS
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose import quality
@@ -18,45 +19,16 @@ from rig.errors import RigError
 
 from protocols.io.reader import load_recording
 
-# how each accepted effect is said: (sentence, parameter shown, factor, unit)
-SAY = {
-    "sensor_delay": ("The {late} by {v} {u}: a filter or transport lag in a sensor's signal chain. "
-                     "Align the channels (or fix the conditioning) before fitting valves.",
-                     "tau", 1e3, "ms"),
-    "free_play": ("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
-                  "meanwhile where the damper's own force on it is zero) each time it changes sign: "
-                  "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
-                  "c_play", 1e3, "mm"),
-    "compressibility": ("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
-                        "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
-                        "inv_k_oil", None, "kN/mm"),
-    "breakaway_friction": ("Friction is higher just after each velocity reversal, static/dynamic ratio {v}: "
-                           "seal breakaway. It sets the force near zero velocity; check seal and rod finish.",
-                           "r_break", 1.0, ""),
-    "position_friction": ("Friction changes along the stroke ({v} {u} per cm from mid-stroke): a tight spot or "
-                          "wear in the bore or seal. Inspect the bore and rod.", "pf1", 100.0, "%"),
-    "gas_temperature": ("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
-                        "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%"),
-    "damping_temperature": ("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
-                            "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
-    "fluid_inertia": ("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
-                      "(or unsupported mass in the load path). It matters in step and high-frequency tests.",
-                      "m_oil", 1.0, "kg"),
-    "cavitation": ("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
-                   "charge or check for air.", None, 1.0, "N"),
-    "presliding_friction": ("Friction builds over {v} {u} of travel after each reversal before the seal slides "
-                            "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
-                            "corners of small-amplitude loops; keep it in the model when tuning low-speed valving.",
-                            "x_stick", 1e3, "mm"),
-    "bouc_wen": ("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
-                 "element, as in Spencer's magnetorheological damper model): a yield-stress fluid or a stiff "
-                 "element that gives way, which a valve curve cannot follow around the loops.{aux} Model the "
-                 "damper with the hysteretic element (its parameters are in the JSON).", "alpha_bw", 1.0, "N"),
-    "aux_channel": ("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
-                    "Hold it constant or include it in the model.", "lag", 1e3, "ms"),
-}
+NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
+         "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form"}
+# how a finding opens, by its nature (models/diagnose/spec.py NATURES)
+OPENING = {"physics": "Left out: ", "cell": "In the cell, not the damper: ", "form": "The baseline's form: ",
+           "open": "Outside the catalogue: "}
 
-NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction"}
+
+def _what(step):
+    return (f"depends on {', '.join(step['depends_on'])}; {step['region']}; {step['character']}; "
+            f"{_size(step)}")
 
 
 def said(effect):
@@ -68,9 +40,11 @@ def said(effect):
 def sentence(step):
     e = step["effect"]
     key = e.split(":")[0]
-    text, pname, factor, unit = SAY[key]
+    text, pname, factor, unit = EFFECTS[key].say
     p, ci = step["parameters"], step["ci"]
     late = ""
+    if EFFECTS[key].nature in ("open", "form") or key == "interference":
+        return text.format(region=step["region"], size=_size(step), hz=step.get("tone_hz", 0.0)) + _change(step)
     if key == "cavitation":
         v = min(p["Fcav_c"], p["Fcav_r"])
         vs = f"{v:.0f}"
@@ -108,6 +82,10 @@ def sentence(step):
     return text.format(v=vs, u=unit, late=late) + _change(step)
 
 
+def _size(step):
+    return f"{step['size_rms_n']:.3g} N RMS, {step['size_peak_n']:.3g} N at most"
+
+
 def _change(step):
     return (f" Held-out error falls from {100 * step['before']:.3g} % to {100 * step['after']:.3g} % "
             f"of the force range (p = {step['p_value']:.2g}).")
@@ -139,29 +117,33 @@ def summary(res):
     strong = [loc for loc in res["locations"] if loc["concentration"] > 2.0][:3]
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
+    for s in res["steps"]:
+        name = said(s["effect"])
+        if s.get("replaced_by"):
+            lines.append(f"Dropped again: {name}. {said(s['replaced_by'])} explains its gain as well without it.")
+        elif s["compensates"]:
+            why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
+                   for e, c in s["trades_with"]]
+            why += [f"changing the form of {said(e)} (its size by direction, with speed, along the stroke or with "
+                    f"its own size, or a lag) brings {100 * sh:.0f} % of its gain" for e, sh in s["form_of"]]
+            lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s['compensates']))}: "
+                         f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
+                         f"of its own." + _change(s))
+        else:
+            lines.append(f"{OPENING[s['nature']]}{name}. " + sentence(s) + f" ({_what(s)}.)")
     if res["accepted"]:
-        for s in res["steps"]:
-            name = said(s["effect"])
-            if s["compensates"]:
-                why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
-                       for e, c in s["trades_with"]]
-                why += [f"changing the form of {said(e)} (its size by direction, with speed, along the stroke or with "
-                        f"its own size, or a lag) brings {100 * sh:.0f} % of its gain" for e, sh in s["form_of"]]
-                lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s['compensates']))}: "
-                             f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
-                             f"of its own." + _change(s))
-            else:
-                lines.append(f"Left out: {name}. " + sentence(s))
         f = res["final"]
         lines.append(f"Final: held-out error {100 * f['nrmse_heldout']:.3g} % of the force range, RMSE "
                      f"{f['rmse_heldout']:.3g} N, R^2 {f['r2_heldout']:.3f}, {len(f['parameters'])} parameters.")
-    left = [loc for loc in res["remaining"] if loc["concentration"] > 1.5][:2]
-    if left and res["final"]["rmse_heldout"] > 2 * res["noise_sd"]:
-        lines.append(f"Still unexplained ({res['final']['rmse_heldout'] / res['noise_sd']:.3g} times the force noise): "
-                     "no effect in the catalogue takes it further; it lives " + "; ".join(_where(loc) for loc in left) + ".")
+    lo = res["left_over"]
+    if lo["within_noise"]:
+        lines.append(f"Nothing significant was left out: the held-out residual is within the force noise "
+                     f"(p = {lo['p_value']:.2g} that it is above it).")
     else:
-        lines.append("Nothing significant was left out: no candidate improved the held-out cycles beyond chance "
-                     "and the noise.")
+        left = [loc for loc in res["remaining"] if loc["concentration"] > 1.5][:2]
+        where = ("; it lives " + "; ".join(_where(loc) for loc in left)) if left else ", spread over the whole recording"
+        lines.append(f"Still unexplained: {lo['above_noise_rms_n']:.3g} N RMS above the force noise on the held-out "
+                     f"cycles (p = {lo['p_value']:.2g}); no effect or term tried takes it further{where}.")
     for n in res["data"].notes:
         lines.append(f"Not assessed: {n}.")
     return "\n".join(lines)
@@ -188,6 +170,11 @@ def to_json(res):
                         "gain_noise_variances": c["relevance"]} for c in res["candidates"]],
         "accepted": res["accepted"],
         "may_compensate": {s["effect"]: s["compensates"] for s in res["steps"] if s["compensates"]},
+        # each accepted effect or term: what it depends on, where it lives, what kind and how big
+        "effects": [{"effect": s["effect"], "replaced_by": s["replaced_by"]} if s.get("replaced_by") else
+                    {"effect": s["effect"], **{k: s[k] for k in ("nature", "depends_on", "region", "character",
+                                                                "size_rms_n", "size_peak_n")}} for s in res["steps"]],
+        "left_over": res["left_over"],
         "final": {**{k: res["final"][k] for k in held},
                   "parameters": {k: num(v) for k, v in res["final"]["parameters"].items()}},
         "not_assessed": res["data"].notes,

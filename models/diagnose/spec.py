@@ -1,0 +1,40 @@
+"""What the diagnosis knows of an effect, in one place: its parameters (bounds, starts),
+its force and where that acts, what it depends on, what kind of thing it is, and how it
+is said."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+V_EPS = 5e-5  # m/s: a friction's sign is softened over this (the model's velocity is fitted, not measured)
+
+# what an effect may depend on (the JSON's `depends_on`)
+VARIABLES = ("time", "displacement", "velocity", "direction", "acceleration", "temperature", "frequency", "aux")
+# what kind of thing it is: physics of the damper the catalogue names; the test cell
+# (its timing, its interference), not the damper; the baseline's own law reshaped (the
+# valve curve), not physics left out; or a term outside the catalogue, read by its form
+NATURES = ("physics", "cell", "form", "open")
+
+
+@dataclass(frozen=True)
+class P:
+    name: str
+    x0: float
+    lo: float
+    hi: float
+    unit: str = ""
+    grid: tuple = ()  # start values tried first (a parameter whose effect is piecewise)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """An effect the baseline may have left out."""
+    name: str
+    what: str  # the physics, in an engineer's words
+    params: callable  # (d, effect id) -> [P]
+    estimate: str  # the parameter that sizes the effect (what `dyno prove` reports)
+    apply: callable  # (model, d, values, Forces, effect id): its force, in place
+    acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
+    needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel; "tone": a tone
+    depends_on: tuple = ()  # of VARIABLES
+    nature: str = "physics"  # of NATURES
+    say: tuple = ()  # (sentence, parameter shown, factor, unit): see protocols/app/diagnose.py

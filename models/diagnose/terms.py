@@ -1,0 +1,204 @@
+"""Terms outside the catalogue: forces built from the recorded variables, each with a
+physical reading, that compete with the catalogue's effects on the same held-out
+evidence (issue 29). Each is a smooth basis with linear coefficients:
+
+  valve_form       the valve curve reshaped, per direction: B(|v|), zero at rest
+  elastic_stroke   an elastic force along the stroke, alike in both directions: B(x)
+                   (a bump stop, a top-out spring, a gas law other than the baseline's)
+  stroke_friction  friction changing along the stroke: B(x) sgn(v) (a tight spot)
+  stroke_damping   damping changing along the stroke, per direction: (1 + B(x)) F_damping
+                   (bypass grooves, position-sensitive valving)
+  drift            a slow offset in time, independent of the motion: B(t), judged only by its
+                   change within each segment, because a segment's constant offset cannot be
+                   told from the baseline's misfit of that segment
+  interference     a tone at a frequency unrelated to the motion, found in the residual's
+                   spectrum (mains hum, a pump, a fan)
+  temperature_force an offset varying with temperature: B(T)
+
+B is a cubic B-spline basis whose knots are spread evenly over the variable's recorded
+range (KNOTS functions). SI units: x [m], v [m/s], t [s], T [K]; forces [N].
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from models.diagnose.spec import V_EPS, Effect, P
+
+DEGREE = 3
+KNOTS = {"valve_form": 8, "elastic_stroke": 8, "stroke_friction": 8, "stroke_damping": 6, "temperature_force": 4}
+DRIFT_S = 10.0  # s of recording per drift basis function (4 to 8 of them)
+
+
+def bspline(u, lo, hi, n):
+    """(len(u), n) cubic B-spline basis over [lo, hi], knots evenly spread; u clipped to it."""
+    inner = np.linspace(lo, hi, n - DEGREE + 1)
+    knots = np.r_[[lo] * DEGREE, inner, [hi] * DEGREE]
+    return BSpline.design_matrix(np.clip(u, lo, hi), knots, DEGREE).toarray()
+
+
+def _centred(B, groups=None):
+    """B with each column's mean removed, over all samples or within each group: what a
+    constant (the gas force's level, a segment's offset) already carries is left out."""
+    if groups is None:
+        return B - B.mean(axis=0)
+    out = B.copy()
+    for g in np.unique(groups):
+        k = groups == g
+        out[k] -= out[k].mean(axis=0)
+    return out
+
+
+def _basis(m, d, key, make):
+    """A basis made once per model and data (the fit evaluates the force many times)."""
+    got = m.cache.get(key)
+    if got is None or got[0] is not d:
+        got = m.cache[key] = (d, make())
+    return got[1]
+
+
+def _bound(d):
+    return 3.0 * max(float(np.percentile(np.abs(d.F), 99)), 10.0)
+
+
+def _coef(prefix, n, bound):
+    return [P(f"{prefix}{i}", 0.0, -bound, bound, "N") for i in range(n)]
+
+
+def _valve_basis(d, v):
+    """Per direction, over the square root of the speed: a valve's curve bends most at low
+    speed (the bleed giving way to the shims), where the knots are closest."""
+    vmax = max(float(np.percentile(np.abs(d.v), 99)), 1e-3)
+    B = bspline(np.sqrt(np.abs(v) / vmax), 0.0, 1.0, KNOTS["valve_form"])[:, 1:]  # the first is the only one non-zero at rest
+    return np.hstack([B * (v > 0)[:, None], -B * (v < 0)[:, None]])
+
+
+def _valve_form(m, d, p, f, e):
+    B = _basis(m, d, e, lambda: _valve_basis(d, d.v)) if f.v is d.v else _valve_basis(d, f.v)
+    f.Fd = f.Fd + B @ np.array([p[f"vf{i}"] for i in range(B.shape[1])])
+
+
+def _x_basis(d, n):
+    return bspline(d.x, float(np.min(d.x)), float(np.max(d.x)), n)
+
+
+def _elastic_stroke(m, d, p, f, e):
+    B = _basis(m, d, e, lambda: _centred(_x_basis(d, KNOTS[e])))
+    f.Fg = f.Fg + B @ np.array([p[f"es{i}"] for i in range(B.shape[1])])
+
+
+def _stroke_friction(m, d, p, f, e):
+    B = _basis(m, d, e, lambda: _x_basis(d, KNOTS[e]))
+    f.Ff = f.Ff + (B @ np.array([p[f"sf{i}"] for i in range(B.shape[1])])) * np.tanh(f.v / V_EPS)
+
+
+def _stroke_damping(m, d, p, f, e):
+    B = _basis(m, d, e, lambda: _x_basis(d, KNOTS[e]))
+    n = B.shape[1]
+    gc = B @ np.array([p[f"sdc{i}"] for i in range(n)])
+    gr = B @ np.array([p[f"sdr{i}"] for i in range(n)])
+    f.Fd = f.Fd * (1.0 + np.where(f.v > 0, gc, gr))
+
+
+def _drift_n(d):
+    return int(np.clip(round(np.ptp(d.t) / DRIFT_S), DEGREE + 1, 8))
+
+
+def _drift(m, d, p, f, e):
+    B = _basis(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d)), d.segment))
+    f.F = f.F + B @ np.array([p[f"dr{i}"] for i in range(B.shape[1])])
+
+
+def _interference(m, d, p, f, e):
+    w = 2 * np.pi * d.tone_hz
+    f.F = f.F + p["hum_c"] * np.cos(w * d.t) + p["hum_s"] * np.sin(w * d.t)
+
+
+def _temperature_force(m, d, p, f, e):
+    B = _basis(m, d, e, lambda: _centred(bspline(d.T, float(np.min(d.T)), float(np.max(d.T)), KNOTS[e])))
+    f.F = f.F + B @ np.array([p[f"tf{i}"] for i in range(B.shape[1])])
+
+
+def _damping_params(d, e):
+    n = KNOTS["stroke_damping"]
+    return ([P(f"sdc{i}", 0.0, -0.95, 3.0, "-") for i in range(n)]
+            + [P(f"sdr{i}", 0.0, -0.95, 3.0, "-") for i in range(n)])
+
+
+def tone(d, r, k):
+    """[Hz] of the strongest line in the residual r's spectrum (samples k) that is no
+    harmonic of a segment's motion, or None. Each sine segment's periodogram, its motion's
+    harmonics (and the bins beside them) masked, is put on a common 0.25 Hz grid and the
+    grid's peak refined over the whole recording (a tone keeps its phase across segments)."""
+    if not d.periodic:
+        return None
+    grid = np.arange(0.25, 0.5 / float(np.median(d.h)), 0.25)
+    power, count = np.zeros(len(grid)), np.zeros(len(grid))
+    for s, (_, f) in enumerate(d.segments):
+        j = np.nonzero((d.segment == s) & k)[0]
+        if len(j) < 64:
+            continue
+        y = np.where(k[j[0]:j[-1] + 1], r[j[0]:j[-1] + 1], 0.0)
+        y = y - y.mean()
+        h = float(np.median(d.h[j]))
+        fr = np.fft.rfftfreq(len(y), h)
+        P_ = np.abs(np.fft.rfft(y * np.hanning(len(y)))) ** 2 / len(y)
+        df = fr[1]
+        harmonic = np.abs(fr / f - np.round(fr / f)) * f <= 2 * df
+        P_[harmonic] = np.nan
+        got = np.interp(grid, fr, P_, left=np.nan, right=np.nan)
+        ok = np.isfinite(got)
+        power[ok] += got[ok]
+        count[ok] += 1
+    if not np.any(count):
+        return None
+    mean = np.where(count > 0, power / np.maximum(count, 1), 0.0)
+    i = int(np.argmax(mean))
+    if mean[i] < 10 * np.median(mean[count > 0]):  # no line stands out of the noise floor
+        return None
+    fine = np.linspace(grid[i] - 0.25, grid[i] + 0.25, 201)
+    t, y = d.t[k], r[k]
+    z = [abs(np.dot(np.exp(-2j * np.pi * fr * t), y)) for fr in fine]
+    return float(fine[int(np.argmax(z))])
+
+
+TERMS = {e.name: e for e in (
+    Effect("valve_form", "the valve curve shaped otherwise than the baseline's two-stage law",
+           lambda d, e: _coef("vf", 2 * (KNOTS["valve_form"] - 1), _bound(d)), "vf0", _valve_form, "parts",
+           depends_on=("velocity", "direction"), nature="form",
+           say=("The valve curve is shaped otherwise than the baseline's two-stage law ({region}; {size}): "
+                "the baseline's form, not physics left out. Fit the valves with a table or a richer law.",
+                None, 1.0, "N")),
+    Effect("elastic_stroke", "an elastic force along the stroke, alike in both directions",
+           lambda d, e: _coef("es", KNOTS["elastic_stroke"], _bound(d)), "es0", _elastic_stroke, "parts",
+           depends_on=("displacement",), nature="open",
+           say=("Not in the catalogue: an elastic force along the stroke, alike in both directions ({region}; "
+                "{size}): a bump stop, a top-out spring, or a gas spring other than the baseline's?",
+                None, 1.0, "N")),
+    Effect("stroke_friction", "friction changing along the stroke",
+           lambda d, e: _coef("sf", KNOTS["stroke_friction"], _bound(d)), "sf0", _stroke_friction, "parts",
+           depends_on=("displacement", "direction"), nature="open",
+           say=("Not in the catalogue: friction changing along the stroke ({region}; {size}): a tight spot in "
+                "the bore, seal wear or a bent rod?", None, 1.0, "N")),
+    Effect("stroke_damping", "damping changing along the stroke, per direction", _damping_params, "sdc0",
+           _stroke_damping, "parts", depends_on=("displacement", "velocity", "direction"), nature="open",
+           say=("Not in the catalogue: damping that changes along the stroke ({region}; {size}): bypass grooves "
+                "or position-sensitive valving?", None, 1.0, "N")),
+    Effect("drift", "a slow offset in time, independent of the motion",
+           lambda d, e: _coef("dr", _drift_n(d), _bound(d)), "dr0", _drift, "total", depends_on=("time",),
+           nature="open",
+           say=("Not in the catalogue: a slow offset in time, independent of the motion ({region}; {size}): "
+                "the load cell's zero drifting, a leak or warm-up? Re-zero and repeat a reference segment.",
+                None, 1.0, "N")),
+    Effect("interference", "a tone unrelated to the motion",
+           lambda d, e: [P("hum_c", 0.0, -_bound(d), _bound(d), "N"), P("hum_s", 0.0, -_bound(d), _bound(d), "N")],
+           "hum_c", _interference, "total", needs="tone", depends_on=("time",), nature="cell",
+           say=("A tone at {hz:.2f} Hz, unrelated to the motion, rides on the force ({size}): interference in "
+                "the cell (mains at 50 or 60 Hz, a pump, a fan), not the damper. Shield or filter the force "
+                "channel.", None, 1.0, "N")),
+    Effect("temperature_force", "a force varying with temperature, apart from the motion",
+           lambda d, e: _coef("tf", KNOTS["temperature_force"], _bound(d)), "tf0", _temperature_force, "total",
+           needs="T", depends_on=("temperature",), nature="open",
+           say=("Not in the catalogue: a force that varies with temperature apart from the motion ({region}; "
+                "{size}): a thermal offset of the load cell?", None, 1.0, "N")),
+)}

@@ -123,10 +123,18 @@ def parse(specs) -> dict:
     form other than the default is named; EffectError names a bad one."""
     out = {}
     for s in specs or ():
+        if s.startswith("extra:"):  # a force the user writes (sim_backend/extra.py)
+            from sim_backend.extra import ExtraError, compile_extra
+            try:
+                compile_extra(s[len("extra:"):])
+            except ExtraError as e:
+                raise EffectError(f"--effect {e}") from None
+            out["extra"] = s[len("extra:"):]
+            continue
         name, sep, value = s.partition("=")
         name, _, form = name.partition(":")
         if name not in EFFECTS:
-            raise EffectError(f"--effect {s}: unknown effect {name!r} (known: {', '.join(EFFECTS)})")
+            raise EffectError(f"--effect {s}: unknown effect {name!r} (known: {', '.join(EFFECTS)}, extra:EXPR)")
         if form:
             if form not in EFFECTS[name].forms:
                 known = ", ".join(EFFECTS[name].forms) or "none"

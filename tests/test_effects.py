@@ -68,3 +68,20 @@ def test_the_transport_form_delays_by_its_value_between_steps():
     past, h = deque(maxlen=10), 1e-3
     out = [transport(past, (float(k), 0.0), 2.5e-3, h)[0] for k in range(8)]
     assert out[3:] == pytest.approx([k - 2.5 for k in range(3, 8)], abs=1e-12)
+
+
+def test_extra_physics_is_an_expression_in_x_v_t_T_and_nothing_else():
+    from sim_backend.extra import ExtraError, compile_extra
+    f = compile_extra("2e6 * maximum(x - 0.05, 0)**2 + 3 * sin(2 * pi * 50 * t) + 0 * v * T")
+    assert f(0.06, 0.0, 0.0, 300.0) == pytest.approx(200.0)
+    for bad in ("__import__('os')", "x.real", "open('f')", "lambda: 1", "y + 1", "'a'", "x +", "1 / (x - 0.05)"):
+        with pytest.raises(ExtraError, match="^extra:"):
+            compile_extra(bad)
+    assert parse(["extra:maximum(x - 0.05, 0)"]) == {"extra": "maximum(x - 0.05, 0)"}
+
+
+def test_the_plant_adds_the_extra_force_on_the_load_cell():
+    from protocols.app.prove import offline_force
+    F0, rec = offline_force({}, seed=0)
+    F1, _ = offline_force({"extra": "25.0"}, seed=0)
+    assert np.median((F1 - F0)[rec]) == pytest.approx(25.0, abs=0.5)

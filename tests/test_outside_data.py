@@ -194,4 +194,46 @@ def test_a_sharp_friction_reversal_at_5_khz_is_not_physics(tmp_path):
     rec = record(tmp_path / "null.mcap", rate=5000.0, seed=0)
     r = dyno("diagnose", rec, "--json")
     assert r.returncode == 0, r.stderr
-    assert json.loads(r.stdout)["accepted"] == []
+    assert _claims(json.loads(r.stdout)) == []
+
+
+def _claims(doc):
+    """Physics a diagnosis claims: catalogue effects and terms outside it, not the cell's
+    timing or interference and not the valve curve's form (models/diagnose/spec.py)."""
+    return [e["effect"] for e in doc["effects"] if e.get("nature") in ("physics", "open")]
+
+
+def test_coloured_noise_and_a_digressive_valve_are_not_physics(tmp_path):
+    """A 2 kHz null with first-order coloured noise (pole 0.95 per sample) on every channel
+    and a blow-off valve the baseline's two-stage law lacks. The noise read from sample
+    differences was a third of its size, and a Bouc-Wen element was named on such nulls;
+    the missing valve form was named cavitation. Now: at most the valve curve's form."""
+    from tests.outside_generator import record
+    rec = record(tmp_path / "null.mcap", rate=2000.0, colour="coloured", law="digressive", seed=1)
+    r = dyno("diagnose", rec, "--json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert _claims(doc) == [], doc["summary"]
+    assert 1.2 < doc["noise_sd"] < 2.0  # the generator's 1.5 N
+
+
+def test_a_bump_stop_and_mains_hum_outside_the_catalogue_are_read_by_what_they_depend_on(tmp_path):
+    """Two things real cells have and the catalogue does not name, in one 1 kHz recording
+    of the second generator: an elastic force beyond 42 mm (a bump stop, both directions)
+    and 50 Hz on the force channel."""
+    from tests.outside_generator import record
+    bump_and_hum = (lambda x, v, t: 2e6 * np.maximum(x - 0.042, 0.0) ** 2 + 4.0 * np.sin(2 * np.pi * 50.0 * t))
+    rec = record(tmp_path / "open.mcap", rate=1000.0, seed=0, extra=bump_and_hum, cycles=6)
+    r = dyno("diagnose", rec, "--json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    found = {e["effect"]: e for e in doc["effects"]}
+    bump, hum = found["elastic_stroke"], found["interference"]
+    assert bump["depends_on"] == ["displacement"] and bump["character"] == "elastic" and bump["nature"] == "open"
+    lo, hi = (float(v) for v in bump["region"].split(" mm")[0].split()[-1].split("-"))
+    assert 40.0 < lo < 46.0 and hi > 46.0 and "both directions" in bump["region"]
+    assert hum["nature"] == "cell" and hum["depends_on"] == ["time"]
+    assert "Not in the catalogue: an elastic force along the stroke" in doc["summary"]
+    assert "A tone at 50.0" in doc["summary"] and "not the damper" in doc["summary"]
+    assert _claims(doc) == ["elastic_stroke"]
+    assert doc["final"]["rmse_heldout"] < 0.5 * doc["baseline"]["rmse_heldout"]

@@ -35,6 +35,7 @@ SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
 RELEVANCE = 0.1
 REFIT_EFFORT = 4  # function evaluations per parameter when an accepted term is refitted with the rest
+REGION_SHARE = 0.25  # where an effect lives: where its RMS is above this share of its largest
 LAG_RESOLVED = 0.02  # of a sample period: a lag shorter than this, its interval reaching zero, is not resolved
 SHARE = 0.01
 BOOT = 2000
@@ -429,7 +430,7 @@ def describe(d: Data, effect, change, k):
     """What an accepted effect is, from what accepting it changed in the held-out
     prediction (`change` [N], its force and the refit of the rest, over the samples k): its
     size (RMS and peak [N]), where it lives (the band of the variable it depends on where
-    it is above half its peak, and the directions that hold a quarter of its energy or
+    its RMS is above REGION_SHARE of its largest, and the directions that hold a quarter of its energy or
     more), whether it stores or dissipates energy (the net work it takes from the rod over
     the cycles against the work it exchanges), what it depends on and what kind of thing it
     is (spec.NATURES)."""
@@ -452,7 +453,7 @@ def describe(d: Data, effect, change, k):
         edges = np.linspace(var.min(), var.max(), 13)
         i = np.clip(np.digitize(var, edges) - 1, 0, 11)
         rms = np.sqrt(np.bincount(i, weights=E, minlength=12) / np.maximum(np.bincount(i, minlength=12), 1))
-        big = np.nonzero(rms >= 0.5 * rms.max())[0]
+        big = np.nonzero(rms >= REGION_SHARE * rms.max())[0]
         region = f"{name} {edges[big.min()] * scale:.3g}-{edges[big.max() + 1] * scale:.3g} {unit}, {dirs}"
     work = float(np.sum(c * v)), float(np.sum(np.abs(c * v)))
     ratio = work[0] / max(work[1], 1e-30)

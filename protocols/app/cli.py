@@ -241,6 +241,9 @@ def _analysis_commands(sub):
                          "scale with it (x1 is the noise floor at each level)")
     pv.add_argument("--rates", type=sizes, default=[1000.0],
                     help="comma-separated loop and sampling rates [Hz] (default 1000), e.g. 1000,5000")
+    pv.add_argument("--open", metavar="EXPR",
+                    help="hide your own physics: a force [N] in x [m], v [m/s], t [s], T [K], e.g. "
+                         "'2e6*maximum(x-0.05,0)**2' (sim_backend/extra.py), against a null per seed")
     pv.add_argument("--json", action="store_true")
     pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     pv.add_argument("--calibrate", action="store_true",

@@ -22,13 +22,14 @@ from protocols.io.reader import load_recording
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
          "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form"}
 # how a finding opens, by its nature (models/diagnose/spec.py NATURES)
-OPENING = {"physics": "Left out: ", "cell": "In the cell, not the damper: ", "form": "The baseline's form: ",
-           "open": "Outside the catalogue: "}
+# (an open term's or the valve form's sentence opens with what it is)
+OPENING = {"physics": "Left out: {name}. ", "cell": "In the cell, not the damper: {name}. ", "form": "", "open": ""}
 
 
 def _what(step):
-    return (f"depends on {', '.join(step['depends_on'])}; {step['region']}; {step['character']}; "
-            f"{_size(step)}")
+    said_already = step["nature"] in ("open", "form") or step["effect"] == "interference"
+    return (f"depends on {', '.join(step['depends_on'])}; {step['character']}"
+            + ("" if said_already else f"; {step['region']}; {_size(step)}"))
 
 
 def said(effect):
@@ -130,7 +131,7 @@ def summary(res):
                          f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
                          f"of its own." + _change(s))
         else:
-            lines.append(f"{OPENING[s['nature']]}{name}. " + sentence(s) + f" ({_what(s)}.)")
+            lines.append(OPENING[s["nature"]].format(name=name) + sentence(s) + f" ({_what(s)}.)")
     if res["accepted"]:
         f = res["final"]
         lines.append(f"Final: held-out error {100 * f['nrmse_heldout']:.3g} % of the force range, RMSE "

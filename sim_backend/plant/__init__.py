@@ -18,6 +18,7 @@ import numpy as np
 from models.damper import load as load_damper
 from models.physics.simulate import Stepper
 from sim_backend import effects as fx_mod
+from sim_backend.extra import compile_extra
 from sim_backend.plant import actuator, frame, load_path, sensors, thermal
 from sim_backend.plant.actuator import (MODE_FOLLOW, MODE_HOLD, MODE_OFF, STATE_ALARM,  # noqa: F401
                                         STATE_FOLLOWING, STATE_HOLDING, STATE_OFF)
@@ -35,6 +36,8 @@ class Plant:
         self.p = params or plant_params()
         self.fx = dict(effects or {})  # hidden physics, sim_backend/effects.py
         self.forms = self.fx.pop("forms", {})  # {effect: form} other than the default
+        extra = self.fx.pop("extra", None)  # a force the user writes (sim_backend/extra.py)
+        self.extra = compile_extra(extra) if extra else None
         damper = load_damper(damper) if isinstance(damper, str) else damper
         self.damper = fx_mod.damper_with(damper, {**self.fx, "forms": self.forms})
         self.h = h

@@ -42,6 +42,8 @@ def damper_step(pl, h, v_prev):
     if fx.get("aux_channel"):
         i = pl.i_lag
         F += fx["aux_channel"] * ((i * i - 1.0) / 2 if forms.get("aux_channel") == "quadratic" else i - 1.0) * F_d
+    if pl.extra is not None:  # the user's own physics, on the rod's motion
+        F += pl.extra(x_rod, v_rod, pl.t, pl.T)
     if "cavitation" in fx:  # a chamber below the floor holds the floor: the piston loses that push
         geo, floor, form = pl.damper.geometry, fx["cavitation"], forms.get("cavitation")
         P1c, P2c = floored(P1, floor, form), floored(P2, floor, form)

@@ -4,16 +4,13 @@ from __future__ import annotations
 
 import math
 
-# The damper's force at the end of a step answers the motion X_LAG steps and X_LAG_S
-# seconds earlier (it is driven by the step's mean velocity, and BDF2 weighs the step's
-# end): the displacement is reported from then, so force and motion readings agree in time.
-# Measured with `dyno diagnose` on null recordings of the plain cell: at 1 kHz (two 0.5 ms
-# steps a tick) 0.46 steps leave no lag (|tau| < 11 us; 0.5 leaves 21 us, 0 leaves 240 us);
-# at 5 kHz (one 0.2 ms step) the same 0.46 steps left the force 10.7 us late. Two
-# measurements, two numbers: 0.423 steps and 18.5 us give 230 us at 1 kHz (exactly as
-# before: the null there sits at the relevance bar, and 0.2 us less made its 5.8 us lag
-# count) and 103 us at 5.
-X_LAG, X_LAG_S = 0.423, 18.5e-6
+# The damper's force at the end of a step answers the motion at the step's middle: it is
+# driven by the step's mean velocity (the frame's integrator), so the displacement is
+# reported from half a step earlier and force and motion readings agree in time to
+# first order. This is the plant's physics, not a calibration against the diagnosis: what
+# is left (tens of microseconds, as between a real cell's amplifiers) the diagnosis must
+# say as a timing offset of the cell, never as physics of the damper (issue 29).
+X_LAG, X_LAG_S = 0.5, 0.0
 
 
 def x_lag(h):

@@ -33,7 +33,7 @@ def one(task):
         path = record(Path(d) / "null.mcap", seed=seed, **cell)
         ch, ev, _ = load_recording(path)
     res = diagnose(ch, ev)
-    return cell, seed, [s["effect"] for s in res["steps"] if not s.get("replaced_by")]
+    return cell, seed, [s.effect for s in res.steps if not s.replaced_by]
 
 
 def false_named(cell, accepted):

@@ -51,13 +51,13 @@ def one(task):
         path = record(Path(d) / "open.mcap", rate=rate, seed=seed, extra=extra, extra_rms=SIZES[size] * SIGMA_F)
         ch, ev, _ = load_recording(path)
     res = diagnose(ch, ev)
-    base = res["baseline"]["rmse_heldout"] ** 2
-    final = res["final"]["rmse_heldout"] ** 2
+    base = res.baseline.rmse_heldout ** 2
+    final = res.final.rmse_heldout ** 2
     explained = 1.0 - max(final - NOISE_VAR, 0.0) / max(base - NOISE_VAR, 1e-9)
-    found = [s for s in res["steps"] if not s.get("replaced_by") and s.get("nature") != "form"]
-    top = max(found, key=lambda s: s["size_rms_n"]) if found else None
-    return task, [s["effect"] for s in res["steps"] if not s.get("replaced_by")], explained, top and top["depends_on"], \
-        res["left_over"]["within_noise"]
+    found = [s for s in res.steps if not s.replaced_by and s.nature != "form"]
+    top = max(found, key=lambda s: s.size_rms_n) if found else None
+    return task, [s.effect for s in res.steps if not s.replaced_by], explained, top and top.depends_on, \
+        res.left_over.within_noise
 
 
 def main(argv=None):

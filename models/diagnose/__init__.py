@@ -24,6 +24,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from models.diagnose.candidates import EFFECTS, FromModel, Minimal, Model
+from models.diagnose.result import Baseline, Candidate, Diagnosis, Final, LeftOver, Step
 from models.diagnose.terms import TERMS, tone
 from models.diagnose.data import Data, DiagnoseError, prepare
 from models.recording import covariance, nrmse
@@ -284,10 +285,11 @@ def scores(F, r, k):
             "r2_heldout": 1.0 - float(np.sum(e ** 2)) / max(sst, 1e-30)}
 
 
-def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None, holdout="interleaved"):
-    """The diagnosis as plain data (see protocols/app/diagnose.py for its JSON). baseline:
-    None for `minimal`, or (name, damper model) to start from that model, refitted.
-    holdout: "interleaved" or the tail's fraction (holdout_masks)."""
+def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
+             holdout="interleaved") -> Diagnosis:
+    """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for
+    `minimal`, or (name, damper model) to start from that model, refitted. holdout:
+    "interleaved" or the tail's fraction (holdout_masks)."""
     d = prepare(channels, events)
     if baseline is None:
         base = Minimal(d)
@@ -303,11 +305,11 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     values, sd = _pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
     fit0 = folds[0][0]
-    base_res = {"name": base.name, "parameters": values, "sd": sd, "nrmse_train": nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]),
-                **scores(d.F, r0, shown), "residual": r0, "model_gas_force": getattr(base, "Fg_m", None)}
+    base_res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
+                        residual=r0, model_gas_force=getattr(base, "Fg_m", None))
     sigma = noise_sd(r0, d, judged)
     d.tone_hz = tone(d, r0, judged)
-    progress(f"baseline: held-out error {100 * base_res['nrmse_heldout']:.2f} % of the force range, "
+    progress(f"baseline: held-out error {100 * base_res.nrmse_heldout:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
     current, r_cur = fold_vals, r0
@@ -320,7 +322,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
         sse_cur = _block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         n_before = len(Model(d, accepted, base).params)
-        round_ = []
+        round_ = []  # (candidate, pooled values, values per fold, residual)
         for e in names:
             m = Model(d, accepted + [e], base)
             if e in TERMS:
@@ -334,54 +336,49 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
             # times worse weighs what one made ten times better does
             rel = np.log(np.maximum(sse_cur, 1e-30) / np.maximum(sse_cur - d_c, 1e-30))
             own = {p.name: vals[p.name] for p in m.params[n_before:]}
-            round_.append({"effect": e, "parameters": own,
-                           "ci": {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                           **scores(d.F, r, shown), "p_value": p_value(rel, rng, alpha),
-                           "gain": gain, "relevance": gain / sigma ** 2, "round": len(accepted) + 1,
-                           "_values": vals, "_folds": f_vals, "_r": r})
-            progress(f"  {e:28s} held-out {100 * round_[-1]['nrmse_heldout']:.3f} %  p = {round_[-1]['p_value']:.2g}"
-                     f"  gain {gain / sigma ** 2:+.3f} noise variances")
-        candidates += round_
+            c = Candidate(e, len(accepted) + 1, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
+                          **scores(d.F, r, shown), p_value=p_value(rel, rng, alpha), gain=gain,
+                          relevance=gain / sigma ** 2)
+            round_.append((c, vals, f_vals, r))
+            progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
+                     f"  gain {c.relevance:+.3f} noise variances")
+        candidates += [c for c, *_ in round_]
         mse = float(np.mean(r_cur[judged] ** 2))
-        ok = [c for c in round_ if c["p_value"] < alpha and c["relevance"] >= RELEVANCE
-              and c["gain"] >= SHARE * mse and resolved(d, c["effect"], c["parameters"], c["ci"])]
+        ok = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE
+              and x[0].gain >= SHARE * mse and resolved(d, x[0].effect, x[0].parameters, x[0].ci)]
         if not ok:
             break
-        best = max(ok, key=lambda c: c["gain"])
-        m_best = Model(d, accepted + [best["effect"]], base)
-        if _open_params(d, accepted + [best["effect"]]):  # screened with parts held: now all refitted
+        best, b_vals, b_folds, b_r = max(ok, key=lambda x: x[0].gain)
+        m_best = Model(d, accepted + [best.effect], base)
+        if _open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
             # from the screening's values, close to the optimum: a few evaluations per parameter
-            best["_folds"], f_sds, best["_r"] = _cross_fit(m_best, d, folds, best["_folds"], effort=REFIT_EFFORT)
-            best["_values"] = _pooled(best["_folds"], f_sds)[0]
-        preds.append([m_best.force(d, v) for v in best["_folds"]])
+            b_folds, f_sds, b_r = _cross_fit(m_best, d, folds, b_folds, effort=REFIT_EFFORT)
+            b_vals = _pooled(b_folds, f_sds)[0]
+        preds.append([m_best.force(d, v) for v in b_folds])
         shares = [(e, form_share(d, folds, judged, preds[-2], _changes(preds, j + 1), _changes(preds, len(preds) - 1)))
                   for j, e in enumerate(accepted)]
-        traded = trades(m_best, d, folds[0][0], best["_folds"][0], accepted)
+        traded = trades(m_best, d, folds[0][0], b_folds[0], accepted)
         form_of = [(e, sh) for e, sh in shares if sh >= FORM_SHARE]
-        steps.append({"effect": best["effect"], "before": scores(d.F, r_cur, shown)["nrmse_heldout"],
-                      "after": best["nrmse_heldout"], "parameters": best["parameters"], "ci": best["ci"],
-                      "p_value": best["p_value"], "residual_before": r_cur, "residual_after": best["_r"],
-                      "trades_with": traded, "form_of": form_of,
-                      # the earlier effects whose form this one may be compensating, in acceptance order
-                      "compensates": [e for e in accepted if e in dict(traded) or e in dict(form_of)]})
-        accepted.append(best["effect"])
-        values, current, r_cur = best["_values"], best["_folds"], best["_r"]
-        progress(f"accepted {best['effect']}")
+        steps.append(Step(best.effect, scores(d.F, r_cur, shown)["nrmse_heldout"], best.nrmse_heldout,
+                          best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
+                          # the earlier effects whose form this one may be compensating, in acceptance order
+                          [e for e in accepted if e in dict(traded) or e in dict(form_of)]))
+        accepted.append(best.effect)
+        values, current, r_cur = b_vals, b_folds, b_r
+        progress(f"accepted {best.effect}")
     accepted, values, current, r_cur, replaced = _replaced(d, base, folds, judged, block, judged_blocks, accepted,
                                                            values, current, r_cur, progress)
-    for st in steps:
-        st["replaced_by"] = replaced.get(st["effect"])
     final_model = Model(d, accepted, base)
     held = judged | shown
     for st in steps:
-        if st["effect"] in accepted:
-            st.update(describe(d, st["effect"], st["residual_after"] - st["residual_before"], held))
-    return {"data": d, "holdout": holdout, "held_out": held, "reported": shown, "baseline": base_res,
-            "noise_sd": sigma, "locations": locate(d.take(held), r0[held], sigma),
-            "remaining": locate(d.take(held), r_cur[held], sigma),
-            "candidates": candidates, "accepted": accepted, "steps": steps, "not_assessed": not_assessed,
-            "left_over": left_over(r_cur, judged, block, judged_blocks, sigma, rng),
-            "final": {**scores(d.F, r_cur, shown), "parameters": values, "force": final_model.force(d, values)}}
+        st.replaced_by = replaced.get(st.effect)
+        if st.effect in accepted:
+            for k, v in describe(d, st.effect, st.residual_after - st.residual_before, held).items():
+                setattr(st, k, v)
+    return Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
+                     locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
+                     left_over(r_cur, judged, block, judged_blocks, sigma, rng),
+                     Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)))
 
 
 def _replaced(d, base, folds, judged, block, judged_blocks, accepted, values, current, r_cur, progress):
@@ -440,21 +437,28 @@ def describe(d: Data, effect, change, k):
     E = c * c
     comp = float(E[v > 0].sum() / max(E.sum(), 1e-30))
     dirs = ("both directions" if 0.25 <= comp <= 0.75 else "in compression" if comp > 0.75 else "in rebound")
+    moving = bool({"displacement", "velocity", "direction"} & set(spec.depends_on))
+    shape = c
     if "displacement" in spec.depends_on:
         var, scale, unit, name = x, 1e3, "mm", "displacement"
+        # less what a straight line in x carries: where a term takes over, the baseline's gas
+        # spring gives back the stiffness it had bent to, which is no place of the effect
+        A = np.column_stack([np.ones_like(x), x])
+        shape = c - A @ np.linalg.lstsq(A, c, rcond=None)[0]
     elif "velocity" in spec.depends_on:
         var, scale, unit, name = np.abs(v), 1.0, "m/s", "speed"
     elif "time" in spec.depends_on:
         var, scale, unit, name = t, 1.0, "s", "time"
     else:
         var = None
-    region = dirs
+    region = dirs if moving else "whatever the motion"
     if var is not None and np.ptp(var) > 0:
         edges = np.linspace(var.min(), var.max(), 13)
         i = np.clip(np.digitize(var, edges) - 1, 0, 11)
-        rms = np.sqrt(np.bincount(i, weights=E, minlength=12) / np.maximum(np.bincount(i, minlength=12), 1))
+        rms = np.sqrt(np.bincount(i, weights=shape ** 2, minlength=12) / np.maximum(np.bincount(i, minlength=12), 1))
         big = np.nonzero(rms >= REGION_SHARE * rms.max())[0]
-        region = f"{name} {edges[big.min()] * scale:.3g}-{edges[big.max() + 1] * scale:.3g} {unit}, {dirs}"
+        region = (f"{name} {edges[big.min()] * scale:.3g}-{edges[big.max() + 1] * scale:.3g} {unit}"
+                  + (f", {dirs}" if moving else ""))
     work = float(np.sum(c * v)), float(np.sum(np.abs(c * v)))
     ratio = work[0] / max(work[1], 1e-30)
     character = ("independent of the motion" if set(spec.depends_on) <= {"time", "temperature", "aux"}
@@ -473,8 +477,8 @@ def left_over(r, judged, block, judged_blocks, sigma, rng):
     ok = n > 0
     rel = np.log(np.maximum(sse[ok], 1e-30) / (n[ok] * sigma ** 2 * (1 + RELEVANCE)))
     mse = float(np.mean(r[judged] ** 2))
-    return {"p_value": p_value(rel, rng), "above_noise_rms_n": float(np.sqrt(max(mse - sigma ** 2, 0.0))),
-            "within_noise": bool(p_value(rel, rng) >= ALPHA)}
+    p = p_value(rel, rng)
+    return LeftOver(p, float(np.sqrt(max(mse - sigma ** 2, 0.0))), bool(p >= ALPHA))
 
 
 def trades(model: Model, d: Data, train, values, earlier):

@@ -2,6 +2,7 @@
 model misses the recording, what physics was left out, and the held-out evidence."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -27,9 +28,9 @@ OPENING = {"physics": "Left out: {name}. ", "cell": "In the cell, not the damper
 
 
 def _what(step):
-    said_already = step["nature"] in ("open", "form") or step["effect"] == "interference"
-    return (f"depends on {', '.join(step['depends_on'])}; {step['character']}"
-            + ("" if said_already else f"; {step['region']}; {_size(step)}"))
+    said_already = step.nature in ("open", "form") or step.effect == "interference"
+    return (f"depends on {', '.join(step.depends_on)}; {step.character}"
+            + ("" if said_already else f"; {step.region}; {_size(step)}"))
 
 
 def said(effect):
@@ -39,13 +40,13 @@ def said(effect):
 
 
 def sentence(step):
-    e = step["effect"]
+    e = step.effect
     key = e.split(":")[0]
     text, pname, factor, unit = EFFECTS[key].say
-    p, ci = step["parameters"], step["ci"]
+    p, ci = step.parameters, step.ci
     late = ""
     if EFFECTS[key].nature in ("open", "form") or key == "interference":
-        return text.format(region=step["region"], size=_size(step), hz=step.get("tone_hz", 0.0)) + _change(step)
+        return text.format(region=step.region, size=_size(step), hz=step.tone_hz or 0.0) + _change(step)
     if key == "cavitation":
         v = min(p["Fcav_c"], p["Fcav_r"])
         vs = f"{v:.0f}"
@@ -84,12 +85,12 @@ def sentence(step):
 
 
 def _size(step):
-    return f"{step['size_rms_n']:.3g} N RMS, {step['size_peak_n']:.3g} N at most"
+    return f"{step.size_rms_n:.3g} N RMS, {step.size_peak_n:.3g} N at most"
 
 
 def _change(step):
-    return (f" Held-out error falls from {100 * step['before']:.3g} % to {100 * step['after']:.3g} % "
-            f"of the force range (p = {step['p_value']:.2g}).")
+    return (f" Held-out error falls from {100 * step.before:.3g} % to {100 * step.after:.3g} % "
+            f"of the force range (p = {step.p_value:.2g}).")
 
 
 def _where(loc):
@@ -98,54 +99,54 @@ def _where(loc):
 
 
 def _held(res):
-    h = res["holdout"]
+    h = res.holdout
     return "alternate cycles held out" if h == "interleaved" else f"the last {100 * h:.0f} % held out, never chosen on"
 
 
 def summary(res):
     lines = []
-    b = res["baseline"]
-    for line in quality.describe(res["data"].flags):
+    b = res.baseline
+    for line in quality.describe(res.data.flags):
         lines.append(f"Data quality: {line}.")
-    lines.append(f"Baseline ({b['name']}): held-out error {100 * b['nrmse_heldout']:.3g} % of the force range, "
-                 f"R^2 {b['r2_heldout']:.3f} ({_held(res)}; training {100 * b['nrmse_train']:.3g} %); "
-                 f"force noise {res['noise_sd']:.2f} N.")
-    if "k_damping" in b["parameters"]:  # a damper model as the baseline: what the refit changed
-        p = b["parameters"]
+    lines.append(f"Baseline ({b.name}): held-out error {100 * b.nrmse_heldout:.3g} % of the force range, "
+                 f"R^2 {b.r2_heldout:.3f} ({_held(res)}; training {100 * b.nrmse_train:.3g} %); "
+                 f"force noise {res.noise_sd:.2f} N.")
+    if "k_damping" in b.parameters:  # a damper model as the baseline: what the refit changed
+        p = b.parameters
         lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
-                     f"mean position (the model: {b['model_gas_force']:.0f} N) and its slope with stroke "
+                     f"mean position (the model: {b.model_gas_force:.0f} N) and its slope with stroke "
                      f"x{p['k_gas']:.3f}, friction x{p['k_friction']:.3f}.")
-    strong = [loc for loc in res["locations"] if loc["concentration"] > 2.0][:3]
+    strong = [loc for loc in res.locations if loc["concentration"] > 2.0][:3]
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
-    for s in res["steps"]:
-        name = said(s["effect"])
-        if s.get("replaced_by"):
-            lines.append(f"Dropped again: {name}. {said(s['replaced_by'])} explains its gain as well without it.")
-        elif s["compensates"]:
+    for s in res.steps:
+        name = said(s.effect)
+        if s.replaced_by:
+            lines.append(f"Dropped again: {name}. {said(s.replaced_by)} explains its gain as well without it.")
+        elif s.compensates:
             why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
-                   for e, c in s["trades_with"]]
+                   for e, c in s.trades_with]
             why += [f"changing the form of {said(e)} (its size by direction, with speed, along the stroke or with "
-                    f"its own size, or a lag) brings {100 * sh:.0f} % of its gain" for e, sh in s["form_of"]]
-            lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s['compensates']))}: "
+                    f"its own size, or a lag) brings {100 * sh:.0f} % of its gain" for e, sh in s.form_of]
+            lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s.compensates))}: "
                          f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
                          f"of its own." + _change(s))
         else:
-            lines.append(OPENING[s["nature"]].format(name=name) + sentence(s) + f" ({_what(s)}.)")
-    if res["accepted"]:
-        f = res["final"]
-        lines.append(f"Final: held-out error {100 * f['nrmse_heldout']:.3g} % of the force range, RMSE "
-                     f"{f['rmse_heldout']:.3g} N, R^2 {f['r2_heldout']:.3f}, {len(f['parameters'])} parameters.")
-    lo = res["left_over"]
-    if lo["within_noise"]:
+            lines.append(OPENING[s.nature].format(name=name) + sentence(s) + f" ({_what(s)}.)")
+    if res.accepted:
+        f = res.final
+        lines.append(f"Final: held-out error {100 * f.nrmse_heldout:.3g} % of the force range, RMSE "
+                     f"{f.rmse_heldout:.3g} N, R^2 {f.r2_heldout:.3f}, {len(f.parameters)} parameters.")
+    lo = res.left_over
+    if lo.within_noise:
         lines.append(f"Nothing significant was left out: the held-out residual is within the force noise "
-                     f"(p = {lo['p_value']:.2g} that it is above it).")
+                     f"(p = {lo.p_value:.2g} that it is above it).")
     else:
-        left = [loc for loc in res["remaining"] if loc["concentration"] > 1.5][:2]
+        left = [loc for loc in res.remaining if loc["concentration"] > 1.5][:2]
         where = ("; it lives " + "; ".join(_where(loc) for loc in left)) if left else ", spread over the whole recording"
-        lines.append(f"Still unexplained: {lo['above_noise_rms_n']:.3g} N RMS above the force noise on the held-out "
-                     f"cycles (p = {lo['p_value']:.2g}); no effect or term tried takes it further{where}.")
-    for n in res["data"].notes:
+        lines.append(f"Still unexplained: {lo.above_noise_rms_n:.3g} N RMS above the force noise on the held-out "
+                     f"cycles (p = {lo.p_value:.2g}); no effect or term tried takes it further{where}.")
+    for n in res.data.notes:
         lines.append(f"Not assessed: {n}.")
     return "\n".join(lines)
 
@@ -153,32 +154,33 @@ def summary(res):
 def to_json(res):
     def num(v):
         return float(v) if np.isfinite(v) else None
-    b = res["baseline"]
+    b = res.baseline
     held = ("nrmse_heldout", "rmse_heldout", "r2_heldout")
     return {
-        "holdout": res["holdout"] if res["holdout"] == "interleaved" else f"tail:{res['holdout']:g}",
+        "holdout": res.holdout if res.holdout == "interleaved" else f"tail:{res.holdout:g}",
         "quality": [{"channel": f.channel, "kind": f.kind, "t0": num(f.t0), "t1": num(f.t1), "samples": f.samples,
-                     "message": f.message} for f in res["data"].flags],
-        "baseline": {"name": b["name"], "parameters": {k: num(v) for k, v in b["parameters"].items()},
-                     "nrmse_train": b["nrmse_train"], **{k: b[k] for k in held}},
-        "noise_sd": res["noise_sd"],
-        "locations": res["locations"],
-        "remaining": res["remaining"],
-        "candidates": [{"effect": c["effect"], "round": c["round"],
-                        "parameters": {k: num(v) for k, v in c["parameters"].items()},
-                        "ci": {k: [num(a), num(z)] for k, (a, z) in c["ci"].items()},
-                        **{k: c[k] for k in held}, "p_value": c["p_value"],
-                        "gain_noise_variances": c["relevance"]} for c in res["candidates"]],
-        "accepted": res["accepted"],
-        "may_compensate": {s["effect"]: s["compensates"] for s in res["steps"] if s["compensates"]},
+                     "message": f.message} for f in res.data.flags],
+        "baseline": {"name": b.name, "parameters": {k: num(v) for k, v in b.parameters.items()},
+                     "nrmse_train": b.nrmse_train, **{k: getattr(b, k) for k in held}},
+        "noise_sd": res.noise_sd,
+        "locations": res.locations,
+        "remaining": res.remaining,
+        "candidates": [{"effect": c.effect, "round": c.round,
+                        "parameters": {k: num(v) for k, v in c.parameters.items()},
+                        "ci": {k: [num(a), num(z)] for k, (a, z) in c.ci.items()},
+                        **{k: getattr(c, k) for k in held}, "p_value": c.p_value,
+                        "gain_noise_variances": c.relevance} for c in res.candidates],
+        "accepted": res.accepted,
+        "may_compensate": {s.effect: s.compensates for s in res.steps if s.compensates},
         # each accepted effect or term: what it depends on, where it lives, what kind and how big
-        "effects": [{"effect": s["effect"], "replaced_by": s["replaced_by"]} if s.get("replaced_by") else
-                    {"effect": s["effect"], **{k: s[k] for k in ("nature", "depends_on", "region", "character",
-                                                                "size_rms_n", "size_peak_n")}} for s in res["steps"]],
-        "left_over": res["left_over"],
-        "final": {**{k: res["final"][k] for k in held},
-                  "parameters": {k: num(v) for k, v in res["final"]["parameters"].items()}},
-        "not_assessed": res["data"].notes,
+        "effects": [{"effect": s.effect, "replaced_by": s.replaced_by} if s.replaced_by else
+                    {"effect": s.effect, **{k: getattr(s, k) for k in ("nature", "depends_on", "region", "character",
+                                                                       "size_rms_n", "size_peak_n", "tone_hz")}}
+                    for s in res.steps],
+        "left_over": dataclasses.asdict(res.left_over),
+        "final": {**{k: getattr(res.final, k) for k in held},
+                  "parameters": {k: num(v) for k, v in res.final.parameters.items()}},
+        "not_assessed": res.data.notes,
         "summary": summary(res),
     }
 
@@ -187,9 +189,9 @@ def report(res, out_dir: Path):
     from protocols.reports.page import Page, save
     from protocols.reports.plots import plt
     out_dir.mkdir(parents=True, exist_ok=True)
-    d = res["data"]
-    stages = [("baseline", res["baseline"]["residual"])] + [(f"+ {s['effect']}", s["residual_after"]) for s in res["steps"]]
-    held = res["held_out"]  # the residual of a fit that never saw the sample: only there
+    d = res.data
+    stages = [("baseline", res.baseline.residual)] + [(f"+ {s.effect}", s.residual_after) for s in res.steps]
+    held = res.held_out  # the residual of a fit that never saw the sample: only there
     fig, axes = plt.subplots(len(stages), 3, figsize=(13, 3.2 * len(stages)), squeeze=False)
     for row, (name, r) in zip(axes, stages):
         for ax, (xv, lab) in zip(row, [(d.v, "velocity [m/s]"), (d.x * 1e3, "displacement [mm]"), (d.t, "time [s]")]):
@@ -197,20 +199,20 @@ def report(res, out_dir: Path):
             ax.set_xlabel(lab)
             ax.set_ylabel(f"held-out residual [N] ({name})")
     save(fig, out_dir / "residuals.png")
-    base = d.F - res["baseline"]["residual"]
+    base = d.F - res.baseline.residual
     if d.periodic:  # the held-out cycles of the segment with the largest force range
         seg = int(np.argmax([np.ptp(d.F[(d.segment == s) & held]) if np.any((d.segment == s) & held) else -1.0
                              for s in range(len(d.segments))]))
         k = (d.segment == seg) & held
         title = d.segments[seg][0]
     else:  # motion that does not repeat: the first second reported, loops would be a tangle
-        t0 = float(d.t[res["reported"]][0])
-        k = res["reported"] & (d.t >= t0) & (d.t < t0 + 1.0)
+        t0 = float(d.t[res.reported][0])
+        k = res.reported & (d.t >= t0) & (d.t < t0 + 1.0)
         title = f"held out, {t0:.1f}-{t0 + 1.0:.1f} s"
     fig, ax = plt.subplots(1, 3, figsize=(16, 4.5))
     for a, xv, lab in zip(ax, (d.t, d.x * 1e3, d.v), ("time [s]", "displacement [mm]", "velocity [m/s]")):
         a.plot(xv[k], base[k], "C1", lw=0.7, label="baseline")
-        a.plot(xv[k], res["final"]["force"][k], "C2", lw=0.7, label="with accepted effects")
+        a.plot(xv[k], res.final.force[k], "C2", lw=0.7, label="with accepted effects")
         a.plot(xv[k], d.F[k], "k", lw=0.9, label="measured", zorder=3)
         a.set_xlabel(lab)
     ax[0].set_ylabel("force [N]")
@@ -224,8 +226,8 @@ def report(res, out_dir: Path):
     page.figure("Loops", "loops.png")
     page.heading("Candidates")
     page.table(("effect", "round", "held-out error", "p", "gain [noise variances]"),
-               [(c["effect"], c["round"], f"{100 * c['nrmse_heldout']:.3f} %", f"{c['p_value']:.4f}",
-                 f"{c['relevance']:+.2f}") for c in res["candidates"]])
+               [(c.effect, c.round, f"{100 * c.nrmse_heldout:.3f} %", f"{c.p_value:.4f}",
+                 f"{c.relevance:+.2f}") for c in res.candidates])
     return page.write(out_dir)
 
 
@@ -263,8 +265,8 @@ def run(args):
     else:
         print(summary(res))
         print("\nCandidates (held-out error, p, gain in noise variances):")
-        for c in res["candidates"]:
-            print(f"  round {c['round']} {c['effect']:32s} {100 * c['nrmse_heldout']:7.3f} %  p = {c['p_value']:<7.2g}"
-                  f"{c['relevance']:+8.2f}")
+        for c in res.candidates:
+            print(f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"
+                  f"{c.relevance:+8.2f}")
     return 0
 

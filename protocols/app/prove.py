@@ -149,11 +149,11 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None)
         run_protocol(args)
     ch, ev, _ = load_recording(out)
     r = diagnose(ch, ev)
-    named = [e for e in r["accepted"] if SPECS[e.split(":")[0]].nature != "form"]
+    named = [e for e in r.accepted if SPECS[e.split(":")[0]].nature != "form"]
     first = named[0].split(":")[0] if named else None
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
-        est = next(s["parameters"] for s in r["steps"] if s["effect"] == named[0]).get(CATALOGUE[effect].estimate)
+        est = next(s.parameters for s in r.steps if s.effect == named[0]).get(CATALOGUE[effect].estimate)
     t, F = ch["force"]
     measured = np.zeros(len(t), bool)
     for _, _, t0, t1 in segments(ev):
@@ -164,18 +164,18 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None)
     hidden = set(effect.split("+")) if effect else set()
     # a timing offset of the cell or the valve curve's form is no claim of physics
     # (models/diagnose/spec.py NATURES): not counted against a null or as an extra
-    claims = [e for e in r["accepted"] if SPECS[e.split(":")[0]].nature in ("physics", "open")]
-    extra = [s for s in r["steps"] if s["effect"].split(":")[0] not in hidden and s["effect"] in claims]
+    claims = [e for e in r.accepted if SPECS[e.split(":")[0]].nature in ("physics", "open")]
+    extra = [s for s in r.steps if s.effect.split(":")[0] not in hidden and s.effect in claims]
     return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
-            "accepted": r["accepted"], "claims": claims, "first": first, "noise_sd": r["noise_sd"],
-            "found": [{k: s.get(k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n")}
-                      for s in r["steps"] if not s.get("replaced_by")],
-            "within_noise": r["left_over"]["within_noise"],
-            "rmse": (r["baseline"]["rmse_heldout"], r["final"]["rmse_heldout"]),
-            "extra_left_out": any(not s["compensates"] for s in extra),
-            "extra_compensating": any(s["compensates"] for s in extra), "force_t": t, "force": F, "measured": measured,
+            "accepted": r.accepted, "claims": claims, "first": first, "noise_sd": r.noise_sd,
+            "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n")}
+                      for s in r.steps if not s.replaced_by],
+            "within_noise": r.left_over.within_noise,
+            "rmse": (r.baseline.rmse_heldout, r.final.rmse_heldout),
+            "extra_left_out": any(not s.compensates for s in extra),
+            "extra_compensating": any(s.compensates for s in extra), "force_t": t, "force": F, "measured": measured,
             "estimate": est,
-            "before": r["baseline"]["nrmse_heldout"], "after": r["final"]["nrmse_heldout"]}
+            "before": r.baseline.nrmse_heldout, "after": r.final.nrmse_heldout}
 
 
 def _measured_rms_diff(a, b):

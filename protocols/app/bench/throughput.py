@@ -113,4 +113,4 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     res = diagnose(ch, events)
     wall = time.perf_counter() - t0
     return {"recording_s": float(min(t_end, seconds)), "rate_hz": rate_hz, "samples": int(len(ch["force"][0])),
-            "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res["accepted"], "goal_s": 180.0}
+            "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res.accepted, "goal_s": 180.0}

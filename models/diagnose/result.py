@@ -1,0 +1,98 @@
+"""What `diagnose` returns, typed: the baseline, every candidate tried, the effects
+accepted in order (with what each is, where it lives and how big), what is left over, and
+the final model. Forces in N, errors as fractions of the force range unless named _n."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from models.diagnose.data import Data
+
+
+@dataclass
+class Baseline:
+    name: str
+    parameters: dict
+    sd: dict
+    nrmse_train: float
+    nrmse_heldout: float
+    rmse_heldout: float  # N
+    r2_heldout: float
+    residual: np.ndarray  # N, model - measured; held-out samples from a fit that never saw them
+    model_gas_force: float | None  # N: a damper model's gas force at the mean position, as simulated
+
+
+@dataclass
+class Candidate:
+    """One effect or term tried in one round."""
+    effect: str
+    round: int
+    parameters: dict  # its own
+    ci: dict  # {name: [lo, hi]}, 95 %
+    nrmse_heldout: float
+    rmse_heldout: float
+    r2_heldout: float
+    p_value: float
+    gain: float  # held-out mean-square improvement [N^2]
+    relevance: float  # gain in force-noise variances
+
+
+@dataclass
+class Step:
+    """An accepted effect or term, in the order accepted."""
+    effect: str
+    before: float  # held-out NRMSE before it
+    after: float
+    parameters: dict
+    ci: dict
+    p_value: float
+    residual_before: np.ndarray  # N
+    residual_after: np.ndarray  # N
+    trades_with: list  # [(earlier effect, |correlation|)]
+    form_of: list  # [(earlier effect, share of the gain a change in its form also brings)]
+    compensates: list  # earlier effects whose form this one may be compensating
+    replaced_by: str | None = None  # a term outside the catalogue that explains it as well
+    # what it is (describe): spec.NATURES, spec.VARIABLES, where it lives, elastic or dissipative, size
+    nature: str = ""
+    depends_on: list = field(default_factory=list)
+    region: str = ""
+    character: str = ""
+    size_rms_n: float = float("nan")
+    size_peak_n: float = float("nan")
+    tone_hz: float | None = None
+
+
+@dataclass
+class LeftOver:
+    """Whether the final held-out residual is within the noise."""
+    p_value: float
+    above_noise_rms_n: float
+    within_noise: bool
+
+
+@dataclass
+class Final:
+    nrmse_heldout: float
+    rmse_heldout: float  # N
+    r2_heldout: float
+    parameters: dict
+    force: np.ndarray  # N, the final model's prediction on every sample
+
+
+@dataclass
+class Diagnosis:
+    data: Data
+    holdout: str | float  # "interleaved" or the tail's fraction
+    held_out: np.ndarray  # samples judged or reported on
+    reported: np.ndarray  # samples the held-out measures are reported on
+    baseline: Baseline
+    noise_sd: float  # N
+    locations: list  # [{where, energy_share, sample_share, mean_residual, concentration}] of the baseline residual
+    remaining: list  # the same, of the final residual
+    candidates: list  # [Candidate]
+    accepted: list  # effect ids, in order, after any replacement
+    steps: list  # [Step]
+    not_assessed: list  # effects that could not be tried, and why
+    left_over: LeftOver
+    final: Final

@@ -2,95 +2,24 @@
 (models/diagnose/) is tested against effects it was not told about.
 
 Each is built into the plant's physics (sim_backend/plant/), in a form different from
-the one the diagnosis fits (models/diagnose/candidates.py): a first-order filter against a pure
+the one the diagnosis fits; both are declared with the effect (models/diagnose/candidates.py): a first-order filter against a pure
 delay, a mount whose rod floats across the gap against a stationary one, a Stribeck seal
 against a breakaway that decays with travel, and so on.
 """
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import numpy as np
 
 from models.damper import Compressibility, Damper, TempCoeff, TemperatureSensitivity
+from models.diagnose.candidates import CATALOGUE
 
 
-@dataclass(frozen=True)
-class Hidden:
-    """How the plant hides an effect of the diagnosis's catalogue
-    (models/diagnose/candidates.py CATALOGUE, same names: tests/test_effects.py)."""
-    unit: str  # of VALUE
-    form: str  # what VALUE sets, in the plant's own form
-    guess: float  # a VALUE of roughly noise size: where `dyno prove --calibrate` starts
-    forms: tuple = ()  # other forms the plant can hide it in (--effect NAME:FORM=VALUE); `form` is the default
-
-
-EFFECTS = {
-    "sensor_delay": Hidden("s", "time constant of a first-order filter in the LVDT/LVT conditioning", 1e-4,
-                           ("transport", "second_order")),
-    "free_play": Hidden("m", "clearance in the damper's lower mount, in the load path (rigid contact)", 2e-5,
-                        ("contact", "hertz")),
-    "compressibility": Hidden("Pa", "effective bulk modulus of the oil (entrained air), constant", 2e10,
-                              ("pressure", "air")),
-    "breakaway_friction": Hidden("-", "Stribeck seal (Gaussian, 5 mm/s): friction at rest over sliding friction",
-                                 1.1, ("exponential", "lorentzian", "power", "slow")),
-    "position_friction": Hidden("-", "a tight spot in the bore: extra friction at its peak over the table's", 0.1,
-                                ("narrow", "step")),
-    "gas_temperature": Hidden("-", "share of the body's temperature rise the gas charge takes on", 0.1,
-                              ("reservoir", "lagged")),
-    "damping_temperature": Hidden("1/K", "K_effoil of eq 4.17 in both directions (oil density with temperature)",
-                                  1e-4, ("compression", "rebound")),
-    "fluid_inertia": Hidden("kg", "mass of the oil column accelerated through the valves (1 ms lag)", 0.5,
-                            ("resonant", "direction")),
-    "cavitation": Hidden("Pa", "absolute pressure below which the oil releases air: chambers cannot go lower", 3e5,
-                         ("lingering", "soft")),
-    "presliding_friction": Hidden("m", "the seal's pre-sliding travel (the plant's Dahl law, stepped with the frame)",
-                                  1e-5, ("jenkins", "iwan")),
-    "bouc_wen": Hidden("N", "force at yield of a hysteretic element in the load path, Bouc-Wen with exponent "
-                            "n = 1 over BW_YIELD of travel (the diagnosis fits n = 2)", 1.0, ("elastoplastic", "wide")),
-    "aux_channel": Hidden("1/A", "damping change per ampere of the adjuster current aux.valve_current (20 ms "
-                                 "solenoid lag)", 0.01, ("fast", "quadratic")),
-}
+# each catalogue effect's hidden forms, declared with the effect (models/diagnose/candidates.py)
+EFFECTS = {name: e.hidden for name, e in CATALOGUE.items()}
 # the other forms, in the plant's words (VALUE keeps its meaning and unit in each)
-FORMS = {
-    "sensor_delay:transport": "a pure transport delay of VALUE in the LVDT/LVT signal",
-    "sensor_delay:second_order": "two first-order filters of VALUE / 2 in series (critically damped)",
-    "free_play:contact": "the clearance closes onto a linear contact stiffness that gives way VALUE more "
-                         "under CONTACT_F (a worn elastomer bush)",
-    "free_play:hertz": "the clearance closes onto a Hertzian contact, deflection (F / CONTACT_F)^(2/3) VALUE "
-                       "(a worn ball joint)",
-    "compressibility:pressure": "bulk modulus rising with chamber pressure (eq 3.32): VALUE / 4 at zero, "
-                                "VALUE at 2 MPa, at most 4 VALUE (from 10 MPa)",
-    "compressibility:air": "free air entrained in the oil, compressed isothermally: effective modulus VALUE "
-                           "at 2 MPa, softer below, stiffer above",
-    "breakaway_friction:exponential": "Stribeck seal, exp(-|v| / 2 mm/s)",
-    "breakaway_friction:lorentzian": "Stribeck seal, 1 / (1 + (v / 10 mm/s)^2)",
-    "breakaway_friction:power": "Stribeck seal, a power law (1 + |v| / 20 mm/s)^-2",
-    "breakaway_friction:slow": "Stribeck seal, Gaussian at 1 mm/s",
-    "position_friction:narrow": "a tight spot 1.5 mm wide, 3 mm below mid-stroke",
-    "position_friction:step": "friction VALUE higher over the bore above mid-stroke + 2 mm (a worn lower bore), "
-                              "the step over 0.5 mm",
-    "gas_temperature:reservoir": "share of the reservoir's temperature rise (it lags the body by its 60 s)",
-    "gas_temperature:lagged": "share of the body's temperature rise through a 10 s lag (heat through the "
-                              "floating piston)",
-    "damping_temperature:compression": "K_effoil of twice VALUE in compression only",
-    "damping_temperature:rebound": "K_effoil of twice VALUE in rebound only",
-    "fluid_inertia:resonant": "the oil column on the oil's spring: its force through a 150 Hz resonance, "
-                              "damping ratio 0.3",
-    "fluid_inertia:direction": "1.5 VALUE while oil flows in compression, 0.5 VALUE in rebound (longer path)",
-    "cavitation:lingering": "the air released below VALUE redissolves over CAV_REDISSOLVE_S: the lost push "
-                            "recovers with that lag",
-    "cavitation:soft": "air comes out of solution from twice VALUE down: the chamber approaches VALUE "
-                       "exponentially",
-    "presliding_friction:jenkins": "friction builds linearly over VALUE of travel, then slides (elasto-plastic)",
-    "presliding_friction:iwan": "four elasto-plastic elements of 0.25, 0.75, 1.25 and 1.75 VALUE in parallel",
-    "bouc_wen:elastoplastic": "elasto-plastic: linear up to VALUE over BW_YIELD of travel, then yields",
-    "bouc_wen:wide": "the default element over five times BW_YIELD",
-    "aux_channel:fast": "the solenoid follows the current within 2 ms",
-    "aux_channel:quadratic": "damping change VALUE (i^2 - 1) / 2: the solenoid's force goes with the current "
-                             "squared (VALUE per ampere at 1 A)",
-}
+FORMS = {f"{name}:{form}": what for name, h in EFFECTS.items() for form, what in h.forms.items()}
 # Stribeck curve per form: (shape, Stribeck velocity [m/s]); seals run 1-20 mm/s (a choice)
 STRIBECK = {None: ("gaussian", 0.005), "exponential": ("exponential", 0.002), "lorentzian": ("lorentzian", 0.01),
             "power": ("power", 0.02), "slow": ("gaussian", 0.001)}

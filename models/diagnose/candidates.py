@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from models.diagnose import kernels
-from models.diagnose.spec import V_EPS, Effect, P
+from models.diagnose.spec import V_EPS, Effect, Hidden, P
 from models.diagnose.terms import TERMS
 
 GAMMA = 1.38  # thesis section 4.1.2
@@ -23,7 +23,6 @@ GAMMA = 1.38  # thesis section 4.1.2
 # at the Nyquist frequency averages over about 0.6 of one (a choice; the data cannot tell it
 # from the size of a short clearance crossing, which it scales)
 W_FORCE = 0.5
-LEAD = 20  # samples run before a stretch when a damper model is simulated along it
 
 
 def _direction(v, c1, c2, C, Fcr):
@@ -67,7 +66,7 @@ def baseline_params(d):
             P("F_c", 0.03 * Fmax, 0.0, 0.5 * Fmax, "N")]
 
 
-def _shift(y, t, tau):
+def shift(y, t, tau):
     return np.interp(t - tau, t, y)
 
 
@@ -89,55 +88,6 @@ class Minimal:
         """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
         along motion x, v (already shifted by the sensor delay tau)."""
         return damping(v, p), gas(x, self.x_m, p), p["F_c"] * np.tanh(v / V_EPS), lambda: _slope(v, p)
-
-
-class FromModel:
-    """Baseline from a damper model (the presets' JSON): its damping, gas and friction
-    forces simulated once along the recorded motion (models/physics/simulate.py, compressible), then
-    refitted where the data allows: a gain on the damping (valves), the static gas force and
-    a gain on its slope with stroke (charge pressure and volume), a gain on the friction."""
-
-    def __init__(self, damper, d, name):
-        from models.physics.simulate import simulate
-        self.name = name
-        T = float(np.mean(d.T)) if d.T is not None else 293.15
-        x_e = float(np.mean(d.x))
-        out = {k: np.empty(len(d.t)) for k in ("Fd", "Fg", "Ff", "slope")}
-        dv = 1e-3  # m/s, for the valves' slope (incompressible)
-        cut = np.r_[0, np.nonzero(np.diff(d.t) > 1.5 * d.h[1:])[0] + 1, len(d.t)]
-        for a, b in zip(cut[:-1], cut[1:]):
-            if b - a < 2:
-                out["Fd"][a:b] = out["Fg"][a:b] = out["Ff"][a:b] = out["slope"][a:b] = 0.0
-                continue
-            t = np.linspace(d.t[a], d.t[b - 1], b - a)  # uniform, as the compressible model needs
-            x, v = np.interp(t, d.t[a:b], d.x[a:b]), np.interp(t, d.t[a:b], d.v[a:b])
-            # a lead-in at the first sample's velocity, so the chambers are flowing when it starts
-            lead = np.arange(-LEAD, 0)
-            t = np.r_[t[0] + lead * (t[1] - t[0]), t]
-            x = np.r_[x[0] + v[0] * (t[:LEAD] - t[LEAD]), x]
-            v = np.r_[np.full(LEAD, v[0]), v]
-            r = simulate(damper, t, x, v, T=T, compressible=True, x_e=x_e, substeps=4)
-            up = simulate(damper, t, x, v + dv, T=T, compressible=False, x_e=x_e)
-            dn = simulate(damper, t, x, v - dv, T=T, compressible=False, x_e=x_e)
-            back = (lambda y: np.interp(d.t[a:b], t[LEAD:], y[LEAD:]))
-            out["Fd"][a:b], out["Fg"][a:b], out["Ff"][a:b] = back(r.damping), back(r.gas), back(r.friction)
-            out["slope"][a:b] = back(np.abs(up.damping - dn.damping) / (2 * dv))
-        self.Fd, self.Fg, self.Ff, self.slope = out["Fd"], out["Fg"], out["Ff"], out["slope"]
-        self.Fg_m = float(np.mean(self.Fg))
-        self.Ff_level = float(np.percentile(np.abs(self.Ff), 90))  # sliding friction [N]
-
-    def params(self, d):
-        Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
-        return [P("k_damping", 1.0, 0.0, 5.0, "-"), P("G0", self.Fg_m, -Fmax, Fmax, "N"),
-                P("k_gas", 1.0, 0.0, 5.0, "-"), P("k_friction", 1.0, 0.0, 10.0, "-")]
-
-    def friction_level(self, p):
-        return p["k_friction"] * self.Ff_level
-
-    def parts(self, d, p, x, v, tau):
-        s = (lambda y: _shift(y, d.t, -tau)) if tau else (lambda y: y)
-        return (p["k_damping"] * s(self.Fd), p["G0"] + p["k_gas"] * (s(self.Fg) - self.Fg_m),
-                p["k_friction"] * s(self.Ff), lambda: p["k_damping"] * s(self.slope))
 
 
 class Model:
@@ -190,7 +140,7 @@ class Forces:
 def _sensor_delay(m, d, p, f, e):
     f.tau = p["tau"]
     if f.tau:  # the force answers the motion tau earlier than stamped
-        f.x, f.v, f.a = _shift(f.x, f.t, -f.tau), _shift(f.v, f.t, -f.tau), _shift(f.a, f.t, -f.tau)
+        f.x, f.v, f.a = shift(f.x, f.t, -f.tau), shift(f.v, f.t, -f.tau), shift(f.a, f.t, -f.tau)
 
 
 def _damping_temperature(m, d, p, f, e):
@@ -241,7 +191,7 @@ def _fluid_inertia(m, d, p, f, e):
 
 def _aux_channel(m, d, p, f, e):
     name = e.split(":", 1)[1]
-    u = _shift(d.aux[name], f.t, p[f"lag:{name}"]) - m.aux_m[name]
+    u = shift(d.aux[name], f.t, p[f"lag:{name}"]) - m.aux_m[name]
     f.F = f.F + (p[f"b0:{name}"] + p[f"b1:{name}"] * f.Fd) * u
 
 
@@ -302,20 +252,39 @@ CATALOGUE = {e.name: e for e in (
            estimate="tau", apply=_sensor_delay, acts_on="motion", depends_on=("time",), nature="cell",
            say=("The {late} by {v} {u}: a timing offset of the cell (a filter or transport lag in a sensor's "
                 "signal chain, or the channels' clocks), not the damper. Align the channels (or fix the "
-                "conditioning) before fitting valves.", "tau", 1e3, "ms")),
+                "conditioning) before fitting valves.", "tau", 1e3, "ms"),
+           hidden=Hidden('s', 'time constant of a first-order filter in the LVDT/LVT conditioning', 0.0001, {
+               'transport': 'a pure transport delay of VALUE in the LVDT/LVT signal',
+               'second_order': 'two first-order filters of VALUE / 2 in series (critically damped)',
+           }),
+    ),
     Effect("free_play", "clearance (free play) in the damper's mounts",
            _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
            estimate="c_play", apply=_free_play, acts_on="total", depends_on=("velocity", "direction"),
            say=("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
                 "meanwhile where the damper's own force on it is zero) each time it changes sign: "
                 "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
-                "c_play", 1e3, "mm")),
+                "c_play", 1e3, "mm"),
+           hidden=Hidden('m', "clearance in the damper's lower mount, in the load path (rigid contact)", 2e-05, {
+               'contact': 'the clearance closes onto a linear contact stiffness that gives way VALUE more under '
+                          'CONTACT_F (a worn elastomer bush)',
+               'hertz': 'the clearance closes onto a Hertzian contact, deflection (F / CONTACT_F)^(2/3) VALUE (a worn'
+                        ' ball joint)',
+           }),
+    ),
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
            estimate="inv_k_oil", apply=_compressibility, acts_on="parts", depends_on=("velocity", "frequency"),
            say=("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
                 "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
-                "inv_k_oil", None, "kN/mm")),
+                "inv_k_oil", None, "kN/mm"),
+           hidden=Hidden('Pa', 'effective bulk modulus of the oil (entrained air), constant', 20000000000.0, {
+               'pressure': 'bulk modulus rising with chamber pressure (eq 3.32): VALUE / 4 at zero, VALUE at 2 MPa, '
+                           'at most 4 VALUE (from 10 MPa)',
+               'air': 'free air entrained in the oil, compressed isothermally: effective modulus VALUE at 2 MPa, '
+                      'softer below, stiffer above',
+           }),
+    ),
     Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
            _p(P("r_break", 1.2, 1.0, 5.0, "-"),
               P("v_break", 5e-3, 2e-4, 0.1, "m/s", tuple(np.geomspace(5e-4, 5e-2, 7))),
@@ -323,52 +292,106 @@ CATALOGUE = {e.name: e for e in (
            estimate="r_break", apply=_breakaway_friction, acts_on="parts", depends_on=("velocity", "direction"),
            say=("Friction is higher just after each velocity reversal, static/dynamic ratio {v}: "
                 "seal breakaway. It sets the force near zero velocity; check seal and rod finish.",
-                "r_break", 1.0, "")),
+                "r_break", 1.0, ""),
+           hidden=Hidden('-', 'Stribeck seal (Gaussian, 5 mm/s): friction at rest over sliding friction', 1.1, {
+               'exponential': 'Stribeck seal, exp(-|v| / 2 mm/s)',
+               'lorentzian': 'Stribeck seal, 1 / (1 + (v / 10 mm/s)^2)',
+               'power': 'Stribeck seal, a power law (1 + |v| / 20 mm/s)^-2',
+               'slow': 'Stribeck seal, Gaussian at 1 mm/s',
+           }),
+    ),
     Effect("position_friction", "seal friction varying along the bore",
            _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2")),
            estimate="pf1", apply=_position_friction, acts_on="parts", depends_on=("displacement", "direction"),
            say=("Friction changes along the stroke ({v} {u} per cm from mid-stroke): a tight spot or "
-                "wear in the bore or seal. Inspect the bore and rod.", "pf1", 100.0, "%")),
+                "wear in the bore or seal. Inspect the bore and rod.", "pf1", 100.0, "%"),
+           hidden=Hidden('-', "a tight spot in the bore: extra friction at its peak over the table's", 0.1, {
+               'narrow': 'a tight spot 1.5 mm wide, 3 mm below mid-stroke',
+               'step': 'friction VALUE higher over the bore above mid-stroke + 2 mm (a worn lower bore), the step '
+                       'over 0.5 mm',
+           }),
+    ),
     Effect("gas_temperature", "gas-spring force rising with temperature",
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
            estimate="k_gT", apply=_gas_temperature, acts_on="parts", needs="T",
            depends_on=("temperature", "displacement"),
            say=("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
-                "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%")),
+                "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%"),
+           hidden=Hidden('-', "share of the body's temperature rise the gas charge takes on", 0.1, {
+               'reservoir': "share of the reservoir's temperature rise (it lags the body by its 60 s)",
+               'lagged': "share of the body's temperature rise through a 10 s lag (heat through the floating piston)",
+           }),
+    ),
     Effect("damping_temperature", "damping changing with oil temperature",
            _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
            estimate="k_dT", apply=_damping_temperature, acts_on="parts", needs="T",
            depends_on=("temperature", "velocity", "direction"),
            say=("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
-                "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%")),
+                "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
+           hidden=Hidden('1/K', 'K_effoil of eq 4.17 in both directions (oil density with temperature)', 0.0001, {
+               'compression': 'K_effoil of twice VALUE in compression only',
+               'rebound': 'K_effoil of twice VALUE in rebound only',
+           }),
+    ),
     Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
            _p(P("m_oil", 0.0, -20.0, 200.0, "kg")),
            estimate="m_oil", apply=_fluid_inertia, acts_on="total", depends_on=("acceleration",),
            say=("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
                 "(or unsupported mass in the load path). It matters in step and high-frequency tests.",
-                "m_oil", 1.0, "kg")),
+                "m_oil", 1.0, "kg"),
+           hidden=Hidden('kg', 'mass of the oil column accelerated through the valves (1 ms lag)', 0.5, {
+               'resonant': "the oil column on the oil's spring: its force through a 150 Hz resonance, "
+                           "damping ratio 0.3",
+               'direction': '1.5 VALUE while oil flows in compression, 0.5 VALUE in rebound (longer path)',
+           }),
+    ),
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
            estimate="Fcav_c", apply=_cavitation, acts_on="total", depends_on=("velocity", "direction", "displacement"),
            say=("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
-                "charge or check for air.", None, 1.0, "N")),
+                "charge or check for air.", None, 1.0, "N"),
+           hidden=Hidden('Pa', 'absolute pressure below which the oil releases air: chambers cannot go lower',
+                         300000.0, {
+               'lingering': 'the air released below VALUE redissolves over CAV_REDISSOLVE_S: the lost push recovers '
+                            'with that lag',
+               'soft': 'air comes out of solution from twice VALUE down: the chamber approaches VALUE exponentially',
+           }),
+    ),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
            _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
            estimate="x_stick", apply=_presliding_friction, acts_on="parts", depends_on=("displacement", "direction"),
            say=("Friction builds over {v} {u} of travel after each reversal before the seal slides "
                 "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
                 "corners of small-amplitude loops; keep it in the model when tuning low-speed valving.",
-                "x_stick", 1e3, "mm")),
+                "x_stick", 1e3, "mm"),
+           hidden=Hidden('m', "the seal's pre-sliding travel (the plant's Dahl law, stepped with the frame)", 1e-05, {
+               'jenkins': 'friction builds linearly over VALUE of travel, then slides (elasto-plastic)',
+               'iwan': 'four elasto-plastic elements of 0.25, 0.75, 1.25 and 1.75 VALUE in parallel',
+           }),
+    ),
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
            _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
            depends_on=("displacement", "direction"),
            say=("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
                 "element, as in Spencer's magnetorheological damper model): a yield-stress fluid or a stiff "
                 "element that gives way, which a valve curve cannot follow around the loops.{aux} Model the "
-                "damper with the hysteretic element (its parameters are in the JSON).", "alpha_bw", 1.0, "N")),
+                "damper with the hysteretic element (its parameters are in the JSON).", "alpha_bw", 1.0, "N"),
+           hidden=Hidden('N', 'force at yield of a hysteretic element in the load path, Bouc-Wen with exponent '
+                              'n = 1 over BW_YIELD of travel (the diagnosis fits n = 2)', 1.0, {
+               'elastoplastic': 'elasto-plastic: linear up to VALUE over BW_YIELD of travel, then yields',
+               'wide': 'the default element over five times BW_YIELD',
+           }),
+    ),
     Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
            estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux", depends_on=("aux",),
            say=("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
-                "Hold it constant or include it in the model.", "lag", 1e3, "ms")),
+                "Hold it constant or include it in the model.", "lag", 1e3, "ms"),
+           hidden=Hidden('1/A', 'damping change per ampere of the adjuster current aux.valve_current (20 ms '
+                                'solenoid lag)', 0.01, {
+               'fast': 'the solenoid follows the current within 2 ms',
+               'quadratic': "damping change VALUE (i^2 - 1) / 2: the solenoid's force goes with the current "
+                            "squared (VALUE per ampere at 1 A)",
+           }),
+    ),
 )}
 # the catalogue and the open terms (models/diagnose/terms.py), which compete in every round
 EFFECTS = {**CATALOGUE, **TERMS}

@@ -1,9 +1,9 @@
-"""What the diagnosis knows of an effect, in one place: its parameters (bounds, starts),
-its force and where that acts, what it depends on, what kind of thing it is, and how it
-is said."""
+"""What is known of an effect, in one place: its parameters (bounds, starts), its force
+and where that acts, what it depends on, what kind of thing it is, how it is said, and how
+the virtual plant hides it (sim_backend/, in forms other than the one fitted here)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 V_EPS = 5e-5  # m/s: a friction's sign is softened over this (the model's velocity is fitted, not measured)
 
@@ -26,6 +26,15 @@ class P:
 
 
 @dataclass(frozen=True)
+class Hidden:
+    """How the virtual plant hides an effect (`--effect NAME[:FORM]=VALUE`)."""
+    unit: str  # of VALUE
+    form: str  # what VALUE sets, in the plant's default form
+    guess: float  # a VALUE of roughly noise size: where `dyno prove --calibrate` starts
+    forms: dict = field(default_factory=dict)  # {other form: what VALUE sets in it}
+
+
+@dataclass(frozen=True)
 class Effect:
     """An effect the baseline may have left out."""
     name: str
@@ -38,3 +47,4 @@ class Effect:
     depends_on: tuple = ()  # of VARIABLES
     nature: str = "physics"  # of NATURES
     say: tuple = ()  # (sentence, parameter shown, factor, unit): see protocols/app/diagnose.py
+    hidden: Hidden | None = None  # how the virtual plant hides it; None: the plant has no form of it

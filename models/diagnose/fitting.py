@@ -1,0 +1,132 @@
+"""Fitting a diagnosis model on training samples: least squares over every free
+parameter (grid starts for piecewise ones), two-fold cross-fitting, and one Gauss-Newton
+step for an open term (terms.py)."""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from models.diagnose.candidates import EFFECTS, Model
+from models.diagnose.data import Data
+from models.diagnose.terms import TERMS
+from models.recording import covariance
+
+SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
+
+
+def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
+    """Least squares over the training samples; returns (values, sd per parameter).
+    Parameters named in `hold` stay at their start (sd nan); at most `effort` function
+    evaluations per free parameter."""
+    params = [p for p in model.params if p.name not in hold]
+    names = [p.name for p in params]
+    held = {p.name: start.get(p.name, p.x0) for p in model.params if p.name in hold}
+    lo = np.array([p.lo for p in params])
+    hi = np.array([p.hi for p in params])
+    z0 = np.clip([start.get(p.name, p.x0) for p in params], lo, hi)
+    scale = np.maximum(np.abs(hi - lo) * 1e-3, np.abs(z0) * 0.1)
+    Fs = max(float(np.std(d.F)), 1e-9)
+
+    def resid(z):
+        return (model.force(d, {**held, **dict(zip(names, z))})[train] - d.F[train]) / Fs
+
+    # parameters whose effect is piecewise or far from linear start from a grid over their
+    # whole range: at each grid value the new effect's other parameters are fitted briefly
+    # (a size is zero until its shape is right), and the best start is kept
+    new = [i for i, p in enumerate(params) if p.name not in start]
+    for i, p in enumerate(params):
+        if not p.grid or p.name in start:
+            continue
+        free = [j for j in new if j != i and not params[j].grid]
+        best = (np.inf, z0)
+        for val in (min(max(g, p.lo), p.hi) for g in p.grid):
+            z = z0.copy()
+            z[i] = val
+            if free:
+                def part(y, z=z):
+                    zz = z.copy()
+                    zz[free] = y
+                    return resid(zz)
+                z[free] = least_squares(part, z[free], bounds=(lo[free], hi[free]), x_scale=scale[free],
+                                        max_nfev=SHORT * len(free), method="trf").x
+            cost = float(np.sum(resid(z) ** 2))
+            if cost < best[0]:
+                best = (cost, z)
+        z0 = best[1]
+    r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=effort * len(z0), method="trf")
+    values = {**held, **dict(zip(names, r.x))}
+    try:
+        sd = dict(zip(names, covariance(r.jac, r.fun)[0]))
+    except np.linalg.LinAlgError:
+        sd = {n: float("nan") for n in names}
+    return values, {**{n: float("nan") for n in held}, **sd}
+
+
+def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60):
+    """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
+    sd per fold, residual [N] where every judged sample comes from a fit that never saw it)."""
+    r = np.zeros(len(d.F))
+    vals, sds = [], []
+    for (train, test), start in zip(folds, starts):
+        v, sd = fit(model, d, train, start, hold, effort)
+        r = np.where(test, model.force(d, v) - d.F, r)
+        vals.append(v)
+        sds.append(sd)
+    return vals, sds, r
+
+
+def linear_fit(model: Model, d: Data, folds, starts, hold=()):
+    """cross_fit for a model whose last effect is an open term (terms.py), by one
+    Gauss-Newton step from the current model's values (`starts`): the term's coefficients
+    (it is linear in them: its columns are the force's change per unit coefficient) and a
+    step in every other free parameter, solved together by linear least squares on each
+    fold's training samples. A nonlinear refit of a dozen spline coefficients with every
+    other parameter costs tens of times more; the step lets the baseline give way where
+    the term takes over (a valve curve reshaped needs the baseline's valve to move with it)."""
+    own = model.params[-len(EFFECTS[model.effects[-1].split(":")[0]].params(d, model.effects[-1])):]
+    own_names = {p.name for p in own}
+    rest = [p for p in model.params if p.name not in own_names and p.name not in hold]
+    r = np.zeros(len(d.F))
+    vals, sds = [], []
+    for (train, test), start in zip(folds, starts):
+        z = {**{p.name: p.x0 for p in model.params}, **start, **{p.name: 0.0 for p in own}}
+        F0 = model.force(d, z)
+        cols = [model.force(d, {**z, p.name: 1.0}) - F0 for p in own]
+        steps_ = [max(abs(z[p.name]) * 1e-4, (p.hi - p.lo) * 1e-7) for p in rest]
+        cols += [(model.force(d, {**z, p.name: z[p.name] + dz}) - F0) / dz for p, dz in zip(rest, steps_)]
+        A = np.column_stack(cols)
+        y = (d.F - F0)[train]
+        # the term alone, and the term with a damped step in the rest (their columns are
+        # nearly collinear with a spline's); whichever the model itself fits better wins
+        c = np.linalg.lstsq(A[train][:, :len(own)], y, rcond=None)[0]
+        v = {**z, **{p.name: float(np.clip(ci, p.lo, p.hi)) for p, ci in zip(own, c)}}
+        F1 = model.force(d, v)
+        if rest:
+            norm = np.maximum(np.linalg.norm(A[train], axis=0), 1e-300)
+            As = A[train] / norm
+            lam = 1e-3 * float(np.linalg.norm(As, 2)) ** 2
+            damp = np.r_[np.zeros(len(own)), np.full(len(rest), lam)]
+            sol = np.linalg.solve(As.T @ As + np.diag(damp), As.T @ y) / norm
+            w = dict(z)
+            for p, ci in zip(own + rest, sol[:len(own)].tolist() + [z[q.name] + dq for q, dq in zip(rest, sol[len(own):])]):
+                w[p.name] = float(np.clip(ci, p.lo, p.hi))
+            F2 = model.force(d, w)
+            if np.sum((F2 - d.F)[train] ** 2) < np.sum((F1 - d.F)[train] ** 2):
+                v, F1 = w, F2
+        sd = covariance(A[train][:, :len(own)], (F1 - d.F)[train])[0]
+        r = np.where(test, F1 - d.F, r)
+        vals.append(v)
+        sds.append({**{k: float("nan") for k in v}, **{p.name: float(s_) for p, s_ in zip(own, sd)}})
+    return vals, sds, r
+
+
+def open_params(d: Data, effects):
+    """Names of the open terms' coefficients among effects."""
+    return {p.name for e in effects if e in TERMS for p in TERMS[e].params(d, e)}
+
+
+def pooled(vals, sds):
+    """The folds' estimates averaged, with the sd of that mean (independent halves)."""
+    mean = {k: float(np.mean([v[k] for v in vals])) for k in vals[0]}
+    sd = {k: float(np.sqrt(sum(s[k] ** 2 for s in sds)) / len(sds)) for k in sds[0]}
+    return mean, sd

@@ -10,6 +10,7 @@ from models.diagnose.data import Data
 GAIN_ERROR = 0.02  # a load cell's and a valve curve's proportional misfit: the share of the force a residual is judged against
 
 
+CHARACTER = 2.0  # one part's variance over the other's for an effect to be said elastic or dissipative
 REGION_SHARE = 0.25  # where an effect lives: where its RMS is above this share of its largest
 
 
@@ -94,8 +95,7 @@ def describe(d: Data, effect, change, k):
     prediction (`change` [N], its force and the refit of the rest, over the samples k): its
     size (RMS and peak [N]), where it lives (the band of the variable it depends on where
     its RMS is above REGION_SHARE of its largest, and the directions that hold a quarter of its energy or
-    more), whether it stores or dissipates energy (the net work it takes from the rod over
-    the cycles against the work it exchanges), what it depends on and what kind of thing it
+    more), whether it stores or dissipates energy (_character), what it depends on and what kind of thing it
     is (spec.NATURES)."""
     spec = EFFECTS[effect.split(":")[0]]
     c = change[k]
@@ -125,10 +125,26 @@ def describe(d: Data, effect, change, k):
         big = np.nonzero(rms >= REGION_SHARE * rms.max())[0]
         region = (f"{name} {edges[big.min()] * scale:.3g}-{edges[big.max() + 1] * scale:.3g} {unit}"
                   + (f", {dirs}" if moving else ""))
-    work = float(np.sum(c * v)), float(np.sum(np.abs(c * v)))
-    ratio = work[0] / max(work[1], 1e-30)
-    character = ("independent of the motion" if set(spec.depends_on) <= {"time", "temperature", "aux"}
-                 else "dissipative" if ratio > 0.5 else "elastic" if abs(ratio) < 0.2 else "both elastic and dissipative")
+    dep = set(spec.depends_on)
+    character = ("independent of the motion" if dep <= {"time", "temperature", "aux"}
+                 # a force set by the velocity alone stores nothing; one set by the stroke alone, all
+                 else "dissipative" if "displacement" not in dep else "elastic" if not dep & {"velocity", "direction"}
+                 else _character(c, x, v))
     return {"depends_on": list(spec.depends_on), "nature": spec.nature, "region": region, "character": character,
             "size_rms_n": float(np.sqrt(np.mean(E))), "size_peak_n": float(np.max(np.abs(c))),
             **({"tone_hz": d.tone_hz} if spec.needs == "tone" else {})}
+
+
+def _character(c, x, v):
+    """"elastic", "dissipative" or both: how much of the force c [N] is a function of the
+    stroke alone, alike both ways (it stores energy: a spring), against how much turns
+    with the direction of travel at the same stroke (it takes work from the rod over a
+    cycle: damping, friction, hysteresis), each the variance of its bin means over 12
+    stroke bands; one is said when it is at least CHARACTER times the other."""
+    i = np.clip(np.digitize(x, np.linspace(x.min(), x.max(), 13)) - 1, 0, 11)
+    j = i * 2 + (v > 0)
+    mean = (lambda g, n: np.bincount(g, weights=c, minlength=n) / np.maximum(np.bincount(g, minlength=n), 1))
+    along = mean(i, 12)[i]
+    turning = mean(j, 24)[j] - along
+    e, o = float(np.var(along)), float(np.var(turning))
+    return "elastic" if e >= CHARACTER * o else "dissipative" if o >= CHARACTER * e else "both elastic and dissipative"

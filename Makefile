@@ -49,4 +49,5 @@ results: $(STAMP)
 	$(VENV)/bin/dyno prove --forms all --effects ALL,fluid_inertia+sensor_delay,breakaway_friction+compressibility,null --seeds 1 --markdown > docs/results/prove-forms.md.tmp && mv docs/results/prove-forms.md.tmp docs/results/prove-forms.md
 	$(VENV)/bin/dyno prove --effects ALL,null --forms all --rates 5000 --seeds 1 --markdown > docs/results/prove-5k.md.tmp && mv docs/results/prove-5k.md.tmp docs/results/prove-5k.md
 	$(VENV)/bin/dyno prove --effects breakaway_friction:lorentzian,breakaway_friction:power,cavitation:lingering,cavitation:soft,presliding_friction,presliding_friction:jenkins,presliding_friction:iwan --sizes 10 --seeds 1 --markdown > docs/results/prove-x10.md.tmp && mv docs/results/prove-x10.md.tmp docs/results/prove-x10.md
-	$(VENV)/bin/python -m tests.outside_matrix --seeds 2 --markdown > docs/results/outside-nulls.md.tmp; mv docs/results/outside-nulls.md.tmp docs/results/outside-nulls.md
+	$(VENV)/bin/python -m tests.outside_matrix --seeds 1 --markdown > docs/results/outside-nulls.md.tmp; mv docs/results/outside-nulls.md.tmp docs/results/outside-nulls.md
+	$(VENV)/bin/python -m tests.outside_physics --seeds 1 --rates 1000 --markdown > docs/results/open-physics.md.tmp; mv docs/results/open-physics.md.tmp docs/results/open-physics.md

@@ -4,7 +4,8 @@ multiple, --sizes; in the plant's other forms, --forms all; two at once, A+B), r
 prove sine matrix through the wire protocols, diagnose, and count.
 
 Detection: the effect is the first accepted (a pair: both accepted), the valve curve's form
-aside (the baseline's own law reshaped). Wrong effect: something else came first (a pair:
+(the baseline's own law reshaped) and the cell's timing (the plant's own, named on its
+nulls too) aside unless the row hides a timing. Wrong effect: something else came first (a pair:
 something else accepted). False positive: physics claimed on a null recording (no hidden
 effect): a catalogue effect or a term outside it; a timing offset of the cell or the valve
 curve's form is no claim of physics (models/diagnose/spec.py NATURES).
@@ -149,7 +150,11 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None)
         run_protocol(args)
     ch, ev, _ = load_recording(out)
     r = diagnose(ch, ev)
-    named = [e for e in r.accepted if SPECS[e.split(":")[0]].nature != "form"]
+    hidden = set(effect.split("+")) if effect else set()
+    # the valve curve's form and the cell's own timing (the plant's, on every null) are not
+    # what a row hides unless it hides that: they do not take the first place
+    named = [e for e in r.accepted
+             if SPECS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
     first = named[0].split(":")[0] if named else None
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
@@ -161,7 +166,6 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None)
     # what the caller needs travels back with the result: the workers share no disk
     # an effect accepted beside the hidden ones: said as left-out physics, or as "may be
     # compensating the form of" an earlier one (docs/diagnosis.md)
-    hidden = set(effect.split("+")) if effect else set()
     # a timing offset of the cell or the valve curve's form is no claim of physics
     # (models/diagnose/spec.py NATURES): not counted against a null or as an extra
     claims = [e for e in r.accepted if SPECS[e.split(":")[0]].nature in ("physics", "open")]

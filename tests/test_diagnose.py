@@ -145,3 +145,15 @@ def test_prove_finds_a_concealed_effect_and_nothing_on_a_null():
     assert rows["free_play"]["detection"] == 1.0
     # concealed: what the effect adds to the force is no more than the sensor noise (1.5 N)
     assert rows["free_play"]["contribution_rms"] <= 1.6
+
+
+def test_prove_open_hides_a_users_force_law_and_names_it():
+    """dyno prove --open: 3 N of 50 Hz written by the user, hidden in the plain cell through
+    the wires, is named as the cell's interference, and the null of the same seed claims
+    no physics."""
+    r = subprocess.run([*DYNO, "prove", "--open", "3*sin(2*pi*50*t)", "--seeds", "1", "--json"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    run = json.loads(r.stdout)["runs"][0]
+    assert 1.8 < run["contribution_rms"] < 2.4 and run["null_claims"] == []
+    assert [f["effect"] for f in run["found"]][:1] == ["interference"] and run["explained"] > 0.6

@@ -23,6 +23,8 @@ class ExtraError(ValueError):
 
 def compile_extra(expr: str):
     """f(x, v, t, T) -> force [N] from the expression; ExtraError names what is wrong."""
+    if not expr.strip():
+        raise ExtraError(f"extra:{expr}: no force law given (e.g. 2e6*maximum(x-0.05,0)**2)")
     try:
         tree = ast.parse(expr, mode="eval")
     except SyntaxError as e:

@@ -74,7 +74,7 @@ def test_extra_physics_is_an_expression_in_x_v_t_T_and_nothing_else():
     from sim_backend.extra import ExtraError, compile_extra
     f = compile_extra("2e6 * maximum(x - 0.05, 0)**2 + 3 * sin(2 * pi * 50 * t) + 0 * v * T")
     assert f(0.06, 0.0, 0.0, 300.0) == pytest.approx(200.0)
-    for bad in ("__import__('os')", "x.real", "open('f')", "lambda: 1", "y + 1", "'a'", "x +", "1 / (x - 0.05)"):
+    for bad in ("__import__('os')", "x.real", "open('f')", "lambda: 1", "y + 1", "'a'", "x +", "1 / (x - 0.05)", "", "  "):
         with pytest.raises(ExtraError, match="^extra:"):
             compile_extra(bad)
     assert parse(["extra:maximum(x - 0.05, 0)"]) == {"extra": "maximum(x - 0.05, 0)"}

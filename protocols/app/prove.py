@@ -232,7 +232,7 @@ def run(args):
         for e, v in vals.items():
             print(f'"{e}" = {v:g}' if ":" in e else f"{e} = {v:g}")
         return 0
-    if getattr(args, "open", None):
+    if getattr(args, "open", None) is not None:  # an empty EXPR is refused there, not ignored
         return prove_open(args, say)
     concealed = prove.get("concealed", {})
     named = ([n for e in args.effects.split(",") for n in (EFFECTS if e == "ALL" else [e])] if args.effects

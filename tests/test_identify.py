@@ -14,6 +14,7 @@ from models.damper import _check_direction, load, load_file
 from models.physics.friction import dahl_series
 from models.identify import canonical, parameter_value, set_parameter
 from models.identify.dynamic import direction_ranges
+from models.identify.parameters import z_bounds
 from models.identify.static import settled
 from models.physics.simulate import simulate, sine
 
@@ -244,3 +245,15 @@ def test_bad_csv_is_refused_in_one_line(tmp_path, maps, content, message):
     p = subprocess.run(args, capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and message in p.stderr and "Traceback" not in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_a_fitted_parameter_is_bounded_by_the_range_the_damper_declares():
+    # a low-speed slope the data cannot see once the valve has cracked drifted to 5e53 N s/m
+    # in a wired run, and the damper check then refused the whole identification
+    d = load("koni")
+    lo, hi = z_bounds(d, "valves.piston.compression.b")
+    assert lo == -np.inf and np.exp(hi) == pytest.approx(1e6)
+    lo, hi = z_bounds(d, "gas_spring.gamma")
+    assert (lo, hi) == (1.0, 1.67)
+    lo, hi = z_bounds(d, "temperature.compression.K_effoil")
+    assert (lo, hi) == (-1e3, 1e3)  # fitted in units of 1e-3 /K

@@ -12,7 +12,8 @@ from scipy.optimize import least_squares
 from models.damper import Bypass, Damper, DamperError
 from models.identify import low_speed as identify_low_speed, valves as identify_valves
 from models.identify.incompressible import bypass_compression_start
-from models.identify.parameters import UNITS, determined, is_slope, parameter_value, set_parameter, to_value, to_z
+from models.identify.parameters import UNITS, determined, is_slope, parameter_value, set_parameter, to_value, to_z, \
+    z_bounds
 from models.identify.result import Result
 from models.identify.segments import Segment
 from models.identify.static import Estimate
@@ -187,6 +188,8 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
 
     z0 = np.array([to_z(n, start(n)) for n in names])
     z0 = np.nan_to_num(z0, nan=0.0, neginf=-25.0, posinf=25.0)  # a coefficient driven to zero
+    lo, hi = np.array([z_bounds(d, n) for n in names]).T
+    z0 = np.clip(z0, lo + 1e-6, hi - 1e-6)
     size = []
 
     def resid(z):
@@ -202,7 +205,7 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
         size[:] = [len(out)]
         return out
 
-    fit = least_squares(resid, z0, method="trf", x_scale=1.0, diff_step=1e-3, max_nfev=max_runs)
+    fit = least_squares(resid, z0, method="trf", bounds=(lo, hi), x_scale=1.0, diff_step=1e-3, max_nfev=max_runs)
     apply(fit.x)
     for _, p, _, _ in structures.values():
         identify_valves.make_valid(p)

@@ -4,10 +4,11 @@ are compared (module docstring of models.identify)."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 
 import numpy as np
 
-from models.damper import Damper
+from models.damper import Branch, Damper, Line
 from models.identify import valves as identify_valves
 
 UNITS = {"C_seatw": "N s/m", "dP_seat_Aw": "N", "C_ifT": "-", "C_sfT": "1/K", "a": "N s^2/m^2", "b": "N s/m", "m": "N s/m", "c": "N", "m2": "N s/m", "c2": "N", "K_effoil": "1/K",
@@ -37,6 +38,33 @@ def to_z(name, value):
         with np.errstate(divide="ignore"):
             return float(np.log(value))
     return float(value) * (1e3 if is_slope(name) else 1.0)
+
+
+# a valve magnitude's field in the damper (valves.direction): its declared range bounds the fit
+MAGNITUDE_FIELD = {"a": (Branch, "C_orrpw"), "b": (Branch, "C_linpw"), "m": (Line, "C_linw"),
+                   "c": (Line, "C_ilinw"), "m2": (Line, "C_linw"), "c2": (Line, "C_ilinw")}
+
+
+def declared_range(d: Damper, name: str) -> tuple[float, float]:
+    """The physical range damper.py declares for a parameter (models.damper.q)."""
+    parts = name.split(".")
+    if parts[0] == "valves" and parts[1] != "bypass":
+        cls, field = MAGNITUDE_FIELD[parts[-1]]
+    else:
+        obj = d
+        for p in parts[:-1]:
+            obj = getattr(obj, p)
+        cls, field = type(obj), parts[-1]
+    return next(f for f in dataclasses.fields(cls) if f.name == field).metadata["range"]
+
+
+def z_bounds(d: Damper, name: str) -> tuple[float, float]:
+    """Bounds of a fitted z: the declared range, where a parameter the data cannot see
+    would otherwise drift until the damper check refuses it."""
+    lo, hi = declared_range(d, name)
+    if is_log(name):
+        return (np.log(lo) if lo > 0 else -np.inf), np.log(abs(hi))
+    return to_z(name, lo), to_z(name, hi)
 
 
 def determined(name, z, sd):

@@ -397,7 +397,7 @@ CATALOGUE = {e.name: e for e in (
 EFFECTS = {**CATALOGUE, **TERMS}
 # the order the effects act in, whatever order they were accepted in: multiplications
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
-ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_temperature", "compressibility", "gas_temperature",
+ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility", "gas_temperature",
          "elastic_stroke", "presliding_friction", "position_friction", "stroke_friction", "breakaway_friction",
          "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "cavitation",
          "free_play")

@@ -11,6 +11,8 @@ evidence (issue 29). Each is a smooth basis with linear coefficients:
   drift            a slow offset in time, independent of the motion: B(t), judged only by its
                    change within each segment, because a segment's constant offset cannot be
                    told from the baseline's misfit of that segment
+  damping_drift    damping changing in time: (1 + B(t)) F_damping (warm-up the temperature
+                   channel does not show, a valve bedding in)
   interference     a tone at a frequency unrelated to the motion, found in the residual's
                    spectrum (mains hum, a pump, a fan)
   temperature_force an offset varying with temperature: B(T)
@@ -105,8 +107,13 @@ def _drift_n(d):
 
 
 def _drift(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d)), d.segment))
+    B = _basis(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
     f.F = f.F + B @ np.array([p[f"dr{i}"] for i in range(B.shape[1])])
+
+
+def _damping_drift(m, d, p, f, e):
+    B = _basis(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
+    f.Fd = f.Fd * (1.0 + B @ np.array([p[f"dd{i}"] for i in range(B.shape[1])]))
 
 
 def _interference(m, d, p, f, e):
@@ -190,6 +197,11 @@ TERMS = {e.name: e for e in (
            say=("Not in the catalogue: a slow offset in time, independent of the motion ({region}; {size}): "
                 "the load cell's zero drifting, a leak or warm-up? Re-zero and repeat a reference segment.",
                 None, 1.0, "N")),
+    Effect("damping_drift", "damping changing in time, independent of the motion",
+           lambda d, e: [P(f"dd{i}", 0.0, -0.9, 0.9, "-") for i in range(_drift_n(d))], "dd0", _damping_drift,
+           "parts", depends_on=("time", "velocity", "direction"), nature="open",
+           say=("Not in the catalogue: damping that changes in time ({region}; {size}): the oil warming without "
+                "a thermocouple to show it, or a valve settling in? Log the oil temperature.", None, 1.0, "N")),
     Effect("interference", "a tone unrelated to the motion",
            lambda d, e: [P("hum_c", 0.0, -_bound(d), _bound(d), "N"), P("hum_s", 0.0, -_bound(d), _bound(d), "N")],
            "hum_c", _interference, "total", needs="tone", depends_on=("time",), nature="cell",

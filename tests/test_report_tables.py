@@ -1,5 +1,6 @@
 """The report's peak-force table and comparison on rows made by hand."""
 import numpy as np
+import pytest
 
 from protocols.reports import peaks
 from protocols.reports.recording import force_temperature_figure
@@ -30,3 +31,21 @@ def test_the_csv_has_a_column_per_field(tmp_path):
     path = peaks.write_csv([_peak(12.7, 4, 20, 1000.0)], tmp_path / "p.csv")
     head, row = path.read_text().splitlines()
     assert head.split(",") == list(peaks.HEADER) and row.startswith("sine 12.7 mm 4 Hz,12.7,4,nan,20,")
+
+
+def test_the_velocity_table_interpolates_the_peaks_per_direction_and_never_extrapolates(tmp_path):
+    from protocols.reports import velocity_table as vt
+    # peaks at 0.1-0.8 m/s (0.1 x freq), F = 1000 N per m/s in compression and 1.5x that in
+    # rebound; two segments at nearly 0.4 m/s are one point; a sweep's hot segment is left out
+    rows = [_peak(12.7, f, 20, 1000.0 * 0.1 * f) for f in (1, 2, 4, 8)] + [_peak(6.4, 4.1, 20, 420.0),
+                                                                         _peak(12.7, 4, 80, 9999.0, target=80)]
+    table = vt.velocity_table(rows, [0.05, 0.15, 0.3, 0.5, 1.0])
+    assert [r.v_m_s for r in table] == [0.05, 0.15, 0.3, 0.5, 1.0]
+    assert np.isnan(table[0].F_comp_N) and np.isnan(table[-1].F_reb_N)  # outside 0.1-0.8 m/s
+    assert table[1].F_comp_N == pytest.approx(150.0) and table[1].F_reb_N == pytest.approx(-225.0)
+    assert table[3].F_comp_N == pytest.approx(500.0, rel=0.02)
+    assert vt.standard_speeds()[0] == 0.025 and vt.standard_speeds()[-1] == 0.5
+    text = vt.write_csv(table, tmp_path / "v.csv").read_text().splitlines()
+    assert text[0] == "v_m_s,F_comp_N,F_reb_N,Fd_comp_N,Fd_reb_N" and text[1] == "0.05,,,,"
+    head, body = vt.html_table(table)
+    assert head == ["speed [m/s]", "F comp [N]", "F reb [N]"] and body[2] == ["0.3", "302", "-454"]  # 0.2 to the merged 0.405 m/s

@@ -263,6 +263,12 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
             F, Fm = float(row[f"F_{side}"]), float(row[f"model_{side}"])
             assert abs(Fm - F) < 0.03 * abs(F) + 20.0, (row["segment"], side, F, Fm)
         assert float(row["Fd_reb"]) < 0 < float(row["Fd_comp"]), row
+    # the dyno sheet's velocity table: the model's curve, read at standard speeds
+    table = list(csv.DictReader(open(tmp_path / "model" / "velocity.csv")))
+    assert [float(r["v_m_s"]) for r in table][:2] == [0.025, 0.05]
+    done = [r for r in table if r["F_comp_N"]]
+    assert len(done) >= 5 and all(float(r["Fd_reb_N"]) < 0 < float(r["Fd_comp_N"]) for r in done)
+    assert all(float(a["F_comp_N"]) < float(b["F_comp_N"]) for a, b in zip(done, done[1:]))
     r = subprocess.run([DYNO, "report", str(out), str(out), "--out", str(tmp_path / "cmp")], capture_output=True,
                        text=True, timeout=120)
     assert r.returncode == 0, r.stderr
@@ -271,6 +277,9 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     bad = subprocess.run([DYNO, "report", str(out), "--model", str(tmp_path / "none.json"), "--out", str(tmp_path / "r")],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "none.json: no such file" in bad.stderr
+    bad = subprocess.run([DYNO, "report", str(out), "--speeds", "0.1,fast", "--out", str(tmp_path / "r")],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and bad.stderr.strip().endswith("is not a comma-separated list of speeds in m/s")
     bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "r")],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no such file" in bad.stderr

@@ -171,6 +171,8 @@ def _cell_commands(sub):
     rp.add_argument("other", nargs="?", help="a second recording: compare it (B) with the first (A)")
     rp.add_argument("--model", default=None, help="damper model JSON to overlay (default: FILE.model.json if present)")
     rp.add_argument("--out", required=True, help="output directory")
+    rp.add_argument("--speeds", default=None, metavar="V,V,...",
+                    help="shaft speeds [m/s] of the velocity table (default 0.025-0.5)")
     _overwrite(rp, "the report's files in --out")
     rp.set_defaults(command="report")
     rg = sub.add_parser("rig", help="the test cell")

@@ -24,6 +24,19 @@ def _model(args):
         raise RigError(f"--model: {e}") from None
 
 
+def _speeds(text):
+    """--speeds: shaft speeds in m/s, comma-separated, each positive."""
+    if text is None:
+        return None
+    try:
+        speeds = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise RigError(f"--speeds: {text!r} is not a comma-separated list of speeds in m/s") from None
+    if not speeds or not all(0 < v < 20 for v in speeds):
+        raise RigError(f"--speeds: {text!r}: every speed must be above 0 and below 20 m/s")
+    return sorted(speeds)
+
+
 def run(args):
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
     with filled(out) as folder:
@@ -33,7 +46,7 @@ def run(args):
             model = _model(args)
             if model is not None:
                 print(f"model overlaid: {model.name}")
-            index, pngs = report(args.file, folder, model)
+            index, pngs = report(args.file, folder, model, _speeds(args.speeds))
     for p in [*pngs, index]:
         print(out / Path(p).name)
     return 0

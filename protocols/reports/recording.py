@@ -14,14 +14,15 @@ import numpy as np
 from models.recording import segments
 from protocols.io.reader import load_recording
 from models.identify.static import static_holds
-from protocols.reports import hil, peaks
+from protocols.reports import hil, peaks, velocity_table as vt
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
 
 
-def report(path, out_dir, model=None):
-    """Write DIR/index.html with its PNGs and peaks.csv; model: a damper model to overlay
-    (the run's identified RECORDING.model.json when there is one). (index, [PNG paths])."""
+def report(path, out_dir, model=None, speeds=None):
+    """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv; model: a damper model
+    to overlay (the run's identified RECORDING.model.json when there is one); speeds [m/s]:
+    the velocity table's (default velocities.toml). (index, [PNG paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -37,6 +38,11 @@ def report(path, out_dir, model=None):
         peaks.write_csv(rows, out / "peaks.csv")
         page.heading("Peak forces per sine segment (also peaks.csv)")
         page.table(*peaks.table(rows))
+        speeds_table = vt.velocity_table(rows, speeds)
+        if vt.has_rows(speeds_table):
+            vt.write_csv(speeds_table, out / "velocity.csv")
+            page.heading("Force at standard shaft velocities, from the peaks (also velocity.csv)")
+            page.table(*vt.html_table(speeds_table))
     steps = step_measures(ch, segs)
     if steps:
         page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")

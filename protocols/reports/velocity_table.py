@@ -1,0 +1,87 @@
+"""The dyno sheet's table: force per direction at standard shaft velocities, interpolated
+from the sine segments' peaks (protocols/reports/peaks.py). Speeds [m/s] come from
+velocities.toml unless given; forces [N], compression positive, rebound negative."""
+from __future__ import annotations
+
+import csv
+import tomllib
+from dataclasses import astuple, dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+SPEEDS_FILE = Path(__file__).with_name("velocities.toml")
+MERGE = 0.05  # peaks within 5 % of each other's speed are one point (their forces averaged)
+
+
+def standard_speeds() -> list[float]:
+    """The default table speeds [m/s] (velocities.toml)."""
+    with open(SPEEDS_FILE, "rb") as f:
+        return [float(v) for v in tomllib.load(f)["speeds_m_s"]]
+
+
+@dataclass
+class VelocityRow:
+    v_m_s: float  # shaft speed [m/s]
+    F_comp_N: float  # measured force at +v [N]; nan outside the measured speeds
+    F_reb_N: float  # at -v [N] (negative)
+    Fd_comp_N: float = np.nan  # damping force (measured less gas and friction) [N]
+    Fd_reb_N: float = np.nan
+
+
+def _curve(v, F):
+    """Sorted speeds and forces with peaks of nearly the same speed merged."""
+    k = np.isfinite(v) & np.isfinite(F)
+    order = np.argsort(v[k])
+    v, F = v[k][order], F[k][order]
+    vs, Fs = [], []
+    for vi, Fi in zip(v, F):
+        if vs and vi <= vs[-1][0] * (1 + MERGE):
+            vs[-1].append(vi), Fs[-1].append(Fi)
+        else:
+            vs.append([vi]), Fs.append([Fi])
+    return np.array([np.mean(g) for g in vs]), np.array([np.mean(g) for g in Fs])
+
+
+def _at(speeds, v, F):
+    """F interpolated at speeds, nan outside the measured speeds (no extrapolation)."""
+    vc, Fc = _curve(np.abs(v), F)
+    if len(vc) == 0:
+        return np.full(len(speeds), np.nan)
+    return np.interp(speeds, vc, Fc, left=np.nan, right=np.nan)
+
+
+def velocity_table(rows, speeds=None) -> list[VelocityRow]:
+    """[VelocityRow] at speeds [m/s] from the Peak rows of sine segments at the cell's
+    temperature (a temperature sweep's segments are left out: they are another curve)."""
+    speeds = np.asarray(standard_speeds() if speeds is None else speeds, float)
+    rows = [p for p in rows if np.isnan(p.target_c)]
+    col = {name: np.array([getattr(p, name) for p in rows], float)
+           for name in ("v_comp", "v_reb", "F_comp", "F_reb", "Fd_comp", "Fd_reb")}
+    out = [_at(speeds, col["v_comp"], col["F_comp"]), _at(speeds, col["v_reb"], col["F_reb"]),
+           _at(speeds, col["v_comp"], col["Fd_comp"]), _at(speeds, col["v_reb"], col["Fd_reb"])]
+    return [VelocityRow(float(s), *(float(c[i]) for c in out)) for i, s in enumerate(speeds)]
+
+
+def has_rows(table) -> bool:
+    return any(np.isfinite(r.F_comp_N) or np.isfinite(r.F_reb_N) for r in table)
+
+
+def write_csv(table, path):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow([f.name for f in fields(VelocityRow)])
+        for r in table:
+            w.writerow(["" if not np.isfinite(v) else f"{v:.4g}" for v in astuple(r)])
+    return path
+
+
+def html_table(table):
+    """(header, rows) for the page; a blank where the speed was not measured."""
+    has_d = any(np.isfinite(r.Fd_comp_N) for r in table)
+    head = ["speed [m/s]", "F comp [N]", "F reb [N]"] + (["damping comp [N]", "damping reb [N]"] if has_d else [])
+
+    def n(v):
+        return f"{v:.0f}" if np.isfinite(v) else "-"
+    return head, [[f"{r.v_m_s:g}", n(r.F_comp_N), n(r.F_reb_N)] + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else [])
+                  for r in table]

@@ -49,3 +49,13 @@ def test_the_velocity_table_interpolates_the_peaks_per_direction_and_never_extra
     assert text[0] == "v_m_s,F_comp_N,F_reb_N,Fd_comp_N,Fd_reb_N" and text[1] == "0.05,,,,"
     head, body = vt.html_table(table)
     assert head == ["speed [m/s]", "F comp [N]", "F reb [N]"] and body[2] == ["0.3", "302", "-454"]  # 0.2 to the merged 0.405 m/s
+
+
+def test_a_segment_short_of_its_target_speed_is_flagged_with_the_amplitude_reached():
+    ok, short = _peak(12.7, 4, 20, 1000.0), _peak(12.7, 16, 20, 3000.0)
+    ok.achieved_mm, ok.short_pct = 12.69, 0.4
+    short.achieved_mm, short.short_pct = 11.83, 6.9  # what issue 32 found unflagged
+    head, body = peaks.table([ok, short])
+    assert head[:4] == ["segment", "amplitude [mm]", "reached [mm]", "freq [Hz]"]
+    assert body[0][:3] == ["sine 12.7 mm 4 Hz", "12.7", "12.69"]
+    assert body[1][:3] == ["sine 12.7 mm 16 Hz (speed 7 % short)", "12.7", "11.83"]

@@ -263,6 +263,7 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
             F, Fm = float(row[f"F_{side}"]), float(row[f"model_{side}"])
             assert abs(Fm - F) < 0.03 * abs(F) + 20.0, (row["segment"], side, F, Fm)
         assert float(row["Fd_reb"]) < 0 < float(row["Fd_comp"]), row
+        assert 0.85 < float(row["achieved_mm"]) / float(row["amplitude_mm"]) < 1.03, row
     # the dyno sheet's velocity table: the model's curve, read at standard speeds
     table = list(csv.DictReader(open(tmp_path / "model" / "velocity.csv")))
     assert [float(r["v_m_s"]) for r in table][:2] == [0.025, 0.05]

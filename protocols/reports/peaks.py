@@ -11,6 +11,7 @@ from dataclasses import astuple, dataclass, fields
 import numpy as np
 
 T_ROOM = 293.15  # K: a segment's temperature when the recording has no body thermocouple
+SHORT_PCT = 3.0  # a segment whose peak speed falls short of its target by more is flagged
 
 
 @dataclass
@@ -28,6 +29,8 @@ class Peak:
     Fd_reb: float = np.nan
     model_comp: float = np.nan  # the model's force at the same instants [N]
     model_reb: float = np.nan
+    achieved_mm: float = np.nan  # amplitude the rod reached, half its travel over the segment [mm]
+    short_pct: float = np.nan  # how far the peak speed fell short of 2 pi f A [% of it]
 
     @property
     def key(self):
@@ -103,6 +106,9 @@ def peaks(ch, segs, damper=None, model=None):
         T = segment_temperature(ch, t0, t1)
         p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T - 273.15,
                  float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]))
+        p.achieved_mm = 0.5 * float(np.ptp(x[late])) * 1e3
+        target = 2 * np.pi * prm["freq_hz"] * prm["amplitude_mm"] * 1e-3
+        p.short_pct = 100.0 * (1.0 - 0.5 * (p.v_comp - p.v_reb) / target) if target > 0 else np.nan
         if damper is not None:
             from models.physics.simulate import simulate
             r = simulate(damper, np.arange(2) * 1e-3, x[[ic, ir]], v[[ic, ir]], T=T, compressible=False,
@@ -128,13 +134,14 @@ def table(rows):
     """(header, rows) for the page: what an operator reads, in mm, m/s, N, C."""
     has_d = any(np.isfinite(p.Fd_comp) for p in rows)
     has_m = any(np.isfinite(p.model_comp) for p in rows)
-    head = ["segment", "amplitude [mm]", "freq [Hz]", "T [C]", "v comp [m/s]", "F comp [N]", "v reb [m/s]",
+    head = ["segment", "amplitude [mm]", "reached [mm]", "freq [Hz]", "T [C]", "v comp [m/s]", "F comp [N]", "v reb [m/s]",
             "F reb [N]"] + (["damping comp [N]", "damping reb [N]"] if has_d else []) + \
         (["model comp [N]", "model reb [N]", "model error comp/reb [% of the segment's force range]"] if has_m else [])
     body = []
     for p in rows:
         span = max(p.F_comp - p.F_reb, 1e-9)
-        r = [p.segment, f"{p.amplitude_mm:g}", f"{p.freq_hz:g}", f"{p.T_c:.1f}", f"{p.v_comp:.3f}",
+        short = f" (speed {p.short_pct:.0f} % short)" if p.short_pct > SHORT_PCT else ""
+        r = [p.segment + short, f"{p.amplitude_mm:g}", f"{p.achieved_mm:.2f}", f"{p.freq_hz:g}", f"{p.T_c:.1f}", f"{p.v_comp:.3f}",
              f"{p.F_comp:.0f}", f"{p.v_reb:.3f}", f"{p.F_reb:.0f}"]
         if has_d:
             r += [f"{p.Fd_comp:.0f}", f"{p.Fd_reb:.0f}"]

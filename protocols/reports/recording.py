@@ -38,6 +38,11 @@ def report(path, out_dir, model=None, speeds=None):
         peaks.write_csv(rows, out / "peaks.csv")
         page.heading("Peak forces per sine segment (also peaks.csv)")
         page.table(*peaks.table(rows))
+        short = [p.segment for p in rows if p.short_pct > peaks.SHORT_PCT]
+        if short:
+            page.paragraph(f"Short of the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: "
+                           f"{', '.join(short)}. Their peaks are at the speed reached (the actuator's flow "
+                           "or force limit, or the pre-flight's adaptation).")
         speeds_table = vt.velocity_table(rows, speeds)
         if vt.has_rows(speeds_table):
             vt.write_csv(speeds_table, out / "velocity.csv")

@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import time
+from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
 import numpy as np
@@ -85,9 +86,16 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert p.returncode == 0, p.stderr
     import csv
     rows = list(csv.reader(table.open()))
-    assert rows[0] == ["t [s]", "segment", "kind", "force [N]", "x [m]", "T_body [K]"]
-    assert len(rows) - 1 == n["/channels/force"]
-    assert {(r[1], r[2]) for r in rows[1:] if r[2] == "sine"} >= {("sine 6.4 mm 2 Hz", "sine"), ("sine 12.7 mm 8 Hz", "sine")}
+    assert rows[0] == ["t [s]", "t_utc", "segment", "kind", "force [N]", "x [m]", "T_body [K]"]
+    # every force sample the slower thermocouple channel covers, no empty cell at either end
+    assert n["/channels/force"] - 1000 <= len(rows) - 1 <= n["/channels/force"]
+    assert all(all(r[k] for k in (0, 1, 4, 5, 6)) for r in rows[1:])
+    assert abs(datetime.fromisoformat(rows[1][1].rstrip("Z")) - datetime.now(timezone.utc).replace(tzinfo=None)) \
+        < timedelta(hours=1)
+    assert "3 channels (force [N], x [m], T_body [K])" in p.stdout
+    side = json.loads((tmp_path / "x.csv.meta.json").read_text())
+    assert side["columns"] == rows[0] and side["protocol"]["name"] == "sine-matrix" and side["run"]["wall_start"]
+    assert {(r[2], r[3]) for r in rows[1:] if r[3] == "sine"} >= {("sine 6.4 mm 2 Hz", "sine"), ("sine 12.7 mm 8 Hz", "sine")}
 
 
 @pytest.mark.parametrize("args, message", [

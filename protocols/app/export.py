@@ -1,10 +1,16 @@
 """`dyno export RECORDING --csv FILE | --parquet FILE [--channels a,b]`: one wide table on
-the force channel's clock: time [s], the segment and its kind, then each channel (its
-unit in the column name) interpolated onto that clock; a sample outside every segment has
-an empty segment. Parquet through pyarrow (rerun-sdk installs it)."""
+the force channel's clock: time on the run clock [s] and in UTC, the segment and its
+kind, then each channel (its unit in the column name) interpolated onto that clock, over
+the span every exported channel covers (a slow channel's last sample ends the table, so
+no row has an empty cell); a sample outside every segment has an empty segment. Values
+are written to the decimals each channel resolves. The run's metadata goes with the
+table: Parquet schema metadata, or FILE.meta.json beside a CSV (docs/recording.md,
+"Exported tables"). Parquet through pyarrow (rerun-sdk installs it)."""
 from __future__ import annotations
 
 import csv
+import json
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -14,29 +20,56 @@ from protocols.io.files import output_file, written
 from protocols.io.reader import load_recording
 from rig.errors import RigError
 
+SIGNIFICANT = 7  # digits of a channel's range kept where its samples sit on no coarser grid
 
-def table(channels, events, units, names=None):
-    """(columns [str], rows as column arrays): the wide table on the force clock."""
+
+def decimals(values) -> int:
+    """Decimals that resolve a channel: its quantum when the samples sit on a grid (a
+    16-bit load cell, a 1 C thermocouple), else SIGNIFICANT digits of its range."""
+    v = np.unique(np.asarray(values, float)[np.isfinite(values)])
+    if len(v) < 2:
+        return 6
+    span = float(v[-1] - v[0])
+    steps = np.diff(v)
+    q = float(steps.min())
+    res = q if np.allclose(steps / q, np.round(steps / q), atol=1e-3) and q > span * 1e-7 else span * 10.0 ** -SIGNIFICANT
+    return int(np.clip(np.ceil(-np.log10(res)), 0, 12))
+
+
+def table(channels, events, units, names=None, wall_start=None):
+    """(columns [str], column arrays, decimals per column or None): the wide table on the
+    force clock; wall_start (ISO 8601) adds the UTC time of every row."""
     if "force" not in channels:
         raise RigError("the recording has no force channel to put the table on")
-    t = channels["force"][0]
     names = names or sorted(channels, key=lambda n: (n != "force", n))
     unknown = [n for n in names if n not in channels]
     if unknown:
         raise RigError(f"--channels: no channel {unknown[0]!r} in the recording (it has {', '.join(sorted(channels))})")
+    t = channels["force"][0]
+    spans = [channels[n][0] for n in names if len(channels[n][0]) > 1]
+    keep = (t >= max(s[0] for s in spans)) & (t <= min(s[-1] for s in spans)) if spans else np.ones(len(t), bool)
+    t = t[keep]
     seg = np.full(len(t), "", dtype=object)
     kind = np.full(len(t), "", dtype=object)
     for name, params, t0, t1 in segments(events, measured=False):
         k = (t >= t0) & (t <= t1)
         seg[k], kind[k] = name, params["kind"]
-    cols = ["t [s]", "segment", "kind"]
-    data = [t, seg, kind]
+    cols, data, dec = ["t [s]"], [t], [6]
+    if wall_start:
+        start = np.datetime64(datetime.fromisoformat(wall_start).astimezone(timezone.utc).replace(tzinfo=None), "us")
+        cols.append("t_utc")
+        data.append(start + np.round(t * 1e6).astype("timedelta64[us]"))
+        dec.append(None)
+    cols += ["segment", "kind"]
+    data += [seg, kind]
+    dec += [None, None]
     for n in names:
         ts, vs = channels[n]
         cols.append(f"{n} [{units.get(n, '')}]" if units.get(n) else n)
-        data.append(vs if ts is t or np.array_equal(ts, t) else
-                    np.interp(t, ts, vs, left=np.nan, right=np.nan) if len(ts) > 1 else np.full(len(t), np.nan))
-    return cols, data
+        data.append(vs[keep] if len(ts) == len(keep) and np.array_equal(ts, channels["force"][0]) else
+                    np.interp(t, ts, vs) if len(ts) > 1 else np.full(len(t), np.nan))
+        dec.append(decimals(vs))
+    return cols, data, dec
 
 
 def run(args):
@@ -44,25 +77,43 @@ def run(args):
         raise RigError("give one of --csv FILE or --parquet FILE")
     what = "--csv" if args.csv else "--parquet"
     out = output_file(args.csv or args.parquet, [args.recording], args.overwrite, what)
+    side = out.with_name(out.name + ".meta.json") if args.csv else None
+    if side is not None:
+        output_file(side, [args.recording], args.overwrite, "--csv's metadata")
     channels, events, meta = load_recording(args.recording)
     names = [n.strip() for n in args.channels.split(",")] if args.channels else None
-    cols, data = table(channels, events, meta.get("units", {}), names)
+    cols, data, dec = table(channels, events, meta.get("units", {}), names, meta.get("run", {}).get("wall_start"))
+    rounded = [np.round(d, k) if k is not None else d for d, k in zip(data, dec)]
+    info = {"recording": Path(args.recording).name, "columns": cols, **_json_safe(meta)}
     with written(out, what) as tmp:
-        _write(args, cols, data, tmp)
-    print(f"{out}: {len(data[0])} rows, {len(cols)} columns ({', '.join(cols[3:])})")
+        _write(args, cols, rounded, dec, tmp, info)
+    if side is not None:
+        with written(side, "--csv's metadata") as tmp:
+            Path(tmp).write_text(json.dumps(info, indent=1) + "\n")
+    n_ch = len(cols) - cols.index("kind") - 1
+    print(f"{out}: {len(data[0])} rows, {len(cols)} columns: time, segment and kind, and {n_ch} channels "
+          f"({', '.join(cols[-n_ch:])})" + (f"; metadata in {side.name}" if side else ""))
     return 0
 
 
-def _write(args, cols, data, out):
+def _json_safe(meta):
+    return json.loads(json.dumps(meta, default=str))
+
+
+def _write(args, cols, data, dec, out, info):
     if args.parquet:
         try:
             import pyarrow as pa
             import pyarrow.parquet as pq
         except ImportError:
             raise RigError("--parquet needs pyarrow: .venv/bin/pip install pyarrow (or use --csv)") from None
-        pq.write_table(pa.table({c: (list(d) if d.dtype == object else d) for c, d in zip(cols, data)}), out)
+        tab = pa.table({c: (list(d) if d.dtype == object else d) for c, d in zip(cols, data)})
+        pq.write_table(tab.replace_schema_metadata({"dyno": json.dumps(info)}), out)
     else:
+        text = [d.astype("datetime64[us]").astype(str).astype(object) + "Z" if d.dtype.kind == "M" else
+                (d if k is None else np.array([f"{x:.{k}f}" if np.isfinite(x) else "" for x in d], dtype=object))
+                for d, k in zip(data, dec)]
         with open(out, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(cols)
-            w.writerows(zip(*[d.tolist() for d in data]))
+            w.writerows(zip(*text))

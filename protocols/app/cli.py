@@ -186,6 +186,8 @@ def _cell_commands(sub):
     rz.add_argument("--rig", default=None, help="rig config to zero and write (default: the embedded virtual rig)")
     rz.add_argument("--damper", default="koni", help="damper preset or FILE.json: its mid-stroke is held (default koni)")
     rz.add_argument("--unloaded", action="store_true", help="the damper is disconnected: tare the load cell to zero")
+    rz.add_argument("--tare-anyway", action="store_true",
+                    help="tare with --unloaded even when the reading looks like the damper's gas force")
     rz.add_argument("--x-mm", type=number(), default=None, help="the true position [mm] at mid-stroke, from a gauge")
     rz.set_defaults(command="rig_zero")
 

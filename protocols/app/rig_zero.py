@@ -9,6 +9,7 @@ import re
 from argparse import Namespace
 
 from models.damper import load as load_damper
+from models.physics.gas_spring import static_force
 from rig import config as rig_config
 from rig.errors import RigError
 from rig.safety import Safety
@@ -17,6 +18,19 @@ from protocols import commissioning, runner
 from protocols.app.run import open_rig
 from protocols.io.files import written
 from protocols.plan import rig_info
+
+
+SHOWN = {"force": ("N", 1.0, 1), "x": ("mm", 1e3, 3)}  # offsets as printed: unit, scale from SI, decimals
+GAS_LIKE = 0.25  # an "unloaded" reading within 25 % of the damper's gas force looks like the damper still in
+GAS_MIN_N = 50.0  # ... when that force is large enough to be told from a load cell's zero error
+
+
+def looks_loaded(force_n, damper, x_m) -> float | None:
+    """The damper's static gas force [N] at x (eq 3.16, at its charge temperature) when the
+    load cell's reading is that close to it, else None."""
+    g = damper.gas_spring
+    F = float(static_force(x_m, g.T0, g.P0, g.V0, g.T0, damper.geometry.A_r, g.K_voil, g.K_voint))
+    return F if F > GAS_MIN_N and abs(force_n - F) < GAS_LIKE * F else None
 
 
 def set_offset(text, channel, value, note):
@@ -56,7 +70,13 @@ def run(args):
     today = datetime.date.today().isoformat()
     changes = []
     ch = cfg.channels
-    if args.unloaded:
+    gas = looks_loaded(found["force_mean"], damper, info.x_mid)
+    refused = args.unloaded and gas is not None and not args.tare_anyway
+    if refused:
+        print(f"force: NOT tared: it reads {found['force_mean']:.1f} N with the damper said to be disconnected, "
+              f"and the damper's gas force at mid-stroke is {gas:.0f} N; disconnect it and zero again (or give "
+              f"--tare-anyway if the load cell's zero is truly that far off)")
+    elif args.unloaded:
         changes.append(("force", ch["force"].offset - found["force_mean"],
                         f"load cell tared with the damper disconnected: it read {found['force_mean']:.2f} N"))
     else:
@@ -75,7 +95,8 @@ def run(args):
           f"{100 * commissioning.LVT_TOLERANCE:g} %)" + ("" if lvt == "within" else
           f": check its gain, {ch['v'].gain:.6g} now, {ch['v'].gain / g:.6g} would agree"))
     for name, value, why in changes:
-        print(f"{name}: offset {ch[name].offset:.9g} -> {value:.9g} ({why})")
+        unit, scale, places = SHOWN[name]
+        print(f"{name}: offset {ch[name].offset * scale:.{places}f} {unit} -> {value * scale:.{places}f} {unit} ({why})")
     path = rig_config.path_of(args.rig)
     if changes and path.resolve().parent != rig_config.CONFIG_DIR.resolve():  # never a shipped config
         text = path.read_text(encoding="utf-8")
@@ -88,4 +109,4 @@ def run(args):
     elif changes:
         print("nothing written: give --rig CELL.toml, the cell's own file (the embedded virtual rig and the "
               "shipped configs are not changed)")
-    return 0 if lvt == "within" else 1
+    return 0 if lvt == "within" and not refused else 1

@@ -10,12 +10,14 @@ def _peak(amp, freq, T, F, target=np.nan):
     return peaks.Peak(f"sine {amp} mm {freq} Hz", amp, freq, target, T, 0.1 * freq, F, -0.1 * freq, -1.5 * F)
 
 
-def test_the_comparison_pairs_segments_and_gives_b_against_a():
+def test_the_comparison_pairs_segments_with_the_first_run_and_gives_each_against_it():
+    from protocols.reports.comparison import differences
     a = [_peak(12.7, 4, 20, 1000.0), _peak(12.7, 8, 20, 2000.0), _peak(3.2, 4, 20, 500.0)]
     b = [_peak(12.7, 8, 21, 2200.0), _peak(12.7, 4, 21, 900.0), _peak(6.4, 4, 21, 700.0)]
-    head, rows = peaks.compare(a, b)
-    assert [r[:2] for r in rows] == [("12.7", "4"), ("12.7", "8")]  # 3.2 and 6.4 mm: only in one
-    assert rows[0][head.index("diff comp [%]")] == "-10.0" and rows[1][head.index("diff reb [%]")] == "+10.0"
+    c = [_peak(3.2, 4, 22, 550.0)]
+    rows = differences(a, [("B", b), ("C", c)])
+    assert [r[:3] for r in rows] == [("B", 12.7, 8), ("B", 12.7, 4), ("C", 3.2, 4)]  # 6.4 mm: only in B
+    assert rows[0][6] == pytest.approx(10.0) and rows[1][9] == pytest.approx(-10.0) and rows[2][6] == pytest.approx(10.0)
 
 
 def test_peak_force_against_temperature_only_where_temperatures_differ(tmp_path):

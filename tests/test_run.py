@@ -278,11 +278,16 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     done = [r for r in table if r["F_comp_N"]]
     assert len(done) >= 5 and all(float(r["Fd_reb_N"]) < 0 < float(r["Fd_comp_N"]) for r in done)
     assert all(float(a["F_comp_N"]) < float(b["F_comp_N"]) for a, b in zip(done, done[1:]))
-    r = subprocess.run([DYNO, "report", str(out), str(out), "--out", str(tmp_path / "cmp")], capture_output=True,
-                       text=True, timeout=120)
+    r = subprocess.run([DYNO, "report", str(out), str(out), str(out), "--out", str(tmp_path / "cmp")],
+                       capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "cmp" / "index.html").read_text()
-    assert page.count("<td>+0.0</td>") == 2 * 13 and "compare_composite.png" in page
+    # three runs, each named by its damper and serial; B and C against A, segment by segment
+    assert page.count("<td>+0.0</td>") == 2 * 2 * 13 and "compare_composite.png" in page
+    assert "A koni" in page and "C koni" in page
+    diffs = list(csv.DictReader(open(tmp_path / "cmp" / "differences.csv")))
+    assert len(diffs) == 2 * 13 and {d["run"] for d in diffs} == {"B", "C"}
+    assert all(float(d["diff_comp_pct"]) == 0 for d in diffs)
     bad = subprocess.run([DYNO, "report", str(out), "--model", str(tmp_path / "none.json"), "--out", str(tmp_path / "r")],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "none.json: no such file" in bad.stderr

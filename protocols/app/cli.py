@@ -166,9 +166,9 @@ def _cell_commands(sub):
     rv = sub.add_parser("recover", help="rebuild a recording cut short (the original is kept as FILE.damaged)")
     rv.add_argument("file")
     rv.set_defaults(command="recover")
-    rp = sub.add_parser("report", help="HTML report with plots of a recording, or two compared")
+    rp = sub.add_parser("report", help="HTML report with plots of a recording, or several compared")
     rp.add_argument("file")
-    rp.add_argument("other", nargs="?", help="a second recording: compare it (B) with the first (A)")
+    rp.add_argument("other", nargs="*", help="more recordings: each compared (B, C, ...) with the first (A)")
     rp.add_argument("--model", default=None, help="damper model JSON to overlay (default: FILE.model.json if present)")
     rp.add_argument("--out", required=True, help="output directory")
     rp.add_argument("--speeds", default=None, metavar="V,V,...",

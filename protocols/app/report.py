@@ -1,6 +1,6 @@
-"""`dyno report FILE.mcap [OTHER.mcap] --out DIR [--model FILE]`: the recording's HTML
+"""`dyno report FILE.mcap [OTHER.mcap ...] --out DIR [--model FILE]`: the recording's HTML
 report (with the damper model overlaid: --model, or the run's identified
-FILE.model.json), or two recordings compared."""
+FILE.model.json), or recordings compared with the first."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -41,7 +41,7 @@ def run(args):
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
     with filled(out) as folder:
         if args.other:
-            index, pngs = compare(args.file, args.other, folder)
+            index, pngs = compare([args.file, *args.other], folder)
         else:
             model = _model(args)
             if model is not None:

@@ -1,10 +1,17 @@
-"""`dyno report A.mcap B.mcap --out DIR`: two runs side by side (before and after a
-re-valve, two dampers of a pair, a damper before and after a durability run): both
-composites on one plot and the peak forces of the segments both ran, with B's difference."""
+"""`dyno report A.mcap B.mcap [C.mcap ...] --out DIR`: runs side by side (before and after a
+re-valve, the dampers of a pair, a damper before and after a durability run). Each run is
+named by its damper, serial and note; the composite curve shows the same quantity as a
+single report's (damping force where every run's damper model is known, else peak force),
+one colour per run; the peak forces of the segments each run shares with the first are
+tabled with their difference from it, and written to differences.csv."""
 from __future__ import annotations
 
+import csv
+import json
+import string
 from pathlib import Path
 
+import numpy as np
 
 from models.recording import segments
 from protocols.io.reader import load_recording
@@ -12,46 +19,108 @@ from protocols.reports import peaks
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
 
+MARKERS = "os^Dv<>p"  # one per amplitude
 
-def _rows(path):
+
+def _run(path):
     ch, events, meta = load_recording(path)
     return peaks.peaks(ch, segments(events), damper=peaks.recorded_damper(meta)), meta
 
 
-def compare(path_a, path_b, out_dir):
-    """Write DIR/index.html comparing B with A; (index, [PNG paths])."""
+def run_name(meta, path) -> str:
+    """What a run is called on the page: its damper, serial and note, else its file."""
+    damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}").get("name")
+    run = meta.get("run", {})
+    parts = [p for p in (damper, run.get("damper_serial"), run.get("note")) if p]
+    return " · ".join(parts) or Path(path).name
+
+
+def differences(ref, others):
+    """[(tag, amplitude, freq, target, F comp ref, F comp, diff %, F reb ref, F reb, diff %)]
+    of every segment a run shares with the first (positive: stronger than the first)."""
+    by_key = {}
+    for p in ref:
+        by_key.setdefault(p.key, p)
+    out = []
+    for tag, rows in others:
+        seen = set()
+        for q in rows:
+            p = by_key.get(q.key)
+            if p is None or q.key in seen:
+                continue
+            seen.add(q.key)
+            out.append((tag, p.amplitude_mm, p.freq_hz, p.target_c, p.F_comp, q.F_comp, _pct(q.F_comp, p.F_comp),
+                        p.F_reb, q.F_reb, _pct(-q.F_reb, -p.F_reb)))
+    return out
+
+
+def _pct(b, a):
+    return 100 * (b - a) / abs(a) if a else np.nan
+
+
+DIFF_HEADER = ("run", "amplitude_mm", "freq_hz", "target_c", "F_comp_first_N", "F_comp_N", "diff_comp_pct",
+               "F_reb_first_N", "F_reb_N", "diff_reb_pct")
+
+
+def compare(paths, out_dir):
+    """Write DIR/index.html and differences.csv comparing every run with the first;
+    (index, [PNG paths])."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    (a, meta_a), (b, meta_b) = _rows(path_a), _rows(path_b)
-    page = Page(f"Dyno comparison: {Path(path_a).name} (A) and {Path(path_b).name} (B)")
-    for tag, path, meta in (("A", path_a, meta_a), ("B", path_b, meta_b)):
+    runs = [(string.ascii_uppercase[i % 26], path, *_run(path)) for i, path in enumerate(paths)]
+    page = Page("Dyno comparison: " + ", ".join(f"{tag} {run_name(meta, path)}" for tag, path, _, meta in runs))
+    for tag, path, _, meta in runs:
         run = meta.get("run", {})
-        page.paragraph(f"{tag}: {Path(path).name}, protocol {meta.get('protocol', {}).get('name', '?')}, started "
-                       f"{run.get('wall_start', '?')}" + "".join(f", {k.replace('_', ' ')} {run[k]}"
-                                                                   for k in ("operator", "damper_serial", "note")
-                                                                   if run.get(k)))
-    head, rows = peaks.compare(a, b)
+        page.paragraph(f"{tag}: {run_name(meta, path)}; {Path(path).name}, protocol "
+                       f"{meta.get('protocol', {}).get('name', '?')}, started {run.get('wall_start', '?')}"
+                       + (f", operator {run['operator']}" if run.get("operator") else ""))
+    first = runs[0]
+    diffs = differences(first[2], [(tag, rows) for tag, _, rows, _ in runs[1:]])
     pngs = []
-    if rows:
-        page.heading("Peak forces of the segments both ran (difference: B against A)")
-        page.table(head, rows)
-        fig, ax = plt.subplots(figsize=(7, 5))
-        for tag, ps, style in (("A", a, "-"), ("B", b, "--")):
-            group = (lambda p: (p.key[0], p.key[2]))  # amplitude, target temperature or None
-            for i, (amp, T) in enumerate(sorted({group(p) for p in ps}, key=lambda g: (-g[0], g[1] or 0.0))):
-                q = sorted((p for p in ps if group(p) == (amp, T)), key=lambda p: p.v_comp)
-                c, name = f"C{i % 10}", f"{tag} {amp:g} mm" + ("" if T is None else f" {T:g} C")
-                ax.plot([p.v_comp for p in q], [p.F_comp for p in q], "o" + style, color=c, label=f"{name} compression")
-                ax.plot([-p.v_reb for p in q], [-p.F_reb for p in q], "s" + style, color=c, alpha=0.6,
-                        label=f"{name} rebound")
-        ax.set(title="Composite peak force: A solid, B dashed", xlabel="peak velocity [m/s]",
-               ylabel="peak force [N], rebound as magnitude")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-        png = save(fig, out / "compare_composite.png")
-        page.figure("Composite peak force vs peak velocity, A and B", png)
-        pngs.append(out / png)
+    if diffs:
+        with open(out / "differences.csv", "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(DIFF_HEADER)
+            w.writerows([d if isinstance(d, str) else f"{d:.6g}" for d in row] for row in diffs)
+        page.heading(f"Peak forces of the segments each run shares with {first[0]} (difference against {first[0]}; "
+                     "also differences.csv)")
+        page.table(("run", "amplitude [mm]", "freq [Hz]", "target [C]", f"F comp {first[0]} [N]", "F comp [N]",
+                    "diff comp [%]", f"F reb {first[0]} [N]", "F reb [N]", "diff reb [%]"),
+                   [(tag, f"{a:g}", f"{fr:g}", "-" if np.isnan(T) else f"{T:g}", f"{c0:.0f}", f"{c:.0f}",
+                     f"{dc:+.1f}", f"{r0:.0f}", f"{r:.0f}", f"{dr:+.1f}")
+                    for tag, a, fr, T, c0, c, dc, r0, r, dr in diffs])
+        pngs.append(out / _composite(runs, out))
+        page.figure("Composite curves, one colour per run", pngs[-1].name)
     else:
-        page.paragraph("The two recordings ran no sine segment in common (same amplitude, frequency and "
-                       "target temperature): nothing to compare.")
+        page.paragraph(f"No run shares a sine segment with {first[0]} (same amplitude, frequency and target "
+                       "temperature): nothing to compare.")
     return page.write(out), pngs
+
+
+def _composite(runs, out):
+    """The single report's composite for every run: colour per run, solid compression,
+    dashed rebound, a marker per amplitude."""
+    damping = all(np.isfinite(p.Fd_comp) for _, _, rows, _ in runs for p in rows)
+    amps = sorted({p.amplitude_mm for _, _, rows, _ in runs for p in rows}, reverse=True)
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    for i, (tag, path, rows, meta) in enumerate(runs):
+        c = f"C{i % 10}"
+        for a in amps:
+            ps = sorted((p for p in rows if p.amplitude_mm == a and np.isnan(p.target_c)), key=lambda p: p.v_comp)
+            if not ps:
+                continue
+            m = MARKERS[amps.index(a) % len(MARKERS)]
+            ax.plot([p.v_comp for p in ps], [p.Fd_comp if damping else p.F_comp for p in ps], m + "-", color=c, ms=4)
+            ax.plot([-p.v_reb for p in ps], [-(p.Fd_reb if damping else p.F_reb) for p in ps], m + "--", color=c,
+                    ms=4, alpha=0.8)
+        ax.plot([], [], "-", color=c, label=f"{tag}: {run_name(meta, path)}")
+    ax.plot([], [], "k-", label="compression")
+    ax.plot([], [], "k--", label="rebound (magnitude)")
+    for a in amps:
+        ax.plot([], [], MARKERS[amps.index(a) % len(MARKERS)], color="k", label=f"{a:g} mm")
+    what = "damping force (measured - gas - friction)" if damping else "peak force"
+    ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity", xlabel="peak velocity [m/s]",
+           ylabel=f"{what} [N]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    return save(fig, out / "compare_composite.png")

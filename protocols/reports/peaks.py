@@ -150,28 +150,3 @@ def table(rows):
                   f"{100 * (p.model_comp - p.F_comp) / span:+.1f} / {100 * (p.model_reb - p.F_reb) / span:+.1f}"]
         body.append(r)
     return head, body
-
-
-def _pct(b, a):
-    return 100 * (b - a) / abs(a) if a else np.nan
-
-
-def compare(a, b):
-    """(header, rows): the segments both recordings ran (same amplitude, frequency and
-    target temperature), the peak forces of each and B's difference from A (positive:
-    B's force is the stronger, in compression and in rebound)."""
-    by_b = {}
-    for p in b:
-        by_b.setdefault(p.key, p)
-    head = ("amplitude [mm]", "freq [Hz]", "target [C]", "v comp A/B [m/s]", "F comp A [N]", "F comp B [N]",
-            "diff comp [%]", "F reb A [N]", "F reb B [N]", "diff reb [%]")
-    rows = []
-    for p in a:
-        q = by_b.pop(p.key, None)
-        if q is None:
-            continue
-        rows.append((f"{p.amplitude_mm:g}", f"{p.freq_hz:g}", "-" if np.isnan(p.target_c) else f"{p.target_c:g}",
-                     f"{p.v_comp:.3f} / {q.v_comp:.3f}", f"{p.F_comp:.0f}", f"{q.F_comp:.0f}",
-                     f"{_pct(q.F_comp, p.F_comp):+.1f}", f"{p.F_reb:.0f}", f"{q.F_reb:.0f}",
-                     f"{_pct(-q.F_reb, -p.F_reb):+.1f}"))
-    return head, rows

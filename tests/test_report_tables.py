@@ -61,3 +61,20 @@ def test_a_segment_short_of_its_target_speed_is_flagged_with_the_amplitude_reach
     assert head[:4] == ["segment", "amplitude [mm]", "reached [mm]", "freq [Hz]"]
     assert body[0][:3] == ["sine 12.7 mm 4 Hz", "12.7", "12.69"]
     assert body[1][:3] == ["sine 12.7 mm 16 Hz (speed 7 % short)", "12.7", "11.83"]
+
+
+def test_the_printable_report_flows_text_tables_and_figures_over_a4_pages(tmp_path):
+    import re
+    from protocols.reports.page import Page, save
+    from protocols.reports.pdf import write_pdf
+    from protocols.reports.plots import plt
+    page = Page("Dyno report: x.mcap")
+    page.paragraph("started (UTC): 2026-11-25 · damper serial: K-1")
+    page.table(["segment"] + [f"column {i} [N]" for i in range(14)], [[f"sine {k}"] + list(range(14)) for k in range(60)])
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    page.figure("A figure", save(fig, tmp_path / "f.png"))
+    pdf = write_pdf(page, tmp_path, paper="a4").read_bytes()
+    assert pdf.startswith(b"%PDF") and b"Dyno report: x.mcap" in pdf
+    assert len(re.findall(rb"/Type /Page\b", pdf)) == 2  # 60 table rows and a figure need a second page
+    assert re.search(rb"/MediaBox \[ 0 0 595\.4\d* 841\.6\d* \]", pdf)  # A4 in points

@@ -263,6 +263,7 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "Model overlaid: koni." in (tmp_path / "model" / "index.html").read_text()
+    assert (tmp_path / "model" / "report.pdf").read_bytes().startswith(b"%PDF")
     import csv
     rows = list(csv.DictReader(open(tmp_path / "model" / "peaks.csv")))
     assert len(rows) == 13  # 4 amplitudes x 3 frequencies and the sweep's sine

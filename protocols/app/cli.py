@@ -173,6 +173,7 @@ def _cell_commands(sub):
     rp.add_argument("--out", required=True, help="output directory")
     rp.add_argument("--speeds", default=None, metavar="V,V,...",
                     help="shaft speeds [m/s] of the velocity table (default 0.025-0.5)")
+    rp.add_argument("--paper", choices=("a4", "letter"), default="a4", help="report.pdf's paper (default a4)")
     _overwrite(rp, "the report's files in --out")
     rp.set_defaults(command="report")
     rg = sub.add_parser("rig", help="the test cell")

@@ -46,7 +46,8 @@ def run(args):
             model = _model(args)
             if model is not None:
                 print(f"model overlaid: {model.name}")
-            index, pngs = report(args.file, folder, model, _speeds(args.speeds))
+            index, pngs = report(args.file, folder, model, _speeds(args.speeds), args.paper)
+            pngs = [*pngs, Path(folder) / "report.pdf"]
     for p in [*pngs, index]:
         print(out / Path(p).name)
     return 0

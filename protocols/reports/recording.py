@@ -16,13 +16,15 @@ from protocols.io.reader import load_recording
 from models.identify.static import static_holds
 from protocols.reports import hil, peaks, velocity_table as vt
 from protocols.reports.page import Page, save
+from protocols.reports.pdf import write_pdf
 from protocols.reports.plots import plt
 
 
-def report(path, out_dir, model=None, speeds=None):
+def report(path, out_dir, model=None, speeds=None, paper="a4"):
     """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv; model: a damper model
     to overlay (the run's identified RECORDING.model.json when there is one); speeds [m/s]:
-    the velocity table's (default velocities.toml). (index, [PNG paths])."""
+    the velocity table's (default velocities.toml); paper: report.pdf's, a4 or letter.
+    (index, [PNG paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -62,6 +64,7 @@ def report(path, out_dir, model=None, speeds=None):
     if not figures:
         page.paragraph("No measured segments to plot.")
     index = page.write(out)
+    write_pdf(page, out, paper=paper)
     return index, [out / png for _, png in figures]
 
 

@@ -1,0 +1,95 @@
+"""The printable report: a Page's blocks (protocols/reports/page.py) laid out on A4 or
+Letter pages with matplotlib's PDF backend: text flowing down the page, tables in a
+monospaced font, each figure scaled to the page width."""
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+from matplotlib.backends.backend_pdf import PdfPages
+
+from protocols.reports.plots import plt
+
+PAPER_IN = {"a4": (8.27, 11.69), "letter": (8.5, 11.0)}  # inches
+MARGIN_IN = 0.6
+# (font size [pt], line height [in], characters per line) of each kind of text
+TEXT = {"title": (13, 0.30, 80), "heading": (10, 0.24, 100), "paragraph": (8, 0.16, 125), "table": (6, 0.12, 150)}
+
+
+class _Sheet:
+    """One page being filled from the top; a new one when the next block does not fit."""
+
+    def __init__(self, pdf, paper):
+        self.pdf, self.w, self.h = pdf, *PAPER_IN[paper]
+        self.fig = None
+
+    def new(self):
+        self.close()
+        self.fig = plt.figure(figsize=(self.w, self.h))
+        self.y = self.h - MARGIN_IN
+
+    def room(self, height):
+        if self.fig is None or self.y - height < MARGIN_IN:
+            self.new()
+
+    def lines(self, kind, lines, family="sans-serif", weight="normal", fit=False):
+        size, step, _ = TEXT[kind]
+        if fit:  # a monospaced table narrowed to the page: DejaVu Sans Mono is 0.6 em wide
+            width = max(len(ln) for ln in lines)
+            size = min(size, (self.w - 2 * MARGIN_IN) * 72 / (0.602 * width))
+            step *= size / TEXT[kind][0]
+        for line in lines:
+            self.room(step)
+            self.fig.text(MARGIN_IN / self.w, self.y / self.h, line, fontsize=size, family=family,
+                          weight=weight, va="top")
+            self.y -= step
+
+    def image(self, path):
+        img = plt.imread(path)
+        width = self.w - 2 * MARGIN_IN
+        height = min(width * img.shape[0] / img.shape[1], self.h - 2 * MARGIN_IN)
+        self.room(height)
+        ax = self.fig.add_axes([MARGIN_IN / self.w, (self.y - height) / self.h, width / self.w, height / self.h])
+        ax.imshow(img)
+        ax.set_axis_off()
+        self.y -= height + 0.1
+
+    def close(self):
+        if self.fig is not None:
+            self.pdf.savefig(self.fig)
+            plt.close(self.fig)
+            self.fig = None
+
+
+def _wrap(kind, text):
+    return textwrap.wrap(str(text), TEXT[kind][2]) or [""]
+
+
+def _table(header, rows):
+    """The table as fixed-width text lines, each column as wide as its widest cell."""
+    cells = [[str(c) for c in header]] + [[str(c) for c in r] for r in rows]
+    widths = [max(len(r[i]) for r in cells if i < len(r)) for i in range(len(header))]
+    fmt = [" ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in cells]
+    return [fmt[0], "-" * len(fmt[0]), *fmt[1:]]
+
+
+def write_pdf(page, out_dir, name="report.pdf", paper="a4") -> Path:
+    """Write the page as DIR/NAME; its path. Figures are read from DIR."""
+    out = Path(out_dir) / name
+    with PdfPages(out, metadata={"Title": page.title, "Creator": "dyno"}) as pdf:
+        sheet = _Sheet(pdf, paper)
+        sheet.lines("title", _wrap("title", page.title), weight="bold")
+        for kind, payload in page.blocks:
+            if kind == "heading":
+                sheet.y -= 0.08
+                sheet.lines("heading", _wrap("heading", payload), weight="bold")
+            elif kind == "paragraph":
+                sheet.lines("paragraph", _wrap("paragraph", payload))
+            elif kind == "items":
+                sheet.lines("paragraph", [ln for k, v in payload for ln in _wrap("paragraph", f"- {k}: {v}")])
+            elif kind == "table":
+                sheet.lines("table", _table(*payload), family="monospace", fit=True)
+            elif kind == "figure":
+                sheet.image(Path(out_dir) / payload)
+        sheet.close()
+    return out

@@ -1,11 +1,15 @@
 """Shared by several test modules: one shortened standard run on the virtual rig (the
 longest item of the suite, so it is made once; the live identification has a run of its
 own in test_identify.py)."""
+import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+# ... and so does one a `dyno` command the tests start draws (pyproject's filterwarnings)
+os.environ["PYTHONWARNINGS"] = "error::protocols.reports.page.LayoutWarning"
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 SHORT = ["static_points=5", "amplitudes_mm=12.7,6.4,3.2,1.6", "freqs_hz=1,4,16", "targets_c=45"]

@@ -78,3 +78,20 @@ def test_the_printable_report_flows_text_tables_and_figures_over_a4_pages(tmp_pa
     assert pdf.startswith(b"%PDF") and b"Dyno report: x.mcap" in pdf
     assert len(re.findall(rb"/Type /Page\b", pdf)) == 2  # 60 table rows and a figure need a second page
     assert re.search(rb"/MediaBox \[ 0 0 595\.4\d* 841\.6\d* \]", pdf)  # A4 in points
+
+
+def test_a_clipped_or_overlapping_label_is_found_and_a_clean_figure_passes():
+    from protocols.reports.page import layout_problems
+    from protocols.reports.plots import plt
+    fig, ax = plt.subplots(figsize=(3, 2))
+    ax.set_ylabel("damping force (measured - gas - friction) [N], rebound as magnitude")
+    assert any("is clipped by the figure's edge" in p for p in layout_problems(fig))
+    fig, (a, b) = plt.subplots(2, 1, figsize=(4, 2.2))
+    a.set_xlabel("velocity [m/s]")
+    b.set_title("a title that sits on the plot above")
+    assert any("overlaps" in p for p in layout_problems(fig))
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.set(xlabel="velocity [m/s]", ylabel="force [N]", title="fine")
+    fig.tight_layout()
+    assert layout_problems(fig) == []
+    plt.close("all")

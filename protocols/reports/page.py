@@ -16,13 +16,49 @@ def number(v):
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
 
 
-def save(fig, path: Path):
-    """Write a matplotlib figure as PNG, close it; its file name (for the page)."""
+class LayoutWarning(UserWarning):
+    """A figure's text is clipped by its edge or overlaps another plot's."""
+
+
+def _drawn_ticks(axis):
+    """The tick labels drawn: those within the axis's view (matplotlib keeps more)."""
+    lo, hi = sorted(axis.get_view_interval())
+    eps = 1e-9 * max(abs(lo), abs(hi), 1.0)
+    return [t.label1 for t, loc in zip(axis.get_major_ticks(), axis.get_majorticklocs()) if lo - eps <= loc <= hi + eps]
+
+
+def _texts(ax):
+    return [t for t in (ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label,
+                        *_drawn_ticks(ax.xaxis), *_drawn_ticks(ax.yaxis)) if t.get_visible() and t.get_text()]
+
+
+def layout_problems(fig) -> list[str]:
+    """Text that leaves the figure, or overlaps the text of another plot in it (titles,
+    axis labels, tick labels), as drawn."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    W, H = fig.bbox.width, fig.bbox.height
+    boxes = [[(t.get_text(), t.get_window_extent(r)) for t in _texts(ax)] for ax in fig.axes if ax.get_visible()]
+    out = [f"{s!r} is clipped by the figure's edge" for bs in boxes for s, b in bs
+           if b.x0 < -1 or b.y0 < -1 or b.x1 > W + 1 or b.y1 > H + 1]
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            out += [f"{s!r} overlaps {u!r}" for s, p in a for u, q in b if p.overlaps(q)]
+    return out
+
+
+def save(fig, path: Path, dpi=100):
+    """Write a matplotlib figure as PNG, close it; its file name (for the page). Text the
+    layout clips or overlaps is warned of (LayoutWarning), naming the figure."""
+    import warnings
+
     import matplotlib.pyplot as plt
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    for problem in layout_problems(fig):
+        warnings.warn(f"{Path(path).name}: {problem}", LayoutWarning, stacklevel=2)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
-    return path.name
+    return Path(path).name
 
 
 class Page:

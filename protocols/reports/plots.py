@@ -15,6 +15,7 @@ import numpy as np  # noqa: E402
 
 from models.damper import Damper  # noqa: E402
 from models.physics.simulate import C_to_K, simulate, sine  # noqa: E402
+from protocols.reports.page import save  # noqa: E402
 
 AMPLITUDES = (0.0127, 0.0064, 0.0032, 0.0016)  # m, thesis test matrix (2.3.1.1)
 FREQUENCIES = (1.0, 2.0, 4.0, 8.0, 16.0)  # Hz
@@ -36,9 +37,7 @@ def _finish(fig, ax, path, title, zero_x=True):
     ax.grid(alpha=0.3)
     ax.set_title(title)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, Path(path), dpi=110)
     return path
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from protocols.reports.page import save
 from protocols.reports.plots import plt
 
 # (metric, axis label, scale) of the frequency-response panels
@@ -38,9 +39,7 @@ def _grid(title, n=len(PANELS)):
 def _save(fig, path):
     for ax in fig.axes:
         ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, Path(path))
     return Path(path)
 
 

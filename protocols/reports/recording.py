@@ -130,8 +130,9 @@ def _sine_figures(ch, segs, out, rows, model=None):
             gas_r = np.array([(p.F_reb - p.Fd_reb) if damping else 0.0 for p in ps])
             ax.plot(vc, [p.model_comp for p in ps] - gas, "x", color=line.get_color(), ms=8)
             ax.plot(vr, -(np.array([p.model_reb for p in ps]) - gas_r), "x", color=line.get_color(), ms=8)
-    what = "damping force (measured - gas - friction)" if damping else "peak force"
-    ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity" + (" (x: model)" if model is not None else ""),
+    what = "damping force" if damping else "peak force"
+    ax.set(title=f"Composite: {what} vs peak velocity" + ("\n(measured - gas - friction)" if damping else "")
+           + (", x: model" if model is not None else ""),
            xlabel="peak velocity [m/s]", ylabel=f"{what} [N], rebound as magnitude")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)

@@ -29,14 +29,25 @@ def test_peak_force_against_temperature_only_where_temperatures_differ(tmp_path)
     assert (tmp_path / "force_temperature.png").stat().st_size > 10_000
 
 
-def test_the_csv_has_a_column_per_field(tmp_path):
-    path = peaks.write_csv([_peak(12.7, 4, 20, 1000.0)], tmp_path / "p.csv")
-    head, row = path.read_text().splitlines()
-    assert head.split(",") == list(peaks.HEADER) and row.startswith("sine 12.7 mm 4 Hz,12.7,4,nan,20,")
+def test_the_csv_names_each_column_with_its_unit_in_every_unit_system(tmp_path):
+    from protocols.units import Units
+    p = _peak(12.7, 4, 20, 1000.0)  # 0.4 m/s, 1000 N at 20 C; not a temperature sweep
+    head, row = peaks.write_csv([p], tmp_path / "p.csv").read_text().splitlines()
+    assert head.split(",")[:8] == ["segment", "amplitude_mm", "reached_mm", "freq_Hz", "target_T_C", "T_C",
+                                   "v_comp_mm_s", "F_comp_N"]
+    assert row.startswith("sine 12.7 mm 4 Hz,12.7,,4,,20,400,1000,")  # no target: blank, not nan
+    head, row = peaks.write_csv([p], tmp_path / "p.csv", Units("us")).read_text().splitlines()
+    assert head.split(",")[1] == "amplitude_in" and head.split(",")[6:8] == ["v_comp_in_s", "F_comp_lbf"]
+    values = row.split(",")
+    assert float(values[1]) == pytest.approx(0.5, rel=1e-3) and float(values[5]) == pytest.approx(68.0)
+    assert float(values[6]) == pytest.approx(15.75, rel=1e-3) and float(values[7]) == pytest.approx(224.8, rel=1e-3)
+    head, _ = peaks.table([p], Units("si"))
+    assert head[1] == "amplitude [m]" and head[4] == "T [K]" and head[6] == "F comp [N]"
 
 
 def test_the_velocity_table_interpolates_the_peaks_per_direction_and_never_extrapolates(tmp_path):
     from protocols.reports import velocity_table as vt
+    from protocols.units import Units
     # peaks at 0.1-0.8 m/s (0.1 x freq), F = 1000 N per m/s in compression and 1.5x that in
     # rebound; two segments at nearly 0.4 m/s are one point; a sweep's hot segment is left out
     rows = [_peak(12.7, f, 20, 1000.0 * 0.1 * f) for f in (1, 2, 4, 8)] + [_peak(6.4, 4.1, 20, 420.0),
@@ -47,10 +58,17 @@ def test_the_velocity_table_interpolates_the_peaks_per_direction_and_never_extra
     assert table[1].F_comp_N == pytest.approx(150.0) and table[1].F_reb_N == pytest.approx(-225.0)
     assert table[3].F_comp_N == pytest.approx(500.0, rel=0.02)
     assert vt.standard_speeds()[0] == 0.025 and vt.standard_speeds()[-1] == 0.5
-    text = vt.write_csv(table, tmp_path / "v.csv").read_text().splitlines()
+    text = vt.write_csv(table, tmp_path / "v.csv", Units("si")).read_text().splitlines()
     assert text[0] == "v_m_s,F_comp_N,F_reb_N,Fd_comp_N,Fd_reb_N" and text[1] == "0.05,,,,"
-    head, body = vt.html_table(table)
+    head, body = vt.html_table(table, Units("si"))
     assert head == ["speed [m/s]", "F comp [N]", "F reb [N]"] and body[2] == ["0.3", "302", "-454"]  # 0.2 to the merged 0.405 m/s
+    head, body = vt.html_table(table)  # metric by default
+    assert head == ["speed [mm/s]", "F comp [N]", "F reb [N]"] and body[2] == ["300", "302", "-454"]
+    # US: round speeds in in/s, forces in lbf
+    us = vt.velocity_table(rows, units=Units("us"))
+    head, body = vt.html_table(us, Units("us"))
+    assert head == ["speed [in/s]", "F comp [lbf]", "F reb [lbf]"] and [b[0] for b in body][:4] == ["1", "2", "3", "4"]
+    assert body[4][1] == "34.3"  # 6 in/s = 0.1524 m/s: 152.4 N
 
 
 def test_a_segment_short_of_its_target_speed_is_flagged_with_the_amplitude_reached():
@@ -59,8 +77,8 @@ def test_a_segment_short_of_its_target_speed_is_flagged_with_the_amplitude_reach
     short.achieved_mm, short.short_pct = 11.83, 6.9  # what issue 32 found unflagged
     head, body = peaks.table([ok, short])
     assert head[:4] == ["segment", "amplitude [mm]", "reached [mm]", "freq [Hz]"]
-    assert body[0][:3] == ["sine 12.7 mm 4 Hz", "12.7", "12.69"]
-    assert body[1][:3] == ["sine 12.7 mm 16 Hz (speed 7 % short)", "12.7", "11.83"]
+    assert body[0][:3] == ["sine 12.7 mm 4 Hz", "12.70", "12.69"]
+    assert body[1][:3] == ["sine 12.7 mm 16 Hz (speed 7 % short)", "12.70", "11.83"]
 
 
 def test_the_printable_report_flows_text_tables_and_figures_over_a4_pages(tmp_path):

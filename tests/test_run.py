@@ -86,13 +86,13 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert p.returncode == 0, p.stderr
     import csv
     rows = list(csv.reader(table.open()))
-    assert rows[0] == ["t [s]", "t_utc", "segment", "kind", "force [N]", "x [m]", "T_body [K]"]
+    assert rows[0] == ["t [s]", "t_utc", "segment", "kind", "force [N]", "x [mm]", "T_body [C]"]
     # every force sample the slower thermocouple channel covers, no empty cell at either end
     assert n["/channels/force"] - 1000 <= len(rows) - 1 <= n["/channels/force"]
     assert all(all(r[k] for k in (0, 1, 4, 5, 6)) for r in rows[1:])
     assert abs(datetime.fromisoformat(rows[1][1].rstrip("Z")) - datetime.now(timezone.utc).replace(tzinfo=None)) \
         < timedelta(hours=1)
-    assert "3 channels (force [N], x [m], T_body [K])" in p.stdout
+    assert "3 channels (force [N], x [mm], T_body [C])" in p.stdout
     side = json.loads((tmp_path / "x.csv.meta.json").read_text())
     assert side["columns"] == rows[0] and side["protocol"]["name"] == "sine-matrix" and side["run"]["wall_start"]
     assert {(r[2], r[3]) for r in rows[1:] if r[3] == "sine"} >= {("sine 6.4 mm 2 Hz", "sine"), ("sine 12.7 mm 8 Hz", "sine")}
@@ -269,16 +269,25 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     assert len(rows) == 13  # 4 amplitudes x 3 frequencies and the sweep's sine
     for row in rows:
         for side in ("comp", "reb"):
-            F, Fm = float(row[f"F_{side}"]), float(row[f"model_{side}"])
+            F, Fm = float(row[f"F_{side}_N"]), float(row[f"model_{side}_N"])
             assert abs(Fm - F) < 0.03 * abs(F) + 20.0, (row["segment"], side, F, Fm)
-        assert float(row["Fd_reb"]) < 0 < float(row["Fd_comp"]), row
-        assert 0.85 < float(row["achieved_mm"]) / float(row["amplitude_mm"]) < 1.03, row
+        assert float(row["Fd_reb_N"]) < 0 < float(row["Fd_comp_N"]), row
+        assert 0.85 < float(row["reached_mm"]) / float(row["amplitude_mm"]) < 1.03, row
     # the dyno sheet's velocity table: the model's curve, read at standard speeds
     table = list(csv.DictReader(open(tmp_path / "model" / "velocity.csv")))
-    assert [float(r["v_m_s"]) for r in table][:2] == [0.025, 0.05]
+    assert [float(r["v_mm_s"]) for r in table][:2] == [25, 50]
     done = [r for r in table if r["F_comp_N"]]
     assert len(done) >= 5 and all(float(r["Fd_reb_N"]) < 0 < float(r["Fd_comp_N"]) for r in done)
     assert all(float(a["F_comp_N"]) < float(b["F_comp_N"]) for a, b in zip(done, done[1:]))
+    # the same report in US units: the table's round in/s and the forces in lbf
+    r = subprocess.run([DYNO, "report", str(out), "--model", "koni", "--units", "us", "--out", str(tmp_path / "us")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    us = list(csv.DictReader(open(tmp_path / "us" / "velocity.csv")))
+    assert [float(r["v_in_s"]) for r in us][:3] == [1, 2, 3]
+    peak_us = list(csv.DictReader(open(tmp_path / "us" / "peaks.csv")))
+    assert float(peak_us[0]["F_comp_lbf"]) == pytest.approx(float(rows[0]["F_comp_N"]) / 4.4482216, rel=1e-4)
+    assert "F comp [lbf]" in (tmp_path / "us" / "index.html").read_text()
     r = subprocess.run([DYNO, "report", str(out), str(out), str(out), "--out", str(tmp_path / "cmp")],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
@@ -294,7 +303,7 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     assert bad.returncode == 2 and "none.json: no such file" in bad.stderr
     bad = subprocess.run([DYNO, "report", str(out), "--speeds", "0.1,fast", "--out", str(tmp_path / "r")],
                          capture_output=True, text=True, timeout=60)
-    assert bad.returncode == 2 and bad.stderr.strip().endswith("is not a comma-separated list of speeds in m/s")
+    assert bad.returncode == 2 and bad.stderr.strip().endswith("is not a comma-separated list of speeds in mm/s")
     bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "r")],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no such file" in bad.stderr

@@ -27,6 +27,12 @@ def _overwrite(p, what="the output"):
                    help=f"replace {what} if it exists (never an input; a folder's other files are kept)")
 
 
+def _units(p):
+    p.add_argument("--units", choices=("si", "metric", "us"), default="metric",
+                   help="units of the output: si (m, m/s, N, Pa, K), metric (mm, mm/s, N, bar gauge, C; the "
+                        "default) or us (in, in/s, lbf, psi gauge, F)")
+
+
 class Parser(argparse.ArgumentParser):
     """Usage mistakes are one line, like every other bad input, and exit 2."""
 
@@ -172,8 +178,10 @@ def _cell_commands(sub):
     rp.add_argument("--model", default=None, help="damper model JSON to overlay (default: FILE.model.json if present)")
     rp.add_argument("--out", required=True, help="output directory")
     rp.add_argument("--speeds", default=None, metavar="V,V,...",
-                    help="shaft speeds [m/s] of the velocity table (default 0.025-0.5)")
+                    help="shaft speeds of the velocity table, in --units' velocity unit (default 0.025-0.5 m/s, "
+                         "1-20 in/s)")
     rp.add_argument("--paper", choices=("a4", "letter"), default="a4", help="report.pdf's paper (default a4)")
+    _units(rp)
     _overwrite(rp, "the report's files in --out")
     rp.set_defaults(command="report")
     rg = sub.add_parser("rig", help="the test cell")
@@ -262,6 +270,7 @@ def _analysis_commands(sub):
     ex.add_argument("--csv", metavar="FILE", help="write CSV")
     ex.add_argument("--parquet", metavar="FILE", help="write Parquet (needs pyarrow)")
     ex.add_argument("--channels", help="comma-separated channels (default: all, force first)")
+    _units(ex)
     _overwrite(ex)
     ex.set_defaults(command="export")
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")

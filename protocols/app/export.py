@@ -1,6 +1,7 @@
 """`dyno export RECORDING --csv FILE | --parquet FILE [--channels a,b]`: one wide table on
 the force channel's clock: time on the run clock [s] and in UTC, the segment and its
-kind, then each channel (its unit in the column name) interpolated onto that clock, over
+kind, then each channel in the `--units` system (its unit in the column name; pressures
+gauge outside SI) interpolated onto that clock, over
 the span every exported channel covers (a slow channel's last sample ends the table, so
 no row has an empty cell); a sample outside every segment has an empty segment. Values
 are written to the decimals each channel resolves. The run's metadata goes with the
@@ -18,6 +19,7 @@ import numpy as np
 from models.recording import segments
 from protocols.io.files import output_file, written
 from protocols.io.reader import load_recording
+from protocols.units import Units
 from rig.errors import RigError
 
 SIGNIFICANT = 7  # digits of a channel's range kept where its samples sit on no coarser grid
@@ -36,9 +38,13 @@ def decimals(values) -> int:
     return int(np.clip(np.ceil(-np.log10(res)), 0, 12))
 
 
-def table(channels, events, units, names=None, wall_start=None):
+QUANTITY = {"m": "length", "m/s": "velocity", "N": "force", "Pa": "pressure", "K": "temperature"}  # by SI unit
+
+
+def table(channels, events, units, names=None, wall_start=None, shown=Units("si")):
     """(columns [str], column arrays, decimals per column or None): the wide table on the
-    force clock; wall_start (ISO 8601) adds the UTC time of every row."""
+    force clock, channels in the unit system `shown` (units: each channel's SI unit, as
+    recorded); wall_start (ISO 8601) adds the UTC time of every row."""
     if "force" not in channels:
         raise RigError("the recording has no force channel to put the table on")
     names = names or sorted(channels, key=lambda n: (n != "force", n))
@@ -65,7 +71,10 @@ def table(channels, events, units, names=None, wall_start=None):
     dec += [None, None]
     for n in names:
         ts, vs = channels[n]
-        cols.append(f"{n} [{units.get(n, '')}]" if units.get(n) else n)
+        q = QUANTITY.get(units.get(n))
+        vs = shown.show(q, vs) if q else np.asarray(vs, float)
+        unit = shown.unit(q) if q else units.get(n)
+        cols.append(f"{n} [{unit}]" if unit else n)
         data.append(vs[keep] if len(ts) == len(keep) and np.array_equal(ts, channels["force"][0]) else
                     np.interp(t, ts, vs) if len(ts) > 1 else np.full(len(t), np.nan))
         dec.append(decimals(vs))
@@ -82,9 +91,10 @@ def run(args):
         output_file(side, [args.recording], args.overwrite, "--csv's metadata")
     channels, events, meta = load_recording(args.recording)
     names = [n.strip() for n in args.channels.split(",")] if args.channels else None
-    cols, data, dec = table(channels, events, meta.get("units", {}), names, meta.get("run", {}).get("wall_start"))
+    cols, data, dec = table(channels, events, meta.get("units", {}), names, meta.get("run", {}).get("wall_start"),
+                            Units(args.units))
     rounded = [np.round(d, k) if k is not None else d for d, k in zip(data, dec)]
-    info = {"recording": Path(args.recording).name, "columns": cols, **_json_safe(meta)}
+    info = {"recording": Path(args.recording).name, "columns": cols, "unit_system": args.units, **_json_safe(meta)}
     with written(out, what) as tmp:
         _write(args, cols, rounded, dec, tmp, info)
     if side is not None:

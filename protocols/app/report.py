@@ -12,6 +12,7 @@ from rig.errors import RigError
 from protocols.io.files import existing_files, filled, output_folder
 from protocols.reports.comparison import compare
 from protocols.reports.recording import report
+from protocols.units import Units
 
 
 def _model(args):
@@ -24,16 +25,18 @@ def _model(args):
         raise RigError(f"--model: {e}") from None
 
 
-def _speeds(text):
-    """--speeds: shaft speeds in m/s, comma-separated, each positive."""
+def _speeds(text, units):
+    """--speeds: shaft speeds in the unit system's velocity unit, comma-separated; [m/s]."""
     if text is None:
         return None
+    unit = units.unit("velocity")
     try:
-        speeds = [float(v) for v in text.split(",")]
+        speeds = [float(units.to_si("velocity", float(v))) for v in text.split(",")]
     except ValueError:
-        raise RigError(f"--speeds: {text!r} is not a comma-separated list of speeds in m/s") from None
+        raise RigError(f"--speeds: {text!r} is not a comma-separated list of speeds in {unit}") from None
     if not speeds or not all(0 < v < 20 for v in speeds):
-        raise RigError(f"--speeds: {text!r}: every speed must be above 0 and below 20 m/s")
+        raise RigError(f"--speeds: {text!r}: every speed must be above 0 and below "
+                       f"{units.show('velocity', 20.0):g} {unit}")
     return sorted(speeds)
 
 
@@ -41,12 +44,13 @@ def run(args):
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
     with filled(out) as folder:
         if args.other:
-            index, pngs = compare([args.file, *args.other], folder)
+            index, pngs = compare([args.file, *args.other], folder, Units(args.units))
         else:
             model = _model(args)
             if model is not None:
                 print(f"model overlaid: {model.name}")
-            index, pngs = report(args.file, folder, model, _speeds(args.speeds), args.paper)
+            units = Units(args.units)
+            index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units)
             pngs = [*pngs, Path(folder) / "report.pdf"]
     for p in [*pngs, index]:
         print(out / Path(p).name)

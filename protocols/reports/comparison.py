@@ -18,6 +18,7 @@ from protocols.io.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
+from protocols.units import Units, fmt
 
 MARKERS = "os^Dv<>p"  # one per amplitude
 
@@ -58,11 +59,7 @@ def _pct(b, a):
     return 100 * (b - a) / abs(a) if a else np.nan
 
 
-DIFF_HEADER = ("run", "amplitude_mm", "freq_hz", "target_c", "F_comp_first_N", "F_comp_N", "diff_comp_pct",
-               "F_reb_first_N", "F_reb_N", "diff_reb_pct")
-
-
-def compare(paths, out_dir):
+def compare(paths, out_dir, units=Units()):
     """Write DIR/index.html and differences.csv comparing every run with the first;
     (index, [PNG paths])."""
     out = Path(out_dir)
@@ -76,20 +73,28 @@ def compare(paths, out_dir):
                        + (f", operator {run['operator']}" if run.get("operator") else ""))
     first = runs[0]
     diffs = differences(first[2], [(tag, rows) for tag, _, rows, _ in runs[1:]])
+    L, F, T = (lambda si, q=q: units.show(q, si) for q in ("length", "force", "temperature"))
+    # in the unit system: amplitude [mm] and target [C] as the Peak holds them, forces [N]
+    diffs = [(tag, L(a * 1e-3), fr, T(Tc + 273.15), F(c0), F(c), dc, F(r0), F(r), dr)
+             for tag, a, fr, Tc, c0, c, dc, r0, r, dr in diffs]
     pngs = []
     if diffs:
         with open(out / "differences.csv", "w", newline="") as f:
             w = csv.writer(f)
-            w.writerow(DIFF_HEADER)
-            w.writerows([d if isinstance(d, str) else f"{d:.6g}" for d in row] for row in diffs)
+            w.writerow(["run", units.column("amplitude", "length"), "freq_Hz", units.column("target_T", "temperature"),
+                        *(units.column(n, "force") for n in ("F_comp_first", "F_comp")), "diff_comp_pct",
+                        *(units.column(n, "force") for n in ("F_reb_first", "F_reb")), "diff_reb_pct"])
+            w.writerows([d if isinstance(d, str) else "" if not np.isfinite(d) else f"{d:.6g}" for d in row]
+                        for row in diffs)
         page.heading(f"Peak forces of the segments each run shares with {first[0]} (difference against {first[0]}; "
                      "also differences.csv)")
-        page.table(("run", "amplitude [mm]", "freq [Hz]", "target [C]", f"F comp {first[0]} [N]", "F comp [N]",
-                    "diff comp [%]", f"F reb {first[0]} [N]", "F reb [N]", "diff reb [%]"),
-                   [(tag, f"{a:g}", f"{fr:g}", "-" if np.isnan(T) else f"{T:g}", f"{c0:.0f}", f"{c:.0f}",
-                     f"{dc:+.1f}", f"{r0:.0f}", f"{r:.0f}", f"{dr:+.1f}")
-                    for tag, a, fr, T, c0, c, dc, r0, r, dr in diffs])
-        pngs.append(out / _composite(runs, out))
+        lab = units.label
+        page.table(("run", lab("amplitude", "length"), "freq [Hz]", lab("target", "temperature"),
+                    lab(f"F comp {first[0]}", "force"), lab("F comp", "force"), "diff comp [%]",
+                    lab(f"F reb {first[0]}", "force"), lab("F reb", "force"), "diff reb [%]"),
+                   [(tag, fmt(a), f"{fr:g}", fmt(Tt), fmt(c0), fmt(c), f"{dc:+.1f}", fmt(r0), fmt(r), f"{dr:+.1f}")
+                    for tag, a, fr, Tt, c0, c, dc, r0, r, dr in diffs])
+        pngs.append(out / _composite(runs, out, units))
         page.figure("Composite curves, one colour per run", pngs[-1].name)
     else:
         page.paragraph(f"No run shares a sine segment with {first[0]} (same amplitude, frequency and target "
@@ -97,11 +102,12 @@ def compare(paths, out_dir):
     return page.write(out), pngs
 
 
-def _composite(runs, out):
+def _composite(runs, out, units):
     """The single report's composite for every run: colour per run, solid compression,
     dashed rebound, a marker per amplitude."""
     damping = all(np.isfinite(p.Fd_comp) for _, _, rows, _ in runs for p in rows)
     amps = sorted({p.amplitude_mm for _, _, rows, _ in runs for p in rows}, reverse=True)
+    V, F = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
     fig, ax = plt.subplots(figsize=(8, 5.5))
     for i, (tag, path, rows, meta) in enumerate(runs):
         c = f"C{i % 10}"
@@ -110,17 +116,18 @@ def _composite(runs, out):
             if not ps:
                 continue
             m = MARKERS[amps.index(a) % len(MARKERS)]
-            ax.plot([p.v_comp for p in ps], [p.Fd_comp if damping else p.F_comp for p in ps], m + "-", color=c, ms=4)
-            ax.plot([-p.v_reb for p in ps], [-(p.Fd_reb if damping else p.F_reb) for p in ps], m + "--", color=c,
-                    ms=4, alpha=0.8)
+            ax.plot(V([p.v_comp for p in ps]), F([p.Fd_comp if damping else p.F_comp for p in ps]), m + "-",
+                    color=c, ms=4)
+            ax.plot(V([-p.v_reb for p in ps]), F([-(p.Fd_reb if damping else p.F_reb) for p in ps]), m + "--",
+                    color=c, ms=4, alpha=0.8)
         ax.plot([], [], "-", color=c, label=f"{tag}: {run_name(meta, path)}")
     ax.plot([], [], "k-", label="compression")
     ax.plot([], [], "k--", label="rebound (magnitude)")
     for a in amps:
         ax.plot([], [], MARKERS[amps.index(a) % len(MARKERS)], color="k", label=f"{a:g} mm")
     what = "damping force (measured - gas - friction)" if damping else "peak force"
-    ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity", xlabel="peak velocity [m/s]",
-           ylabel=f"{what} [N]")
+    ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity", xlabel=units.label("peak velocity", "velocity"),
+           ylabel=units.label(what, "force"))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
     return save(fig, out / "compare_composite.png")

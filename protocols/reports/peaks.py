@@ -1,14 +1,16 @@
 """The numbers a damper engineer reads off a sine test: per measured sine segment, the peak
 force at the peak compression and rebound velocity, the damping force there (measured less
 gas and friction, as the thesis plots it, chapter 4), and what a damper model predicts; a
-table (HTML and CSV) and the comparison of two recordings segment by segment."""
+table (HTML and CSV) in the chosen unit system (protocols/units.py)."""
 from __future__ import annotations
 
 import csv
 import json
-from dataclasses import astuple, dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
+
+from protocols.units import Units, fmt
 
 T_ROOM = 293.15  # K: a segment's temperature when the recording has no body thermocouple
 SHORT_PCT = 3.0  # a segment whose peak speed falls short of its target by more is flagged
@@ -38,7 +40,6 @@ class Peak:
         return (self.amplitude_mm, self.freq_hz, None if np.isnan(self.target_c) else self.target_c)
 
 
-HEADER = tuple(f.name for f in fields(Peak))
 
 
 def recorded_damper(meta):
@@ -121,32 +122,53 @@ def peaks(ch, segs, damper=None, model=None):
     return out
 
 
-def write_csv(rows, path):
+# (Peak field, column name, quantity, and the scale and offset that take it to SI) of the
+# CSV and the page's table, shown in the chosen unit system (protocols/units.py)
+COLUMNS = (("amplitude_mm", "amplitude", "length", 1e-3, 0.0), ("achieved_mm", "reached", "length", 1e-3, 0.0),
+           ("freq_hz", "freq", "frequency", 1.0, 0.0), ("target_c", "target_T", "temperature", 1.0, 273.15),
+           ("T_c", "T", "temperature", 1.0, 273.15), ("v_comp", "v_comp", "velocity", 1.0, 0.0),
+           ("F_comp", "F_comp", "force", 1.0, 0.0), ("v_reb", "v_reb", "velocity", 1.0, 0.0),
+           ("F_reb", "F_reb", "force", 1.0, 0.0), ("Fd_comp", "Fd_comp", "force", 1.0, 0.0),
+           ("Fd_reb", "Fd_reb", "force", 1.0, 0.0), ("model_comp", "model_comp", "force", 1.0, 0.0),
+           ("model_reb", "model_reb", "force", 1.0, 0.0))
+
+
+def shown(p, field, units):
+    """A Peak's field in the unit system's unit."""
+    _, _, q, scale, offset = next(c for c in COLUMNS if c[0] == field)
+    return units.show(q, getattr(p, field) * scale + offset)
+
+
+def write_csv(rows, path, units=Units()):
+    """peaks.csv: a column per field with its unit in the name; blank where not measured."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(HEADER)
+        w.writerow(["segment"] + [units.column(name, q) for _, name, q, _, _ in COLUMNS] + ["short_pct"])
         for p in rows:
-            w.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in astuple(p)])
+            values = [shown(p, c[0], units) for c in COLUMNS] + [p.short_pct]
+            w.writerow([p.segment] + ["" if not np.isfinite(v) else f"{v:.6g}" for v in values])
     return path
 
 
-def table(rows):
-    """(header, rows) for the page: what an operator reads, in mm, m/s, N, C."""
+def table(rows, units=Units()):
+    """(header, rows) for the page, in the unit system's units."""
     has_d = any(np.isfinite(p.Fd_comp) for p in rows)
     has_m = any(np.isfinite(p.model_comp) for p in rows)
-    head = ["segment", "amplitude [mm]", "reached [mm]", "freq [Hz]", "T [C]", "v comp [m/s]", "F comp [N]", "v reb [m/s]",
-            "F reb [N]"] + (["damping comp [N]", "damping reb [N]"] if has_d else []) + \
-        (["model comp [N]", "model reb [N]", "model error comp/reb [% of the segment's force range]"] if has_m else [])
+    lab = units.label
+    head = (["segment", lab("amplitude", "length"), lab("reached", "length"), "freq [Hz]", lab("T", "temperature"),
+             lab("v comp", "velocity"), lab("F comp", "force"), lab("v reb", "velocity"), lab("F reb", "force")]
+            + ([lab("damping comp", "force"), lab("damping reb", "force")] if has_d else [])
+            + ([lab("model comp", "force"), lab("model reb", "force"),
+                "model error comp/reb [% of the segment's force range]"] if has_m else []))
     body = []
     for p in rows:
         span = max(p.F_comp - p.F_reb, 1e-9)
         short = f" (speed {p.short_pct:.0f} % short)" if p.short_pct > SHORT_PCT else ""
-        r = [p.segment + short, f"{p.amplitude_mm:g}", f"{p.achieved_mm:.2f}", f"{p.freq_hz:g}", f"{p.T_c:.1f}", f"{p.v_comp:.3f}",
-             f"{p.F_comp:.0f}", f"{p.v_reb:.3f}", f"{p.F_reb:.0f}"]
-        if has_d:
-            r += [f"{p.Fd_comp:.0f}", f"{p.Fd_reb:.0f}"]
+        fields = ["amplitude_mm", "achieved_mm", "freq_hz", "T_c", "v_comp", "F_comp", "v_reb", "F_reb"]
+        fields += ["Fd_comp", "Fd_reb"] if has_d else []
+        fields += ["model_comp", "model_reb"] if has_m else []
+        r = [p.segment + short] + [fmt(shown(p, f, units)) for f in fields]
         if has_m:
-            r += [f"{p.model_comp:.0f}", f"{p.model_reb:.0f}",
-                  f"{100 * (p.model_comp - p.F_comp) / span:+.1f} / {100 * (p.model_reb - p.F_reb) / span:+.1f}"]
+            r.append(f"{100 * (p.model_comp - p.F_comp) / span:+.1f} / {100 * (p.model_reb - p.F_reb) / span:+.1f}")
         body.append(r)
     return head, body

@@ -18,38 +18,39 @@ from protocols.reports import hil, peaks, velocity_table as vt
 from protocols.reports.page import Page, save
 from protocols.reports.pdf import write_pdf
 from protocols.reports.plots import plt
+from protocols.units import Units
 
 
-def report(path, out_dir, model=None, speeds=None, paper="a4"):
+def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv; model: a damper model
     to overlay (the run's identified RECORDING.model.json when there is one); speeds [m/s]:
-    the velocity table's (default velocities.toml); paper: report.pdf's, a4 or letter.
-    (index, [PNG paths])."""
+    the velocity table's (default velocities.toml); paper: report.pdf's, a4 or letter;
+    units: the tables', CSVs' and main figures' unit system. (index, [PNG paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
     full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
     rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
-    figures = (_sine_figures(ch, segs, out, rows, model) + _static_figures(ch, events, segs, out)
+    figures = (_sine_figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out)
                + _low_speed_figures(ch, segs, out) + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out)
                + hil.figures(ch, events, out))
     page = Page(f"Dyno report: {Path(path).name}")
     _header(page, meta, events, model)
     if rows:
-        peaks.write_csv(rows, out / "peaks.csv")
+        peaks.write_csv(rows, out / "peaks.csv", units)
         page.heading("Peak forces per sine segment (also peaks.csv)")
-        page.table(*peaks.table(rows))
+        page.table(*peaks.table(rows, units))
         short = [p.segment for p in rows if p.short_pct > peaks.SHORT_PCT]
         if short:
             page.paragraph(f"Short of the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: "
                            f"{', '.join(short)}. Their peaks are at the speed reached (the actuator's flow "
                            "or force limit, or the pre-flight's adaptation).")
-        speeds_table = vt.velocity_table(rows, speeds)
+        speeds_table = vt.velocity_table(rows, speeds, units)
         if vt.has_rows(speeds_table):
-            vt.write_csv(speeds_table, out / "velocity.csv")
+            vt.write_csv(speeds_table, out / "velocity.csv", units)
             page.heading("Force at standard shaft velocities, from the peaks (also velocity.csv)")
-            page.table(*vt.html_table(speeds_table))
+            page.table(*vt.html_table(speeds_table, units))
     steps = step_measures(ch, segs)
     if steps:
         page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")
@@ -83,7 +84,7 @@ def _header(page, meta, events, model):
     page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)
 
 
-def _sine_figures(ch, segs, out, rows, model=None):
+def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
     """Loops per amplitude (with the model's force along the same motion, dashed) and the
     composite curve: per amplitude and temperature, peak damping force (measured less gas
     and friction, when a full damper model is known) against peak velocity."""
@@ -91,6 +92,7 @@ def _sine_figures(ch, segs, out, rows, model=None):
     if not sine or not rows:
         return []
     amps = sorted({s[1]["amplitude_mm"] for s in sine}, reverse=True)
+    V, F_, X = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force", "length"))
     fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
     for j, a in enumerate(amps):
         for i, (name, prm, t0, t1) in enumerate(s for s in sine if s[1]["amplitude_mm"] == a):
@@ -99,15 +101,17 @@ def _sine_figures(ch, segs, out, rows, model=None):
                 continue
             label = f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
             c = f"C{i % 10}"
-            axes[0, j].plot(v, F, lw=0.8, color=c, label=label)
-            axes[1, j].plot(1e3 * x, F, lw=0.8, color=c, label=label)
+            axes[0, j].plot(V(v), F_(F), lw=0.8, color=c, label=label)
+            axes[1, j].plot(X(x), F_(F), lw=0.8, color=c, label=label)
             if model is not None:
                 Fm = peaks.simulate_segment(model, t, x, v, peaks.segment_temperature(ch, t0, t1)).force
                 k = t >= t[0] + peaks.settled_after(prm)
-                axes[0, j].plot(v[k], Fm[k], "--", lw=0.8, color=c, alpha=0.8)
-                axes[1, j].plot(1e3 * x[k], Fm[k], "--", lw=0.8, color=c, alpha=0.8)
-        axes[0, j].set(title=f"{a:g} mm: force vs velocity", xlabel="velocity [m/s]", ylabel="force [N]")
-        axes[1, j].set(title=f"{a:g} mm: force vs displacement", xlabel="displacement [mm]", ylabel="force [N]")
+                axes[0, j].plot(V(v[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)
+                axes[1, j].plot(X(x[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)
+        axes[0, j].set(title=f"{a:g} mm: force vs velocity", xlabel=units.label("velocity", "velocity"),
+                       ylabel=units.label("force", "force"))
+        axes[1, j].set(title=f"{a:g} mm: force vs displacement", xlabel=units.label("displacement", "length"),
+                       ylabel=units.label("force", "force"))
         for ax in axes[:, j]:
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7, title="dashed: model" if model is not None else None, title_fontsize=7)
@@ -119,21 +123,22 @@ def _sine_figures(ch, segs, out, rows, model=None):
         groups.setdefault((p.amplitude_mm, p.target_c), []).append(p)
     for (a, T), ps in sorted(groups.items(), key=lambda kv: (-kv[0][0], np.nan_to_num(kv[0][1]))):
         ps = sorted(ps, key=lambda p: p.v_comp)
-        vc, vr = np.array([p.v_comp for p in ps]), -np.array([p.v_reb for p in ps])
-        Fc = np.array([p.Fd_comp if damping else p.F_comp for p in ps])
-        Fr = -np.array([p.Fd_reb if damping else p.F_reb for p in ps])
+        vc, vr = V(np.array([p.v_comp for p in ps])), -V(np.array([p.v_reb for p in ps]))
+        Fc = F_(np.array([p.Fd_comp if damping else p.F_comp for p in ps]))
+        Fr = -F_(np.array([p.Fd_reb if damping else p.F_reb for p in ps]))
         label = f"{a:g} mm" + ("" if np.isnan(T) else f", {T:g} C")
         line = ax.plot(vc, Fc, "o-", label=f"{label} compression")[0]
         ax.plot(vr, Fr, "s--", color=line.get_color(), label=f"{label} rebound")
         if model is not None:
             gas = np.array([(p.F_comp - p.Fd_comp) if damping else 0.0 for p in ps])
             gas_r = np.array([(p.F_reb - p.Fd_reb) if damping else 0.0 for p in ps])
-            ax.plot(vc, [p.model_comp for p in ps] - gas, "x", color=line.get_color(), ms=8)
-            ax.plot(vr, -(np.array([p.model_reb for p in ps]) - gas_r), "x", color=line.get_color(), ms=8)
+            ax.plot(vc, F_(np.array([p.model_comp for p in ps]) - gas), "x", color=line.get_color(), ms=8)
+            ax.plot(vr, -F_(np.array([p.model_reb for p in ps]) - gas_r), "x", color=line.get_color(), ms=8)
     what = "damping force" if damping else "peak force"
     ax.set(title=f"Composite: {what} vs peak velocity" + ("\n(measured - gas - friction)" if damping else "")
            + (", x: model" if model is not None else ""),
-           xlabel="peak velocity [m/s]", ylabel=f"{what} [N], rebound as magnitude")
+           xlabel=units.label("peak velocity", "velocity"),
+           ylabel=f"{units.label(what, 'force')}, rebound as magnitude")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))

@@ -1,6 +1,7 @@
 """The dyno sheet's table: force per direction at standard shaft velocities, interpolated
-from the sine segments' peaks (protocols/reports/peaks.py). Speeds [m/s] come from
-velocities.toml unless given; forces [N], compression positive, rebound negative."""
+from the sine segments' peaks (protocols/reports/peaks.py). Speeds come from
+velocities.toml unless given. SI inside (m/s, N; compression positive, rebound
+negative); the CSV and the page in the chosen unit system."""
 from __future__ import annotations
 
 import csv
@@ -10,14 +11,19 @@ from pathlib import Path
 
 import numpy as np
 
+from protocols.units import Units, fmt
+
 SPEEDS_FILE = Path(__file__).with_name("velocities.toml")
 MERGE = 0.05  # peaks within 5 % of each other's speed are one point (their forces averaged)
 
 
-def standard_speeds() -> list[float]:
-    """The default table speeds [m/s] (velocities.toml)."""
+def standard_speeds(units=Units()) -> list[float]:
+    """The default table speeds [m/s] (velocities.toml): round numbers of in/s for US units."""
     with open(SPEEDS_FILE, "rb") as f:
-        return [float(v) for v in tomllib.load(f)["speeds_m_s"]]
+        table = tomllib.load(f)
+    if units.system == "us":
+        return [float(Units("us").to_si("velocity", v)) for v in table["speeds_in_s"]]
+    return [float(v) for v in table["speeds_m_s"]]
 
 
 @dataclass
@@ -51,10 +57,10 @@ def _at(speeds, v, F):
     return np.interp(speeds, vc, Fc, left=np.nan, right=np.nan)
 
 
-def velocity_table(rows, speeds=None) -> list[VelocityRow]:
+def velocity_table(rows, speeds=None, units=Units()) -> list[VelocityRow]:
     """[VelocityRow] at speeds [m/s] from the Peak rows of sine segments at the cell's
     temperature (a temperature sweep's segments are left out: they are another curve)."""
-    speeds = np.asarray(standard_speeds() if speeds is None else speeds, float)
+    speeds = np.asarray(standard_speeds(units) if speeds is None else speeds, float)
     rows = [p for p in rows if np.isnan(p.target_c)]
     col = {name: np.array([getattr(p, name) for p in rows], float)
            for name in ("v_comp", "v_reb", "F_comp", "F_reb", "Fd_comp", "Fd_reb")}
@@ -67,21 +73,29 @@ def has_rows(table) -> bool:
     return any(np.isfinite(r.F_comp_N) or np.isfinite(r.F_reb_N) for r in table)
 
 
-def write_csv(table, path):
+QUANTITY = {"v_m_s": "velocity", "F_comp_N": "force", "F_reb_N": "force", "Fd_comp_N": "force", "Fd_reb_N": "force"}
+
+
+def write_csv(table, path, units=Units()):
+    """velocity.csv: speed, force and damping force per direction, units in the names."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow([f.name for f in fields(VelocityRow)])
+        w.writerow([units.column(f.name.rsplit("_", 1)[0] if f.name != "v_m_s" else "v", QUANTITY[f.name])
+                    for f in fields(VelocityRow)])
         for r in table:
-            w.writerow(["" if not np.isfinite(v) else f"{v:.4g}" for v in astuple(r)])
+            w.writerow(["" if not np.isfinite(v) else f"{units.show(QUANTITY[f.name], v):.4g}"
+                        for f, v in zip(fields(VelocityRow), astuple(r))])
     return path
 
 
-def html_table(table):
+def html_table(table, units=Units()):
     """(header, rows) for the page; a blank where the speed was not measured."""
     has_d = any(np.isfinite(r.Fd_comp_N) for r in table)
-    head = ["speed [m/s]", "F comp [N]", "F reb [N]"] + (["damping comp [N]", "damping reb [N]"] if has_d else [])
+    lab = units.label
+    head = [lab("speed", "velocity"), lab("F comp", "force"), lab("F reb", "force")] + \
+        ([lab("damping comp", "force"), lab("damping reb", "force")] if has_d else [])
 
     def n(v):
-        return f"{v:.0f}" if np.isfinite(v) else "-"
-    return head, [[f"{r.v_m_s:g}", n(r.F_comp_N), n(r.F_reb_N)] + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else [])
-                  for r in table]
+        return fmt(units.show("force", v), 3) if np.isfinite(v) else "-"
+    return head, [[f"{units.show('velocity', r.v_m_s):.4g}", n(r.F_comp_N), n(r.F_reb_N)]
+                  + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else []) for r in table]

@@ -1,0 +1,52 @@
+"""The unit systems outputs are shown in (`--units si|metric|us`, units.toml): SI inside,
+converted only here, at the edge. A quantity's value in SI goes to the chosen system by
+`shown = SI x scale + offset`."""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+SYSTEMS_FILE = Path(__file__).with_name("units.toml")
+with open(SYSTEMS_FILE, "rb") as _f:
+    SYSTEMS = tomllib.load(_f)
+
+
+@dataclass(frozen=True)
+class Units:
+    system: str = "metric"
+
+    def __post_init__(self):
+        if self.system not in SYSTEMS:
+            raise ValueError(f"unknown unit system {self.system!r} (one of {', '.join(SYSTEMS)})")
+
+    def unit(self, quantity: str) -> str:
+        return SYSTEMS[self.system][quantity][0]
+
+    def show(self, quantity: str, si):
+        """SI value(s) in this system's unit."""
+        _, scale, offset = SYSTEMS[self.system][quantity]
+        return np.asarray(si, float) * scale + offset if np.ndim(si) else float(si) * scale + offset
+
+    def to_si(self, quantity: str, shown):
+        _, scale, offset = SYSTEMS[self.system][quantity]
+        return (np.asarray(shown, float) - offset) / scale if np.ndim(shown) else (float(shown) - offset) / scale
+
+    def label(self, name: str, quantity: str) -> str:
+        """A column or axis name with its unit: 'F comp [lbf]'."""
+        return f"{name} [{self.unit(quantity)}]"
+
+    def column(self, name: str, quantity: str) -> str:
+        """A CSV column name with its unit, as pandas users like them: 'F_comp_lbf'."""
+        return f"{name}_{self.unit(quantity).replace('/', '_')}"
+
+
+def fmt(x, digits=4) -> str:
+    """A value to `digits` significant digits in fixed point ('-' for none): 1403, 12.68, 0.3170."""
+    if x is None or not np.isfinite(x):
+        return "-"
+    if x == 0:
+        return "0"
+    return f"{x:.{max(0, digits - 1 - int(np.floor(np.log10(abs(x)))))}f}"

@@ -29,13 +29,18 @@ class ProgressLine:
     target (Segment.target: warming, cooling) has no known length: its remaining time is
     the distance to the target over the rate of approach so far, and each wait still to
     come is named as such rather than counted at its timeout (30 min of a cooling that
-    takes 3 would make the ETA meaningless)."""
+    takes 3 would make the ETA meaningless). Into a log (a stream that is not a terminal)
+    the line is written whole, once per segment and every LOG_EVERY_S, not redrawn."""
+
+    LOG_EVERY_S = 10.0
 
     def __init__(self, segments, name, stream=None):
         self.segments, self.name = segments, name
         self.stream = stream or sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
         self.t_wall0 = time.monotonic()
         self.last = 0.0
+        self.logged = (None, -1e9)  # (segment, wall time) of the last line written to a log
         self.start = None  # (ts, value) of the current wait, a few seconds in
         self.shown = 0.0  # the fraction shown last
 
@@ -45,7 +50,10 @@ class ProgressLine:
         now = time.monotonic()
         if not final and now - self.last < 0.25:
             return
+        if not (self.tty or final or i != self.logged[0] or now - self.logged[1] >= self.LOG_EVERY_S):
+            return
         self.last = now
+        self.logged = (i, now)
         seg = self.segments[min(i, len(self.segments) - 1)]
         label, eta, waits = final or seg.name, 0.0, 0
         if final != "done":
@@ -70,8 +78,9 @@ class ProgressLine:
         pace = (now - self.t_wall0) / done_s if done_s > 10 else 1.0  # wall seconds per rig second
         bar = "#" * int(25 * frac) + "." * (25 - int(25 * frac))
         tail = "" if final else f"ETA {eta * pace:5.0f} s" + (f" + {waits} wait{'s' * (waits > 1)}" if waits else "")
-        self.stream.write(f"\r{self.name} [{bar}] {100 * frac:3.0f} %  {label[:38]:38s} {tail:20s}")
-        if final:
+        line = f"{self.name} [{bar}] {100 * frac:3.0f} %  {label[:38]:38s} {tail:20s}"
+        self.stream.write(f"\r{line}" if self.tty else f"{line.rstrip()}\n")
+        if final and self.tty:
             self.stream.write("\n")
         self.stream.flush()
 

@@ -318,7 +318,10 @@ def test_progress_counts_waits_by_their_approach_not_their_timeout():
     segs = [Segment("sine", {}, 10.0, hold), Segment("warm up", {}, 1800.0, hold, False, None, ("T_body", 320.0)),
             Segment("sine hot", {}, 5.0, hold), Segment("cool to 30 C", {}, 1800.0, hold, False, None,
                                                          ("T_body", 303.15))]
-    out = io.StringIO()
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+    out = Terminal()
     line = runner.ProgressLine(segs, "t", out)
 
     def shown(i, ts, T):
@@ -337,6 +340,27 @@ def test_progress_counts_waits_by_their_approach_not_their_timeout():
     assert "ETA     5 s + 2 waits" in shown(1, 20.0, 299.0)  # cooling while it should warm: not known
     text = shown(3, 1.0, 310.0)  # the last wait: the bar is not full before it is done
     assert "ETA     0 s + 1 wait" in text and " 99 %" in text
+
+
+def test_progress_into_a_log_is_a_line_per_segment_or_ten_seconds_never_a_redraw():
+    import io
+
+    from protocols.plan import Segment
+    hold = lambda t: 0.1  # noqa: E731
+    segs = [Segment("sine 1", {}, 10.0, hold), Segment("sine 2", {}, 10.0, hold)]
+    out = io.StringIO()  # not a terminal: a file, a pipe
+    line = runner.ProgressLine(segs, "t", out)
+    for k in range(200):  # 200 calls in the first segment, 0.3 s of wall time apart
+        line.last -= 0.3
+        line.show(0, 0.05 * k, 0.05 * k)
+    line.logged = (0, line.logged[1] - 10.0)  # ten seconds later
+    line.show(0, 9.9, 9.9)
+    line.last -= 0.3
+    line.show(1, 0.1, 10.1)
+    line.show(1, 10.0, 20.0, final="done")
+    lines = out.getvalue().splitlines()
+    assert "\r" not in out.getvalue() and len(lines) == 4
+    assert "sine 1" in lines[0] and "sine 1" in lines[1] and "sine 2" in lines[2] and "100 %  done" in lines[3]
 
 
 def test_recover_keeps_every_intact_chunk_after_damage_and_a_damaged_magic(tmp_path):

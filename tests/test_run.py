@@ -45,7 +45,8 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert p.returncode == 2 and "amplitudes_mm: 40 mm leaves the stroke limits" in p.stderr  # refused
     assert not out.exists()
     p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(out), "amplitudes_mm=6.4,12.7",
-                        "freqs_hz=2,8,20", "record_cycles=3", "--operator", "A. Tester", "--serial", "K-0042"],
+                        "freqs_hz=2,8,20", "record_cycles=3", "--operator", "A. Tester", "--serial", "K-0042",
+                        "--setup", "clicks_reb=12", "--setup", "shims=A-3"],
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     assert "skipping sine 12.7 mm 20 Hz: peak velocity 1.60 m/s" in p.stderr
@@ -59,6 +60,7 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert {"software", "rig", "calibration", "damper", "protocol"} <= set(meta)
     assert json.loads(meta["protocol"]["params"])["freqs_hz"] == [2.0, 8.0, 20.0]
     assert (meta["run"]["operator"], meta["run"]["damper_serial"]) == ("A. Tester", "K-0042")
+    assert (meta["run"]["setup.clicks_reb"], meta["run"]["setup.shims"]) == ("12", "A-3")
     assert "note" not in meta["run"]
     assert attachments == ["rig.toml"]
     # no gaps: per topic the message counter and the sample index both run on
@@ -95,6 +97,7 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert "3 channels (force [N], x [mm], T_body [C])" in p.stdout
     side = json.loads((tmp_path / "x.csv.meta.json").read_text())
     assert side["columns"] == rows[0] and side["protocol"]["name"] == "sine-matrix" and side["run"]["wall_start"]
+    assert side["run"]["setup.shims"] == "A-3"  # the setup goes with the exported table
     assert {(r[2], r[3]) for r in rows[1:] if r[3] == "sine"} >= {("sine 6.4 mm 2 Hz", "sine"), ("sine 12.7 mm 8 Hz", "sine")}
 
 

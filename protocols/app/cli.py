@@ -41,6 +41,14 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"dyno: error: {where + ': ' if where else ''}{message}\n")
 
 
+def setup_item(text):
+    """--setup KEY=VALUE: a key of letters, digits, '_', '-' or '.', and a value."""
+    key, eq, value = text.partition("=")
+    if not eq or not value.strip() or not key or not all(c.isalnum() or c in "_-." for c in key):
+        raise argparse.ArgumentTypeError(f"{text!r} is not KEY=VALUE (a key of letters, digits, _ - or ., then a value)")
+    return key, value.strip()
+
+
 def number(lo=None, hi=None, integer=False, above=None):
     """An argparse type: a finite number (an integer if asked) within [lo, hi], above `above`."""
     def parse(text):
@@ -159,6 +167,9 @@ def _cell_commands(sub):
     rn.add_argument("--operator", default=None, help="who runs the test (recorded, shown on the report)")
     rn.add_argument("--serial", default=None, help="the damper's serial number (recorded, shown on the report)")
     rn.add_argument("--note", default=None, help="a note for the record (setup, clickers, ...)")
+    rn.add_argument("--setup", action="append", type=setup_item, default=[], metavar="KEY=VALUE",
+                    help="the damper's setup, recorded and shown on the report (repeat: --setup clicks_reb=12 "
+                         "--setup gas_bar=10)")
     rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
                     help="identify the damper while the test runs and write RECORDING.model.json "
                          "(default: on for the standard sequence)")

@@ -43,7 +43,8 @@ def run(args):
         who = {"operator": "operator", "damper_serial": "serial", "note": "note"}  # metadata "run" <- --option
         recorder = Recorder(claim, cfg, json.dumps(to_dict(damper)), module.NAME, as_dict(params),
                             wall_start=rig.wall_start,
-                            run_info={k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)})
+                            run_info={**{k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)},
+                                      **{f"setup.{k}": v for k, v in getattr(args, "setup", [])}})
         print(f"recording to {claim.target}", file=sys.stderr, flush=True)
         if identifying:
             from protocols.live_identify import LiveIdentify

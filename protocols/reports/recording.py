@@ -77,6 +77,9 @@ def _header(page, meta, events, model):
     page.paragraph(" · ".join(f"{label}: {run[k]}" for k, label in (
         ("wall_start", "started (UTC)"), ("operator", "operator"), ("damper_serial", "damper serial"), ("note", "note"))
         if run.get(k)))
+    setup = {k.removeprefix("setup."): v for k, v in run.items() if k.startswith("setup.")}
+    if setup:
+        page.paragraph("Setup: " + ", ".join(f"{k} {v}" for k, v in setup.items()))
     page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}."
                    + (f" Model overlaid: {model.name}." if model is not None else ""))

@@ -276,6 +276,16 @@ def _analysis_commands(sub):
                     help="recordings made and diagnosed in parallel (default 2)")
     _cluster_option(pv)
     pv.set_defaults(command="prove")
+    ck = sub.add_parser("check", help="QA: a run against a reference run or model, within a tolerance band")
+    ck.add_argument("recording")
+    ck.add_argument("--against", required=True, metavar="REF.mcap|MODEL",
+                    help="the reference: another run, or a damper model (preset or FILE.json) simulated along "
+                         "this run's motion")
+    ck.add_argument("--tolerance", default="5%", help="the band: 5%% of the reference, 50N, or 5%%,50N (the larger)")
+    ck.add_argument("--out", default=None, help="folder for check.png, the band and the run's points")
+    _units(ck)
+    _overwrite(ck)
+    ck.set_defaults(command="check")
     ex = sub.add_parser("export", help="a recording as one wide table (CSV or Parquet) on the force clock")
     ex.add_argument("recording")
     ex.add_argument("--csv", metavar="FILE", help="write CSV")

@@ -1,0 +1,110 @@
+"""Production QA: a run's force at the velocity table's speeds against a reference (another
+run, or a damper model along this run's own motion), inside a tolerance band: pass or
+fail per speed and direction, with the margin left. SI inside (m/s, N)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from protocols.reports import velocity_table as vt
+from protocols.reports.plots import plt
+from protocols.reports.page import save
+from protocols.units import Units
+
+
+@dataclass
+class Tolerance:
+    """The band about the reference: the larger of pct of it and newtons."""
+    pct: float = 0.0
+    newtons: float = 0.0
+
+    def band(self, ref):
+        return np.maximum(np.abs(ref) * self.pct / 100.0, self.newtons)
+
+    def __str__(self):
+        parts = ([f"{self.pct:g} %"] if self.pct else []) + ([f"{self.newtons:g} N"] if self.newtons else [])
+        return " or ".join(parts)
+
+
+def parse_tolerance(text: str) -> Tolerance:
+    """'5%' (of the reference), '50N' or '50' (newtons), or both: '5%,50N' (the larger)."""
+    tol = Tolerance()
+    for part in text.replace(" ", "").split(","):
+        try:
+            if part.endswith("%"):
+                tol.pct = float(part[:-1])
+            else:
+                tol.newtons = float(part.removesuffix("N"))
+        except ValueError:
+            raise ValueError(f"--tolerance: {text!r} is not like 5% or 50N or 5%,50N") from None
+    if not (tol.pct >= 0 and tol.newtons >= 0 and (tol.pct > 0 or tol.newtons > 0)) or tol.pct > 100:
+        raise ValueError(f"--tolerance: {text!r} must be positive (a percentage up to 100, newtons)")
+    return tol
+
+
+@dataclass
+class Verdict:
+    v_m_s: float
+    direction: str  # "compression" or "rebound"
+    reference_N: float
+    measured_N: float
+    band_N: float  # half-width of the band [N]
+
+    @property
+    def margin_N(self):
+        """What is left of the band (negative: outside by that much)."""
+        return self.band_N - abs(self.measured_N - self.reference_N)
+
+    @property
+    def passed(self):
+        return self.margin_N >= 0
+
+
+def verdicts(run_rows, ref_rows, tol: Tolerance, speeds=None, units=Units()) -> list[Verdict]:
+    """Per speed (the velocity table's, [m/s]; by default the unit system's standard
+    points) and direction where both were measured."""
+    run = vt.velocity_table(run_rows, speeds, units)
+    ref = vt.velocity_table(ref_rows, [r.v_m_s for r in run])
+    out = []
+    for a, b in zip(run, ref):
+        for direction, m, r in (("compression", a.F_comp_N, b.F_comp_N), ("rebound", a.F_reb_N, b.F_reb_N)):
+            if np.isfinite(m) and np.isfinite(r):
+                out.append(Verdict(a.v_m_s, direction, r, m, float(tol.band(r))))
+    return out
+
+
+def model_rows(rows):
+    """Peaks whose forces are the model's at the same instants (peaks(..., model=M)): the
+    reference a model gives along the run's own motion and temperature."""
+    import copy
+    out = []
+    for p in rows:
+        q = copy.copy(p)
+        q.F_comp, q.F_reb = p.model_comp, p.model_reb
+        out.append(q)
+    return out
+
+
+def band_figure(results, out_path, title, units=Units()):
+    """The reference with its band and the run's points, per direction, as magnitudes."""
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    for direction, c in (("compression", "C0"), ("rebound", "C1")):
+        rs = sorted((r for r in results if r.direction == direction), key=lambda r: r.v_m_s)
+        if not rs:
+            continue
+        v = units.show("velocity", np.array([r.v_m_s for r in rs]))
+        ref = units.show("force", np.abs([r.reference_N for r in rs]))
+        band = units.show("force", np.array([r.band_N for r in rs]))
+        ax.fill_between(v, ref - band, ref + band, color=c, alpha=0.18, label=f"{direction}: reference band")
+        ax.plot(v, ref, "--", color=c, lw=1)
+        ok = np.array([r.passed for r in rs])
+        meas = units.show("force", np.abs([r.measured_N for r in rs]))
+        if ok.any():
+            ax.plot(v[ok], meas[ok], "o", color=c, label=f"{direction}: run, inside")
+        if (~ok).any():
+            ax.plot(v[~ok], meas[~ok], "X", color=c, mec="red", ms=10, mew=1.5, label=f"{direction}: run, OUTSIDE")
+    ax.set(title=title, xlabel=units.label("shaft velocity", "velocity"), ylabel=units.label("force magnitude", "force"))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return save(fig, out_path)

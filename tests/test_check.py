@@ -1,0 +1,55 @@
+"""`dyno check`: production QA of a run against a reference run or a damper model."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from protocols.reports import peaks, qa
+
+DYNO = str(Path(sys.executable).parent / "dyno")
+
+
+def _peak(freq, F):
+    return peaks.Peak(f"sine 12.7 mm {freq} Hz", 12.7, freq, np.nan, 20.0, 0.1 * freq, F, -0.1 * freq, -1.5 * F)
+
+
+def test_the_tolerance_is_a_percentage_newtons_or_the_larger_of_both():
+    assert qa.parse_tolerance("5%").band(np.array([1000.0, -200.0])).tolist() == [50.0, 10.0]
+    assert qa.parse_tolerance("5%,30N").band(np.array([1000.0, -200.0])).tolist() == [50.0, 30.0]
+    assert qa.parse_tolerance("40").band(np.array([1000.0])).tolist() == [40.0]
+    for bad in ("5x", "-5%", "0", "150%", ""):
+        with pytest.raises(ValueError, match="--tolerance"):
+            qa.parse_tolerance(bad)
+
+
+def test_each_speed_and_direction_passes_or_fails_with_its_margin():
+    ref = [_peak(f, 1000.0 * 0.1 * f) for f in (1, 2, 4, 8)]  # 1000 N per m/s, 1500 in rebound
+    run = [_peak(f, 1000.0 * 0.1 * f * (1.08 if f == 8 else 1.0)) for f in (1, 2, 4, 8)]  # 8 % strong at 0.8 m/s
+    out = qa.verdicts(run, ref, qa.parse_tolerance("5%"), speeds=[0.1, 0.4, 0.8, 1.0])
+    assert [(r.v_m_s, r.direction) for r in out][:2] == [(0.1, "compression"), (0.1, "rebound")]
+    assert len(out) == 6  # 1.0 m/s was measured by neither
+    assert all(r.passed for r in out[:4]) and out[0].margin_N == pytest.approx(5.0)
+    fast = out[4]
+    assert not fast.passed and fast.margin_N == pytest.approx(40.0 - 64.0)
+
+
+def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_damper(tmp_path):
+    rec = tmp_path / "k.mcap"
+    p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(rec), "amplitudes_mm=12.7", "freqs_hz=2,8",
+                        "record_cycles=2"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    p = subprocess.run([DYNO, "check", str(rec), "--against", str(rec), "--out", str(tmp_path / "qa")],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "PASS" in p.stdout and (tmp_path / "qa" / "check.png").stat().st_size > 10_000
+    p = subprocess.run([DYNO, "check", str(rec), "--against", "koni", "--tolerance", "3%"], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0 and "PASS" in p.stdout, p.stdout + p.stderr  # the plant is the koni model
+    p = subprocess.run([DYNO, "check", str(rec), "--against", "mechformance", "--units", "us"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 1 and "FAIL" in p.stdout and " lbf, margin " in p.stdout, p.stdout + p.stderr
+    p = subprocess.run([DYNO, "check", str(rec), "--against", str(tmp_path / "none.mcap")], capture_output=True,
+                       text=True, timeout=60)
+    assert p.returncode == 2 and p.stderr.strip().endswith("none.mcap: no such file")

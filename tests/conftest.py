@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 # ... and so does one a `dyno` command the tests start draws (pyproject's filterwarnings)
-os.environ["PYTHONWARNINGS"] = "error::protocols.reports.page.LayoutWarning"
+os.environ["DYNO_STRICT_FIGURES"] = "1"
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 SHORT = ["static_points=5", "amplitudes_mm=12.7,6.4,3.2,1.6", "freqs_hz=1,4,16", "targets_c=45"]

@@ -49,12 +49,16 @@ def layout_problems(fig) -> list[str]:
 
 def save(fig, path: Path, dpi=100):
     """Write a matplotlib figure as PNG, close it; its file name (for the page). Text the
-    layout clips or overlaps is warned of (LayoutWarning), naming the figure."""
+    layout clips or overlaps is warned of (LayoutWarning), naming the figure; raised with
+    DYNO_STRICT_FIGURES set in the environment (the test suite sets it)."""
+    import os
     import warnings
 
     import matplotlib.pyplot as plt
     fig.tight_layout()
     for problem in layout_problems(fig):
+        if os.environ.get("DYNO_STRICT_FIGURES"):  # the test suite's: a bad figure fails the command
+            raise LayoutWarning(f"{Path(path).name}: {problem}")
         warnings.warn(f"{Path(path).name}: {problem}", LayoutWarning, stacklevel=2)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)

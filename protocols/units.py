@@ -50,3 +50,8 @@ def fmt(x, digits=4) -> str:
     if x == 0:
         return "0"
     return f"{x:.{max(0, digits - 1 - int(np.floor(np.log10(abs(x)))))}f}"
+
+
+def amplitude(units: Units, mm: float) -> str:
+    """A plan's amplitude [mm] as shown: '12.7 mm', '0.5 in', '0.0127 m'."""
+    return f"{units.show('length', mm * 1e-3):.3g} {units.unit('length')}"

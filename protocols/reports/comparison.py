@@ -18,7 +18,7 @@ from protocols.io.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
-from protocols.units import Units, fmt
+from protocols.units import Units, amplitude, fmt
 
 MARKERS = "os^Dv<>p"  # one per amplitude
 
@@ -124,7 +124,7 @@ def _composite(runs, out, units):
     ax.plot([], [], "k-", label="compression")
     ax.plot([], [], "k--", label="rebound (magnitude)")
     for a in amps:
-        ax.plot([], [], MARKERS[amps.index(a) % len(MARKERS)], color="k", label=f"{a:g} mm")
+        ax.plot([], [], MARKERS[amps.index(a) % len(MARKERS)], color="k", label=amplitude(units, a))
     what = "damping force (measured - gas - friction)" if damping else "peak force"
     ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity", xlabel=units.label("peak velocity", "velocity"),
            ylabel=units.label(what, "force"))

@@ -18,7 +18,7 @@ from protocols.reports import hil, peaks, velocity_table as vt
 from protocols.reports.page import Page, save
 from protocols.reports.pdf import write_pdf
 from protocols.reports.plots import plt
-from protocols.units import Units
+from protocols.units import Units, amplitude
 
 
 def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
@@ -111,9 +111,9 @@ def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
                 k = t >= t[0] + peaks.settled_after(prm)
                 axes[0, j].plot(V(v[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)
                 axes[1, j].plot(X(x[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)
-        axes[0, j].set(title=f"{a:g} mm: force vs velocity", xlabel=units.label("velocity", "velocity"),
+        axes[0, j].set(title=f"{amplitude(units, a)}: force vs velocity", xlabel=units.label("velocity", "velocity"),
                        ylabel=units.label("force", "force"))
-        axes[1, j].set(title=f"{a:g} mm: force vs displacement", xlabel=units.label("displacement", "length"),
+        axes[1, j].set(title=f"{amplitude(units, a)}: force vs displacement", xlabel=units.label("displacement", "length"),
                        ylabel=units.label("force", "force"))
         for ax in axes[:, j]:
             ax.grid(alpha=0.3)
@@ -129,7 +129,8 @@ def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
         vc, vr = V(np.array([p.v_comp for p in ps])), -V(np.array([p.v_reb for p in ps]))
         Fc = F_(np.array([p.Fd_comp if damping else p.F_comp for p in ps]))
         Fr = -F_(np.array([p.Fd_reb if damping else p.F_reb for p in ps]))
-        label = f"{a:g} mm" + ("" if np.isnan(T) else f", {T:g} C")
+        label = amplitude(units, a) + ("" if np.isnan(T) else f", {units.show('temperature', T + 273.15):.3g} "
+                                                            f"{units.unit('temperature')}")
         line = ax.plot(vc, Fc, "o-", label=f"{label} compression")[0]
         ax.plot(vr, Fr, "s--", color=line.get_color(), label=f"{label} rebound")
         if model is not None:

@@ -3,6 +3,7 @@ run, or a damper model along this run's own motion), inside a tolerance band: pa
 fail per speed and direction, with the margin left. SI inside (m/s, N)."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,13 +78,7 @@ def verdicts(run_rows, ref_rows, tol: Tolerance, speeds=None, units=Units()) -> 
 def model_rows(rows):
     """Peaks whose forces are the model's at the same instants (peaks(..., model=M)): the
     reference a model gives along the run's own motion and temperature."""
-    import copy
-    out = []
-    for p in rows:
-        q = copy.copy(p)
-        q.F_comp, q.F_reb = p.model_comp, p.model_reb
-        out.append(q)
-    return out
+    return [dataclasses.replace(p, F_comp=p.model_comp, F_reb=p.model_reb) for p in rows]
 
 
 def band_figure(results, out_path, title, units=Units()):

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import html
 import math
+import os
+import warnings
 from pathlib import Path
 
 STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto}img{max-width:100%}"
@@ -51,9 +53,6 @@ def save(fig, path: Path, dpi=100):
     """Write a matplotlib figure as PNG, close it; its file name (for the page). Text the
     layout clips or overlaps is warned of (LayoutWarning), naming the figure; raised with
     DYNO_STRICT_FIGURES set in the environment (the test suite sets it)."""
-    import os
-    import warnings
-
     import matplotlib.pyplot as plt
     fig.tight_layout()
     for problem in layout_problems(fig):

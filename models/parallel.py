@@ -39,7 +39,8 @@ def warm():
 
 
 class Progress:
-    """A one-line progress bar with an ETA on a text stream (stderr by default)."""
+    """A one-line progress bar with an ETA on a text stream (stderr by default); into a log
+    (a stream that is not a terminal) a whole line per finished task, never redrawn."""
 
     def __init__(self, total, label="", stream=None, width=30):
         self.total, self.label, self.width = total, label, width
@@ -47,11 +48,12 @@ class Progress:
         self.done = 0
         self.t0 = time.monotonic()
         self._lock = threading.Lock()
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
 
     def note(self, text):
         """A line of its own above the bar."""
         with self._lock:
-            self.stream.write(f"\r{text}\n")
+            self.stream.write(f"\r{text}\n" if self.tty else f"{text}\n")
             self.stream.flush()
 
     def advance(self, n=1):
@@ -61,8 +63,8 @@ class Progress:
             eta = elapsed / self.done * (self.total - self.done)
             filled = int(self.width * self.done / self.total)
             bar = "#" * filled + "." * (self.width - filled)
-            end = "\n" if self.done == self.total else ""
-            self.stream.write(f"\r{self.label} [{bar}] {self.done}/{self.total} "
+            start, end = ("\r", "\n" if self.done == self.total else "") if self.tty else ("", "\n")
+            self.stream.write(f"{start}{self.label} [{bar}] {self.done}/{self.total} "
                               f"{elapsed:5.1f} s, ETA {eta:5.1f} s{end}")
             self.stream.flush()
 

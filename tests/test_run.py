@@ -366,6 +366,19 @@ def test_progress_into_a_log_is_a_line_per_segment_or_ten_seconds_never_a_redraw
     assert "sine 1" in lines[0] and "sine 1" in lines[1] and "sine 2" in lines[2] and "100 %  done" in lines[3]
 
 
+def test_the_proofs_progress_into_a_log_is_a_line_per_task():
+    import io
+
+    from models.parallel import Progress
+    out = io.StringIO()
+    bar = Progress(3, "prove", out)
+    bar.note("null seed 0: accepted []")
+    for _ in range(3):
+        bar.advance()
+    lines = out.getvalue().splitlines()
+    assert "\r" not in out.getvalue() and len(lines) == 4 and lines[-1].startswith("prove [") and "3/3" in lines[-1]
+
+
 def test_recover_keeps_every_intact_chunk_after_damage_and_a_damaged_magic(tmp_path):
     from mcap.writer import CompressionType, Writer
 

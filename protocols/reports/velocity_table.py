@@ -73,17 +73,18 @@ def has_rows(table) -> bool:
     return any(np.isfinite(r.F_comp_N) or np.isfinite(r.F_reb_N) for r in table)
 
 
-QUANTITY = {"v_m_s": "velocity", "F_comp_N": "force", "F_reb_N": "force", "Fd_comp_N": "force", "Fd_reb_N": "force"}
+# each field's CSV name (its unit added by the unit system) and quantity
+CSV = {"v_m_s": ("v", "velocity"), "F_comp_N": ("F_comp", "force"), "F_reb_N": ("F_reb", "force"),
+       "Fd_comp_N": ("Fd_comp", "force"), "Fd_reb_N": ("Fd_reb", "force")}
 
 
 def write_csv(table, path, units=Units()):
     """velocity.csv: speed, force and damping force per direction, units in the names."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow([units.column(f.name.rsplit("_", 1)[0] if f.name != "v_m_s" else "v", QUANTITY[f.name])
-                    for f in fields(VelocityRow)])
+        w.writerow([units.column(*CSV[f.name]) for f in fields(VelocityRow)])
         for r in table:
-            w.writerow(["" if not np.isfinite(v) else f"{units.show(QUANTITY[f.name], v):.4g}"
+            w.writerow(["" if not np.isfinite(v) else f"{units.show(CSV[f.name][1], v):.4g}"
                         for f, v in zip(fields(VelocityRow), astuple(r))])
     return path
 

@@ -28,7 +28,7 @@ from models.diagnose.data import Data, DiagnoseError, prepare
 from models.diagnose.from_model import FromModel
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
 from models.diagnose.result import Baseline, Candidate, Diagnosis, Final, LeftOver, Step
-from models.diagnose.terms import TERMS, tone
+from models.diagnose.terms import tone
 from models.diagnose.where import describe, locate
 from models.recording import nrmse
 
@@ -253,7 +253,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
               and x[0].gain >= SHARE * mse and resolved(d, x[0].effect, x[0].parameters, x[0].ci)]
         if not ok:
             break
-        best, b_vals, b_folds, b_r = max(ok, key=lambda x: x[0].gain)
+        best, b_vals, b_folds, b_r = _chosen(ok, block, judged, judged_blocks, alpha, rng)
         m_best = Model(d, accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
             # from the screening's values, close to the optimum: a few evaluations per parameter
@@ -286,6 +286,28 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                      Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)))
 
 
+def _term(e):
+    """Is e a term outside the catalogue (or the baseline's form reshaped), not a named effect?"""
+    return EFFECTS[e.split(":")[0]].nature in ("open", "form")
+
+
+def _chosen(ok, block, judged, judged_blocks, alpha, rng):
+    """The accepted round's winner: the largest gain, except that a term outside the
+    catalogue must beat the best catalogue effect by the bar any effect must pass: by
+    RELEVANCE noise variances more, significantly (the catalogue's test, block by block on
+    the held-out cycles). Where it does not, the named effect is the better account of the
+    same residual (fewer parameters, each with a physical reading)."""
+    best = max(ok, key=lambda x: x[0].gain)
+    named = [x for x in ok if not _term(x[0].effect)]
+    if not _term(best[0].effect) or not named:
+        return best
+    cat = max(named, key=lambda x: x[0].gain)
+    sse = [_block_sse(np.where(judged, x[3], 0.0), block, judged_blocks) for x in (cat, best)]
+    rel = np.log(np.maximum(sse[0], 1e-30) / np.maximum(sse[1], 1e-30))
+    better = best[0].relevance - cat[0].relevance >= RELEVANCE and p_value(rel, rng, alpha) < alpha
+    return best if better else cat
+
+
 def _round(d, base, names, accepted, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma, alpha,
            rng, progress):
     """Each candidate fitted beside the accepted effects and judged on the held-out blocks:
@@ -295,7 +317,7 @@ def _round(d, base, names, accepted, folds, current, block, judged, judged_block
     out = []
     for e in names:
         m = Model(d, accepted + [e], base)
-        if e in TERMS:
+        if EFFECTS[e.split(":")[0]].linear:
             f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, accepted))
         else:  # the open terms' coefficients held: they are refitted with the rest once accepted
             f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, accepted))
@@ -321,11 +343,11 @@ def _replaced(d, base, folds, judged, block, judged_blocks, accepted, values, cu
     significant, by the test that accepted it). Returns the new (accepted, values, per fold
     values, residual, {dropped: replacing term})."""
     replaced = {}
-    open_ = [e for e in accepted if e in TERMS]
+    open_ = [e for e in accepted if _term(e)]
     if not open_:
         return accepted, values, current, r_cur, replaced
     rng = np.random.default_rng(1)
-    for e in [e for e in accepted if e not in TERMS and accepted.index(e) < accepted.index(open_[0])]:
+    for e in [e for e in accepted if not _term(e) and accepted.index(e) < accepted.index(open_[0])]:
         rest = [a for a in accepted if a != e]
         m = Model(d, rest, base)
         f_vals, f_sds, r = cross_fit(m, d, folds, current)

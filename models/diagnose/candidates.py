@@ -16,6 +16,7 @@ import numpy as np
 
 from models.diagnose import kernels
 from models.diagnose.spec import V_EPS, Effect, Hidden, P
+from models.diagnose import terms
 from models.diagnose.terms import TERMS
 
 GAMMA = 1.38  # thesis section 4.1.2
@@ -23,6 +24,7 @@ GAMMA = 1.38  # thesis section 4.1.2
 # at the Nyquist frequency averages over about 0.6 of one (a choice; the data cannot tell it
 # from the size of a short clearance crossing, which it scales)
 W_FORCE = 0.5
+FRICTION_KNOTS = 8  # basis functions of position_friction over the stroke
 
 
 def _direction(v, c1, c2, C, Fcr):
@@ -156,8 +158,11 @@ def _gas_temperature(m, d, p, f, e):
 
 
 def _position_friction(m, d, p, f, e):
-    xi = (f.x - m.x_m) / 0.01
-    f.Ff = f.Ff * (1 + p["pf1"] * xi + p["pf2"] * xi * xi)
+    # extra friction along the stroke, sgn(v) B(x) [N]: a smooth basis over the recorded
+    # stroke rather than a law, since a tight spot, a worn band or a step in the bore each
+    # have their own shape (the thesis's friction is a constant, eq 3.3)
+    B = terms.cached(m, d, e, lambda: terms.x_basis(d, FRICTION_KNOTS))
+    f.Ff = f.Ff + (B @ np.array([p[f"pf{i}"] for i in range(B.shape[1])])) * np.tanh(f.v / V_EPS)
 
 
 def _breakaway_friction(m, d, p, f, e):
@@ -301,10 +306,11 @@ CATALOGUE = {e.name: e for e in (
            }),
     ),
     Effect("position_friction", "seal friction varying along the bore",
-           _p(P("pf1", 0.0, -0.9, 0.9, "per cm"), P("pf2", 0.0, -0.9, 0.9, "per cm^2")),
-           estimate="pf1", apply=_position_friction, acts_on="parts", depends_on=("displacement", "direction"),
-           say=("Friction changes along the stroke ({v} {u} per cm from mid-stroke): a tight spot or "
-                "wear in the bore or seal. Inspect the bore and rod.", "pf1", 100.0, "%"),
+           lambda d, e: terms.coefficients("pf", FRICTION_KNOTS, terms.force_bound(d)),
+           estimate=None, apply=_position_friction, acts_on="parts", depends_on=("displacement", "direction"),
+           linear=True,
+           say=("Friction changes along the stroke ({region}; {size}): a tight spot or wear in the bore or "
+                "seal. Inspect the bore and rod.", None, 1.0, "N"),
            hidden=Hidden('-', "a tight spot in the bore: extra friction at its peak over the table's", 0.1, {
                'narrow': 'a tight spot 1.5 mm wide, 3 mm below mid-stroke',
                'step': 'friction VALUE higher over the bore above mid-stroke + 2 mm (a worn lower bore), the step '
@@ -398,6 +404,6 @@ EFFECTS = {**CATALOGUE, **TERMS}
 # the order the effects act in, whatever order they were accepted in: multiplications
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
 ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility", "gas_temperature",
-         "elastic_stroke", "presliding_friction", "position_friction", "stroke_friction", "breakaway_friction",
+         "elastic_stroke", "presliding_friction", "position_friction", "breakaway_friction",
          "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "cavitation",
          "free_play")

@@ -8,7 +8,6 @@ from scipy.optimize import least_squares
 
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.data import Data
-from models.diagnose.terms import TERMS
 from models.recording import covariance
 
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
@@ -121,8 +120,8 @@ def linear_fit(model: Model, d: Data, folds, starts, hold=()):
 
 
 def open_params(d: Data, effects):
-    """Names of the open terms' coefficients among effects."""
-    return {p.name for e in effects if e in TERMS for p in TERMS[e].params(d, e)}
+    """Names of the coefficients of the effects among `effects` that are smooth bases."""
+    return {p.name for e in effects if EFFECTS[e.split(":")[0]].linear for p in EFFECTS[e.split(":")[0]].params(d, e)}
 
 
 def pooled(vals, sds):

@@ -40,7 +40,7 @@ class Effect:
     name: str
     what: str  # the physics, in an engineer's words
     params: callable  # (d, effect id) -> [P]
-    estimate: str  # the parameter that sizes the effect (what `dyno prove` reports)
+    estimate: str | None  # the parameter that sizes the effect (what `dyno prove` reports); None: a basis
     apply: callable  # (model, d, values, Forces, effect id): its force, in place
     acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
     needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel; "tone": a tone
@@ -48,3 +48,4 @@ class Effect:
     nature: str = "physics"  # of NATURES
     say: tuple = ()  # (sentence, parameter shown, factor, unit): see protocols/app/diagnose.py
     hidden: Hidden | None = None  # how the virtual plant hides it; None: the plant has no form of it
+    linear: bool = False  # a smooth basis, linear in its coefficients: screened by one Gauss-Newton step

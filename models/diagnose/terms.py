@@ -5,7 +5,6 @@ evidence (issue 29). Each is a smooth basis with linear coefficients:
   valve_form       the valve curve reshaped, per direction: B(|v|), zero at rest
   elastic_stroke   an elastic force along the stroke, alike in both directions: B(x)
                    (a bump stop, a top-out spring, a gas law other than the baseline's)
-  stroke_friction  friction changing along the stroke: B(x) sgn(v) (a tight spot)
   stroke_damping   damping changing along the stroke, per direction: (1 + B(x)) F_damping
                    (bypass grooves, position-sensitive valving)
   drift            a slow offset in time, independent of the motion: B(t), judged only by its
@@ -25,10 +24,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import BSpline
 
-from models.diagnose.spec import V_EPS, Effect, P
+from models.diagnose.spec import Effect, P
 
 DEGREE = 3
-KNOTS = {"valve_form": 8, "elastic_stroke": 8, "stroke_friction": 8, "stroke_damping": 6, "temperature_force": 4}
+KNOTS = {"valve_form": 8, "elastic_stroke": 8, "stroke_damping": 6, "temperature_force": 4}
 DRIFT_S = 10.0  # s of recording per drift basis function (4 to 8 of them)
 
 
@@ -51,7 +50,7 @@ def _centred(B, groups=None):
     return out
 
 
-def _basis(m, d, key, make):
+def cached(m, d, key, make):
     """A basis made once per model and data (the fit evaluates the force many times)."""
     got = m.cache.get(key)
     if got is None or got[0] is not d:
@@ -59,11 +58,11 @@ def _basis(m, d, key, make):
     return got[1]
 
 
-def _bound(d):
+def force_bound(d):
     return 3.0 * max(float(np.percentile(np.abs(d.F), 99)), 10.0)
 
 
-def _coef(prefix, n, bound):
+def coefficients(prefix, n, bound):
     return [P(f"{prefix}{i}", 0.0, -bound, bound, "N") for i in range(n)]
 
 
@@ -76,26 +75,21 @@ def _valve_basis(d, v):
 
 
 def _valve_form(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _valve_basis(d, d.v)) if f.v is d.v else _valve_basis(d, f.v)
+    B = cached(m, d, e, lambda: _valve_basis(d, d.v)) if f.v is d.v else _valve_basis(d, f.v)
     f.Fd = f.Fd + B @ np.array([p[f"vf{i}"] for i in range(B.shape[1])])
 
 
-def _x_basis(d, n):
+def x_basis(d, n):
     return bspline(d.x, float(np.min(d.x)), float(np.max(d.x)), n)
 
 
 def _elastic_stroke(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _centred(_x_basis(d, KNOTS[e])))
+    B = cached(m, d, e, lambda: _centred(x_basis(d, KNOTS[e])))
     f.Fg = f.Fg + B @ np.array([p[f"es{i}"] for i in range(B.shape[1])])
 
 
-def _stroke_friction(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _x_basis(d, KNOTS[e]))
-    f.Ff = f.Ff + (B @ np.array([p[f"sf{i}"] for i in range(B.shape[1])])) * np.tanh(f.v / V_EPS)
-
-
 def _stroke_damping(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _x_basis(d, KNOTS[e]))
+    B = cached(m, d, e, lambda: x_basis(d, KNOTS[e]))
     n = B.shape[1]
     gc = B @ np.array([p[f"sdc{i}"] for i in range(n)])
     gr = B @ np.array([p[f"sdr{i}"] for i in range(n)])
@@ -107,12 +101,12 @@ def _drift_n(d):
 
 
 def _drift(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
+    B = cached(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
     f.F = f.F + B @ np.array([p[f"dr{i}"] for i in range(B.shape[1])])
 
 
 def _damping_drift(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
+    B = cached(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
     f.Fd = f.Fd * (1.0 + B @ np.array([p[f"dd{i}"] for i in range(B.shape[1])]))
 
 
@@ -122,7 +116,7 @@ def _interference(m, d, p, f, e):
 
 
 def _temperature_force(m, d, p, f, e):
-    B = _basis(m, d, e, lambda: _centred(bspline(d.T, float(np.min(d.T)), float(np.max(d.T)), KNOTS[e])))
+    B = cached(m, d, e, lambda: _centred(bspline(d.T, float(np.min(d.T)), float(np.max(d.T)), KNOTS[e])))
     f.F = f.F + B @ np.array([p[f"tf{i}"] for i in range(B.shape[1])])
 
 
@@ -171,46 +165,41 @@ def tone(d, r, k):
 
 TERMS = {e.name: e for e in (
     Effect("valve_form", "the valve curve shaped otherwise than the baseline's two-stage law",
-           lambda d, e: _coef("vf", 2 * (KNOTS["valve_form"] - 1), _bound(d)), "vf0", _valve_form, "parts",
-           depends_on=("velocity", "direction"), nature="form",
+           lambda d, e: coefficients("vf", 2 * (KNOTS["valve_form"] - 1), force_bound(d)), "vf0", _valve_form, "parts",
+           depends_on=("velocity", "direction"), linear=True, nature="form",
            say=("The valve curve is shaped otherwise than the baseline's two-stage law ({region}; {size}): "
                 "the baseline's form, not physics left out. Fit the valves with a table or a richer law.",
                 None, 1.0, "N")),
     Effect("elastic_stroke", "an elastic force along the stroke, alike in both directions",
-           lambda d, e: _coef("es", KNOTS["elastic_stroke"], _bound(d)), "es0", _elastic_stroke, "parts",
-           depends_on=("displacement",), nature="open",
+           lambda d, e: coefficients("es", KNOTS["elastic_stroke"], force_bound(d)), "es0", _elastic_stroke, "parts",
+           depends_on=("displacement",), linear=True, nature="open",
            say=("Not in the catalogue: an elastic force along the stroke, alike in both directions ({region}; "
                 "{size}): a bump stop, a top-out spring, or a gas spring other than the baseline's?",
                 None, 1.0, "N")),
-    Effect("stroke_friction", "friction changing along the stroke",
-           lambda d, e: _coef("sf", KNOTS["stroke_friction"], _bound(d)), "sf0", _stroke_friction, "parts",
-           depends_on=("displacement", "direction"), nature="open",
-           say=("Not in the catalogue: friction changing along the stroke ({region}; {size}): a tight spot in "
-                "the bore, seal wear or a bent rod?", None, 1.0, "N")),
     Effect("stroke_damping", "damping changing along the stroke, per direction", _damping_params, "sdc0",
-           _stroke_damping, "parts", depends_on=("displacement", "velocity", "direction"), nature="open",
+           _stroke_damping, "parts", depends_on=("displacement", "velocity", "direction"), linear=True, nature="open",
            say=("Not in the catalogue: damping that changes along the stroke ({region}; {size}): bypass grooves "
                 "or position-sensitive valving?", None, 1.0, "N")),
     Effect("drift", "a slow offset in time, independent of the motion",
-           lambda d, e: _coef("dr", _drift_n(d), _bound(d)), "dr0", _drift, "total", depends_on=("time",),
-           nature="open",
+           lambda d, e: coefficients("dr", _drift_n(d), force_bound(d)), "dr0", _drift, "total", depends_on=("time",),
+           linear=True, nature="open",
            say=("Not in the catalogue: a slow offset in time, independent of the motion ({region}; {size}): "
                 "the load cell's zero drifting, a leak or warm-up? Re-zero and repeat a reference segment.",
                 None, 1.0, "N")),
     Effect("damping_drift", "damping changing in time, independent of the motion",
            lambda d, e: [P(f"dd{i}", 0.0, -0.9, 0.9, "-") for i in range(_drift_n(d))], "dd0", _damping_drift,
-           "parts", depends_on=("time", "velocity", "direction"), nature="open",
+           "parts", depends_on=("time", "velocity", "direction"), linear=True, nature="open",
            say=("Not in the catalogue: damping that changes in time ({region}; {size}): the oil warming without "
                 "a thermocouple to show it, or a valve settling in? Log the oil temperature.", None, 1.0, "N")),
     Effect("interference", "a tone unrelated to the motion",
-           lambda d, e: [P("hum_c", 0.0, -_bound(d), _bound(d), "N"), P("hum_s", 0.0, -_bound(d), _bound(d), "N")],
-           "hum_c", _interference, "total", needs="tone", depends_on=("time",), nature="cell",
+           lambda d, e: [P("hum_c", 0.0, -force_bound(d), force_bound(d), "N"), P("hum_s", 0.0, -force_bound(d), force_bound(d), "N")],
+           "hum_c", _interference, "total", needs="tone", depends_on=("time",), linear=True, nature="cell",
            say=("A tone at {hz:.2f} Hz, unrelated to the motion, rides on the force ({size}): interference in "
                 "the cell (mains at 50 or 60 Hz, a pump, a fan), not the damper. Shield or filter the force "
                 "channel.", None, 1.0, "N")),
     Effect("temperature_force", "a force varying with temperature, apart from the motion",
-           lambda d, e: _coef("tf", KNOTS["temperature_force"], _bound(d)), "tf0", _temperature_force, "total",
-           needs="T", depends_on=("temperature",), nature="open",
+           lambda d, e: coefficients("tf", KNOTS["temperature_force"], force_bound(d)), "tf0", _temperature_force, "total",
+           needs="T", depends_on=("temperature",), linear=True, nature="open",
            say=("Not in the catalogue: a force that varies with temperature apart from the motion ({region}; "
                 "{size}): a thermal offset of the load cell?", None, 1.0, "N")),
 )}

@@ -45,7 +45,7 @@ def sentence(step):
     text, pname, factor, unit = EFFECTS[key].say
     p, ci = step.parameters, step.ci
     late = ""
-    if EFFECTS[key].nature in ("open", "form") or key == "interference":
+    if pname is None or key == "interference":  # a smooth basis: said by where it lives and its size
         return text.format(region=step.region, size=_size(step), hz=step.tone_hz or 0.0) + _change(step)
     if key == "cavitation":
         v = min(p["Fcav_c"], p["Fcav_r"])

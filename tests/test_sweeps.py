@@ -123,3 +123,36 @@ def test_wheel_hop_onset_is_the_start_of_the_range_reaching_the_top():
     assert qv.wheel_hop_onset(fr, 0) == 6.0
     fr.values["lift_off_fraction"] = np.array([[0.0, 0.1, 0.0, 0.2, 0.3, 0.0]])
     assert np.isnan(qv.wheel_hop_onset(fr, 0))
+
+
+def test_a_flat_peak_reports_the_band_within_ten_percent_of_it():
+    freqs = np.arange(5.0, 13.0)
+    ride = np.array([[-0.2, -1.0, -2.0, -2.3, -2.4, -2.25, -1.5, -0.5]])  # cm-like, peak at 9 Hz
+    fr = sweeps.FrequencyResponse("car", "d", 363.15, np.array([0.0127]), freqs, {"ride_height_change": ride})
+    assert qv.flat_band(fr, "ride_height_change", 0, sign=-1.0) == (8.0, 10.0)
+    r = qv._peak_frequency_row("Table 6.6", "x", 5.0, fr, "ride_height_change", 0, -1.0, ("ride_height",))
+    assert not r["pass"] and "8-10 Hz" in r["sensitivity"] and "outside" in r["sensitivity"]
+
+
+def test_every_step_row_names_readings_that_exist_and_cite_a_line():
+    from models.validation import readings
+    known = readings()
+    assert all(isinstance(v["line"], int) and v["line"] > 0 and v["reading"] for v in known.values())
+    metrics = {f"{k}_{m}": 10.0 for k in ("overshoot", "settling") for m in ("sprung", "unsprung")}
+    rows = [r for *_, r in qv._step_rows([metrics] * len(qv.STEPS))]
+    assert len(rows) == 4 * len(qv.STEPS)
+    assert all(r["reading"] and set(r["reading"]) <= set(known) and r["experiment"] is not None for r in rows)
+
+
+def test_a_square_wave_edge_jumps_by_its_peak_to_peak_about_the_static_position():
+    from models.quarter_car.road import square_edge
+    t = np.array([0.0, 4.9, 5.0, 6.0])
+    assert square_edge(t, 0.0254, 5.0).tolist() == [-0.0127, -0.0127, 0.0127, 0.0127]
+
+
+def test_the_damper_install_position_moves_it_towards_its_stop():
+    car = qcm.load("simulator")
+    koni = load("koni")
+    _, mid = sweeps.step_response(car, koni, 0.0508, duration=1.0)
+    _, low = sweeps.step_response(car, koni, 0.0508, duration=1.0, x_install=koni.mid_stroke - 0.015)
+    assert low["overshoot_sprung"] < mid["overshoot_sprung"] - 5  # 15 mm further from the bump stop

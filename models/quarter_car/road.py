@@ -14,6 +14,12 @@ def step(t, amplitude, t0=0.0):
     return np.where(np.asarray(t) >= t0, amplitude, 0.0)
 
 
+def square_edge(t, peak_to_peak, t_edge):
+    """One edge of a square wave [m]: -peak_to_peak / 2 before t_edge, +peak_to_peak / 2
+    after (thesis line 713: steps of 1.27, 2.54 and 5.08 cm peak to peak at 0.1 Hz)."""
+    return np.where(np.asarray(t) >= t_edge, 0.5, -0.5) * peak_to_peak
+
+
 def harmonic(t, amplitude, freq):
     """(y, v): sine of peak amplitude [m] at freq [Hz] (6.2: 0.32 and 1.27 cm)."""
     w = 2 * np.pi * freq

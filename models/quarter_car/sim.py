@@ -197,11 +197,12 @@ def _table_loop(s, q, y_in, v_in, tv, tF, rec):
 
 
 def run(qc: QuarterCar, damper, t, y_in, v_in=None, T=C_to_K(94.0), compressible=True,
-        tire_travel=0.05) -> QuarterCarResult:
+        tire_travel=0.05, x_install=None) -> QuarterCarResult:
     """Run the quarter car with a damper model (preset name, JSON path, Damper or
     SimplifiedDamper) at temperature T [K], in compiled code.
 
-    A comprehensive damper sits at mid-stroke at static equilibrium, carries its gas
+    A comprehensive damper sits at x_install [m from full extension] at static
+    equilibrium (mid-stroke by default: the thesis does not say), carries its gas
     force (eq 5.1), adds its friction (eq 3.3) and meets its stops at the stroke ends;
     the compressible model takes one implicit step per car step. A simplified model
     (eqs 6.1-6.2) is damping only: no gas force, no stops."""
@@ -217,7 +218,7 @@ def run(qc: QuarterCar, damper, t, y_in, v_in=None, T=C_to_K(94.0), compressible
         return _result(qc, t, y_in, v_in, rec)
     if not isinstance(d, Damper):
         raise DamperError(f"not a damper model: {damper!r}")
-    x_mid, stroke = d.mid_stroke, d.geometry.stroke
+    x_mid, stroke = d.mid_stroke if x_install is None else float(x_install), d.geometry.stroke
     prm, vp, vh = pack(d, float(T), x_mid)
     asm = ASSEMBLY[d.layout]
     y = asm.initial_state(prm, x_mid)

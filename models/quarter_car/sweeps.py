@@ -24,7 +24,7 @@ from models.damper import Damper, DamperError, load
 from models.parallel import run_all
 from models.quarter_car import QuarterCar
 from models.quarter_car.sim import run
-from models.quarter_car.road import harmonic, step
+from models.quarter_car.road import harmonic, square_edge, step
 from models.physics.simulate import C_to_K
 
 AMPLITUDES = (0.0032, 0.0127)  # m (6.2.3)
@@ -153,14 +153,18 @@ def frequency_response(car: QuarterCar, damper, amplitudes=AMPLITUDES, freqs=FRE
                        f"{d.name} sweep")[d.name]
 
 
-def step_response(car: QuarterCar, damper, amplitude, T=T_BASE, duration=2.0, t_step=0.05, h=1e-4):
+def step_response(car: QuarterCar, damper, amplitude, T=T_BASE, duration=2.0, t_step=0.05, h=1e-4,
+                  square=False, x_install=None):
     """(result, metrics) for a road step of `amplitude` [m] at t_step (6.2.2): percent
-    overshoot and 90 % settling time of the sprung and unsprung displacements."""
+    overshoot and 90 % settling time of the sprung and unsprung displacements. square:
+    the step is the edge of a square wave, from -amplitude / 2 held since t = 0 to
+    +amplitude / 2 (road.square_edge); x_install: where the damper sits at rest (run)."""
     if not amplitude or not np.isfinite(amplitude):
         raise DamperError(f"step amplitude must be non-zero and finite, got {amplitude}")
     d = _damper(damper)
     t = np.arange(int(round(duration / h)) + 1) * h
-    r = run(car, d, t, step(t, amplitude, t_step), np.zeros_like(t), T=T)
+    road = square_edge(t, amplitude, t_step) if square else step(t, amplitude, t_step)
+    r = run(car, d, t, road, np.zeros_like(t), T=T, x_install=x_install)
     m = {"overshoot_sprung": metrics.overshoot_percent(t, r.y1, t_step),
          "settling_sprung": metrics.settling_time(t, r.y1, t_step),
          "overshoot_unsprung": metrics.overshoot_percent(t, r.y2, t_step),

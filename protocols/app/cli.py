@@ -105,6 +105,9 @@ def _model_commands(sub):
     v = sub.add_parser("validate", help="reproduce the thesis validation table")
     v.add_argument("--json", action="store_true", help="machine-readable {\"rows\": [...]}")
     v.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
+    v.add_argument("--sensitivity", action="store_true",
+                   help="for each missed step row, the install position that would reconcile it (slower)")
+    v.add_argument("--report", metavar="DIR", help="also write the step and ride-height figures there")
     v.set_defaults(command="validate")
     pl = sub.add_parser("plot", help="write plots as PNG")
     plsub = pl.add_subparsers(dest="what", required=True)

@@ -191,6 +191,8 @@ CASES = [
     (["bench", "identify", "--damper", "nosuch"], ["recording nosuch: unknown damper preset 'nosuch'"]),
     (["prove", "--effects", "gremlins"], ["unknown effect 'gremlins'"]),
     (["validate", "--json", "extra"], ["unrecognized arguments: extra"]),
+    (["diagnose", "{rec}", "--next", "--budget", "-5"], ["--budget: must be a positive number of seconds"]),
+    (["diagnose", "{rec}", "--next", "--baseline", "koni"], ["--next designs from the minimal baseline"]),
     # issue 28: outputs never lose an input or an existing file
     (["identify", "{rec}", "--out", "{rec}"], ["that is an input"]),
     (["identify", "{rec}", "--damper", "{damper_json}", "--out", "{damper_json}", "--overwrite"], ["that is an input"]),

@@ -253,6 +253,11 @@ def _analysis_commands(sub):
     dg.add_argument("--holdout", type=holdout, default="interleaved",
                     help="interleaved (default: alternate cycles or blocks) or tail:FRACTION (a time split: fit on "
                          "the first 1-2F, choose on the next F, report on the last F)")
+    dg.add_argument("--next", action="store_true",
+                    help="also propose the sines that would best tell apart what it could not (minimal baseline)")
+    dg.add_argument("--budget", type=float, default=120.0, metavar="SECONDS",
+                    help="--next: rig time the proposals may take (default 120)")
+    dg.add_argument("--rig", default=None, help="--next: rig config whose limits the proposals keep (default virtual)")
     dg.set_defaults(command="diagnose")
     pv = sub.add_parser("prove", help="hide each effect in the virtual rig at the noise level and diagnose it")
     pv.add_argument("--seeds", type=number(1, 10000, integer=True), default=10,

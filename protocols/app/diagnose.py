@@ -248,6 +248,10 @@ def run(args):
         return diagnose_batch.run(args, baseline and (baseline[0], to_dict(baseline[1])))
     if args.recording is None:
         raise RigError("diagnose: give a RECORDING, or --batch FILE...")
+    if getattr(args, "next", False) and baseline is not None:
+        raise RigError("--next designs from the minimal baseline: drop --baseline")
+    if getattr(args, "next", False) and not args.budget > 0:
+        raise RigError(f"--budget: must be a positive number of seconds, got {args.budget:g}")
     if args.report:
         output_folder(args.report, existing_files(args.recording, args.baseline), args.overwrite, "--report")
     ch, events, _ = load_recording(args.recording)
@@ -260,10 +264,17 @@ def run(args):
         with filled(args.report, "--report") as folder:
             page = report(res, folder)
         say(f"report: {Path(args.report) / page.name}")
+    props = None
+    if getattr(args, "next", False):
+        from protocols.app import next_test
+        props = next_test.proposals(res, args)
     if args.json:
-        print(json.dumps(to_json(res), indent=1))
+        print(json.dumps({**to_json(res), **({"next": next_test.to_json(props)} if props is not None else {})},
+                         indent=1))
     else:
         print(summary(res))
+        if props is not None:
+            print("\n" + next_test.text(res, props))
         print("\nCandidates (held-out error, p, gain in noise variances):")
         for c in res.candidates:
             print(f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"

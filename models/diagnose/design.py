@@ -1,0 +1,190 @@
+"""The next test (issue 31): which sine segment would best tell apart the explanations a
+diagnosis could not, per second of rig time.
+
+Rivals come from the diagnosis itself:
+  - an accepted effect against the runner-up of its round, where that runner-up was worth
+    having too (RELEVANCE noise variances): the residual had two readings;
+  - the model as accepted against it with a candidate of the last round that was worth
+    having but not significant, or hinted at (p under HINT_P): an effect under the noise.
+
+For each rival pair and each feasible sine (amplitude, frequency: within the cell's stroke,
+velocity and frequency limits, the force of the fitted model within its force limit) both
+models predict the force along the motion; the expected log-likelihood ratio between them
+is sum(dF^2) / (2 sigma^2) over the samples (dF less its mean, which the baseline's gas
+level absorbs). A proposal is the sine with the largest ratio per second of rig time for
+each rival, and proposals are taken best first until the budget is spent.
+
+Named effects only: a smooth basis (a term outside the catalogue, position friction) is
+defined over the recorded range and has no prediction outside it. The rival's parameters
+are the final model's with the rival's own from its round: a design, not a refit.
+SI units: m, m/s, Hz, s, N.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.diagnose import resolved
+from models.diagnose.candidates import EFFECTS, Model
+from models.diagnose.data import Data
+from models.diagnose.result import Diagnosis
+
+RELEVANCE = 0.1  # noise variances a rival must have gained to be worth telling apart (as in acceptance)
+HINT_P = 0.1  # or a p-value under this: an effect the recording hints at without showing
+AMPLITUDES_M = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02)
+FREQUENCIES_HZ = (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 4.0, 8.0, 12.0, 16.0, 25.0)
+RATE_HZ = 1000.0
+SETTLE_CYCLES = 1  # cycles run before the ones that count (the recorder drops them)
+MIN_CYCLES, MIN_S = 5, 2.0  # at least this many counted cycles, and at least this long
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the cell may do: stroke [m from full extension], velocity [m/s], frequency
+    [Hz] (inf: none) and force [N]."""
+    x_min: float
+    x_max: float
+    velocity_max: float
+    force_max: float
+    frequency_max: float = math.inf
+
+
+@dataclass(frozen=True)
+class Sine:
+    amplitude_m: float
+    frequency_hz: float
+    offset_m: float  # centre, m from full extension
+
+    @property
+    def cycles(self):
+        return max(MIN_CYCLES, math.ceil(MIN_S * self.frequency_hz)) + SETTLE_CYCLES
+
+    @property
+    def duration_s(self):
+        return self.cycles / self.frequency_hz
+
+
+@dataclass(frozen=True)
+class Rival:
+    chosen: tuple  # effects of the model as accepted
+    other: tuple  # effects of the explanation it competes with
+    values: dict  # parameters of `other` (the final model's, the rival's own from its round)
+    said: str  # why they compete, in words
+
+
+@dataclass(frozen=True)
+class Proposal:
+    sine: Sine
+    rival: Rival
+    difference_rms_n: float  # the two predictions' difference along the sine, less its mean
+    ratio: float  # that over the force noise
+    score: float  # expected log-likelihood ratio per second of rig time
+    why: str
+
+
+def _named(e):
+    return not EFFECTS[e.split(":")[0]].linear
+
+
+def rivals(diag: Diagnosis) -> list[Rival]:
+    """The explanations the diagnosis could not tell apart (see the module's docstring)."""
+    accepted = [e for e in diag.accepted if _named(e)]
+    if len(accepted) < len(diag.accepted):
+        return []  # a basis in the model: no prediction outside the recorded range
+    final = diag.final.parameters
+    out = []
+    by_round = {}
+    for c in diag.candidates:
+        by_round.setdefault(c.round, []).append(c)
+    for k, e in enumerate(accepted):
+        others = [c for c in by_round.get(k + 1, []) if c.effect != e and c.effect not in accepted
+                  and _named(c.effect) and c.relevance >= RELEVANCE]
+        if not others:
+            continue
+        c = max(others, key=lambda c: c.relevance)
+        own = {p.name for p in EFFECTS[e.split(":")[0]].params(diag.data, e)}
+        values = {**{n: v for n, v in final.items() if n not in own}, **c.parameters}
+        chosen_gain = next(x.relevance for x in by_round[k + 1] if x.effect == e)
+        out.append(Rival(tuple(accepted), tuple(a if a != e else c.effect for a in accepted), values,
+                         f"{_say(e)} was taken over {_say(c.effect)}, {chosen_gain:.2f} to {c.relevance:.2f} "
+                         f"noise variances"))
+    last = by_round.get(len(accepted) + 1, [])
+    for c in sorted(last, key=lambda c: -c.relevance):
+        if (_named(c.effect) and c.effect not in accepted and (c.relevance >= RELEVANCE or c.p_value < HINT_P)
+                and resolved(diag.data, c.effect, c.parameters, c.ci)):
+            out.append(Rival(tuple(accepted), tuple(accepted) + (c.effect,), {**final, **c.parameters},
+                             f"{_say(c.effect)} is hinted at but not shown (gain {c.relevance:.2f} noise "
+                             f"variances, p = {c.p_value:.2g})"))
+    return out
+
+
+def _say(e):
+    return e.replace("_", " ")
+
+
+def motion(sine: Sine, d: Data) -> Data:
+    """The sine as Data the diagnosis's models evaluate (force unknown: zeros); the
+    recording's temperature and aux channels held at their means."""
+    n = int(round(sine.duration_s * RATE_HZ))
+    t = (np.arange(n) + 0.5) / RATE_HZ  # no sample on a reversal, where a friction's sign is a coin toss
+    w = 2 * np.pi * sine.frequency_hz
+    x = sine.offset_m + sine.amplitude_m * np.sin(w * t)
+    v = sine.amplitude_m * w * np.cos(w * t)
+    a = -sine.amplitude_m * w * w * np.sin(w * t)
+    cycle = np.floor(t * sine.frequency_hz).astype(int)
+    T = None if d.T is None else np.full(n, float(np.mean(d.T)))
+    return Data(t, x, v, a, np.zeros(n), cycle, np.zeros(n, int), np.full(n, 1.0 / RATE_HZ),
+                [("next", sine.frequency_hz)], T, {k: np.full(n, float(np.mean(a_))) for k, a_ in d.aux.items()})
+
+
+def feasible(limits: Limits, d: Data) -> list[Sine]:
+    """The sines the cell can run about the recording's mean position."""
+    centre = float(np.mean(d.x))
+    out = []
+    for A in AMPLITUDES_M:
+        if centre - A < limits.x_min or centre + A > limits.x_max:
+            continue
+        for f in FREQUENCIES_HZ:
+            if f <= limits.frequency_max and 2 * np.pi * f * A <= limits.velocity_max:
+                out.append(Sine(A, f, centre))
+    return out
+
+
+def propose(diag: Diagnosis, limits: Limits, budget_s=120.0) -> list[Proposal]:
+    """The next segments, best first, whose rig time adds up to at most budget_s."""
+    d = diag.data
+    sigma = diag.noise_sd
+    best = []
+    sines = feasible(limits, d)
+    motions = {s: motion(s, d) for s in sines}
+    for rv in rivals(diag):
+        ma, mb = Model(d, list(rv.chosen)), Model(d, list(rv.other))
+        found = None
+        for s in sines:
+            m = motions[s]
+            fa = ma.force(m, diag.final.parameters)
+            if np.max(np.abs(fa)) > limits.force_max:
+                continue
+            counted = m.cycle >= SETTLE_CYCLES
+            diff = (fa - mb.force(m, rv.values))[counted]
+            diff = diff - diff.mean()
+            score = float(np.sum(diff ** 2) / (2 * sigma ** 2) / s.duration_s)
+            if found is None or score > found.score:
+                rms = float(np.sqrt(np.mean(diff ** 2)))
+                found = Proposal(s, rv, rms, rms / sigma, score, "")
+        if found is not None:
+            best.append(found)
+    out, spent = [], 0.0
+    for p in sorted(best, key=lambda p: -p.score):
+        if spent + p.sine.duration_s <= budget_s and p.sine not in [q.sine for q in out]:
+            spent += p.sine.duration_s
+            out.append(Proposal(p.sine, p.rival, p.difference_rms_n, p.ratio, p.score, _why(p)))
+    return out
+
+
+def _why(p: Proposal) -> str:
+    s = p.sine
+    return (f"{1e3 * s.amplitude_m:g} mm at {s.frequency_hz:g} Hz for {s.duration_s:.0f} s: {p.rival.said}; "
+            f"there the two differ by {p.difference_rms_n:.2g} N RMS, {p.ratio:.1f}x the noise")

@@ -1,0 +1,56 @@
+"""The next test (models/diagnose/design.py): rivals from a diagnosis, sines within the
+cell's limits, the one where two explanations differ most per second of rig time."""
+from types import SimpleNamespace
+
+import numpy as np
+
+from models.diagnose.candidates import Model
+from models.diagnose.design import Limits, Sine, feasible, motion, propose, rivals
+from models.diagnose.result import Candidate
+
+CELL = Limits(x_min=0.002, x_max=0.074, velocity_max=1.5, force_max=1e4, frequency_max=20.0)
+
+
+def _diagnosis(extra=()):
+    base = SimpleNamespace(x=np.array([0.03, 0.04]), T=None, aux={})
+    d = motion(Sine(0.005, 2.0, 0.038), base)
+    final = {p.name: p.x0 for p in Model(d, ["sensor_delay"]).params}
+    final["tau"] = 2e-4
+    cand = lambda e, own, rel, p=1e-4, rnd=1: Candidate(e, rnd, own, {k: [v * 0.9, v * 1.1] for k, v in own.items()},
+                                                         0.0, 0.0, 0.0, p, rel, rel)
+    cands = [cand("sensor_delay", {"tau": 2e-4}, 0.55), cand("fluid_inertia", {"m_oil": 0.4}, 0.30),
+             cand("free_play", {"c_play": 1e-7}, 0.01, p=0.5)] + list(extra)
+    return SimpleNamespace(data=d, accepted=["sensor_delay"], candidates=cands, noise_sd=1.0,
+                           final=SimpleNamespace(parameters=final))
+
+
+def test_an_effect_taken_over_a_close_runner_up_is_a_rival_and_a_weak_one_is_not():
+    rv = rivals(_diagnosis())
+    assert [r.other for r in rv] == [("fluid_inertia",)]
+    assert rv[0].values["m_oil"] == 0.4 and "tau" not in rv[0].values
+    assert "sensor delay was taken over fluid inertia" in rv[0].said
+
+
+def test_the_next_test_is_the_feasible_sine_where_the_rivals_differ_most_per_second():
+    diag = _diagnosis()
+    (p,) = propose(diag, CELL, budget_s=120.0)
+    sines = feasible(CELL, diag.data)
+    assert p.sine in sines
+    assert all(2 * np.pi * s.frequency_hz * s.amplitude_m <= CELL.velocity_max and s.frequency_hz <= 20.0
+               for s in sines)
+    # a lag and an oil mass differ in proportion to the acceleration: the fastest sine the cell allows
+    assert p.sine.frequency_hz == max(s.frequency_hz for s in sines if s.amplitude_m == p.sine.amplitude_m)
+    assert p.ratio > 1 and "differ by" in p.why and p.sine.duration_s <= 120.0
+
+
+def test_a_hint_under_the_noise_is_a_rival_unless_it_is_below_what_a_sample_resolves():
+    hint = Candidate("presliding_friction", 2, {"x_stick": 1e-9}, {"x_stick": [0.0, 2e-9]}, 0, 0, 0, 0.02, 0.0, 0.0)
+    assert all("presliding_friction" not in r.other for r in rivals(_diagnosis([hint])))
+    hint = Candidate("breakaway_friction", 2, {"r_break": 1.5, "v_break": 0.005, "d_break": 2.0},
+                     {"r_break": [1.0, 2.0], "v_break": [0.003, 0.007], "d_break": [1.0, 3.0]}, 0, 0, 0, 0.02, 0.0, 0.0)
+    got = [r for r in rivals(_diagnosis([hint])) if "breakaway_friction" in r.other]
+    assert got and "hinted at" in got[0].said
+
+
+def test_nothing_is_proposed_when_the_budget_is_shorter_than_any_sine():
+    assert propose(_diagnosis(), CELL, budget_s=0.5) == []

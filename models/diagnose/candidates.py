@@ -97,6 +97,7 @@ class Model:
 
     def __init__(self, d, effects=(), base=None):
         self.base = base or Minimal(d)
+        self.data = d  # what the model is built on: its bases' knots come from it (terms.cached)
         self.x_m = float(np.mean(d.x))
         self.params = self.base.params(d)
         self.effects = list(effects)
@@ -161,7 +162,7 @@ def _position_friction(m, d, p, f, e):
     # extra friction along the stroke, sgn(v) B(x) [N]: a smooth basis over the recorded
     # stroke rather than a law, since a tight spot, a worn band or a step in the bore each
     # have their own shape (the thesis's friction is a constant, eq 3.3)
-    B = terms.cached(m, d, e, lambda: terms.x_basis(d, FRICTION_KNOTS))
+    B = terms.cached(m, d, e, lambda ref, dd: terms.x_basis(ref, dd, FRICTION_KNOTS))
     f.Ff = f.Ff + (B @ np.array([p[f"pf{i}"] for i in range(B.shape[1])])) * np.tanh(f.v / V_EPS)
 
 

@@ -1,7 +1,8 @@
 """The next test (issue 31): which sine segment would best tell apart the explanations a
 diagnosis could not, per second of rig time.
 
-Rivals come from the diagnosis itself:
+Rivals come from the diagnosis itself, among what a motion can tell apart (not an effect
+in time, temperature or an aux channel, which a sine holds constant):
   - an accepted effect against the runner-up of its round, where that runner-up was worth
     having too (RELEVANCE noise variances): the residual had two readings;
   - the model as accepted against it with a candidate of the last round that was worth
@@ -12,11 +13,13 @@ velocity and frequency limits, the force of the fitted model within its force li
 models predict the force along the motion; the expected log-likelihood ratio between them
 is sum(dF^2) / (2 sigma^2) over the samples (dF less its mean, which the baseline's gas
 level absorbs). A proposal is the sine with the largest ratio per second of rig time for
-each rival, and proposals are taken best first until the budget is spent.
+each rival, if over its own duration it would be decisive (DECISIVE), and proposals are
+taken best first until the budget is spent.
 
-Named effects only: a smooth basis (a term outside the catalogue, position friction) is
-defined over the recorded range and has no prediction outside it. The rival's parameters
-are the final model's with the rival's own from its round: a design, not a refit.
+A smooth basis (a term outside the catalogue, position friction) keeps the knots of the
+recording it was fitted on (terms.cached): over the recorded stroke it predicts as fitted,
+beyond it it holds its end values. The rival's parameters are the final model's with the
+rival's own from its round: a design, not a refit.
 SI units: m, m/s, Hz, s, N.
 """
 from __future__ import annotations
@@ -33,6 +36,9 @@ from models.diagnose.result import Diagnosis
 
 RELEVANCE = 0.1  # noise variances a rival must have gained to be worth telling apart (as in acceptance)
 HINT_P = 0.1  # or a p-value under this: an effect the recording hints at without showing
+MAX_HINTS = 3  # hinted effects designed for, most significant first
+DECISIVE = 10.0  # expected log-likelihood ratio a proposal must reach over its own duration
+HELD = {"temperature", "aux"}  # what a sine holds constant: an effect in them cannot be told apart by motion
 AMPLITUDES_M = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02)
 FREQUENCIES_HZ = (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 4.0, 8.0, 12.0, 16.0, 25.0)
 RATE_HZ = 1000.0
@@ -84,15 +90,17 @@ class Proposal:
     why: str
 
 
-def _named(e):
-    return not EFFECTS[e.split(":")[0]].linear
+def _designable(e):
+    """Can a motion tell it apart? Not an effect in temperature or an aux channel (held),
+    nor a force in time itself (a drift, a tone); a time shift of the motion (a lag) it can."""
+    spec = EFFECTS[e.split(":")[0]]
+    return not HELD & set(spec.depends_on) and ("time" not in spec.depends_on or spec.acts_on == "motion")
 
 
 def rivals(diag: Diagnosis) -> list[Rival]:
-    """The explanations the diagnosis could not tell apart (see the module's docstring)."""
-    accepted = [e for e in diag.accepted if _named(e)]
-    if len(accepted) < len(diag.accepted):
-        return []  # a basis in the model: no prediction outside the recorded range
+    """The explanations the diagnosis could not tell apart (see the module's docstring);
+    only those a motion can tell apart (not one in time, temperature or an aux channel)."""
+    accepted = list(diag.accepted)
     final = diag.final.parameters
     out = []
     by_round = {}
@@ -100,8 +108,8 @@ def rivals(diag: Diagnosis) -> list[Rival]:
         by_round.setdefault(c.round, []).append(c)
     for k, e in enumerate(accepted):
         others = [c for c in by_round.get(k + 1, []) if c.effect != e and c.effect not in accepted
-                  and _named(c.effect) and c.relevance >= RELEVANCE]
-        if not others:
+                  and c.relevance >= RELEVANCE and _designable(c.effect)]
+        if not others or not _designable(e):
             continue
         c = max(others, key=lambda c: c.relevance)
         own = {p.name for p in EFFECTS[e.split(":")[0]].params(diag.data, e)}
@@ -111,12 +119,13 @@ def rivals(diag: Diagnosis) -> list[Rival]:
                          f"{_say(e)} was taken over {_say(c.effect)}, {chosen_gain:.2f} to {c.relevance:.2f} "
                          f"noise variances"))
     last = by_round.get(len(accepted) + 1, [])
-    for c in sorted(last, key=lambda c: -c.relevance):
-        if (_named(c.effect) and c.effect not in accepted and (c.relevance >= RELEVANCE or c.p_value < HINT_P)
-                and resolved(diag.data, c.effect, c.parameters, c.ci)):
-            out.append(Rival(tuple(accepted), tuple(accepted) + (c.effect,), {**final, **c.parameters},
-                             f"{_say(c.effect)} is hinted at but not shown (gain {c.relevance:.2f} noise "
-                             f"variances, p = {c.p_value:.2g})"))
+    hints = [c for c in sorted(last, key=lambda c: c.p_value)
+             if c.effect not in accepted and (c.relevance >= RELEVANCE or c.p_value < HINT_P)
+             and _designable(c.effect) and resolved(diag.data, c.effect, c.parameters, c.ci)]
+    for c in hints[:MAX_HINTS]:
+        out.append(Rival(tuple(accepted), tuple(accepted) + (c.effect,), {**final, **c.parameters},
+                         f"{_say(c.effect)} is hinted at but not shown (gain {c.relevance:.2f} noise "
+                         f"variances, p = {c.p_value:.2g})"))
     return out
 
 
@@ -157,16 +166,17 @@ def propose(diag: Diagnosis, limits: Limits, budget_s=120.0) -> list[Proposal]:
     d = diag.data
     sigma = diag.noise_sd
     best = []
+    ma = Model(d, list(diag.accepted))  # every rival competes with the model as accepted
     sines = feasible(limits, d)
     motions = {s: motion(s, d) for s in sines}
+    chosen = {s: ma.force(motions[s], diag.final.parameters) for s in sines}
+    sines = [s for s in sines if np.max(np.abs(chosen[s])) <= limits.force_max]
     for rv in rivals(diag):
-        ma, mb = Model(d, list(rv.chosen)), Model(d, list(rv.other))
+        mb = Model(d, list(rv.other))
         found = None
         for s in sines:
             m = motions[s]
-            fa = ma.force(m, diag.final.parameters)
-            if np.max(np.abs(fa)) > limits.force_max:
-                continue
+            fa = chosen[s]
             counted = m.cycle >= SETTLE_CYCLES
             diff = (fa - mb.force(m, rv.values))[counted]
             diff = diff - diff.mean()
@@ -174,7 +184,7 @@ def propose(diag: Diagnosis, limits: Limits, budget_s=120.0) -> list[Proposal]:
             if found is None or score > found.score:
                 rms = float(np.sqrt(np.mean(diff ** 2)))
                 found = Proposal(s, rv, rms, rms / sigma, score, "")
-        if found is not None:
+        if found is not None and found.score * found.sine.duration_s >= DECISIVE:
             best.append(found)
     out, spent = [], 0.0
     for p in sorted(best, key=lambda p: -p.score):

@@ -38,23 +38,19 @@ def bspline(u, lo, hi, n):
     return BSpline.design_matrix(np.clip(u, lo, hi), knots, DEGREE).toarray()
 
 
-def _centred(B, groups=None):
-    """B with each column's mean removed, over all samples or within each group: what a
-    constant (the gas force's level, a segment's offset) already carries is left out."""
-    if groups is None:
-        return B - B.mean(axis=0)
-    out = B.copy()
-    for g in np.unique(groups):
-        k = groups == g
-        out[k] -= out[k].mean(axis=0)
-    return out
+def _centred(B, B_ref):
+    """B with each column's mean over the model's own data (B_ref) removed: what a
+    constant (the gas force's level) already carries is left out."""
+    return B - B_ref.mean(axis=0)
 
 
 def cached(m, d, key, make):
-    """A basis made once per model and data (the fit evaluates the force many times)."""
+    """make(ref, d): a basis on d's samples whose knots (and centring) come from ref, the
+    data the model was built on, so that it means the same on other motion (the next
+    test's); made once per model and data (the fit evaluates the force many times)."""
     got = m.cache.get(key)
     if got is None or got[0] is not d:
-        got = m.cache[key] = (d, make())
+        got = m.cache[key] = (d, make(m.data, d))
     return got[1]
 
 
@@ -75,21 +71,22 @@ def _valve_basis(d, v):
 
 
 def _valve_form(m, d, p, f, e):
-    B = cached(m, d, e, lambda: _valve_basis(d, d.v)) if f.v is d.v else _valve_basis(d, f.v)
+    B = cached(m, d, e, lambda ref, dd: _valve_basis(ref, dd.v)) if f.v is d.v else _valve_basis(m.data, f.v)
     f.Fd = f.Fd + B @ np.array([p[f"vf{i}"] for i in range(B.shape[1])])
 
 
-def x_basis(d, n):
-    return bspline(d.x, float(np.min(d.x)), float(np.max(d.x)), n)
+def x_basis(ref, d, n):
+    """B(x) on d's samples, its knots over ref's stroke."""
+    return bspline(d.x, float(np.min(ref.x)), float(np.max(ref.x)), n)
 
 
 def _elastic_stroke(m, d, p, f, e):
-    B = cached(m, d, e, lambda: _centred(x_basis(d, KNOTS[e])))
+    B = cached(m, d, e, lambda ref, dd: _centred(x_basis(ref, dd, KNOTS[e]), x_basis(ref, ref, KNOTS[e])))
     f.Fg = f.Fg + B @ np.array([p[f"es{i}"] for i in range(B.shape[1])])
 
 
 def _stroke_damping(m, d, p, f, e):
-    B = cached(m, d, e, lambda: x_basis(d, KNOTS[e]))
+    B = cached(m, d, e, lambda ref, dd: x_basis(ref, dd, KNOTS[e]))
     n = B.shape[1]
     gc = B @ np.array([p[f"sdc{i}"] for i in range(n)])
     gr = B @ np.array([p[f"sdr{i}"] for i in range(n)])
@@ -100,13 +97,17 @@ def _drift_n(d):
     return int(np.clip(round(np.ptp(d.t) / DRIFT_S), DEGREE + 1, 8))
 
 
+def _t_basis(ref, d):
+    return bspline(d.t, float(ref.t[0]), float(ref.t[-1]), _drift_n(ref))
+
+
 def _drift(m, d, p, f, e):
-    B = cached(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
+    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis(ref, dd), _t_basis(ref, ref)))
     f.F = f.F + B @ np.array([p[f"dr{i}"] for i in range(B.shape[1])])
 
 
 def _damping_drift(m, d, p, f, e):
-    B = cached(m, d, e, lambda: _centred(bspline(d.t, float(d.t[0]), float(d.t[-1]), _drift_n(d))))
+    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis(ref, dd), _t_basis(ref, ref)))
     f.Fd = f.Fd * (1.0 + B @ np.array([p[f"dd{i}"] for i in range(B.shape[1])]))
 
 
@@ -116,7 +117,9 @@ def _interference(m, d, p, f, e):
 
 
 def _temperature_force(m, d, p, f, e):
-    B = cached(m, d, e, lambda: _centred(bspline(d.T, float(np.min(d.T)), float(np.max(d.T)), KNOTS[e])))
+    def T_basis(ref, dd):
+        return bspline(dd.T, float(np.min(ref.T)), float(np.max(ref.T)), KNOTS[e])
+    B = cached(m, d, e, lambda ref, dd: _centred(T_basis(ref, dd), T_basis(ref, ref)))
     f.F = f.F + B @ np.array([p[f"tf{i}"] for i in range(B.shape[1])])
 
 

@@ -26,22 +26,13 @@ def command(p: design.Proposal, damper=None) -> str:
             f"record_cycles={cycles}" + (f" --damper {damper}" if damper else ""))
 
 
-def why_none(res) -> str:
-    """What to say when there is nothing to propose."""
-    bases = [e for e in res.accepted if design.EFFECTS[e.split(":")[0]].linear]
-    if bases:
-        return (f"Next test: none designed: {', '.join(bases)} is a smooth basis over the recorded range and "
-                f"predicts nothing outside it.")
-    return "Next test: none needed: no two explanations compete and nothing is hinted at under the noise."
-
-
 def proposals(res, args):
     return design.propose(res, limits(args.rig), args.budget)
 
 
-def text(res, props) -> str:
+def text(props) -> str:
     if not props:
-        return why_none(res)
+        return "Next test: none needed: no two explanations compete and nothing is hinted at under the noise."
     total = sum(p.sine.duration_s for p in props)
     lines = [f"Next test ({total:.0f} s of rig time), best first:"]
     for p in props:

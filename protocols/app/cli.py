@@ -95,7 +95,7 @@ def holdout(text):
 def parser():
     p = Parser(prog="dyno", description="Damper dyno controller and damper model tools")
     sub = p.add_subparsers(dest="cmd", required=True)
-    for add in (_model_commands, _cell_commands, _analysis_commands, _bench_commands):
+    for add in (_model_commands, _cell_commands, _analysis_commands, _catalogue_commands, _bench_commands):
         add(sub)
     return p
 
@@ -227,6 +227,33 @@ def _batch_options(p, what, beside):
 def _cluster_option(p):
     p.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
                    help="fan out on Dask distributed (docs/cluster.md; pip install 'dyno[cluster]')")
+
+
+def _catalogue_commands(sub):
+    """The run catalogue of a folder of recordings (protocols/catalogue.py)."""
+    rs = sub.add_parser("runs", help="find and trend runs: a catalogue of a folder of recordings")
+    rsub = rs.add_subparsers(dest="what", required=True)
+    ri = rsub.add_parser("index", help="index the folder's recordings (incremental; unreadable files kept as errors)")
+    ri.add_argument("dir", nargs="?", default="recordings")
+    ri.set_defaults(command="runs:index")
+    rl = rsub.add_parser("list", help="the runs, oldest first")
+    rl.add_argument("dir", nargs="?", default="recordings")
+    rl.add_argument("--serial", help="one damper serial")
+    rl.add_argument("--since", help="started on or after this UTC date or time (ISO 8601, e.g. 2026-03-01)")
+    rl.add_argument("--protocol", help="one protocol (sine-matrix, standard, ...)")
+    rl.add_argument("--json", action="store_true")
+    rl.set_defaults(command="runs:list_runs")
+    rw = rsub.add_parser("show", help="one run: identity, setup, outcome and its peaks")
+    rw.add_argument("id", type=int)
+    rw.add_argument("dir", nargs="?", default="recordings")
+    rw.add_argument("--json", action="store_true")
+    rw.set_defaults(command="runs:show")
+    rt = rsub.add_parser("trend", help="a serial's force at one speed over its runs")
+    rt.add_argument("dir", nargs="?", default="recordings")
+    rt.add_argument("--serial", required=True)
+    rt.add_argument("--quantity", required=True, help="DIRECTION@SPEED, e.g. rebound@0.5m/s or compression@10in/s")
+    rt.add_argument("--out", help="also plot it to this PNG")
+    rt.set_defaults(command="runs:trend")
 
 
 def _analysis_commands(sub):

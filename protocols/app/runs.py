@@ -1,0 +1,102 @@
+"""`dyno runs index|list|show|trend`: the run catalogue (protocols/catalogue.py) of a
+folder of recordings, one SQLite file beside them."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from protocols import catalogue
+from protocols.reports import markdown as md
+from rig.errors import RigError
+
+
+def _folder(args):
+    folder = Path(args.dir)
+    if not folder.is_dir():
+        raise RigError(f"{folder}: no such folder of recordings")
+    return folder
+
+
+def _connect(args):
+    folder = _folder(args)
+    if not (folder / catalogue.DB_NAME).exists():
+        raise RigError(f"{folder}: no run catalogue yet; run `dyno runs index {folder}`")
+    return catalogue.connect(folder)
+
+
+def index(args):
+    n = catalogue.index(_folder(args))
+    print(f"{args.dir}: {n.added} added, {n.updated} updated, {n.unchanged} unchanged, {n.failed} unreadable "
+          f"(kept with their error) -> {Path(args.dir) / catalogue.DB_NAME}")
+    return 0
+
+
+LIST = ("id", "started", "serial", "damper", "protocol", "duration_s", "outcome", "path")
+
+
+def _cell(row, k):
+    v = row[k]
+    if k == "path":
+        return Path(v).name
+    if k == "duration_s" and v is not None:
+        return f"{v:.0f}"
+    if k == "outcome" and row["error"]:
+        return f"unreadable: {row['error']}"
+    return "-" if v is None else v
+
+
+def list_runs(args):
+    with _connect(args) as c:
+        rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol)
+    if args.json:
+        print(json.dumps([dict(r) for r in rows], indent=1))
+    else:
+        print(md.table(LIST, [[_cell(r, k) for k in LIST] for r in rows]) if rows else "no runs match")
+    return 0
+
+
+def show(args):
+    with _connect(args) as c:
+        try:
+            row, peaks = catalogue.run(c, args.id)
+        except catalogue.CatalogueError as e:
+            raise RigError(str(e)) from None
+    if args.json:
+        print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks]}, indent=1))
+        return 0
+    for k in row.keys():
+        if row[k] not in (None, "", "{}"):
+            print(f"{k:11s} {row[k]}")
+    if peaks:
+        print("\n" + md.table(("segment", "v_comp [m/s]", "F_comp [N]", "v_reb [m/s]", "F_reb [N]"),
+                              [(p["segment"], f"{p['v_comp']:.3f}", f"{p['F_comp']:.0f}", f"{p['v_reb']:.3f}",
+                                f"{p['F_reb']:.0f}") for p in peaks]))
+    return 0
+
+
+def trend(args):
+    with _connect(args) as c:
+        try:
+            points = catalogue.trend(c, args.serial, args.quantity)
+        except catalogue.CatalogueError as e:
+            raise RigError(str(e)) from None
+    if not points:
+        raise RigError(f"no readable runs of serial {args.serial!r} in {args.dir}")
+    print(md.table(("started", f"{args.quantity} [N]", "run id"),
+                   [(s, "-" if np.isnan(F) else f"{F:.0f}", i) for s, F, i in points]))
+    if args.out:
+        from protocols.reports.plots import plt
+        from protocols.reports.page import save
+        fig, ax = plt.subplots(figsize=(7, 3.8))
+        ok = [(s, F) for s, F, _ in points if not np.isnan(F)]
+        ax.plot([s[:16] for s, _ in ok], [F for _, F in ok], "o-")
+        ax.set_title(f"{args.serial}: {args.quantity}")
+        ax.set_ylabel("force [N]")
+        ax.tick_params(axis="x", labelrotation=30, labelsize=7)
+        ax.grid(alpha=0.3)
+        save(fig, Path(args.out))
+        print(f"figure: {args.out}", file=sys.stderr)
+    return 0

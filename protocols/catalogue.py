@@ -1,0 +1,166 @@
+"""The run catalogue (issue 33): one SQLite file beside the recordings (WAL, no server)
+that indexes each recording's identity and setup, protocol and parameters, duration and
+outcome, and its sine peaks, so that runs can be found and a damper's forces trended.
+
+Indexing is incremental (a file is read again only when its size or time changed) and
+idempotent; a file that cannot be read is one row with its error and never stops the
+index. Several writers may index at once (WAL, a busy timeout): each run is one
+transaction. SI inside: m/s, N, s; times as ISO 8601 UTC.
+"""
+from __future__ import annotations
+
+import json
+import re
+import sqlite3
+from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from models.recording import segments
+from protocols.io.reader import load_recording
+from protocols.reports import peaks as peak_rows
+from protocols.reports import velocity_table as vt
+
+DB_NAME = "dyno-runs.sqlite"
+BUSY_MS = 10_000
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS runs (
+    id INTEGER PRIMARY KEY, path TEXT UNIQUE NOT NULL, size INTEGER, mtime REAL,
+    serial TEXT, operator TEXT, note TEXT, setup TEXT, damper TEXT, rig TEXT,
+    protocol TEXT, params TEXT, started TEXT, duration_s REAL, outcome TEXT, reason TEXT, error TEXT);
+CREATE TABLE IF NOT EXISTS peaks (
+    run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, segment TEXT,
+    amplitude_mm REAL, freq_hz REAL, target_c REAL, v_comp REAL, F_comp REAL, v_reb REAL, F_reb REAL);
+CREATE INDEX IF NOT EXISTS runs_serial ON runs(serial);
+"""
+ENDINGS = {"fault": "tripped", "operator_stop": "stopped"}
+
+
+class CatalogueError(ValueError):
+    """A query the catalogue cannot answer; the message says why."""
+
+
+@dataclass
+class Indexed:
+    added: int = 0
+    updated: int = 0
+    unchanged: int = 0
+    failed: int = 0
+
+
+def connect(folder) -> sqlite3.Connection:
+    """The catalogue of recordings in `folder` (created if missing)."""
+    c = sqlite3.connect(Path(folder) / DB_NAME, timeout=BUSY_MS / 1000)
+    c.row_factory = sqlite3.Row
+    c.execute("PRAGMA journal_mode=WAL")
+    c.execute("PRAGMA foreign_keys=ON")
+    c.executescript(SCHEMA)
+    return c
+
+
+def describe(path):
+    """(run row {column: value}, [peak rows]) of one recording; RigError if unreadable."""
+    ch, events, meta = load_recording(path)
+    run = meta.get("run", {})
+    t = ch["force"][0] if "force" in ch else next(iter(ch.values()))[0]
+    ends = [e for e in events if e["kind"] in ENDINGS]
+    row = {"serial": run.get("damper_serial"), "operator": run.get("operator"), "note": run.get("note"),
+           "setup": json.dumps({k.removeprefix("setup."): v for k, v in run.items() if k.startswith("setup.")}),
+           "damper": json.loads(meta.get("damper", {}).get("model", "{}") or "{}").get("name"),
+           "rig": meta.get("rig", {}).get("name"), "protocol": meta.get("protocol", {}).get("name"),
+           "params": meta.get("protocol", {}).get("params"), "started": run.get("wall_start"),
+           "duration_s": float(t[-1] - t[0]) if len(t) else 0.0,
+           "outcome": ENDINGS[ends[0]["kind"]] if ends else "completed",
+           "reason": ends[0].get("message") if ends else None, "error": None}
+    rows = peak_rows.peaks(ch, segments(events))
+    return row, [(p.segment, p.amplitude_mm, p.freq_hz, p.target_c, p.v_comp, p.F_comp, p.v_reb, p.F_reb)
+                 for p in rows]
+
+
+def index(folder) -> Indexed:
+    """Index every *.mcap under folder (recursively) into its catalogue."""
+    out = Indexed()
+    with connect(folder) as c:
+        for path in sorted(Path(folder).rglob("*.mcap")):
+            out_kind = index_file(c, path)
+            setattr(out, out_kind, getattr(out, out_kind) + 1)
+    return out
+
+
+def index_file(c: sqlite3.Connection, path) -> str:
+    """Index one recording: "added", "updated", "unchanged" or "failed" (its error kept)."""
+    path = Path(path).resolve()
+    st = path.stat()
+    old = c.execute("SELECT id, size, mtime FROM runs WHERE path = ?", (str(path),)).fetchone()
+    if old is not None and old["size"] == st.st_size and old["mtime"] == st.st_mtime:
+        return "unchanged"
+    try:
+        row, peaks = describe(path)
+    except Exception as e:  # noqa: BLE001 - a file that cannot be read is a row with its error
+        row, peaks = {"error": str(e).splitlines()[0]}, []
+    row.update(path=str(path), size=st.st_size, mtime=st.st_mtime)
+    with c:  # one transaction per run
+        c.execute("DELETE FROM runs WHERE path = ?", (str(path),))
+        cols = ", ".join(row)
+        run_id = c.execute(f"INSERT INTO runs ({cols}) VALUES ({', '.join('?' * len(row))})",
+                           list(row.values())).lastrowid
+        c.executemany("INSERT INTO peaks VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [(run_id, *p) for p in peaks])
+    if row.get("error"):
+        return "failed"
+    return "added" if old is None else "updated"
+
+
+def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None) -> list[sqlite3.Row]:
+    """The catalogue's runs, oldest first, filtered by serial, start (ISO date or time,
+    UTC) and protocol."""
+    where, args = [], []
+    for col, op, value in (("serial", "=", serial), ("started", ">=", since), ("protocol", "=", protocol)):
+        if value is not None:
+            where.append(f"{col} {op} ?")
+            args.append(value)
+    sql = "SELECT * FROM runs" + (" WHERE " + " AND ".join(where) if where else "") + " ORDER BY started, path"
+    return c.execute(sql, args).fetchall()
+
+
+def run(c: sqlite3.Connection, run_id) -> tuple[sqlite3.Row, list[sqlite3.Row]]:
+    row = c.execute("SELECT * FROM runs WHERE id = ?", (run_id,)).fetchone()
+    if row is None:
+        raise CatalogueError(f"no run with id {run_id} in the catalogue")
+    return row, c.execute("SELECT * FROM peaks WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
+
+
+QUANTITY = re.compile(r"^(compression|rebound)@([0-9.]+)(m/s|in/s)$")
+
+
+def quantity(text):
+    """("compression" | "rebound", speed [m/s]) from e.g. "rebound@0.5m/s" or
+    "compression@10in/s"."""
+    m = QUANTITY.match(text.replace(" ", ""))
+    if not m:
+        raise CatalogueError(f"--quantity {text!r}: give DIRECTION@SPEED with a unit, e.g. rebound@0.5m/s")
+    speed = float(m.group(2)) * (0.0254 if m.group(3) == "in/s" else 1.0)
+    return m.group(1), speed
+
+
+def force_at(peaks, direction, speed):
+    """The run's force [N] at speed [m/s] in direction from its peaks, as the velocity table
+    reads it (nan outside the measured speeds)."""
+    rows = [SimpleNamespace(**{k: p[k] for k in p.keys()}, Fd_comp=np.nan, Fd_reb=np.nan) for p in peaks]
+    for r in rows:
+        r.target_c = np.nan if r.target_c is None else r.target_c
+    if not rows:
+        return float("nan")
+    row = vt.velocity_table(rows, [speed])[0]
+    return row.F_comp_N if direction == "compression" else row.F_reb_N
+
+
+def trend(c: sqlite3.Connection, serial, text):
+    """[(started, force [N], run id)] of a serial's runs at the quantity, oldest first."""
+    direction, speed = quantity(text)
+    out = []
+    for r in runs(c, serial=serial):
+        if r["error"] is None:
+            out.append((r["started"], force_at(run(c, r["id"])[1], direction, speed), r["id"]))
+    return out

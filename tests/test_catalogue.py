@@ -1,0 +1,78 @@
+"""The run catalogue (protocols/catalogue.py) on real recordings: indexing is incremental
+and keeps unreadable files as errors, runs are found by serial and protocol, a serial's
+force is trended at a speed, and two writers indexing at once both land."""
+import shutil
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from protocols import catalogue
+
+DYNO = [str(Path(sys.executable).parent / "dyno")]
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    d = tmp_path_factory.mktemp("runs")
+    r = subprocess.run(DYNO + ["run", "sine-matrix", "amplitudes_mm=6.4", "freqs_hz=1,4", "record_cycles=2",
+                               "--serial", "D12", "--setup", "clicks=12", "--out", str(d / "d12-a.mcap")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    (d / "broken.mcap").write_bytes(b"not an mcap")
+    return d
+
+
+def test_index_is_incremental_and_keeps_an_unreadable_file_as_one_row(folder):
+    got = catalogue.index(folder)
+    assert (got.added, got.failed) == (1, 1)
+    again = catalogue.index(folder)
+    assert (again.added, again.unchanged) == (0, 2)
+    with catalogue.connect(folder) as c:
+        rows = catalogue.runs(c)
+    bad = [r for r in rows if r["error"]]
+    assert len(bad) == 1 and "not a readable recording" in bad[0]["error"]
+    good = [r for r in rows if not r["error"]][0]
+    assert (good["serial"], good["protocol"], good["outcome"]) == ("D12", "sine-matrix", "completed")
+    assert '"clicks": "12"' in good["setup"] and good["duration_s"] > 5
+
+
+def test_a_serials_force_is_trended_at_a_speed_as_the_velocity_table_reads_it(folder):
+    shutil.copy(folder / "d12-a.mcap", folder / "d12-b.mcap")
+    catalogue.index(folder)
+    with catalogue.connect(folder) as c:
+        points = catalogue.trend(c, "D12", "rebound@0.1m/s")
+        _, peaks = catalogue.run(c, points[0][2])
+        assert catalogue.runs(c, serial="nobody") == [] and len(catalogue.runs(c, protocol="sine-matrix")) == 2
+    assert len(points) == 2 and points[0][1] == points[1][1] < 0
+    # between the two measured speeds: on the line through their peaks
+    (v1, F1), (v2, F2) = sorted((-p["v_reb"], p["F_reb"]) for p in peaks)
+    assert v1 < 0.1 < v2 and points[0][1] == pytest.approx(np.interp(0.1, [v1, v2], [F1, F2]))
+    with pytest.raises(catalogue.CatalogueError, match="DIRECTION@SPEED"):
+        catalogue.quantity("rebound at 0.5")
+    assert catalogue.quantity("compression@10in/s") == ("compression", pytest.approx(0.254))
+
+
+def test_two_runs_ending_at_once_are_both_indexed(folder, tmp_path):
+    for name in ("x", "y"):
+        shutil.copy(folder / "d12-a.mcap", tmp_path / f"{name}.mcap")
+    catalogue.connect(tmp_path).close()
+    errors = []
+
+    def one(name):
+        try:
+            with catalogue.connect(tmp_path) as c:
+                catalogue.index_file(c, tmp_path / f"{name}.mcap")
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=one, args=(n,)) for n in ("x", "y")]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    with catalogue.connect(tmp_path) as c:
+        assert not errors and len(catalogue.runs(c)) == 2

@@ -256,19 +256,7 @@ def _catalogue_commands(sub):
     rt.set_defaults(command="runs:trend")
 
 
-def _analysis_commands(sub):
-    """From recordings: identify, diagnose, prove the diagnosis, import CSV."""
-    idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
-    idf.add_argument("recordings", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
-    idf.add_argument("--damper", default=None,
-                     help="description giving layout and geometry (default: the damper the recording names)")
-    idf.add_argument("--out", default=None, help="model JSON (default: RECORDING.model.json)")
-    idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
-    idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
-    idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
-    _overwrite(idf, "--out, --report's files and --batch's outputs")
-    _batch_options(idf, "identify", "FILE.model.json")
-    idf.set_defaults(command="identify")
+def _diagnose_command(sub):
     dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
     dg.add_argument("recording", nargs="?")
     _batch_options(dg, "diagnosis", "FILE.diagnosis.json")
@@ -286,6 +274,22 @@ def _analysis_commands(sub):
                     help="--next: rig time the proposals may take (default 120)")
     dg.add_argument("--rig", default=None, help="--next: rig config whose limits the proposals keep (default virtual)")
     dg.set_defaults(command="diagnose")
+
+
+def _analysis_commands(sub):
+    """From recordings: identify, diagnose, prove the diagnosis, import CSV."""
+    idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
+    idf.add_argument("recordings", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
+    idf.add_argument("--damper", default=None,
+                     help="description giving layout and geometry (default: the damper the recording names)")
+    idf.add_argument("--out", default=None, help="model JSON (default: RECORDING.model.json)")
+    idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
+    idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
+    idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
+    _overwrite(idf, "--out, --report's files and --batch's outputs")
+    _batch_options(idf, "identify", "FILE.model.json")
+    idf.set_defaults(command="identify")
+    _diagnose_command(sub)
     pv = sub.add_parser("prove", help="hide each effect in the virtual rig at the noise level and diagnose it")
     pv.add_argument("--seeds", type=number(1, 10000, integer=True), default=10,
                     help="recordings per effect (default 10)")

@@ -14,7 +14,6 @@ import tempfile
 from pathlib import Path
 
 from models.parallel import run_all
-from rig.errors import RigError
 
 from protocols import cluster
 from protocols.io.files import input_file, output_file, written

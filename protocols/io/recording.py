@@ -14,7 +14,6 @@ import time
 import zlib
 from io import BytesIO
 from datetime import datetime, timezone
-from pathlib import Path
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode

@@ -194,10 +194,11 @@ def report(res, out_dir: Path):
     held = res.held_out  # the residual of a fit that never saw the sample: only there
     fig, axes = plt.subplots(len(stages), 3, figsize=(13, 3.2 * len(stages)), squeeze=False)
     for row, (name, r) in zip(axes, stages):
+        row[0].set_title(name, loc="left", fontsize=9)  # the stage: a long effect name fits across, not up
         for ax, (xv, lab) in zip(row, [(d.v, "velocity [m/s]"), (d.x * 1e3, "displacement [mm]"), (d.t, "time [s]")]):
             ax.plot(xv[held], r[held], ",", alpha=0.5)
             ax.set_xlabel(lab)
-            ax.set_ylabel(f"held-out residual [N] ({name})")
+            ax.set_ylabel("held-out residual [N]")
     save(fig, out_dir / "residuals.png")
     base = d.F - res.baseline.residual
     if d.periodic:  # the held-out cycles of the segment with the largest force range

@@ -77,8 +77,8 @@ def test_two_hidden_effects_found_larger_first(recordings):
 
 @ONE_WORKER
 def test_cli_json_and_summary(recordings, tmp_path):
-    r = subprocess.run([*DYNO, "diagnose", str(recordings["lag"]), "--json", "--report", str(tmp_path / "rep")],
-                       capture_output=True, text=True, timeout=300)
+    r = subprocess.run([*DYNO, "diagnose", str(recordings["lag"]), "--json", "--report", str(tmp_path / "rep"),
+                        "--next", "--budget", "60"], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     doc = json.loads(r.stdout)
     assert set(doc) >= {"baseline", "locations", "candidates", "accepted", "final"}
@@ -88,6 +88,10 @@ def test_cli_json_and_summary(recordings, tmp_path):
     lag = doc["effects"][0]
     assert lag["nature"] == "cell" and lag["depends_on"] == ["time"] and lag["size_rms_n"] > 0
     assert (tmp_path / "rep" / "index.html").exists() and (tmp_path / "rep" / "residuals.png").exists()
+    # the next test: within the budget, each proposal with why and the line that records it
+    assert doc["next"] and sum(p["duration_s"] for p in doc["next"]) <= 60
+    assert doc["next"][0]["other"] == ["fluid_inertia"]  # a 1 ms lag against an oil mass: fast sines part them
+    assert all(p["command"].startswith("dyno run sine-matrix ") and p["why"] for p in doc["next"])
 
 
 @ONE_WORKER

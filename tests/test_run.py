@@ -99,6 +99,18 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert side["columns"] == rows[0] and side["protocol"]["name"] == "sine-matrix" and side["run"]["wall_start"]
     assert side["run"]["setup.shims"] == "A-3"  # the setup goes with the exported table
     assert {(r[2], r[3]) for r in rows[1:] if r[3] == "sine"} >= {("sine 6.4 mm 2 Hz", "sine"), ("sine 12.7 mm 8 Hz", "sine")}
+    # pandas reads both back alike: the Parquet typed (time stamps, numbers), with the run in its schema
+    import pandas as pd
+    import pyarrow.parquet as pq
+    parquet = tmp_path / "x.parquet"
+    p = subprocess.run([DYNO, "export", str(out), "--parquet", str(parquet), "--channels", "force,x,T_body"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    df, csv_df = pd.read_parquet(parquet), pd.read_csv(table)
+    assert list(df.columns) == list(csv_df.columns) == rows[0] and len(df) == len(csv_df)
+    assert str(df["t_utc"].dtype).startswith("datetime64") and df["force [N]"].dtype == float
+    assert np.allclose(df["force [N]"], csv_df["force [N]"], rtol=1e-6, atol=0.01)
+    assert json.loads(pq.read_schema(parquet).metadata[b"dyno"])["run"]["setup.shims"] == "A-3"
 
 
 @pytest.mark.parametrize("args, message", [

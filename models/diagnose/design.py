@@ -29,12 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.diagnose import resolved
+from models.diagnose import RELEVANCE, resolved  # a rival must have been worth having, as in acceptance
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.data import Data
 from models.diagnose.result import Diagnosis
 
-RELEVANCE = 0.1  # noise variances a rival must have gained to be worth telling apart (as in acceptance)
 HINT_P = 0.1  # or a p-value under this: an effect the recording hints at without showing
 MAX_HINTS = 3  # hinted effects designed for, most significant first
 DECISIVE = 10.0  # expected log-likelihood ratio a proposal must reach over its own duration

@@ -38,10 +38,11 @@ def bspline(u, lo, hi, n):
     return BSpline.design_matrix(np.clip(u, lo, hi), knots, DEGREE).toarray()
 
 
-def _centred(B, B_ref):
-    """B with each column's mean over the model's own data (B_ref) removed: what a
-    constant (the gas force's level) already carries is left out."""
-    return B - B_ref.mean(axis=0)
+def _centred(basis, ref, d):
+    """basis(ref, d) with each column's mean over the model's own data (ref) removed: what
+    a constant (the gas force's level) already carries is left out."""
+    B = basis(ref, d)
+    return B - (B if d is ref else basis(ref, ref)).mean(axis=0)
 
 
 def cached(m, d, key, make):
@@ -81,7 +82,7 @@ def x_basis(ref, d, n):
 
 
 def _elastic_stroke(m, d, p, f, e):
-    B = cached(m, d, e, lambda ref, dd: _centred(x_basis(ref, dd, KNOTS[e]), x_basis(ref, ref, KNOTS[e])))
+    B = cached(m, d, e, lambda ref, dd: _centred(lambda r, u: x_basis(r, u, KNOTS[e]), ref, dd))
     f.Fg = f.Fg + B @ np.array([p[f"es{i}"] for i in range(B.shape[1])])
 
 
@@ -102,12 +103,12 @@ def _t_basis(ref, d):
 
 
 def _drift(m, d, p, f, e):
-    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis(ref, dd), _t_basis(ref, ref)))
+    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
     f.F = f.F + B @ np.array([p[f"dr{i}"] for i in range(B.shape[1])])
 
 
 def _damping_drift(m, d, p, f, e):
-    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis(ref, dd), _t_basis(ref, ref)))
+    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
     f.Fd = f.Fd * (1.0 + B @ np.array([p[f"dd{i}"] for i in range(B.shape[1])]))
 
 
@@ -119,7 +120,7 @@ def _interference(m, d, p, f, e):
 def _temperature_force(m, d, p, f, e):
     def T_basis(ref, dd):
         return bspline(dd.T, float(np.min(ref.T)), float(np.max(ref.T)), KNOTS[e])
-    B = cached(m, d, e, lambda ref, dd: _centred(T_basis(ref, dd), T_basis(ref, ref)))
+    B = cached(m, d, e, lambda ref, dd: _centred(T_basis, ref, dd))
     f.F = f.F + B @ np.array([p[f"tf{i}"] for i in range(B.shape[1])])
 
 

@@ -8,8 +8,6 @@ import math
 from models.diagnose import design
 from rig import config as rig_config
 
-RECORD_CYCLES_MIN = 3
-
 
 def limits(rig=None) -> design.Limits:
     """The cell's limits from its rig config (default: the virtual rig's)."""
@@ -21,7 +19,7 @@ def limits(rig=None) -> design.Limits:
 def command(p: design.Proposal, damper=None) -> str:
     """The `dyno run` line that records the proposal's sine."""
     s = p.sine
-    cycles = max(RECORD_CYCLES_MIN, s.cycles - design.SETTLE_CYCLES)
+    cycles = s.cycles - design.SETTLE_CYCLES  # the recorder settles and ramps on its own
     return (f"dyno run sine-matrix amplitudes_mm={1e3 * s.amplitude_m:g} freqs_hz={s.frequency_hz:g} "
             f"record_cycles={cycles}" + (f" --damper {damper}" if damper else ""))
 

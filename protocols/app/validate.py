@@ -21,13 +21,17 @@ def _err(x, key):
     return f"{v:.3g} {x['unit']}" if x["tolerance_type"] == "absolute" else f"{100 * v:.1f} %"
 
 
+def _closer(x):
+    """Is our model nearer the thesis's experiment than the thesis's own model?"""
+    ours, theirs = x.get("model_vs_experiment"), x.get("thesis_vs_experiment")
+    return ours is not None and theirs is not None and ours < theirs
+
+
 def _cells(x):
     tol = (f"±{x['tolerance']:g} {x['unit']}" if x["tolerance_type"] == "absolute"
            else f"{100 * x['tolerance']:.0f} %")
     exp = x.get("experiment")
-    closer = ""
-    if exp is not None and x["model_vs_experiment"] is not None and x["thesis_vs_experiment"] is not None:
-        closer = " (closer)" if x["model_vs_experiment"] < x["thesis_vs_experiment"] else ""
+    closer = " (closer)" if _closer(x) else ""
     return (x["source"], x["case"], x["unit"], f"{x['thesis']:.4g}", f"{x['model']:.4g}",
             "-" if x["rel_error"] is None else f"{100 * x['rel_error']:.1f} %", tol,
             "PASS" if x["pass"] else "**FAIL**", "-" if exp is None else f"{exp:.4g}",
@@ -62,9 +66,7 @@ def run(args):
         body.append(f"## {group} rows: {sum(x['pass'] for x in g)} of {len(g)} pass\n\n"
                     + md.table(HEADER, [_cells(x) for x in g]))
     n = sum(x["pass"] for x in r)
-    closer = sum(1 for x in r if not x["pass"] and x.get("experiment") is not None
-                 and x["model_vs_experiment"] is not None and x["thesis_vs_experiment"] is not None
-                 and x["model_vs_experiment"] < x["thesis_vs_experiment"])
+    closer = sum(1 for x in r if not x["pass"] and _closer(x))
     note = (f"{n} of {len(r)} rows pass; {closer} of the misses are closer to the experiment than the thesis's "
             f"own model. A row passes against the thesis's model (analytical) column, to the tolerance declared "
             f"before looking. Sensitivity: the value of an unstated parameter that would reconcile a missed row, "

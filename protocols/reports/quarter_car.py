@@ -36,7 +36,8 @@ def _grid(title, n=len(PANELS)):
     return fig, axes.ravel()
 
 
-def _save(fig, path):
+def save_figure(fig, path):
+    """Grid on every axis, saved through the page's checks; the path back."""
     for ax in fig.axes:
         ax.grid(alpha=0.3)
     save(fig, Path(path))
@@ -64,7 +65,7 @@ def plot_frequency_response(fr, path):
         k = np.nonzero(stops.max(axis=0) > 0)[0]
         axes[5].set_title(f"damper on its stops {fr.freqs[k[0]]:.2f}-{fr.freqs[k[-1]]:.2f} Hz", fontsize=9,
                           color="C3")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_steps(steps, path, title):
@@ -81,7 +82,7 @@ def plot_steps(steps, path, title):
         ax.set_xlabel("time [s]")
         ax.set_ylabel("displacement from static [cm]")
         ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_parametric(study, out_dir, damper_name):
@@ -118,7 +119,7 @@ def plot_parametric(study, out_dir, damper_name):
                 ax.set_xlabel("excitation frequency [Hz]")
                 ax.set_ylabel(label)
                 ax.legend(fontsize=7)
-        written.append(_save(fig, out_dir / f"parametric-{group.replace(' ', '-')}.png"))
+        written.append(save_figure(fig, out_dir / f"parametric-{group.replace(' ', '-')}.png"))
     return written
 
 
@@ -138,4 +139,4 @@ def plot_simplified(res, path):
         ax.set_xlabel("excitation frequency [Hz]")
         ax.set_ylabel(label)
         ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -6,17 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from protocols.reports.page import save
 from protocols.reports.plots import plt
+from protocols.reports.quarter_car import save_figure
 
 MASSES = (("sprung", "y1", "C0"), ("unsprung", "y2", "C1"))
-
-
-def save_figure(fig, path):
-    for ax in fig.axes:
-        ax.grid(alpha=0.3)
-    save(fig, path)
-    return path
 
 
 def plot_steps(kept, steps, path, edge_s):

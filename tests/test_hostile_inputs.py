@@ -193,6 +193,8 @@ CASES = [
     (["validate", "--json", "extra"], ["unrecognized arguments: extra"]),
     (["diagnose", "{rec}", "--next", "--budget", "-5"], ["--budget: must be a positive number of seconds"]),
     (["runs", "list", "{regular}"], ["no such folder of recordings"]),
+    (["diagnose", "{rec}", "--next", "--rig", "nosuch"], ["nosuch: no such rig config"]),
+    (["validate", "--report", "{regular}"], ["exists and is not a folder"]),
     (["diagnose", "{rec}", "--next", "--baseline", "koni"], ["--next designs from the minimal baseline"]),
     # issue 28: outputs never lose an input or an existing file
     (["identify", "{rec}", "--out", "{rec}"], ["that is an input"]),

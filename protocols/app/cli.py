@@ -108,6 +108,7 @@ def _model_commands(sub):
     v.add_argument("--sensitivity", action="store_true",
                    help="for each missed step row, the install position that would reconcile it (slower)")
     v.add_argument("--report", metavar="DIR", help="also write the step and ride-height figures there")
+    _overwrite(v, "--report's figures")
     v.set_defaults(command="validate")
     pl = sub.add_parser("plot", help="write plots as PNG")
     plsub = pl.add_subparsers(dest="what", required=True)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from models.diagnose import diagnose
+from models.diagnose import design
 from models.diagnose.candidates import EFFECTS
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
@@ -253,6 +254,9 @@ def run(args):
         raise RigError("--next designs from the minimal baseline: drop --baseline")
     if getattr(args, "next", False) and not args.budget > 0:
         raise RigError(f"--budget: must be a positive number of seconds, got {args.budget:g}")
+    if getattr(args, "next", False):  # the rig config read before the diagnosis, not after it
+        from protocols.app import next_test
+        limits = next_test.limits(args.rig)
     if args.report:
         output_folder(args.report, existing_files(args.recording, args.baseline), args.overwrite, "--report")
     ch, events, _ = load_recording(args.recording)
@@ -267,8 +271,7 @@ def run(args):
         say(f"report: {Path(args.report) / page.name}")
     props = None
     if getattr(args, "next", False):
-        from protocols.app import next_test
-        props = next_test.proposals(res, args)
+        props = design.propose(res, limits, args.budget)
     if args.json:
         print(json.dumps({**to_json(res), **({"next": next_test.to_json(props)} if props is not None else {})},
                          indent=1))

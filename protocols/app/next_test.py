@@ -24,10 +24,6 @@ def command(p: design.Proposal, damper=None) -> str:
             f"record_cycles={cycles}" + (f" --damper {damper}" if damper else ""))
 
 
-def proposals(res, args):
-    return design.propose(res, limits(args.rig), args.budget)
-
-
 def text(props) -> str:
     if not props:
         return "Next test: none needed: no two explanations compete and nothing is hinted at under the noise."

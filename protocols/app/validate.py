@@ -9,6 +9,7 @@ from pathlib import Path
 
 from models.validation import format_table, quarter_car, readings, rows
 from protocols.app.output import emit
+from protocols.io.files import filled, output_folder
 from protocols.reports import markdown as md
 
 SEED = "../shared/seed/000_79c7770b026c394b.txt"
@@ -48,15 +49,18 @@ def _readings_table():
                     [(k, v["reading"], v["line"], v.get("ambiguity", "-")) for k, v in readings().items()])
 
 
-def _report(folder, kept):
+def _report(path, kept):
+    """The figures, written into a temporary folder that becomes `path` once all are done."""
     from protocols.reports import validation as figures
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    return [figures.plot_steps(kept["steps"], quarter_car.STEPS, folder / "steps.png", quarter_car.SETTLE_S),
-            figures.plot_ride_height(kept["sweeps"], quarter_car.TABLE_6_6, folder / "ride-height.png")]
+    with filled(path, "--report") as folder:
+        figures.plot_steps(kept["steps"], quarter_car.STEPS, folder / "steps.png", quarter_car.SETTLE_S)
+        figures.plot_ride_height(kept["sweeps"], quarter_car.TABLE_6_6, folder / "ride-height.png")
+    return [Path(path) / "steps.png", Path(path) / "ride-height.png"]
 
 
 def run(args):
+    if args.report:  # checked before the minute of simulation, not after
+        output_folder(args.report, overwrite=args.overwrite, what="--report")
     kept = {} if args.report else None
     r = rows(sensitivity=args.sensitivity, kept=kept)
     body = [f"How each test is read, with the line of the seed text ({SEED}) it rests on:\n\n"

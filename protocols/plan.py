@@ -50,6 +50,18 @@ class Segment:
     control: object | None = None
 
 
+@dataclass(frozen=True)
+class Plan:
+    """A protocol (its module: NAME, Params, check, plan) with the parameters to run it
+    with: what protocols.runner.run_plan executes."""
+    module: object
+    params: object
+
+    @property
+    def name(self):
+        return self.module.NAME
+
+
 def drain(log):
     """A closed-loop control's channels() from its log {name: ([t], [values])}, emptied."""
     out = {n: (np.array(t), np.array(v)) for n, (t, v) in log.items()}
@@ -117,6 +129,10 @@ def parse(cls, pairs):
                 kwargs[name] = [float(v) for v in text.split(",") if v.strip()]
                 if not kwargs[name]:
                     raise ParamError(f"{name}: needs at least one value")
+            elif kind is bool:
+                if text.lower() not in ("true", "false"):
+                    raise ParamError(f"{name}: {text!r} is not true or false")
+                kwargs[name] = text.lower() == "true"
             elif kind is int:
                 kwargs[name] = int(text)
             elif kind is str:
@@ -126,9 +142,11 @@ def parse(cls, pairs):
         except ValueError:
             raise ParamError(f"{name}: {text!r} is not a number") from None
         values = kwargs[name] if isinstance(kwargs[name], list) else [kwargs[name]]
-        if kind is not str and not all(abs(v) < 1e15 if isinstance(v, int) else math.isfinite(v) for v in values):
+        if kind in (str, bool):
+            continue
+        if not all(abs(v) < 1e15 if isinstance(v, int) else math.isfinite(v) for v in values):
             raise ParamError(f"{name}: {text[:40]!r} is not a finite number")
-        if kind is not str and any(0 < abs(v) < TINY or abs(v) > HUGE for v in values):  # 1e-320 Hz: an
+        if any(0 < abs(v) < TINY or abs(v) > HUGE for v in values):  # 1e-320 Hz: an
             raise ParamError(f"{name}: {text[:40]!r} is no setting (give 0 or {TINY:g}..{HUGE:g})")  # overflow
     return cls(**kwargs)
 

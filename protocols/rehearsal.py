@@ -4,18 +4,15 @@ the whole run is first made offline, through the real runner, against the virtua
 the stability guard)."""
 from __future__ import annotations
 
-from rig.pacing import SimulatedPacer
-from rig.safety import Safety
-from sim_backend.direct_rig import DirectRig
-
-from protocols import runner
-from protocols.plan import ParamError
+from protocols import cell
+from protocols.plan import ParamError, Plan
+from protocols.runner import run_plan
 
 
-def rehearse(module, params, info, cfg, damper):
+def rehearse(module, params, cfg, damper):
     """[(segment, measures)] of the offline run; ParamError with the trip that ended it."""
-    rig = DirectRig(cfg, damper)
-    result, _ = runner.run(module, params, info, rig, SimulatedPacer(rig, cfg.rate_hz), Safety(cfg), progress=False)
+    with cell.direct(cfg, damper) as c:
+        result = run_plan(Plan(module, params), c)
     if result.fault:
         raise ParamError(f"pre-flight: the run against the virtual plant with the damper model stops: {result.fault}")
     return result.measures

@@ -13,15 +13,16 @@ import queue
 import sys
 import threading
 import time
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 
 from rig.errors import RigError
-from rig.loop import ControlLoop, describe
+from rig.loop import ControlLoop, LoopResult, describe
 
 from protocols.display import shown
-from protocols.plan import as_dict
+from protocols.plan import Plan, as_dict
 
 
 class ProgressLine:
@@ -283,9 +284,16 @@ def _measure(sequence, observed, event):
     return out
 
 
-def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progress=True):
-    """Execute the plan; returns (LoopResult, [skipped (segment, reason)]). sinks: plain
-    callables that get every drained sample batch."""
+@dataclass
+class RunResult(LoopResult):
+    skipped: list = field(default_factory=list)  # [(segment, why)] the plan's check left out
+
+
+def run_plan(plan: Plan, cell, observers=(), sinks=(), progress=False) -> RunResult:
+    """Execute the plan on the cell (protocols/cell.py); observers get the samples and
+    events on a thread of their own, sinks (plain callables) every drained sample batch in
+    the loop's. The cell stays open."""
+    module, params, info = plan.module, plan.params, cell.info
     observers = [o for o in observers if o is not None]
     skipped = module.check(params, info)
     segments = list(module.plan(params, info))
@@ -309,9 +317,9 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
         observed.call("samples", {**samples, **sequence.drain_channels()})
         observed.call("setpoints", *sequence.drain_setpoints())
 
-    loop = ControlLoop(rig, pacer, safety, [record, *sinks])
+    loop = ControlLoop(cell.rig, cell.pacer(), cell.safety(), [record, *sinks])
     try:
-        result = loop.run(sequence)
+        result = RunResult(**vars(loop.run(sequence)), skipped=skipped)
     except BaseException:
         observed.close()
         raise
@@ -323,4 +331,4 @@ def run(module, params, info, rig, pacer, safety, observers=(), sinks=(), progre
     result.measures = _measure(sequence, observed, event)
     event(sequence.t, "run_end", name=module.NAME, params={}, message=result.fault or "completed")
     observed.close()
-    return result, skipped
+    return result

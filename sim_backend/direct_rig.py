@@ -4,8 +4,8 @@ wire protocols: `dyno prove --calibrate` and the diagnosis benchmark run through
 protocols.runner exactly as a recorded run does, many times faster than through the
 emulators.
 
-    rig = DirectRig(config, damper, effects=..., seed=...)
-    runner.run(module, params, info, rig, SimulatedPacer(rig, rate_hz), Safety(config), ...)
+    with protocols.cell.direct(config, damper, effects=..., seed=...) as c:
+        protocols.runner.run_plan(plan, c, observers)
 """
 from __future__ import annotations
 

@@ -125,3 +125,19 @@ def plain_cell():
     for section in ("frame", "sensors", "thermal", "actuator"):
         params[section].update(plain.get(section, {}))
     return plain["damper"], params, plain["prove"]
+
+
+def plant_options(damper=None, effects=(), plain=False, seed=0, noise=1.0) -> dict:
+    """The virtual plant's keywords (damper, effects, params, seed): effects as
+    ["NAME[:FORM]=VALUE", ...] (EffectError names a bad one); plain: the plain cell of
+    plain.toml (its damper unless another than the default is given); noise: the sensors'
+    noise times this."""
+    from sim_backend.plant import plant_params
+    fx, params = parse(effects), None
+    if plain:
+        name, params, _ = plain_cell()
+        damper = name if damper in (None, "koni") else damper
+    if noise != 1.0:
+        params = params or plant_params()
+        params["sensors"].update({k: v * noise for k, v in params["sensors"].items() if k.endswith("_noise")})
+    return {"damper": damper, "effects": fx, "params": params, "seed": seed}

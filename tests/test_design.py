@@ -40,7 +40,7 @@ def test_the_next_test_is_the_feasible_sine_where_the_rivals_differ_most_per_sec
                for s in sines)
     # a lag and an oil mass differ in proportion to the acceleration: the fastest sine the cell allows
     assert p.sine.frequency_hz == max(s.frequency_hz for s in sines if s.amplitude_m == p.sine.amplitude_m)
-    assert p.ratio > 1 and "differ by" in p.why and p.sine.duration_s <= 120.0
+    assert p.ratio > 1 and "differ by" in p.why and p.sine.rig_s <= 120.0
 
 
 def test_a_hint_under_the_noise_is_a_rival_unless_it_is_below_what_a_sample_resolves():

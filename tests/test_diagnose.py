@@ -89,7 +89,7 @@ def test_cli_json_and_summary(recordings, tmp_path):
     assert lag["nature"] == "cell" and lag["depends_on"] == ["time"] and lag["size_rms_n"] > 0
     assert (tmp_path / "rep" / "index.html").exists() and (tmp_path / "rep" / "residuals.png").exists()
     # the next test: within the budget, each proposal with why and the line that records it
-    assert doc["next"] and sum(p["duration_s"] for p in doc["next"]) <= 60
+    assert doc["next"] and sum(p["rig_s"] for p in doc["next"]) <= 60
     assert doc["next"][0]["other"] == ["fluid_inertia"]  # a 1 ms lag against an oil mass: fast sines part them
     assert all(p["command"].startswith("dyno run sine-matrix ") and p["why"] for p in doc["next"])
 

@@ -82,7 +82,7 @@ def test_extra_physics_is_an_expression_in_x_v_t_T_and_nothing_else():
 
 
 def test_the_plant_adds_the_extra_force_on_the_load_cell():
-    from protocols.app.prove import offline_force
+    from protocols.proof import offline_force
     F0, rec = offline_force({}, seed=0)
     F1, _ = offline_force({"extra": "25.0"}, seed=0)
     assert np.median((F1 - F0)[rec]) == pytest.approx(25.0, abs=0.5)

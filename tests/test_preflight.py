@@ -10,15 +10,11 @@ import numpy as np
 import pytest
 
 from models.damper import load
-from protocols import preflight, runner
+from protocols import cell, preflight, runner
 from protocols.library import PROTOCOLS
-from protocols.plan import MARGIN, ParamError, Segment, rig_info
+from protocols.plan import MARGIN, ParamError, Plan, Segment, rig_info
 from protocols.rehearsal import rehearse
 from rig import config
-from rig.pacing import SimulatedPacer
-from rig.rig import Rig
-from rig.safety import Safety
-from sim_backend.virtual_rig import VirtualRig
 
 PRESETS = ("koni", "mechformance", "fox-light", "fox-heavy")
 HOLD_S = 3.0  # a wait (a settled force, a temperature) is cut to this: it starts at its temperature
@@ -26,10 +22,6 @@ LONG_S = 30.0  # spans that move longer (the low-speed cycles) are quasi-static:
 
 
 def run_span(damper, params, segments, T0):
-    vr = VirtualRig(config.load("virtual"), damper=damper, T0=T0)
-    cfg = vr.start()
-    rig = Rig(cfg, clock=vr.clock)
-    rig.open()
     peaks = {"force": 0.0, "P_gas": 0.0}
 
     def sink(drained):
@@ -37,12 +29,8 @@ def run_span(damper, params, segments, T0):
             if len(drained[k][1]):
                 peaks[k] = max(peaks[k], float(np.max(np.abs(drained[k][1]))))
     module = SimpleNamespace(NAME="span", check=lambda p, i: [], plan=lambda p, i: iter(segments))
-    try:
-        result, _ = runner.run(module, params, None, rig, SimulatedPacer(vr, cfg.rate_hz), Safety(cfg), sinks=[sink],
-                               progress=False)
-    finally:
-        rig.close()
-        vr.close()
+    with cell.embedded(damper, T0=T0) as c:
+        result = runner.run_plan(Plan(module, params), c, sinks=[sink])
     return result, peaks
 
 
@@ -64,7 +52,7 @@ def test_every_protocols_defaults_run_without_a_trip_or_are_refused_before_motio
         assert forecast.force_peak <= MARGIN * L["force_max"] and forecast.gas_peak <= MARGIN * L["gas_pressure_max"]
         if getattr(module, "REHEARSE", False):  # a closed loop: its pre-flight is the whole run, offline
             try:
-                rehearse(module, params, info, cfg, load(damper))
+                rehearse(module, params, cfg, load(damper))
             except ParamError as e:
                 assert "\n" not in str(e)
             continue

@@ -13,11 +13,10 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from protocols import runner
+from protocols import cell, runner
 from protocols.library import sine_matrix
-from protocols.plan import parse
+from protocols.plan import Plan, parse
 from protocols.io.recording import Recorder
-from protocols.plan import rig_info
 from rig import config
 from rig.pacing import SimulatedPacer
 from rig.rig import Rig
@@ -158,14 +157,11 @@ def test_sigkill_then_recover_keeps_all_but_the_last_second(tmp_path):
 
 
 def run_in_process(tmp_path, inject=None, interrupt_at=None):
-    vr = VirtualRig(config.load("virtual"), damper="koni")
-    cfg = vr.start()
-    rig = Rig(cfg, clock=vr.clock)
-    rig.open()
+    c = cell.embedded("koni")
+    vr = c.plant
     params = parse(sine_matrix.Params, ["amplitudes_mm=6.4", "freqs_hz=2", "record_cycles=10"])
-    rec = Recorder(tmp_path / "r.mcap", cfg, "{}", sine_matrix.NAME, {}, wall_start=rig.wall_start, overwrite=True)
-    info = rig_info(cfg, vr.plant.damper)
-
+    rec = Recorder(tmp_path / "r.mcap", c.config, "{}", sine_matrix.NAME, {}, wall_start=c.rig.wall_start,
+                   overwrite=True)
     stopped = []
 
     def hook(samples):
@@ -175,12 +171,10 @@ def run_in_process(tmp_path, inject=None, interrupt_at=None):
             stopped.append(vr.t)
             raise KeyboardInterrupt  # the operator's Ctrl-C
     try:
-        result, _ = runner.run(sine_matrix, params, info, rig, SimulatedPacer(vr, 1000), Safety(cfg), [rec],
-                               sinks=[hook], progress=False)
+        result = runner.run_plan(Plan(sine_matrix, params), c, [rec], sinks=[hook])
     finally:
         rec.close()
-        rig.close()
-        vr.close()
+        c.close()
     events = [d for t, _, _, d in read(tmp_path / "r.mcap")[3] if t == "/events"]
     return result, events
 
@@ -198,18 +192,15 @@ def test_live_view_logs_the_documented_entities():
     import rerun as rr
 
     from protocols.live import LiveView
-    vr = VirtualRig(config.load("virtual"), damper="koni")
-    cfg = vr.start()
-    rig = Rig(cfg, clock=vr.clock)
-    rig.open()
+    c = cell.embedded("koni")
+    vr = c.plant
     rec = rr.RecordingStream("dyno-test")
     memory = rec.memory_recording()
-    live = LiveView({n: c.unit for n, c in cfg.channels.items()}, recording=rec)
+    live = LiveView({n: ch.unit for n, ch in c.config.channels.items()}, recording=rec)
     params = parse(sine_matrix.Params, ["amplitudes_mm=6.4", "freqs_hz=4", "record_cycles=4"])
     kept = runner.Kept()
     try:
-        result, _ = runner.run(sine_matrix, params, rig_info(cfg, vr.plant.damper), rig, SimulatedPacer(vr, 1000),
-                               Safety(cfg), [live, kept], progress=False)
+        result = runner.run_plan(Plan(sine_matrix, params), c, [live, kept])
         # the live identification's estimates (gamma beside a bulk modulus) and its model's
         # force along the last segment: the plant's own damper predicts it
         live.estimates(1.0, [{"name": "gas_spring.gamma", "value": 1.3, "ci_low": 1.2, "ci_high": 1.4,
@@ -227,8 +218,7 @@ def test_live_view_logs_the_documented_entities():
         live.prediction(3.0, p["v"], p["F"], p["F_model"])
     finally:
         live.close()
-        rig.close()
-        vr.close()
+        c.close()
     assert result.fault is None
     assert np.sqrt(np.mean((p["F_model"] - p["F"]) ** 2)) < 0.05 * np.ptp(p["F"])
     data = memory.drain_as_bytes()
@@ -509,18 +499,10 @@ def test_no_repeated_setpoint_at_segment_boundaries():
         def event(self, t, kind, segment, params, message):
             self.events.append((t, kind, segment))
 
-    vr = VirtualRig(config.load("virtual"), damper="koni")
-    cfg = vr.start()
-    rig = Rig(cfg, clock=vr.clock)
-    rig.open()
     obs = Setpoints()
     params = parse(sine_matrix.Params, ["amplitudes_mm=12.7", "freqs_hz=8", "record_cycles=3"])
-    try:
-        result, _ = runner.run(sine_matrix, params, rig_info(cfg, vr.plant.damper), rig, SimulatedPacer(vr, 1000),
-                               Safety(cfg), [obs], progress=False)
-    finally:
-        rig.close()
-        vr.close()
+    with cell.embedded("koni") as c:
+        result = runner.run_plan(Plan(sine_matrix, params), c, [obs])
     assert result.fault is None
     x = np.array(obs.x)
     assert np.all(np.diff(x) != 0)  # a sine never stands still for a tick

@@ -42,6 +42,7 @@ AMPLITUDES_M = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02)
 FREQUENCIES_HZ = (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 4.0, 8.0, 12.0, 16.0, 25.0)
 RATE_HZ = 1000.0
 SETTLE_CYCLES = 1  # cycles run before the ones that count (the recorder drops them)
+RAMP_CYCLES = 1  # cycles over which the amplitude grows in, and as many to fade out
 MIN_CYCLES, MIN_S = 5, 2.0  # at least this many counted cycles, and at least this long
 
 
@@ -69,6 +70,11 @@ class Sine:
     @property
     def duration_s(self):
         return self.cycles / self.frequency_hz
+
+    @property
+    def rig_s(self):
+        """Rig time, the ramps in and out included [s]."""
+        return self.duration_s + 2 * RAMP_CYCLES / self.frequency_hz
 
 
 @dataclass(frozen=True)
@@ -173,27 +179,27 @@ def propose(diag: Diagnosis, limits: Limits, budget_s=120.0) -> list[Proposal]:
     for rv in rivals(diag):
         mb = Model(d, list(rv.other))
         found = None
-        for s in sines:
+        for s in (s for s in sines if s.rig_s <= budget_s):
             m = motions[s]
             fa = chosen[s]
             counted = m.cycle >= SETTLE_CYCLES
             diff = (fa - mb.force(m, rv.values))[counted]
             diff = diff - diff.mean()
-            score = float(np.sum(diff ** 2) / (2 * sigma ** 2) / s.duration_s)
+            score = float(np.sum(diff ** 2) / (2 * sigma ** 2) / s.rig_s)
             if found is None or score > found.score:
                 rms = float(np.sqrt(np.mean(diff ** 2)))
                 found = Proposal(s, rv, rms, rms / sigma, score, "")
-        if found is not None and found.score * found.sine.duration_s >= DECISIVE:
+        if found is not None and found.score * found.sine.rig_s >= DECISIVE:
             best.append(found)
     out, spent = [], 0.0
     for p in sorted(best, key=lambda p: -p.score):
-        if spent + p.sine.duration_s <= budget_s and p.sine not in [q.sine for q in out]:
-            spent += p.sine.duration_s
+        if spent + p.sine.rig_s <= budget_s and p.sine not in [q.sine for q in out]:
+            spent += p.sine.rig_s
             out.append(Proposal(p.sine, p.rival, p.difference_rms_n, p.ratio, p.score, _why(p)))
     return out
 
 
 def _why(p: Proposal) -> str:
     s = p.sine
-    return (f"{1e3 * s.amplitude_m:g} mm at {s.frequency_hz:g} Hz for {s.duration_s:.0f} s: {p.rival.said}; "
+    return (f"{1e3 * s.amplitude_m:g} mm at {s.frequency_hz:g} Hz for {s.rig_s:.0f} s: {p.rival.said}; "
             f"there the two differ by {p.difference_rms_n:.2g} N RMS, {p.ratio:.1f}x the noise")

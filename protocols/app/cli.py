@@ -156,7 +156,8 @@ def _cell_commands(sub):
     sub.add_parser("protocols", help="the test protocols, each in a line").set_defaults(command="protocols_list")
     rn = sub.add_parser("run", help="run a test protocol and record it to MCAP",
                         epilog="dyno run PROTOCOL --help lists its parameters; dyno protocols lists the protocols")
-    rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard, hil, replay")
+    rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard, hil, replay; "
+                                     "discover: a sine matrix, then the tests the diagnosis asks for")
     rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
     rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
@@ -174,6 +175,8 @@ def _cell_commands(sub):
     rn.add_argument("--setup", action="append", type=setup_item, default=[], metavar="KEY=VALUE",
                     help="the damper's setup, recorded and shown on the report (repeat: --setup clicks_reb=12 "
                          "--setup gas_bar=10)")
+    rn.add_argument("--budget", type=float, default=120.0, metavar="SECONDS",
+                    help="discover: rig time the dyno may add for its own next tests (default 120)")
     rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
                     help="identify the damper while the test runs and write RECORDING.model.json "
                          "(default: on for the standard sequence)")

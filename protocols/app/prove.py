@@ -12,214 +12,16 @@ curve's form is no claim of physics (models/diagnose/spec.py NATURES).
 """
 from __future__ import annotations
 
-import argparse
 import json
-import math
 import sys
-import tempfile
-from pathlib import Path
 
-import numpy as np
-
-from models.diagnose.candidates import CATALOGUE
-from models.diagnose.candidates import EFFECTS as SPECS
 from models.parallel import run_all
-from models.recording import segments
 from rig.errors import RigError
-from protocols import cluster
 from sim_backend.effects import EFFECTS, plain_cell, scaled
 
-def _plan(override=None):
-    from models.damper import load as load_damper
-    from protocols.plan import rig_info
-    from protocols.library import PROTOCOLS
-    from rig import config as rig_config
-    name, params, prove = plain_cell()
-    module = PROTOCOLS[prove["protocol"]]
-    p = module.Params(**(override or prove["params"]))
-    damper = load_damper(name)
-    return module, p, rig_info(rig_config.load("virtual"), damper), name, params, prove
-
-
-def offline_recording(effects=None, seed=0, rate_hz=1000.0, params=None):
-    """The plain plant driven by the prove plan (or `params` of the prove protocol) through
-    the runner, without the wires, sampled at rate_hz: (channels {name: (t, values)},
-    events, measured mask of the force samples). For calibration and the diagnosis
-    benchmark; prove itself records through the wires. RigError if the run tripped."""
-    import dataclasses
-
-    from protocols import runner
-    from rig import config as rig_config
-    from rig.pacing import SimulatedPacer
-    from rig.safety import Safety
-    from sim_backend.direct_rig import DirectRig
-    module, p, info, name, plant_params, _ = _plan(params)
-    cfg = dataclasses.replace(rig_config.load("virtual"), rate_hz=rate_hz)
-    rig = DirectRig(cfg, damper=name, seed=seed, effects=effects, params=plant_params)
-    kept = runner.Kept()
-    result, _ = runner.run(module, p, info, rig, SimulatedPacer(rig, rate_hz), Safety(cfg), [kept], progress=False)
-    if result.fault:
-        raise RigError(f"offline run with {effects or 'no effects'}: {result.fault}")
-    channels = kept.arrays()
-    t = channels["force"][0]
-    measured = np.zeros(len(t), bool)
-    for _, _, t0, t1 in segments(kept.events):
-        measured |= (t > t0) & (t <= t1)
-    return channels, kept.events, measured
-
-
-def offline_force(effects, seed=0):
-    """(force as measured, measured-segment mask) of offline_recording."""
-    ch, _, rec = offline_recording(effects, seed)
-    return ch["force"][1], rec
-
-
-def contribution(effect, value, seed=0, null=None, form=None):
-    """RMS [N] of what the effect (in the plant's `form`, default None) adds to the
-    measured force (same noise seed, so the noise cancels); for a sensor lag, of the force
-    against itself shifted by the lag (every form delays by about its value)."""
-    F0, rec = null if null is not None else offline_force({}, seed)
-    if effect == "sensor_delay":
-        t = np.arange(len(F0)) * 1e-3
-        d = F0 - np.interp(t - value, t, F0)
-    else:
-        try:
-            F1, _ = offline_force({effect: value, **({"forms": {effect: form}} if form else {})}, seed)
-        except RigError:  # so large the run tripped: far above any target
-            return math.inf
-        d = F1 - F0
-    return float(np.sqrt(np.mean(d[rec] ** 2)))
-
-
-def key(effect, form=None):
-    """An effect's key in plain.toml's [prove.concealed]: EFFECT, or EFFECT:FORM."""
-    return f"{effect}:{form}" if form else effect
-
-
-def calibrate_one(task):
-    """(value, its contribution [N]): the largest VALUE of effect e in `form` whose
-    contribution is at most `target`, by bisection on a log scale."""
-    e, form, target = task
-    null = offline_force({}, 0)
-    lo, hi = 1e-3, 1e3  # strengths about the guess
-    if e == "compressibility":  # no stiffer than the plain cell's oil (1e12 Pa)
-        lo = EFFECTS[e].guess / 1e12
-    for _ in range(12):
-        s = math.sqrt(lo * hi)
-        c = contribution(e, scaled(e, EFFECTS[e].guess, s), 0, null, form)
-        lo, hi = (s, hi) if c < target else (lo, s)
-    value = float(f"{scaled(e, EFFECTS[e].guess, lo):.4g}")
-    return value, contribution(e, value, 0, null, form)
-
-
-def calibrate(target, progress, effects=None, forms=False, pool=None):
-    """{EFFECT or EFFECT:FORM: value} with contribution == target, in the default form of
-    each effect (and in every other form, forms=True)."""
-    keys = [(e, f) for e in EFFECTS if not effects or e in effects
-            for f in [None, *(EFFECTS[e].forms if forms else ())]]
-    names = [key(e, f) for e, f in keys]
-    results = run_all(calibrate_one, [(e, f, target) for e, f in keys], pool, progress=True, label="calibrate",
-                      names=names)
-    for n, (e, _), (v, c) in zip(names, keys, results):
-        progress(f"{n} = {v:g} {EFFECTS[e].unit} (contribution {c:.2f} N)")
-    return {n: v for n, (v, _) in zip(names, results)}
-
-
-def run_task(task):
-    """Record one prove run through the wire protocols, diagnose it."""
-    effect, form, size, values, seed, noise, rate, *extra = task
-    with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:  # on the worker's own disk
-        return _recorded(effect, form, size, values, seed, noise, rate, folder, *extra)
-
-
-def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None):
-    from models.diagnose import diagnose
-    from protocols.app.run import run as run_protocol
-    from protocols.io.reader import load_recording
-    _, _, prove = plain_cell()
-    out = Path(folder) / f"{effect or 'null'}-{form or 'default'}-{size:g}-{noise:g}-{rate:g}-{seed}.mcap"
-    pairs = [f"{k}={','.join(str(x) for x in v) if isinstance(v, list) else v}" for k, v in prove["params"].items()]
-    args = argparse.Namespace(protocol=prove["protocol"], params=pairs, rig=None, damper=None, out=str(out),
-                              overwrite=True, long=False, realtime=False, live=False, rrd=None, identify=False,
-                              plain=True, seed=seed, noise=noise, rate_hz=rate,
-                              effect=[f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()]
-                              + ([f"extra:{extra}"] if extra else []), progress=False)
-    import contextlib
-    import io
-    with contextlib.redirect_stderr(io.StringIO()):
-        run_protocol(args)
-    ch, ev, _ = load_recording(out)
-    r = diagnose(ch, ev)
-    hidden = set(effect.split("+")) if effect else set()
-    # the valve curve's form and the cell's own timing (the plant's, on every null) are not
-    # what a row hides unless it hides that: they do not take the first place
-    named = [e for e in r.accepted
-             if SPECS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
-    first = named[0].split(":")[0] if named else None
-    est = None
-    if first and effect and first == effect:  # a single effect (a pair's name has a "+")
-        est = next(s.parameters for s in r.steps if s.effect == named[0]).get(CATALOGUE[effect].estimate)
-    t, F = ch["force"]
-    measured = np.zeros(len(t), bool)
-    for _, _, t0, t1 in segments(ev):
-        measured |= (t >= t0) & (t < t1)
-    # what the caller needs travels back with the result: the workers share no disk
-    # an effect accepted beside the hidden ones: said as left-out physics, or as "may be
-    # compensating the form of" an earlier one (docs/diagnosis.md)
-    # a timing offset of the cell or the valve curve's form is no claim of physics
-    # (models/diagnose/spec.py NATURES): not counted against a null or as an extra
-    claims = [e for e in r.accepted if SPECS[e.split(":")[0]].nature in ("physics", "open")]
-    extra = [s for s in r.steps if s.effect.split(":")[0] not in hidden and s.effect in claims]
-    return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
-            "accepted": r.accepted, "claims": claims, "first": first, "noise_sd": r.noise_sd,
-            "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n")}
-                      for s in r.steps if not s.replaced_by],
-            "within_noise": r.left_over.within_noise,
-            "rmse": (r.baseline.rmse_heldout, r.final.rmse_heldout),
-            "extra_left_out": any(not s.compensates for s in extra),
-            "extra_compensating": any(s.compensates for s in extra), "force_t": t, "force": F, "measured": measured,
-            "estimate": est,
-            "before": r.baseline.nrmse_heldout, "after": r.final.nrmse_heldout}
-
-
-def _measured_rms_diff(a, b):
-    """RMS [N] of the force difference of two prove results over a's measured samples."""
-    _, ia, ib = np.intersect1d(np.round(a["force_t"], 6), np.round(b["force_t"], 6), return_indices=True)
-    return float(np.sqrt(np.mean((a["force"][ia] - b["force"][ib])[a["measured"][ia]] ** 2)))
-
-
-def _table(results, effects, concealed):
-    """A row per (effect, form, size) of the runs' results: detection, wrong effect, false
-    positives, medians of the estimate, contribution and held-out errors."""
-    table = []
-    row_key = (lambda r: (r["effect"] or "null", r["form"], r["size"], r["noise"], r["rate"]))
-    rows = sorted({row_key(r) for r in results}, key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", *k[2:]))
-    for e, form, size, noise, rate in rows:
-        rs = [r for r in results if row_key(r) == (e, form, size, noise, rate)]
-        parts = set(e.split("+"))
-        named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
-        row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "noise": noise,
-               "rate_hz": rate, "n": len(rs),
-               "value": (scaled(e, concealed[key(e, form)], size * noise) if key(e, form) in concealed
-                         else None),
-               # a single effect: the first accepted; a pair: both accepted, in either order
-               "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
-                             else float(np.mean([parts <= n for n in named])) if e != "null" else None),
-               "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS
-                                else float(np.mean([bool(n - parts) for n in named])) if e != "null" else None),
-               "false_positive": float(np.mean([bool(r["claims"]) for r in rs])) if e == "null" else None,
-               # beside the hidden effect(s): another said as left out, or as may be compensating
-               "extra_left_out": float(np.mean([r["extra_left_out"] for r in rs])) if e != "null" else None,
-               "extra_compensating": float(np.mean([r["extra_compensating"] for r in rs])) if e != "null" else None,
-               "heldout_before": float(np.median([r["before"] for r in rs])),
-               "heldout_after": float(np.median([r["after"] for r in rs])),
-               "estimate": (float(np.median([r["estimate"] for r in rs if r["estimate"] is not None]))
-                            if any(r["estimate"] is not None for r in rs) else None),
-               "contribution_rms": (float(np.median([r["contribution"] for r in rs if "contribution" in r]))
-                                    if any("contribution" in r for r in rs) else None)}
-        table.append(row)
-    return table
-
+from protocols import cluster
+from protocols.proof import calibrate, key, measured_rms_diff, run_task
+from protocols.proof import table as proof_table
 
 def run(args):
     _, params, prove = plain_cell()
@@ -278,8 +80,8 @@ def run(args):
     nulls = {(r["seed"], r["noise"], r["rate"]): r for r in results if r["effect"] is None}
     for r in results:
         if r["effect"]:
-            r["contribution"] = _measured_rms_diff(r, nulls[r["seed"], r["noise"], r["rate"]])
-    table = _table(results, effects, concealed)
+            r["contribution"] = measured_rms_diff(r, nulls[r["seed"], r["noise"], r["rate"]])
+    table = proof_table(results, effects, concealed)
     doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table,
            "goals": {"detection": 0.9, "false_positive": 0.05}}
     if args.json:
@@ -307,7 +109,7 @@ def prove_open(args, say):
                           names=[f"{'open' if len(t) > 7 else 'null'} seed {t[4]}" for t in tasks])
     rows = []
     for null, r in zip(results[::2], results[1::2]):
-        size = _measured_rms_diff(r, null)
+        size = measured_rms_diff(r, null)
         base, final = (e ** 2 for e in r["rmse"])
         explained = 1.0 - max(final - r["noise_sd"] ** 2, 0.0) / max(base - r["noise_sd"] ** 2, 1e-12)
         rows.append({"seed": r["seed"], "contribution_rms": size, "null_claims": null["claims"],

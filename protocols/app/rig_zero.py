@@ -6,18 +6,15 @@ from __future__ import annotations
 
 import datetime
 import re
-from argparse import Namespace
 
 from models.damper import load as load_damper
 from models.physics.gas_spring import static_force
 from rig import config as rig_config
 from rig.errors import RigError
-from rig.safety import Safety
 
-from protocols import commissioning, runner
-from protocols.app.run import open_rig
+from protocols import cell, commissioning, runner
 from protocols.io.files import written
-from protocols.plan import rig_info
+from protocols.plan import Plan, rig_info
 
 
 SHOWN = {"force": ("N", 1.0, 1), "x": ("mm", 1e3, 3)}  # offsets as printed: unit, scale from SI, decimals
@@ -55,15 +52,9 @@ def run(args):
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     damper = load_damper(args.damper)
     info = rig_info(cfg, damper)
-    vr, rig, served, pacer = open_rig(Namespace(rig=args.rig, realtime=False), cfg, damper, {})
     kept = runner.Kept()
-    try:
-        result, _ = runner.run(commissioning, commissioning.Params(), info, rig, pacer, Safety(served), [kept],
-                               progress=False)
-    finally:
-        rig.close()
-        if vr is not None:
-            vr.close()
+    with cell.wired(cfg, damper) if args.rig else cell.embedded(damper, cfg) as c:
+        result = runner.run_plan(Plan(commissioning, commissioning.Params()), c, [kept])
     if result.fault:
         raise RigError(f"rig zero stopped: {result.fault}")
     found = commissioning.findings(kept.arrays(), kept.events)

@@ -4,6 +4,7 @@ as observers."""
 from __future__ import annotations
 
 import json
+import math
 import signal
 import sys
 import threading
@@ -12,16 +13,18 @@ from models.damper import load as load_damper
 from models.damper import to_dict
 from rig import config as rig_config
 from rig.errors import RigError
-from rig.pacing import RealTimePacer, SimulatedPacer
-from rig.rig import Rig
-from rig.safety import Safety
 
-from protocols import preflight, runner
+from protocols import cell, preflight
 from protocols.app.sim_rig import virtual_plant
 from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder
 from protocols.library import PROTOCOLS
-from protocols.plan import as_dict, parse, rig_info
+from protocols.discover import discover
+from protocols.plan import Plan, as_dict, parse, rig_info
+from protocols.runner import run_plan
+from sim_backend.effects import plain_cell
+
+DISCOVER = "discover"  # `dyno run discover`: an opening sine matrix, then the dyno's own next tests
 from protocols.rehearsal import rehearse
 
 
@@ -29,28 +32,34 @@ def run(args):
     module, params, plant, damper, cfg, info = _plan_run(args)
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
     claim = _output(args, module.NAME, identifying)
-    vr = rig = recorder = live = ident = result = pacer = None
+    c = recorder = live = ident = result = None
     errors = []  # the first is the one that ended the run; later ones are reported after it
     # SIGTERM stops the run as Ctrl-C does; only the main thread may set it (a cluster
     # worker runs `dyno prove`'s recordings on a thread of its own)
     main = threading.current_thread() is threading.main_thread()
     previous = main and signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
-        vr, rig, cfg, pacer = open_rig(args, cfg, damper, plant)
+        c = open_cell(args, cfg, damper, plant)
+        cfg = c.config
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
         who = {"operator": "operator", "damper_serial": "serial", "note": "note"}  # metadata "run" <- --option
-        recorder = Recorder(claim, cfg, json.dumps(to_dict(damper)), module.NAME, as_dict(params),
-                            wall_start=rig.wall_start,
+        recorder = Recorder(claim, cfg, json.dumps(to_dict(damper)), args.protocol, as_dict(params),
+                            wall_start=c.rig.wall_start,
                             run_info={**{k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)},
                                       **{f"setup.{k}": v for k, v in getattr(args, "setup", [])}})
         print(f"recording to {claim.target}", file=sys.stderr, flush=True)
         if identifying:
             from protocols.live_identify import LiveIdentify
             ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live)
-        result, _ = runner.run(module, params, info, rig, pacer, Safety(cfg), [recorder, live, ident],
-                               progress=getattr(args, "progress", True))
+        if args.protocol == DISCOVER:
+            found = discover(Plan(module, params), c, [recorder, live, ident], args.budget,
+                             say=lambda line: print(f"discover: {line}", file=sys.stderr, flush=True))
+            result = found.result
+        else:
+            result = run_plan(Plan(module, params), c, [recorder, live, ident],
+                              progress=getattr(args, "progress", True))
     except KeyboardInterrupt:
         errors.append("operator stop")
     except RigError as e:
@@ -58,7 +67,7 @@ def run(args):
     finally:
         if main:
             signal.signal(signal.SIGTERM, previous)
-        for close in (recorder and recorder.close, live and live.close, rig and rig.close, vr and vr.close):
+        for close in (recorder and recorder.close, live and live.close, c and c.close):
             if close:
                 try:
                     close()
@@ -71,17 +80,26 @@ def run(args):
         if ident is not None:
             ident.cancel()
         raise RigError(errors[0] if errors else "run did not start")
-    return _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident)
+    return _finish_run(module, args.protocol, c, claim, recorder, result, errors, ident)
 
 
 def _plan_run(args):
     """What a run needs, checked before anything connects or moves: (protocol module,
     params, virtual plant options, damper, rig config, RigInfo)."""
-    module = PROTOCOLS.get(args.protocol)
+    module = PROTOCOLS.get("sine-matrix" if args.protocol == DISCOVER else args.protocol)
     if module is None:
-        raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)})")
+        raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)}, {DISCOVER})")
     given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator", "target", "iterations")
              if getattr(args, n, None) is not None]
+    if args.protocol == DISCOVER:
+        if not (args.budget >= 0 and math.isfinite(args.budget)):
+            raise RigError(f"--budget: seconds of rig time, 0 or more, not {args.budget:g}")
+        # the opening: the sine matrix the diagnosis is proven on (sim_backend/plain.toml), name=value overriding
+        opening = {k: ",".join(f"{x:g}" for x in v) if isinstance(v, list) else str(v)
+                   for k, v in plain_cell()[2]["params"].items()}
+        opening.update(p.partition("=")[::2] for p in args.params if "=" in p)
+        given += [f"{k}={v}" for k, v in opening.items()]
+        args.params = [p for p in args.params if "=" not in p]
     params = parse(module.Params, [*args.params, *given])
     if args.rig is not None and (args.effect or args.plain):
         raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
@@ -102,49 +120,30 @@ def _plan_run(args):
     forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
     print(preflight.summary(forecast), file=sys.stderr)
     if getattr(module, "REHEARSE", False):
-        for name, found in rehearse(module, params, info, cfg, damper):
+        for name, found in rehearse(module, params, cfg, damper):
             print(f"pre-flight (the run against the virtual plant): {name}: {module.summary(found)}", file=sys.stderr)
     return module, params, plant, damper, cfg, info
 
 
-def open_rig(args, cfg, damper, plant):
-    """(virtual rig or None, open Rig, config as served, pacer): the embedded virtual rig
-    unless --rig names a cell."""
-    vr = None
+def open_cell(args, cfg, damper, plant):
+    """The embedded virtual rig unless --rig names a cell (protocols/cell.py), open."""
     if args.rig is None:
-        from sim_backend.virtual_rig import VirtualRig
-        vr = VirtualRig(cfg, damper=damper, **plant)
-        cfg = vr.start()
-        rig = Rig(cfg, clock=vr.clock)
-        pacer = RealTimePacer(cfg.rate_hz, virtual_rig=vr) if args.realtime else SimulatedPacer(vr, cfg.rate_hz)
-    else:
-        rig = Rig(cfg)
-        pacer = RealTimePacer(cfg.rate_hz)
-    try:
-        rig.open()
-    except BaseException:
-        for close in (rig.close, vr and vr.close):
-            if close:
-                try:
-                    close()
-                except Exception:  # noqa: BLE001 - the open's error is the one to report
-                    pass
-        raise
-    return vr, rig, cfg, pacer
+        return cell.embedded(damper, cfg, realtime=args.realtime, **plant)
+    return cell.wired(cfg, damper)
 
 
-def _finish_run(module, cfg, claim, recorder, pacer, result, errors, ident):
+def _finish_run(module, name, c, claim, recorder, result, errors, ident):
     """Say what was recorded and what stopped it, finish the live identification; the exit
     status."""
     if result.fault:
         errors.insert(0, result.fault)
     if recorder.kept:
-        print(f"recorded {result.duration_s:.1f} s of {module.NAME} to {recorder.path}", file=sys.stderr)
+        print(f"recorded {result.duration_s:.1f} s of {name} to {recorder.path}", file=sys.stderr)
     else:
         print(f"nothing recorded: the run stopped before its first segment; {claim.target} "
               f"{'kept as it was' if claim.target.exists() else 'not written'}", file=sys.stderr)
-    if isinstance(pacer, RealTimePacer) and result.ticks:
-        late = sum(1 for x in result.lateness_s if x > 1.0 / cfg.rate_hz)
+    if (c.realtime or c.plant is None) and result.ticks:
+        late = sum(1 for x in result.lateness_s if x > 1.0 / c.config.rate_hz)
         print(f"real time: {late} of {result.ticks} ticks late by more than a period "
               f"(worst {1e3 * max(result.lateness_s):.1f} ms, {result.missed} skipped)", file=sys.stderr)
     for name, found in result.measures:

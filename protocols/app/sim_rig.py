@@ -30,23 +30,12 @@ def parse_faults(specs):
 
 
 def virtual_plant(args):
-    """VirtualRig keywords from --damper, --effect, --plain and --seed."""
-    from sim_backend.effects import EffectError, parse, plain_cell
-    from sim_backend.plant import plant_params
+    """VirtualRig keywords from --damper, --effect, --plain, --seed (and prove's --noise)."""
+    from sim_backend.effects import EffectError, plant_options
     try:
-        effects = parse(args.effect)
+        return plant_options(args.damper, args.effect, args.plain, args.seed, getattr(args, "noise", 1.0))
     except EffectError as e:
         raise RigError(str(e)) from None
-    params = None
-    damper = args.damper
-    if args.plain:
-        name, params, _ = plain_cell()
-        damper = name if damper in (None, "koni") else damper
-    noise = getattr(args, "noise", 1.0)  # `dyno prove --noise`: the sensors' noise times this
-    if noise != 1.0:
-        params = params or plant_params()
-        params["sensors"].update({k: v * noise for k, v in params["sensors"].items() if k.endswith("_noise")})
-    return {"damper": damper, "effects": effects, "params": params, "seed": args.seed}
 
 
 def run(args):

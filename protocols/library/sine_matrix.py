@@ -21,6 +21,9 @@ class Params:
     ramp_cycles: int = 2
     settle_cycles: int = 2
     record_cycles: int = 5
+    record_s: float = 0.0  # ... or more, to record at least this long [s] at each frequency
+    # amplitudes and frequencies taken pairwise (the next test's sines), not as a matrix
+    paired: bool = False
 
 
 def check(p: Params, rig: RigInfo):
@@ -36,6 +39,10 @@ def _validate(p: Params, rig: RigInfo):
         positive(name, getattr(p, name))
     if p.settle_cycles < 0:
         raise ParamError(f"settle_cycles: must not be negative, got {p.settle_cycles}")
+    if p.paired and len(p.amplitudes_mm) != len(p.freqs_hz):
+        raise ParamError(f"paired: {len(p.amplitudes_mm)} amplitudes_mm for {len(p.freqs_hz)} freqs_hz")
+    if not (math.isfinite(p.record_s) and p.record_s >= 0):
+        raise ParamError(f"record_s: must be 0 or more seconds, got {p.record_s:g}")
     for f in p.freqs_hz:
         if f > rig.f_max:
             raise ParamError(f"freqs_hz: {f:g} Hz is above the rig's {rig.f_max:g} Hz")
@@ -49,22 +56,22 @@ def _matrix(p: Params, rig: RigInfo):
     """([(amplitude mm, frequency Hz)] to record, [(segment, why skipped or moved)]);
     ParamError if nothing is left to record."""
     runs, skipped = [], []
-    for a in p.amplitudes_mm:
-        for f in p.freqs_hz:
-            v = 2 * math.pi * f * a / 1e3
-            if v > rig.v_max:
-                skipped.append((_name(a, f), f"peak velocity {v:.2f} m/s above the rig's {rig.v_max:g} m/s"))
-            elif rig.peak_force is not None and rig.peak_force(v) > MARGIN * rig.force_max:
-                why = (f"expected force {rig.peak_force(v):.0f} N above {100 * MARGIN:.0f} % of the rig's "
-                       f"{rig.force_max:.0f} N")
-                f_ok = _fastest(rig, a, f)
-                slower = max((g for g in p.freqs_hz if g < f), default=0.0)
-                if f_ok is not None and f_ok > slower and (a, f_ok) not in runs:
-                    runs.append((a, f_ok))
-                    why += f": recorded at {f_ok:g} Hz instead"
-                skipped.append((_name(a, f), why))
-            else:
-                runs.append((a, f))
+    pairs = zip(p.amplitudes_mm, p.freqs_hz) if p.paired else ((a, f) for a in p.amplitudes_mm for f in p.freqs_hz)
+    for a, f in pairs:
+        v = 2 * math.pi * f * a / 1e3
+        if v > rig.v_max:
+            skipped.append((_name(a, f), f"peak velocity {v:.2f} m/s above the rig's {rig.v_max:g} m/s"))
+        elif rig.peak_force is not None and rig.peak_force(v) > MARGIN * rig.force_max:
+            why = (f"expected force {rig.peak_force(v):.0f} N above {100 * MARGIN:.0f} % of the rig's "
+                   f"{rig.force_max:.0f} N")
+            f_ok = _fastest(rig, a, f)
+            slower = max((g for g in p.freqs_hz if g < f), default=0.0)
+            if f_ok is not None and f_ok > slower and (a, f_ok) not in runs:
+                runs.append((a, f_ok))
+                why += f": recorded at {f_ok:g} Hz instead"
+            skipped.append((_name(a, f), why))
+        else:
+            runs.append((a, f))
     if not runs:
         raise ParamError(f"nothing to run: every combination is skipped ({skipped[0][0]}: {skipped[0][1]})")
     return runs, skipped
@@ -94,7 +101,8 @@ def plan(p: Params, rig: RigInfo):
         yield Segment(f"ramp in {a:g} mm {f:g} Hz", params, n / f, ramp_in(A, f, n, rig.x_mid), False)
         if p.settle_cycles:
             yield Segment(f"settle {a:g} mm {f:g} Hz", params, p.settle_cycles / f, _sine(A, f, rig.x_mid), False)
-        yield Segment(_name(a, f), {**params, "cycles": p.record_cycles}, p.record_cycles / f,
+        cycles = max(p.record_cycles, math.ceil(p.record_s * f - 1e-9))
+        yield Segment(_name(a, f), {**params, "cycles": cycles}, cycles / f,
                       _sine(A, f, rig.x_mid), kind="sine")
         yield Segment(f"ramp out {a:g} mm {f:g} Hz", params, n / f, _sine(A, f, rig.x_mid, fade=n / f), False)
 

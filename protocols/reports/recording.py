@@ -85,6 +85,20 @@ def _header(page, meta, events, model):
                    + (f" Model overlaid: {model.name}." if model is not None else ""))
     ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
     page.items((e["kind"], f"{e['segment']} {e.get('message', '')}") for e in ends)
+    rounds = [e for e in events if e["kind"] in ("diagnosis", "next_test")]
+    if rounds:  # dyno run discover (protocols/discover.py)
+        page.paragraph("The dyno's own next tests: after each diagnosis, what it named and was unsure of, what "
+                       "the following data settled, and each sine it ran next with why.")
+        page.items(_round_item(e) for e in rounds)
+
+
+def _round_item(e):
+    """(label, text) of a discovery event."""
+    p = e.get("params", {})
+    if e["kind"] == "next_test":
+        return f"round {p.get('round', '?')}: ran {e['segment']}", e.get("message", "")
+    said = [*(f"unsure: {u}" for u in p.get("unsure", [])), *(f"settled: {s}" for s in p.get("settled", []))]
+    return f"round {p.get('round', '?')}: diagnosis", "; ".join([e.get("message", ""), *said])
 
 
 def _sine_figures(ch, segs, out, rows, model=None, units=Units()):

@@ -20,7 +20,7 @@ from protocols import cluster
 
 def _prove_tasks(n):
     """n prove runs: the null and sensor_delay hidden at ten times the noise floor, seeds 0..."""
-    from protocols.app.prove import plain_cell
+    from sim_backend.effects import plain_cell
     concealed = plain_cell()[2]["concealed"]
     effects = [(None, None), ("sensor_delay", {"sensor_delay": 10 * concealed["sensor_delay"]})]
     return [(e, None, 10.0, v, seed, 1.0, 1000.0) for seed in range(n // 2 + 1) for e, v in effects][:n]
@@ -75,7 +75,7 @@ def measure(name, fn, tasks, workers):
 
 def bench(workers=2, prove_tasks=6, sweep_tasks=60):
     from models.quarter_car.sweeps import harmonic_point
-    from protocols.app.prove import run_task
+    from protocols.proof import run_task
     rows = [measure("prove", run_task, _prove_tasks(prove_tasks), workers),
             measure("sweep", harmonic_point, _sweep_tasks(sweep_tasks), workers),
             measure("sweep, 70 points a task", _points, _batched_sweep_tasks(8, 70), workers)]

@@ -14,17 +14,13 @@ import numpy as np
 from models.damper import load as load_damper
 from models.quarter_car import load as load_car
 from models.quarter_car.sim import Stepper, run as simulate
-from rig import config as rig_config
 from rig.compensation import COMPENSATORS, make
-from rig.pacing import SimulatedPacer
-from rig.rig import Rig
-from rig.safety import Safety
 from sim_backend.plant import plant_params
-from sim_backend.virtual_rig import VirtualRig
 
-from protocols import runner
+from protocols import cell
 from protocols.library import hil, replay, roads
-from protocols.plan import parse, rig_info
+from protocols.plan import Plan, parse
+from protocols.runner import run_plan
 
 ROADS = ("step:25", "sweep:1:20:5", "iso8608:C:50")
 GOALS = {"j2": 0.02, "responses": 0.03, "tick_us": 50.0, "replay": 0.01}
@@ -41,20 +37,9 @@ def known_model(damper):
 
 
 def _embedded(module, params, d):
-    """(LoopResult) of a protocol on the embedded virtual rig, simulated clock."""
-    cfg = rig_config.load("virtual")
-    info = rig_info(cfg, d)
-    vr = VirtualRig(cfg, damper=d)
-    served = vr.start()
-    rig = Rig(served, clock=vr.clock)
-    try:
-        rig.open()
-        result, _ = runner.run(module, params, info, rig, SimulatedPacer(vr, served.rate_hz), Safety(served),
-                               progress=False)
-    finally:
-        rig.close()
-        vr.close()
-    return result
+    """(RunResult) of a protocol on the embedded virtual rig, simulated clock."""
+    with cell.embedded(d) as c:
+        return run_plan(Plan(module, params), c)
 
 
 def run_one(damper, road, compensator, car="race-car"):

@@ -99,7 +99,7 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     """`dyno bench diagnose`: a recording of `seconds` of sine matrix at rate_hz from the
     plain plant (no wires), then the diagnosis's wall time. Goal: 60 s at 5 kHz in < 3 min."""
     from models.diagnose import diagnose
-    from protocols.app.prove import offline_recording
+    from protocols.proof import offline_recording
     params = {"amplitudes_mm": [12.7, 6.4, 3.2, 1.6], "freqs_hz": [1.0, 2.0, 4.0, 8.0, 16.0],
               "settle_cycles": 1, "record_cycles": 5}
     t0 = time.perf_counter()

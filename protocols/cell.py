@@ -1,0 +1,110 @@
+"""A test cell to run plans on: the rig, what paces it, its config as served and the damper
+on it. One factory per kind, and `protocols.runner.run_plan(plan, cell, observers)` runs a
+plan on any of them:
+
+    with cell.embedded("koni") as c:           # the virtual rig over its wire protocols
+        result = runner.run_plan(Plan(sine_matrix, params), c, [recorder])
+    cell.wired(rig_config.load("cell.toml"), damper)   # a real cell (or `dyno sim-rig`)
+    cell.direct(config, "koni", effects=...)   # the plant without wires: many times faster
+
+A cell outlives a run: `dyno run discover` runs several plans on one, and between them the
+actuator holds where the last one left it (its command watchdog holds a lost controller).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from rig.pacing import RealTimePacer, SimulatedPacer
+from rig.safety import Safety
+
+from protocols.plan import rig_info
+
+
+@dataclass
+class Cell:
+    rig: object  # the Rig interface (rig/rig.py), open
+    config: object  # the rig config as served ("auto" addresses filled in)
+    damper: object | None  # the damper model the plans are made for (None: none known)
+    plant: object | None = None  # what a simulated clock steps (a VirtualRig, a DirectRig); None: a real cell
+    realtime: bool = False  # paced by the wall clock (always, on a real cell)
+    _close: list = field(default_factory=list, repr=False)
+
+    @property
+    def info(self):
+        """RigInfo of this cell and damper for the plans."""
+        return rig_info(self.config, self.damper)
+
+    def pacer(self):
+        """A new pacer for one run (a real-time pacer keeps its deadlines from its first tick)."""
+        rate = self.config.rate_hz
+        if self.realtime or self.plant is None:
+            return RealTimePacer(rate, virtual_rig=self.plant)
+        return SimulatedPacer(self.plant, rate)
+
+    def safety(self):
+        return Safety(self.config)
+
+    def close(self):
+        """Close the rig, then what serves it; RigError of the first that failed, after all."""
+        errors = []
+        for close in self._close:
+            try:
+                close()
+            except Exception as e:  # noqa: BLE001 - everything is closed whatever one does
+                errors.append(e)
+        self._close.clear()
+        if errors:
+            raise errors[0]
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _opened(c: Cell) -> Cell:
+    """The cell with its rig open; if the open fails, everything closed and its error raised."""
+    try:
+        c.rig.open()
+    except BaseException:
+        try:
+            c.close()
+        except Exception:  # noqa: BLE001 - the open's error is the one to report
+            pass
+        raise
+    return c
+
+
+def embedded(damper, config=None, realtime=False, **plant) -> Cell:
+    """The embedded virtual rig: the plant behind its emulators, read through the same wire
+    protocols a real cell speaks. damper: a preset name, JSON path or Damper; plant: the
+    VirtualRig's keywords (seed, T0, effects, params)."""
+    from models.damper import load as load_damper
+    from rig import config as rig_config
+    from rig.rig import Rig
+    from sim_backend.virtual_rig import VirtualRig
+    d = load_damper(damper) if isinstance(damper, str) else damper
+    vr = VirtualRig(config or rig_config.load("virtual"), damper=d, **plant)
+    c = Cell(None, None, d, vr, realtime, [vr.close])
+    c.config = vr.start()
+    c.rig = Rig(c.config, clock=vr.clock)
+    c._close.insert(0, c.rig.close)
+    return _opened(c)
+
+
+def wired(config, damper=None) -> Cell:
+    """A cell on its wires (a real one, or `dyno sim-rig` serving the virtual rig), in real time."""
+    from rig.rig import Rig
+    rig = Rig(config)
+    return _opened(Cell(rig, config, damper, None, True, [rig.close]))
+
+
+def direct(config, damper, **plant) -> Cell:
+    """The plant without wires (sim_backend/direct_rig.py), on its simulated clock: for the
+    calibration, the rehearsal and work that needs the runner's stepping, not the wires."""
+    from models.damper import load as load_damper
+    from sim_backend.direct_rig import DirectRig
+    rig = DirectRig(config, damper, **plant)
+    d = load_damper(damper) if isinstance(damper, str) else damper
+    return _opened(Cell(rig, config, d, rig, False, []))

@@ -1,0 +1,118 @@
+"""The dyno plans its own next test (issue 31): run an opening plan, diagnose what it
+recorded, run the sines that best tell apart what the diagnosis could not
+(models/diagnose/design.py) on the same cell into the same recording, diagnose again, and
+stop when nothing is left unsure or the budget of rig time is spent.
+
+Every round is in the recording as events: a `next_test` per sine (its reason in the
+message) before it runs, and a `diagnosis` after each diagnosis (what it named, what it
+was unsure of), so the live view, the report and a reader of the file see each round.
+Between rounds the actuator holds where the last sine left it (mid-stroke).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from dataclasses import dataclass, field
+
+from models.diagnose import design, diagnose
+from protocols.library import sine_matrix
+from protocols.plan import Plan
+from protocols.runner import Kept, RunResult, run_plan
+
+MAX_ROUNDS = 2  # a design that keeps asking for more would otherwise spend the budget on one rival
+
+
+@dataclass
+class Round:
+    accepted: list  # what the diagnosis named, in order
+    unsure: list  # the rivals it could not tell apart, in words
+    ran: list = field(default_factory=list)  # the sines run next: {amplitude_mm, freq_hz, rig_s, why}
+    settled: list = field(default_factory=list)  # rivals of the round before that this round's data decided
+
+
+@dataclass
+class Discovery:
+    rounds: list  # [Round], the opening's diagnosis first
+    diagnosis: object  # the last Diagnosis (models/diagnose/result.py)
+    spent_s: float  # rig time of the sines the design asked for [s]
+    runs: list  # [RunResult] of the opening and each round
+
+    @property
+    def result(self) -> RunResult:
+        """The runs as one: the last one's ending and measures, every tick counted."""
+        last = self.runs[-1]
+        return dataclasses.replace(last, ticks=sum(r.ticks for r in self.runs),
+                                   overruns=sum(r.overruns for r in self.runs),
+                                   duration_s=sum(r.duration_s for r in self.runs),
+                                   lateness_s=[x for r in self.runs for x in r.lateness_s],
+                                   missed=sum(r.missed for r in self.runs))
+
+
+def limits(config) -> design.Limits:
+    """The cell's limits from its rig config."""
+    L = config.limits
+    return design.Limits(L["x_min"], L["x_max"], L["velocity_max"], L["force_max"],
+                         L.get("frequency_max", math.inf))
+
+
+def next_plan(proposals) -> Plan:
+    """The proposals' sines as one plan: each ramped in, settled and recorded as the design
+    counted them (design.Sine.rig_s)."""
+    return Plan(sine_matrix, sine_matrix.Params(
+        amplitudes_mm=[1e3 * p.sine.amplitude_m for p in proposals], freqs_hz=[p.sine.frequency_hz for p in proposals],
+        ramp_cycles=design.RAMP_CYCLES, settle_cycles=design.SETTLE_CYCLES, record_cycles=design.MIN_CYCLES,
+        record_s=design.MIN_S, paired=True))
+
+
+def _key(rival):
+    return frozenset(set(rival.chosen) ^ set(rival.other))
+
+
+def _tell(observers, t, kind, segment, params, message):
+    """An event to every observer between runs (no run's observer thread is going)."""
+    for o in observers:
+        try:
+            getattr(o, "event", lambda *a: None)(t, kind, segment, params, message)
+        except Exception as e:  # noqa: BLE001 - a failing observer is reported, the others still told
+            print(f"dyno: {type(o).__name__.lower()}: {e}", file=sys.stderr)
+
+
+def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_rounds=MAX_ROUNDS) -> Discovery:
+    """Run `opening` on the cell, then rounds of designed sines within budget_s of rig time.
+    say(line): a line per round for the operator."""
+    say = say or (lambda line: None)
+    kept = Kept()
+    observers = [o for o in observers if o is not None] + [kept]
+    lim = limits(cell.config)
+    runs = [run_plan(opening, cell, observers)]
+    rounds, spent, before = [], 0.0, {}
+    while True:
+        diag = diagnose(kept.arrays(), kept.events)
+        rv = {_key(r): r for r in design.rivals(diag)}
+        now = Round(list(diag.accepted), [r.said for r in rv.values()],
+                    settled=[r.said for k, r in before.items() if k not in rv])
+        rounds.append(now)
+        t = cell.rig.clock()
+        _tell(observers, t, "diagnosis", "", {"round": len(rounds), "accepted": now.accepted, "unsure": now.unsure,
+                                              "settled": now.settled},
+              f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}; "
+              f"unsure of {len(now.unsure)}" + (f"; settled {len(now.settled)}" if now.settled else ""))
+        say(f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}"
+            + "".join(f"\n  unsure: {u}" for u in now.unsure) + "".join(f"\n  settled: {s}" for s in now.settled))
+        proposals = [] if runs[-1].fault or len(rounds) > max_rounds else design.propose(diag, lim, budget_s - spent)
+        if not proposals:
+            break
+        for p in proposals:
+            s = p.sine
+            now.ran.append({"amplitude_mm": 1e3 * s.amplitude_m, "freq_hz": s.frequency_hz, "rig_s": s.rig_s,
+                            "why": p.why})
+            _tell(observers, t, "next_test", f"sine {1e3 * s.amplitude_m:g} mm {s.frequency_hz:g} Hz",
+                  {"round": len(rounds), "amplitude_mm": 1e3 * s.amplitude_m, "freq_hz": s.frequency_hz,
+                   "rig_s": s.rig_s, "chosen": list(p.rival.chosen), "other": list(p.rival.other),
+                   "ratio_to_noise": p.ratio}, p.why)
+            say(f"  next: {p.why}")
+        spent += sum(p.sine.rig_s for p in proposals)
+        before = rv
+        runs.append(run_plan(next_plan(proposals), cell, observers))
+    return Discovery(rounds, diag, spent, runs)

@@ -6,6 +6,8 @@ stop when nothing is left unsure or the budget of rig time is spent.
 Every round is in the recording as events: a `next_test` per sine (its reason in the
 message) before it runs, and a `diagnosis` after each diagnosis (what it named, what it
 was unsure of), so the live view, the report and a reader of the file see each round.
+Each run has its run_start and run_end; the recording ends with a last run_end, segment
+"discover", once the last diagnosis is made.
 Between rounds the actuator holds where the last sine left it (mid-stroke).
 """
 from __future__ import annotations
@@ -16,6 +18,7 @@ import sys
 from dataclasses import dataclass, field
 
 from models.diagnose import design, diagnose
+from rig.loop import describe
 from protocols.library import sine_matrix
 from protocols.plan import Plan
 from protocols.runner import Kept, RunResult, run_plan
@@ -34,7 +37,7 @@ class Round:
 @dataclass
 class Discovery:
     rounds: list  # [Round], the opening's diagnosis first
-    diagnosis: object  # the last Diagnosis (models/diagnose/result.py)
+    diagnosis: object  # the last Diagnosis (models/diagnose/result.py); None if none could be made
     spent_s: float  # rig time of the sines the design asked for [s]
     runs: list  # [RunResult] of the opening and each round
 
@@ -87,9 +90,18 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
     lim = limits(cell.config)
     runs = [run_plan(opening, cell, observers)]
     rounds, spent, before = [], 0.0, {}
+    diag = None
     while True:
-        diag = diagnose(kept.arrays(), kept.events)
-        rv = {_key(r): r for r in design.rivals(diag)}
+        try:
+            diag = diagnose(kept.arrays(), kept.events)
+            rv = {_key(r): r for r in design.rivals(diag)}
+            last = runs[-1].fault or len(rounds) + 1 > max_rounds
+            proposals = [] if last else design.propose(diag, lim, budget_s - spent)
+        except Exception as e:  # noqa: BLE001 - what is recorded stays; the dyno stops asking
+            why = f"round {len(rounds) + 1}: diagnosis failed: {describe(e)}"
+            _tell(observers, cell.rig.clock(), "diagnosis", "", {"round": len(rounds) + 1}, why)
+            say(f"{why}; no further tests")
+            break
         now = Round(list(diag.accepted), [r.said for r in rv.values()],
                     settled=[r.said for k, r in before.items() if k not in rv])
         rounds.append(now)
@@ -100,7 +112,6 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
               f"unsure of {len(now.unsure)}" + (f"; settled {len(now.settled)}" if now.settled else ""))
         say(f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}"
             + "".join(f"\n  unsure: {u}" for u in now.unsure) + "".join(f"\n  settled: {s}" for s in now.settled))
-        proposals = [] if runs[-1].fault or len(rounds) > max_rounds else design.propose(diag, lim, budget_s - spent)
         if not proposals:
             break
         for p in proposals:
@@ -115,4 +126,8 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
         spent += sum(p.sine.rig_s for p in proposals)
         before = rv
         runs.append(run_plan(next_plan(proposals), cell, observers))
+    # the recording ends as every recording does: with the run's end and how it ended
+    fault = runs[-1].fault
+    _tell(observers, cell.rig.clock(), "run_end", "discover", {"rounds": len(rounds), "added_s": spent},
+          fault or "completed")
     return Discovery(rounds, diag, spent, runs)

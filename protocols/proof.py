@@ -146,14 +146,10 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
     r = found.diagnosis if found else diagnose(ch, ev)
     rounds = found.rounds if found else []
     hidden = set(effect.split("+")) if effect else set()
-    # the valve curve's form and the cell's own timing (the plant's, on every null) are not
-    # what a row hides unless it hides that: they do not take the first place
-    named = [e for e in r.accepted
-             if SPECS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
-    first = named[0].split(":")[0] if named else None
+    first = _first(r.accepted, hidden)
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
-        est = next(s.parameters for s in r.steps if s.effect == named[0]).get(CATALOGUE[effect].estimate)
+        est = next(s.parameters for s in r.steps if s.effect.split(":")[0] == first).get(CATALOGUE[effect].estimate)
     t, F = ch["force"]
     measured = np.zeros(len(t), bool)
     for _, _, t0, t1 in segments(ev):
@@ -166,7 +162,9 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
     claims = [e for e in r.accepted if SPECS[e.split(":")[0]].nature in ("physics", "open")]
     extra = [s for s in r.steps if s.effect.split(":")[0] not in hidden and s.effect in claims]
     return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
-            "rounds": [dataclasses.asdict(r) for r in rounds],
+            "rounds": [dataclasses.asdict(x) for x in rounds], "added_s": found.spent_s if found else 0.0,
+            # the opening's diagnosis: what the prove plan alone named, on the same recording
+            "first_opening": _first(rounds[0].accepted, hidden) if rounds else first,
             "accepted": r.accepted, "claims": claims, "first": first, "noise_sd": r.noise_sd,
             "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n")}
                       for s in r.steps if not s.replaced_by],
@@ -176,6 +174,13 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
             "extra_compensating": any(s.compensates for s in extra), "force_t": t, "force": F, "measured": measured,
             "estimate": est,
             "before": r.baseline.nrmse_heldout, "after": r.final.nrmse_heldout}
+
+
+def _first(accepted, hidden):
+    """The first effect named that counts: the valve curve's form and the cell's own timing
+    (the plant's, on every null) do not take the first place unless the row hides them."""
+    named = [e for e in accepted if SPECS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
+    return named[0].split(":")[0] if named else None
 
 
 def measured_rms_diff(a, b):
@@ -199,6 +204,9 @@ def table(results, effects, concealed):
                "value": (scaled(e, concealed[key(e, form)], size * noise) if key(e, form) in concealed
                          else None),
                # a single effect: the first accepted; a pair: both accepted, in either order
+               "detection_opening": (float(np.mean([r["first_opening"] == e for r in rs])) if e in EFFECTS
+                                     else None),
+               "added_s": float(np.median([r["added_s"] for r in rs])),
                "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
                              else float(np.mean([parts <= n for n in named])) if e != "null" else None),
                "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS

@@ -85,6 +85,34 @@ def test_a_wired_run_is_one_clock_and_report_identify_diagnose_use_it(tmp_path, 
     assert p.returncode == 0, p.stderr[-2000:]
 
 
+def test_the_dyno_runs_its_own_next_tests_on_the_wires(tmp_path, sim_rig):
+    """`dyno run discover --rig`: an opening, then the sines the diagnosis asks for, on the
+    same cell into the same recording (protocols/discover.py)."""
+    cfg = sim_rig_config(tmp_path, stale_s=0.25)  # the VM's stalls, as above
+    # a fast sine whose plant stalls that long jumps past the velocity limit on catching up:
+    # the cell's stroke and frequency limits keep the next tests slow (5 mm at 4 Hz at most)
+    cfg.write_text(cfg.read_text().replace("velocity_max = 1.5", "velocity_max = 1.5\nfrequency_max = 4.0")
+                   .replace("x_min = 0.002 ", "x_min = 0.0315").replace("x_max = 0.074", "x_max = 0.0447"))
+    sim_rig(cfg)
+    out = tmp_path / "discover.mcap"
+    p = dyno("run", "discover", "amplitudes_mm=6.4", "freqs_hz=2,4", "record_cycles=4", "--budget", 6,
+             "--rig", cfg, "--out", out)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "discover: round 1: named" in p.stderr and "recorded" in p.stderr
+    events, ch, _, meta, _ = read(out)
+    assert meta["protocol"]["name"] == "discover" and events[-1]["kind"] == "run_end"
+    told = [e for e in events if e["kind"] == "next_test"]
+    assert told and all("differ by" in e["message"] for e in told)
+    assert sum(e["params"]["rig_s"] for e in told) <= 6.0
+    assert all(e["params"]["freq_hz"] <= 4.0 and e["params"]["amplitude_mm"] <= 5 for e in told)
+    # each sine asked for is recorded after its reason, in the same file and on the same clock
+    for e in told:
+        start = next(s for s in events if s["kind"] == "segment_start" and s["segment"] == e["segment"])
+        assert start["t"] > e["t"] and start["t"] < ch["force"][0][-1]
+    p = dyno("report", out, "--out", tmp_path / "report")
+    assert p.returncode == 0 and "round 1: ran" in (tmp_path / "report" / "index.html").read_text(), p.stderr
+
+
 @pytest.mark.parametrize("fault, message, stale_s", [
     # both CAN nodes fall silent: the conditioner's x or the actuator's x_internal is stale first
     ("can_bus_off", "watchdog: x", None),

@@ -311,6 +311,11 @@ def _analysis_commands(sub):
     pv.add_argument("--open", metavar="EXPR",
                     help="hide your own physics: a force [N] in x [m], v [m/s], t [s], T [K], e.g. "
                          "'2e6*maximum(x-0.05,0)**2' (sim_backend/extra.py), against a null per seed")
+    pv.add_argument("--adaptive", action="store_true",
+                    help="after the prove plan, the dyno's own next tests (as dyno run discover) on the same "
+                         "recording; the table gives detection by the plan alone beside it")
+    pv.add_argument("--budget", type=number(0, 3600), default=120.0, metavar="SECONDS",
+                    help="--adaptive: rig time the next tests may add (default 120)")
     pv.add_argument("--json", action="store_true")
     pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     pv.add_argument("--calibrate", action="store_true",

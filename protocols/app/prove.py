@@ -20,6 +20,7 @@ from rig.errors import RigError
 from sim_backend.effects import EFFECTS, plain_cell, scaled
 
 from protocols import cluster
+from protocols.discover import MAX_ROUNDS
 from protocols.proof import calibrate, key, measured_rms_diff, run_task
 from protocols.proof import table as proof_table
 
@@ -61,6 +62,7 @@ def run(args):
                     f"(run dyno prove --calibrate{' --forms all' if form else ''})")
                 return 2
     tasks = []
+    adaptive = (None, args.budget) if getattr(args, "adaptive", False) else ()  # (no open physics, budget)
     for seed in range(args.seeds):
         for level, rate in [(n, r) for n in args.noise for r in args.rates]:
             for e, form in variants:
@@ -68,11 +70,11 @@ def run(args):
                     # a size is a multiple of the noise floor at this noise level
                     values = None if e == "null" else {
                         p: scaled(p, concealed[key(p, form)], size * level) for p in e.split("+")}
-                    tasks.append((None if e == "null" else e, form, size, values, seed, level, rate))
+                    tasks.append((None if e == "null" else e, form, size, values, seed, level, rate, *adaptive))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
-                tasks.append((None, None, 1.0, None, seed, level, rate))
+                tasks.append((None, None, 1.0, None, seed, level, rate, *adaptive))
     names = [f"{e or 'null'} {form or ''} x{size:g} noise x{level:g} {rate:g} Hz seed {seed}"
-             for e, form, size, _, seed, level, rate in tasks]
+             for e, form, size, _, seed, level, rate, *_ in tasks]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
         results = run_all(run_task, tasks, pool, progress=True, label="prove", names=names)
     for name, r in zip(names, results):
@@ -82,7 +84,7 @@ def run(args):
         if r["effect"]:
             r["contribution"] = measured_rms_diff(r, nulls[r["seed"], r["noise"], r["rate"]])
     table = proof_table(results, effects, concealed)
-    doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table,
+    doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table, "adaptive_budget_s": adaptive[1] if adaptive else None,
            "goals": {"detection": 0.9, "false_positive": 0.05}}
     if args.json:
         print(json.dumps(doc, indent=1))
@@ -142,11 +144,18 @@ def _cells(r):
             f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}")
 
 
+ADAPTIVE = ("detection by the prove plan alone", "rig time added [s] (median)")
+
+
 def _print(table, args, noise):
-    rows = [_cells(r) for r in table]
+    header, rows = HEADER, [_cells(r) for r in table]
+    if getattr(args, "adaptive", False):  # beside the detection: the opening's, and what the next tests cost
+        header = (*HEADER[:7], ADAPTIVE[0], HEADER[7], ADAPTIVE[1], *HEADER[8:])
+        rows = [(*c[:7], "-" if r["detection_opening"] is None else f"{r['detection_opening']:.0%}", c[7],
+                 f"{r['added_s']:.0f}", *c[8:]) for c, r in zip(rows, table)]
     if not getattr(args, "markdown", False):
-        widths = [max(len(c) for c in col) for col in zip(HEADER, *rows)]
-        for row in (HEADER, *rows):
+        widths = [max(len(c) for c in col) for col in zip(header, *rows)]
+        for row in (header, *rows):
             print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
         return
     from protocols.reports import markdown as md
@@ -155,12 +164,15 @@ def _print(table, args, noise):
                   key=lambda k: (list(EFFECTS).index(k[0]) if k[0] in EFFECTS else 99, k[1]))
     forms = [(e, "default", EFFECTS[e].form) for e in dict.fromkeys(e for e, _ in used) if e in EFFECTS]
     forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
-    body = md.table(HEADER, rows)
+    body = md.table(header, rows)
     if forms:
         body += "\n\nThe forms (sim_backend/effects.py):\n\n" + md.table(("effect", "form", "in the plant"),
                                                                        sorted(forms, key=lambda r: (list(EFFECTS).index(r[0]), r[1] != "default", r[1])))
     print(md.document("Proof of the diagnosis (dyno prove)", body,
-                      f"{args.seeds} seeds per row on the plain cell through the wires; force noise {noise:g} N RMS "
+                      f"{args.seeds} seeds per row on the plain cell through the wires"
+                      + (f", each recording followed by the dyno's own next tests (dyno run discover, at most "
+                         f"{args.budget:g} s of rig time added, at most {MAX_ROUNDS} rounds)"
+                         if getattr(args, "adaptive", False) else "") + f"; force noise {noise:g} N RMS "
                       f"at noise x1 (every sensor's noise times the noise column). Size x1 is the concealed value "
                       f"at that noise (its contribution equals the force noise, each form calibrated on its own); x10 ten times "
                       f"as strong (a bulk modulus divided by ten, a breakaway ratio's excess times ten); forms: "

@@ -95,7 +95,7 @@ def test_the_dyno_runs_its_own_next_tests_on_the_wires(tmp_path, sim_rig):
                    .replace("x_min = 0.002 ", "x_min = 0.0315").replace("x_max = 0.074", "x_max = 0.0447"))
     sim_rig(cfg)
     out = tmp_path / "discover.mcap"
-    p = dyno("run", "discover", "amplitudes_mm=6.4", "freqs_hz=2,4", "record_cycles=4", "--budget", 6,
+    p = dyno("run", "discover", "amplitudes_mm=6.4", "freqs_hz=2,4", "record_cycles=4", "--budget", 3,
              "--rig", cfg, "--out", out)
     assert p.returncode == 0, p.stderr[-2000:]
     assert "discover: round 1: named" in p.stderr and "recorded" in p.stderr
@@ -103,7 +103,7 @@ def test_the_dyno_runs_its_own_next_tests_on_the_wires(tmp_path, sim_rig):
     assert meta["protocol"]["name"] == "discover" and events[-1]["kind"] == "run_end"
     told = [e for e in events if e["kind"] == "next_test"]
     assert told and all("differ by" in e["message"] for e in told)
-    assert sum(e["params"]["rig_s"] for e in told) <= 6.0
+    assert sum(e["params"]["rig_s"] for e in told) <= 3.0
     assert all(e["params"]["freq_hz"] <= 4.0 and e["params"]["amplitude_mm"] <= 5 for e in told)
     # each sine asked for is recorded after its reason, in the same file and on the same clock
     for e in told:

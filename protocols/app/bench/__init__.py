@@ -94,7 +94,9 @@ def diagnose(args):
     from protocols.app.bench.throughput import bench_diagnose
     r = bench_diagnose(args.seconds, args.rate)
     text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
-            f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}")
+            f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}; "
+            f"next test designed in {r['design_s']:.1f} s (goal < {r['design_goal_s']:.0f} s, "
+            f"{r['proposals']} sines)")
     return emit(args, "Diagnosis time (dyno bench diagnose)", r, text)
 
 

@@ -1,14 +1,17 @@
 """The dyno's own next test, closed (protocols/discover.py): an opening on the direct cell,
 a diagnosis, the designed sines run on the same cell into the same record with their
 reasons as events, and a diagnosis again. The wired path: tests/test_wired.py."""
+import re
+
 import numpy as np
+import pytest
 
 from models.diagnose import design
 from models.recording import segments
 from protocols import cell
 from protocols.discover import discover, next_plan
 from protocols.library import sine_matrix
-from protocols.plan import Plan, parse, rig_info
+from protocols.plan import ParamError, Plan, parse, rig_info
 from protocols.runner import Kept
 from rig import config
 from sim_backend.effects import plant_options
@@ -52,3 +55,14 @@ def test_discovery_runs_the_designed_sines_with_their_reasons_and_diagnoses_agai
     assert after == [e["segment"] for e in told]
     # the first diagnosis names the hidden lag, and the last one still does with more data
     assert "sensor_delay" in found.rounds[0].accepted and "sensor_delay" in found.diagnosis.accepted
+
+
+def test_paired_sines_are_checked_as_pairs():
+    info = rig_info(config.load("virtual"), None)
+    p = parse(sine_matrix.Params, ["amplitudes_mm=1,2", "freqs_hz=3,4", "paired=true"])
+    assert [s.name for s in sine_matrix.plan(p, info) if s.record] == ["sine 1 mm 3 Hz", "sine 2 mm 4 Hz"]
+    for bad, said in ((["paired=maybe"], "paired: 'maybe' is not true or false"),
+                      (["amplitudes_mm=1,2", "freqs_hz=3", "paired=true"], "paired: 2 amplitudes_mm for 1 freqs_hz"),
+                      (["record_s=-1"], "record_s: must be 0 or more")):
+        with pytest.raises(ParamError, match=re.escape(said)):
+            sine_matrix.check(parse(sine_matrix.Params, bad), info)

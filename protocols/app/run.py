@@ -21,11 +21,11 @@ from protocols.io.recording import Recorder
 from protocols.library import PROTOCOLS
 from protocols.discover import discover
 from protocols.plan import Plan, as_dict, parse, rig_info
+from protocols.rehearsal import rehearse
 from protocols.runner import run_plan
 from sim_backend.effects import plain_cell
 
 DISCOVER = "discover"  # `dyno run discover`: an opening sine matrix, then the dyno's own next tests
-from protocols.rehearsal import rehearse
 
 
 def run(args):
@@ -91,16 +91,14 @@ def _plan_run(args):
         raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)}, {DISCOVER})")
     given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator", "target", "iterations")
              if getattr(args, n, None) is not None]
+    pairs = args.params
     if args.protocol == DISCOVER:
         if not (args.budget >= 0 and math.isfinite(args.budget)):
             raise RigError(f"--budget: seconds of rig time, 0 or more, not {args.budget:g}")
         # the opening: the sine matrix the diagnosis is proven on (sim_backend/plain.toml), name=value overriding
-        opening = {k: ",".join(f"{x:g}" for x in v) if isinstance(v, list) else str(v)
-                   for k, v in plain_cell()[2]["params"].items()}
-        opening.update(p.partition("=")[::2] for p in args.params if "=" in p)
-        given += [f"{k}={v}" for k, v in opening.items()]
-        args.params = [p for p in args.params if "=" not in p]
-    params = parse(module.Params, [*args.params, *given])
+        given = [f"{k}={','.join(f'{x:g}' for x in v) if isinstance(v, list) else v}"
+                 for k, v in plain_cell()[2]["params"].items() if not any(p.startswith(f"{k}=") for p in pairs)]
+    params = parse(module.Params, [*pairs, *given])
     if args.rig is not None and (args.effect or args.plain):
         raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
     plant = virtual_plant(args)

@@ -157,6 +157,9 @@ class LiveView:
                 self.loop[k].clear()
         level = rr.TextLogLevel.ERROR if kind in ("fault", "operator_stop") else rr.TextLogLevel.INFO
         self.rec.log("events", rr.TextLog(f"{kind}: {segment} {message}".strip(), level=level))
+        for key in ("unsure", "settled") if kind == "diagnosis" else ():  # dyno run discover's rounds
+            for said in params.get(key, []):
+                self.rec.log("events", rr.TextLog(f"  {key}: {said}", level=rr.TextLogLevel.INFO))
 
     def estimates(self, t, estimates):
         """The identification's current estimates (protocols/live_identify.py), named as in

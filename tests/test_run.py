@@ -216,6 +216,8 @@ def test_live_view_logs_the_documented_entities():
         from protocols.live_identify import predicted_force
         p = predicted_force(vr.plant.damper, kept.arrays(), kept.events)
         live.prediction(3.0, p["v"], p["F"], p["F_model"])
+        live.event(4.0, "diagnosis", "", {"unsure": ["qz7 over kx9"], "settled": []},
+                   "round 1: named sensor_delay")  # dyno run discover's round
     finally:
         live.close()
         c.close()
@@ -231,6 +233,7 @@ def test_live_view_logs_the_documented_entities():
     assert b"gas_spring.gamma 1.3" in data  # the text line (compressed: "identify: " is a back-reference)
     assert b"channels/not_a_channel" not in data
     assert b"sine 6.4 mm 4 Hz" in data  # the events' text
+    assert b"qz7 over kx9" in data  # a round's unsure rivals, each a line
 
 
 @pytest.mark.xdist_group("koni_run")

@@ -112,6 +112,21 @@ def index_file(c: sqlite3.Connection, path) -> str:
     return "added" if old is None else "updated"
 
 
+def add(path) -> str:
+    """Index a recording just written (by dyno run, import or recover) into the catalogue
+    of its own folder; one line saying so, or why it could not be (the recording stands)."""
+    path = Path(path)
+    try:
+        c = connect(path.parent)
+        try:
+            outcome = index_file(c, path)
+        finally:
+            c.close()
+    except (OSError, sqlite3.Error) as e:
+        return f"not catalogued ({path.parent / DB_NAME}: {e}); dyno runs index {path.parent} retries"
+    return f"catalogued in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
+
+
 def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None) -> list[sqlite3.Row]:
     """The catalogue's runs, oldest first, filtered by serial, start (ISO date or time,
     UTC) and protocol."""

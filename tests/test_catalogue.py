@@ -21,14 +21,16 @@ def folder(tmp_path_factory):
     r = subprocess.run(DYNO + ["run", "sine-matrix", "amplitudes_mm=6.4", "freqs_hz=1,4", "record_cycles=2",
                                "--serial", "D12", "--setup", "clicks=12", "--out", str(d / "d12-a.mcap")],
                        capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
+    assert r.returncode == 0 and f"catalogued in {d / catalogue.DB_NAME}" in r.stderr, r.stderr
     (d / "broken.mcap").write_bytes(b"not an mcap")
     return d
 
 
-def test_index_is_incremental_and_keeps_an_unreadable_file_as_one_row(folder):
+def test_a_run_catalogues_itself_and_the_index_keeps_an_unreadable_file_as_one_row(folder):
+    with catalogue.connect(folder) as c:  # dyno run indexed what it wrote
+        assert [Path(r["path"]).name for r in catalogue.runs(c)] == ["d12-a.mcap"]
     got = catalogue.index(folder)
-    assert (got.added, got.failed) == (1, 1)
+    assert (got.added, got.unchanged, got.failed) == (0, 1, 1)
     again = catalogue.index(folder)
     assert (again.added, again.unchanged) == (0, 2)
     with catalogue.connect(folder) as c:

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from protocols import catalogue
 from protocols.io.files import Claim
 from protocols.io.csv_import import CHANNELS, SI, parse_map, read, velocity_from
 from protocols.io.recording import Recorder
@@ -59,4 +60,5 @@ def _import(args, mapping, claim):
     print(f"{rec.path}: {len(t)} rows, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
+    print(catalogue.add(rec.path))
     return 0

@@ -1,6 +1,7 @@
 """`dyno recover FILE`: rebuild a recording cut short."""
 from __future__ import annotations
 
+from protocols import catalogue
 from protocols.io.recording import recover
 
 
@@ -11,4 +12,5 @@ def run(args):
     else:
         print(f"{args.file}: recovered {r['messages']} messages, {r['metadata']} metadata, "
               f"{r['attachments']} attachments; the damaged original is {r['damaged']}")
+        print(catalogue.add(args.file))
     return 0

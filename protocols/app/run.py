@@ -14,7 +14,7 @@ from models.damper import to_dict
 from rig import config as rig_config
 from rig.errors import RigError
 
-from protocols import cell, preflight
+from protocols import catalogue, cell, preflight
 from protocols.app.sim_rig import virtual_plant
 from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder
@@ -136,7 +136,8 @@ def _finish_run(module, name, c, claim, recorder, result, errors, ident):
     if result.fault:
         errors.insert(0, result.fault)
     if recorder.kept:
-        print(f"recorded {result.duration_s:.1f} s of {name} to {recorder.path}", file=sys.stderr)
+        print(f"recorded {result.duration_s:.1f} s of {name} to {recorder.path}; {catalogue.add(recorder.path)}",
+              file=sys.stderr)
     else:
         print(f"nothing recorded: the run stopped before its first segment; {claim.target} "
               f"{'kept as it was' if claim.target.exists() else 'not written'}", file=sys.stderr)

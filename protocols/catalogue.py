@@ -127,16 +127,56 @@ def add(path) -> str:
     return f"catalogued in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
 
 
-def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None) -> list[sqlite3.Row]:
+def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=None) -> list[sqlite3.Row]:
     """The catalogue's runs, oldest first, filtered by serial, start (ISO date or time,
-    UTC) and protocol."""
-    where, args = [], []
+    UTC), protocol and a `where` expression (condition)."""
+    sql, args = [], []
     for col, op, value in (("serial", "=", serial), ("started", ">=", since), ("protocol", "=", protocol)):
         if value is not None:
-            where.append(f"{col} {op} ?")
+            sql.append(f"{col} {op} ?")
             args.append(value)
-    sql = "SELECT * FROM runs" + (" WHERE " + " AND ".join(where) if where else "") + " ORDER BY started, path"
-    return c.execute(sql, args).fetchall()
+    if where:
+        more, more_args = condition(where)
+        sql.append(more)
+        args += more_args
+    query = "SELECT * FROM runs" + (" WHERE " + " AND ".join(sql) if sql else "") + " ORDER BY started, path"
+    return c.execute(query, args).fetchall()
+
+
+FIELDS = ("serial", "operator", "note", "damper", "rig", "protocol", "started", "duration_s", "outcome", "reason",
+          "path")
+OPS = {"=": "=", "!=": "!=", "<": "<", "<=": "<=", ">": ">", ">=": ">=", "~": "LIKE"}
+TERM = re.compile(r"\s*(setup\.[\w.-]+|\w+)\s*(!=|<=|>=|=|<|>|~)\s*(\"[^\"]*\"|'[^']*'|[^\s'\"]+)\s*")
+
+
+def condition(text):
+    """(SQL, arguments) of `dyno runs list --where`: terms FIELD OP VALUE joined by `and`;
+    FIELD one of FIELDS or setup.KEY, OP one of = != < <= > >= ~ (contains), VALUE a
+    number or text (quoted if it has spaces). CatalogueError names what is wrong."""
+    sql, args = [], []
+    for part in re.split(r"\s+and\s+", text.strip(), flags=re.I):
+        m = TERM.fullmatch(part)
+        if m is None:
+            raise CatalogueError(f"--where: {part!r} is not FIELD OP VALUE (OP one of {' '.join(OPS)})")
+        field, op, value = m.groups()
+        value = value[1:-1] if value[:1] in "'\"" else value
+        if field.startswith("setup."):
+            column, args_ = "json_extract(setup, ?)", ["$." + json.dumps(field[len("setup."):])]
+        elif field in FIELDS:
+            column, args_ = field, []
+        else:
+            raise CatalogueError(f"--where: no field {field!r} (fields: {', '.join(FIELDS)}, setup.KEY)")
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if op == "~":
+            value = f"%{value}%"
+        elif number is not None:
+            column, value = f"CAST({column} AS REAL)", number
+        sql.append(f"{column} {OPS[op]} ?")
+        args += [*args_, value]
+    return "(" + " AND ".join(sql) + ")", args
 
 
 def run(c: sqlite3.Connection, run_id) -> tuple[sqlite3.Row, list[sqlite3.Row]]:

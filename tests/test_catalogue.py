@@ -78,3 +78,19 @@ def test_two_runs_ending_at_once_are_both_indexed(folder, tmp_path):
         t.join()
     with catalogue.connect(tmp_path) as c:
         assert not errors and len(catalogue.runs(c)) == 2
+
+
+def test_runs_are_found_by_a_where_expression_on_fields_and_setup(folder):
+    catalogue.index(folder)
+    with catalogue.connect(folder) as c:
+        found = catalogue.runs(c, where="setup.clicks >= 10 and outcome = completed and damper ~ kon")
+        assert [Path(r["path"]).name for r in found][:1] == ["d12-a.mcap"]
+        assert catalogue.runs(c, where="setup.clicks > 12") == []
+        assert catalogue.runs(c, where="serial = 'D12' and duration_s < 1") == []
+        for bad, said in (("clicks >= 10", "no field 'clicks'"), ("serial D12", "is not FIELD OP VALUE"),
+                          ("serial = 1; DROP TABLE runs", "is not FIELD OP VALUE")):
+            with pytest.raises(catalogue.CatalogueError, match=said):
+                catalogue.runs(c, where=bad)
+    r = subprocess.run(DYNO + ["runs", "list", str(folder), "--where", "setup.clicks = 12", "--json"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and '"serial": "D12"' in r.stdout, r.stderr

@@ -245,6 +245,10 @@ def _catalogue_commands(sub):
     rl.add_argument("--serial", help="one damper serial")
     rl.add_argument("--since", help="started on or after this UTC date or time (ISO 8601, e.g. 2026-03-01)")
     rl.add_argument("--protocol", help="one protocol (sine-matrix, standard, ...)")
+    rl.add_argument("--where", metavar="EXPR",
+                    help='conditions FIELD OP VALUE joined by "and": OP = != < <= > >= ~ (contains); FIELD serial, '
+                         'operator, note, damper, protocol, started, duration_s, outcome, ... or setup.KEY, e.g. '
+                         '"setup.clicks >= 10 and outcome = completed"')
     rl.add_argument("--json", action="store_true")
     rl.set_defaults(command="runs:list_runs")
     rw = rsub.add_parser("show", help="one run: identity, setup, outcome and its peaks")

@@ -50,7 +50,11 @@ def _cell(row, k):
 
 def list_runs(args):
     with _connect(args) as c:
-        rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol)
+        try:
+            rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol,
+                                  where=getattr(args, "where", None))
+        except catalogue.CatalogueError as e:
+            raise RigError(str(e)) from None
     if args.json:
         print(json.dumps([dict(r) for r in rows], indent=1))
     else:

@@ -33,6 +33,9 @@ CREATE TABLE IF NOT EXISTS runs (
 CREATE TABLE IF NOT EXISTS peaks (
     run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, segment TEXT,
     amplitude_mm REAL, freq_hz REAL, target_c REAL, v_comp REAL, F_comp REAL, v_reb REAL, F_reb REAL);
+CREATE TABLE IF NOT EXISTS checks (
+    run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, checked TEXT, reference TEXT,
+    tolerance TEXT, points INTEGER, failed INTEGER, worst_margin_n REAL);
 CREATE INDEX IF NOT EXISTS runs_serial ON runs(serial);
 """
 ENDINGS = {"fault": "tripped", "operator_stop": "stopped"}
@@ -125,6 +128,33 @@ def add(path) -> str:
     except (OSError, sqlite3.Error) as e:
         return f"not catalogued ({path.parent / DB_NAME}: {e}); dyno runs index {path.parent} retries"
     return f"catalogued in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
+
+
+def add_check(path, reference, tolerance, verdicts) -> str:
+    """A `dyno check` of a recording as a row of the catalogue of its folder (the recording
+    indexed first if it is not); one line saying so, or why it could not be."""
+    from datetime import datetime, timezone
+    path = Path(path).resolve()
+    try:
+        c = connect(path.parent)
+        try:
+            index_file(c, path)
+            run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(path),)).fetchone()["id"]
+            with c:
+                c.execute("INSERT INTO checks VALUES (?, ?, ?, ?, ?, ?, ?)",
+                          (run_id, datetime.now(timezone.utc).isoformat(timespec="seconds"), str(reference),
+                           str(tolerance), len(verdicts), sum(not v.passed for v in verdicts),
+                           min(v.margin_N for v in verdicts)))
+        finally:
+            c.close()
+    except (OSError, sqlite3.Error) as e:
+        return f"check not catalogued ({path.parent / DB_NAME}: {e})"
+    return f"check catalogued in {path.parent / DB_NAME} (run {run_id})"
+
+
+def checks(c: sqlite3.Connection, run_id) -> list[sqlite3.Row]:
+    """The QA checks of a run, oldest first."""
+    return c.execute("SELECT * FROM checks WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
 
 
 def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=None) -> list[sqlite3.Row]:

@@ -1,4 +1,5 @@
 """`dyno check`: production QA of a run against a reference run or a damper model."""
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -53,3 +54,11 @@ def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_dam
     p = subprocess.run([DYNO, "check", str(rec), "--against", str(tmp_path / "none.mcap")], capture_output=True,
                        text=True, timeout=60)
     assert p.returncode == 2 and p.stderr.strip().endswith("none.mcap: no such file")
+    # each check made is a row of the catalogue beside the run: three verdicts, the last a FAIL
+    p = subprocess.run([DYNO, "runs", "list", str(tmp_path), "--json"], capture_output=True, text=True, timeout=60)
+    run_id = json.loads(p.stdout)[0]["id"]
+    p = subprocess.run([DYNO, "runs", "show", str(run_id), str(tmp_path), "--json"], capture_output=True,
+                       text=True, timeout=60)
+    checks = json.loads(p.stdout)["checks"]
+    assert [k["failed"] > 0 for k in checks] == [False, False, True], p.stderr
+    assert checks[2]["reference"].startswith("model mechformance") and checks[2]["worst_margin_n"] < 0

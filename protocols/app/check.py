@@ -9,6 +9,7 @@ from pathlib import Path
 from models.damper import DamperError
 from models.damper import load as load_damper
 from models.recording import segments
+from protocols import catalogue
 from protocols.io.files import existing_files, input_file, output_folder, filled
 from protocols.io.reader import load_recording
 from protocols.reports import peaks, qa
@@ -55,4 +56,5 @@ def run(args):
                                  f"{Path(args.recording).name} against {ref_name}, ±{tol}", units)
         print(out / png)
     print(f"{'FAIL' if failed else 'PASS'}: {len(results) - len(failed)} of {len(results)} points inside the band")
+    print(catalogue.add_check(args.recording, ref_name, tol, results))
     return 1 if failed else 0

@@ -68,8 +68,10 @@ def show(args):
             row, peaks = catalogue.run(c, args.id)
         except catalogue.CatalogueError as e:
             raise RigError(str(e)) from None
+        checks = catalogue.checks(c, args.id)
     if args.json:
-        print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks]}, indent=1))
+        print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks], "checks": [dict(k) for k in checks]},
+                         indent=1))
         return 0
     for k in row.keys():
         if row[k] not in (None, "", "{}"):
@@ -78,6 +80,11 @@ def show(args):
         print("\n" + md.table(("segment", "v_comp [m/s]", "F_comp [N]", "v_reb [m/s]", "F_reb [N]"),
                               [(p["segment"], f"{p['v_comp']:.3f}", f"{p['F_comp']:.0f}", f"{p['v_reb']:.3f}",
                                 f"{p['F_reb']:.0f}") for p in peaks]))
+    if checks:
+        print("\n" + md.table(("checked (UTC)", "against", "tolerance", "verdict", "worst margin [N]"),
+                              [(k["checked"], k["reference"], k["tolerance"],
+                                f"FAIL ({k['failed']} of {k['points']})" if k["failed"] else f"PASS ({k['points']})",
+                                f"{k['worst_margin_n']:.0f}") for k in checks]))
     return 0
 
 

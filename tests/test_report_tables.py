@@ -113,3 +113,22 @@ def test_a_clipped_or_overlapping_label_is_found_and_a_clean_figure_passes():
     fig.tight_layout()
     assert layout_problems(fig) == []
     plt.close("all")
+
+
+def test_a_sine_the_plan_moved_to_another_frequency_is_marked_adapted_with_why(tmp_path):
+    from models.recording import segments
+    from protocols import cell
+    from protocols.library import sine_matrix
+    from protocols.plan import Plan, parse
+    from protocols.runner import Kept, run_plan
+    kept = Kept()
+    with cell.embedded("mechformance") as c:  # 12.7 mm at 18 Hz: 21 kN, over the 10 kN cell
+        run_plan(Plan(sine_matrix, parse(sine_matrix.Params, ["amplitudes_mm=12.7", "freqs_hz=2,18",
+                                                              "record_cycles=2"])), c, [kept])
+    rows = peaks.peaks(kept.arrays(), segments(kept.events), events=kept.events)
+    assert [(p.freq_hz, p.adapted[:12]) for p in rows] == [(2.0, ""), (7.3, "asked 18 Hz:")]
+    assert "above 95 % of the rig's 10000 N" in rows[1].adapted
+    head, body = peaks.table(rows)
+    assert body[1][0].startswith("sine 12.7 mm 7.3 Hz (adapted: asked 18 Hz: expected force")
+    head, *lines = peaks.write_csv(rows, tmp_path / "p.csv").read_text().splitlines()
+    assert head.endswith(",short_pct,adapted") and lines[0].endswith(",") and "asked 18 Hz" in lines[1]

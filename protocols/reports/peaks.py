@@ -5,6 +5,7 @@ table (HTML and CSV) in the chosen unit system (protocols/units.py)."""
 from __future__ import annotations
 
 import csv
+import re
 import json
 from dataclasses import dataclass
 
@@ -33,6 +34,7 @@ class Peak:
     model_reb: float = np.nan
     achieved_mm: float = np.nan  # amplitude the rod reached, half its travel over the segment [mm]
     short_pct: float = np.nan  # how far the peak speed fell short of 2 pi f A [% of it]
+    adapted: str = ""  # recorded at another frequency than asked for by the pre-flight: what and why
 
     @property
     def key(self):
@@ -91,10 +93,28 @@ def segment_temperature(ch, t0, t1):
     return float(np.mean(T)) if len(T) else T_ROOM
 
 
-def peaks(ch, segs, damper=None, model=None):
+ADAPTED = re.compile(r"^sine ([0-9.e+-]+) mm ([0-9.e+-]+) Hz$")
+INSTEAD = re.compile(r"^(.*): recorded at ([0-9.e+-]+) Hz instead$")
+
+
+def adapted(events):
+    """{(amplitude mm, frequency Hz recorded): why} of the sines the plan's check moved to
+    another frequency (protocols/library/sine_matrix.py: a `skipped` event "... recorded at
+    F Hz instead")."""
+    out = {}
+    for e in events or ():
+        asked, moved = ADAPTED.match(e.get("segment", "")), INSTEAD.match(e.get("message", ""))
+        if e["kind"] == "skipped" and asked and moved:
+            out[(float(asked.group(1)), float(moved.group(2)))] = f"asked {asked.group(2)} Hz: {moved.group(1)}"
+    return out
+
+
+def peaks(ch, segs, damper=None, model=None, events=None):
     """[Peak] of the sine segments. damper: a full model whose gas and friction are taken
-    off for the damping force; model: a full model simulated along each segment."""
+    off for the damping force; model: a full model simulated along each segment; events:
+    the recording's, to mark the sines the plan adapted."""
     out = []
+    moved = adapted(events)
     if not {"force", "x", "v"} <= set(ch):
         return out
     for name, prm, t0, t1 in sines(segs):
@@ -108,6 +128,7 @@ def peaks(ch, segs, damper=None, model=None):
         p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T - 273.15,
                  float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]))
         p.achieved_mm = 0.5 * float(np.ptp(x[late])) * 1e3
+        p.adapted = moved.get((float(prm["amplitude_mm"]), float(prm["freq_hz"])), "")
         target = 2 * np.pi * prm["freq_hz"] * prm["amplitude_mm"] * 1e-3
         p.short_pct = 100.0 * (1.0 - 0.5 * (p.v_comp - p.v_reb) / target) if target > 0 else np.nan
         if damper is not None:
@@ -143,10 +164,10 @@ def write_csv(rows, path, units=Units()):
     """peaks.csv: a column per field with its unit in the name; blank where not measured."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["segment"] + [units.column(name, q) for _, name, q, _, _ in COLUMNS] + ["short_pct"])
+        w.writerow(["segment"] + [units.column(name, q) for _, name, q, _, _ in COLUMNS] + ["short_pct", "adapted"])
         for p in rows:
             values = [shown(p, c[0], units) for c in COLUMNS] + [p.short_pct]
-            w.writerow([p.segment] + ["" if not np.isfinite(v) else f"{v:.6g}" for v in values])
+            w.writerow([p.segment] + ["" if not np.isfinite(v) else f"{v:.6g}" for v in values] + [p.adapted])
     return path
 
 
@@ -164,6 +185,7 @@ def table(rows, units=Units()):
     for p in rows:
         span = max(p.F_comp - p.F_reb, 1e-9)
         short = f" (speed {p.short_pct:.0f} % short)" if p.short_pct > SHORT_PCT else ""
+        short += f" (adapted: {p.adapted})" if p.adapted else ""
         fields = ["amplitude_mm", "achieved_mm", "freq_hz", "T_c", "v_comp", "F_comp", "v_reb", "F_reb"]
         fields += ["Fd_comp", "Fd_reb"] if has_d else []
         fields += ["model_comp", "model_reb"] if has_m else []

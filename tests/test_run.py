@@ -15,7 +15,7 @@ from mcap.reader import make_reader
 
 from protocols import cell, runner
 from protocols.library import sine_matrix
-from protocols.plan import Plan, parse
+from protocols.plan import Plan, parse, rig_info
 from protocols.io.recording import Recorder
 from rig import config
 from rig.pacing import SimulatedPacer
@@ -110,6 +110,19 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert str(df["t_utc"].dtype).startswith("datetime64") and df["force [N]"].dtype == float
     assert np.allclose(df["force [N]"], csv_df["force [N]"], rtol=1e-6, atol=0.01)
     assert json.loads(pq.read_schema(parquet).metadata[b"dyno"])["run"]["setup.shims"] == "A-3"
+    # a replay target from one segment: what `dyno run replay --target` reads, about mid-stroke
+    target = tmp_path / "target.csv"
+    p = subprocess.run([DYNO, "export", str(out), "--target", str(target), "--segment", "sine 6.4 mm 2 Hz"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and "dyno run replay --target" in p.stdout, p.stderr
+    from protocols.library import replay
+    from protocols.plan import ParamError
+    tgt = pd.read_csv(target)
+    assert list(tgt.columns) == ["t_s", "displacement_mm"] and tgt["t_s"].iloc[-1] == pytest.approx(1.5, abs=0.01)
+    assert 6.0 < tgt["displacement_mm"].max() < 6.6 and abs(tgt["displacement_mm"].mean()) < 0.3
+    assert replay.check(replay.Params(target=str(target)), rig_info(config.load("virtual"), None)) == []
+    with pytest.raises(ParamError):  # and the reader refuses what is not one
+        replay.check(replay.Params(target=str(table)), rig_info(config.load("virtual"), None))
 
 
 @pytest.mark.parametrize("args, message", [

@@ -342,6 +342,9 @@ def _analysis_commands(sub):
     ex.add_argument("recording")
     ex.add_argument("--csv", metavar="FILE", help="write CSV")
     ex.add_argument("--parquet", metavar="FILE", help="write Parquet (needs pyarrow)")
+    ex.add_argument("--target", metavar="FILE", help="write a replay target: time [s] and displacement [mm] about "
+                                                     "mid-stroke (dyno run replay --target FILE)")
+    ex.add_argument("--segment", help="--target: only this segment (its name, e.g. 'road iso8608:C:50')")
     ex.add_argument("--channels", help="comma-separated channels (default: all, force first)")
     _units(ex)
     _overwrite(ex)

@@ -19,6 +19,7 @@ import numpy as np
 from models.recording import segments
 from protocols.io.files import output_file, written
 from protocols.io.reader import load_recording
+from protocols.reports.peaks import recorded_damper
 from protocols.units import Units
 from rig.errors import RigError
 
@@ -82,8 +83,10 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
 
 
 def run(args):
-    if bool(args.csv) == bool(args.parquet):
-        raise RigError("give one of --csv FILE or --parquet FILE")
+    if sum(bool(getattr(args, k, None)) for k in ("csv", "parquet", "target")) != 1:
+        raise RigError("give one of --csv FILE, --parquet FILE or --target FILE")
+    if args.target:
+        return _target(args)
     what = "--csv" if args.csv else "--parquet"
     out = output_file(args.csv or args.parquet, [args.recording], args.overwrite, what)
     side = out.with_name(out.name + ".meta.json") if args.csv else None
@@ -103,6 +106,33 @@ def run(args):
     n_ch = len(cols) - cols.index("kind") - 1
     print(f"{out}: {len(data[0])} rows, {len(cols)} columns: time, segment and kind, and {n_ch} channels "
           f"({', '.join(cols[-n_ch:])})" + (f"; metadata in {side.name}" if side else ""))
+    return 0
+
+
+def _target(args):
+    """A replay target from the recording's position (protocols/library/replay.py reads it):
+    time [s] from 0 and displacement [mm] about the recorded damper's mid-stroke (the
+    recording's mean position without a model), at the position's own samples."""
+    out = output_file(args.target, [args.recording], args.overwrite, "--target")
+    channels, events, meta = load_recording(args.recording)
+    if "x" not in channels or len(channels["x"][0]) < 2:
+        raise RigError(f"{args.recording}: no position channel x to make a target of")
+    t, x = channels["x"]
+    if args.segment:
+        span = [(t0, t1) for name, _, t0, t1 in segments(events, measured=False) if name == args.segment]
+        if not span:
+            names = ", ".join(dict.fromkeys(n for n, *_ in segments(events, measured=False))) or "none"
+            raise RigError(f"--segment {args.segment!r}: no such segment (segments: {names})")
+        keep = (t >= span[0][0]) & (t <= span[0][1])
+        t, x = t[keep], x[keep]
+    damper = recorded_damper(meta)
+    mid = damper.mid_stroke if damper is not None else float(np.mean(x))
+    with written(out, "--target") as tmp:
+        np.savetxt(tmp, np.c_[t - t[0], 1e3 * (x - mid)], delimiter=",", fmt=("%.6f", "%.4f"),
+                   header="t_s,displacement_mm", comments="")
+    print(f"{out}: {len(t)} rows, {t[-1] - t[0]:.2f} s of displacement about "
+          f"{'the damper' + chr(39) + 's mid-stroke' if damper is not None else 'the mean position'} "
+          f"({1e3 * mid:.2f} mm from full extension); dyno run replay --target {out}")
     return 0
 
 

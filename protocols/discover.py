@@ -22,6 +22,7 @@ from rig.loop import describe
 from protocols.library import sine_matrix
 from protocols.plan import Plan
 from protocols.runner import Kept, RunResult, run_plan
+from sim_backend.effects import plain_cell
 
 MAX_ROUNDS = 2  # a design that keeps asking for more would otherwise spend the budget on one rival
 
@@ -53,10 +54,15 @@ class Discovery:
 
 
 def limits(config) -> design.Limits:
-    """The cell's limits from its rig config."""
+    """The cell's limits from its rig config, and the proven envelope: the smallest
+    amplitude and slowest peak speed of the plan the diagnosis is proven clean on nulls
+    with (sim_backend/plain.toml [prove])."""
     L = config.limits
+    proven = plain_cell()[2]["params"]
+    a_min = 1e-3 * min(proven["amplitudes_mm"])
     return design.Limits(L["x_min"], L["x_max"], L["velocity_max"], L["force_max"],
-                         L.get("frequency_max", math.inf))
+                         L.get("frequency_max", math.inf), amplitude_min=a_min,
+                         velocity_min=2 * math.pi * min(proven["freqs_hz"]) * a_min)
 
 
 def next_plan(proposals) -> Plan:

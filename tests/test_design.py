@@ -54,3 +54,15 @@ def test_a_hint_under_the_noise_is_a_rival_unless_it_is_below_what_a_sample_reso
 
 def test_nothing_is_proposed_when_the_budget_is_shorter_than_any_sine():
     assert propose(_diagnosis(), CELL, budget_s=0.5) == []
+
+
+def test_no_sine_is_proposed_outside_the_envelope_the_nulls_are_proven_on():
+    """Below it the baseline's own sampled friction reversal reads as physics on a null."""
+    from protocols.discover import limits
+    from rig import config
+    lim = limits(config.load("virtual"))
+    assert (lim.amplitude_min, round(lim.velocity_min, 4)) == (0.0032, 0.0402)  # plain.toml's 3.2 mm at 2 Hz
+    sines = feasible(lim, _diagnosis().data)
+    assert sines and all(s.amplitude_m >= 0.0032 and 2 * np.pi * s.frequency_hz * s.amplitude_m >= 0.0402
+                         for s in sines)
+    assert any(s.amplitude_m < 0.0032 for s in feasible(CELL, _diagnosis().data))

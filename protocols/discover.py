@@ -54,15 +54,17 @@ class Discovery:
 
 
 def limits(config) -> design.Limits:
-    """The cell's limits from its rig config, and the proven envelope: the smallest
-    amplitude and slowest peak speed of the plan the diagnosis is proven clean on nulls
-    with (sim_backend/plain.toml [prove])."""
+    """The cell's limits from its rig config, and the proven envelope: the amplitudes and
+    peak speeds of the plan the diagnosis is proven clean on nulls with
+    (sim_backend/plain.toml [prove])."""
     L = config.limits
     proven = plain_cell()[2]["params"]
     a_min = 1e-3 * min(proven["amplitudes_mm"])
+    a_max = 1e-3 * max(proven["amplitudes_mm"])
     return design.Limits(L["x_min"], L["x_max"], L["velocity_max"], L["force_max"],
                          L.get("frequency_max", math.inf), amplitude_min=a_min,
-                         velocity_min=2 * math.pi * min(proven["freqs_hz"]) * a_min)
+                         velocity_min=2 * math.pi * min(proven["freqs_hz"]) * a_min, amplitude_max=a_max,
+                         velocity_proven=2 * math.pi * max(proven["freqs_hz"]) * a_max)
 
 
 def next_plan(proposals) -> Plan:

@@ -61,8 +61,10 @@ def test_no_sine_is_proposed_outside_the_envelope_the_nulls_are_proven_on():
     from protocols.discover import limits
     from rig import config
     lim = limits(config.load("virtual"))
-    assert (lim.amplitude_min, round(lim.velocity_min, 4)) == (0.0032, 0.0402)  # plain.toml's 3.2 mm at 2 Hz
+    # plain.toml's prove plan: 3.2 mm at 2 Hz to 12.7 mm at 16 Hz
+    assert (lim.amplitude_min, lim.amplitude_max, round(lim.velocity_min, 4)) == (0.0032, 0.0127, 0.0402)
+    assert round(lim.velocity_proven, 3) == 1.277
     sines = feasible(lim, _diagnosis().data)
-    assert sines and all(s.amplitude_m >= 0.0032 and 2 * np.pi * s.frequency_hz * s.amplitude_m >= 0.0402
-                         for s in sines)
-    assert any(s.amplitude_m < 0.0032 for s in feasible(CELL, _diagnosis().data))
+    assert sines and all(0.0032 <= s.amplitude_m <= 0.0127
+                         and 0.0402 <= 2 * np.pi * s.frequency_hz * s.amplitude_m <= 1.277 for s in sines)
+    assert any(not 0.0032 <= s.amplitude_m <= 0.0127 for s in feasible(CELL, _diagnosis().data))

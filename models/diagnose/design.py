@@ -16,15 +16,15 @@ level absorbs). A proposal is the sine with the largest ratio per second of rig 
 each rival, if over its own duration it would be decisive (DECISIVE), and proposals are
 taken best first until the budget is spent.
 
-The proven envelope: sines smaller or slower than the diagnosis has been proven clean on
-(Limits.amplitude_min, velocity_min: the prove plan's smallest amplitude and slowest peak
-speed) are not proposed. Below it the baseline's own friction reversal (sgn(v) softened
+The proven envelope: sines outside the amplitudes and peak speeds the diagnosis has been
+proven clean on (the prove plan's) are not proposed. Below it the baseline's own friction reversal (sgn(v) softened
 over spec.V_EPS, the sampled reversal) leaves a residual on a null that the catalogue
 reads as physics: on the plain cell with nothing hidden, the prove plan followed by 0.5 mm
 at 0.2 Hz left 19 noise variances at the reversals (pre-sliding, refused as unresolved),
 and followed by 1 mm at 4 Hz named free play (2.4 noise variances). The design seeks where
 two models differ most, which is where the baseline is weakest: without the envelope it
-chased that residual instead of the physics.
+chased that residual instead of the physics. Above it alike: with 20 mm strokes allowed,
+a null named stroke damping.
 
 A smooth basis (a term outside the catalogue, position friction) keeps the knots of the
 recording it was fitted on (terms.cached): over the recorded stroke it predicts as fitted,
@@ -59,8 +59,8 @@ MIN_CYCLES, MIN_S = 5, 2.0  # at least this many counted cycles, and at least th
 @dataclass(frozen=True)
 class Limits:
     """What the cell may do: stroke [m from full extension], velocity [m/s], frequency
-    [Hz] (inf: none) and force [N]; and the smallest amplitude [m] and peak speed [m/s]
-    the diagnosis is proven clean at on nulls (the proven envelope: see propose)."""
+    [Hz] (inf: none) and force [N]; and the amplitudes [m] and peak speeds [m/s] the
+    diagnosis is proven clean on nulls within (the proven envelope: see the module)."""
     x_min: float
     x_max: float
     velocity_max: float
@@ -68,6 +68,8 @@ class Limits:
     frequency_max: float = math.inf
     amplitude_min: float = 0.0
     velocity_min: float = 0.0
+    amplitude_max: float = math.inf
+    velocity_proven: float = math.inf  # the fastest peak speed of the proven plan
 
 
 @dataclass(frozen=True)
@@ -168,14 +170,16 @@ def motion(sine: Sine, d: Data) -> Data:
 
 def feasible(limits: Limits, d: Data) -> list[Sine]:
     """The sines the cell can run about the recording's mean position, within the proven
-    envelope (Limits.amplitude_min, velocity_min)."""
+    envelope (Limits.amplitude_min..amplitude_max, velocity_min..velocity_proven)."""
     centre = float(np.mean(d.x))
     out = []
     for A in AMPLITUDES_M:
-        if centre - A < limits.x_min or centre + A > limits.x_max or A < limits.amplitude_min:
+        if (centre - A < limits.x_min or centre + A > limits.x_max
+                or not limits.amplitude_min <= A <= limits.amplitude_max):
             continue
         for f in FREQUENCIES_HZ:
-            if f <= limits.frequency_max and limits.velocity_min <= 2 * np.pi * f * A <= limits.velocity_max:
+            v = 2 * np.pi * f * A
+            if f <= limits.frequency_max and limits.velocity_min <= v <= min(limits.velocity_max, limits.velocity_proven):
                 out.append(Sine(A, f, centre))
     return out
 

@@ -95,7 +95,7 @@ def test_the_dyno_runs_its_own_next_tests_on_the_wires(tmp_path, sim_rig):
                    .replace("x_min = 0.002 ", "x_min = 0.0315").replace("x_max = 0.074", "x_max = 0.0447"))
     sim_rig(cfg)
     out = tmp_path / "discover.mcap"
-    p = dyno("run", "discover", "amplitudes_mm=6.4", "freqs_hz=2,4", "record_cycles=4", "--budget", 3,
+    p = dyno("run", "discover", "amplitudes_mm=6.4", "freqs_hz=2,4", "record_cycles=6", "--budget", 3,
              "--rig", cfg, "--out", out)
     assert p.returncode == 0, p.stderr[-2000:]
     assert "discover: round 1: named" in p.stderr and "recorded" in p.stderr

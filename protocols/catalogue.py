@@ -12,7 +12,9 @@ from __future__ import annotations
 import json
 import re
 import sqlite3
+from contextlib import contextmanager
 from dataclasses import dataclass
+from datetime import datetime, timezone
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -115,16 +117,23 @@ def index_file(c: sqlite3.Connection, path) -> str:
     return "added" if old is None else "updated"
 
 
+@contextmanager
+def beside(path):
+    """The catalogue of the folder a recording is in, closed after use."""
+    c = connect(Path(path).parent)
+    try:
+        yield c
+    finally:
+        c.close()
+
+
 def add(path) -> str:
     """Index a recording just written (by dyno run, import or recover) into the catalogue
     of its own folder; one line saying so, or why it could not be (the recording stands)."""
     path = Path(path)
     try:
-        c = connect(path.parent)
-        try:
+        with beside(path) as c:
             outcome = index_file(c, path)
-        finally:
-            c.close()
     except (OSError, sqlite3.Error) as e:
         return f"not catalogued ({path.parent / DB_NAME}: {e}); dyno runs index {path.parent} retries"
     return f"catalogued in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
@@ -133,11 +142,9 @@ def add(path) -> str:
 def add_check(path, reference, tolerance, verdicts) -> str:
     """A `dyno check` of a recording as a row of the catalogue of its folder (the recording
     indexed first if it is not); one line saying so, or why it could not be."""
-    from datetime import datetime, timezone
     path = Path(path).resolve()
     try:
-        c = connect(path.parent)
-        try:
+        with beside(path) as c:
             index_file(c, path)
             run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(path),)).fetchone()["id"]
             with c:
@@ -145,8 +152,6 @@ def add_check(path, reference, tolerance, verdicts) -> str:
                           (run_id, datetime.now(timezone.utc).isoformat(timespec="seconds"), str(reference),
                            str(tolerance), len(verdicts), sum(not v.passed for v in verdicts),
                            min(v.margin_N for v in verdicts)))
-        finally:
-            c.close()
     except (OSError, sqlite3.Error) as e:
         return f"check not catalogued ({path.parent / DB_NAME}: {e})"
     return f"check catalogued in {path.parent / DB_NAME} (run {run_id})"

@@ -105,6 +105,6 @@ def direct(config, damper, **plant) -> Cell:
     calibration, the rehearsal and work that needs the runner's stepping, not the wires."""
     from models.damper import load as load_damper
     from sim_backend.direct_rig import DirectRig
-    rig = DirectRig(config, damper, **plant)
     d = load_damper(damper) if isinstance(damper, str) else damper
+    rig = DirectRig(config, d, **plant)
     return _opened(Cell(rig, config, d, rig, False, []))

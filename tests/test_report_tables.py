@@ -125,7 +125,7 @@ def test_a_sine_the_plan_moved_to_another_frequency_is_marked_adapted_with_why(t
     with cell.embedded("mechformance") as c:  # 12.7 mm at 18 Hz: 21 kN, over the 10 kN cell
         run_plan(Plan(sine_matrix, parse(sine_matrix.Params, ["amplitudes_mm=12.7", "freqs_hz=2,18",
                                                               "record_cycles=2"])), c, [kept])
-    rows = peaks.peaks(kept.arrays(), segments(kept.events), events=kept.events)
+    rows = peaks.peaks(kept.arrays(), segments(kept.events))
     assert [(p.freq_hz, p.adapted[:12]) for p in rows] == [(2.0, ""), (7.3, "asked 18 Hz:")]
     assert "above 95 % of the rig's 10000 N" in rows[1].adapted
     head, body = peaks.table(rows)

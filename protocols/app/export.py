@@ -87,6 +87,8 @@ def run(args):
         raise RigError("give one of --csv FILE, --parquet FILE or --target FILE")
     if args.target:
         return _target(args)
+    if getattr(args, "segment", None):
+        raise RigError("--segment goes with --target (a replay target of one segment)")
     what = "--csv" if args.csv else "--parquet"
     out = output_file(args.csv or args.parquet, [args.recording], args.overwrite, what)
     side = out.with_name(out.name + ".meta.json") if args.csv else None

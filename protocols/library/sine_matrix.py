@@ -53,8 +53,10 @@ def _validate(p: Params, rig: RigInfo):
 
 
 def _matrix(p: Params, rig: RigInfo):
-    """([(amplitude mm, frequency Hz)] to record, [(segment, why skipped or moved)]);
-    ParamError if nothing is left to record."""
+    """([(amplitude mm, frequency Hz, extra params of its recorded segment)] to record,
+    [(segment, why skipped or moved)]); ParamError if nothing is left to record. A sine
+    moved to a lower frequency says so in its recorded segment's params: `adapted` (the
+    frequency asked and why) and `adapted_from` (the segment asked for)."""
     runs, skipped = [], []
     pairs = zip(p.amplitudes_mm, p.freqs_hz) if p.paired else ((a, f) for a in p.amplitudes_mm for f in p.freqs_hz)
     for a, f in pairs:
@@ -66,12 +68,12 @@ def _matrix(p: Params, rig: RigInfo):
                    f"{rig.force_max:.0f} N")
             f_ok = _fastest(rig, a, f)
             slower = max((g for g in p.freqs_hz if g < f), default=0.0)
-            if f_ok is not None and f_ok > slower and (a, f_ok) not in runs:
-                runs.append((a, f_ok))
+            if f_ok is not None and f_ok > slower and (a, f_ok) not in [r[:2] for r in runs]:
+                runs.append((a, f_ok, {"adapted": f"asked {f:g} Hz: {why}", "adapted_from": _name(a, f)}))
                 why += f": recorded at {f_ok:g} Hz instead"
             skipped.append((_name(a, f), why))
         else:
-            runs.append((a, f))
+            runs.append((a, f, {}))
     if not runs:
         raise ParamError(f"nothing to run: every combination is skipped ({skipped[0][0]}: {skipped[0][1]})")
     return runs, skipped
@@ -94,7 +96,7 @@ def _name(a, f):
 
 def plan(p: Params, rig: RigInfo):
     _validate(p, rig)
-    for a, f in _matrix(p, rig)[0]:
+    for a, f, moved in _matrix(p, rig)[0]:
         A, n = a / 1e3, p.ramp_cycles
         params = {"amplitude_mm": a, "freq_hz": f}
         # every segment is whole cycles, so each starts at phase 0 and the motion is smooth
@@ -102,7 +104,7 @@ def plan(p: Params, rig: RigInfo):
         if p.settle_cycles:
             yield Segment(f"settle {a:g} mm {f:g} Hz", params, p.settle_cycles / f, _sine(A, f, rig.x_mid), False)
         cycles = max(p.record_cycles, math.ceil(p.record_s * f - 1e-9))
-        yield Segment(_name(a, f), {**params, "cycles": cycles}, cycles / f,
+        yield Segment(_name(a, f), {**params, "cycles": cycles, **moved}, cycles / f,
                       _sine(A, f, rig.x_mid), kind="sine")
         yield Segment(f"ramp out {a:g} mm {f:g} Hz", params, n / f, _sine(A, f, rig.x_mid, fade=n / f), False)
 

@@ -5,7 +5,6 @@ table (HTML and CSV) in the chosen unit system (protocols/units.py)."""
 from __future__ import annotations
 
 import csv
-import re
 import json
 from dataclasses import dataclass
 
@@ -93,28 +92,10 @@ def segment_temperature(ch, t0, t1):
     return float(np.mean(T)) if len(T) else T_ROOM
 
 
-ADAPTED = re.compile(r"^sine ([0-9.e+-]+) mm ([0-9.e+-]+) Hz$")
-INSTEAD = re.compile(r"^(.*): recorded at ([0-9.e+-]+) Hz instead$")
-
-
-def adapted(events):
-    """{(amplitude mm, frequency Hz recorded): why} of the sines the plan's check moved to
-    another frequency (protocols/library/sine_matrix.py: a `skipped` event "... recorded at
-    F Hz instead")."""
-    out = {}
-    for e in events or ():
-        asked, moved = ADAPTED.match(e.get("segment", "")), INSTEAD.match(e.get("message", ""))
-        if e["kind"] == "skipped" and asked and moved:
-            out[(float(asked.group(1)), float(moved.group(2)))] = f"asked {asked.group(2)} Hz: {moved.group(1)}"
-    return out
-
-
-def peaks(ch, segs, damper=None, model=None, events=None):
+def peaks(ch, segs, damper=None, model=None):
     """[Peak] of the sine segments. damper: a full model whose gas and friction are taken
-    off for the damping force; model: a full model simulated along each segment; events:
-    the recording's, to mark the sines the plan adapted."""
+    off for the damping force; model: a full model simulated along each segment."""
     out = []
-    moved = adapted(events)
     if not {"force", "x", "v"} <= set(ch):
         return out
     for name, prm, t0, t1 in sines(segs):
@@ -128,7 +109,7 @@ def peaks(ch, segs, damper=None, model=None, events=None):
         p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T - 273.15,
                  float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]))
         p.achieved_mm = 0.5 * float(np.ptp(x[late])) * 1e3
-        p.adapted = moved.get((float(prm["amplitude_mm"]), float(prm["freq_hz"])), "")
+        p.adapted = prm.get("adapted", "")
         target = 2 * np.pi * prm["freq_hz"] * prm["amplitude_mm"] * 1e-3
         p.short_pct = 100.0 * (1.0 - 0.5 * (p.v_comp - p.v_reb) / target) if target > 0 else np.nan
         if damper is not None:

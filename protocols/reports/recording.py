@@ -31,7 +31,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
     full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
-    rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model, events=events)
+    rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
     figures = (_sine_figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out)
                + _low_speed_figures(ch, segs, out) + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out)
                + hil.figures(ch, events, out))
@@ -84,7 +84,8 @@ def _header(page, meta, events, model):
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}."
                    + (f" Model overlaid: {model.name}." if model is not None else ""))
     ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
-    page.items(("adapted" if peaks.INSTEAD.match(e.get("message", "")) else e["kind"],
+    moved = {prm["adapted_from"] for _, prm, _, _ in segments(events) if "adapted_from" in prm}
+    page.items(("adapted" if e["kind"] == "skipped" and e["segment"] in moved else e["kind"],
                 f"{e['segment']} {e.get('message', '')}") for e in ends)
     rounds = [e for e in events if e["kind"] in ("diagnosis", "next_test")]
     if rounds:  # dyno run discover (protocols/discover.py)

@@ -10,6 +10,10 @@ import pytest
 
 # ... and so does one a `dyno` command the tests start draws (pyproject's filterwarnings)
 os.environ["DYNO_STRICT_FIGURES"] = "1"
+# as `dyno` itself runs (protocols/app/__init__.py), before numpy loads; the suite's two workers
+# would otherwise each start a BLAS thread per core
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+assert "numpy" not in sys.modules, "numpy loaded before tests/conftest.py set its threads"
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 SHORT = ["static_points=5", "amplitudes_mm=12.7,6.4,3.2,1.6", "freqs_hz=1,4,16", "targets_c=45"]

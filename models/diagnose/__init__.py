@@ -41,6 +41,7 @@ REFIT_EFFORT = 4  # function evaluations per parameter when an accepted term is 
 LAG_RESOLVED = 0.02  # of a sample period: a lag shorter than this, its interval reaching zero, is not resolved
 SHARE = 0.01
 BOOT = 2000
+SURE_HITS = 50
 
 
 def blocks(d: Data, per_cycle=4):
@@ -59,17 +60,22 @@ def _block_sse(r, block, ids):
 
 def p_value(d_c, rng, alpha=ALPHA):
     """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
-    (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha."""
+    (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha.
+    It stops early once p is surely above alpha (SURE_HITS hits, and alpha under p's
+    lower bound at 3.3 sd), as for most candidates tried: p is then known to about 15 %."""
     n = len(d_c)
     if n < 3:
         return 1.0
     m = d_c.mean()
     total = max(BOOT, int(np.ceil(20 / alpha)))
-    hits = 0
-    for k in range(0, total, BOOT):  # in chunks: a (resamples x blocks) index array each
-        boot = d_c[rng.integers(0, n, (min(BOOT, total - k), n))].mean(axis=1)
-        hits += int(np.sum(boot - m >= m))
-    return float((hits + 1) / (total + 1))
+    hits = done = 0
+    while done < total:  # in chunks: a (resamples x blocks) index array each
+        k = min(BOOT, total - done)
+        boot = d_c[rng.integers(0, n, (k, n))].mean(axis=1)
+        hits, done = hits + int(np.sum(boot - m >= m)), done + k
+        if hits >= SURE_HITS and hits - 3.3 * np.sqrt(hits) > alpha * done:
+            break
+    return float((hits + 1) / (done + 1))
 
 
 NOISE_HARMONICS = 60  # at most, and at most a third of a cycle's samples

@@ -13,6 +13,7 @@ Baseline `minimal` (thesis chapter 3, reduced):
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from models.diagnose import kernels
 from models.diagnose.spec import V_EPS, Effect, Hidden, P
@@ -27,31 +28,70 @@ W_FORCE = 0.5
 FRICTION_KNOTS = 8  # basis functions of position_friction over the stroke
 
 
-def _direction(v, c1, c2, C, Fcr):
+@njit(cache=True)
+def _magnitude(v, c1, c2, C, Fcr):
     """Force magnitude [N] at speed v >= 0 [m/s] of low (c1 v + c2 v^2) and mid
     ((F - Fcr)/C) paths in parallel, eq 3.30; closed form of the quadratic."""
     FL = c1 * v + c2 * v * v
+    if not FL > Fcr:  # (a nan stays nan)
+        return FL
     # above the cracking force: sqrt(c1^2 + 4 c2 F) = A - B F
     A = 2 * c2 * v + c1 + 2 * c2 * Fcr / C
     B = 2 * c2 / C
     qa, qb, qc = B * B, -(2 * A * B + 4 * c2), A * A - c1 * c1
-    disc = np.sqrt(np.maximum(qb * qb - 4 * qa * qc, 0.0))
+    disc = np.sqrt(max(qb * qb - 4 * qa * qc, 0.0))
     # the smaller root (A - B F >= 0), in the cancellation-free form
-    F_open = 2 * qc / np.maximum(-qb + disc, 1e-30)
-    return np.where(FL > Fcr, np.maximum(F_open, Fcr), FL)
+    return max(2 * qc / max(-qb + disc, 1e-30), Fcr)
+
+
+@njit(cache=True)
+def _direction(v, c1, c2, C, Fcr):
+    """_magnitude along speeds v [m/s]."""
+    out = np.empty(len(v))
+    for i in range(len(v)):
+        out[i] = _magnitude(v[i], c1, c2, C, Fcr)
+    return out
+
+
+VALVES = ("c1_c", "c2_c", "C_c", "Fcr_c", "c1_r", "c2_r", "C_r", "Fcr_r")  # damping's parameters, in order
+
+
+@njit(cache=True)
+def _damping(v, c1_c, c2_c, C_c, Fcr_c, c1_r, c2_r, C_r, Fcr_r):
+    out = np.empty(len(v))
+    for i in range(len(v)):
+        s = v[i]
+        out[i] = _magnitude(s, c1_c, c2_c, C_c, Fcr_c) if s >= 0 else -_magnitude(-s, c1_r, c2_r, C_r, Fcr_r)
+    return out
+
+
+_damping_recent = kernels.recent(_damping)
 
 
 def damping(v, p):
     """Damping force [N], positive in compression, from velocity v [m/s]."""
-    comp = _direction(np.maximum(v, 0), p["c1_c"], p["c2_c"], p["C_c"], p["Fcr_c"])
-    reb = _direction(np.maximum(-v, 0), p["c1_r"], p["c2_r"], p["C_r"], p["Fcr_r"])
-    return comp - reb
+    return _damping_recent(v, *(p[k] for k in VALVES))
+
+
+@kernels.recent
+def _slope_of(v, *valves):
+    dv = 1e-3  # m/s: the finite difference
+    return np.abs(_damping(v + dv, *valves) - _damping(v - dv, *valves)) / (2 * dv)
+
+
+def _slope(v, p):
+    """Local slope dF/dv of the damping curve [N s/m] (finite difference)."""
+    return _slope_of(v, *(p[k] for k in VALVES))
+
+
+@kernels.recent
+def _gas(x, x_m, G0, L):
+    return G0 * (L / np.maximum(L - (x - x_m), 1e-3 * L)) ** GAMMA
 
 
 def gas(x, x_m, p):
     """Gas force [N]: polytropic about x_m (eq 3.19)."""
-    L = p["L"]
-    return p["G0"] * (L / np.maximum(L - (x - x_m), 1e-3 * L)) ** GAMMA
+    return _gas(x, x_m, p["G0"], p["L"])
 
 
 def baseline_params(d):
@@ -68,7 +108,9 @@ def baseline_params(d):
             P("F_c", 0.03 * Fmax, 0.0, 0.5 * Fmax, "N")]
 
 
+@kernels.recent
 def shift(y, t, tau):
+    """y [any unit] at t - tau [s] (linear between samples)."""
     return np.interp(t - tau, t, y)
 
 
@@ -139,6 +181,9 @@ class Forces:
         self.Fd = self.Fg = self.Ff = self.F = self.slope = None
 
 
+_bouc_wen, _dahl = kernels.recent(kernels.bouc_wen), kernels.recent(kernels.dahl)
+
+
 # the forms of the catalogue's effects: (model, data, values, Forces, effect id) -> None
 def _sensor_delay(m, d, p, f, e):
     f.tau = p["tau"]
@@ -176,7 +221,7 @@ def _breakaway_friction(m, d, p, f, e):
 def _presliding_friction(m, d, p, f, e):
     # the seal deforms before it slides: its friction builds over x_stick of travel after
     # each reversal (Dahl), where the baseline's Coulomb law switches at once (eq 3.3)
-    f.Ff = m.base.friction_level(p) * kernels.dahl(f.x, d.t, d.h, p["x_stick"])
+    f.Ff = m.base.friction_level(p) * _dahl(f.x, d.t, d.h, p["x_stick"])
 
 
 def _bouc_wen_force(m, d, p, f, e):
@@ -188,7 +233,7 @@ def _bouc_wen_force(m, d, p, f, e):
         n = e.split(":", 1)[1]
         u = kernels.lag(d.aux[n], np.full(len(d.t), p[f"eta:{n}"]), d.h) - m.aux_m[n]
         alpha = alpha + p[f"alpha_u:{n}"] * u
-    f.F = f.F + alpha * kernels.bouc_wen(f.x, d.t, d.h, p["x_y"], p["gamma_bw"])
+    f.F = f.F + alpha * _bouc_wen(f.x, d.t, d.h, p["x_y"], p["gamma_bw"])
 
 
 def _fluid_inertia(m, d, p, f, e):
@@ -211,12 +256,6 @@ def _cavitation(m, d, p, f, e):
 
 def _free_play(m, d, p, f, e):
     f.F = kernels.plateau(f.F, f.slope(), f.t, p["c_play"], W_FORCE * m.h)
-
-
-def _slope(v, p):
-    """Local slope dF/dv of the damping curve [N s/m] (finite difference)."""
-    dv = 1e-3
-    return np.abs(damping(v + dv, p) - damping(v - dv, p)) / (2 * dv)
 
 
 def _p(*ps):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 
 # the sources of compiled code: the equations, and the kernels built on them elsewhere
-COMPILED = ("physics/*.py", "quarter_car/sim.py", "diagnose/kernels.py", "identify/valves.py")
+COMPILED = ("physics/*.py", "quarter_car/sim.py", "diagnose/kernels.py", "diagnose/candidates.py", "identify/valves.py")
 
 
 def _numba_cache_dir() -> str:
@@ -31,7 +31,14 @@ if "NUMBA_CACHE_DIR" not in os.environ:
 
 # One BLAS thread, as every Dask worker has: a least-squares fit sums in an order that
 # depends on the thread count, so a diagnosis on one machine and on a cluster would differ
-# in their last digits. Only where numpy is not loaded yet (the dyno command, a worker).
+# in their last digits; and the fits' matrices are tall and narrow (samples by a few dozen
+# parameters), where threads cost more than they give (a diagnosis took 36 s on one
+# thread, 99 s on two cores). Before numpy loads (the dyno command, a worker) by the
+# environment; after (a test, a user's script), on the threads it has started.
 if "numpy" not in sys.modules:
     for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(_var, "1")
+else:
+    import scipy.linalg  # its own BLAS: loaded now, so that it is limited too
+    from threadpoolctl import threadpool_limits
+    threadpool_limits(limits=1, user_api="blas")

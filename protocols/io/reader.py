@@ -16,7 +16,10 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
+from mcap.records import Chunk, MessageIndex
+from mcap.stream_reader import get_chunk_data_stream
 
 from protocols.io.files import input_file
 from rig.errors import RigError
@@ -38,16 +41,16 @@ def load_recording(path):
             summary = r.get_summary()  # None in a file cut short: then every topic is read
             topics = None if summary is None else [c.topic for c in summary.channels.values()
                                                    if c.topic.startswith("/channels/") or c.topic == "/events"]
-            for _, ch, m in r.iter_messages(topics=topics):
-                if ch.topic.startswith("/channels/"):
-                    name = ch.topic[len("/channels/"):]
-                    t, v, unit = _batch(json.loads(m.data), ch.topic)
+            for topic, data in _messages(f, r, summary, topics):
+                if topic.startswith("/channels/"):
+                    name = topic[len("/channels/"):]
+                    t, v, unit = _batch(json.loads(data), topic)
                     ts, vs = chans.setdefault(name, ([], []))
                     ts.extend(t)
                     vs.extend(v)
                     units.setdefault(name, unit)
-                elif ch.topic == "/events":
-                    events.append(_event(json.loads(m.data)))
+                elif topic == "/events":
+                    events.append(_event(json.loads(data)))
         _check_metadata(meta)
     except RigError as e:
         raise RigError(f"{path}: {e}") from None
@@ -65,6 +68,37 @@ def load_recording(path):
         if not np.all(np.isfinite(out[name][0])):
             raise RigError(f"{path}: /channels/{name}: a time that is not a finite number")
     return out, events, meta
+
+
+def _messages(f, reader, summary, topics):
+    """(topic, data) of the messages on `topics` (None: all) in log-time order. Where every
+    chunk has its message indexes, only the wanted messages are read out of each chunk: a
+    recording's per-sample /plot topics hold a hundred times the records of its /channels
+    batches, and the MCAP reader parses every record of a chunk it opens (7 s of a 345 s
+    run's 1 kHz recording, 0.3 s this way)."""
+    if summary is None or topics is None or not all(c.message_index_offsets for c in summary.chunk_indexes):
+        for _, ch, m in reader.iter_messages(topics=topics):
+            yield ch.topic, m.data
+        return
+    ids = {cid: c.topic for cid, c in summary.channels.items() if c.topic in topics}
+    found = []
+    for ci in summary.chunk_indexes:
+        offsets = [o for cid, o in ci.message_index_offsets.items() if cid in ids]
+        if not offsets:
+            continue
+        f.seek(ci.chunk_start_offset + 9)  # past the record's opcode and length
+        stream, size = get_chunk_data_stream(Chunk.read(ReadDataStream(f)))
+        records = stream.read(size)
+        for o in offsets:
+            f.seek(o + 9)
+            index = MessageIndex.read(ReadDataStream(f))
+            for log_time, at in index.records:
+                # a message record: opcode (1), length (8), channel, sequence, two times (22), data
+                end = at + 9 + int.from_bytes(records[at + 1:at + 9], "little")
+                found.append((log_time, ci.chunk_start_offset, at, ids[index.channel_id], records[at + 31:end]))
+    found.sort(key=lambda m: m[:3])
+    for *_, topic, data in found:
+        yield topic, data
 
 
 def _batch(d, topic):

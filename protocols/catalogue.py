@@ -1,6 +1,7 @@
 """The run catalogue (issue 33): one SQLite file beside the recordings (WAL, no server)
 that indexes each recording's identity and setup, protocol and parameters, duration and
-outcome, and its sine peaks, so that runs can be found and a damper's forces trended.
+outcome, and its sine peaks, so that runs can be found and a damper's forces trended; and
+what was made of each run later: QA checks, identified models, diagnoses.
 
 Indexing is incremental (a file is read again only when its size or time changed) and
 idempotent; a file that cannot be read is one row with its error and never stops the
@@ -38,6 +39,12 @@ CREATE TABLE IF NOT EXISTS peaks (
 CREATE TABLE IF NOT EXISTS checks (
     run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, checked TEXT, reference TEXT,
     tolerance TEXT, points INTEGER, failed INTEGER, worst_margin_n REAL);
+CREATE TABLE IF NOT EXISTS models (
+    run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, identified TEXT, model TEXT,
+    heldout_nrmse REAL, parameters TEXT);
+CREATE TABLE IF NOT EXISTS diagnoses (
+    run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, diagnosed TEXT, baseline TEXT,
+    accepted TEXT, findings TEXT, within_noise INTEGER);
 CREATE INDEX IF NOT EXISTS runs_serial ON runs(serial);
 """
 ENDINGS = {"fault": "tripped", "operator_stop": "stopped"}
@@ -139,27 +146,47 @@ def add(path) -> str:
     return f"catalogued in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
 
 
-def add_check(path, reference, tolerance, verdicts) -> str:
-    """A `dyno check` of a recording as a row of the catalogue of its folder (the recording
-    indexed first if it is not); one line saying so, or why it could not be."""
+def _attach(path, table, values, what) -> str:
+    """A row of `table` (run id, time now, values) about a recording, in the catalogue of its
+    folder (the recording indexed first if it is not); one line saying so, or why it could
+    not be (what was made stands)."""
     path = Path(path).resolve()
     try:
         with beside(path) as c:
             index_file(c, path)
             run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(path),)).fetchone()["id"]
             with c:
-                c.execute("INSERT INTO checks VALUES (?, ?, ?, ?, ?, ?, ?)",
-                          (run_id, datetime.now(timezone.utc).isoformat(timespec="seconds"), str(reference),
-                           str(tolerance), len(verdicts), sum(not v.passed for v in verdicts),
-                           min(v.margin_N for v in verdicts)))
+                c.execute(f"INSERT INTO {table} VALUES ({', '.join('?' * (len(values) + 2))})",
+                          (run_id, datetime.now(timezone.utc).isoformat(timespec="seconds"), *values))
     except (OSError, sqlite3.Error) as e:
-        return f"check not catalogued ({path.parent / DB_NAME}: {e})"
-    return f"check catalogued in {path.parent / DB_NAME} (run {run_id})"
+        return f"{what} not catalogued ({path.parent / DB_NAME}: {e})"
+    return f"{what} catalogued in {path.parent / DB_NAME} (run {run_id})"
 
 
-def checks(c: sqlite3.Connection, run_id) -> list[sqlite3.Row]:
-    """The QA checks of a run, oldest first."""
-    return c.execute("SELECT * FROM checks WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
+def add_check(path, reference, tolerance, verdicts) -> str:
+    """A `dyno check` of a recording, as a row of its catalogue."""
+    return _attach(path, "checks", (str(reference), str(tolerance), len(verdicts), sum(not v.passed for v in verdicts),
+                                    min(v.margin_N for v in verdicts)), "check")
+
+
+def add_model(path, model_path, heldout_nrmse, parameters) -> str:
+    """A model `dyno identify` made of a recording: its file, held-out NRMSE and
+    parameters {name: value in SI}."""
+    return _attach(path, "models", (str(Path(model_path).resolve()), heldout_nrmse, json.dumps(parameters)), "model")
+
+
+def add_diagnosis(path, baseline, accepted, findings, within_noise) -> str:
+    """A `dyno diagnose` of a recording: its baseline, the effects accepted in order, each
+    finding {effect, nature, parameters}, and whether what is left is within the noise."""
+    return _attach(path, "diagnoses", (baseline, json.dumps(accepted), json.dumps(findings), int(within_noise)),
+                   "diagnosis")
+
+
+def attached(c: sqlite3.Connection, table, run_id) -> list[sqlite3.Row]:
+    """A run's rows of checks, models or diagnoses, oldest first."""
+    if table not in ("checks", "models", "diagnoses"):
+        raise CatalogueError(f"no table {table!r}")
+    return c.execute(f"SELECT * FROM {table} WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
 
 
 def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=None) -> list[sqlite3.Row]:

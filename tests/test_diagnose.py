@@ -92,6 +92,13 @@ def test_cli_json_and_summary(recordings, tmp_path):
     assert doc["next"] and sum(p["rig_s"] for p in doc["next"]) <= 60
     assert doc["next"][0]["other"] == ["fluid_inertia"]  # a 1 ms lag against an oil mass: fast sines part them
     assert all(p["command"].startswith("dyno run sine-matrix ") and p["why"] for p in doc["next"])
+    # the run's catalogue keeps what the diagnosis found (dyno runs show)
+    from protocols import catalogue
+    with catalogue.beside(recordings["lag"]) as c:
+        run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(recordings["lag"].resolve()),)).fetchone()["id"]
+        kept = catalogue.attached(c, "diagnoses", run_id)[-1]
+    assert json.loads(kept["accepted"]) == doc["accepted"] and kept["baseline"] == "minimal"
+    assert json.loads(kept["findings"])[0]["effect"] == "sensor_delay" and "tau" in json.loads(kept["findings"])[0]["parameters"]
 
 
 @ONE_WORKER
@@ -140,8 +147,8 @@ def test_cli_refuses_a_recording_without_force(tmp_path):
 
 def test_prove_finds_a_concealed_effect_and_nothing_on_a_null():
     """dyno prove in CI with one seed and two rows (the full proof: docs/results/prove.md)."""
-    # free play: the effect hardest to see (one recording per core: the suite's time)
-    r = subprocess.run([*DYNO, "prove", "--seeds", "1", "--effects", "free_play,null", "--json"],
+    # free play: the effect hardest to see (one process: the suite's other worker has the other core)
+    r = subprocess.run([*DYNO, "prove", "--seeds", "1", "--effects", "free_play,null", "--jobs", "1", "--json"],
                        capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     rows = {row["effect"]: row for row in json.loads(r.stdout)["effects"]}
@@ -155,7 +162,7 @@ def test_prove_open_hides_a_users_force_law_and_names_it():
     """dyno prove --open: 3 N of 50 Hz written by the user, hidden in the plain cell through
     the wires, is named as the cell's interference, and the null of the same seed claims
     no physics."""
-    r = subprocess.run([*DYNO, "prove", "--open", "3*sin(2*pi*50*t)", "--seeds", "1", "--json"],
+    r = subprocess.run([*DYNO, "prove", "--open", "3*sin(2*pi*50*t)", "--seeds", "1", "--jobs", "1", "--json"],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     run = json.loads(r.stdout)["runs"][0]

@@ -227,6 +227,14 @@ def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     assert "T_body" in doc["steps"]["valves"]  # temperature coefficients skipped, channel named
     assert doc["steps"]["dynamic"].startswith("done")
     assert doc["heldout_nrmse"] < 0.05
+    # the recording's catalogue keeps the model made of it, and `dyno runs show` lists it
+    assert "model catalogued in" in q.stderr
+    shown = subprocess.run([DYNO, "runs", "show", "1", str(tmp_path), "--json"], capture_output=True, text=True)
+    assert shown.returncode == 0, shown.stderr
+    model = json.loads(shown.stdout)["models"][-1]
+    assert model["model"].endswith("cell.model.json") and model["heldout_nrmse"] == pytest.approx(doc["heldout_nrmse"])
+    values = json.loads(model["parameters"])
+    assert values and all(isinstance(v, float) for v in values.values())
 
 
 @pytest.mark.parametrize("maps, content, message", [

@@ -269,6 +269,10 @@ def run(args):
         with filled(args.report, "--report") as folder:
             page = report(res, folder)
         say(f"report: {Path(args.report) / page.name}")
+    from protocols import catalogue
+    findings = [{"effect": s.effect, "nature": s.nature, "parameters": {k: float(v) for k, v in s.parameters.items()}}
+                for s in res.steps if not s.replaced_by]
+    say(catalogue.add_diagnosis(args.recording, res.baseline.name, res.accepted, findings, res.left_over.within_noise))
     props = None
     if getattr(args, "next", False):
         props = design.propose(res, limits, args.budget)

@@ -126,6 +126,10 @@ def run(args):
         with filled(args.report, "--report") as folder:
             index = write(res, doc, folder)
         say(f"report: {Path(args.report) / index.name}")
+    from protocols import catalogue
+    values = {e["name"]: e["value"] for e in doc["estimates"] if e["identifiable"]}
+    for recording in args.recordings:  # each recording's catalogue knows the model made of it
+        say(catalogue.add_model(recording, out, doc.get("heldout_nrmse"), values))
     if args.json:
         print(json.dumps(_clean(doc), indent=2))
     else:

@@ -68,10 +68,10 @@ def show(args):
             row, peaks = catalogue.run(c, args.id)
         except catalogue.CatalogueError as e:
             raise RigError(str(e)) from None
-        checks = catalogue.checks(c, args.id)
+        checks, models, diagnoses = (catalogue.attached(c, t, args.id) for t in ("checks", "models", "diagnoses"))
     if args.json:
-        print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks], "checks": [dict(k) for k in checks]},
-                         indent=1))
+        print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks], "checks": [dict(k) for k in checks],
+                          "models": [dict(m) for m in models], "diagnoses": [dict(d) for d in diagnoses]}, indent=1))
         return 0
     for k in row.keys():
         if row[k] not in (None, "", "{}"):
@@ -85,6 +85,14 @@ def show(args):
                               [(k["checked"], k["reference"], k["tolerance"],
                                 f"FAIL ({k['failed']} of {k['points']})" if k["failed"] else f"PASS ({k['points']})",
                                 f"{k['worst_margin_n']:.0f}") for k in checks]))
+    if models:
+        print("\n" + md.table(("identified (UTC)", "model", "held-out NRMSE [%]"),
+                              [(m["identified"], m["model"], "-" if m["heldout_nrmse"] is None
+                                else f"{100 * m['heldout_nrmse']:.2f}") for m in models]))
+    if diagnoses:
+        print("\n" + md.table(("diagnosed (UTC)", "baseline", "accepted", "left over"),
+                              [(d["diagnosed"], d["baseline"], ", ".join(json.loads(d["accepted"])) or "nothing",
+                                "within the noise" if d["within_noise"] else "above the noise") for d in diagnoses]))
     return 0
 
 

@@ -3,6 +3,7 @@ samples that numpy cannot vectorise. Arrays in, arrays out; SI units."""
 from __future__ import annotations
 
 import functools
+import threading
 
 import numpy as np
 from numba import njit
@@ -13,11 +14,13 @@ def recent(fn, size=8):
     parameter at a time, so most parts of a model are asked again with the inputs they
     just had. Arrays are matched by identity (an entry keeps its arrays alive, so their
     ids are not reused while it is remembered, and nothing here changes an array in
-    place), other arguments by value; results are read-only."""
-    cache = {}
+    place), other arguments by value; results are read-only. One memory per thread (a
+    cluster worker may run diagnoses on several)."""
+    local = threading.local()
 
     @functools.wraps(fn)
     def wrapped(*args):
+        cache = local.__dict__.setdefault("cache", {})
         key = tuple(id(a) if isinstance(a, np.ndarray) else a for a in args)
         hit = cache.get(key)
         if hit is not None:

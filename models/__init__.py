@@ -39,6 +39,6 @@ if "numpy" not in sys.modules:
     for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(_var, "1")
 else:
-    import scipy.linalg  # its own BLAS: loaded now, so that it is limited too
+    import scipy.linalg  # noqa: F401 - its own BLAS: loaded now, so that it is limited too
     from threadpoolctl import threadpool_limits
     threadpool_limits(limits=1, user_api="blas")

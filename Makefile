@@ -33,19 +33,21 @@ fuzz: $(STAMP)
 clean:
 	rm -rf $(VENV)
 
-# docs/report-examples: one run's velocity table, peaks and composite in the three unit
-# systems, three runs compared, and one QA-checked against another, from the embedded rig
+# docs/report-examples: a standard run's velocity table, peaks, composite and printable
+# report in the three unit systems, three runs compared, and one QA-checked against
+# another, from the embedded rig (about 7 minutes)
 EX := docs/report-examples
 SINES := amplitudes_mm=12.7,6.4 freqs_hz=1,4,12 record_cycles=3
+STANDARD := static_points=5 amplitudes_mm=12.7,6.4 freqs_hz=1,4,12 targets_c=45
 report-examples: $(STAMP)
 	T=$$(mktemp -d) && \
-	$(VENV)/bin/dyno run sine-matrix $(SINES) --serial K-12 --setup clicks_reb=12 --note baseline --out $$T/a.mcap && \
+	$(VENV)/bin/dyno run standard $(STANDARD) --no-identify --serial K-12 --setup clicks_reb=12 --note baseline --out $$T/a.mcap && \
 	$(VENV)/bin/dyno run sine-matrix $(SINES) --damper fox-light --serial F-4 --note spare --out $$T/b.mcap && \
 	$(VENV)/bin/dyno run sine-matrix $(SINES) --damper mechformance --serial M-3 --note re-valved --out $$T/c.mcap && \
 	rm -rf $(EX) && mkdir -p $(EX) && \
 	for u in metric us si; do \
 	  $(VENV)/bin/dyno report $$T/a.mcap --units $$u --out $$T/$$u && mkdir -p $(EX)/$$u && \
-	  cp $$T/$$u/velocity.csv $$T/$$u/peaks.csv $$T/$$u/composite.png $(EX)/$$u/ || exit 1; \
+	  cp $$T/$$u/velocity.csv $$T/$$u/peaks.csv $$T/$$u/composite.png $$T/$$u/report.pdf $(EX)/$$u/ || exit 1; \
 	done && \
 	$(VENV)/bin/dyno report $$T/a.mcap $$T/b.mcap $$T/c.mcap --out $$T/cmp && mkdir -p $(EX)/compare && \
 	cp $$T/cmp/differences.csv $$T/cmp/compare_composite.png $(EX)/compare/ && \

@@ -129,6 +129,7 @@ def test_the_loop_reproduces_the_reference_with_a_known_damper_model(tmp_path):
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "hil-tracking.png" in page and "hil-responses.png" in page and "J2 [%]" in page
+    assert "J2: how far the damper missed" in page  # the measures said where they are shown
 
 
 def test_an_unstable_loop_trips_the_guard_and_stops_safely(tmp_path):
@@ -190,7 +191,10 @@ def test_replay_converges_on_the_target(tmp_path):
     ch, _, _ = load_recording(out)
     assert {"replay.drive", "replay.target", "replay.error"} <= set(ch)
     r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
-    assert r.returncode == 0 and "replay.png" in (tmp_path / "rep" / "index.html").read_text(), r.stderr
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert r.returncode == 0 and "replay.png" in page, r.stderr
+    # the error of each iteration, as a table beside the figure
+    assert "NRMS error [%]" in page and f"{100 * errors[-1]:.3f}" in page
 
 
 @pytest.mark.parametrize("args, message", [

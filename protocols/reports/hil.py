@@ -21,6 +21,22 @@ def results(events):
     return [(e["segment"], e["params"]) for e in events if e["kind"] == "result" and "j2" in e["params"]]
 
 
+# what the table's measures are, said on the page under it (docs/hil.md)
+MEANING = ("J2: how far the damper missed the car's wanted motion, RMS(measured - target) over "
+           "RMS(target about its mean); delay: the compensator's estimate, the probe's measurement and "
+           "what is left of it after compensation (cross-correlation of measured and target). The NRMSEs "
+           "compare the car around the real damper with the car around the damper model (the reference), "
+           "each normalised as J2: under a few percent, the model stands in for the damper on this road.")
+REPLAY_MEANING = ("NRMS error: RMS(measured - target) over RMS(target about its mean) of each iteration; "
+                  "each drive is the last one corrected by its error through the rig's measured response.")
+
+
+def replay_table(events):
+    """[(iteration, NRMS error [%])] of a replay's iterations."""
+    return [(e["params"]["iteration"], f"{100 * e['params']['nrmse']:.3f}") for e in events
+            if e["kind"] == "result" and "nrmse" in e["params"]]
+
+
 def table(events):
     """Rows of the measures table (HEADER)."""
     return [(name, m.get("compensator", "?"), f"{100 * m['j2']:.2f}", f"{m['delay_ms']:.2f}",
@@ -71,17 +87,31 @@ def _tracking(ch):
 
 
 def _responses(ch):
-    fig, ax = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
-    for a, (hil, ref, label, scale) in zip(ax, (
-            ("hil.body_acc", "hil.ref.body_acc", "body acceleration [m/s^2]", 1.0),
-            ("hil.x_target", "hil.ref.travel", "suspension travel (damper x) [mm]", 1e3),
-            ("hil.tire_load", "hil.ref.tire_load", "tire load [N]", 1.0))):
-        a.plot(ch[ref][0], scale * ch[ref][1], lw=1.5, alpha=0.7, label="reference (damper model)")
-        a.plot(ch[hil][0], scale * ch[hil][1], lw=0.7, label="hardware in the loop")
-        a.set(ylabel=label)
-        a.grid(alpha=0.3)
-    ax[0].legend(fontsize=8)
-    ax[2].set(xlabel="time [s]")
+    """The three responses, whole run and one second about the largest body-acceleration
+    difference; travel from static equilibrium (the reference's start, the car at rest)."""
+    fig, ax = plt.subplots(3, 2, figsize=(11, 8), gridspec_kw={"width_ratios": [3, 1]})
+    t_ref, acc_ref = ch["hil.ref.body_acc"]
+    t, acc = ch["hil.body_acc"]
+    i = int(np.argmax(np.abs(acc - np.interp(t, t_ref, acc_ref))))
+    window = (t[i] - 0.5, t[i] + 0.5)
+    static = ch["hil.ref.travel"][1][0]
+    for row, (hil, ref, label, scale, at) in enumerate((
+            ("hil.body_acc", "hil.ref.body_acc", "body acceleration [m/s^2]", 1.0, 0.0),
+            ("hil.x_target", "hil.ref.travel", "travel from static [mm]", 1e3, static),
+            ("hil.tire_load", "hil.ref.tire_load", "tire load [N]", 1.0, 0.0))):
+        for col, a in enumerate(ax[row]):
+            for name, style, lw, alpha, label_ in ((ref, "-", 1.5, 0.7, "reference (damper model)"),
+                                                   (hil, "-", 0.7, 1.0, "hardware in the loop")):
+                tt, v = ch[name]
+                k = slice(None) if col == 0 else (tt >= window[0]) & (tt <= window[1])
+                a.plot(tt[k], scale * (v[k] - at), style, lw=lw, alpha=alpha, label=label_)
+            a.grid(alpha=0.3)
+        ax[row][0].set(ylabel=label)
+    ax[0][0].set_title("The whole road")
+    ax[0][1].set_title("Largest difference (1 s)")
+    ax[0][0].legend(fontsize=8)
+    for a in ax[2]:
+        a.set(xlabel="time [s]")
     return fig
 
 

@@ -130,6 +130,14 @@ def test_the_loop_reproduces_the_reference_with_a_known_damper_model(tmp_path):
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "hil-tracking.png" in page and "hil-responses.png" in page and "J2 [%]" in page
     assert "J2: how far the damper missed" in page  # the measures said where they are shown
+    # in a team's units, travel from static equilibrium (it starts at rest: zero)
+    from protocols.reports import hil as hil_page
+    from protocols.units import Units
+    fig = hil_page._responses(ch, Units("us"))
+    labels = [a.get_ylabel() for a in fig.axes if a.get_ylabel()]
+    assert labels == ["body acceleration [g]", "travel from static [in]", "tire load [lbf]"], labels
+    travel = fig.axes[2].lines[0].get_ydata()
+    assert travel[0] == 0.0 and 0.1 < np.max(np.abs(travel)) < 2.0  # inches
 
 
 def test_an_unstable_loop_trips_the_guard_and_stops_safely(tmp_path):

@@ -11,6 +11,7 @@ from models.quarter_car.hil import transmissibility
 from protocols.library import roads
 from protocols.reports.page import save
 from protocols.reports.plots import plt
+from protocols.units import Units
 
 HEADER = ("segment", "compensator", "J2 [%]", "delay [ms]", "probe delay [ms]", "residual delay [ms]",
           "body acc NRMSE [%]", "travel NRMSE [%]", "tire load NRMSE [%]", "damper [C]")
@@ -45,16 +46,16 @@ def table(events):
             for name, m in results(events)]
 
 
-def figures(ch, events, out):
-    """[(title, png)] of the road segments' plots."""
+def figures(ch, events, out, units=Units()):
+    """[(title, png)] of the road segments' plots, in `units`."""
     if "replay.target" in ch:
-        return _replay(ch, events, out)
+        return _replay(ch, events, out, units)
     found = results(events)
     if not found or "hil.x_target" not in ch:
         return []
-    figs = [("Damper motion: where the car wants it and where it was", save(_tracking(ch), out / "hil-tracking.png")),
+    figs = [("Damper motion: where the car wants it and where it was", save(_tracking(ch, units), out / "hil-tracking.png")),
             ("The car around the damper against the car around the damper model",
-             save(_responses(ch), out / "hil-responses.png"))]
+             save(_responses(ch, units), out / "hil-responses.png"))]
     for name, m in found:
         spec = m.get("road", "")
         if spec.startswith("sweep:"):
@@ -63,22 +64,24 @@ def figures(ch, events, out):
     return figs
 
 
-def _tracking(ch):
+def _tracking(ch, units):
+    X = lambda si: units.show("length", si)  # noqa: E731
+    x_label = units.label("damper x", "length")
     t, target = ch["hil.x_target"]
     measured = np.interp(t, *ch["x"])
     error = ch["hil.error"][1]
     fig, ax = plt.subplots(3, 1, figsize=(11, 8))
-    ax[0].plot(t, 1e3 * target, label="target (the car)")
-    ax[0].plot(t, 1e3 * measured, ":", label="measured (LVDT)")
-    ax[0].set(ylabel="damper x [mm]", title="The whole road")
+    ax[0].plot(t, X(target), label="target (the car)")
+    ax[0].plot(t, X(measured), ":", label="measured (LVDT)")
+    ax[0].set(ylabel=x_label, title="The whole road")
     i = int(np.argmax(np.abs(error)))  # half a second around the largest error
     k = (t >= t[i] - 0.25) & (t <= t[i] + 0.25)
-    ax[1].plot(t[k], 1e3 * target[k], label="target")
-    ax[1].plot(t[k], 1e3 * measured[k], ":", label="measured")
-    ax[1].plot(t[k], 1e3 * np.interp(t[k], *ch["hil.x_command"]), "--", lw=0.8, label="command sent")
-    ax[1].set(ylabel="damper x [mm]", title="Around the largest tracking error")
-    ax[2].plot(t, 1e3 * error, lw=0.6)
-    ax[2].set(xlabel="time [s]", ylabel="measured - target [mm]")
+    ax[1].plot(t[k], X(target[k]), label="target")
+    ax[1].plot(t[k], X(measured[k]), ":", label="measured")
+    ax[1].plot(t[k], X(np.interp(t[k], *ch["hil.x_command"])), "--", lw=0.8, label="command sent")
+    ax[1].set(ylabel=x_label, title="Around the largest tracking error")
+    ax[2].plot(t, X(error), lw=0.6)
+    ax[2].set(xlabel="time [s]", ylabel=units.label("measured - target", "length"))
     for a in ax:
         a.grid(alpha=0.3)
     ax[0].legend(fontsize=8)
@@ -86,7 +89,7 @@ def _tracking(ch):
     return fig
 
 
-def _responses(ch):
+def _responses(ch, units):
     """The three responses, whole run and one second about the largest body-acceleration
     difference; travel from static equilibrium (the reference's start, the car at rest)."""
     fig, ax = plt.subplots(3, 2, figsize=(11, 8), gridspec_kw={"width_ratios": [3, 1]})
@@ -95,18 +98,18 @@ def _responses(ch):
     i = int(np.argmax(np.abs(acc - np.interp(t, t_ref, acc_ref))))
     window = (t[i] - 0.5, t[i] + 0.5)
     static = ch["hil.ref.travel"][1][0]
-    for row, (hil, ref, label, scale, at) in enumerate((
-            ("hil.body_acc", "hil.ref.body_acc", "body acceleration [m/s^2]", 1.0, 0.0),
-            ("hil.x_target", "hil.ref.travel", "travel from static [mm]", 1e3, static),
-            ("hil.tire_load", "hil.ref.tire_load", "tire load [N]", 1.0, 0.0))):
+    for row, (hil, ref, name_, quantity, at) in enumerate((
+            ("hil.body_acc", "hil.ref.body_acc", "body acceleration", "acceleration", 0.0),
+            ("hil.x_target", "hil.ref.travel", "travel from static", "length", static),
+            ("hil.tire_load", "hil.ref.tire_load", "tire load", "force", 0.0))):
         for col, a in enumerate(ax[row]):
             for name, style, lw, alpha, label_ in ((ref, "-", 1.5, 0.7, "reference (damper model)"),
                                                    (hil, "-", 0.7, 1.0, "hardware in the loop")):
                 tt, v = ch[name]
                 k = slice(None) if col == 0 else (tt >= window[0]) & (tt <= window[1])
-                a.plot(tt[k], scale * (v[k] - at), style, lw=lw, alpha=alpha, label=label_)
+                a.plot(tt[k], units.show(quantity, v[k] - at), style, lw=lw, alpha=alpha, label=label_)
             a.grid(alpha=0.3)
-        ax[row][0].set(ylabel=label)
+        ax[row][0].set(ylabel=units.label(name_, quantity))
     ax[0][0].set_title("The whole road")
     ax[0][1].set_title("Largest difference (1 s)")
     ax[0][0].legend(fontsize=8)
@@ -132,7 +135,7 @@ def _transmissibility(ch, band):
     return fig
 
 
-def _replay(ch, events, out):
+def _replay(ch, events, out, units):
     """The NRMS error by iteration, and the last iteration's target, measured motion and
     drive."""
     errors = [(e["params"]["iteration"], e["params"]["nrmse"]) for e in events
@@ -148,11 +151,11 @@ def _replay(ch, events, out):
     for name, label, style in (("replay.target", "target", "-"), ("replay.drive", "drive sent", "--")):
         t, v = ch[name]
         k = t >= t0
-        ax[1].plot(t[k], 1e3 * v[k], style, lw=0.8, label=label)
+        ax[1].plot(t[k], units.show("length", v[k]), style, lw=0.8, label=label)
     t, e = ch["replay.error"]
     k = t >= t0
-    ax[1].plot(t[k], 1e3 * (ch["replay.target"][1][k] + e[k]), ":", lw=0.8, label="measured")
-    ax[1].set(xlabel="time [s]", ylabel="damper x [mm]", title=f"The last iteration ({last[-1]['segment']})")
+    ax[1].plot(t[k], units.show("length", ch["replay.target"][1][k] + e[k]), ":", lw=0.8, label="measured")
+    ax[1].set(xlabel="time [s]", ylabel=units.label("damper x", "length"), title=f"The last iteration ({last[-1]['segment']})")
     for a in ax:
         a.grid(alpha=0.3, which="both")
     ax[1].legend(fontsize=8)

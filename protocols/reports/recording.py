@@ -25,7 +25,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv; model: a damper model
     to overlay (the run's identified RECORDING.model.json when there is one); speeds [m/s]:
     the velocity table's (default velocities.toml); paper: report.pdf's, a4 or letter;
-    units: the tables', CSVs' and main figures' unit system. (index, [PNG paths])."""
+    units: the tables', CSVs', main and HIL figures' unit system. (index, [PNG paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -34,7 +34,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
     figures = (_sine_figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out)
                + _low_speed_figures(ch, segs, out) + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out)
-               + hil.figures(ch, events, out))
+               + hil.figures(ch, events, out, units))
     page = Page(f"Dyno report: {Path(path).name}")
     _header(page, meta, events, model)
     if rows:

@@ -32,10 +32,15 @@ REPLAY_MEANING = ("NRMS error: RMS(measured - target) over RMS(target about its 
                   "each drive is the last one corrected by its error through the rig's measured response.")
 
 
-def replay_table(events):
-    """[(iteration, NRMS error [%])] of a replay's iterations."""
-    return [(e["params"]["iteration"], f"{100 * e['params']['nrmse']:.3f}") for e in events
+def replay_errors(events):
+    """[(iteration, NRMS error [-])] of a replay's iterations."""
+    return [(e["params"]["iteration"], e["params"]["nrmse"]) for e in events
             if e["kind"] == "result" and "nrmse" in e["params"]]
+
+
+def replay_table(events):
+    """Rows (iteration, NRMS error [%]) of the replay table."""
+    return [(i, f"{100 * v:.3f}") for i, v in replay_errors(events)]
 
 
 def table(events):
@@ -103,11 +108,11 @@ def _responses(ch, units):
             ("hil.x_target", "hil.ref.travel", "travel from static", "length", static),
             ("hil.tire_load", "hil.ref.tire_load", "tire load", "force", 0.0))):
         for col, a in enumerate(ax[row]):
-            for name, style, lw, alpha, label_ in ((ref, "-", 1.5, 0.7, "reference (damper model)"),
-                                                   (hil, "-", 0.7, 1.0, "hardware in the loop")):
+            for name, lw, alpha, label_ in ((ref, 1.5, 0.7, "reference (damper model)"),
+                                            (hil, 0.7, 1.0, "hardware in the loop")):
                 tt, v = ch[name]
                 k = slice(None) if col == 0 else (tt >= window[0]) & (tt <= window[1])
-                a.plot(tt[k], units.show(quantity, v[k] - at), style, lw=lw, alpha=alpha, label=label_)
+                a.plot(tt[k], units.show(quantity, v[k] - at), lw=lw, alpha=alpha, label=label_)
             a.grid(alpha=0.3)
         ax[row][0].set(ylabel=units.label(name_, quantity))
     ax[0][0].set_title("The whole road")
@@ -138,8 +143,7 @@ def _transmissibility(ch, band):
 def _replay(ch, events, out, units):
     """The NRMS error by iteration, and the last iteration's target, measured motion and
     drive."""
-    errors = [(e["params"]["iteration"], e["params"]["nrmse"]) for e in events
-              if e["kind"] == "result" and "nrmse" in e["params"]]
+    errors = replay_errors(events)
     last = [e for e in events if e["kind"] == "segment_start" and e["params"].get("kind") == "road"]
     if not errors or not last:
         return []

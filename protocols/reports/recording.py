@@ -61,9 +61,10 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         page.heading("Hardware in the loop: measures against the reference (docs/hil.md)")
         page.table(hil.HEADER, hil.table(events))
         page.paragraph(hil.MEANING)
-    if hil.replay_table(events):
+    replayed = hil.replay_table(events)
+    if replayed:
         page.heading("Replay: the error of each iteration (docs/hil.md)")
-        page.table(("iteration", "NRMS error [%]"), hil.replay_table(events))
+        page.table(("iteration", "NRMS error [%]"), replayed)
         page.paragraph(hil.REPLAY_MEANING)
     for title, png in figures:
         page.figure(title, png)

@@ -18,11 +18,18 @@ run: $(STAMP)
 	$(VENV)/bin/dyno run standard --damper $(DAMPER) --out recordings/standard-$(DAMPER).mcap --overwrite
 	$(VENV)/bin/dyno report recordings/standard-$(DAMPER).mcap --out reports/standard-$(DAMPER) --overwrite
 
+# the browser tests' Chromium: Debian's package (Playwright's own download cannot reach its host)
+CHROMIUM ?= /usr/bin/chromium
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+$(CHROMIUM):
+	@command -v apt-get >/dev/null || { echo "make: the browser tests need Chromium at $(CHROMIUM) (or CHROMIUM=PATH)" >&2; exit 1; }
+	$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium >/dev/null
+
 # the suite in two parts: in parallel on two workers, then the tests against the wall clock
 # alone (a loaded machine would delay their processes past the 50 ms watchdog); each part
 # names its ten slowest tests (the suite's budget is 6 minutes on 2 cores)
-test: $(STAMP)
-	$(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup -m "not slow and not realtime" --durations=10
+test: $(STAMP) $(CHROMIUM)
+	DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup -m "not slow and not realtime" --durations=10
 	$(VENV)/bin/python -m pytest -q -m "realtime and not slow" --durations=10
 
 # the readers' fuzzers at length (the suite runs 30 examples each): 10,000 examples per reader

@@ -22,6 +22,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from models.recording import segments
+from protocols.io.files import writer
 from protocols.io.reader import load_recording
 from protocols.reports import peaks as peak_rows
 from protocols.reports import velocity_table as vt
@@ -60,6 +61,7 @@ class Indexed:
     updated: int = 0
     unchanged: int = 0
     failed: int = 0
+    writing: int = 0  # being recorded now: indexed once finished
 
 
 def connect(folder) -> sqlite3.Connection:
@@ -92,11 +94,12 @@ def describe(path):
 
 
 def index(folder) -> Indexed:
-    """Index every *.mcap under folder (recursively) into its catalogue."""
+    """Index every *.mcap under folder (recursively) into its catalogue, but those a run
+    is writing now."""
     out = Indexed()
     with connect(folder) as c:
         for path in sorted(Path(folder).rglob("*.mcap")):
-            out_kind = index_file(c, path)
+            out_kind = "writing" if writer(path) else index_file(c, path)
             setattr(out, out_kind, getattr(out, out_kind) + 1)
     return out
 
@@ -187,6 +190,12 @@ def attached(c: sqlite3.Connection, table, run_id) -> list[sqlite3.Row]:
     if table not in ("checks", "models", "diagnoses"):
         raise CatalogueError(f"no table {table!r}")
     return c.execute(f"SELECT * FROM {table} WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
+
+
+def latest_checks(c: sqlite3.Connection) -> dict[int, sqlite3.Row]:
+    """{run id: its last QA check}."""
+    return {r["run_id"]: r for r in c.execute(
+        "SELECT * FROM checks WHERE rowid IN (SELECT MAX(rowid) FROM checks GROUP BY run_id)")}
 
 
 def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=None) -> list[sqlite3.Row]:

@@ -192,7 +192,8 @@ class Sequence:
     def __call__(self, t, readings):
         self.t = t
         if self.t0 is None:
-            self.event(t, "run_start", name=self.module.NAME, params=as_dict(self.params))
+            self.event(t, "run_start", name=self.module.NAME, params=as_dict(self.params),
+                       message=f"{len(self.segments)} segments, {sum(s.duration for s in self.segments):.0f} s at most")
             for name, why in self.skipped:
                 self.event(t, "skipped", name=name, params={}, message=why)
             self.t0 = t

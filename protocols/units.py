@@ -43,6 +43,12 @@ class Units:
         return f"{name}_{self.unit(quantity).replace('/', '_')}"
 
 
+def quantity_of(si_unit: str) -> str | None:
+    """The quantity an SI unit measures ('N' -> 'force'), or None (a recording's channels
+    carry SI unit names)."""
+    return next((q for q, (u, _, _) in SYSTEMS["si"].items() if u == si_unit), None)
+
+
 def fmt(x, digits=4) -> str:
     """A value to `digits` significant digits in fixed point ('-' for none): 1403, 12.68, 0.3170."""
     if x is None or not np.isfinite(x):

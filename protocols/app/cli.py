@@ -262,6 +262,12 @@ def _catalogue_commands(sub):
     rt.add_argument("--quantity", required=True, help="DIRECTION@SPEED, e.g. rebound@0.5m/s or compression@10in/s")
     rt.add_argument("--out", help="also plot it to this PNG")
     rt.set_defaults(command="runs:trend")
+    sv = sub.add_parser("serve", help="the runs in a browser: table, reports, comparisons, trends, QA, live runs")
+    sv.add_argument("dir", nargs="?", default="recordings")
+    sv.add_argument("--port", type=number(0, 65535, integer=True), default=8050,
+                    help="port on 127.0.0.1 (default 8050; 0 picks a free one)")
+    _units(sv)
+    sv.set_defaults(command="serve")
 
 
 def _diagnose_command(sub):
@@ -359,64 +365,49 @@ def _analysis_commands(sub):
     im.set_defaults(command="import_csv")
 
 
+def _bench(bsub, name, help):
+    """A benchmark's parser: its numbers as text, --json or stamped --markdown."""
+    b = bsub.add_parser(name, help=help)
+    b.add_argument("--json", action="store_true")
+    b.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
+    b.set_defaults(command=f"bench:{name}")
+    return b
+
+
 def _bench_commands(sub):
     """Benchmarks (measured numbers, not tests)."""
     b = sub.add_parser("bench", help="benchmarks (not tests)")
     bsub = b.add_subparsers(dest="what", required=True)
-    bs = bsub.add_parser("sim", help="compressible model speed vs a solve_ivp Radau reference")
-    bs.add_argument("--json", action="store_true")
-    bs.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
+    bs = _bench(bsub, "sim", help="compressible model speed vs a solve_ivp Radau reference")
     bs.add_argument("--seconds", type=number(above=0, hi=3600), default=10.0, help="simulated seconds (default 10)")
     bs.add_argument("--ref-seconds", type=number(above=0, hi=3600), default=None,
                     help="simulate only this much with the slow reference (default: all)")
-    bs.set_defaults(command="bench:sim")
-    bw = bsub.add_parser("sweep", help="quarter-car frequency sweep time (2 amplitudes x 60 frequencies, Koni)")
-    bw.add_argument("--json", action="store_true")
-    bw.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
+    bw = _bench(bsub, "sweep", help="quarter-car frequency sweep time (2 amplitudes x 60 frequencies, Koni)")
     bw.add_argument("--workers", type=number(1, 256, integer=True), default=None,
                     help="processes (default: all cores)")
     _cluster_option(bw)
-    bw.set_defaults(command="bench:sweep")
-    bg = bsub.add_parser("log", help="samples per second into MCAP against a protocol's data rate")
+    bg = _bench(bsub, "log", help="samples per second into MCAP against a protocol's data rate")
     bg.add_argument("--seconds", type=number(above=0, hi=3600), default=5.0)
-    bg.add_argument("--json", action="store_true")
-    bg.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
-    bg.set_defaults(command="bench:log")
-    bi = bsub.add_parser("identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")
+    bi = _bench(bsub, "identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")
     bi.add_argument("recording", nargs="?", default=None,
                     help="a standard-sequence recording (default: record one on the virtual rig first, ~4 min)")
     bi.add_argument("--damper", default="koni",
                     help="damper(s) for the recording made first, comma-separated (default koni)")
     bi.add_argument("--truth", action="store_true", help="compare with the damper the rig ran (the round trip)")
-    bi.add_argument("--json", action="store_true")
-    bi.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
-    bi.set_defaults(command="bench:identify")
-    bd = bsub.add_parser("diagnose", help="dyno diagnose's time on 60 s recorded at 5 kHz (goal < 3 min)")
+    bd = _bench(bsub, "diagnose", help="dyno diagnose's time on 60 s recorded at 5 kHz (goal < 3 min)")
     bd.add_argument("--seconds", type=number(above=0, hi=3600), default=60.0)
     bd.add_argument("--rate", type=number(above=0, hi=100000), default=5000.0, help="sample rate [Hz] (default 5000)")
-    bd.add_argument("--json", action="store_true")
-    bd.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
-    bd.set_defaults(command="bench:diagnose")
-    bh = bsub.add_parser("hil", help="hardware-in-the-loop tracking of each compensator on three roads")
+    bh = _bench(bsub, "hil", help="hardware-in-the-loop tracking of each compensator on three roads")
     bh.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
-    bh.add_argument("--json", action="store_true")
-    bh.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
-    bh.set_defaults(command="bench:hil")
-    bc = bsub.add_parser("cluster", help="prove and a sweep on one worker and on a Dask LocalCluster")
+    bc = _bench(bsub, "cluster", help="prove and a sweep on one worker and on a Dask LocalCluster")
     bc.add_argument("--workers", type=number(1, 64, integer=True), default=2, help="cluster workers (default 2)")
     bc.add_argument("--prove-tasks", type=number(1, 1000, integer=True), default=6,
                     help="prove runs (default 6, about a minute each)")
     bc.add_argument("--sweep-tasks", type=number(1, 10000, integer=True), default=60,
                     help="harmonic points (default 60)")
-    bc.add_argument("--json", action="store_true")
-    bc.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
-    bc.set_defaults(command="bench:cluster")
-    bl = bsub.add_parser("loop", help="control loop timing in real time against sim-rig in a separate process")
+    bl = _bench(bsub, "loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
-    bl.add_argument("--json", action="store_true")
-    bl.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
-    bl.set_defaults(command="bench:loop")
 
 
 def main(argv=None):

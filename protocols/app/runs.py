@@ -30,7 +30,8 @@ def _connect(args):
 def index(args):
     n = catalogue.index(_folder(args))
     print(f"{args.dir}: {n.added} added, {n.updated} updated, {n.unchanged} unchanged, {n.failed} unreadable "
-          f"(kept with their error) -> {Path(args.dir) / catalogue.DB_NAME}")
+          f"(kept with their error)" + (f", {n.writing} being recorded (indexed once finished)" if n.writing else "")
+          + f" -> {Path(args.dir) / catalogue.DB_NAME}")
     return 0
 
 
@@ -107,15 +108,7 @@ def trend(args):
     print(md.table(("started", f"{args.quantity} [N]", "run id"),
                    [(s, "-" if np.isnan(F) else f"{F:.0f}", i) for s, F, i in points]))
     if args.out:
-        from protocols.reports.plots import plt
-        from protocols.reports.page import save
-        fig, ax = plt.subplots(figsize=(7, 3.8))
-        ok = [(s, F) for s, F, _ in points if not np.isnan(F)]
-        ax.plot([s[:16] for s, _ in ok], [F for _, F in ok], "o-")
-        ax.set_title(f"{args.serial}: {args.quantity}")
-        ax.set_ylabel("force [N]")
-        ax.tick_params(axis="x", labelrotation=30, labelsize=7)
-        ax.grid(alpha=0.3)
-        save(fig, Path(args.out))
+        from protocols.reports import trend as trend_report
+        trend_report.figure(points, args.serial, args.quantity, args.out)
         print(f"figure: {args.out}", file=sys.stderr)
     return 0

@@ -292,3 +292,22 @@ class Claim:
             pass
         os.close(self.lock_fd)
         self.lock_fd = None
+
+
+def writer(target) -> int | None:
+    """The process writing the recording `target` (by its Claim's lock file), or None when
+    no live process holds it. Read-only: the lock is only looked at, never taken."""
+    lock = Path(target).with_name(Path(target).name + ".lock")
+    try:
+        pid = int(lock.read_text().strip() or 0)
+    except (OSError, ValueError):
+        return None
+    if pid <= 0:
+        return None
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return None
+    except PermissionError:  # alive, another user's
+        pass
+    return pid

@@ -252,6 +252,34 @@ def _record_at(data, pos):
     return [rec], end
 
 
+def _passed(data, pos):
+    """The end of a whole record at pos that need not be kept (header, indexes, summary), or None."""
+    if data[pos] in (Opcode.HEADER, Opcode.DATA_END, Opcode.FOOTER, Opcode.STATISTICS, Opcode.CHUNK_INDEX,
+                     Opcode.MESSAGE_INDEX, Opcode.METADATA_INDEX, Opcode.ATTACHMENT_INDEX, Opcode.SUMMARY_OFFSET):
+        length = int.from_bytes(data[pos + 1:pos + 9], "little")
+        if pos + 9 + length <= len(data) and length < 1 << 32:
+            return pos + 9 + length
+    return None
+
+
+def intact_from(data, pos=0):
+    """(records, end) of the whole records from pos up to the first one not yet whole: what
+    a recording being written holds so far (its flushed chunks); read on from end later."""
+    out = []
+    if pos == 0 and data[:8] == MCAP0_MAGIC:
+        pos = 8
+    while pos + 9 <= len(data):
+        recs, end = _record_at(data, pos)
+        if recs is None:
+            end = _passed(data, pos)
+            if end is None:
+                break
+        else:
+            out.extend(recs)
+        pos = end
+    return out, pos
+
+
 def scan(data):
     """(records, bytes skipped): every intact schema, channel, metadata, attachment and
     every message of every intact chunk, in file order, resynchronising after damage (a
@@ -264,13 +292,10 @@ def scan(data):
             out.extend(recs)
             pos = end
             continue
-        if data[pos] in (Opcode.HEADER, Opcode.DATA_END, Opcode.FOOTER, Opcode.STATISTICS, Opcode.CHUNK_INDEX,
-                         Opcode.MESSAGE_INDEX, Opcode.METADATA_INDEX, Opcode.ATTACHMENT_INDEX,
-                         Opcode.SUMMARY_OFFSET):
-            length = int.from_bytes(data[pos + 1:pos + 9], "little")
-            if pos + 9 + length <= len(data) and length < 1 << 32:  # a record we need not keep
-                pos += 9 + length
-                continue
+        end = _passed(data, pos)
+        if end is not None:
+            pos = end
+            continue
         m = _CANDIDATE.search(data, pos + 1)
         nxt = m.start() if m else len(data)
         skipped += nxt - pos

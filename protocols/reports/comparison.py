@@ -24,8 +24,16 @@ MARKERS = "os^Dv<>p"  # one per amplitude
 
 
 def _run(path):
+    """(peaks, metadata, the fastest sine segment's loop (velocity, displacement, force)
+    keyed by segment)."""
     ch, events, meta = load_recording(path)
-    return peaks.peaks(ch, segments(events), damper=peaks.recorded_damper(meta)), meta
+    segs = segments(events)
+    rows = peaks.peaks(ch, segs, damper=peaks.recorded_damper(meta))
+    loops = {}
+    for name, _, t0, t1 in peaks.sines(segs):
+        _, (F, x, v) = peaks.window(ch, ("force", "x", "v"), t0, t1)
+        loops[name] = (v, x, F)
+    return rows, meta, loops
 
 
 def run_name(meta, path) -> str:
@@ -65,6 +73,8 @@ def compare(paths, out_dir, units=Units()):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs = [(string.ascii_uppercase[i % 26], path, *_run(path)) for i, path in enumerate(paths)]
+    loops = {tag: loop for tag, _, _, _, loop in runs}
+    runs = [r[:4] for r in runs]
     page = Page("Dyno comparison: " + ", ".join(f"{tag} {run_name(meta, path)}" for tag, path, _, meta in runs))
     for tag, path, _, meta in runs:
         run = meta.get("run", {})
@@ -96,6 +106,10 @@ def compare(paths, out_dir, units=Units()):
                     for tag, a, fr, Tt, c0, c, dc, r0, r, dr in diffs])
         pngs.append(out / _composite(runs, out, units))
         page.figure("Composite curves, one colour per run", pngs[-1].name)
+        drawn = _loops(runs, loops, out, units)
+        if drawn:
+            pngs.append(out / drawn[1])
+            page.figure(*drawn)
     else:
         page.paragraph(f"No run shares a sine segment with {first[0]} (same amplitude, frequency and target "
                        "temperature): nothing to compare.")
@@ -131,3 +145,28 @@ def _composite(runs, out, units):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
     return save(fig, out / "compare_composite.png")
+
+
+def _loops(runs, loops, out, units):
+    """(title, PNG) of the loops of the fastest segment every run shares with the first,
+    overlaid: force against velocity and against displacement, one colour per run; None
+    when no segment is in every run."""
+    shared = set.intersection(*({p.key for p in rows} for _, _, rows, _ in runs))
+    if not shared:
+        return None
+    first = max((p for p in runs[0][2] if p.key in shared), key=lambda p: p.v_comp)
+    V, X, F = (lambda si, q=q: units.show(q, si) for q in ("velocity", "length", "force"))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    for i, (tag, path, rows, meta) in enumerate(runs):
+        name = next(p.segment for p in rows if p.key == first.key)
+        if name not in loops[tag]:
+            continue
+        v, x, f = loops[tag][name]
+        for ax, along in zip(axes, (V(v), X(x))):
+            ax.plot(along, F(f), lw=0.8, color=f"C{i % 10}", label=f"{tag}: {run_name(meta, path)}")
+    for ax, (what, q) in zip(axes, (("velocity", "velocity"), ("displacement", "length"))):
+        ax.set(title=f"{first.segment}: force vs {what}", xlabel=units.label(what, q), ylabel=units.label("force", "force"))
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, loc="upper left")
+    return (f"Loops of {first.segment}, the fastest segment every run shares (compression positive)",
+            save(fig, out / "compare_loops.png"))

@@ -25,7 +25,7 @@ class LayoutWarning(UserWarning):
 def _drawn_ticks(axis):
     """The tick labels drawn: those within the axis's view (matplotlib keeps more)."""
     lo, hi = sorted(axis.get_view_interval())
-    eps = 1e-9 * max(abs(lo), abs(hi), 1.0)
+    eps = 1e-6 * (hi - lo)  # of the span: dates are large numbers a second apart
     return [t.label1 for t, loc in zip(axis.get_major_ticks(), axis.get_majorticklocs()) if lo - eps <= loc <= hi + eps]
 
 

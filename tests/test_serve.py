@@ -1,0 +1,178 @@
+"""`dyno serve`: the run catalogue in a real browser (headless Chromium driven by
+Playwright, installed by `make test`): open the runs page, filter and search it, compare
+runs, see a QA verdict, a run's report, a trend, and a run while it is being recorded; a
+corrupt file is one row and breaks nothing."""
+import json
+import os
+import shutil
+import threading
+
+import numpy as np
+import pytest
+
+from protocols.app.cli import main as dyno
+from protocols.units import Units
+from protocols.web import create_app
+
+pytestmark = pytest.mark.xdist_group("browser")
+
+
+def _record(folder, name, damper, serial, note):
+    """A short sine matrix on the direct cell, recorded as `dyno run` records it."""
+    from models.damper import to_dict
+    from protocols import cell, runner
+    from protocols.io.recording import Recorder
+    from protocols.library import PROTOCOLS
+    from protocols.plan import Plan, as_dict
+    from rig import config as rig_config
+    module = PROTOCOLS["sine-matrix"]
+    params = module.Params(amplitudes_mm=[12.7], freqs_hz=[1.0, 4.0], record_cycles=2)
+    with cell.direct(rig_config.load("virtual"), damper) as c:
+        rec = Recorder(folder / name, c.config, json.dumps(to_dict(c.damper)), module.NAME, as_dict(params),
+                       wall_start=c.rig.wall_start, run_info={"damper_serial": serial, "note": note})
+        try:
+            result = runner.run_plan(Plan(module, params), c, [rec])
+        finally:
+            rec.close()
+    assert result.fault is None
+
+
+@pytest.fixture(scope="module")
+def runs_folder(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("runs")
+    _record(folder, "k12-before.mcap", "koni", "K-12", "before service")
+    _record(folder, "k12-after.mcap", "koni", "K-12", "after service")
+    _record(folder, "m3.mcap", "mechformance", "M-3", "re-valved")
+    (folder / "broken.mcap").write_bytes(b"\x89MCAP0\r\n" + os.urandom(300))
+    # a QA check that fails: the Mechformance against the Koni's reference run
+    assert dyno(["check", str(folder / "m3.mcap"), "--against", str(folder / "k12-before.mcap")]) == 1
+    return folder
+
+
+@pytest.fixture(scope="module")
+def server(runs_folder, tmp_path_factory):
+    from werkzeug.serving import make_server
+    app = create_app(runs_folder, Units("metric"), tmp_path_factory.mktemp("made"), reindex_s=0.0)
+    srv = make_server("127.0.0.1", 0, app, threaded=True)
+    thread = threading.Thread(target=srv.serve_forever, daemon=True)
+    thread.start()
+    yield f"http://127.0.0.1:{srv.server_port}"
+    srv.shutdown()
+    thread.join(10)
+
+
+@pytest.fixture(scope="module")
+def page(server):
+    from playwright.sync_api import sync_playwright
+    chromium = os.environ.get("DYNO_CHROMIUM") or shutil.which("chromium")
+    if chromium is None:
+        pytest.fail("no chromium: `make test` installs Debian's chromium (or set DYNO_CHROMIUM to a Chromium)")
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", "--no-first-run"])
+        pg = browser.new_page()
+        pg.set_default_timeout(60_000)
+        yield pg
+        browser.close()
+
+
+def _rows(page):
+    return page.locator("#runs tr").count() - 1
+
+
+def test_the_runs_page_lists_every_run_and_the_corrupt_file_as_one_row(page, server):
+    page.goto(server + "/")
+    assert _rows(page) == 4
+    assert "unreadable" in page.locator("#runs tr.unreadable").inner_text()
+    assert page.locator("#count").inner_text() == "4 runs"
+    # the QA column carries the last check's verdict
+    assert page.locator("#runs td.qa", has_text="FAIL").count() == 1
+
+
+def test_filter_by_serial_search_and_sort(page, server):
+    page.goto(server + "/")
+    page.select_option("select[name=serial]", "K-12")
+    page.click("#filter button[type=submit]")
+    page.wait_for_url("**serial=K-12**")
+    assert _rows(page) == 2 and page.locator("#runs", has_text="M-3").count() == 0
+    page.goto(server + "/")
+    page.fill("input[name=q]", "re-valved")
+    page.press("input[name=q]", "Enter")
+    page.wait_for_url("**q=re-valved**")
+    assert _rows(page) == 1 and "m3.mcap" in page.locator("#runs").inner_text()
+    page.goto(server + "/?where=clicks")
+    assert "not FIELD OP VALUE" in page.locator("#error").inner_text()
+    page.goto(server + "/")
+    page.click("#runs th a:text('serial')")
+    first = page.locator("#runs tr").nth(1).inner_text()
+    page.click("#runs th a:text('serial')")  # again: descending
+    assert page.locator("#runs tr").nth(1).inner_text() != first
+
+
+def test_two_runs_compared_overlaid(page, server):
+    page.goto(server + "/?serial=K-12")
+    for box in page.locator("#runs input[type=checkbox]").all():
+        box.check()
+    page.click("#compare")
+    page.wait_for_url("**/compare?**")
+    assert "Comparison of 2 runs" in page.locator("h1").inner_text()
+    frame = page.frame_locator("#comparison")
+    assert "Dyno comparison" in frame.locator("h1").inner_text()
+    for img in (frame.locator("img[src='compare_composite.png']"), frame.locator("img[src='compare_loops.png']")):
+        img.wait_for()
+        assert img.evaluate("i => i.complete && i.naturalWidth") > 300
+
+
+def test_the_qa_verdict_and_a_runs_report(page, server):
+    page.goto(server + "/qa")
+    row = page.locator("#qa tr.fail")
+    assert row.count() == 1 and "FAIL" in row.locator(".verdict").inner_text()
+    assert "k12-before.mcap" in row.inner_text()
+    row.locator("a").first.click()
+    page.wait_for_url("**/run/*")
+    assert "M-3" in page.locator("h1").inner_text()
+    assert "FAIL" in page.locator("#checks").inner_text()
+    report = page.frame_locator("#report")
+    assert "Dyno report: m3.mcap" in report.locator("h1").inner_text()
+
+
+def test_a_serials_trend(page, server):
+    page.goto(server + "/trend")
+    page.select_option("select[name=serial]", "K-12")
+    page.fill("input[name=quantity]", "rebound@0.1m/s")
+    page.click("#trend button")
+    page.wait_for_url("**/trend?**")
+    assert page.locator("#points tr").count() == 3  # a header and two runs
+    assert page.locator("img[alt=trend]").evaluate("i => i.complete && i.naturalWidth") > 300
+
+
+def test_a_run_in_progress_shows_its_progress_readings_and_trip(page, server, runs_folder):
+    from protocols.io.recording import Recorder
+    from rig import config as rig_config
+    page.goto(server + "/live")
+    assert page.locator("#none").count() == 1
+    rec = Recorder(runs_folder / "now.mcap", rig_config.load("virtual"), json.dumps({"name": "koni"}), "sine-matrix",
+                   {}, run_info={"damper_serial": "K-99"})
+    try:
+        rec.event(0.0, "run_start", "sine-matrix", {}, "3 segments, 30 s at most")
+        rec.event(0.0, "segment_start", "sine 12.7 mm 1 Hz")
+        t = np.arange(0.0, 2.0, 0.001)
+        rec.samples({"force": (t, 400.0 + 0 * t), "T_body": (t, 293.15 + 0 * t)})
+        rec.flush()
+        page.goto(server + "/live")
+        text = page.locator("section.live").inner_text()
+        assert "koni · K-99" in text and "segment 1 of 3: sine 12.7 mm 1 Hz" in text and "2.0 s" in text, text
+        assert "20 | C" in text.replace("\t", " | ") and "Live (1 recording)" in page.locator("#live-link").inner_text()
+        rec.event(2.0, "fault", "sine 12.7 mm 1 Hz", {}, "force 9000 N beyond the load cell's 8000 N")
+        page.goto(server + "/live")
+        assert "Tripped: force 9000 N" in page.locator(".trip").inner_text()
+        page.goto(server + "/")
+        assert "now.mcap" not in page.locator("#runs").inner_text()  # being written: not yet a run
+    finally:
+        rec.close()
+    page.goto(server + "/live")
+    assert page.locator("#none").count() == 1
+    page.goto(server + "/")
+    tripped = page.locator("#runs tr.tripped")
+    assert "now.mcap" in tripped.inner_text() and "force 9000 N" in tripped.inner_text()

@@ -6,9 +6,9 @@ its next tests, given a budget) and the table of many.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import tempfile
+from contextlib import closing
 from pathlib import Path
 
 import numpy as np
@@ -120,12 +120,10 @@ def run_task(task):
 
 def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None, budget_s=0.0):
     from models.damper import load as load_damper
-    from models.damper import to_dict
     from models.diagnose import diagnose
     from protocols.discover import discover
     from protocols.io.reader import load_recording
-    from protocols.io.recording import Recorder
-    from protocols.plan import as_dict
+    from protocols.io.recording import for_run
     from sim_backend.effects import plant_options
     out = Path(folder) / f"{effect or 'null'}-{form or 'default'}-{size:g}-{noise:g}-{rate:g}-{seed}.mcap"
     specs = ([f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()]
@@ -134,14 +132,10 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
     damper = load_damper(plant.pop("damper"))
     plan = prove_plan()
     with cell.embedded(damper, rig_config.at_rate(rig_config.load("virtual"), rate), **plant) as c:
-        rec = Recorder(out, c.config, json.dumps(to_dict(damper)), plan.name, as_dict(plan.params),
-                       wall_start=c.rig.wall_start, overwrite=True)
-        try:
+        with closing(for_run(out, c, plan, overwrite=True)) as rec:
             found = discover(plan, c, [rec], budget_s) if budget_s else None
             if found is None:  # a run that tripped is diagnosed on what it recorded, as a user's would be
                 runner.run_plan(plan, c, [rec])
-        finally:
-            rec.close()
     ch, ev, _ = load_recording(out)
     r = found.diagnosis if found else diagnose(ch, ev)
     rounds = found.rounds if found else []

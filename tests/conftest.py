@@ -19,25 +19,19 @@ def koni_run(tmp_path_factory):
     """(recording, the run's result) of the standard protocol on the Koni, shortened, on the
     direct cell through the run API: the identification and the report read it, not the
     wires (the same run through the embedded rig's wires took 285 s, this 43 s)."""
-    import json
+    from contextlib import closing
 
-    from models.damper import to_dict
     from protocols import cell, runner
-    from protocols.io.recording import Recorder
+    from protocols.io.recording import for_run
     from protocols.library import PROTOCOLS
-    from protocols.plan import Plan, as_dict
+    from protocols.plan import Plan
     from rig import config as rig_config
     out = tmp_path_factory.mktemp("id") / "std.mcap"
     module = PROTOCOLS["standard"]
-    params = module.Params(static_points=5, amplitudes_mm=[12.7, 6.4, 3.2, 1.6], freqs_hz=[1.0, 4.0, 16.0],
-                           targets_c=[45.0])
-    with cell.direct(rig_config.load("virtual"), "koni") as c:
-        rec = Recorder(out, c.config, json.dumps(to_dict(c.damper)), module.NAME, as_dict(params),
-                       wall_start=c.rig.wall_start)
-        try:
-            result = runner.run_plan(Plan(module, params), c, [rec])
-        finally:
-            rec.close()
+    plan = Plan(module, module.Params(static_points=5, amplitudes_mm=[12.7, 6.4, 3.2, 1.6], freqs_hz=[1.0, 4.0, 16.0],
+                                      targets_c=[45.0]))
+    with cell.direct(rig_config.load("virtual"), "koni") as c, closing(for_run(out, c, plan)) as rec:
+        result = runner.run_plan(plan, c, [rec])
     assert result.fault is None, result.fault
     return out, result
 

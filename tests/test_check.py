@@ -62,3 +62,32 @@ def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_dam
     checks = json.loads(p.stdout)["checks"]
     assert [k["failed"] > 0 for k in checks] == [False, False, True], p.stderr
     assert checks[2]["reference"].startswith("model mechformance") and checks[2]["worst_margin_n"] < 0
+
+
+def test_a_warmer_run_is_compensated_to_its_references_temperature_with_its_model(tmp_path):
+    """The same damper at 20 C and at 60 C: the warm run fails against the cool one (thinner
+    oil), passes once moved to 20 C with a model of it (here the plant's own, as a perfect
+    identification would give), and says which it did."""
+    from contextlib import closing
+
+    from models.damper import load, to_dict
+    from protocols import cell, runner
+    from protocols.io.recording import for_run
+    from protocols.library import PROTOCOLS
+    from protocols.plan import Plan
+    from rig import config as rig_config
+    module = PROTOCOLS["sine-matrix"]
+    plan = Plan(module, module.Params(amplitudes_mm=[12.7], freqs_hz=[0.5, 2.0, 8.0], record_cycles=2))
+    for name, T0 in (("cool", 293.15), ("warm", 333.15)):
+        with cell.direct(rig_config.load("virtual"), "koni", T0=T0) as c, \
+                closing(for_run(tmp_path / f"{name}.mcap", c, plan)) as rec:
+            runner.run_plan(plan, c, [rec])
+    warm, cool, tol = tmp_path / "warm.mcap", tmp_path / "cool.mcap", qa.parse_tolerance("3%")
+    plain = qa.check(warm, cool, tol)
+    assert plain.compensation.startswith("not compensated for temperature: the run averaged 5")  # cooling from 60 C
+    assert "the reference 20 C, and the run has no identified model (warm.model.json" in plain.compensation
+    assert not all(r.passed for r in plain.results)
+    (tmp_path / "warm.model.json").write_text(json.dumps(to_dict(load("koni"))))
+    moved = qa.check(warm, cool, tol)
+    assert moved.compensation.startswith("compensated for temperature: the run's forces moved from its 5")
+    assert all(r.passed for r in moved.results), [(r.v_m_s, r.direction, r.margin_N) for r in moved.results]

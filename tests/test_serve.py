@@ -6,6 +6,7 @@ import json
 import os
 import shutil
 import threading
+from contextlib import closing
 
 import numpy as np
 import pytest
@@ -19,21 +20,16 @@ pytestmark = pytest.mark.xdist_group("browser")
 
 def _record(folder, name, damper, serial, note):
     """A short sine matrix on the direct cell, recorded as `dyno run` records it."""
-    from models.damper import to_dict
     from protocols import cell, runner
-    from protocols.io.recording import Recorder
+    from protocols.io.recording import for_run
     from protocols.library import PROTOCOLS
-    from protocols.plan import Plan, as_dict
+    from protocols.plan import Plan
     from rig import config as rig_config
     module = PROTOCOLS["sine-matrix"]
-    params = module.Params(amplitudes_mm=[12.7], freqs_hz=[1.0, 4.0], record_cycles=2)
-    with cell.direct(rig_config.load("virtual"), damper) as c:
-        rec = Recorder(folder / name, c.config, json.dumps(to_dict(c.damper)), module.NAME, as_dict(params),
-                       wall_start=c.rig.wall_start, run_info={"damper_serial": serial, "note": note})
-        try:
-            result = runner.run_plan(Plan(module, params), c, [rec])
-        finally:
-            rec.close()
+    plan = Plan(module, module.Params(amplitudes_mm=[12.7], freqs_hz=[1.0, 4.0], record_cycles=2))
+    with cell.direct(rig_config.load("virtual"), damper) as c, \
+            closing(for_run(folder / name, c, plan, {"damper_serial": serial, "note": note})) as rec:
+        result = runner.run_plan(plan, c, [rec])
     assert result.fault is None
 
 

@@ -220,6 +220,16 @@ class Recorder:
                            f"flush is kept: run `dyno recover {self.path}`")
 
 
+def for_run(path, cell, plan, run_info=None, overwrite=False) -> Recorder:
+    """The recorder of a plan run on a cell (protocols/cell.py): its damper, protocol and
+    parameters, on the rig's clock; run_info as `dyno run` gives it (damper_serial, note...).
+    Close it after the run (contextlib.closing)."""
+    from models.damper import to_dict
+    from protocols.plan import as_dict
+    return Recorder(path, cell.config, json.dumps(to_dict(cell.damper)), plan.name, as_dict(plan.params),
+                    wall_start=cell.rig.wall_start, overwrite=overwrite, run_info=run_info)
+
+
 # records worth keeping, and how a resync finds a candidate: opcode, then a little-endian
 # u64 length below 2^32 (the high four bytes zero)
 _KEEP = {Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel, Opcode.CHUNK: Chunk, Opcode.METADATA: Metadata,

@@ -1,13 +1,25 @@
 """Production QA: a run's force at the velocity table's speeds against a reference (another
 run, or a damper model along this run's own motion), inside a tolerance band: pass or
-fail per speed and direction, with the margin left. SI inside (m/s, N)."""
+fail per speed and direction, with the margin left. SI inside (m/s, N).
+
+Where a run was tested warmer or cooler than its reference run, its forces are moved to the
+reference's temperature with the run's identified model (RECORDING.model.json, from
+`dyno identify`): each peak gains what the model gives at the reference's temperature less
+what it gives at the run's, along the run's own motion (oil viscosity and the gas charge
+follow temperature: thesis eqs 3.3 and 3.19). Below COMPENSATE_K apart nothing is moved."""
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from models.damper import DamperError
+from models.damper import load as load_damper
+from models.recording import segments
+from protocols.io.reader import load_recording
+from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
 from protocols.reports.plots import plt
 from protocols.reports.page import save
@@ -73,6 +85,56 @@ def verdicts(run_rows, ref_rows, tol: Tolerance, speeds=None, units=Units()) -> 
             if np.isfinite(m) and np.isfinite(r):
                 out.append(Verdict(a.v_m_s, direction, r, m, float(tol.band(r))))
     return out
+
+
+COMPENSATE_K = 2.0  # runs further apart than this in body temperature are compensated
+
+
+@dataclass
+class Check:
+    results: list  # [Verdict]
+    reference: str  # what the run was checked against, in words
+    compensation: str = ""  # how temperature was compensated, or why it could not be; "" when not needed
+
+
+def _rows(path, model=None, at_K=None):
+    """The recording's peaks; with a model, its force at the same instants (at the body
+    temperature measured, or at at_K [K] for every segment when given)."""
+    ch, events, meta = load_recording(path)
+    if at_K is not None and "T_body" in ch:
+        t = ch["T_body"][0]
+        ch = {**ch, "T_body": (t, np.full(len(t), at_K))}
+    return peaks.peaks(ch, segments(events), damper=peaks.recorded_damper(meta), model=model)
+
+
+def check(path, against, tol: Tolerance, units=Units()) -> Check:
+    """A run (path) against a reference: another run (a .mcap path) or a damper model (a
+    preset's name or FILE.json) along the run's own motion. RigError, DamperError or
+    ValueError name what cannot be read."""
+    if Path(against).suffix != ".mcap":
+        model = load_damper(str(against))
+        run = _rows(path, model)
+        return Check(verdicts(run, model_rows(run), tol, units=units), f"model {model.name} along this run's motion")
+    run, ref = _rows(path), _rows(against)
+    T_run, T_ref = (np.nanmean([p.T_c for p in rows]) if rows else np.nan for rows in (run, ref))
+    note = ""
+    if abs(T_run - T_ref) > COMPENSATE_K:
+        identified = Path(path).with_suffix(".model.json")
+        try:
+            model = load_damper(str(identified))
+        except (DamperError, OSError, ValueError):
+            model = None
+        if model is None:
+            note = (f"not compensated for temperature: the run averaged {T_run:.0f} C, the reference "
+                    f"{T_ref:.0f} C, and the run has no identified model ({identified.name}: dyno identify)")
+        else:
+            at_run, at_ref = _rows(path, model), _rows(path, model, T_ref + 273.15)
+            run = [dataclasses.replace(p, F_comp=p.F_comp + b.model_comp - a.model_comp,
+                                       F_reb=p.F_reb + b.model_reb - a.model_reb)
+                   for p, a, b in zip(run, at_run, at_ref)]
+            note = (f"compensated for temperature: the run's forces moved from its {T_run:.0f} C to the "
+                    f"reference's {T_ref:.0f} C with its identified model {identified.name}")
+    return Check(verdicts(run, ref, tol, units=units), Path(against).name, note)
 
 
 def model_rows(rows):

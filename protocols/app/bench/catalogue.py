@@ -1,0 +1,100 @@
+"""`dyno bench catalogue`: the run catalogue at a season's size (issue 33's goals). N
+recordings made from four templates recorded on the direct cell (a short sine matrix on
+each of four dampers): each copy gets its own serial (one of 50) and start time, patched in
+place into the template's metadata at the same length, so every file is a distinct, valid
+recording that the index must read whole. Then: index them all, index again with nothing
+new, a filtered list, the browser's runs page, and `dyno check` on a standard recording."""
+from __future__ import annotations
+
+import tempfile
+import time
+from contextlib import closing
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+from rig import config as rig_config
+
+from protocols import catalogue, cell, runner
+from protocols.io.recording import for_run
+from protocols.library import PROTOCOLS
+from protocols.plan import Plan
+
+DAMPERS = ("koni", "mechformance", "fox-light", "fox-heavy")
+SERIALS = 50
+START = datetime(2026, 1, 1, tzinfo=timezone.utc)
+SERIAL_SLOT = "S-0000"  # the templates' serial, replaced at the same length
+GOALS = {"index_s": 60.0, "reindex_s": 2.0, "list_ms": 100.0, "page_s": 1.0, "check_s": 10.0}
+
+
+def _template(folder, damper):
+    module = PROTOCOLS["sine-matrix"]
+    plan = Plan(module, module.Params(amplitudes_mm=[12.7, 6.4], freqs_hz=[1.0, 4.0, 12.0], record_cycles=2))
+    path = Path(folder) / f"template-{damper}.mcap"
+    with cell.direct(rig_config.load("virtual"), damper) as c:
+        c.rig.wall_start = START.timestamp()
+        with closing(for_run(path, c, plan, {"damper_serial": SERIAL_SLOT, "note": "bench"})) as rec:
+            runner.run_plan(plan, c, [rec])
+    return path.read_bytes()
+
+
+def make_runs(folder, n):
+    """n recordings in folder from the four templates; their total size [bytes]."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as d:
+        templates = [_template(d, damper) for damper in DAMPERS]
+    start = START.isoformat(timespec="microseconds").encode()
+    size = 0
+    for i in range(n):
+        data = templates[i % len(templates)]
+        when = (START + timedelta(hours=7 * i)).isoformat(timespec="microseconds").encode()
+        data = data.replace(SERIAL_SLOT.encode(), f"S-{i % SERIALS:04d}".encode(), 1).replace(start, when, 1)
+        (folder / f"run-{i:05d}.mcap").write_bytes(data)
+        size += len(data)
+    return size
+
+
+def _timed(fn, repeat=1):
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def bench_catalogue(n=1000, check_recording=None):
+    from protocols.web import create_app
+    with tempfile.TemporaryDirectory() as d:
+        folder = Path(d) / "runs"
+        size = make_runs(folder, n)
+        index_s, first = _timed(lambda: catalogue.index(folder))
+        reindex_s, again = _timed(lambda: catalogue.index(folder))
+        with catalogue.connect(folder) as c:
+            list_s, rows = _timed(lambda: catalogue.runs(c, serial="S-0007", since="2026-03-01"), repeat=5)
+            where_s, _ = _timed(lambda: catalogue.runs(c, where="damper = koni and duration_s > 1"), repeat=5)
+        client = create_app(folder, cache=Path(d) / "made").test_client()
+        page_s, page = _timed(lambda: client.get("/"), repeat=3)  # the first includes the index's look
+        result = {"runs": n, "mb": size / 1e6, "index_s": index_s, "added": first.added, "failed": first.failed,
+                  "reindex_s": reindex_s, "unchanged": again.unchanged, "list_ms": 1e3 * list_s,
+                  "listed": len(rows), "where_ms": 1e3 * where_s, "page_s": page_s,
+                  "page_kb": len(page.data) / 1e3, "page_status": page.status_code}
+        result["check_s"] = _check_time(check_recording, Path(d))
+    result["goals"] = GOALS
+    result["goals_met"] = {k: result[k] <= v for k, v in GOALS.items() if result.get(k) is not None}
+    return result
+
+
+def _check_time(recording, folder):
+    """Seconds of `dyno check` of a standard recording against itself, with the band's PNG
+    (the recording made first on the direct cell when none is given)."""
+    from protocols.app.cli import main as dyno
+    if recording is None:
+        module = PROTOCOLS["standard"]
+        recording = folder / "standard.mcap"
+        with cell.direct(rig_config.load("virtual"), "koni") as c, \
+                closing(for_run(recording, c, Plan(module, module.Params()))) as rec:
+            runner.run_plan(Plan(module, module.Params()), c, [rec])
+    t0 = time.perf_counter()
+    dyno(["check", str(recording), "--against", str(recording), "--out", str(folder / "qa")])
+    return time.perf_counter() - t0

@@ -76,7 +76,7 @@ def connect(folder) -> sqlite3.Connection:
 
 def describe(path):
     """(run row {column: value}, [peak rows]) of one recording; RigError if unreadable."""
-    ch, events, meta = load_recording(path)
+    ch, events, meta = load_recording(path, peak_rows.READS)
     run = meta.get("run", {})
     t = ch["force"][0] if "force" in ch else next(iter(ch.values()))[0]
     ends = [e for e in events if e["kind"] in ENDINGS]

@@ -1,12 +1,13 @@
-"""The operator's units at the edges: SI inside, temperatures in C, pressures in bar,
-motion in mm, where a person reads them (rig check, progress lines)."""
+"""Readings where a person reads them (rig check, rig zero, progress lines, the live view):
+SI inside, shown in the output's unit system (protocols/units.toml; metric by default)."""
 from __future__ import annotations
 
-# SI unit -> (operator's unit, scale, offset): shown = value * scale + offset
-OPERATOR = {"K": ("C", 1.0, -273.15), "Pa": ("bar", 1e-5, 0.0), "m": ("mm", 1e3, 0.0), "m/s": ("mm/s", 1e3, 0.0)}
+from protocols.units import Units, quantity_of
 
 
-def shown(value, unit):
-    """(value, unit) in the operator's unit; other units unchanged."""
-    to, scale, offset = OPERATOR.get(unit, (unit, 1.0, 0.0))
-    return value * scale + offset, to
+def shown(value, unit, units=Units()):
+    """(value, unit) in the unit system; a unit that is no quantity of it (A, V) unchanged."""
+    quantity = quantity_of(unit)
+    if quantity is None:
+        return value, unit
+    return units.show(quantity, value), units.unit(quantity)

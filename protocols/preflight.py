@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from protocols.plan import MARGIN, ParamError, RigInfo, Segment
+from protocols.units import Units, fmt
 
 MAX_MOTION_S = 2 * 3600.0  # s: a plan that moves longer than this needs --long
 # s: ... and one that may last longer than this with every wait at its longest (the standard
@@ -152,12 +153,14 @@ def _hours(s):
     return f"{s / 3600:.1f} h" if s >= 3600 else f"{s / 60:.0f} min" if s >= 60 else f"{s:.0f} s"
 
 
-def summary(f: Forecast) -> str:
+def summary(f: Forecast, units=Units()) -> str:
+    def q(quantity, si, digits=3):
+        return f"{fmt(units.show(quantity, si), digits)} {units.unit(quantity)}"
     waits = f" + {f.waits} wait{'s' * (f.waits > 1)} (at most {_hours(f.wait_max_s)})" if f.waits else ""
-    gas = f", gas up to {f.gas_peak / 1e6:.2f} MPa" if f.gas_peak else ""
-    force = f", force up to {f.force_peak:.0f} N" if f.force_peak else ""
-    return (f"pre-flight: {_hours(f.duration_s)} of motion{waits}; stroke {f.x_range[0] * 1e3:.1f}.."
-            f"{f.x_range[1] * 1e3:.1f} mm, velocity up to {f.v_peak:.2f} m/s{force}{gas} (damper model)")
+    gas = f", gas up to {q('pressure', f.gas_peak)}" if f.gas_peak else ""
+    force = f", force up to {q('force', f.force_peak, 4)}" if f.force_peak else ""
+    return (f"pre-flight: {_hours(f.duration_s)} of motion{waits}; stroke {fmt(units.show('length', f.x_range[0]), 3)}.."
+            f"{q('length', f.x_range[1])}, velocity up to {q('velocity', f.v_peak)}{force}{gas} (damper model)")
 
 
 def _at_rest(seg: Segment, end=False):

@@ -23,6 +23,7 @@ from rig.loop import ControlLoop, LoopResult, describe
 
 from protocols.display import shown
 from protocols.plan import Plan, as_dict
+from protocols.units import Units
 
 
 class ProgressLine:
@@ -35,8 +36,8 @@ class ProgressLine:
 
     LOG_EVERY_S = 10.0
 
-    def __init__(self, segments, name, stream=None):
-        self.segments, self.name = segments, name
+    def __init__(self, segments, name, stream=None, units=Units()):
+        self.segments, self.name, self.units = segments, name, units
         self.stream = stream or sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
         self.t_wall0 = time.monotonic()
@@ -92,7 +93,7 @@ class ProgressLine:
         if r is None:
             return seg.name, None
         value = r.value
-        shown = f"{_shown(name, value)} of {_shown(name, target)}"
+        shown = f"{_shown(name, value, self.units)} of {_shown(name, target, self.units)}"
         if ts < 5.0 or self.start is None or self.start[0] > ts:
             self.start = (ts, value) if ts >= 5.0 else None  # the first seconds: the ramp in
             return f"{seg.name} {shown}", None
@@ -167,9 +168,12 @@ class Kept:
         return {n: (np.concatenate(ts), np.concatenate(vs)) for n, (ts, vs) in self.channels.items()}
 
 
-def _shown(name, value):
-    """A reading in the operator's unit: temperatures in C."""
-    return f"{shown(value, 'K')[0]:.1f} C" if name.startswith("T_") else f"{value:.4g}"
+def _shown(name, value, units):
+    """A reading in the unit system: temperatures in C or F (the channels waited on)."""
+    if not name.startswith("T_"):
+        return f"{value:.4g}"
+    v, unit = shown(value, "K", units)
+    return f"{v:.1f} {unit}"
 
 
 class Sequence:
@@ -177,9 +181,9 @@ class Sequence:
     with (t, readings), returns the setpoint [m] or None when the plan is done, and emits
     run_start, skipped, segment_start and segment_end events through `event`."""
 
-    def __init__(self, module, params, segments, skipped, event, failed, bar=None):
+    def __init__(self, module, params, segments, skipped, event, failed, bar=None, units=Units()):
         self.module, self.params, self.segments, self.skipped = module, params, segments, skipped
-        self.event, self.failed, self.bar = event, failed, bar
+        self.event, self.failed, self.bar, self.units = event, failed, bar, units
         self.i, self.t0, self.t_plan, self.t, self.until = 0, None, 0.0, 0.0, math.inf
         self.set_t, self.set_x = [], []
         # the segments' closed-loop controls, each once
@@ -227,7 +231,8 @@ class Sequence:
                 name, value = seg.target
                 r = readings.get(name)
                 raise RigError(f"{seg.name}: {name} did not reach its target in {seg.duration:.0f} s "
-                               f"({'no reading' if r is None else _shown(name, r.value)} of {_shown(name, value)})")
+                               f"({'no reading' if r is None else _shown(name, r.value, self.units)} of "
+                               f"{_shown(name, value, self.units)})")
             if ts < end and seg.cycle:  # ended on its reading: run on to the whole cycle
                 end = self.until = min(math.ceil(ts / seg.cycle) * seg.cycle, seg.duration)
                 if ts < end:
@@ -290,15 +295,15 @@ class RunResult(LoopResult):
     skipped: list = field(default_factory=list)  # [(segment, why)] the plan's check left out
 
 
-def run_plan(plan: Plan, cell, observers=(), sinks=(), progress=False) -> RunResult:
+def run_plan(plan: Plan, cell, observers=(), sinks=(), progress=False, units=Units()) -> RunResult:
     """Execute the plan on the cell (protocols/cell.py); observers get the samples and
     events on a thread of their own, sinks (plain callables) every drained sample batch in
-    the loop's. The cell stays open."""
+    the loop's; readings in messages and the progress line in `units`. The cell stays open."""
     module, params, info = plan.module, plan.params, cell.info
     observers = [o for o in observers if o is not None]
     skipped = module.check(params, info)
     segments = list(module.plan(params, info))
-    bar = ProgressLine(segments, module.NAME) if progress else None
+    bar = ProgressLine(segments, module.NAME, units=units) if progress else None
     observed = Observers(observers)
 
     def event(t, kind, seg=None, message="", name=None, params=None):
@@ -306,7 +311,7 @@ def run_plan(plan: Plan, cell, observers=(), sinks=(), progress=False) -> RunRes
             params = {**seg.params, "kind": seg.kind, "measured": seg.record} if seg else {}
         observed.call("event", t, kind, name if name is not None else (seg.name if seg else ""), params, message)
 
-    sequence = Sequence(module, params, segments, skipped, event, observed.failed, bar)
+    sequence = Sequence(module, params, segments, skipped, event, observed.failed, bar, units)
 
     units = {}
     for c in sequence.controls:

@@ -96,3 +96,21 @@ def test_a_sine_too_strong_for_the_cell_is_recorded_at_the_fastest_frequency_tha
     f = recorded[1]
     peak = lambda f: info.peak_force(2 * np.pi * f * 0.0127)
     assert peak(f) <= MARGIN * info.force_max < peak(f + 0.1)
+
+
+def test_the_forecast_and_the_progress_line_speak_the_chosen_units():
+    import io
+    from protocols.units import Units
+    d = load("koni")
+    info = rig_info(config.load("virtual"), d)
+    module = PROTOCOLS["standard"]
+    f = preflight.check(list(module.plan(module.Params(), info)), info)
+    metric, us = preflight.summary(f), preflight.summary(f, Units("us"))
+    assert " mm, velocity up to " in metric and " mm/s, force up to " in metric and " bar " in metric, metric
+    assert " in, velocity up to " in us and " in/s, force up to " in us and " lbf, gas up to " in us and " psi " in us, us
+    # a wait on a temperature shows it in F, its target too
+    wait = Segment("warm to 60 C", {}, 600.0, lambda t: info.x_mid, record=False, target=("T_body", 333.15))
+    stream = io.StringIO()
+    line = runner.ProgressLine([wait], "temperature-sweep", stream, Units("us"))
+    line.show(0, 1.0, 1.0, {"T_body": SimpleNamespace(value=313.15)}, final=None)
+    assert "104.0 F of 140.0 F" in stream.getvalue(), stream.getvalue()

@@ -147,3 +147,15 @@ def test_rig_zero_on_the_embedded_rig_reports_and_writes_nothing():
     assert p.returncode == 1, p.stderr
     assert "force: NOT tared: it reads 4" in p.stdout and "gas force at mid-stroke is 4" in p.stdout
     assert "x: offset 38.100 mm -> 38." in p.stdout and "within 5 %" in p.stdout and "nothing written" in p.stdout
+
+
+def test_rig_zero_and_rig_check_speak_the_chosen_units(capsys):
+    from protocols.app.cli import main
+    assert main(["rig", "zero", "--units", "us", "--x-mm", "38.1"]) == 0
+    out = capsys.readouterr().out
+    # offsets and readings in inches and pounds, to the sensors' resolution (1 um, 0.1 N)
+    assert "x: offset 1.50000 in -> 1.5" in out and "where the gauge gave 1.50000 in" in out, out
+    assert "force: reads 9" in out and " lbf at rest" in out and "mm" not in out, out
+    assert main(["rig", "check", "--units", "us"]) == 0
+    out = capsys.readouterr().out
+    assert " lbf " in out and " psi " in out and " F " in out and " in/s " in out and " mm" not in out, out

@@ -166,6 +166,7 @@ def _cell_commands(sub):
                                                 "an existing file is kept unless --overwrite")
     rn.add_argument("--overwrite", action="store_true", help="replace an existing --out file once the run starts")
     rn.add_argument("--long", action="store_true", help="allow a run planned to move for more than 2 hours")
+    _units(rn)
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
     rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
     rn.add_argument("--rrd", default=None, help="also save the live view to FILE.rrd")
@@ -207,6 +208,7 @@ def _cell_commands(sub):
     rc = rgsub.add_parser("check", help="connect to every device and print each channel")
     rc.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rc.add_argument("--damper", default="koni", help="damper in the embedded virtual rig (default koni)")
+    _units(rc)
     rc.set_defaults(command="rig_check")
     rz = rgsub.add_parser("zero", help="tare the load cell, reference the position, check the LVT; offsets "
                                        "written to the cell file")
@@ -216,6 +218,7 @@ def _cell_commands(sub):
     rz.add_argument("--tare-anyway", action="store_true",
                     help="tare with --unloaded even when the reading looks like the damper's gas force")
     rz.add_argument("--x-mm", type=number(), default=None, help="the true position [mm] at mid-stroke, from a gauge")
+    _units(rz)
     rz.set_defaults(command="rig_zero")
 
 
@@ -405,6 +408,10 @@ def _bench_commands(sub):
                     help="prove runs (default 6, about a minute each)")
     bc.add_argument("--sweep-tasks", type=number(1, 10000, integer=True), default=60,
                     help="harmonic points (default 60)")
+    bk = _bench(bsub, "catalogue", help="the run catalogue and its browser view at 1,000 runs; dyno check's time")
+    bk.add_argument("--runs", type=number(1, 100000, integer=True), default=1000, help="recordings (default 1000)")
+    bk.add_argument("--check-recording", default=None,
+                    help="a standard recording to time dyno check on (default: record one on the direct cell first)")
     bl = _bench(bsub, "loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")

@@ -10,6 +10,7 @@ from rig.safety import Safety
 from rig.rig import Rig
 
 from protocols.display import shown
+from protocols.units import Units
 
 
 CHECK_S = 0.5  # how long rig check listens
@@ -45,6 +46,7 @@ def run(args):
         cfg = rig.config
         safety = Safety(cfg)
         where = "embedded virtual rig" if vr is not None else cfg.path
+        units = Units(args.units)
         print(f"rig {cfg.name!r} ({where})")
         print(f"{'channel':12s} {'device':12s} {'value':>14s} {'unit':5s} {'age':>8s}  status")
         missing = []
@@ -52,7 +54,7 @@ def run(args):
             r = readings.get(name)
             if r is None:
                 missing.append(f"{name} ({ch.device})")
-                print(f"{name:12s} {ch.device:12s} {'-':>14s} {shown(0.0, ch.unit)[1]:5s} {'-':>8s}  NO DATA")
+                print(f"{name:12s} {ch.device:12s} {'-':>14s} {shown(0.0, ch.unit, units)[1]:5s} {'-':>8s}  NO DATA")
                 continue
             status = "ok" if r.fault is None else f"FAULT: {r.fault}"
             q = rig_config.quantity(name)
@@ -60,13 +62,14 @@ def run(args):
             if r.fault:
                 missing.append(f"{name} ({ch.device}: {r.fault})")
             elif q is not None and not q[1] <= r.value <= q[2]:
-                (lo, u), (hi, _), (v, _) = shown(q[1], q[0]), shown(q[2], q[0]), shown(r.value, ch.unit)
+                (lo, u), (hi, _), (v, _) = (shown(x, unit, units)
+                                            for x, unit in ((q[1], q[0]), (q[2], q[0]), (r.value, ch.unit)))
                 status = f"IMPLAUSIBLE: outside {lo:g}..{hi:g} {u}: check gain, offset and wiring"
                 missing.append(f"{name} ({ch.device}: implausible {v:.6g} {u})")
             elif beyond:
                 status = f"BEYOND LIMIT: {beyond}"
                 missing.append(f"{name} ({ch.device}: beyond limit)")
-            v, u = shown(r.value, ch.unit)
+            v, u = shown(r.value, ch.unit, units)
             print(f"{name:12s} {ch.device:12s} {v:14.6g} {u:5s} {1e3 * (now - r.t):6.0f} ms  {status}")
         state, alarms = rig.actuator()
         print(f"actuator: {state}, {'alarms: ' + ', '.join(alarms) if alarms else 'no alarms'}")

@@ -5,6 +5,7 @@ with a dated comment (the embedded virtual rig: shown, not written)."""
 from __future__ import annotations
 
 import datetime
+import math
 import re
 
 from models.damper import load as load_damper
@@ -15,9 +16,11 @@ from rig.errors import RigError
 from protocols import cell, commissioning, runner
 from protocols.io.files import written
 from protocols.plan import Plan, rig_info
+from protocols.units import Units
 
 
-SHOWN = {"force": ("N", 1.0, 1), "x": ("mm", 1e3, 3)}  # offsets as printed: unit, scale from SI, decimals
+RESOLUTION = {"force": 0.1, "length": 1e-6}  # N, m: what offsets and readings are printed to
+QUANTITY = {"force": "force", "x": "length"}  # the channels zeroed
 GAS_LIKE = 0.25  # an "unloaded" reading within 25 % of the damper's gas force looks like the damper still in
 GAS_MIN_N = 50.0  # ... when that force is large enough to be told from a load cell's zero error
 
@@ -48,7 +51,16 @@ def set_offset(text, channel, value, note):
     return text[:head.end()] + body + text[body_end:]
 
 
+def as_shown(units, quantity, si, places=None):
+    """A reading or offset in the unit system, to the sensor's resolution: '0.100 in'."""
+    scale = units.show(quantity, 1.0) - units.show(quantity, 0.0)
+    places = max(0, -math.floor(math.log10(RESOLUTION[quantity] * scale))) if places is None else places
+    return f"{units.show(quantity, si):.{places}f} {units.unit(quantity)}"
+
+
 def run(args):
+    units = Units(args.units)
+    F, X = (lambda si, q=q: as_shown(units, q, si) for q in ("force", "length"))
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     damper = load_damper(args.damper)
     info = rig_info(cfg, damper)
@@ -64,21 +76,21 @@ def run(args):
     gas = looks_loaded(found["force_mean"], damper, info.x_mid)
     refused = args.unloaded and gas is not None and not args.tare_anyway
     if refused:
-        print(f"force: NOT tared: it reads {found['force_mean']:.1f} N with the damper said to be disconnected, "
-              f"and the damper's gas force at mid-stroke is {gas:.0f} N; disconnect it and zero again (or give "
+        print(f"force: NOT tared: it reads {F(found['force_mean'])} with the damper said to be disconnected, "
+              f"and the damper's gas force at mid-stroke is {F(gas)}; disconnect it and zero again (or give "
               f"--tare-anyway if the load cell's zero is truly that far off)")
     elif args.unloaded:
         changes.append(("force", ch["force"].offset - found["force_mean"],
-                        f"load cell tared with the damper disconnected: it read {found['force_mean']:.2f} N"))
+                        f"load cell tared with the damper disconnected: it read {F(found['force_mean'])}"))
     else:
-        print(f"force: reads {found['force_mean']:.1f} N at rest with the damper in; not tared (give --unloaded "
+        print(f"force: reads {F(found['force_mean'])} at rest with the damper in; not tared (give --unloaded "
               f"with the damper disconnected, so the load cell carries nothing)")
     if args.x_mm is not None:
         changes.append(("x", ch["x"].offset + args.x_mm / 1e3 - found["x_mean"],
-                        f"position referenced: read {1e3 * found['x_mean']:.3f} mm where the gauge gave "
-                        f"{args.x_mm:g} mm"))
+                        f"position referenced: read {X(found['x_mean'])} where the gauge gave "
+                        f"{X(args.x_mm / 1e3)}"))
     else:
-        print(f"x: reads {1e3 * found['x_mean']:.3f} mm at mid-stroke ({1e3 * info.x_mid:.3f} mm planned); "
+        print(f"x: reads {X(found['x_mean'])} at mid-stroke ({X(info.x_mid)} planned); "
               f"not referenced (give --x-mm with the gauge's reading there)")
     g = found["lvt_gain"]
     lvt = "within" if abs(g - 1) <= commissioning.LVT_TOLERANCE else "OFF BY MORE THAN"
@@ -86,8 +98,8 @@ def run(args):
           f"{100 * commissioning.LVT_TOLERANCE:g} %)" + ("" if lvt == "within" else
           f": check its gain, {ch['v'].gain:.6g} now, {ch['v'].gain / g:.6g} would agree"))
     for name, value, why in changes:
-        unit, scale, places = SHOWN[name]
-        print(f"{name}: offset {ch[name].offset * scale:.{places}f} {unit} -> {value * scale:.{places}f} {unit} ({why})")
+        q = QUANTITY[name]
+        print(f"{name}: offset {as_shown(units, q, ch[name].offset)} -> {as_shown(units, q, value)} ({why})")
     path = rig_config.path_of(args.rig)
     if changes and path.resolve().parent != rig_config.CONFIG_DIR.resolve():  # never a shipped config
         text = path.read_text(encoding="utf-8")

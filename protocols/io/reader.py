@@ -28,9 +28,10 @@ from rig.errors import RigError
 JSON_METADATA = {"damper": ("model",), "protocol": ("params",), "calibration": None}  # None: every key
 
 
-def load_recording(path):
+def load_recording(path, channels=None):
     """(channels {name: (t, values)}, events [dict], metadata {name: dict}); metadata
-    "units" is {channel: unit} as recorded. Whatever the file holds is checked here:
+    "units" is {channel: unit} as recorded; only the named channels when given (those the
+    recording has: the rest of a 1 kHz recording's batches are most of its reading time). Whatever the file holds is checked here:
     RigError naming the topic or metadata record that is not as docs/recording.md says."""
     path = input_file(path)
     chans, events, units = {}, [], {}
@@ -39,10 +40,12 @@ def load_recording(path):
             r = make_reader(f)
             meta = {m.name: dict(m.metadata) for m in r.iter_metadata()}
             summary = r.get_summary()  # None in a file cut short: then every topic is read
-            topics = None if summary is None else [c.topic for c in summary.channels.values()
-                                                   if c.topic.startswith("/channels/") or c.topic == "/events"]
+            wanted = None if channels is None else {f"/channels/{n}" for n in channels}
+            topics = None if summary is None else [
+                c.topic for c in summary.channels.values()
+                if (c.topic.startswith("/channels/") and (wanted is None or c.topic in wanted)) or c.topic == "/events"]
             for topic, data in _messages(f, r, summary, topics):
-                if topic.startswith("/channels/"):
+                if topic.startswith("/channels/") and (wanted is None or topic in wanted):
                     name = topic[len("/channels/"):]
                     t, v, unit = _batch(json.loads(data), topic)
                     ts, vs = chans.setdefault(name, ([], []))

@@ -26,7 +26,7 @@ MARKERS = "os^Dv<>p"  # one per amplitude
 def _run(path):
     """(peaks, metadata, the fastest sine segment's loop (velocity, displacement, force)
     keyed by segment)."""
-    ch, events, meta = load_recording(path)
+    ch, events, meta = load_recording(path, peaks.READS)
     segs = segments(events)
     rows = peaks.peaks(ch, segs, damper=peaks.recorded_damper(meta))
     loops = {}

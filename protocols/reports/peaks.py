@@ -12,6 +12,7 @@ import numpy as np
 
 from protocols.units import Units, fmt
 
+READS = ("force", "x", "v", "T_body")  # the channels the peaks are read from (load_recording's channels=)
 T_ROOM = 293.15  # K: a segment's temperature when the recording has no body thermocouple
 SHORT_PCT = 3.0  # a segment whose peak speed falls short of its target by more is flagged
 

@@ -1,4 +1,4 @@
-"""`dyno bench sim|sweep|log|loop|identify|diagnose|hil|cluster`: measured numbers, not tests; each
+"""`dyno bench sim|sweep|log|loop|identify|diagnose|hil|cluster|catalogue`: measured numbers, not tests; each
 prints text, --json, or --markdown for docs/results."""
 from __future__ import annotations
 
@@ -142,3 +142,25 @@ def cluster(args):
             "kernels once as it joins, apart). Overhead per task = (cluster time x workers - serial time) / tasks. "
             "Goals: >= 1.8x with 2 workers; overhead < 5 % of a task of 2 s or more (docs/cluster.md).")
     return emit(args, "Fan-out on Dask distributed (dyno bench cluster)", r, text, md.table(head, rows), note)
+
+
+def catalogue(args):
+    from protocols.app.bench.catalogue import GOALS, bench_catalogue
+    r = bench_catalogue(args.runs, args.check_recording)
+    met = r["goals_met"]
+    rows = [("index every recording (cold)", f"{r['index_s']:.1f} s", f"< {GOALS['index_s']:g} s", met["index_s"]),
+            ("index again, nothing new", f"{r['reindex_s']:.2f} s", f"< {GOALS['reindex_s']:g} s", met["reindex_s"]),
+            ("filtered list (serial and since)", f"{r['list_ms']:.1f} ms", f"< {GOALS['list_ms']:g} ms",
+             met["list_ms"]),
+            ("filtered list (--where on two fields)", f"{r['where_ms']:.1f} ms", "", None),
+            ("browser runs page, every run (server)", f"{r['page_s']:.2f} s", f"< {GOALS['page_s']:g} s",
+             met["page_s"]),
+            ("dyno check, standard recording", f"{r['check_s']:.1f} s", f"< {GOALS['check_s']:g} s", met["check_s"])]
+    table = [(what, value, goal, "" if ok is None else "met" if ok else "NOT met") for what, value, goal, ok in rows]
+    text = (f"{r['runs']} recordings ({r['mb']:.0f} MB, {r['failed']} unreadable); "
+            + "; ".join(f"{w}: {v}" for w, v, _, _ in table))
+    note = (f"{r['runs']} recordings of {r['mb'] / r['runs']:.1f} MB each, made from four short sine matrices on "
+            f"the direct cell (protocols/app/bench/catalogue.py); the filtered list returned {r['listed']} runs; "
+            f"the runs page is {r['page_kb']:.0f} kB of HTML, timed at the server (Flask's test client).")
+    return emit(args, "Run catalogue at a season's size (dyno bench catalogue)", r, text,
+                md.table(("measure", "measured", "goal", ""), table), note)

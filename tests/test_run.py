@@ -554,3 +554,20 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
     # the 10 ms ramp through the 40 Hz servo: rise about the ramp's, settled within 100 ms, little overshoot
     assert [r[1] for r in rows] == [5, -5]
     assert all(5 < r[2] < 30 and r[3] < 5 and 0 < r[4] < 100 for r in rows), rows
+
+
+def test_every_figure_of_a_report_speaks_its_unit_system(koni_run, tmp_path, monkeypatch):
+    import re
+
+    from protocols.reports import recording as page
+    from protocols.units import Units
+    labels, save = {}, page.save
+
+    def kept(fig, path, *a, **kw):
+        labels[path.name] = [s for ax in fig.axes for s in (ax.get_xlabel(), ax.get_ylabel()) if s]
+        return save(fig, path, *a, **kw)
+    monkeypatch.setattr(page, "save", kept)
+    page.report(koni_run[0], tmp_path, units=Units("us"))
+    assert {"static.png", "low_speed.png", "temperature.png", "loops.png", "composite.png"} <= set(labels), labels
+    shown = {m for ls in labels.values() for s in ls for m in re.findall(r"\[(.*?)\]", s)}
+    assert shown and shown <= {"in", "in/s", "lbf", "F", "s", "ms", "Hz"}, labels

@@ -25,16 +25,16 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv; model: a damper model
     to overlay (the run's identified RECORDING.model.json when there is one); speeds [m/s]:
     the velocity table's (default velocities.toml); paper: report.pdf's, a4 or letter;
-    units: the tables', CSVs', main and HIL figures' unit system. (index, [PNG paths])."""
+    units: the tables', CSVs' and figures' unit system. (index, [PNG paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
     full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
     rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
-    figures = (_sine_figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out)
-               + _low_speed_figures(ch, segs, out) + _temperature_figures(ch, segs, out) + _step_figures(ch, segs, out)
-               + hil.figures(ch, events, out, units))
+    figures = (_sine_figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out, units)
+               + _low_speed_figures(ch, segs, out, units) + _temperature_figures(ch, segs, out, units)
+               + _step_figures(ch, segs, out, units) + hil.figures(ch, events, out, units))
     page = Page(f"Dyno report: {Path(path).name}")
     _header(page, meta, events, model)
     if rows:
@@ -168,10 +168,10 @@ def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
-    return figures + force_temperature_figure(rows, out)
+    return figures + force_temperature_figure(rows, out, units)
 
 
-def force_temperature_figure(rows, out):
+def force_temperature_figure(rows, out, units=Units()):
     """Peak forces against the measured temperature, per amplitude and frequency run at
     temperatures at least 5 C apart (a temperature sweep, or a sweep and the sine matrix)."""
     groups = {}
@@ -181,13 +181,15 @@ def force_temperature_figure(rows, out):
               if max(p.T_c for p in ps) - min(p.T_c for p in ps) >= 5.0}
     if not groups:
         return []
+    T, F = (lambda si, q=q: units.show(q, si) for q in ("temperature", "force"))
     fig, ax = plt.subplots(figsize=(7, 5))
     for i, (key, ps) in enumerate(sorted(groups.items())):
         c = f"C{i % 10}"
-        ax.plot([p.T_c for p in ps], [p.F_comp for p in ps], "o-", color=c, label=f"{key[0]:g} mm {key[1]:g} Hz")
-        ax.plot([p.T_c for p in ps], [-p.F_reb for p in ps], "s--", color=c)
-    ax.set(title="Peak force against temperature (o compression, s rebound magnitude)", xlabel="body temperature [C]",
-           ylabel="peak force [N]")
+        Ts = T(np.array([p.T_c for p in ps]) + 273.15)
+        ax.plot(Ts, F(np.array([p.F_comp for p in ps])), "o-", color=c, label=f"{amplitude(units, key[0])} {key[1]:g} Hz")
+        ax.plot(Ts, F(-np.array([p.F_reb for p in ps])), "s--", color=c)
+    ax.set(title="Peak force against temperature (o compression, s rebound magnitude)",
+           xlabel=units.label("body temperature", "temperature"), ylabel=units.label("peak force", "force"))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return [("Peak force against temperature", save(fig, out / "force_temperature.png"))]
@@ -235,7 +237,7 @@ def step_measures(ch, segs):
     return rows
 
 
-def _step_figures(ch, segs, out):
+def _step_figures(ch, segs, out, units=Units()):
     """Displacement and force against time from each step's start."""
     steps = [s for s in segs if s[1]["kind"] == "step" and "step_mm" in s[1]]
     if not steps or not {"x", "force"} <= set(ch):
@@ -247,10 +249,11 @@ def _step_figures(ch, segs, out):
         n = min(len(tt), len(x))
         x0 = _step_origin(ch, t0)
         if np.isfinite(x0):
-            ax[0].plot(1e3 * tt[:n], 1e3 * (x[:n] - x0), lw=0.9, color=f"C{i % 10}", label=name)
-        ax[1].plot(1e3 * tt[:n], F[:n], lw=0.9, color=f"C{i % 10}", label=name)
-    ax[0].set(title="Displacement from the step's start", xlabel="time [ms]", ylabel="displacement [mm]")
-    ax[1].set(title="Force", xlabel="time [ms]", ylabel="force [N]")
+            ax[0].plot(1e3 * tt[:n], units.show("length", x[:n] - x0), lw=0.9, color=f"C{i % 10}", label=name)
+        ax[1].plot(1e3 * tt[:n], units.show("force", F[:n]), lw=0.9, color=f"C{i % 10}", label=name)
+    ax[0].set(title="Displacement from the step's start", xlabel="time [ms]",
+              ylabel=units.label("displacement", "length"))
+    ax[1].set(title="Force", xlabel="time [ms]", ylabel=units.label("force", "force"))
     settled = [r[4] for r in step_measures(ch, steps) if np.isfinite(r[4])]
     for a in ax:
         a.grid(alpha=0.3)
@@ -259,20 +262,22 @@ def _step_figures(ch, segs, out):
     return [("Step responses (compression positive)", save(fig, out / "steps.png"))]
 
 
-def _static_figures(ch, events, segs, out):
+def _static_figures(ch, events, segs, out, units=Units()):
     """Force at rest after each stroke direction, and the friction, of the static holds."""
     figures = []
     holds = [s for s in segs if s[1]["kind"] == "hold"]
     if holds and "force" in ch:
         x_at, up, down = static_holds(ch, events)
-        xs = 1e3 * x_at
+        xs, up, down = units.show("length", x_at), units.show("force", up), units.show("force", down)
         fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
         ax[0].plot(xs, up, "^-", label="held after a compression stroke")
         ax[0].plot(xs, down, "v-", label="held after an extension stroke")
         ax[0].plot(xs, (up + down) / 2, "k.-", label="gas force (mean)")
-        ax[0].set(title="Static test: force at rest", xlabel="displacement [mm]", ylabel="force [N]")
+        ax[0].set(title="Static test: force at rest", xlabel=units.label("displacement", "length"),
+                  ylabel=units.label("force", "force"))
         ax[1].plot(xs, (up - down) / 2, "o-")
-        ax[1].set(title="Static friction (half the difference)", xlabel="displacement [mm]", ylabel="friction [N]")
+        ax[1].set(title="Static friction (half the difference)", xlabel=units.label("displacement", "length"),
+                  ylabel=units.label("friction", "force"))
         for a in ax:
             a.grid(alpha=0.3)
         ax[0].legend(fontsize=8)
@@ -280,7 +285,7 @@ def _static_figures(ch, events, segs, out):
     return figures
 
 
-def _low_speed_figures(ch, segs, out):
+def _low_speed_figures(ch, segs, out, units=Units()):
     """The low-speed loops."""
     figures = []
     slow = [s for s in segs if s[1]["kind"] == "low-speed"]
@@ -289,29 +294,30 @@ def _low_speed_figures(ch, segs, out):
         for name, prm, t0, t1 in slow:
             _, (F, x) = peaks.window(ch, ("force", "x"), t0, t1)
             n = len(F)
-            ax.plot(1e3 * x[:n], F[:n], lw=0.8, label=name)
-        ax.set(title="Low-speed loops: gas force with friction", xlabel="displacement [mm]", ylabel="force [N]")
+            ax.plot(units.show("length", x[:n]), units.show("force", F[:n]), lw=0.8, label=name)
+        ax.set(title="Low-speed loops: gas force with friction", xlabel=units.label("displacement", "length"),
+               ylabel=units.label("force", "force"))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
         figures.append(("Low-speed test", save(fig, out / "low_speed.png")))
     return figures
 
 
-def _temperature_figures(ch, segs, out):
+def _temperature_figures(ch, segs, out, units=Units()):
     """Force and temperatures over a temperature sweep."""
     figures = []
     if any("target_c" in s[1] for s in segs) and "T_body" in ch:
         fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
         t, F = ch["force"]
-        ax[0].plot(t, F, lw=0.3)
-        ax[0].set(ylabel="force [N]", title="Temperature sweep")
+        ax[0].plot(t, units.show("force", F), lw=0.3)
+        ax[0].set(ylabel=units.label("force", "force"), title="Temperature sweep")
         for key, label in (("T_body", "body"), ("T_reservoir", "reservoir")):
             if key in ch:
-                ax[1].plot(ch[key][0], ch[key][1] - 273.15, label=label)
+                ax[1].plot(ch[key][0], units.show("temperature", ch[key][1]), label=label)
         for name, prm, t0, t1 in segs:
             if "target_c" in prm:
                 ax[1].axvspan(t0, t1, color="C2", alpha=0.3)
-        ax[1].set(xlabel="time [s]", ylabel="temperature [C]")
+        ax[1].set(xlabel="time [s]", ylabel=units.label("temperature", "temperature"))
         for a in ax:
             a.grid(alpha=0.3)
         ax[1].legend(fontsize=8)

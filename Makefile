@@ -73,6 +73,7 @@ results: $(STAMP)
 	$(VENV)/bin/dyno bench identify --truth --damper koni,mechformance,fox-light,fox-heavy --markdown > docs/results/identify.md.tmp && mv docs/results/identify.md.tmp docs/results/identify.md
 	$(VENV)/bin/dyno bench cluster --prove-tasks 4 --markdown > docs/results/bench-cluster.md.tmp && mv docs/results/bench-cluster.md.tmp docs/results/bench-cluster.md
 	$(VENV)/bin/dyno bench hil --markdown > docs/results/bench-hil.md.tmp && mv docs/results/bench-hil.md.tmp docs/results/bench-hil.md
+	$(VENV)/bin/dyno bench catalogue --markdown > docs/results/bench-catalogue.md.tmp && mv docs/results/bench-catalogue.md.tmp docs/results/bench-catalogue.md
 	$(VENV)/bin/dyno prove --seeds 3 --markdown > docs/results/prove.md.tmp && mv docs/results/prove.md.tmp docs/results/prove.md
 	$(VENV)/bin/dyno prove --seeds 2 --noise 1,3,10 --markdown > docs/results/prove-noise.md.tmp && mv docs/results/prove-noise.md.tmp docs/results/prove-noise.md
 	$(VENV)/bin/dyno prove --forms all --effects ALL,fluid_inertia+sensor_delay,breakaway_friction+compressibility,null --seeds 1 --markdown > docs/results/prove-forms.md.tmp && mv docs/results/prove-forms.md.tmp docs/results/prove-forms.md

@@ -94,3 +94,16 @@ def test_runs_are_found_by_a_where_expression_on_fields_and_setup(folder):
     r = subprocess.run(DYNO + ["runs", "list", str(folder), "--where", "setup.clicks = 12", "--json"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and '"serial": "D12"' in r.stdout, r.stderr
+
+
+def test_runs_show_and_trend_speak_the_chosen_units(folder, capsys):
+    from protocols.app.cli import main
+    catalogue.index(folder)
+    with catalogue.connect(folder) as c:
+        run_id = next(r["id"] for r in catalogue.runs(c) if not r["error"])
+    assert main(["runs", "show", str(run_id), str(folder), "--units", "us"]) == 0
+    out = capsys.readouterr().out
+    assert "v comp [in/s]" in out and "F reb [lbf]" in out and "[N]" not in out, out
+    assert main(["runs", "trend", str(folder), "--serial", "D12", "--quantity", "rebound@4in/s", "--units", "us",
+                 "--out", str(folder / "t.png")]) == 0
+    assert "rebound@4in/s [lbf]" in capsys.readouterr().out and (folder / "t.png").stat().st_size > 10_000

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from protocols.app.cli import main as dyno
+from tests import mcap_files
 from protocols.units import Units
 from protocols.web import create_app
 
@@ -40,6 +41,7 @@ def runs_folder(tmp_path_factory):
     _record(folder, "k12-after.mcap", "koni", "K-12", "after service")
     _record(folder, "m3.mcap", "mechformance", "M-3", "re-valved")
     (folder / "broken.mcap").write_bytes(b"\x89MCAP0\r\n" + os.urandom(300))
+    mcap_files.write(folder / "foreign.mcap", topics={"/imu": [{"ax": 0.1}] * 5})  # a valid MCAP of another tool
     # a QA check that fails: the Mechformance against the Koni's reference run
     assert dyno(["check", str(folder / "m3.mcap"), "--against", str(folder / "k12-before.mcap")]) == 1
     return folder
@@ -77,11 +79,13 @@ def _rows(page):
     return page.locator("#runs tr").count() - 1
 
 
-def test_the_runs_page_lists_every_run_and_the_corrupt_file_as_one_row(page, server):
+def test_the_runs_page_lists_every_run_and_a_corrupt_or_foreign_file_as_one_row(page, server):
     page.goto(server + "/")
-    assert _rows(page) == 4
-    assert "unreadable" in page.locator("#runs tr.unreadable").inner_text()
-    assert page.locator("#count").inner_text() == "4 runs"
+    assert _rows(page) == 5
+    bad = page.locator("#runs tr.unreadable")
+    assert bad.count() == 2 and "not a readable recording" in bad.nth(0).inner_text()
+    assert "no dyno channels" in bad.nth(1).inner_text()
+    assert page.locator("#count").inner_text() == "5 runs"
     # the QA column carries the last check's verdict
     assert page.locator("#runs td.qa", has_text="FAIL").count() == 1
 

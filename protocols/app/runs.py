@@ -6,10 +6,10 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
 
 from protocols import catalogue
 from protocols.reports import markdown as md
+from protocols.units import Units, fmt
 from rig.errors import RigError
 
 
@@ -77,15 +77,18 @@ def show(args):
     for k in row.keys():
         if row[k] not in (None, "", "{}"):
             print(f"{k:11s} {row[k]}")
+    units = Units(args.units)
+    V, F = (lambda si, q=q: fmt(units.show(q, si)) for q in ("velocity", "force"))
     if peaks:
-        print("\n" + md.table(("segment", "v_comp [m/s]", "F_comp [N]", "v_reb [m/s]", "F_reb [N]"),
-                              [(p["segment"], f"{p['v_comp']:.3f}", f"{p['F_comp']:.0f}", f"{p['v_reb']:.3f}",
-                                f"{p['F_reb']:.0f}") for p in peaks]))
+        print("\n" + md.table(("segment", *(units.label(n, q) for n, q in (("v comp", "velocity"), ("F comp", "force"),
+                                                                        ("v reb", "velocity"), ("F reb", "force")))),
+                              [(p["segment"], V(p["v_comp"]), F(p["F_comp"]), V(p["v_reb"]), F(p["F_reb"]))
+                               for p in peaks]))
     if checks:
-        print("\n" + md.table(("checked (UTC)", "against", "tolerance", "verdict", "worst margin [N]"),
+        print("\n" + md.table(("checked (UTC)", "against", "tolerance", "verdict", units.label("worst margin", "force")),
                               [(k["checked"], k["reference"], k["tolerance"],
                                 f"FAIL ({k['failed']} of {k['points']})" if k["failed"] else f"PASS ({k['points']})",
-                                f"{k['worst_margin_n']:.0f}") for k in checks]))
+                                F(k["worst_margin_n"])) for k in checks]))
     if models:
         print("\n" + md.table(("identified (UTC)", "model", "held-out NRMSE [%]"),
                               [(m["identified"], m["model"], "-" if m["heldout_nrmse"] is None
@@ -105,10 +108,11 @@ def trend(args):
             raise RigError(str(e)) from None
     if not points:
         raise RigError(f"no readable runs of serial {args.serial!r} in {args.dir}")
-    print(md.table(("started", f"{args.quantity} [N]", "run id"),
-                   [(s, "-" if np.isnan(F) else f"{F:.0f}", i) for s, F, i in points]))
+    units = Units(args.units)
+    print(md.table(("started", units.label(args.quantity, "force"), "run id"),
+                   [(s, fmt(units.show("force", F)), i) for s, F, i in points]))
     if args.out:
         from protocols.reports import trend as trend_report
-        trend_report.figure(points, args.serial, args.quantity, args.out)
+        trend_report.figure(points, args.serial, args.quantity, args.out, units)
         print(f"figure: {args.out}", file=sys.stderr)
     return 0

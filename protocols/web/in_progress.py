@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from mcap.records import Channel, Message, Metadata
 
 from protocols.io.files import writer
 from protocols.io.recording import intact_from
+from protocols.reports.comparison import run_name
 from protocols.units import Units, quantity_of
 
 PLANNED = re.compile(r"^(\d+) segments")  # the run_start event's message (protocols/runner.py)
@@ -94,19 +96,20 @@ class Live:
 
     @property
     def name(self):
-        run, damper = self.meta.get("run", {}), self.meta.get("damper", {})
-        try:
-            damper_name = json.loads(damper.get("model", "{}") or "{}").get("name")
-        except ValueError:
-            damper_name = None
-        return " · ".join(p for p in (damper_name, run.get("damper_serial"), run.get("note")) if p) or self.target.name
+        return run_name(self.meta, self.target)
 
 
 _SEEN: dict[Path, Live] = {}
+_READING = threading.Lock()  # the server's threads share what was read so far
 
 
 def in_progress(folder) -> list[Live]:
     """The runs being recorded under folder now: a recording whose lock a live process holds."""
+    with _READING:
+        return _in_progress(folder)
+
+
+def _in_progress(folder):
     out = []
     for lock in sorted(Path(folder).rglob("*.mcap.lock")):
         target = lock.with_name(lock.name.removesuffix(".lock"))

@@ -53,6 +53,20 @@ def missing(channels, names):
     return [n for n in names if n not in channels or len(channels[n][0]) < 2]
 
 
+GAP_PERIODS = 5  # stamps further apart than this many sample periods: samples are missing there
+
+
+def gaps(t, period=None):
+    """[(t_start, t_end)] of the gaps in a channel's stamps [s] (period: its sample period,
+    the median spacing by default): a stalled loop or lost frames. Interpolating across one
+    makes data that was never measured."""
+    d = np.diff(t)
+    if period is None:
+        period = float(np.median(d)) if len(d) else 0.0
+    k = np.nonzero(d > GAP_PERIODS * period)[0]
+    return [(t[i], t[i + 1]) for i in k]
+
+
 def at(channels, name, t):
     """A channel interpolated at times t [s]."""
     tc, vc = channels[name]

@@ -265,3 +265,22 @@ def test_a_fitted_parameter_is_bounded_by_the_range_the_damper_declares():
     assert (lo, hi) == (1.0, 1.67)
     lo, hi = z_bounds(d, "temperature.compression.K_effoil")
     assert (lo, hi) == (-1e3, 1e3)  # fitted in units of 1e-3 /K
+
+
+def test_a_sine_segment_with_a_hole_in_its_force_record_is_left_out_and_named():
+    """A stalled loop or lost frames leave a gap in the stamps: resampled across it, the
+    segment would be force never measured, so identification leaves it out and says so."""
+    from models.identify import dynamic_segments
+    t = np.arange(0.0, 6.0, 1e-3)
+    x = 0.038 + 0.0064 * np.sin(2 * np.pi * 2.0 * t)
+    F = 400.0 + 2000.0 * np.gradient(x, t)
+    events = [{"t": a, "kind": k, "segment": n, "params": {"kind": "sine", "freq_hz": 2.0, "amplitude_mm": 6.4}}
+              for n, t0, t1 in (("sine A", 0.5, 2.5), ("sine B", 3.0, 5.5)) for a, k in ((t0, "segment_start"),
+                                                                                          (t1, "segment_end"))]
+    keep = (t < 4.00) | (t > 4.03)  # 30 ms of force lost inside B: 6 % of its 2 Hz cycle
+    ch = {"force": (t[keep], F[keep]), "x": (t, x)}
+    left_out = []
+    assert [s.name for s in dynamic_segments(ch, events, left_out)] == ["sine A"] and left_out == ["sine B"]
+    keep = (t < 4.00) | (t > 4.008)  # 8 ms, as a VM's stall leaves: 1.6 % of the cycle, harmless
+    ch = {"force": (t[keep], F[keep]), "x": (t, x)}
+    assert [s.name for s in dynamic_segments(ch, events)] == ["sine A", "sine B"]

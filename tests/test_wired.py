@@ -19,7 +19,7 @@ from sim_backend.virtual_rig import sim_rig_config
 pytestmark = pytest.mark.realtime
 
 DYNO = str(Path(sys.executable).parent / "dyno")
-SINE = ["sine-matrix", "amplitudes_mm=6.4,3.2", "freqs_hz=2,8", "record_cycles=4"]
+SINE = ["sine-matrix", "amplitudes_mm=6.4,4.8,3.2", "freqs_hz=2,8", "record_cycles=4"]
 
 
 def read(path):

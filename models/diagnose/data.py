@@ -14,10 +14,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.diagnose import quality
-from models.recording import cycle_blocks, segments, smooth
+from models.recording import cycle_blocks, gaps as _gaps, segments, smooth
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
-GAP_PERIODS = 5
 MIN_CYCLES = 6  # fewer whole cycles than this cannot be split into train and held-out
 BLOCK_S = 0.5  # s: the unit of motion that does not repeat (random, road replay), as a cycle is of a sine
 REGULAR = 0.2  # strokes whose rates vary by more than this share do not repeat: judged in blocks
@@ -61,13 +60,6 @@ def _clean(t, v):
     t, v = t[order], v[order]
     keep = np.append(np.diff(t) > 0, True)
     return t[keep], v[keep]
-
-
-def _gaps(t, period):
-    """[(t_start, t_end)] of the gaps in a channel's stamps."""
-    d = np.diff(t)
-    k = np.nonzero(d > GAP_PERIODS * period)[0]
-    return [(t[i], t[i + 1]) for i in k]
 
 
 HARMONICS = 8
@@ -153,7 +145,7 @@ def prepare(channels, events) -> Data:
     tx, x = _clean(*channels["x"])
     aux = {n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10}
     period = float(np.median(np.diff(tF)))
-    holes = _gaps(tF, period) + _gaps(tx, float(np.median(np.diff(tx))))
+    holes = _gaps(tF, period) + _gaps(tx)
     if holes:
         lost = sum(b - a for a, b in holes)
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "

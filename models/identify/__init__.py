@@ -35,7 +35,7 @@ from models.identify.dynamic import dynamic_step, simulate_segment
 from models.identify.incompressible import valves_step
 from models.identify.parameters import canonical, parameter_value, set_parameter
 from models.identify.result import IdentifyError, Result
-from models.identify.segments import dynamic_segments
+from models.identify.segments import GAP_CYCLE_SHARE, dynamic_segments
 from models.identify.static import Estimate, identify_static, static_holds
 from models.physics.gas_spring import P_ATM, T_STD
 from models.recording import at, covariance, missing, nrmse, segments
@@ -60,7 +60,12 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
 
     # valves and the compressible model
     need = missing(channels, ("T_body",))
-    dyn = dynamic_segments(channels, events)
+    gapped = []
+    dyn = dynamic_segments(channels, events, gapped)
+    if gapped:
+        res.steps["data"] = (f"{len(gapped)} sine segment(s) left out for a gap in force or displacement longer "
+                             f"than {100 * GAP_CYCLE_SHARE:g} % of a cycle (a stalled loop or lost frames): "
+                             f"{', '.join(gapped)}")
     if len(dyn) < 2:
         res.steps["valves"] = f"skipped: {len(dyn)} sine segments (need 2)"
         res.steps["dynamic"] = "skipped: needs the valves step"

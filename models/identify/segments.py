@@ -6,9 +6,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.physics.gas_spring import T_STD
-from models.recording import at, cycle_blocks, missing, segments, smooth
+from models.recording import at, cycle_blocks, gaps, missing, segments, smooth
 
 WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
+# a gap longer than this share of a cycle leaves its segment out: resampled across it, a sine
+# is off by up to (2 pi share)^2 / 8 of its amplitude (1.2 % at 5 %); a shorter one is harmless
+GAP_CYCLE_SHARE = 0.05
 
 
 @dataclass
@@ -32,16 +35,25 @@ class Segment:
         return float(self.params.get("freq_hz", 0.0))
 
 
-def dynamic_segments(channels, events):
-    """The sine segments (sine matrix, temperature sweep, imported cycling) as Segments."""
+def dynamic_segments(channels, events, left_out=None):
+    """The sine segments (sine matrix, temperature sweep, imported cycling) as Segments;
+    one with a gap in its force or displacement record longer than GAP_CYCLE_SHARE of its
+    cycle is left out (its name appended to left_out): resampled across it, the segment
+    would be data never measured."""
     spans = segments(events, kinds=("sine",))
     if not spans and not events:  # an imported recording: blocks of whole cycles
         spans = cycle_blocks(channels)
     tf = channels["force"][0]
     h = float(np.median(np.diff(tf)))
+    holes = gaps(tf) + gaps(channels["x"][0])
     out = []
     for name, params, t0, t1 in spans:
         start = max(t0 - WARMUP_S, tf[0])
+        longest = GAP_CYCLE_SHARE / params["freq_hz"] if params.get("freq_hz") else 0.0
+        if any(a < t1 and b > start and b - a > longest for a, b in holes):
+            if left_out is not None:
+                left_out.append(name)
+            continue
         t = np.arange(start, t1, h)
         if len(t) < 20:
             continue

@@ -6,7 +6,6 @@ import json
 import sys
 from pathlib import Path
 
-
 from protocols import catalogue
 from protocols.reports import markdown as md
 from protocols.units import Units, fmt

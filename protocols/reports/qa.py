@@ -5,8 +5,9 @@ fail per speed and direction, with the margin left. SI inside (m/s, N).
 Where a run was tested warmer or cooler than its reference run, its forces are moved to the
 reference's temperature with the run's identified model (RECORDING.model.json, from
 `dyno identify`): each peak gains what the model gives at the reference's temperature less
-what it gives at the run's, along the run's own motion (oil viscosity and the gas charge
-follow temperature: thesis eqs 3.3 and 3.19). Below COMPENSATE_K apart nothing is moved."""
+what it gives at the run's, along the run's own motion (damping, gas force and friction
+follow temperature: thesis eqs 3.57-3.62 and 4.17, 3.8-3.16, 3.3). Below COMPENSATE_K
+apart nothing is moved."""
 from __future__ import annotations
 
 import dataclasses

@@ -556,6 +556,7 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
     assert all(5 < r[2] < 30 and r[3] < 5 and 0 < r[4] < 100 for r in rows), rows
 
 
+@pytest.mark.xdist_group("koni_run")  # the run is made once, on the worker of this group
 def test_every_figure_of_a_report_speaks_its_unit_system(koni_run, tmp_path, monkeypatch):
     import re
 

@@ -176,3 +176,27 @@ def test_a_run_in_progress_shows_its_progress_readings_and_trip(page, server, ru
     page.goto(server + "/")
     tripped = page.locator("#runs tr.tripped")
     assert "now.mcap" in tripped.inner_text() and "force 9000 N" in tripped.inner_text()
+
+
+def test_dyno_serve_serves_on_loopback_until_ctrl_c_and_refuses_a_busy_port(runs_folder, capsys):
+    import re
+    import signal
+    import socket
+    import subprocess
+    import sys
+    import urllib.request
+    p = subprocess.Popen([sys.executable, "-m", "protocols.app.cli", "serve", str(runs_folder), "--port", "0"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = p.stdout.readline()
+        url = re.search(r"serving (http://127\.0\.0\.1:\d+/)", line).group(1)
+        assert " recordings (2 unreadable); serving" in line, line  # the corrupt and the foreign file
+        assert "k12-after.mcap" in urllib.request.urlopen(url, timeout=30).read().decode()
+    finally:
+        p.send_signal(signal.SIGINT)
+        assert p.wait(30) == 0
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        assert dyno(["serve", str(runs_folder), "--port", str(busy.getsockname()[1])]) == 2
+    assert "cannot listen on 127.0.0.1 (Address already in use)" in capsys.readouterr().err

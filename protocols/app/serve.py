@@ -3,6 +3,7 @@ on 127.0.0.1 only, until Ctrl-C."""
 from __future__ import annotations
 
 import shutil
+import socket
 import tempfile
 from pathlib import Path
 
@@ -14,17 +15,23 @@ from protocols.web import create_app
 from rig.errors import RigError
 
 
+def _free(port):
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server will
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError as e:
+            raise RigError(f"--port {port}: cannot listen on 127.0.0.1 ({e.strerror}); give another --port") from None
+
+
 def run(args):
     folder = Path(args.dir)
     if not folder.is_dir():
         raise RigError(f"{folder}: no such folder of recordings")
+    _free(args.port)  # werkzeug would print its own two lines and exit
     n = catalogue.index(folder)
     cache = tempfile.mkdtemp(prefix="dyno-serve-")
-    try:
-        server = make_server("127.0.0.1", args.port, create_app(folder, Units(args.units), cache), threaded=True)
-    except OSError as e:
-        shutil.rmtree(cache, ignore_errors=True)
-        raise RigError(f"--port {args.port}: cannot listen on 127.0.0.1 ({e.strerror})") from None
+    server = make_server("127.0.0.1", args.port, create_app(folder, Units(args.units), cache), threaded=True)
     print(f"{folder}: {n.added + n.updated + n.unchanged + n.failed} recordings ({n.failed} unreadable); "
           f"serving http://127.0.0.1:{server.server_port}/ (Ctrl-C stops)", flush=True)
     try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import shutil
 import socket
 import tempfile
+from contextlib import closing
 from pathlib import Path
 
 from werkzeug.serving import make_server
@@ -29,10 +30,12 @@ def run(args):
     if not folder.is_dir():
         raise RigError(f"{folder}: no such folder of recordings")
     _free(args.port)  # werkzeug would print its own two lines and exit
-    n = catalogue.index(folder)
+    catalogue.index(folder)
+    with closing(catalogue.connect(folder)) as c:
+        total, unreadable = c.execute("SELECT COUNT(*), COUNT(error) FROM runs").fetchone()
     cache = tempfile.mkdtemp(prefix="dyno-serve-")
     server = make_server("127.0.0.1", args.port, create_app(folder, Units(args.units), cache), threaded=True)
-    print(f"{folder}: {n.added + n.updated + n.unchanged + n.failed} recordings ({n.failed} unreadable); "
+    print(f"{folder}: {total} recordings ({unreadable} unreadable); "
           f"serving http://127.0.0.1:{server.server_port}/ (Ctrl-C stops)", flush=True)
     try:
         server.serve_forever()

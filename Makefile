@@ -57,7 +57,7 @@ report-examples: $(STAMP)
 	  cp $$T/$$u/velocity.csv $$T/$$u/peaks.csv $$T/$$u/composite.png $$T/$$u/report.pdf $(EX)/$$u/ || exit 1; \
 	done && \
 	$(VENV)/bin/dyno report $$T/a.mcap $$T/b.mcap $$T/c.mcap --out $$T/cmp && mkdir -p $(EX)/compare && \
-	cp $$T/cmp/differences.csv $$T/cmp/compare_composite.png $(EX)/compare/ && \
+	cp $$T/cmp/differences.csv $$T/cmp/compare_composite.png $$T/cmp/compare_loops.png $(EX)/compare/ && \
 	($(VENV)/bin/dyno check $$T/c.mcap --against $$T/a.mcap --out $$T/qa || true) | grep -v "check.png\|catalogued in" > $(EX)/check.txt && \
 	cp $$T/qa/check.png $(EX)/ && rm -rf $$T
 

@@ -200,3 +200,27 @@ def test_dyno_serve_serves_on_loopback_until_ctrl_c_and_refuses_a_busy_port(runs
         busy.listen()
         assert dyno(["serve", str(runs_folder), "--port", str(busy.getsockname()[1])]) == 2
     assert "cannot listen on 127.0.0.1 (Address already in use)" in capsys.readouterr().err
+
+
+def test_a_recording_being_written_is_read_on_from_where_the_last_look_ended(tmp_path):
+    from protocols.io.recording import Recorder
+    from protocols.web.in_progress import Live
+    from rig import config as rig_config
+    rec = Recorder(tmp_path / "r.mcap", rig_config.load("virtual"), "{}", "sine-matrix", {})
+    try:
+        live = Live(tmp_path / "r.mcap", 1)
+        rec.event(0.0, "run_start", "sine-matrix", {}, "2 segments, 4 s at most")
+        rec.event(0.0, "segment_start", "a")
+        live.read_on(rec.claim.target)
+        first = live.offset
+        assert 0 < first <= (tmp_path / "r.mcap").stat().st_size and [e["kind"] for e in live.events] == \
+            ["run_start", "segment_start"] and live.planned == 2
+        rec.event(1.0, "segment_end", "a")
+        rec.event(1.0, "segment_start", "b")
+        live.read_on(rec.claim.target)
+        assert live.offset > first and [e["segment"] for e in live.events] == ["sine-matrix", "a", "a", "b"]
+        assert live.done == 1 and live.segment == "b"
+        live.read_on(rec.claim.target)  # nothing new: nothing read twice
+        assert len(live.events) == 4
+    finally:
+        rec.close()

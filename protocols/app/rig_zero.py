@@ -51,10 +51,10 @@ def set_offset(text, channel, value, note):
     return text[:head.end()] + body + text[body_end:]
 
 
-def as_shown(units, quantity, si, places=None):
-    """A reading or offset in the unit system, to the sensor's resolution: '0.100 in'."""
+def as_shown(units, quantity, si):
+    """A reading or offset in the unit system, to the sensor's resolution: '1.50000 in'."""
     scale = units.show(quantity, 1.0) - units.show(quantity, 0.0)
-    places = max(0, -math.floor(math.log10(RESOLUTION[quantity] * scale))) if places is None else places
+    places = max(0, -math.floor(math.log10(RESOLUTION[quantity] * scale)))
     return f"{units.show(quantity, si):.{places}f} {units.unit(quantity)}"
 
 

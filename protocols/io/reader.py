@@ -30,9 +30,10 @@ JSON_METADATA = {"damper": ("model",), "protocol": ("params",), "calibration": N
 
 def load_recording(path, channels=None):
     """(channels {name: (t, values)}, events [dict], metadata {name: dict}); metadata
-    "units" is {channel: unit} as recorded; only the named channels when given (those the
-    recording has: the rest of a 1 kHz recording's batches are most of its reading time). Whatever the file holds is checked here:
-    RigError naming the topic or metadata record that is not as docs/recording.md says."""
+    "units" is {channel: unit} as recorded. Only the named channels when given (those the
+    recording has): the others' batches are most of a 1 kHz recording's reading time.
+    Whatever the file holds is checked here: RigError naming the topic or metadata record
+    that is not as docs/recording.md says."""
     path = input_file(path)
     chans, events, units = {}, [], {}
     try:

@@ -38,7 +38,7 @@ class Live:
             self.__init__(self.target, self.pid, inode=st.st_ino)
         with open(file, "rb") as f:
             f.seek(self.offset)
-            records, end = intact_from(f.read(), self.offset)
+            records, end = intact_from(f.read())  # end: into what was read
         self.offset += end
         for r in records:
             if isinstance(r, Channel):

@@ -108,6 +108,13 @@ def _rows(path, model=None, at_K=None):
     return peaks.peaks(ch, segments(events), damper=peaks.recorded_damper(meta), model=model)
 
 
+def _table_temperature(rows):
+    """Mean body temperature [C] of the segments the velocity table reads (a temperature
+    sweep's are another curve), nan without any."""
+    T = [p.T_c for p in rows if np.isnan(p.target_c)]
+    return float(np.mean(T)) if T else np.nan
+
+
 def check(path, against, tol: Tolerance, units=Units()) -> Check:
     """A run (path) against a reference: another run (a .mcap path) or a damper model (a
     preset's name or FILE.json) along the run's own motion. RigError, DamperError or
@@ -117,7 +124,7 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
         run = _rows(path, model)
         return Check(verdicts(run, model_rows(run), tol, units=units), f"model {model.name} along this run's motion")
     run, ref = _rows(path), _rows(against)
-    T_run, T_ref = (np.nanmean([p.T_c for p in rows]) if rows else np.nan for rows in (run, ref))
+    T_run, T_ref = (_table_temperature(rows) for rows in (run, ref))
     note = ""
     if abs(T_run - T_ref) > COMPENSATE_K:
         identified = Path(path).with_suffix(".model.json")

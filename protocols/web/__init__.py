@@ -25,7 +25,7 @@ from protocols.reports import trend as trend_report
 from protocols.reports.comparison import compare
 from protocols.reports.recording import report
 from protocols.units import Units, fmt
-from protocols.web.in_progress import in_progress
+from protocols.web.in_progress import being_written, in_progress
 from rig.errors import RigError
 
 REINDEX_S = 5.0  # new recordings show up on the runs page within this
@@ -54,7 +54,7 @@ class View:
     def page(self, kind, paths, make):
         """The URL of a page made by make(folder) for these recordings, made first if they
         are new or changed since."""
-        stamp = [(p, Path(p).stat().st_mtime_ns, Path(p).stat().st_size) for p in paths]
+        stamp = [(p, st.st_mtime_ns, st.st_size) for p, st in ((p, Path(p).stat()) for p in paths)]
         name = f"{kind}-{hashlib.sha1(repr(stamp).encode()).hexdigest()[:16]}"
         with self.made:
             if not (self.cache / name / "index.html").exists():
@@ -78,7 +78,7 @@ def create_app(folder, units=Units(), cache=None, reindex_s=REINDEX_S) -> Flask:
         app.add_url_rule(rule, endpoint, fn)
     app.add_template_filter(lambda args, key, desc: urlencode({**args, "sort": key, "desc": desc}), "urlencode_sort")
     app.context_processor(lambda: {"folder": view().folder, "units": view().units, "fmt": fmt,
-                                   "live_count": len(in_progress(view().folder))})
+                                   "live_count": len(being_written(view().folder))})
     return app
 
 

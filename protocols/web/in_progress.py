@@ -109,15 +109,27 @@ def in_progress(folder) -> list[Live]:
         return _in_progress(folder)
 
 
-def _in_progress(folder):
+def being_written(folder) -> list[tuple[Path, int]]:
+    """(recording, writing process) of each recording under folder a live process holds,
+    without reading it (what every page's count needs)."""
     out = []
     for lock in sorted(Path(folder).rglob("*.mcap.lock")):
         target = lock.with_name(lock.name.removesuffix(".lock"))
         pid = writer(target)
+        if pid is not None:
+            out.append((target, pid))
+    return out
+
+
+def _in_progress(folder):
+    out = []
+    writing = being_written(folder)
+    for gone in set(_SEEN) - {target for target, _ in writing}:
+        del _SEEN[gone]
+    for target, pid in writing:
         partial = target.with_name(f".{target.name}.partial")
         file = partial if partial.exists() else target
-        if pid is None or not file.exists():
-            _SEEN.pop(target, None)
+        if not file.exists():
             continue
         live = _SEEN.get(target)
         if live is None or live.pid != pid:

@@ -168,3 +168,21 @@ def test_prove_open_hides_a_users_force_law_and_names_it():
     run = json.loads(r.stdout)["runs"][0]
     assert 1.8 < run["contribution_rms"] < 2.4 and run["null_claims"] == []
     assert [f["effect"] for f in run["found"]][:1] == ["interference"] and run["explained"] > 0.6
+
+
+def test_force_is_taken_at_its_own_stamps_when_a_segment_starts_between_them():
+    """A plan's segment times fall between ticks: the diagnosis's time base is still the
+    force's own stamps and its force the raw samples (not the mean of two across a valve's
+    knee, hundreds of newtons apart at 12 Hz)."""
+    t = np.arange(0.0, 3.0, 1e-3)
+    x = 0.04 + 0.01 * np.sin(2 * np.pi * 12 * t)
+    v = 0.01 * 2 * np.pi * 12 * np.cos(2 * np.pi * 12 * t)
+    F = 3000.0 * v + 700.0 * np.tanh(v / 0.02) + np.random.default_rng(0).normal(0.0, 1.5, len(t))
+    t0 = 0.50037  # between two samples
+    t1 = t0 + 24 / 12
+    ev = [{"t": t0, "kind": "segment_start", "segment": "sine 10 mm 12 Hz", "params": {"kind": "sine", "freq_hz": 12.0}},
+          {"t": t1, "kind": "segment_end", "segment": "sine 10 mm 12 Hz", "params": {}}]
+    d = prepare({"force": (t, F), "x": (t, x)}, ev)
+    i = np.round(d.t / 1e-3).astype(int)
+    assert np.allclose(d.t, t[i], atol=1e-9) and np.allclose(d.F, F[i], rtol=0, atol=1e-6)
+    assert d.t[0] >= t0 and d.t[-1] < t1

@@ -45,7 +45,8 @@ from models.diagnose.data import Data
 from models.diagnose.result import Diagnosis
 
 HINT_P = 0.1  # or a p-value under this: an effect the recording hints at without showing
-MAX_HINTS = 3  # hinted effects designed for, most significant first
+MAX_HINTS = 3  # hinted effects designed for, largest gain first (many p-values sit at the
+# bootstrap's floor: ranked by p, the ties fell to whichever came first)
 DECISIVE = 10.0  # expected log-likelihood ratio a proposal must reach over its own duration
 HELD = {"temperature", "aux"}  # what a sine holds constant: an effect in them cannot be told apart by motion
 AMPLITUDES_M = (0.0005, 0.001, 0.002, 0.005, 0.01, 0.02)
@@ -139,7 +140,7 @@ def rivals(diag: Diagnosis) -> list[Rival]:
                          f"{_say(e)} was taken over {_say(c.effect)}, {chosen_gain:.2f} to {c.relevance:.2f} "
                          f"noise variances"))
     last = by_round.get(len(accepted) + 1, [])
-    hints = [c for c in sorted(last, key=lambda c: c.p_value)
+    hints = [c for c in sorted(last, key=lambda c: -c.relevance)
              if c.effect not in accepted and (c.relevance >= RELEVANCE or c.p_value < HINT_P)
              and _designable(c.effect) and resolved(diag.data, c.effect, c.parameters, c.ci)]
     for c in hints[:MAX_HINTS]:

@@ -232,7 +232,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     block = blocks(d)
     judged_blocks = np.unique(block[judged])
     model = Model(d, base=base)
-    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds))
+    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True)
     values, sd = pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
     fit0 = folds[0][0]

@@ -61,16 +61,29 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
     return values, {**{n: float("nan") for n in held}, **sd}
 
 
-def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60):
+def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False):
     """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
-    sd per fold, residual [N] where every judged sample comes from a fit that never saw it)."""
-    r = np.zeros(len(d.F))
+    sd per fold, residual [N] where every judged sample comes from a fit that never saw it).
+    restart: each fold is fitted again from every other fold's values, and keeps whichever
+    fits its own training cycles better. From the data's rough starts one fold can stop in
+    a local minimum the other did not (on a null with designed sines added, the odd
+    cycles' valve lost its quadratic term: 19 N RMS against 2.3 N), and the difference
+    between the folds is then read as physics."""
     vals, sds = [], []
-    for (train, test), start in zip(folds, starts):
+    for (train, _), start in zip(folds, starts):
         v, sd = fit(model, d, train, start, hold, effort)
-        r = np.where(test, model.force(d, v) - d.F, r)
         vals.append(v)
         sds.append(sd)
+    if restart:
+        cost = lambda v, train: float(np.sum((model.force(d, v) - d.F)[train] ** 2))
+        for i, (train, _) in enumerate(folds):
+            for j in [j for j in range(len(folds)) if j != i]:
+                v, sd = fit(model, d, train, vals[j], hold, effort)
+                if cost(v, train) < cost(vals[i], train):
+                    vals[i], sds[i] = v, sd
+    r = np.zeros(len(d.F))
+    for (_, test), v in zip(folds, vals):
+        r = np.where(test, model.force(d, v) - d.F, r)
     return vals, sds, r
 
 

@@ -186,3 +186,26 @@ def test_force_is_taken_at_its_own_stamps_when_a_segment_starts_between_them():
     i = np.round(d.t / 1e-3).astype(int)
     assert np.allclose(d.t, t[i], atol=1e-9) and np.allclose(d.F, F[i], rtol=0, atol=1e-6)
     assert d.t[0] >= t0 and d.t[-1] < t1
+
+
+def test_a_fold_stuck_in_a_local_minimum_restarts_from_the_other_folds_values():
+    """cross_fit(restart=True): a fold whose fit stopped far off (here: begun from a valve
+    without its quadratic term, with too little effort to leave it) is fitted again from
+    the other fold's values and keeps the better fit of its own training cycles."""
+    from types import SimpleNamespace
+    from models.diagnose import holdout_masks
+    from models.diagnose.candidates import Minimal, Model
+    from models.diagnose.design import Sine, motion
+    from models.diagnose.fitting import cross_fit
+    d = motion(Sine(0.01, 2.0, 0.038), SimpleNamespace(T=None, aux={}))
+    truth = {"c1_c": 3000.0, "c2_c": 2e5, "C_c": 1700.0, "Fcr_c": 770.0, "c1_r": 6900.0, "c2_r": 2.8e5,
+             "C_r": 4700.0, "Fcr_r": 1060.0, "G0": 430.0, "L": 0.28, "F_c": 70.0}
+    d.F = Model(d, base=Minimal(d)).force(d, truth) + np.random.default_rng(0).normal(0.0, 1.5, len(d.t))
+    m = Model(d, base=Minimal(d))
+    folds = holdout_masks(d)[0]
+    stuck = {**truth, "c1_r": 2.1e4, "c2_r": 0.0, "F_c": 3.0}
+    rms = lambda v, k: float(np.sqrt(np.mean((m.force(d, v) - d.F)[k] ** 2)))
+    alone, _, _ = cross_fit(m, d, folds, [truth, stuck], effort=1)
+    again, _, r = cross_fit(m, d, folds, [truth, stuck], effort=1, restart=True)
+    assert rms(alone[1], folds[1][0]) > 10.0 and rms(again[1], folds[1][0]) < 2.0
+    assert np.sqrt(np.mean(r[folds[1][1]] ** 2)) < 2.0

@@ -76,10 +76,6 @@ def next_plan(proposals) -> Plan:
         record_s=design.MIN_S, paired=True))
 
 
-def _key(rival):
-    return frozenset(set(rival.chosen) ^ set(rival.other))
-
-
 def _tell(observers, t, kind, segment, params, message):
     """An event to every observer between runs (no run's observer thread is going)."""
     for o in observers:
@@ -97,14 +93,14 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
     observers = [o for o in observers if o is not None] + [kept]
     lim = limits(cell.config)
     runs = [run_plan(opening, cell, observers)]
-    rounds, spent, before = [], 0.0, {}
+    rounds, spent, before, tried = [], 0.0, {}, set()
     diag = None
     while True:
         try:
             diag = diagnose(kept.arrays(), kept.events)
-            rv = {_key(r): r for r in design.rivals(diag)}
+            rv = {design.key(r): r for r in design.rivals(diag)}
             last = runs[-1].fault or len(rounds) + 1 > max_rounds
-            proposals = [] if last else design.propose(diag, lim, budget_s - spent)
+            proposals = [] if last else design.propose(diag, lim, budget_s - spent, tried)
         except Exception as e:  # noqa: BLE001 - what is recorded stays; the dyno stops asking
             why = f"round {len(rounds) + 1}: diagnosis failed: {describe(e)}"
             _tell(observers, cell.rig.clock(), "diagnosis", "", {"round": len(rounds) + 1}, why)
@@ -132,6 +128,7 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
                    "ratio_to_noise": p.ratio}, p.why)
             say(f"  next: {p.why}")
         spent += sum(p.sine.rig_s for p in proposals)
+        tried |= {(design.key(p.rival), p.sine) for p in proposals}
         before = rv
         runs.append(run_plan(next_plan(proposals), cell, observers))
     # the recording ends as every recording does: with the run's end and how it ended

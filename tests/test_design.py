@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from models.diagnose.candidates import Model
-from models.diagnose.design import Limits, Sine, feasible, motion, propose, rivals
+from models.diagnose.design import Limits, Sine, feasible, key, motion, propose, rivals
 from models.diagnose.result import Candidate
 
 CELL = Limits(x_min=0.002, x_max=0.074, velocity_max=1.5, force_max=1e4, frequency_max=20.0)
@@ -68,3 +68,10 @@ def test_no_sine_is_proposed_outside_the_envelope_the_nulls_are_proven_on():
     assert sines and all(0.0032 <= s.amplitude_m <= 0.0127
                          and 0.0402 <= 2 * np.pi * s.frequency_hz * s.amplitude_m <= 1.277 for s in sines)
     assert any(not 0.0032 <= s.amplitude_m <= 0.0127 for s in feasible(CELL, _diagnosis().data))
+
+
+def test_a_sine_run_for_a_rival_is_not_asked_for_again_for_it():
+    diag = _diagnosis()
+    (p,) = propose(diag, CELL, budget_s=120.0)
+    (q,) = propose(diag, CELL, budget_s=120.0, tried={(key(p.rival), p.sine)})
+    assert q.sine != p.sine and q.rival.other == p.rival.other

@@ -11,9 +11,10 @@ transaction. SI inside: m/s, N, s; times as ISO 8601 UTC.
 from __future__ import annotations
 
 import json
+import os
 import re
 import sqlite3
-from contextlib import contextmanager
+from contextlib import closing, contextmanager, suppress
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -26,6 +27,7 @@ from protocols.io.files import writer
 from protocols.io.reader import load_recording
 from protocols.reports import peaks as peak_rows
 from protocols.reports import velocity_table as vt
+from rig.errors import RigError
 
 DB_NAME = "dyno-runs.sqlite"
 BUSY_MS = 10_000
@@ -48,11 +50,14 @@ CREATE TABLE IF NOT EXISTS diagnoses (
     accepted TEXT, findings TEXT, within_noise INTEGER);
 CREATE INDEX IF NOT EXISTS runs_serial ON runs(serial);
 """
+COLUMNS = ("serial", "operator", "note", "setup", "damper", "rig", "protocol", "params", "started", "duration_s",
+           "outcome", "reason", "error")  # what describe() fills; a re-index sets every one
 ENDINGS = {"fault": "tripped", "operator_stop": "stopped"}
 
 
-class CatalogueError(ValueError):
-    """A query the catalogue cannot answer; the message says why."""
+class CatalogueError(RigError, ValueError):
+    """A query the catalogue cannot answer, or a catalogue file it cannot use; the message
+    says why in one line."""
 
 
 @dataclass
@@ -64,14 +69,82 @@ class Indexed:
     writing: int = 0  # being recorded now: indexed once finished
 
 
-def connect(folder) -> sqlite3.Connection:
-    """The catalogue of recordings in `folder` (created if missing)."""
-    c = sqlite3.connect(Path(folder) / DB_NAME, timeout=BUSY_MS / 1000)
-    c.row_factory = sqlite3.Row
-    c.execute("PRAGMA journal_mode=WAL")
-    c.execute("PRAGMA foreign_keys=ON")
-    c.executescript(SCHEMA)
-    return c
+APPLICATION_ID = 0x44594E4F  # "DYNO": a catalogue this project made (PRAGMA application_id)
+RUN_COLUMNS = {"id", "path", "size", "mtime", "serial", "started", "error"}  # what a catalogue of ours has at least
+
+
+def _path(folder) -> Path:
+    return Path(folder) / DB_NAME
+
+
+def _refuse(db, why):
+    raise CatalogueError(f"{db}: {why}")
+
+
+def _ours(c: sqlite3.Connection, db):
+    """CatalogueError unless the open database is a run catalogue of ours (an older one
+    without its application id is known by its runs table)."""
+    try:
+        app_id = c.execute("PRAGMA application_id").fetchone()[0]
+        tables = {r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        columns = {r[1] for r in c.execute("PRAGMA table_info(runs)")} if "runs" in tables else set()
+    except sqlite3.DatabaseError as e:
+        _refuse(db, f"not a readable SQLite file ({e}); move it away and run `dyno runs index`")
+    if app_id == APPLICATION_ID or (app_id == 0 and RUN_COLUMNS <= columns):
+        return
+    if app_id == 0 and not tables:
+        return  # empty: nobody's yet
+    _refuse(db, "a SQLite file that is not a dyno run catalogue; it is left as it is (move it, or index another "
+                "folder)")
+
+
+def connect(folder, write=True) -> sqlite3.Connection:
+    """The catalogue of recordings in `folder`: created if missing when write, opened
+    read-only otherwise (a reader never changes the file). A file that is not a catalogue
+    of ours is never written: CatalogueError in one line, as for a corrupt, unreadable or
+    misplaced one."""
+    db = _path(folder)
+    if db.is_symlink() or (db.exists() and not db.is_file()):
+        _refuse(db, "not a regular file (a folder, link or device); move it away")
+    if not write and not db.exists():
+        _refuse(db, f"no run catalogue yet; run `dyno runs index {Path(folder)}`")
+    if db.exists() and not os.access(db, os.R_OK):
+        _refuse(db, "cannot read it (permission denied)")
+    try:
+        if db.exists():
+            with closing(sqlite3.connect(f"{db.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_MS / 1000)) as look:
+                _ours(look, db)
+        if not write:
+            c = sqlite3.connect(f"{db.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_MS / 1000)
+        else:
+            if db.exists() and not os.access(db, os.W_OK):
+                _refuse(db, "read-only: cannot record in it (runs list, show and trend still read it)")
+            c = sqlite3.connect(db, timeout=BUSY_MS / 1000)
+        c.row_factory = sqlite3.Row
+        c.execute("PRAGMA foreign_keys=ON")
+        if write:
+            c.execute("PRAGMA journal_mode=WAL")
+            if c.execute("PRAGMA application_id").fetchone()[0] == 0:
+                c.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+            c.executescript(SCHEMA)
+        return c
+    except sqlite3.DatabaseError as e:  # sqlite3.OperationalError included: locked, read-only folder, ...
+        _refuse(db, f"cannot open it ({e})")
+
+
+def _recordings(folder):
+    """Every *.mcap under folder that is a regular file, sorted; links to one followed, a
+    link loop or a dangling link skipped (and an unreadable folder)."""
+    out = []
+    for root, dirs, names in os.walk(folder, onerror=lambda e: None):
+        dirs.sort()
+        for n in names:
+            if n.endswith(".mcap"):
+                p = Path(root) / n
+                with suppress(OSError):
+                    if p.is_file():
+                        out.append(p)
+    return sorted(out)
 
 
 def describe(path):
@@ -97,15 +170,19 @@ def index(folder) -> Indexed:
     """Index every *.mcap under folder (recursively) into its catalogue, but those a run
     is writing now."""
     out = Indexed()
-    with connect(folder) as c:
-        for path in sorted(Path(folder).rglob("*.mcap")):
-            out_kind = "writing" if writer(path) else index_file(c, path)
+    with closing(connect(folder)) as c:
+        for path in _recordings(folder):
+            try:
+                out_kind = "writing" if writer(path) else index_file(c, path)
+            except OSError:  # gone or unreadable between the look and the read
+                out_kind = "failed"
             setattr(out, out_kind, getattr(out, out_kind) + 1)
     return out
 
 
 def index_file(c: sqlite3.Connection, path) -> str:
-    """Index one recording: "added", "updated", "unchanged" or "failed" (its error kept)."""
+    """Index one recording: "added", "updated", "unchanged" or "failed" (its error kept). A
+    changed recording keeps its row, so its checks, models and diagnoses stay with it."""
     path = Path(path).resolve()
     st = path.stat()
     old = c.execute("SELECT id, size, mtime FROM runs WHERE path = ?", (str(path),)).fetchone()
@@ -114,13 +191,16 @@ def index_file(c: sqlite3.Connection, path) -> str:
     try:
         row, peaks = describe(path)
     except Exception as e:  # noqa: BLE001 - a file that cannot be read is a row with its error
-        row, peaks = {"error": str(e).splitlines()[0]}, []
-    row.update(path=str(path), size=st.st_size, mtime=st.st_mtime)
+        row, peaks = {"error": str(e).splitlines()[0] or type(e).__name__}, []
+    row = {**dict.fromkeys(COLUMNS), **row, "path": str(path), "size": st.st_size, "mtime": st.st_mtime}
     with c:  # one transaction per run
-        c.execute("DELETE FROM runs WHERE path = ?", (str(path),))
-        cols = ", ".join(row)
-        run_id = c.execute(f"INSERT INTO runs ({cols}) VALUES ({', '.join('?' * len(row))})",
-                           list(row.values())).lastrowid
+        if old is None:
+            run_id = c.execute(f"INSERT INTO runs ({', '.join(row)}) VALUES ({', '.join('?' * len(row))})",
+                               list(row.values())).lastrowid
+        else:
+            run_id = old["id"]
+            c.execute(f"UPDATE runs SET {', '.join(k + ' = ?' for k in row)} WHERE id = ?", [*row.values(), run_id])
+            c.execute("DELETE FROM peaks WHERE run_id = ?", (run_id,))
         c.executemany("INSERT INTO peaks VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [(run_id, *p) for p in peaks])
     if row.get("error"):
         return "failed"
@@ -144,6 +224,8 @@ def add(path) -> str:
     try:
         with beside(path) as c:
             outcome = index_file(c, path)
+    except CatalogueError as e:
+        return f"not catalogued ({e})"
     except (OSError, sqlite3.Error) as e:
         return f"not catalogued ({path.parent / DB_NAME}: {e}); dyno runs index {path.parent} retries"
     return f"catalogued in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
@@ -161,6 +243,8 @@ def _attach(path, table, values, what) -> str:
             with c:
                 c.execute(f"INSERT INTO {table} VALUES ({', '.join('?' * (len(values) + 2))})",
                           (run_id, datetime.now(timezone.utc).isoformat(timespec="seconds"), *values))
+    except CatalogueError as e:
+        return f"{what} not catalogued ({e})"
     except (OSError, sqlite3.Error) as e:
         return f"{what} not catalogued ({path.parent / DB_NAME}: {e})"
     return f"{what} catalogued in {path.parent / DB_NAME} (run {run_id})"
@@ -217,6 +301,7 @@ def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=No
 FIELDS = ("serial", "operator", "note", "damper", "rig", "protocol", "started", "duration_s", "outcome", "reason",
           "path")
 OPS = {"=": "=", "!=": "!=", "<": "<", "<=": "<=", ">": ">", ">=": ">=", "~": "LIKE"}
+MAX_TERMS, MAX_WHERE_CHARS = 32, 4000  # a filter a person writes; SQLite's own limits are far above
 TERM = re.compile(r"\s*(setup\.[\w.-]+|\w+)\s*(!=|<=|>=|=|<|>|~)\s*(\"[^\"]*\"|'[^']*'|[^\s'\"]+)\s*")
 
 
@@ -225,7 +310,12 @@ def condition(text):
     FIELD one of FIELDS or setup.KEY, OP one of = != < <= > >= ~ (contains), VALUE a
     number or text (quoted if it has spaces). CatalogueError names what is wrong."""
     sql, args = [], []
-    for part in re.split(r"\s+and\s+", text.strip(), flags=re.I):
+    if len(text) > MAX_WHERE_CHARS:
+        raise CatalogueError(f"--where: {len(text)} characters; at most {MAX_WHERE_CHARS}")
+    parts = re.split(r"\s+and\s+", text.strip(), flags=re.I)
+    if len(parts) > MAX_TERMS:
+        raise CatalogueError(f"--where: {len(parts)} conditions; at most {MAX_TERMS}")
+    for part in parts:
         m = TERM.fullmatch(part)
         if m is None:
             raise CatalogueError(f"--where: {part!r} is not FIELD OP VALUE (OP one of {' '.join(OPS)})")
@@ -250,14 +340,20 @@ def condition(text):
     return "(" + " AND ".join(sql) + ")", args
 
 
+MAX_ID = 2**63 - 1  # SQLite's largest integer
+
+
 def run(c: sqlite3.Connection, run_id) -> tuple[sqlite3.Row, list[sqlite3.Row]]:
+    if not 0 < run_id <= MAX_ID:
+        raise CatalogueError(f"no run with id {run_id} in the catalogue")
     row = c.execute("SELECT * FROM runs WHERE id = ?", (run_id,)).fetchone()
     if row is None:
         raise CatalogueError(f"no run with id {run_id} in the catalogue")
     return row, c.execute("SELECT * FROM peaks WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
 
 
-QUANTITY = re.compile(r"^(compression|rebound)@([0-9.]+)(m/s|in/s)$")
+QUANTITY = re.compile(r"^(compression|rebound)@([0-9]{1,6}(?:\.[0-9]{0,9})?|\.[0-9]{1,9})(m/s|in/s)$")
+MAX_SPEED = 20.0  # m/s: beyond any damper dyno
 
 
 def quantity(text):
@@ -267,6 +363,8 @@ def quantity(text):
     if not m:
         raise CatalogueError(f"--quantity {text!r}: give DIRECTION@SPEED with a unit, e.g. rebound@0.5m/s")
     speed = float(m.group(2)) * (0.0254 if m.group(3) == "in/s" else 1.0)
+    if not 0 < speed <= MAX_SPEED:
+        raise CatalogueError(f"--quantity {text!r}: a speed above 0 and at most {MAX_SPEED:g} m/s")
     return m.group(1), speed
 
 

@@ -141,6 +141,8 @@ def parse(text: str, where="<config>") -> RigConfig:
     except tomllib.TOMLDecodeError as e:
         m = re.search(r"line (\d+)", str(e))
         raise RigError(f"{where}:{m.group(1) if m else '?'}: {str(e).split(' (at')[0]}") from None
+    except RecursionError:
+        raise RigError(f"{where}: nested too deeply to be a cell file") from None
     c = Checker(text, where)
     for name in data:
         if name not in TABLES:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import gc
 import os
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -25,6 +26,7 @@ from rig.errors import RigError
 from rig.pacing import realtime_priority
 from rig.safe_stop import SafeStop
 
+OPERATOR_STOP = threading.Event()  # set by the application's Ctrl-C handler; looked at every tick
 STALLED_TICKS = 100  # failed ticks in a row, the clock standing still: the stop cannot settle
 
 
@@ -105,6 +107,8 @@ class ControlLoop:
                 t_work = time.perf_counter()
                 r.ticks += 1
                 r.lateness_s.append(late)
+                if OPERATOR_STOP.is_set() and stop.running:  # a Ctrl-C whose exception was lost
+                    raise KeyboardInterrupt
                 if late > self.period:
                     r.overruns += 1
                     if late > self.safety.L["stale_s"] and stop.running:

@@ -73,10 +73,9 @@ def parse(specs) -> dict:
             out[name] = float(value) if sep else float("nan")
         except ValueError:
             out[name] = float("nan")
-        v = out[name]
-        if not np.isfinite(v) or v < 0 or (name == "compressibility" and v == 0):
-            raise EffectError(f"--effect {s}: VALUE must be a {'positive' if name == 'compressibility' else 'non-negative'} "
-                              f"number in {EFFECTS[name].unit}")
+        v, h = out[name], EFFECTS[name]
+        if not h.lo <= v <= h.hi:
+            raise EffectError(f"--effect {s}: VALUE must be a number from {h.lo:g} to {h.hi:g} {h.unit}")
     return out
 
 

@@ -301,7 +301,7 @@ CATALOGUE = {e.name: e for e in (
            hidden=Hidden('s', 'time constant of a first-order filter in the LVDT/LVT conditioning', 0.0001, {
                'transport': 'a pure transport delay of VALUE in the LVDT/LVT signal',
                'second_order': 'two first-order filters of VALUE / 2 in series (critically damped)',
-           }),
+           }, hi=0.05),
     ),
     Effect("free_play", "clearance (free play) in the damper's mounts",
            _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
@@ -315,7 +315,7 @@ CATALOGUE = {e.name: e for e in (
                           'CONTACT_F (a worn elastomer bush)',
                'hertz': 'the clearance closes onto a Hertzian contact, deflection (F / CONTACT_F)^(2/3) VALUE (a worn'
                         ' ball joint)',
-           }),
+           }, hi=0.005),
     ),
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
@@ -328,7 +328,7 @@ CATALOGUE = {e.name: e for e in (
                            'at most 4 VALUE (from 10 MPa)',
                'air': 'free air entrained in the oil, compressed isothermally: effective modulus VALUE at 2 MPa, '
                       'softer below, stiffer above',
-           }),
+           }, hi=1e11, lo=1e6),
     ),
     Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
            _p(P("r_break", 1.2, 1.0, 5.0, "-"),
@@ -343,7 +343,7 @@ CATALOGUE = {e.name: e for e in (
                'lorentzian': 'Stribeck seal, 1 / (1 + (v / 10 mm/s)^2)',
                'power': 'Stribeck seal, a power law (1 + |v| / 20 mm/s)^-2',
                'slow': 'Stribeck seal, Gaussian at 1 mm/s',
-           }),
+           }, hi=10.0),
     ),
     Effect("position_friction", "seal friction varying along the bore",
            lambda d, e: terms.coefficients("pf", FRICTION_KNOTS, terms.force_bound(d)),
@@ -355,7 +355,7 @@ CATALOGUE = {e.name: e for e in (
                'narrow': 'a tight spot 1.5 mm wide, 3 mm below mid-stroke',
                'step': 'friction VALUE higher over the bore above mid-stroke + 2 mm (a worn lower bore), the step '
                        'over 0.5 mm',
-           }),
+           }, hi=10.0),
     ),
     Effect("gas_temperature", "gas-spring force rising with temperature",
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
@@ -366,7 +366,7 @@ CATALOGUE = {e.name: e for e in (
            hidden=Hidden('-', "share of the body's temperature rise the gas charge takes on", 0.1, {
                'reservoir': "share of the reservoir's temperature rise (it lags the body by its 60 s)",
                'lagged': "share of the body's temperature rise through a 10 s lag (heat through the floating piston)",
-           }),
+           }, hi=1.0),
     ),
     Effect("damping_temperature", "damping changing with oil temperature",
            _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
@@ -377,7 +377,7 @@ CATALOGUE = {e.name: e for e in (
            hidden=Hidden('1/K', 'K_effoil of eq 4.17 in both directions (oil density with temperature)', 0.0001, {
                'compression': 'K_effoil of twice VALUE in compression only',
                'rebound': 'K_effoil of twice VALUE in rebound only',
-           }),
+           }, hi=0.05),
     ),
     Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
            _p(P("m_oil", 0.0, -20.0, 200.0, "kg")),
@@ -389,7 +389,7 @@ CATALOGUE = {e.name: e for e in (
                'resonant': "the oil column on the oil's spring: its force through a 150 Hz resonance, "
                            "damping ratio 0.3",
                'direction': '1.5 VALUE while oil flows in compression, 0.5 VALUE in rebound (longer path)',
-           }),
+           }, hi=100.0),
     ),
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
            estimate="Fcav_c", apply=_cavitation, acts_on="total", depends_on=("velocity", "direction", "displacement"),
@@ -400,7 +400,7 @@ CATALOGUE = {e.name: e for e in (
                'lingering': 'the air released below VALUE redissolves over CAV_REDISSOLVE_S: the lost push recovers '
                             'with that lag',
                'soft': 'air comes out of solution from twice VALUE down: the chamber approaches VALUE exponentially',
-           }),
+           }, hi=1e6),
     ),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
            _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
@@ -412,7 +412,7 @@ CATALOGUE = {e.name: e for e in (
            hidden=Hidden('m', "the seal's pre-sliding travel (the plant's Dahl law, stepped with the frame)", 1e-05, {
                'jenkins': 'friction builds linearly over VALUE of travel, then slides (elasto-plastic)',
                'iwan': 'four elasto-plastic elements of 0.25, 0.75, 1.25 and 1.75 VALUE in parallel',
-           }),
+           }, hi=1e-3),
     ),
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
            _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
@@ -425,7 +425,7 @@ CATALOGUE = {e.name: e for e in (
                               'n = 1 over BW_YIELD of travel (the diagnosis fits n = 2)', 1.0, {
                'elastoplastic': 'elasto-plastic: linear up to VALUE over BW_YIELD of travel, then yields',
                'wide': 'the default element over five times BW_YIELD',
-           }),
+           }, hi=1e4),
     ),
     Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
            estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux", depends_on=("aux",),
@@ -436,7 +436,7 @@ CATALOGUE = {e.name: e for e in (
                'fast': 'the solenoid follows the current within 2 ms',
                'quadratic': "damping change VALUE (i^2 - 1) / 2: the solenoid's force goes with the current "
                             "squared (VALUE per ampere at 1 A)",
-           }),
+           }, hi=10.0),
     ),
 )}
 # the catalogue and the open terms (models/diagnose/terms.py), which compete in every round

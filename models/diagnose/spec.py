@@ -32,6 +32,8 @@ class Hidden:
     form: str  # what VALUE sets, in the plant's default form
     guess: float  # a VALUE of roughly noise size: where `dyno prove --calibrate` starts
     forms: dict = field(default_factory=dict)  # {other form: what VALUE sets in it}
+    hi: float = float("inf")  # VALUE's range: what a damper or cell could have; beyond it, a typing mistake
+    lo: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,8 @@ import argparse
 import importlib
 import math
 import sys
+from importlib import metadata
+from pathlib import Path
 
 from models.damper import DamperError
 from models.parallel import TaskFailed
@@ -20,6 +22,17 @@ def _hidden_physics(p):
                    help="the plain cell dyno prove uses (sim_backend/plain.toml): nothing the minimal model leaves out")
     p.add_argument("--seed", type=number(0, 2**32 - 1, integer=True), default=0,
                    help="the virtual rig's noise seed (default 0)")
+
+
+FILE, FOLDER = "file", "folder"
+
+
+def _writes(p, flag, kind, **kw):
+    """An option naming a file or folder the command writes: main() checks it by the one
+    rule (protocols/io/files.py) before the command starts, whatever the command does."""
+    action = p.add_argument(flag, **kw)
+    action.writes = kind
+    return action
 
 
 def _overwrite(p, what="the output"):
@@ -94,6 +107,7 @@ def holdout(text):
 
 def parser():
     p = Parser(prog="dyno", description="Damper dyno controller and damper model tools")
+    p.add_argument("--version", action="version", version=f"dyno {metadata.version('dyno')}")
     sub = p.add_subparsers(dest="cmd", required=True)
     for add in (_model_commands, _cell_commands, _analysis_commands, _catalogue_commands, _bench_commands):
         add(sub)
@@ -107,14 +121,14 @@ def _model_commands(sub):
     v.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     v.add_argument("--sensitivity", action="store_true",
                    help="for each missed step row, the install position that would reconcile it (slower)")
-    v.add_argument("--report", metavar="DIR", help="also write the step and ride-height figures there")
+    _writes(v, "--report", FOLDER, metavar="DIR", help="also write the step and ride-height figures there")
     _overwrite(v, "--report's figures")
     v.set_defaults(command="validate")
     pl = sub.add_parser("plot", help="write plots as PNG")
     plsub = pl.add_subparsers(dest="what", required=True)
     pd = plsub.add_parser("damper", help="loops, composite curve, temperature and pressure plots")
     pd.add_argument("damper", help="preset name (koni, mechformance, fox-light, fox-heavy) or FILE.json")
-    pd.add_argument("--out", required=True, help="output directory")
+    _writes(pd, "--out", FOLDER, required=True, help="output directory")
     pd.add_argument("--amplitude-mm", type=number(), default=12.7, help="sine amplitude (default 12.7)")
     pd.add_argument("--freq", type=number(), nargs="+", default=[1, 2, 4, 8, 16], help="frequencies in Hz")
     pd.add_argument("--temp", type=number(), default=94.0, help="damper temperature in C (default 94)")
@@ -129,7 +143,7 @@ def _model_commands(sub):
         q.add_argument("--damper", default="koni", help="preset name or FILE.json (default koni)")
         q.add_argument("--car", default="race-car" if name == "parametric" else "simulator",
                        help="quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json")
-        q.add_argument("--out", required=True, help="output directory")
+        _writes(q, "--out", FOLDER, required=True, help="output directory")
         _overwrite(q, "the figures in --out")
         q.add_argument("--freq", type=number(), nargs="+", default=None,
                        help="excitation frequencies in Hz (default 1.25-20 in 0.25 Hz steps)")
@@ -162,14 +176,14 @@ def _cell_commands(sub):
     rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
     _hidden_physics(rn)
-    rn.add_argument("--out", default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap); "
+    _writes(rn, "--out", FILE, default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap); "
                                                 "an existing file is kept unless --overwrite")
     rn.add_argument("--overwrite", action="store_true", help="replace an existing --out file once the run starts")
     rn.add_argument("--long", action="store_true", help="allow a run planned to move for more than 2 hours")
     _units(rn)
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
     rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
-    rn.add_argument("--rrd", default=None, help="also save the live view to FILE.rrd")
+    _writes(rn, "--rrd", FILE, default=None, help="also save the live view to FILE.rrd")
     rn.add_argument("--operator", default=None, help="who runs the test (recorded, shown on the report)")
     rn.add_argument("--serial", default=None, help="the damper's serial number (recorded, shown on the report)")
     rn.add_argument("--note", default=None, help="a note for the record (setup, clickers, ...)")
@@ -195,7 +209,7 @@ def _cell_commands(sub):
     rp.add_argument("file")
     rp.add_argument("other", nargs="*", help="more recordings: each compared (B, C, ...) with the first (A)")
     rp.add_argument("--model", default=None, help="damper model JSON to overlay (default: FILE.model.json if present)")
-    rp.add_argument("--out", required=True, help="output directory")
+    _writes(rp, "--out", FOLDER, required=True, help="output directory")
     rp.add_argument("--speeds", default=None, metavar="V,V,...",
                     help="shaft speeds of the velocity table, in --units' velocity unit (default 0.025-0.5 m/s, "
                          "1-20 in/s)")
@@ -225,7 +239,7 @@ def _cell_commands(sub):
 def _batch_options(p, what, beside):
     p.add_argument("--batch", nargs="+", metavar="FILE",
                    help=f"many recordings, one task each: {beside} beside each and a summary table")
-    p.add_argument("--summary", default=None, help=f"--batch's summary CSV (default {what}-summary.csv)")
+    _writes(p, "--summary", FILE, default=None, help=f"--batch's summary CSV (default {what}-summary.csv)")
     _cluster_option(p)
     p.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
                    help="--batch without --cluster: recordings analysed in parallel (default 2)")
@@ -264,7 +278,8 @@ def _catalogue_commands(sub):
     rt.add_argument("dir", nargs="?", default="recordings")
     rt.add_argument("--serial", required=True)
     rt.add_argument("--quantity", required=True, help="DIRECTION@SPEED, e.g. rebound@0.5m/s or compression@10in/s")
-    rt.add_argument("--out", help="also plot it to this PNG")
+    _writes(rt, "--out", FILE, help="also plot it to this PNG (or .svg, .pdf)")
+    _overwrite(rt, "--out")
     _units(rt)
     rt.set_defaults(command="runs:trend")
     sv = sub.add_parser("serve", help="the runs in a browser: table, reports, comparisons, trends, QA, live runs")
@@ -282,7 +297,7 @@ def _diagnose_command(sub):
     dg.add_argument("--baseline", default="minimal",
                     help="minimal (default: fitted whole), or a damper preset or model JSON, refitted")
     dg.add_argument("--json", action="store_true", help="machine-readable result")
-    dg.add_argument("--report", metavar="DIR", help="HTML report with residual maps and loops")
+    _writes(dg, "--report", FOLDER, metavar="DIR", help="HTML report with residual maps and loops")
     _overwrite(dg, "--report's files and --batch's outputs")
     dg.add_argument("--holdout", type=holdout, default="interleaved",
                     help="interleaved (default: alternate cycles or blocks) or tail:FRACTION (a time split: fit on "
@@ -301,10 +316,10 @@ def _analysis_commands(sub):
     idf.add_argument("recordings", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
     idf.add_argument("--damper", default=None,
                      help="description giving layout and geometry (default: the damper the recording names)")
-    idf.add_argument("--out", default=None, help="model JSON (default: RECORDING.model.json)")
+    _writes(idf, "--out", FILE, default=None, help="model JSON (default: RECORDING.model.json)")
     idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
-    idf.add_argument("--report", default=None, metavar="DIR", help="HTML report with loops and held-out errors")
+    _writes(idf, "--report", FOLDER, default=None, metavar="DIR", help="HTML report with loops and held-out errors")
     _overwrite(idf, "--out, --report's files and --batch's outputs")
     _batch_options(idf, "identify", "FILE.model.json")
     idf.set_defaults(command="identify")
@@ -345,15 +360,15 @@ def _analysis_commands(sub):
                     help="the reference: another run, or a damper model (preset or FILE.json) simulated along "
                          "this run's motion")
     ck.add_argument("--tolerance", default="5%", help="the band: 5%% of the reference, 50N, or 5%%,50N (the larger)")
-    ck.add_argument("--out", default=None, help="folder for check.png, the band and the run's points")
+    _writes(ck, "--out", FOLDER, default=None, help="folder for check.png, the band and the run's points")
     _units(ck)
     _overwrite(ck)
     ck.set_defaults(command="check")
     ex = sub.add_parser("export", help="a recording as one wide table (CSV or Parquet) on the force clock")
     ex.add_argument("recording")
-    ex.add_argument("--csv", metavar="FILE", help="write CSV")
-    ex.add_argument("--parquet", metavar="FILE", help="write Parquet (needs pyarrow)")
-    ex.add_argument("--target", metavar="FILE", help="write a replay target: time [s] and displacement [mm] about "
+    _writes(ex, "--csv", FILE, metavar="FILE", help="write CSV")
+    _writes(ex, "--parquet", FILE, metavar="FILE", help="write Parquet (needs pyarrow)")
+    _writes(ex, "--target", FILE, metavar="FILE", help="write a replay target: time [s] and displacement [mm] about "
                                                      "mid-stroke (dyno run replay --target FILE)")
     ex.add_argument("--segment", help="--target: only this segment (its name, e.g. 'road iso8608:C:50')")
     ex.add_argument("--channels", help="comma-separated channels (default: all, force first)")
@@ -362,7 +377,7 @@ def _analysis_commands(sub):
     ex.set_defaults(command="export")
     im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
     im.add_argument("file", metavar="FILE.csv")
-    im.add_argument("--out", required=True, metavar="FILE.mcap")
+    _writes(im, "--out", FILE, required=True, metavar="FILE.mcap")
     _overwrite(im, "--out")
     im.add_argument("--map", action="append", required=True, metavar="NAME=COLUMN[:UNIT]",
                     help="time, displacement, velocity, force, temperature, pressure or aux.NAME; "
@@ -419,6 +434,37 @@ def _bench_commands(sub):
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
 
 
+def chosen(p, args):
+    """The parsers `args` went through: dyno's, then each subcommand's."""
+    out = [p]
+    while True:
+        subs = [a for a in out[-1]._actions if isinstance(a, argparse._SubParsersAction)]
+        name = getattr(args, subs[0].dest, None) if subs else None
+        if name is None:
+            return out
+        out.append(subs[0].choices[name])
+
+
+def check_outputs(p, args):
+    """Every file or folder the command will write, checked by the one rule before it
+    starts: never an input (any file named among its other arguments), kept unless
+    --overwrite, each a path of its own."""
+    from protocols.io.files import existing_files, output_file, output_folder
+    actions = [a for q in chosen(p, args) for a in q._actions if a.dest != "help"]
+    outputs = [(a, getattr(args, a.dest, None)) for a in actions if getattr(a, "writes", None)]
+    outputs = [(a, v) for a, v in outputs if v is not None]
+    inputs = existing_files(*(getattr(args, a.dest, None) for a in actions if not getattr(a, "writes", None)))
+    seen = {}
+    for a, value in outputs:
+        flag = a.option_strings[0]
+        where = Path(value).resolve()
+        if where in seen:
+            raise RigError(f"{flag} {value}: also given to {seen[where]}; each output needs a path of its own")
+        seen[where] = flag
+        check = output_file if a.writes == FILE else output_folder
+        check(value, inputs, getattr(args, "overwrite", False), flag)
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["run"] and {"-h", "--help"} & set(argv):  # a protocol's own parameters
@@ -434,6 +480,7 @@ def main(argv=None):
             p.error(f"unrecognized arguments: {' '.join(extra)}")
     module, _, function = args.command.partition(":")
     try:
+        check_outputs(p, args)
         return getattr(importlib.import_module(f"protocols.app.{module}"), function or "run")(args)
     except (DamperError, RigError) as e:
         print(f"dyno: error: {e}", file=sys.stderr)

@@ -58,10 +58,21 @@ def as_shown(units, quantity, si):
     return f"{units.show(quantity, si):.{places}f} {units.unit(quantity)}"
 
 
+def span(cfg, name) -> float:
+    """How far a channel's zero may move [SI]: the stroke between the position limits, the
+    force limit; a larger offset is a wrong reading, not a zero error."""
+    lim = cfg.limits
+    return lim["x_max"] - lim["x_min"] if name == "x" else lim["force_max"]
+
+
 def run(args):
     units = Units(args.units)
     F, X = (lambda si, q=q: as_shown(units, q, si) for q in ("force", "length"))
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
+    lim = cfg.limits
+    if args.x_mm is not None and not lim["x_min"] <= args.x_mm / 1e3 <= lim["x_max"]:
+        raise RigError(f"--x-mm {args.x_mm:g}: the gauge's reading at mid-stroke must lie within the cell's "
+                       f"stroke, {lim['x_min'] * 1e3:g} to {lim['x_max'] * 1e3:g} mm")
     damper = load_damper(args.damper)
     info = rig_info(cfg, damper)
     kept = runner.Kept()
@@ -98,10 +109,15 @@ def run(args):
           f"{100 * commissioning.LVT_TOLERANCE:g} %)" + ("" if lvt == "within" else
           f": check its gain, {ch['v'].gain:.6g} now, {ch['v'].gain / g:.6g} would agree"))
     for name, value, why in changes:
+        if not abs(value - ch[name].offset) <= span(cfg, name):
+            raise RigError(f"{name}: the new offset {as_shown(units, QUANTITY[name], value)} moves the zero by more "
+                           f"than the channel's range ({as_shown(units, QUANTITY[name], span(cfg, name))}); "
+                           f"nothing written: check the sensor and its wiring")
+    for name, value, why in changes:
         q = QUANTITY[name]
         print(f"{name}: offset {as_shown(units, q, ch[name].offset)} -> {as_shown(units, q, value)} ({why})")
-    path = rig_config.path_of(args.rig)
-    if changes and path.resolve().parent != rig_config.CONFIG_DIR.resolve():  # never a shipped config
+    path = rig_config.path_of(args.rig).resolve()  # a link's target is edited, the link kept
+    if changes and path.parent != rig_config.CONFIG_DIR.resolve():  # never a shipped config
         text = path.read_text(encoding="utf-8")
         for name, value, why in changes:
             text = set_offset(text, name, value, f"dyno rig zero {today}: {why} (offset was {ch[name].offset:.9g})")

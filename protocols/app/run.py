@@ -13,6 +13,7 @@ from models.damper import load as load_damper
 from models.damper import to_dict
 from rig import config as rig_config
 from rig.errors import RigError
+from rig.loop import OPERATOR_STOP
 
 from protocols import catalogue, cell, preflight
 from protocols.app.sim_rig import virtual_plant
@@ -29,17 +30,42 @@ from sim_backend.effects import plain_cell
 DISCOVER = "discover"  # `dyno run discover`: an opening sine matrix, then the dyno's own next tests
 
 
+def _operator_stop(signum, frame):
+    """Ctrl-C or SIGTERM: the flag the control loop and the start-up look at, then the
+    KeyboardInterrupt. The exception alone can be lost (raised inside a finaliser, which
+    Python only reports); the flag cannot."""
+    OPERATOR_STOP.set()
+    raise KeyboardInterrupt
+
+
+def _stopped():
+    if OPERATOR_STOP.is_set():
+        raise KeyboardInterrupt
+
+
 def run(args):
-    module, params, plant, damper, cfg, info = _plan_run(args)
-    identifying = args.identify if args.identify is not None else module.NAME == "standard"
-    claim = _output(args, module.NAME, identifying)
-    c = recorder = live = ident = result = None
-    errors = []  # the first is the one that ended the run; later ones are reported after it
-    # SIGTERM stops the run as Ctrl-C does; only the main thread may set it (a cluster
-    # worker runs `dyno prove`'s recordings on a thread of its own)
+    # only the main thread may set handlers (a cluster worker runs `dyno prove`'s
+    # recordings on a thread of its own)
     main = threading.current_thread() is threading.main_thread()
-    previous = main and signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    if main:
+        OPERATOR_STOP.clear()
+        previous = {s: signal.signal(s, _operator_stop) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
+        return _run(args)
+    finally:
+        if main:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+
+
+def _run(args):
+    module, params, plant, damper, cfg, info = _plan_run(args)
+    _stopped()
+    identifying = args.identify if args.identify is not None else module.NAME == "standard"
+    claim = c = recorder = live = ident = result = None
+    errors = []  # the first is the one that ended the run; later ones are reported after it
+    try:
+        claim = _output(args, module.NAME, identifying)
         c = open_cell(args, cfg, damper, plant)
         cfg = c.config
         if args.live or args.rrd:
@@ -51,6 +77,7 @@ def run(args):
                             run_info={**{k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)},
                                       **{f"setup.{k}": v for k, v in getattr(args, "setup", [])}})
         print(f"recording to {claim.target}", file=sys.stderr, flush=True)
+        _stopped()
         if identifying:
             from protocols.live_identify import LiveIdentify
             ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live)
@@ -64,17 +91,17 @@ def run(args):
     except KeyboardInterrupt:
         errors.append("operator stop")
     except RigError as e:
+        if claim is None:
+            raise
         errors.append(str(e))
     finally:
-        if main:
-            signal.signal(signal.SIGTERM, previous)
         for close in (recorder and recorder.close, live and live.close, c and c.close):
             if close:
                 try:
                     close()
                 except Exception as e:  # noqa: BLE001 - never hides the error that ended the run
                     errors.append(str(e) if isinstance(e, RigError) else f"{type(e).__name__}: {e}")
-        if recorder is None:
+        if recorder is None and claim is not None:
             claim.abandon()
             claim.release()
     if result is None:  # the run never started: nothing moved, nothing recorded

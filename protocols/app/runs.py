@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import json
 import sys
+from contextlib import closing
 from pathlib import Path
 
 from protocols import catalogue
+from protocols.io.files import written
 from protocols.reports import markdown as md
 from protocols.units import Units, fmt
 from rig.errors import RigError
@@ -20,10 +22,8 @@ def _folder(args):
 
 
 def _connect(args):
-    folder = _folder(args)
-    if not (folder / catalogue.DB_NAME).exists():
-        raise RigError(f"{folder}: no run catalogue yet; run `dyno runs index {folder}`")
-    return catalogue.connect(folder)
+    """The folder's catalogue, read-only: listing never changes it."""
+    return closing(catalogue.connect(_folder(args), write=False))
 
 
 def index(args):
@@ -50,11 +50,8 @@ def _cell(row, k):
 
 def list_runs(args):
     with _connect(args) as c:
-        try:
-            rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol,
-                                  where=getattr(args, "where", None))
-        except catalogue.CatalogueError as e:
-            raise RigError(str(e)) from None
+        rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol,
+                              where=getattr(args, "where", None))
     if args.json:
         print(json.dumps([dict(r) for r in rows], indent=1))
     else:
@@ -64,10 +61,7 @@ def list_runs(args):
 
 def show(args):
     with _connect(args) as c:
-        try:
-            row, peaks = catalogue.run(c, args.id)
-        except catalogue.CatalogueError as e:
-            raise RigError(str(e)) from None
+        row, peaks = catalogue.run(c, args.id)
         checks, models, diagnoses = (catalogue.attached(c, t, args.id) for t in ("checks", "models", "diagnoses"))
     if args.json:
         print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks], "checks": [dict(k) for k in checks],
@@ -100,18 +94,19 @@ def show(args):
 
 
 def trend(args):
+    from protocols.reports import trend as trend_report
+    kind = Path(args.out).suffix.lower().lstrip(".") if args.out else None
+    if args.out and kind not in trend_report.FORMATS:
+        raise RigError(f"--out {args.out}: a figure is written as .{', .'.join(trend_report.FORMATS)}")
     with _connect(args) as c:
-        try:
-            points = catalogue.trend(c, args.serial, args.quantity)
-        except catalogue.CatalogueError as e:
-            raise RigError(str(e)) from None
+        points = catalogue.trend(c, args.serial, args.quantity)
     if not points:
         raise RigError(f"no readable runs of serial {args.serial!r} in {args.dir}")
     units = Units(args.units)
     print(md.table(("started", units.label(args.quantity, "force"), "run id"),
                    [(s, fmt(units.show("force", F)), i) for s, F, i in points]))
     if args.out:
-        from protocols.reports import trend as trend_report
-        trend_report.figure(points, args.serial, args.quantity, args.out, units)
+        with written(args.out) as tmp:
+            trend_report.figure(points, args.serial, args.quantity, tmp, units, kind)
         print(f"figure: {args.out}", file=sys.stderr)
     return 0

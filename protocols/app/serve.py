@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 import socket
+import sys
 import tempfile
 from contextlib import closing
 from pathlib import Path
@@ -30,12 +31,19 @@ def run(args):
     if not folder.is_dir():
         raise RigError(f"{folder}: no such folder of recordings")
     _free(args.port)  # werkzeug would print its own two lines and exit
-    catalogue.index(folder)
-    with closing(catalogue.connect(folder)) as c:
-        total, unreadable = c.execute("SELECT COUNT(*), COUNT(error) FROM runs").fetchone()
+    try:
+        catalogue.index(folder)
+    except catalogue.CatalogueError as e:
+        print(f"dyno: {e}; serving what can be read", file=sys.stderr)
+    try:
+        with closing(catalogue.connect(folder, write=False)) as c:
+            total, unreadable = c.execute("SELECT COUNT(*), COUNT(error) FROM runs").fetchone()
+        found = f"{total} recordings ({unreadable} unreadable)"
+    except catalogue.CatalogueError:
+        found = "no readable catalogue (live runs only)"
     cache = tempfile.mkdtemp(prefix="dyno-serve-")
     server = make_server("127.0.0.1", args.port, create_app(folder, Units(args.units), cache), threaded=True)
-    print(f"{folder}: {total} recordings ({unreadable} unreadable); "
+    print(f"{folder}: {found}; "
           f"serving http://127.0.0.1:{server.server_port}/ (Ctrl-C stops)", flush=True)
     try:
         server.serve_forever()

@@ -26,12 +26,15 @@ import fcntl
 import os
 import shutil
 import stat
+import sys
 import tempfile
+import time
 from pathlib import Path
 
 from rig.errors import RigError
 
 TEMP_ROOM = 32  # characters the temporary names add to a file name
+LOCK_TRIES = 6  # a lock found held is looked at again for 0.25 s before a second writer is refused
 
 
 def _why(e: OSError) -> str:
@@ -230,7 +233,7 @@ class Claim:
         self.committed = False
 
     def _lock(self):
-        while True:
+        for attempt in range(LOCK_TRIES):
             try:
                 fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as e:
@@ -240,6 +243,9 @@ class Claim:
             except BlockingIOError:
                 holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
                 os.close(fd)
+                if attempt < LOCK_TRIES - 1:  # a reader looking at the lock holds it for microseconds
+                    time.sleep(0.05)
+                    continue
                 raise RigError(f"{self.what} {self.target}: another run is writing it (process {holder}; "
                                f"lock {self.lock_path.name})") from None
             # the lock file may have been removed by its last holder between open and flock
@@ -294,20 +300,65 @@ class Claim:
         self.lock_fd = None
 
 
+def _lock_of(target) -> Path:
+    return Path(target).with_name(Path(target).name + ".lock")
+
+
 def writer(target) -> int | None:
-    """The process writing the recording `target` (by its Claim's lock file), or None when
-    no live process holds it. Read-only: the lock is only looked at, never taken."""
-    lock = Path(target).with_name(Path(target).name + ".lock")
+    """The process writing the recording `target`, or None when no live process holds its
+    lock. The flock itself says so, not the PID in the file: a PID can be reused by any
+    process (PID 1 is always alive), a lock dies with its holder. The lock is taken for a
+    moment to look (Claim retries meanwhile) and never left held."""
+    lock = _lock_of(target)
     try:
-        pid = int(lock.read_text().strip() or 0)
-    except (OSError, ValueError):
-        return None
-    if pid <= 0:
+        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
         return None
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            text = os.pread(fd, 32, 0).decode(errors="replace").strip()
+            return int(text) if text.isdigit() else -1  # held, by a process that has not written its PID yet
+        fcntl.flock(fd, fcntl.LOCK_UN)
         return None
-    except PermissionError:  # alive, another user's
-        pass
-    return pid
+    finally:
+        os.close(fd)
+
+
+def clear_stale_lock(target) -> str | None:
+    """Remove the lock file of `target` when no live process holds it (its writer died, or
+    its PID now names another process); a line saying so, or None when there was none."""
+    lock = _lock_of(target)
+    try:
+        fd = os.open(lock, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return None  # a live writer
+        holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+        try:
+            if os.path.samestat(os.fstat(fd), os.stat(lock, follow_symlinks=False)):
+                os.unlink(lock)
+        except OSError:
+            return None
+        return f"{lock.name}: a stale lock (process {holder} is not writing {Path(target).name}); cleared"
+    finally:
+        os.close(fd)
+
+
+def not_being_written(path, doing="read") -> Path:
+    """`path`, once no live process writes it; RigError naming the writer otherwise. A
+    stale lock beside it is cleared, and said so on stderr."""
+    pid = writer(path)
+    if pid is not None:
+        who = f"process {pid}" if pid > 0 else "a process starting up"
+        raise RigError(f"{path}: being recorded now (by {who}); {doing} it once the run has finished "
+                       f"(dyno serve shows it live)")
+    note = clear_stale_lock(path)
+    if note:
+        print(f"dyno: {note}", file=sys.stderr)
+    return Path(path)

@@ -21,7 +21,7 @@ from mcap.reader import make_reader
 from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import get_chunk_data_stream
 
-from protocols.io.files import input_file
+from protocols.io.files import input_file, not_being_written
 from rig.errors import RigError
 
 
@@ -34,7 +34,7 @@ def load_recording(path, channels=None):
     recording has): the others' batches are most of a 1 kHz recording's reading time.
     Whatever the file holds is checked here: RigError naming the topic or metadata record
     that is not as docs/recording.md says."""
-    path = input_file(path)
+    path = not_being_written(input_file(path))
     chans, events, units = {}, [], {}
     try:
         with open(path, "rb") as f:

@@ -12,6 +12,7 @@ import os
 import re
 import time
 import zlib
+from importlib import metadata
 from io import BytesIO
 from datetime import datetime, timezone
 
@@ -24,7 +25,7 @@ from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from rig.errors import RigError
 
-from protocols.io.files import Claim, input_file, output_file, written
+from protocols.io.files import Claim, input_file, not_being_written, output_file, written
 
 FLUSH_S = 0.5
 SCHEMAS = {
@@ -69,7 +70,7 @@ SCHEMAS = {
         "required": ["timestamp", "level", "message", "name", "file", "line"]},
 }
 LOG_LEVEL = {"fault": 4, "operator_stop": 3, "skipped": 3}  # foxglove.Log levels; other events: 2 (info)
-VERSION = "0.1.0"
+VERSION = metadata.version("dyno")  # pyproject.toml's, as installed
 
 
 class Recorder:
@@ -318,7 +319,7 @@ def recover(path) -> dict:
     corrupted file): every intact record is kept, also those after a damaged part. The
     original is kept beside it as PATH.damaged (PATH.damaged-2 ... if that exists).
     Returns counts of what was restored."""
-    path = input_file(path)
+    path = not_being_written(input_file(path), "recover")
     try:
         with open(path, "rb") as f:
             make_reader(f).get_summary()

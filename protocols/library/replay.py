@@ -16,13 +16,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.signal import csd, welch  # imported here: never for the first time inside a control tick
 
 from rig.errors import RigError
 
+from protocols.library import roads
 from protocols.plan import ParamError, RigInfo, Segment, drain
 
 NAME = "replay"
@@ -60,19 +60,8 @@ def _target(p, rig):
     """The target displacement [m from full extension] at the loop's rate."""
     if not p.target:
         raise ParamError("target: give the displacement history (--target CSV)")
-    path = Path(p.target)
-    if not path.is_file():
-        raise ParamError(f"target: {path}: no such file")
-    try:
-        data = np.atleast_2d(np.genfromtxt(path, delimiter=",", skip_header=1, usecols=(0, 1), dtype=float))
-    except (ValueError, OSError) as e:
-        raise ParamError(f"target: {path}: not a two-column CSV of time [s] and displacement [mm] ({e})") from None
-    if data.shape[0] < 2 or not np.all(np.isfinite(data)):
-        raise ParamError(f"target: {path}: needs at least two rows of finite numbers (time [s], displacement [mm])")
-    if not np.all(np.diff(data[:, 0]) > 0):
-        raise ParamError(f"target: {path}: time must increase row by row")
-    t = np.arange(data[0, 0], data[-1, 0], 1.0 / rig.rate_hz)
-    return rig.x_mid + np.interp(t, data[:, 0], data[:, 1] / 1e3)
+    _, x = roads.history(p.target, "target", "displacement", 1.0 / rig.rate_hz)
+    return rig.x_mid + x / 1e3
 
 
 def plan(p: Params, rig: RigInfo):

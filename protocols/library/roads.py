@@ -12,6 +12,7 @@ Every road ends with SETTLE_S held at its last height, so the car comes to rest.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +21,7 @@ import numpy as np
 from models.quarter_car import road as roads
 
 from protocols.plan import ParamError
+from protocols.preflight import MAX_RUN_S
 
 SETTLE_S = 1.0
 # a step rises over this (a half-cosine): about a tire's footprint crossing a kerb at
@@ -28,6 +30,7 @@ STEP_RISE_S = 0.02
 FADE_S = 0.5
 CONTENT_HZ = (0.5, 20.0)  # temporal band of a random road
 KINDS = ("step", "sine", "sweep", "iso8608", "file")
+MAX_ROWS = 10_000_000  # of a road or target file: hours at 1 kHz
 
 
 @dataclass
@@ -63,7 +66,7 @@ def parse(spec: str, rate_hz: float) -> Road:
     elif kind == "sine":
         hz, mm = _numbers(spec, fields[:2], 2)
         _positive(spec, hz=hz, mm=mm)
-        t = np.arange(0.0, max(10.0 / hz, 4.0), h)
+        t = np.arange(0.0, _length(f"road: {spec!r}", max(10.0 / hz, 4.0)), h)
         y = roads.faded(t, roads.harmonic(t, mm / 1e3, hz)[0], FADE_S)
         v, band = np.gradient(y, h), None
     elif kind == "sweep":
@@ -81,14 +84,14 @@ def parse(spec: str, rate_hz: float) -> Road:
         seconds = seconds[0] if seconds else 10.0
         _positive(spec, kmh=kmh, seconds=seconds)
         speed = kmh / 3.6
-        t = np.arange(0.0, seconds, h)
+        t = np.arange(0.0, _length(f"road: {spec!r}", seconds), h)
         band = (CONTENT_HZ[0] / speed, CONTENT_HZ[1] / speed)  # cycles/m
         y = roads.faded(t, roads.iso8608(t, speed, fields[0].upper(), seed=0, n_band=band)[0], FADE_S)
         y -= y[0]
         v, band = np.gradient(y, h), None
     elif kind == "file":
-        t, y = _from_csv(spec, rest, h)
-        y = y - y[0]  # the car starts at rest on the road's first height
+        t, y = history(rest, "road", "height", h)
+        y = (y - y[0]) / 1e3  # the car starts at rest on the road's first height
         v, band = np.gradient(y, h), None
     else:
         raise ParamError(f"road: {spec!r}: unknown kind {kind!r} (known: {', '.join(KINDS)})")
@@ -103,19 +106,35 @@ def _positive(spec, **values):
             raise ParamError(f"road: {spec!r}: {name} must be positive, got {v:g}")
 
 
-def _from_csv(spec, path, h):
-    """(t, y [m]) of a road file, resampled to the loop's period."""
+def history(path, what, quantity, h):
+    """(t from 0 [s], values [mm]) of a two-column CSV (time [s], QUANTITY [mm]) with a
+    header line, resampled to the loop's period h; ParamError naming what is wrong. The
+    road's file and the replay's target are read here."""
     p = Path(path)
     if not p.is_file():
-        raise ParamError(f"road: {path}: no such file")
+        raise ParamError(f"{what}: {path}: no such file")
     try:
-        data = np.genfromtxt(p, delimiter=",", skip_header=1, usecols=(0, 1), dtype=float)
-    except (ValueError, OSError) as e:
-        raise ParamError(f"road: {path}: not a two-column CSV of time [s] and height [mm] ({e})") from None
+        with warnings.catch_warnings():  # a ragged or empty file is refused below, in one line
+            warnings.simplefilter("ignore")
+            data = np.genfromtxt(p, delimiter=",", skip_header=1, usecols=(0, 1), dtype=float, max_rows=MAX_ROWS + 1)
+    except (ValueError, OSError, UnicodeDecodeError) as e:
+        raise ParamError(f"{what}: {path}: not a two-column CSV of time [s] and {quantity} [mm] "
+                         f"({str(e).splitlines()[0] if str(e) else type(e).__name__})") from None
     data = np.atleast_2d(data)
-    if data.shape[0] < 2 or not np.all(np.isfinite(data)):
-        raise ParamError(f"road: {path}: needs at least two rows of finite numbers (time [s], height [mm])")
+    if data.ndim != 2 or data.shape[1] != 2 or data.shape[0] < 2 or not np.all(np.isfinite(data)):
+        raise ParamError(f"{what}: {path}: needs at least two rows of finite numbers (time [s], {quantity} [mm])")
+    if data.shape[0] > MAX_ROWS:
+        raise ParamError(f"{what}: {path}: more than {MAX_ROWS:,} rows")
     if not np.all(np.diff(data[:, 0]) > 0):
-        raise ParamError(f"road: {path}: time must increase row by row")
+        raise ParamError(f"{what}: {path}: time must increase row by row")
+    _length(f"{what}: {path}", data[-1, 0] - data[0, 0])
     t = np.arange(data[0, 0], data[-1, 0], h)
-    return t - t[0], np.interp(t, data[:, 0], data[:, 1] / 1e3)
+    return t - t[0], np.interp(t, data[:, 0], data[:, 1])
+
+
+def _length(f"road: {spec!r}", seconds):
+    """ParamError when a road or target lasts longer than any run may (MAX_RUN_S): made
+    before anything is allocated for it."""
+    if not seconds <= MAX_RUN_S:
+        raise ParamError(f"{spec}: lasts {seconds:.3g} s; a run lasts at most {MAX_RUN_S / 3600:g} hours")
+    return seconds

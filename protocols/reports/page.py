@@ -49,8 +49,8 @@ def layout_problems(fig) -> list[str]:
     return out
 
 
-def save(fig, path: Path, dpi=100):
-    """Write a matplotlib figure as PNG, close it; its file name (for the page). Text the
+def save(fig, path: Path, dpi=100, fmt=None):
+    """Write a matplotlib figure as PNG (or fmt), close it; its file name (for the page). Text the
     layout clips or overlaps is warned of (LayoutWarning), naming the figure; raised with
     DYNO_STRICT_FIGURES set in the environment (the test suite sets it)."""
     import matplotlib.pyplot as plt
@@ -59,7 +59,7 @@ def save(fig, path: Path, dpi=100):
         if os.environ.get("DYNO_STRICT_FIGURES"):  # the test suite's: a bad figure fails the command
             raise LayoutWarning(f"{Path(path).name}: {problem}")
         warnings.warn(f"{Path(path).name}: {problem}", LayoutWarning, stacklevel=2)
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, format=fmt)
     plt.close(fig)
     return Path(path).name
 

@@ -13,8 +13,12 @@ from protocols.reports.plots import plt
 from protocols.units import Units
 
 
-def figure(points, serial, quantity, path, units=Units()):
-    """points: [(started ISO, force [N], run id)]; the PNG at path (its name)."""
+FORMATS = ("png", "svg", "pdf")
+
+
+def figure(points, serial, quantity, path, units=Units(), fmt=None):
+    """points: [(started ISO, force [N], run id)]; the PNG (or fmt, one of FORMATS) at path
+    (its name)."""
     fig, ax = plt.subplots(figsize=(7, 3.8))
     ok = [(datetime.fromisoformat(s), F) for s, F, _ in points if np.isfinite(F)]
     ax.plot([s for s, _ in ok], [units.show("force", F) for _, F in ok], "o-")
@@ -27,4 +31,4 @@ def figure(points, serial, quantity, path, units=Units()):
     ax.set_ylabel(units.label("force", "force"))
     ax.set_xlabel("run started (UTC)")
     ax.grid(alpha=0.3)
-    return save(fig, Path(path))
+    return save(fig, Path(path), fmt=fmt)

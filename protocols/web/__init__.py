@@ -12,6 +12,7 @@ import json
 import tempfile
 import threading
 import time
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import urlencode
@@ -43,13 +44,19 @@ class View:
     reindex_s: float
     made: threading.Lock = field(default_factory=threading.Lock)  # one at a time: matplotlib, two cores
     indexed_at: float = -1e9
+    problem: str | None = None  # why the catalogue cannot be indexed now (read-only, not ours, ...)
 
     def db(self):
-        """The catalogue, with recordings new since the last look indexed."""
+        """The catalogue, read-only, with recordings new since the last look indexed
+        first; CatalogueError (a page saying why) when it cannot be read at all."""
         if time.monotonic() - self.indexed_at >= self.reindex_s:
-            catalogue.index(self.folder)
+            try:
+                catalogue.index(self.folder)
+                self.problem = None
+            except catalogue.CatalogueError as e:
+                self.problem = str(e)
             self.indexed_at = time.monotonic()
-        return catalogue.connect(self.folder)
+        return closing(catalogue.connect(self.folder, write=False))
 
     def page(self, kind, paths, make):
         """The URL of a page made by make(folder) for these recordings, made first if they
@@ -78,7 +85,8 @@ def create_app(folder, units=Units(), cache=None, reindex_s=REINDEX_S) -> Flask:
         app.add_url_rule(rule, endpoint, fn)
     app.add_template_filter(lambda args, key, desc: urlencode({**args, "sort": key, "desc": desc}), "urlencode_sort")
     app.context_processor(lambda: {"folder": view().folder, "units": view().units, "fmt": fmt,
-                                   "live_count": len(being_written(view().folder))})
+                                   "live_count": len(being_written(view().folder)), "problem": view().problem})
+    app.register_error_handler(catalogue.CatalogueError, lambda e: (render_template("base.html", error=str(e)), 503))
     return app
 
 
@@ -131,7 +139,7 @@ def comparison():
     v = view()
     with v.db() as c:
         chosen = [c.execute("SELECT * FROM runs WHERE id = ?", (i,)).fetchone()
-                  for i in request.args.getlist("id", type=int)]
+                  for i in request.args.getlist("id", type=int) if 0 < i <= catalogue.MAX_ID]
     chosen = [r for r in chosen if r is not None and not r["error"]]
     error, made = None, None
     if len(chosen) < 2:

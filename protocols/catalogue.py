@@ -81,6 +81,14 @@ def _refuse(db, why):
     raise CatalogueError(f"{db}: {why}")
 
 
+def _text(b: bytes) -> str:
+    return b.decode(errors="replace")  # a garbled text cell is shown, not fatal
+
+
+def _first(e: Exception) -> str:
+    return str(e).splitlines()[0] if str(e) else type(e).__name__
+
+
 def _ours(c: sqlite3.Connection, db):
     """CatalogueError unless the open database is a run catalogue of ours (an older one
     without its application id is known by its runs table)."""
@@ -88,8 +96,8 @@ def _ours(c: sqlite3.Connection, db):
         app_id = c.execute("PRAGMA application_id").fetchone()[0]
         tables = {r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
         columns = {r[1] for r in c.execute("PRAGMA table_info(runs)")} if "runs" in tables else set()
-    except sqlite3.DatabaseError as e:
-        _refuse(db, f"not a readable SQLite file ({e}); move it away and run `dyno runs index`")
+    except (sqlite3.DatabaseError, UnicodeDecodeError) as e:  # SQLite's message may quote garbled bytes
+        _refuse(db, f"not a readable SQLite file ({_first(e)}); move it away and run `dyno runs index`")
     if app_id == APPLICATION_ID or (app_id == 0 and RUN_COLUMNS <= columns):
         return
     if app_id == 0 and not tables:
@@ -113,6 +121,7 @@ def connect(folder, write=True) -> sqlite3.Connection:
     try:
         if db.exists():
             with closing(sqlite3.connect(f"{db.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_MS / 1000)) as look:
+                look.text_factory = _text
                 _ours(look, db)
         if not write:
             c = sqlite3.connect(f"{db.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_MS / 1000)
@@ -121,6 +130,7 @@ def connect(folder, write=True) -> sqlite3.Connection:
                 _refuse(db, "read-only: cannot record in it (runs list, show and trend still read it)")
             c = sqlite3.connect(db, timeout=BUSY_MS / 1000)
         c.row_factory = sqlite3.Row
+        c.text_factory = _text
         c.execute("PRAGMA foreign_keys=ON")
         if write:
             c.execute("PRAGMA journal_mode=WAL")
@@ -128,8 +138,21 @@ def connect(folder, write=True) -> sqlite3.Connection:
                 c.execute(f"PRAGMA application_id = {APPLICATION_ID}")
             c.executescript(SCHEMA)
         return c
-    except sqlite3.DatabaseError as e:  # sqlite3.OperationalError included: locked, read-only folder, ...
-        _refuse(db, f"cannot open it ({e})")
+    except (sqlite3.DatabaseError, UnicodeDecodeError) as e:  # OperationalError too: locked, read-only folder
+        _refuse(db, f"cannot open it ({_first(e)})")
+
+
+@contextmanager
+def reading(folder):
+    """The catalogue of folder opened read-only for the block, closed after; a page of it
+    that cannot be read (a torn or garbled file) is a CatalogueError in one line."""
+    c = connect(folder, write=False)
+    try:
+        yield c
+    except (sqlite3.DatabaseError, UnicodeDecodeError) as e:
+        raise CatalogueError(f"{_path(folder)}: cannot read it ({_first(e)}); move it away and run `dyno runs index`") from None
+    finally:
+        c.close()
 
 
 def _recordings(folder):
@@ -310,11 +333,11 @@ def condition(text):
     FIELD one of FIELDS or setup.KEY, OP one of = != < <= > >= ~ (contains), VALUE a
     number or text (quoted if it has spaces). CatalogueError names what is wrong."""
     sql, args = [], []
-    if len(text) > MAX_WHERE_CHARS:
-        raise CatalogueError(f"--where: {len(text)} characters; at most {MAX_WHERE_CHARS}")
     parts = re.split(r"\s+and\s+", text.strip(), flags=re.I)
     if len(parts) > MAX_TERMS:
         raise CatalogueError(f"--where: {len(parts)} conditions; at most {MAX_TERMS}")
+    if len(text) > MAX_WHERE_CHARS:
+        raise CatalogueError(f"--where: {len(text)} characters; at most {MAX_WHERE_CHARS}")
     for part in parts:
         m = TERM.fullmatch(part)
         if m is None:

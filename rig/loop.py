@@ -16,17 +16,16 @@ from __future__ import annotations
 import gc
 import os
 import sys
-import threading
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from rig.errors import RigError
+from rig.operator_stop import OPERATOR_STOP, quiet
 from rig.pacing import realtime_priority
 from rig.safe_stop import SafeStop
 
-OPERATOR_STOP = threading.Event()  # set by the application's Ctrl-C handler; looked at every tick
 STALLED_TICKS = 100  # failed ticks in a row, the clock standing still: the stop cannot settle
 
 
@@ -80,7 +79,8 @@ class ControlLoop:
         sys.setswitchinterval(1e-4)
         policy = realtime_priority(getattr(self.pacer, "fifo_priority", None))
         try:
-            result = self._run(plan, max_s)
+            with quiet():  # a Ctrl-C is the flag, looked at every tick (rig/operator_stop.py)
+                result = self._run(plan, max_s)
             result.sched_fifo = policy is not None
             return result
         finally:
@@ -107,7 +107,7 @@ class ControlLoop:
                 t_work = time.perf_counter()
                 r.ticks += 1
                 r.lateness_s.append(late)
-                if OPERATOR_STOP.is_set() and stop.running:  # a Ctrl-C whose exception was lost
+                if OPERATOR_STOP.is_set() and stop.running:  # Ctrl-C: the flag, never an exception, in here
                     raise KeyboardInterrupt
                 if late > self.period:
                     r.overruns += 1

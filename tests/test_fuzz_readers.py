@@ -245,3 +245,130 @@ def test_any_mcap_reads_or_gives_one_line(tmp_path_factory, data):
         channels, events, meta = result
         assert channels and all(len(t) == len(v) and np.all(np.isfinite(t)) for t, v in channels.values())
         assert all(isinstance(e["t"], (int, float)) and isinstance(e["kind"], str) for e in events)
+
+
+# issue 42: the catalogue, its --where parser, the web view's query strings, roads and targets
+
+_CATALOGUE = []
+
+
+def _catalogue_folder(tmp_path_factory):
+    """A folder with two recordings indexed, a check attached: made once, copied by the
+    tests that change it."""
+    if not _CATALOGUE:
+        from protocols import catalogue
+        folder = tmp_path_factory.mktemp("catalogue")
+        _good_mcap(folder)
+        catalogue.index(folder)
+        with catalogue.beside(folder / "good.mcap") as c:
+            c.execute("UPDATE runs SET serial = 'K-12', setup = '{\"clicks\": 12}'")
+            c.commit()
+        _CATALOGUE.append(folder)
+    return _CATALOGUE[0]
+
+
+@FUZZ
+@given(st.data())
+def test_any_catalogue_file_reads_or_gives_one_line(tmp_path_factory, data):
+    """A catalogue file torn, garbled or of another program: read or refused in one line,
+    never changed by reading."""
+    import shutil
+    import sqlite3
+
+    from protocols import catalogue
+    folder = tmp_path_factory.mktemp("cat")
+    db = folder / catalogue.DB_NAME
+    how = data.draw(st.sampled_from(["flip", "cut", "foreign", "bytes"]))
+    if how == "foreign":
+        with contextlib.closing(sqlite3.connect(db)) as c:
+            c.execute(f"CREATE TABLE {data.draw(st.sampled_from(['runs', 'peaks', 'other']))} "
+                      f"({', '.join(data.draw(st.lists(st.sampled_from(['id', 'path', 'serial', 'x']), min_size=1, max_size=4, unique=True)))})")
+            c.commit()
+    elif how == "bytes":
+        db.write_bytes(data.draw(st.binary(max_size=2048)))
+    else:
+        shutil.copy(_catalogue_folder(tmp_path_factory) / catalogue.DB_NAME, db)
+        raw = bytearray(db.read_bytes())
+        if how == "cut":
+            raw = raw[:data.draw(st.integers(0, len(raw) - 1))]
+        else:
+            for _ in range(data.draw(st.integers(1, 16))):
+                raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
+        db.write_bytes(bytes(raw))
+
+    def look(_):  # as runs list, show and trend and the web view read it
+        with catalogue.reading(folder) as c:
+            rows = catalogue.runs(c, serial=data.draw(st.sampled_from([None, "K-12"])))
+            for r in rows:
+                catalogue.run(c, r["id"])
+            catalogue.trend(c, "K-12", "rebound@0.1m/s")
+            return rows
+    read(db, look)
+    if how in ("foreign", "bytes"):  # not ours: not put in WAL mode, no journal made (ours is in WAL mode)
+        assert sorted(p.name for p in folder.iterdir()) == [catalogue.DB_NAME]
+
+
+@FUZZ
+@given(st.text(max_size=120) | st.lists(st.tuples(
+    st.sampled_from(["serial", "setup.clicks", "setup.a b", "duration_s", "outcome", "nope", "", "id"]),
+    st.sampled_from(["=", "!=", "<", "<=", ">", ">=", "~", "==", ""]),
+    st.one_of(WORDS, NUMBERS.map(str), st.text(max_size=6).map(lambda s: f'"{s}"'))), max_size=6).map(
+    lambda terms: " and ".join(f"{f} {o} {v}" for f, o, v in terms)))
+def test_any_where_filter_parses_or_gives_one_line(tmp_path_factory, text):
+    """--where: valid SQL the catalogue runs, or a CatalogueError naming the term."""
+    from protocols import catalogue
+    folder = _catalogue_folder(tmp_path_factory)
+    try:
+        with catalogue.reading(folder) as c, within():
+            catalogue.runs(c, where=text)
+    except catalogue.CatalogueError as e:
+        refused_in_one_line(e)
+
+
+_APP = []
+
+
+def _client(tmp_path_factory):
+    if not _APP:
+        from protocols.web import create_app
+        app = create_app(_catalogue_folder(tmp_path_factory), cache=tmp_path_factory.mktemp("cache"),
+                         reindex_s=1e9)
+        _APP.append(app.test_client())
+    return _APP[0]
+
+
+@FUZZ
+@given(st.sampled_from(["/", "/trend", "/compare", "/qa", "/run/1", "/run/99999999999999999999999", "/live"]),
+       st.dictionaries(st.sampled_from(["serial", "since", "protocol", "where", "q", "sort", "desc", "quantity",
+                                        "id"]), WORDS | NUMBERS.map(str) | st.text(max_size=30), max_size=4))
+def test_any_web_query_gives_a_page_or_a_bad_request(tmp_path_factory, path, query):
+    """The browser view's query strings: a page, 400 or 404, never a server error."""
+    with within():
+        r = _client(tmp_path_factory).get(path, query_string=query)
+    assert r.status_code in (200, 400, 404), (path, query, r.status_code)
+
+
+ROAD_KINDS = st.sampled_from(["step", "sine", "sweep", "iso8608", "file", "nope", ""])
+
+
+@FUZZ
+@given(st.data())
+def test_any_road_or_target_reads_or_gives_one_line(tmp_path_factory, data):
+    """A road spec (`--road`) and a road or replay target file: a road of bounded length or
+    a ParamError naming the problem."""
+    from protocols.library import roads
+    folder = tmp_path_factory.mktemp("road")
+    path = folder / "road.csv"
+    if data.draw(st.booleans()):
+        rows = data.draw(st.lists(st.tuples(NUMBERS.map(str) | WORDS, NUMBERS.map(str) | WORDS), max_size=12))
+        path.write_text("t,y\n" + "\n".join(f"{a},{b}" for a, b in rows) + "\n")
+    else:
+        path.write_bytes(data.draw(st.binary(max_size=512)))
+    kind = data.draw(ROAD_KINDS)
+    fields = data.draw(st.lists(NUMBERS.map(str) | WORDS | st.sampled_from(["C", "h", "A"]), max_size=4))
+    spec = f"file:{path}" if kind == "file" else ":".join([kind, *fields])
+    for reader in (lambda p: roads.parse(spec, 1000.0), lambda p: roads.history(p, "target", "displacement", 1e-3)):
+        result, _ = read(path, reader)
+        if result is not None:
+            t = result.t if hasattr(result, "t") else result[0]
+            assert len(t) <= preflight.MAX_RUN_S * 1000 + 2000 and np.all(np.isfinite(t))

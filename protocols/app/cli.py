@@ -25,6 +25,8 @@ def _hidden_physics(p):
 
 
 FILE, FOLDER = "file", "folder"
+BUDGET_S = 120.0  # s: rig time the dyno's own next tests take unless --budget says otherwise
+MAX_BUDGET_S = 7200.0  # s: what a run may move without --long (protocols/preflight.py)
 
 
 def _writes(p, flag, kind, **kw):
@@ -74,7 +76,8 @@ def number(lo=None, hi=None, integer=False, above=None):
         if above is not None and not v > above:
             raise argparse.ArgumentTypeError(f"must be above {above:g}, got {text}")
         if lo is not None and v < lo or hi is not None and v > hi:
-            raise argparse.ArgumentTypeError(f"must be within {lo if lo is not None else '-inf'}..{hi}, got {text}")
+            raise argparse.ArgumentTypeError(f"must be within {'-inf' if lo is None else f'{lo:g}'}.."
+                                             f"{'inf' if hi is None else f'{hi:g}'}, got {text}")
         return v
     return parse
 
@@ -190,7 +193,7 @@ def _cell_commands(sub):
     rn.add_argument("--setup", action="append", type=setup_item, default=[], metavar="KEY=VALUE",
                     help="the damper's setup, recorded and shown on the report (repeat: --setup clicks_reb=12 "
                          "--setup gas_bar=10)")
-    rn.add_argument("--budget", type=float, default=120.0, metavar="SECONDS",
+    rn.add_argument("--budget", type=number(0, MAX_BUDGET_S), default=None, metavar="SECONDS",
                     help="discover: rig time the dyno may add for its own next tests (default 120)")
     rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
                     help="identify the damper while the test runs and write RECORDING.model.json "
@@ -304,7 +307,7 @@ def _diagnose_command(sub):
                          "the first 1-2F, choose on the next F, report on the last F)")
     dg.add_argument("--next", action="store_true",
                     help="also propose the sines that would best tell apart what it could not (minimal baseline)")
-    dg.add_argument("--budget", type=float, default=120.0, metavar="SECONDS",
+    dg.add_argument("--budget", type=number(0, MAX_BUDGET_S, above=0), default=None, metavar="SECONDS",
                     help="--next: rig time the proposals may take (default 120)")
     dg.add_argument("--rig", default=None, help="--next: rig config whose limits the proposals keep (default virtual)")
     dg.set_defaults(command="diagnose")
@@ -466,7 +469,15 @@ def check_outputs(p, args):
 
 
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
+    from rig import operator_stop
+    try:
+        with operator_stop.handled():  # from the first line: a Ctrl-C while importing is not lost
+            return _main(sys.argv[1:] if argv is None else argv)
+    except KeyboardInterrupt:  # before or after a command's own handling: no traceback
+        return 130
+
+
+def _main(argv):
     if argv[:1] == ["run"] and {"-h", "--help"} & set(argv):  # a protocol's own parameters
         from protocols.app.protocols_list import protocol_help
         if any(protocol_help(a) for a in argv[1:]):

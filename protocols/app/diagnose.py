@@ -16,6 +16,7 @@ from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose import quality
 from models.diagnose.data import DiagnoseError
+from protocols.app.cli import BUDGET_S
 from protocols.io.files import existing_files, filled, output_folder
 from rig.errors import RigError
 
@@ -252,8 +253,9 @@ def run(args):
         raise RigError("diagnose: give a RECORDING, or --batch FILE...")
     if getattr(args, "next", False) and baseline is not None:
         raise RigError("--next designs from the minimal baseline: drop --baseline")
-    if getattr(args, "next", False) and not args.budget > 0:
-        raise RigError(f"--budget: must be a positive number of seconds, got {args.budget:g}")
+    if args.budget is not None and not getattr(args, "next", False):
+        raise RigError("--budget: the rig time of --next's proposals; give --next with it")
+    budget = BUDGET_S if args.budget is None else args.budget
     if getattr(args, "next", False):  # the rig config read before the diagnosis, not after it
         from protocols.app import next_test
         limits = next_test.limits(args.rig)
@@ -275,7 +277,7 @@ def run(args):
     say(catalogue.add_diagnosis(args.recording, res.baseline.name, res.accepted, findings, res.left_over.within_noise))
     props = None
     if getattr(args, "next", False):
-        props = design.propose(res, limits, args.budget)
+        props = design.propose(res, limits, budget)
     if args.json:
         print(json.dumps({**to_json(res), **({"next": next_test.to_json(props)} if props is not None else {})},
                          indent=1))

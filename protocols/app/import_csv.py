@@ -21,6 +21,7 @@ def run(args):
     try:
         return _import(args, mapping, claim)
     finally:
+        claim.abandon()  # nothing, once the recording was committed
         claim.release()
 
 

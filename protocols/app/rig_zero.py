@@ -65,6 +65,28 @@ def span(cfg, name) -> float:
     return lim["x_max"] - lim["x_min"] if name == "x" else lim["force_max"]
 
 
+def write_offsets(path, cfg, changes, units=Units()):
+    """Write [(channel, new offset [SI], why)] into the cell file at path, each with a dated
+    comment: all or nothing, and only offsets that move a zero by less than the channel's
+    span. A link is followed: its target is edited, the link kept. The file written."""
+    for name, value, _ in changes:
+        q = QUANTITY[name]
+        if not abs(value - cfg.channels[name].offset) <= span(cfg, name):
+            raise RigError(f"{name}: the new offset {as_shown(units, q, value)} moves the zero by more than the "
+                           f"channel's range ({as_shown(units, q, span(cfg, name))}); nothing written: check the "
+                           f"sensor and its wiring")
+    path = path.resolve()
+    today = datetime.date.today().isoformat()
+    text = path.read_text(encoding="utf-8")
+    for name, value, why in changes:
+        text = set_offset(text, name, value, f"dyno rig zero {today}: {why} (offset was "
+                                             f"{cfg.channels[name].offset:.9g})")
+    rig_config.parse(text, path.name)  # still a valid cell file, before it replaces the old one
+    with written(path, "--rig") as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return path
+
+
 def run(args):
     units = Units(args.units)
     F, X = (lambda si, q=q: as_shown(units, q, si) for q in ("force", "length"))
@@ -81,7 +103,6 @@ def run(args):
     if result.fault:
         raise RigError(f"rig zero stopped: {result.fault}")
     found = commissioning.findings(kept.arrays(), kept.events)
-    today = datetime.date.today().isoformat()
     changes = []
     ch = cfg.channels
     gas = looks_loaded(found["force_mean"], damper, info.x_mid)
@@ -109,22 +130,11 @@ def run(args):
           f"{100 * commissioning.LVT_TOLERANCE:g} %)" + ("" if lvt == "within" else
           f": check its gain, {ch['v'].gain:.6g} now, {ch['v'].gain / g:.6g} would agree"))
     for name, value, why in changes:
-        if not abs(value - ch[name].offset) <= span(cfg, name):
-            raise RigError(f"{name}: the new offset {as_shown(units, QUANTITY[name], value)} moves the zero by more "
-                           f"than the channel's range ({as_shown(units, QUANTITY[name], span(cfg, name))}); "
-                           f"nothing written: check the sensor and its wiring")
-    for name, value, why in changes:
         q = QUANTITY[name]
         print(f"{name}: offset {as_shown(units, q, ch[name].offset)} -> {as_shown(units, q, value)} ({why})")
-    path = rig_config.path_of(args.rig).resolve()  # a link's target is edited, the link kept
-    if changes and path.parent != rig_config.CONFIG_DIR.resolve():  # never a shipped config
-        text = path.read_text(encoding="utf-8")
-        for name, value, why in changes:
-            text = set_offset(text, name, value, f"dyno rig zero {today}: {why} (offset was {ch[name].offset:.9g})")
-        rig_config.parse(text, path.name)  # still a valid cell file, before it replaces the old one
-        with written(path, "--rig") as tmp:
-            tmp.write_text(text, encoding="utf-8")
-        print(f"written to {path}")
+    path = rig_config.path_of(args.rig)
+    if changes and path.resolve().parent != rig_config.CONFIG_DIR.resolve():  # never a shipped config
+        print(f"written to {write_offsets(path, cfg, changes, units)}")
     elif changes:
         print("nothing written: give --rig CELL.toml, the cell's own file (the embedded virtual rig and the "
               "shipped configs are not changed)")

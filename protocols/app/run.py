@@ -5,17 +5,16 @@ from __future__ import annotations
 
 import json
 import math
-import signal
 import sys
-import threading
 
 from models.damper import load as load_damper
 from models.damper import to_dict
 from rig import config as rig_config
 from rig.errors import RigError
-from rig.loop import OPERATOR_STOP
+from rig import operator_stop
 
 from protocols import catalogue, cell, preflight
+from protocols.app.cli import BUDGET_S
 from protocols.app.sim_rig import virtual_plant
 from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder
@@ -30,42 +29,20 @@ from sim_backend.effects import plain_cell
 DISCOVER = "discover"  # `dyno run discover`: an opening sine matrix, then the dyno's own next tests
 
 
-def _operator_stop(signum, frame):
-    """Ctrl-C or SIGTERM: the flag the control loop and the start-up look at, then the
-    KeyboardInterrupt. The exception alone can be lost (raised inside a finaliser, which
-    Python only reports); the flag cannot."""
-    OPERATOR_STOP.set()
-    raise KeyboardInterrupt
-
-
-def _stopped():
-    if OPERATOR_STOP.is_set():
-        raise KeyboardInterrupt
-
-
 def run(args):
-    # only the main thread may set handlers (a cluster worker runs `dyno prove`'s
-    # recordings on a thread of its own)
-    main = threading.current_thread() is threading.main_thread()
-    if main:
-        OPERATOR_STOP.clear()
-        previous = {s: signal.signal(s, _operator_stop) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
+    with operator_stop.handled():  # dyno's main sets it too; a cluster worker's thread has none
         return _run(args)
-    finally:
-        if main:
-            for s, handler in previous.items():
-                signal.signal(s, handler)
 
 
 def _run(args):
     module, params, plant, damper, cfg, info = _plan_run(args)
-    _stopped()
+    operator_stop.raise_if_stopped()
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
     claim = c = recorder = live = ident = result = None
     errors = []  # the first is the one that ended the run; later ones are reported after it
     try:
-        claim = _output(args, module.NAME, identifying)
+        with operator_stop.quiet():  # the claim taken and held in `claim` together: a stop releases it
+            claim = _output(args, module.NAME, identifying)
         c = open_cell(args, cfg, damper, plant)
         cfg = c.config
         if args.live or args.rrd:
@@ -77,7 +54,7 @@ def _run(args):
                             run_info={**{k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)},
                                       **{f"setup.{k}": v for k, v in getattr(args, "setup", [])}})
         print(f"recording to {claim.target}", file=sys.stderr, flush=True)
-        _stopped()
+        operator_stop.raise_if_stopped()
         if identifying:
             from protocols.live_identify import LiveIdentify
             ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live)
@@ -120,9 +97,10 @@ def _plan_run(args):
     given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator", "target", "iterations")
              if getattr(args, n, None) is not None]
     pairs = args.params
+    if args.budget is not None and args.protocol != DISCOVER:
+        raise RigError(f"--budget: the rig time of `dyno run {DISCOVER}`'s own tests; {args.protocol} has none")
     if args.protocol == DISCOVER:
-        if not (args.budget >= 0 and math.isfinite(args.budget)):
-            raise RigError(f"--budget: seconds of rig time, 0 or more, not {args.budget:g}")
+        args.budget = BUDGET_S if args.budget is None else args.budget
         # the opening: the sine matrix the diagnosis is proven on (sim_backend/plain.toml), name=value overriding
         given = [f"{k}={','.join(f'{x:g}' for x in v) if isinstance(v, list) else v}"
                  for k, v in plain_cell()[2]["params"].items() if not any(p.startswith(f"{k}=") for p in pairs)]

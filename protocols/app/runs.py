@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import sys
-from contextlib import closing
 from pathlib import Path
 
 from protocols import catalogue
@@ -23,7 +22,7 @@ def _folder(args):
 
 def _connect(args):
     """The folder's catalogue, read-only: listing never changes it."""
-    return closing(catalogue.connect(_folder(args), write=False))
+    return catalogue.reading(_folder(args))
 
 
 def index(args):

@@ -36,6 +36,31 @@ UNITS = {
 SI = {"time": "s", "displacement": "m", "velocity": "m/s", "force": "N", "temperature": "K", "pressure": "Pa"}
 
 
+MAX_SPAN_S = 7 * 86400.0  # s: a week; longer is a wrong unit or a corrupt stamp
+BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
+
+
+def decode(data: bytes) -> str:
+    """The text of a file as acquisition software writes it: UTF-8 with or without a byte
+    order mark, UTF-16 (with its mark, or without one when every other byte is zero), or
+    Latin-1 (Windows' 8-bit exports) when it is not UTF-8. UnicodeDecodeError for binary
+    data (a zero byte anywhere else)."""
+    for bom, codec in BOMS:
+        if data.startswith(bom):
+            return data[len(bom):].decode(codec)
+    head = data[:4096]
+    if len(head) >= 4 and head[1::2].count(0) > 0.9 * len(head[1::2]) and 0 not in head[0::2]:
+        return data.decode("utf-16-le")
+    if len(head) >= 4 and head[0::2].count(0) > 0.9 * len(head[0::2]) and 0 not in head[1::2]:
+        return data.decode("utf-16-be")
+    if b"\x00" in data:
+        raise UnicodeDecodeError("binary", data[:1], 0, 1, "a zero byte: not text")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
 def parse_map(items):
     """[(name, column, unit)] from NAME=COLUMN[:UNIT] strings, checking names and units."""
     out = []
@@ -68,7 +93,7 @@ def read(path, mapping):
     goes backwards are refused, naming the row."""
     path = input_file(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        text = decode(path.read_bytes())
     except UnicodeDecodeError:
         raise RigError(f"{path}: not a text (CSV) file") from None
     except OSError as e:
@@ -78,7 +103,10 @@ def read(path, mapping):
         dialect = csv.Sniffer().sniff(sample, delimiters=",;\t")
     except csv.Error:
         dialect = csv.excel
-    rows = list(csv.reader(text.splitlines(), dialect))
+    try:
+        rows = list(csv.reader(text.splitlines(), dialect))
+    except csv.Error as e:
+        raise RigError(f"{path}: not a table of numbers ({e})") from None
     if not rows:
         raise RigError(f"{path}: empty file")
     header = [h.strip() for h in rows[0]]
@@ -117,6 +145,9 @@ def read(path, mapping):
         raise RigError(f"{path}:{row}: time goes backwards ({t[keep][bad[0]]:.9g} then {t[keep][bad[0] + 1]:.9g} s)")
     if keep.sum() < 10:
         raise RigError(f"{path}: {keep.sum()} rows with a time (need at least 10)")
+    if not t[keep][-1] - t[keep][0] <= MAX_SPAN_S:
+        raise RigError(f"{path}: the time column spans {t[keep][-1] - t[keep][0]:.3g} s; a recording spans at most "
+                       f"{MAX_SPAN_S / 86400:g} days: check its unit")
     if not t[keep][-1] > t[keep][0]:
         column = next(c for n, c, _ in mapping if n == "time")
         raise RigError(f"{path}: the time column {column!r} does not advance (all {t[keep][0]:g} s)")

@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 from rig.errors import RigError
+from rig.operator_stop import quiet
 
 TEMP_ROOM = 32  # characters the temporary names add to a file name
 LOCK_TRIES = 6  # a lock found held is looked at again for 0.25 s before a second writer is refused
@@ -229,8 +230,9 @@ class Claim:
         self.overwrite = overwrite
         self.lock_path = self.target.with_name(self.target.name + ".lock")
         self.partial = self.target.with_name(f".{self.target.name}.partial")
-        self.lock_fd = self._lock()
         self.committed = False
+        with quiet():
+            self.lock_fd = self._lock()
 
     def _lock(self):
         for attempt in range(LOCK_TRIES):
@@ -268,6 +270,10 @@ class Claim:
 
     def commit(self):
         """The partial file becomes the target (an open file keeps writing to it)."""
+        with quiet():
+            self._commit()
+
+    def _commit(self):
         if self.committed:
             return
         if not self.overwrite:
@@ -290,6 +296,10 @@ class Claim:
                 pass
 
     def release(self):
+        with quiet():
+            self._release()
+
+    def _release(self):
         if self.lock_fd is None:
             return
         try:

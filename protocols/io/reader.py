@@ -14,6 +14,7 @@ for channels that share the force clock.
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 from mcap.data_stream import ReadDataStream
@@ -25,6 +26,9 @@ from protocols.io.files import input_file, not_being_written
 from rig.errors import RigError
 
 
+MAX_VALUE = 1e15  # SI: above any force, pressure or length a dyno measures; the arithmetic stays finite
+ESSENTIAL = ("force", "x")  # every analysis reads these: a channel of them with no number is refused
+POSITIVE = ("freq_hz", "cycles")  # segment parameters that are above 0 or meaningless
 JSON_METADATA = {"damper": ("model",), "protocol": ("params",), "calibration": None}  # None: every key
 
 
@@ -69,8 +73,17 @@ def load_recording(path, channels=None):
             out[name] = (np.array(t, dtype=float), np.array(v, dtype=float))
         except (TypeError, ValueError):
             raise RigError(f"{path}: /channels/{name}: values are not numbers") from None
-        if not np.all(np.isfinite(out[name][0])):
+        t, v = out[name]
+        if not np.all(np.isfinite(t)):
             raise RigError(f"{path}: /channels/{name}: a time that is not a finite number")
+        back = np.nonzero(np.diff(t) < 0)[0]
+        if len(back):
+            raise RigError(f"{path}: /channels/{name}: time runs backwards ({t[back[0]]:.6g} s, then "
+                           f"{t[back[0] + 1]:.6g} s)")
+        if np.any(np.abs(v) > MAX_VALUE):
+            raise RigError(f"{path}: /channels/{name}: values beyond +-{MAX_VALUE:g} (SI): no sensor reads that")
+        if name in ESSENTIAL and len(v) and not np.any(np.isfinite(v)):
+            raise RigError(f"{path}: /channels/{name}: not one value is a number")
     return out, events, meta
 
 
@@ -122,6 +135,11 @@ def _event(d):
         and isinstance(d.setdefault("segment", ""), str) and isinstance(d.setdefault("params", {}), dict)
     if not ok or (d["kind"].startswith("segment_") and not d["segment"]):
         raise RigError(f"/events: an event without its fields (t, kind, segment, params): {str(d)[:80]}")
+    for k, v in d["params"].items():
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and not (
+                math.isfinite(v) and abs(v) <= MAX_VALUE and (v > 0 or k not in POSITIVE)):
+            raise RigError(f"/events: segment {d['segment']!r}: {k} = {v!r} (a finite number"
+                           f"{' above 0' if k in POSITIVE else ''})")
     return d
 
 

@@ -4,8 +4,9 @@ the edge; m, s inside):
     step:MM                    a step of MM mm at 0.5 s (rising over 20 ms), 2.5 s to settle
     sine:HZ:MM                 MM mm peak at HZ Hz, faded in and out, max(10 cycles, 4 s)
     sweep:F0:F1:MM             logarithmic sweep F0 -> F1 Hz at MM mm peak, 20 s
-    iso8608:CLASS:KMH[:SECONDS]  ISO 8608 class A-H random road at KMH km/h (10 s), its
-                               content limited to 0.5-20 Hz (what a damper rig reproduces)
+    iso8608:CLASS:KMH[:SECONDS]  ISO 8608 class A-H random road at KMH km/h (10 s, at most
+                               600), its content limited to 0.5-20 Hz (what a damper rig
+                               reproduces)
     file:CSV                   road height over time: columns time [s], height [mm]
 
 Every road ends with SETTLE_S held at its last height, so the car comes to rest.
@@ -31,6 +32,8 @@ FADE_S = 0.5
 CONTENT_HZ = (0.5, 20.0)  # temporal band of a random road
 KINDS = ("step", "sine", "sweep", "iso8608", "file")
 MAX_ROWS = 10_000_000  # of a road or target file: hours at 1 kHz
+ISO_KMH = (1.0, 400.0)  # km/h: a random road's speed
+ISO_MAX_S = 600.0  # s: its synthesis (2,000 sinusoids a sample) grows with its length
 
 
 @dataclass
@@ -46,7 +49,7 @@ def _numbers(spec, fields, n_min):
     try:
         values = [float(f) for f in fields]
     except ValueError:
-        raise ParamError(f"road: {spec!r}: {', '.join(fields)} are not all numbers") from None
+        raise ParamError(f"road: {spec!r}: {', '.join(map(repr, fields))} are not all numbers") from None
     if len(values) < n_min or not all(np.isfinite(values)):
         raise ParamError(f"road: {spec!r}: needs {n_min} numbers")
     return values
@@ -82,9 +85,11 @@ def parse(spec: str, rate_hz: float) -> Road:
             raise ParamError(f"road: {spec!r}: the class is one of A-H")
         kmh, *seconds = _numbers(spec, fields[1:3], 1)
         seconds = seconds[0] if seconds else 10.0
-        _positive(spec, kmh=kmh, seconds=seconds)
+        if not (ISO_KMH[0] <= kmh <= ISO_KMH[1] and 1.0 <= seconds <= ISO_MAX_S):
+            raise ParamError(f"road: {spec!r}: a random road at {ISO_KMH[0]:g} to {ISO_KMH[1]:g} km/h for 1 to "
+                             f"{ISO_MAX_S:g} s (a longer one: file:CSV)")
         speed = kmh / 3.6
-        t = np.arange(0.0, _length(f"road: {spec!r}", seconds), h)
+        t = np.arange(0.0, seconds, h)
         band = (CONTENT_HZ[0] / speed, CONTENT_HZ[1] / speed)  # cycles/m
         y = roads.faded(t, roads.iso8608(t, speed, fields[0].upper(), seed=0, n_band=band)[0], FADE_S)
         y -= y[0]
@@ -132,7 +137,7 @@ def history(path, what, quantity, h):
     return t - t[0], np.interp(t, data[:, 0], data[:, 1])
 
 
-def _length(f"road: {spec!r}", seconds):
+def _length(spec, seconds):
     """ParamError when a road or target lasts longer than any run may (MAX_RUN_S): made
     before anything is allocated for it."""
     if not seconds <= MAX_RUN_S:

@@ -41,6 +41,9 @@ class Tolerance:
         return " or ".join(parts)
 
 
+MAX_TOLERANCE_N = 1e5  # N: a band wider than any damper dyno's load cell passes everything
+
+
 def parse_tolerance(text: str) -> Tolerance:
     """'5%' (of the reference), '50N' or '50' (newtons), or both: '5%,50N' (the larger)."""
     tol = Tolerance()
@@ -52,8 +55,9 @@ def parse_tolerance(text: str) -> Tolerance:
                 tol.newtons = float(part.removesuffix("N"))
         except ValueError:
             raise ValueError(f"--tolerance: {text!r} is not like 5% or 50N or 5%,50N") from None
-    if not (tol.pct >= 0 and tol.newtons >= 0 and (tol.pct > 0 or tol.newtons > 0)) or tol.pct > 100:
-        raise ValueError(f"--tolerance: {text!r} must be positive (a percentage up to 100, newtons)")
+    if not (0 <= tol.pct <= 100 and 0 <= tol.newtons <= MAX_TOLERANCE_N and (tol.pct > 0 or tol.newtons > 0)):
+        raise ValueError(f"--tolerance: {text!r} must be positive: a percentage up to 100, newtons up to "
+                         f"{MAX_TOLERANCE_N:g}")
     return tol
 
 

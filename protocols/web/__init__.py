@@ -12,7 +12,6 @@ import json
 import tempfile
 import threading
 import time
-from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import urlencode
@@ -56,7 +55,7 @@ class View:
             except catalogue.CatalogueError as e:
                 self.problem = str(e)
             self.indexed_at = time.monotonic()
-        return closing(catalogue.connect(self.folder, write=False))
+        return catalogue.reading(self.folder)
 
     def page(self, kind, paths, make):
         """The URL of a page made by make(folder) for these recordings, made first if they

@@ -103,6 +103,40 @@ def cycle_blocks(channels, cycles=3):
     return out
 
 
+SIGN_SHARE = 0.2  # net work against the work done either way: below this a recording cannot tell its sign
+
+
+def other_sign(x, F) -> str | None:
+    """The sentence saying a recording is in the other sign convention, or None. A
+    passive damper dissipates: over whole cycles the work done on it, the integral of
+    F dx [J], is positive with force and displacement both positive in compression (ours).
+    Negative work, a clear share of all the work, means the force or the displacement is
+    counted the other way (tension positive, or displacement from the other end)."""
+    ok = np.isfinite(x) & np.isfinite(F)
+    x, F = np.asarray(x)[ok], np.asarray(F)[ok]
+    if len(x) < 3:
+        return None
+    dW = 0.5 * (F[1:] + F[:-1]) * np.diff(x)
+    W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
+    if not (A > 0 and W < -SIGN_SHARE * A):
+        return None
+    first = "--flip force" if np.median(F) < 0 else "--flip displacement"  # a gas force reads as compression
+    second = "--flip displacement" if first == "--flip force" else "--flip force"
+    return (f"the damper would give back {-W:.3g} J over this recording (the integral of F dx is negative), which "
+            f"a passive damper cannot: force or displacement is in the other sign convention (dyno's: both positive "
+            f"in compression); import it again with {first} (or {second})")
+
+
+def sign_problem(channels) -> str | None:
+    """other_sign of a recording's channels {name: (t, values)}: the force on the
+    displacement's clock."""
+    if "x" not in channels or "force" not in channels or len(channels["x"][0]) < 3:
+        return None
+    tF, F = channels["force"]
+    tx, x = channels["x"]
+    return other_sign(x, np.interp(tx, tF, F) if len(tF) > 1 else np.full_like(x, np.nan))
+
+
 def nrmse(F_model, F_meas):
     """RMS error over the measured force's peak-to-peak range [-]."""
     return float(np.sqrt(np.mean((F_model - F_meas) ** 2)) / max(np.ptp(F_meas), 1e-9))

@@ -70,7 +70,6 @@ class Indexed:
 
 
 APPLICATION_ID = 0x44594E4F  # "DYNO": a catalogue this project made (PRAGMA application_id)
-RUN_COLUMNS = {"id", "path", "size", "mtime", "serial", "started", "error"}  # what a catalogue of ours has at least
 
 
 def _path(folder) -> Path:
@@ -89,21 +88,32 @@ def _first(e: Exception) -> str:
     return str(e).splitlines()[0] if str(e) else type(e).__name__
 
 
+def _columns(c: sqlite3.Connection) -> dict[str, set]:
+    """{table: its columns} of a database."""
+    tables = [r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+    return {t: {r[1] for r in c.execute(f"PRAGMA table_info({json.dumps(t)})")} for t in tables}
+
+
+with closing(sqlite3.connect(":memory:")) as _c:
+    _c.executescript(SCHEMA)
+    COLUMNS_OF = _columns(_c)  # what a catalogue of ours holds: every table with at least these columns
+
+
 def _ours(c: sqlite3.Connection, db):
-    """CatalogueError unless the open database is a run catalogue of ours (an older one
-    without its application id is known by its runs table)."""
+    """CatalogueError unless the open database is a run catalogue of ours: its application
+    id (an older one has none) and every table of SCHEMA with its columns."""
     try:
         app_id = c.execute("PRAGMA application_id").fetchone()[0]
-        tables = {r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-        columns = {r[1] for r in c.execute("PRAGMA table_info(runs)")} if "runs" in tables else set()
+        have = _columns(c)
     except (sqlite3.DatabaseError, UnicodeDecodeError) as e:  # SQLite's message may quote garbled bytes
         _refuse(db, f"not a readable SQLite file ({_first(e)}); move it away and run `dyno runs index`")
-    if app_id == APPLICATION_ID or (app_id == 0 and RUN_COLUMNS <= columns):
-        return
-    if app_id == 0 and not tables:
+    if app_id == 0 and not have:
         return  # empty: nobody's yet
-    _refuse(db, "a SQLite file that is not a dyno run catalogue; it is left as it is (move it, or index another "
-                "folder)")
+    if app_id in (0, APPLICATION_ID) and all(cols <= have.get(t, set()) for t, cols in COLUMNS_OF.items()):
+        return
+    why = "a dyno run catalogue with tables or columns missing (damaged?)" if app_id == APPLICATION_ID else \
+        "a SQLite file that is not a dyno run catalogue"
+    _refuse(db, f"{why}; it is left as it is (move it, or index another folder)")
 
 
 def connect(folder, write=True) -> sqlite3.Connection:
@@ -367,7 +377,7 @@ MAX_ID = 2**63 - 1  # SQLite's largest integer
 
 
 def run(c: sqlite3.Connection, run_id) -> tuple[sqlite3.Row, list[sqlite3.Row]]:
-    if not 0 < run_id <= MAX_ID:
+    if not isinstance(run_id, int) or not 0 < run_id <= MAX_ID:  # a garbled catalogue's row may have none
         raise CatalogueError(f"no run with id {run_id} in the catalogue")
     row = c.execute("SELECT * FROM runs WHERE id = ?", (run_id,)).fetchone()
     if row is None:

@@ -752,3 +752,34 @@ def test_ctrl_c_at_a_hundred_points_of_the_start_up_is_never_swallowed(tmp_path,
         assert kept >= 50, f"only {kept} of 100 stops came before the motion: the start-up was not covered"
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def test_index_skips_link_loops_and_dangling_links(files):
+    (files.folder / "loop.mcap").symlink_to("loop.mcap")
+    (files.folder / "gone.mcap").symlink_to("nowhere.mcap")
+    (files.folder / "sub").mkdir()
+    (files.folder / "sub" / "up").symlink_to("..")  # a folder link back up: walked once, not forever
+    r = dyno("runs", "index", files.folder)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+
+
+def test_dyno_serve_starts_on_a_catalogue_it_cannot_use_and_serves_the_live_view(files):
+    import urllib.error
+    import urllib.request
+    (files.folder / "dyno-runs.sqlite").unlink()
+    _not_ours(files.folder)
+    p = subprocess.Popen([sys.executable, "-m", "protocols.app.cli", "serve", str(files.folder), "--port", "0"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = p.stdout.readline()
+        url = re.search(r"serving (http://127\.0\.0\.1:\d+/)", line).group(1)
+        assert "no readable catalogue (live runs only)" in line, line
+        assert urllib.request.urlopen(url + "live", timeout=30).status == 200
+        with pytest.raises(urllib.error.HTTPError) as page:
+            urllib.request.urlopen(url, timeout=30)
+        assert page.value.code == 503 and "not a dyno run catalogue" in page.value.read().decode()
+    finally:
+        p.send_signal(signal.SIGINT)
+        assert p.wait(30) == 0
+    err = p.stderr.read().strip().splitlines()
+    assert len(err) == 1 and "not a dyno run catalogue; serving what can be read" in err[0], err

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.diagnose import quality
-from models.recording import cycle_blocks, gaps as _gaps, segments, smooth
+from models.recording import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 MIN_CYCLES = 6  # fewer whole cycles than this cannot be split into train and held-out
@@ -140,6 +140,9 @@ def prepare(channels, events) -> Data:
     if missing:
         raise DiagnoseError(f"the recording has no {' or '.join(missing)} channel: diagnosis needs time, "
                             f"displacement and force")
+    sign = sign_problem(channels)
+    if sign:
+        raise DiagnoseError(sign)
     notes = []
     tF, F = _clean(*channels["force"])
     tx, x = _clean(*channels["x"])

@@ -38,7 +38,7 @@ from models.identify.result import IdentifyError, Result
 from models.identify.segments import GAP_CYCLE_SHARE, dynamic_segments
 from models.identify.static import Estimate, identify_static, static_holds
 from models.physics.gas_spring import P_ATM, T_STD
-from models.recording import at, covariance, missing, nrmse, segments
+from models.recording import at, covariance, missing, nrmse, segments, sign_problem
 
 __all__ = ["IdentifyError", "Result", "canonical", "dynamic_segments", "identify", "parameter_value",
            "set_parameter", "simulate_segment"]
@@ -52,6 +52,9 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
     if missing(channels, ("force", "x")):
         raise IdentifyError(f"recording has no {' or '.join(missing(channels, ('force', 'x')))} channel: "
                             "nothing can be identified")
+    sign = sign_problem(channels)
+    if sign:
+        raise IdentifyError(sign)
     d = canonical(description)
     res = Result(d)
     charge, T_s = _static_step(channels, events, d, res)

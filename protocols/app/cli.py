@@ -378,13 +378,27 @@ def _analysis_commands(sub):
     _units(ex)
     _overwrite(ex)
     ex.set_defaults(command="export")
-    im = sub.add_parser("import", help="a CSV recording from elsewhere as an MCAP recording")
-    im.add_argument("file", metavar="FILE.csv")
-    _writes(im, "--out", FILE, required=True, metavar="FILE.mcap")
+    im = sub.add_parser("import", help="a recording from another dyno or a DAQ (CSV, text export, Parquet, MATLAB) "
+                                       "as an MCAP recording")
+    im.add_argument("file", metavar="FILE", help="CSV or any delimited text (a preamble, a decimal comma, no header: "
+                                                 "found), .parquet, or .mat")
+    im.add_argument("--inspect", action="store_true",
+                    help="show what would be read (layout, columns, sample values, rate, a guessed map); write nothing")
+    _writes(im, "--out", FILE, metavar="FILE.mcap", help="the recording to write")
     _overwrite(im, "--out")
-    im.add_argument("--map", action="append", required=True, metavar="NAME=COLUMN[:UNIT]",
-                    help="time, displacement, velocity, force, temperature, pressure or aux.NAME; "
-                         "units e.g. ms, mm, mm/s, kN, C, bar (default SI)")
+    im.add_argument("--map", action="append", metavar="NAME=COLUMN[:UNIT]",
+                    help="time, displacement, velocity, force, temperature, pressure or aux.NAME from a column by "
+                         "its header or 1-based position (a MATLAB matrix's: VAR[N]); units e.g. ms, mm, mm/s, kN, C, "
+                         "bar (default SI); time may be date-time stamps")
+    im.add_argument("--gain", action="append", metavar="NAME=NUMBER",
+                    help="a raw channel's gain into its mapped unit, e.g. force=980.665 (volts to N)")
+    im.add_argument("--offset", action="append", metavar="NAME=NUMBER",
+                    help="added after the gain, in the mapped unit, e.g. displacement=29.9")
+    im.add_argument("--flip", action="append", choices=("force", "displacement"),
+                    help="the file counts it the other way: force positive in tension, or displacement from the "
+                         "other end (dyno: both positive in compression)")
+    im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
+                    help="the sampling rate, when no time column is mapped and the file does not say it")
     im.set_defaults(command="import_csv")
 
 
@@ -409,6 +423,9 @@ def _bench_commands(sub):
     bw.add_argument("--workers", type=number(1, 256, integer=True), default=None,
                     help="processes (default: all cores)")
     _cluster_option(bw)
+    bim = _bench(bsub, "import", help="dyno import's time on 1,000,000 CSV rows (goal < 5 s)")
+    bim.add_argument("--rows", type=number(10, 10**8, integer=True), default=1_000_000)
+    bim.set_defaults(command="bench:import_")
     bg = _bench(bsub, "log", help="samples per second into MCAP against a protocol's data rate")
     bg.add_argument("--seconds", type=number(above=0, hi=3600), default=5.0)
     bi = _bench(bsub, "identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")

@@ -1,38 +1,77 @@
-"""`dyno import FILE.csv --out FILE.mcap --map NAME=COLUMN[:UNIT] ...`: a recording made
-elsewhere as an MCAP recording (the columns' parsing: protocols/io/csv_import.py)."""
+"""`dyno import FILE --out FILE.mcap --map NAME=COLUMN[:UNIT] ...`: a recording another dyno
+or acquisition system made (CSV, a DAQ's text export, Parquet, MATLAB) as a dyno recording;
+`--inspect` shows what would be read and writes nothing. The table's layout:
+protocols/io/table.py; the columns' units: protocols/io/csv_import.py."""
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 
+from models.recording import other_sign
 from protocols import catalogue
+from protocols.io import table
+from protocols.io.csv_import import CHANNELS, SI, UNITS, parse_map, read, source, velocity_from
 from protocols.io.files import Claim
-from protocols.io.csv_import import CHANNELS, SI, parse_map, read, velocity_from
 from protocols.io.recording import Recorder
+from rig.errors import RigError
+
+FLIPS = ("force", "displacement")
+SAMPLES = 3  # values shown per column by --inspect
+
+
+def _scales(items, what):
+    """{channel: number} from NAME=NUMBER options (--gain, --offset)."""
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not sep or not math.isfinite(v) or (what == "--gain" and v == 0) or abs(v) > 1e12:
+            raise RigError(f"{what} {item}: expected NAME=NUMBER (a finite number{', not 0' * (what == '--gain')})")
+        out[name] = v
+    return out
 
 
 def run(args):
+    if args.inspect:
+        return inspect(args)
+    if not args.map:
+        raise RigError("--map: give at least displacement=COLUMN and force=COLUMN (dyno import FILE --inspect "
+                       "shows the columns)")
     mapping = parse_map(args.map)
-    claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the CSV is read
+    gains, offsets = _scales(args.gain, "--gain"), _scales(args.offset, "--offset")
+    for name in {*gains, *offsets} - {n for n, _, _ in mapping}:
+        raise RigError(f"--gain/--offset {name}: not a mapped channel")
+    if args.out is None:
+        raise RigError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
+    claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
     try:
-        return _import(args, mapping, claim)
+        return _import(args, mapping, gains, offsets, claim)
     finally:
         claim.abandon()  # nothing, once the recording was committed
         claim.release()
 
 
-def _import(args, mapping, claim):
-    data, units = read(args.file, mapping)
+def _import(args, mapping, gains, offsets, claim):
+    got = read(args.file, mapping, gains, offsets, args.rate)
+    data, units = got.data, got.units
+    for name in args.flip or ():
+        data[name] = -data[name] + (np.nanmax(data[name]) if name == "displacement" else 0.0)
     t = data.pop("time")
     if "velocity" not in data:
         ok = ~np.isnan(data["displacement"])
         data["velocity"] = np.full_like(t, np.nan)
         data["velocity"][ok] = velocity_from(t[ok], data["displacement"][ok])
         units["velocity"] = "derived from displacement"
+    elif "displacement" in (args.flip or ()):
+        data["velocity"] = -data["velocity"]
     channels = {}
     for name, a in data.items():
         ok = ~np.isnan(a)
@@ -42,15 +81,19 @@ def _import(args, mapping, claim):
         channels[ch] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
     cfg = SimpleNamespace(
         name="imported", path=Path(args.file),
-        channels={n: SimpleNamespace(unit=u, device="csv", signal=n, gain=1.0, offset=0.0)
+        channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0)
                   for n, (_, _, u) in channels.items()},
         text=f'# imported by dyno import\n[import]\nsource = "{Path(args.file).name}"\n'
              f"map = {json.dumps(args.map)}\n")
     duration = float(t[-1] - t[0])
-    # the CSV's own start is unknown: its file time less its duration stands for it
-    wall_start = os.path.getmtime(args.file) - duration
-    rec = Recorder(claim, cfg, "", "import", {"source": str(args.file), "map": args.map}, wall_start=wall_start,
-                   run_info={"wall_start_source": "CSV file time less its duration"})
+    if got.start_epoch is not None:
+        wall_start, how = got.start_epoch, "the file's first date-time stamp"
+    else:  # the file's own start is unknown: its file time less its duration stands for it
+        wall_start, how = os.path.getmtime(args.file) - duration, "file time less its duration"
+    params = {"source": str(args.file), "map": args.map, "flip": args.flip or [],
+              "gain": args.gain or [], "offset": args.offset or []}
+    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start,
+                   run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {})})
     try:
         for n, (tt, v, _) in channels.items():
             for i in range(0, len(tt), 5000):
@@ -58,8 +101,57 @@ def _import(args, mapping, claim):
         rec.commit()
     finally:
         rec.close()
-    print(f"{rec.path}: {len(t)} rows, channels " + ", ".join(
+    print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
+    sign = other_sign(data["displacement"], data["force"])
+    if sign:
+        print(f"sign: {sign}")
     print(catalogue.add(rec.path))
+    return 0
+
+
+def _guess(name: str, cells) -> str | None:
+    """A standard channel a column's name (or first value) suggests, with its unit: the
+    map a user would likely write."""
+    n = name.lower()
+    unit = None
+    for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
+        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith(f"_{u.lower()}"):
+            unit = u
+            break
+    if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
+        return "time"
+    for channel, words in (("time", ("time", "t", "zeit", "temps", "sec")), ("force", ("force", "load", "f", "kraft")),
+                           ("displacement", ("disp", "displacement", "position", "pos", "x", "d", "travel", "stroke")),
+                           ("velocity", ("vel", "velocity", "speed", "v")),
+                           ("temperature", ("temp", "temperature", "t_body")), ("pressure", ("pressure", "p_gas"))):
+        base = n.split("[")[0].split("(")[0].strip()
+        if base in words or any(base.startswith(w) for w in words if len(w) > 2):
+            return f"{channel}" + (f":{unit}" if unit and unit in UNITS[channel] else "")
+    return None
+
+
+def inspect(args):
+    """What import would read from the file: layout, columns with sample values, the rate,
+    and a guessed map. Writes nothing."""
+    cols, layout = source(args.file)
+    print(f"{args.file}: {layout.describe() if layout else Path(args.file).suffix[1:] + ' columns'}")
+    if layout and layout.preamble:
+        print("preamble:")
+        for line in layout.preamble[:12]:
+            print(f"  {line.strip()}")
+    rows = len(next(iter(cols.values()))) if cols else 0
+    print(f"{rows} rows; columns:")
+    guesses = []
+    for j, (name, cells) in enumerate(cols.items()):
+        sample = [str(c) for c in list(cells[:SAMPLES])]
+        kind = "date-time" if sample and table.is_stamp(sample[0]) else ""
+        print(f"  {j + 1:>2}  {name!r:24} {', '.join(sample)}{'  (' + kind + ')' if kind else ''}")
+        g = _guess(name, cells)
+        if g and not any(x.split("=")[0] == g.split(":")[0] for x in guesses):
+            guesses.append(f"{g.split(':')[0]}={name if layout is None or layout.header is not None else j + 1}"
+                           + (f":{g.split(':')[1]}" if ":" in g else ""))
+    if guesses:
+        print("guessed map (check the units): " + " ".join(f"--map '{g}'" for g in guesses))
     return 0

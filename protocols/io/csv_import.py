@@ -10,12 +10,12 @@ at 2 kHz): smoother than a plain difference and without its half-sample lag.
 """
 from __future__ import annotations
 
-import csv
-import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import savgol_filter
 
+from protocols.io import table
 from protocols.io.files import input_file
 from rig.config import quantity
 from rig.errors import RigError
@@ -81,67 +81,130 @@ def parse_map(items):
     for n in set(names):
         if names.count(n) > 1:
             raise RigError(f"--map: {n} mapped twice")
-    for need in ("time", "displacement", "force"):
+    for need in ("displacement", "force"):
         if need not in names:
-            raise RigError(f"--map: needs {need}=COLUMN (time, displacement and force are required)")
+            raise RigError(f"--map: needs {need}=COLUMN (displacement and force are required; time too, unless "
+                           f"the file or --rate gives the sampling rate)")
     return out
 
 
-def read(path, mapping):
-    """{channel: SI array} from the CSV. Unmapped and empty columns and a trailing
-    separator are ignored; unknown mapped columns, non-numbers and time that does not
-    goes backwards are refused, naming the row."""
+@dataclass
+class Imported:
+    """What import read: {channel name: SI array} on the rows that have a time, the
+    units as given, where the rows came from, and the recording's own start."""
+    data: dict
+    units: dict
+    layout: table.Layout | None  # None: Parquet or MAT
+    start_epoch: float | None = None  # s since 1970 UTC: the first date-time stamp; None without one
+    derived_time: str = ""  # how the time was made when no column gives it
+
+
+def source(path):
+    """({column name: cells (text) or values (array)}, Layout or None) of a text table,
+    a Parquet file or a MATLAB file (columns VAR, or VAR[N] for a matrix's N-th)."""
     path = input_file(path)
+    suffix = path.suffix.lower()
+    if suffix == ".parquet":
+        try:
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise RigError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
+        try:
+            t = pq.read_table(path)
+        except Exception as e:  # noqa: BLE001 - whatever pyarrow refuses
+            raise RigError(f"{path}: not a readable Parquet file ({str(e).splitlines()[0]})") from None
+        return {n: np.asarray(t.column(n).to_numpy(zero_copy_only=False)) for n in t.column_names}, None
+    if suffix == ".mat":
+        from scipy.io import loadmat
+        try:
+            m = loadmat(path, squeeze_me=False)
+        except Exception as e:  # noqa: BLE001 - whatever scipy refuses
+            raise RigError(f"{path}: not a readable MATLAB file ({str(e).splitlines()[0]})") from None
+        cols = {}
+        for k, v in m.items():
+            if k.startswith("__") or not isinstance(v, np.ndarray) or v.dtype.kind not in "iuf" or v.ndim != 2:
+                continue
+            v = v.T if v.shape[0] < v.shape[1] else v  # samples along the longer side
+            if v.shape[1] == 1:
+                cols[k] = v[:, 0].astype(float)
+            for j in range(v.shape[1]):
+                cols[f"{k}[{j + 1}]"] = v[:, j].astype(float)
+        if not cols:
+            raise RigError(f"{path}: no numeric matrix in this MATLAB file")
+        return cols, None
     try:
         text = decode(path.read_bytes())
     except UnicodeDecodeError:
         raise RigError(f"{path}: not a text (CSV) file") from None
     except OSError as e:
         raise RigError(f"{path}: cannot read ({e.strerror})") from None
-    sample = text[:4096]
     try:
-        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t")
-    except csv.Error:
-        dialect = csv.excel
-    try:
-        rows = list(csv.reader(text.splitlines(), dialect))
-    except csv.Error as e:
-        raise RigError(f"{path}: not a table of numbers ({e})") from None
-    if not rows:
-        raise RigError(f"{path}: empty file")
-    header = [h.strip() for h in rows[0]]
-    while header and header[-1] == "":  # trailing separator
-        header.pop()
-    for name, column, _ in mapping:
-        if column not in header:
-            raise RigError(f"{path}: no column {column!r} (mapped to {name}); columns: {', '.join(header)}")
-    cols = {column: header.index(column) for _, column, _ in mapping}
-    data = {}
+        layout = table.sniff(text)
+        return table.split(text, layout), layout
+    except RigError as e:
+        raise RigError(f"{path}: {e}") from None
+
+
+def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
+    """The mapped columns in SI. A time column of date-time stamps gives the recording's
+    start; without a time column, the rate (given, or the preamble's) makes one. Values
+    are raw x gain + offset in the mapped unit, then SI. Unmapped and empty columns are
+    ignored; unknown mapped columns, non-numbers and time that goes backwards are refused,
+    naming the row."""
+    cols, layout = source(path)
+    gains, offsets = gains or {}, offsets or {}
+    first_row = (layout.first + 1) if layout else 1  # a data row's line in the file: first_row + index
+    data, start, derived = {}, None, ""
+    names = {}
     for name, column, unit in mapping:
-        j = cols[column]
-        values = []
-        for i, r in enumerate(rows[1:], start=2):
-            cell = r[j].strip() if j < len(r) else ""
-            if cell == "":
-                values.append(np.nan)
-                continue
-            try:
-                values.append(float(cell))
-            except ValueError:
-                raise RigError(f"{path}:{i}: column {column!r}: {cell!r} is not a number") from None
-            if not math.isfinite(values[-1]):
-                raise RigError(f"{path}:{i}: column {column!r}: {cell!r} is not a finite number")
-        a = np.array(values)
+        key = table.column(cols, layout, column) if layout else column
+        if key not in cols:
+            raise RigError(f"{path}: no column {column!r} (mapped to {name}); columns: {', '.join(cols)}")
+        names[name] = key
+        cells = cols[key]
+        if isinstance(cells, np.ndarray):
+            if cells.dtype.kind == "M":  # Parquet time stamps
+                a = cells.astype("datetime64[ns]").astype("int64") / 1e9
+                a, bad = (a, None) if name == "time" else (None, 0)
+            else:
+                try:
+                    a, bad = cells.astype(float), None
+                except (TypeError, ValueError):
+                    a, bad = None, 0
+        elif name == "time" and any(table.is_stamp(c) for c in cells[:5]):
+            a, bad = table.stamps(cells)
+            if bad is None:
+                start = float(a[~np.isnan(a)][0]) if np.any(~np.isnan(a)) else None
+                a = a - start if start is not None else a
+                unit = "s"
+        else:
+            a, bad = table.numbers(cells, layout.decimal if layout else ".")
+        if bad is not None:
+            cell = cells[bad] if not isinstance(cells, np.ndarray) else str(cells[bad])
+            raise RigError(f"{path}:{first_row + bad}: column {column!r}: {cell!r} is not a "
+                           f"{'date-time stamp' if name == 'time' and start is None and table.is_stamp(cols[key][0]) else 'number'}")
+        if not np.all(np.isfinite(a[~np.isnan(a)])):
+            i = int(np.nonzero(np.isinf(a))[0][0])
+            raise RigError(f"{path}:{first_row + i}: column {column!r}: {cells[i]!r} is not a finite number")
+        a = a * gains.get(name, 1.0) + offsets.get(name, 0.0)
         if name in UNITS:
             scale, offset = UNITS[name][unit]
             a = a * scale + offset
-        _plausible(path, name, column, a)
+        _plausible(path, name, column, a, first_row)
         data[name] = a
+    if "time" not in data:
+        rate = rate_hz or (layout.rate_hz if layout else None)
+        if not rate:
+            raise RigError(f"{path}: no time column mapped and no sampling rate in the file: give --map time=COLUMN "
+                           f"or --rate HZ")
+        n = len(next(iter(data.values())))
+        data["time"] = np.arange(n) / rate
+        derived = f"time from the sampling rate, {rate:g} Hz"
     t = data["time"]
     keep = ~np.isnan(t)
     bad = np.nonzero(np.diff(t[keep]) < 0)[0]  # repeated stamps happen in logged data; going back does not
     if len(bad):
-        row = np.nonzero(keep)[0][bad[0] + 1] + 2
+        row = first_row + np.nonzero(keep)[0][bad[0] + 1]
         raise RigError(f"{path}:{row}: time goes backwards ({t[keep][bad[0]]:.9g} then {t[keep][bad[0] + 1]:.9g} s)")
     if keep.sum() < 10:
         raise RigError(f"{path}: {keep.sum()} rows with a time (need at least 10)")
@@ -149,7 +212,7 @@ def read(path, mapping):
         raise RigError(f"{path}: the time column spans {t[keep][-1] - t[keep][0]:.3g} s; a recording spans at most "
                        f"{MAX_SPAN_S / 86400:g} days: check its unit")
     if not t[keep][-1] > t[keep][0]:
-        column = next(c for n, c, _ in mapping if n == "time")
+        column = next((c for n, c, _ in mapping if n == "time"), "time")
         raise RigError(f"{path}: the time column {column!r} does not advance (all {t[keep][0]:g} s)")
     for name, column, _ in mapping:  # an empty optional column is left out; one number is no channel
         have = int(np.sum(~np.isnan(data[name][keep])))
@@ -157,10 +220,10 @@ def read(path, mapping):
         if 0 < have < need or (have == 0 and need == 10):
             raise RigError(f"{path}: column {column!r} ({name}) holds {have} number{'s' * (have != 1)} "
                            f"with a time (needs at least {need})")
-    return {k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}
+    return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived)
 
 
-def _plausible(path, name, column, a):
+def _plausible(path, name, column, a, first_row=2):
     """Refuse values no working sensor gives (a wrong unit, a corrupt file): the ranges are
     the rig's, per quantity (rig/config.py QUANTITIES)."""
     q = quantity(CHANNELS.get(name, ""))
@@ -173,7 +236,7 @@ def _plausible(path, name, column, a):
     if len(bad):
         i = bad[0]
         where = f"{q[1]:g}..{q[2]:g} {q[0]}" if q else "+-1e12"
-        raise RigError(f"{path}:{i + 2}: column {column!r}: {a[i]:.6g} {q[0] if q else ''} is not a plausible "
+        raise RigError(f"{path}:{i + first_row}: column {column!r}: {a[i]:.6g} {q[0] if q else ''} is not a plausible "
                        f"{name} (outside {where}): check its unit")
 
 

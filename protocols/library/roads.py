@@ -32,6 +32,7 @@ FADE_S = 0.5
 CONTENT_HZ = (0.5, 20.0)  # temporal band of a random road
 KINDS = ("step", "sine", "sweep", "iso8608", "file")
 MAX_ROWS = 10_000_000  # of a road or target file: hours at 1 kHz
+ROAD_HZ_MAX, ROAD_MM_MAX = 100.0, 1000.0  # a sine or sweep's frequency [Hz] and height [mm]
 ISO_KMH = (1.0, 400.0)  # km/h: a random road's speed
 ISO_MAX_S = 600.0  # s: its synthesis (2,000 sinusoids a sample) grows with its length
 
@@ -106,9 +107,11 @@ def parse(spec: str, rate_hz: float) -> Road:
 
 
 def _positive(spec, **values):
+    """Frequencies [Hz] and heights [mm] above 0 and within what a damper rig reproduces."""
     for name, v in values.items():
-        if not v > 0:
-            raise ParamError(f"road: {spec!r}: {name} must be positive, got {v:g}")
+        hi = ROAD_MM_MAX if name == "mm" else ROAD_HZ_MAX
+        if not 0 < v <= hi:
+            raise ParamError(f"road: {spec!r}: {name} must be above 0 and at most {hi:g}, got {v:g}")
 
 
 def history(path, what, quantity, h):

@@ -1,4 +1,4 @@
-"""`dyno bench sim|sweep|log|loop|identify|diagnose|hil|cluster|catalogue`: measured numbers, not tests; each
+"""`dyno bench sim|sweep|log|import|loop|identify|diagnose|hil|cluster|catalogue`: measured numbers, not tests; each
 prints text, --json, or --markdown for docs/results."""
 from __future__ import annotations
 
@@ -45,6 +45,15 @@ def log(args):
             f"on disk), {r['ratio']:.0f}x the {r['protocol_samples_per_s']:,.0f} samples/s a protocol records "
             f"(goal >= {r['goal_ratio']:.0f}x: {'met' if r['goal_met'] else 'NOT met'})")
     return emit(args, "MCAP logging rate (dyno bench log)", r, text)
+
+
+def import_(args):
+    from protocols.app.bench.throughput import bench_import
+    r = bench_import(args.rows)
+    text = (f"dyno import of {r['rows']:,} CSV rows: {r['seconds']:.1f} s with times in seconds, "
+            f"{r['date-time stamps']:.1f} s with date-time stamps (goal < {r['goal_s']:g} s: "
+            f"{'met' if r['goal_met'] else 'NOT met'})")
+    return emit(args, "CSV import time (dyno bench import)", r, text)
 
 
 def loop(args):

@@ -121,3 +121,40 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     return {"recording_s": float(min(t_end, seconds)), "rate_hz": rate_hz, "samples": int(len(ch["force"][0])),
             "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res.accepted, "goal_s": 180.0,
             "design_s": t_design, "design_goal_s": 10.0, "proposals": len(props)}
+
+
+IMPORT_GOAL_S = 5.0  # s for 1,000,000 rows (issue 43)
+
+
+def bench_import(rows=1_000_000):
+    """Seconds `dyno import` takes for a CSV of `rows` rows (time, displacement, force)
+    written with date-time stamps and with plain seconds, end to end (read, convert,
+    record, catalogue)."""
+    import contextlib
+    import io
+    from datetime import datetime, timedelta, timezone
+
+    from protocols.app import cli
+    t = np.arange(rows) / 1000.0
+    x = 30 + 5 * np.sin(2 * np.pi * t)
+    F = 100 * np.cos(2 * np.pi * t)
+    out = {"rows": rows, "goal_s": IMPORT_GOAL_S}
+    with tempfile.TemporaryDirectory() as d:
+        plain = Path(d) / "plain.csv"
+        np.savetxt(plain, np.column_stack([t, x, F]), delimiter=",", header="t,x,F", comments="", fmt="%.6f")
+        start = datetime(2025, 11, 14, 20, 14, 37, tzinfo=timezone.utc)
+        stamped = Path(d) / "stamped.csv"
+        with open(stamped, "w") as f:
+            f.write("time,x,F\n")
+            f.writelines(f"{(start + timedelta(milliseconds=i)).isoformat(' ', 'microseconds')[:26]},{a:.6f},{b:.6f}\n"
+                         for i, (a, b) in enumerate(zip(x, F)))
+        for name, src, time_map in (("seconds", plain, "time=t"), ("date-time stamps", stamped, "time=time")):
+            t0 = time.perf_counter()
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+                code = cli.main(["import", str(src), "--out", str(Path(d) / f"{src.stem}.mcap"), "--map", time_map,
+                                 "--map", "displacement=x:mm", "--map", "force=F:N"])
+            if code != 0:
+                raise RigError(f"bench import: dyno import of the {name} file failed")
+            out[name] = time.perf_counter() - t0
+    out["goal_met"] = all(out[k] < IMPORT_GOAL_S for k in ("seconds", "date-time stamps"))
+    return out

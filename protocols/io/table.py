@@ -1,0 +1,223 @@
+"""A table of numbers as dyno software and acquisition systems write it, found without
+being told: the encoding (protocols/io/csv_import.decode), the delimiter (comma,
+semicolon, tab or whitespace), a decimal comma, a preamble before the header (a DAQ's
+`Sampling Rate: 1000` read from it), a header or none, trailing delimiters and an empty
+last column, and time as numbers or date-time stamps.
+
+    layout = sniff(text)                  # what was found: Layout
+    cols = split(text, layout)            # {column name: [cell text, ...]}
+    values = numbers(cells, layout, ...)  # float array, NaN for an empty cell
+    epoch = stamps(cells)                 # seconds since 1970 (UTC) of date-time stamps
+
+Columns are named by their header, and also by their 1-based position ("1", "2", ...):
+a file without a header is mapped by position.
+"""
+from __future__ import annotations
+
+import csv
+import re
+from dataclasses import dataclass, field
+from datetime import datetime, timedelta, timezone
+
+import numpy as np
+
+from rig.errors import RigError
+
+DELIMITERS = (",", ";", "\t", None)  # None: runs of whitespace
+TAIL = 40  # data lines looked at to learn the table's shape
+NUMBER = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
+ISO = re.compile(r"^(\d{4})-(\d{2})-(\d{2})[ T](\d{1,2}):(\d{2})(?::(\d{2}(?:[.,]\d+)?))?"
+                 r"\s*(Z|[+-]\d{2}:?\d{2})?$")
+US = re.compile(r"^(\d{1,2})/(\d{1,2})/(\d{4})[ T]+(\d{1,2}):(\d{2})(?::(\d{2}(?:\.\d+)?))?\s*([AaPp][Mm])?$")
+RATE = re.compile(r"^\s*(sampling rate|sample rate|sampling frequency|rate|fs)\s*[:=]\s*([0-9.eE+-]+)\s*(hz)?\s*$",
+                  re.I)
+INTERVAL = re.compile(r"^\s*(sampling interval|sample interval|dt)\s*[:=]\s*([0-9.eE+-]+)\s*(s)?\s*$", re.I)
+
+
+@dataclass
+class Layout:
+    delimiter: str | None  # None: whitespace
+    decimal: str  # "." or ","
+    header: int | None  # line index (0-based) of the column names; None: no header
+    first: int  # line index of the first data row
+    names: list  # the columns' names (their positions "1", "2", ... without a header)
+    rate_hz: float | None = None  # from the preamble (Sampling Rate, or 1 / Sampling Interval)
+    preamble: list = field(default_factory=list)  # the lines before the header
+
+    def describe(self) -> str:
+        sep = {",": "comma", ";": "semicolon", "\t": "tab", None: "whitespace"}[self.delimiter]
+        head = f"header on line {self.header + 1}" if self.header is not None else "no header"
+        return (f"{sep}-separated, decimal {'comma' if self.decimal == ',' else 'point'}, {head}, data from line "
+                f"{self.first + 1}" + (f", {len(self.preamble)} preamble lines" if self.preamble else "")
+                + (f", sampling rate {self.rate_hz:g} Hz" if self.rate_hz else ""))
+
+
+def _fields(line, delimiter):
+    if delimiter is None:
+        return line.split()
+    out = next(csv.reader([line], delimiter=delimiter))
+    while out and out[-1].strip() == "":  # a trailing delimiter, an empty last column
+        out.pop()
+    return [f.strip() for f in out]
+
+
+def _is_value(cell, decimal="."):
+    """A number (with this decimal mark) or a date-time stamp."""
+    if decimal == "," and "." in cell and "," not in cell:
+        return bool(NUMBER.match(cell))
+    return bool(NUMBER.match(cell)) or bool(ISO.match(cell)) or bool(US.match(cell))
+
+
+def _shape(lines, delimiter):
+    """(the field count most tail lines have, how many of the tail's cells are values) of
+    the lines split by delimiter."""
+    rows = [_fields(line, delimiter) for line in lines]
+    counts = [len(r) for r in rows]
+    n = max(set(counts), key=counts.count)
+    values = sum(_is_value(c) for r in rows if len(r) == n for c in r)
+    return n, values
+
+
+def sniff(text: str) -> Layout:
+    """The table's layout; RigError when no delimiter gives at least two columns of values."""
+    lines = text.splitlines()
+    filled = [i for i, line in enumerate(lines) if line.strip()]
+    if not filled:
+        raise RigError("an empty file")
+    tail = [lines[i] for i in filled[-TAIL:]]
+    best = None
+    for d in DELIMITERS:
+        try:
+            n, values = _shape(tail, d)
+        except csv.Error:
+            continue
+        if n >= 2 and (best is None or values > best[2] or values == best[2] and n > best[1]):
+            best = (d, n, values)
+    if best is None or best[2] == 0:
+        raise RigError("not a table: no delimiter (comma, semicolon, tab, spaces) gives two columns of numbers")
+    d, n, _ = best
+    decimal = "," if d != "," and any("," in c for line in tail for c in _fields(line, d)) else "."
+    first = None
+    for i in filled:  # the first line shaped as the data, its leading cells values
+        f = _fields(lines[i], d)
+        if len(f) >= max(n - 1, 2) and _is_value(f[0], decimal) and _is_value(f[1], decimal):
+            first = i
+            break
+    if first is None:
+        raise RigError("not a table: no row of numbers")
+    before = [i for i in filled if i < first]
+    header = before[-1] if before else None
+    names = _fields(lines[header], d) if header is not None else []
+    if header is not None and (len(names) < 2 or all(_is_value(c, decimal) for c in names)):
+        header, names = None, []
+    preamble = [lines[i] for i in before if i != header]
+    rate = None
+    for line in preamble:
+        m = RATE.match(line) or INTERVAL.match(line)
+        if m:
+            try:
+                v = float(m.group(2))
+            except ValueError:
+                continue
+            if v > 0:
+                rate = v if m.re is RATE else 1.0 / v
+                if m.re is RATE:
+                    break
+    n = max([n, *(len(_fields(lines[i], d)) for i in filled if first <= i < first + TAIL)])  # an events column
+    names = [c or str(j + 1) for j, c in enumerate(names)] + [str(j + 1) for j in range(len(names), n)]
+    return Layout(d, decimal, header, first, names, rate, preamble)
+
+
+def split(text: str, layout: Layout) -> dict[str, list[str]]:
+    """{column name: [cell, ...]} of the data rows (a short row's missing cells empty)."""
+    lines = text.splitlines()[layout.first:]
+    if layout.delimiter is None:
+        rows = [line.split() for line in lines]
+    else:
+        try:
+            rows = list(csv.reader(lines, delimiter=layout.delimiter))
+        except csv.Error as e:
+            raise RigError(f"not a table of numbers ({e})") from None
+    rows = [r for r in rows if any(c.strip() for c in r)]
+    n = len(layout.names)
+    out = {name: [""] * len(rows) for name in layout.names}
+    for i, r in enumerate(rows):
+        for j, c in enumerate(r[:n]):
+            out[layout.names[j]][i] = c.strip()
+    return out
+
+
+def column(cols: dict, layout: Layout, key: str) -> str:
+    """The name of the column `key` names: its header, or its 1-based position."""
+    if key in cols:
+        return key
+    if key.isdigit() and 1 <= int(key) <= len(layout.names):
+        return layout.names[int(key) - 1]
+    raise RigError(f"no column {key!r}; columns: " + ", ".join(
+        f"{j + 1}={c}" if c != str(j + 1) else c for j, c in enumerate(layout.names)))
+
+
+def numbers(cells: list[str], decimal=".") -> tuple[np.ndarray, int | None]:
+    """(float array with NaN for an empty cell, index of the first cell that is not a
+    number or None)."""
+    a = np.array(cells, dtype=str)
+    if decimal == ",":
+        a = np.char.replace(a, ",", ".")
+    a = np.where(a == "", "nan", a)
+    try:
+        return a.astype(float), None
+    except ValueError:
+        for i, c in enumerate(a):
+            try:
+                float(c)
+            except ValueError:
+                return np.array([]), i
+    return np.array([]), None  # unreachable: astype and float agree
+
+
+def is_stamp(cell: str) -> bool:
+    return bool(ISO.match(cell) or US.match(cell))
+
+
+def stamps(cells: list[str]) -> tuple[np.ndarray, int | None]:
+    """(seconds since 1970-01-01 UTC of each date-time stamp, NaN for an empty cell; index
+    of the first cell that is not a stamp, or None). ISO 8601 with a space or T, with or
+    without a zone; US MM/DD/YYYY hh:mm:ss.fff with AM/PM or a 24-hour clock. A stamp
+    without a zone is taken as UTC (the recording does not say where it was made)."""
+    out = np.full(len(cells), np.nan)
+    days = {}  # a recording spans a few dates: each converted once
+    for i, c in enumerate(cells):
+        if not c:
+            continue
+        m = ISO.match(c)
+        if m:
+            y, mo, d, h, mi, s, zone = m.groups()
+            offset = 0.0
+            if zone and zone != "Z":
+                z = zone.replace(":", "")
+                offset = (1 if z[0] == "+" else -1) * (int(z[1:3]) * 3600 + int(z[3:5]) * 60)
+        else:
+            m = US.match(c)
+            if m is None:
+                return out, i
+            mo, d, y, h, mi, s, half = m.groups()
+            offset = 0.0
+            if half:
+                hh = int(h) % 12 + (12 if half.upper() == "PM" else 0)
+                h = str(hh)
+        key = (y, mo, d)
+        if key not in days:
+            try:
+                days[key] = datetime(int(y), int(mo), int(d), tzinfo=timezone.utc).timestamp()
+            except ValueError:
+                return out, i
+        hour, minute, sec = int(h), int(mi), float((s or "0").replace(",", "."))
+        if hour > 23 or minute > 59 or sec >= 61:
+            return out, i
+        out[i] = days[key] + hour * 3600 + minute * 60 + sec - offset
+    return out, None
+
+
+def iso(epoch: float) -> str:
+    """An epoch time [s] as ISO 8601 UTC."""
+    return (datetime(1970, 1, 1, tzinfo=timezone.utc) + timedelta(seconds=float(epoch))).isoformat()

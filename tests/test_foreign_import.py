@@ -1,0 +1,167 @@
+"""Issue 43: recordings from other dynos and acquisition systems, written here in each
+format they come in, imported as one of ours: date-time stamps, a DAQ's preamble and
+volts, a decimal comma, tabs, whitespace without a header, Parquet, MATLAB, and the other
+sign convention."""
+import math
+from datetime import datetime, timedelta, timezone
+
+import numpy as np
+import pytest
+
+from protocols.io.reader import load_recording
+from tests.test_hostile_inputs import dyno, one_line_error
+
+RATE = 300.0  # Hz: the student crank dyno's
+START = datetime(2025, 11, 14, 20, 14, 37, 917152, tzinfo=timezone.utc)
+
+
+def crank(n=900, rate=RATE, stroke=0.038, rod=0.12, hz=1.05):
+    """(t [s], x [m from full extension], F [N]): a slider-crank's stroke (not a sine: the
+    rod's angle skews it) on a damper with gas force, valves and a little friction."""
+    t = np.arange(n) / rate
+    r = stroke / 2
+    th = 2 * np.pi * hz * t
+    x = 0.03 + r * (1 - np.cos(th)) + (r * r / (2 * rod)) * np.sin(th) ** 2
+    v = np.gradient(x, t)
+    F = 150 + 800 * x + np.where(v > 0, 2500 * v, 4200 * v) + 30 * np.tanh(v / 0.01)
+    return t, x, F
+
+
+def _stamps(t, fmt):
+    return [(START + timedelta(seconds=float(s))).strftime(fmt) for s in t]
+
+
+def _written(tmp_path, name, text, codec="utf-8"):
+    p = tmp_path / name
+    p.write_bytes(text.encode(codec))
+    return p
+
+
+def _imported(tmp_path, src, *args):
+    out = tmp_path / "x.mcap"
+    r = dyno("import", src, "--out", out, *args)
+    assert r.returncode == 0, r.stderr
+    channels, events, meta = load_recording(out)
+    return channels, meta, r
+
+
+def _same_motion(channels, t, x, F, tol_x=1e-6, tol_F=1e-3):
+    tt, xx = channels["x"]
+    assert len(tt) == len(t) and np.allclose(tt, t - t[0], atol=2e-6)
+    assert np.allclose(xx, x, atol=tol_x) and np.allclose(channels["force"][1], F, atol=tol_F)
+
+
+@pytest.mark.parametrize("fmt, zone, shift", [
+    ("%Y-%m-%d %H:%M:%S.%f", "", 0.0),
+    ("%Y-%m-%dT%H:%M:%S.%f", "Z", 0.0),
+    ("%Y-%m-%dT%H:%M:%S.%f", "+01:00", -3600.0),
+    ("%m/%d/%Y %I:%M:%S.%f %p", "", 0.0),
+])
+def test_date_time_stamps_give_the_time_and_the_recordings_start(tmp_path, fmt, zone, shift):
+    t, x, F = crank()
+    stamps = [s + zone for s in _stamps(t, fmt)]
+    src = _written(tmp_path, "crank.csv", "time,pos_mm,load_N\n" + "".join(
+        f"{s},{1e3 * a:.6f},{b:.4f}\n" for s, a, b in zip(stamps, x, F)))
+    channels, meta, _ = _imported(tmp_path, src, "--map", "time=time", "--map", "displacement=pos_mm:mm",
+                                  "--map", "force=load_N:N")
+    _same_motion(channels, t, x, F)
+    started = datetime.fromisoformat(meta["run"]["wall_start"])
+    assert abs((started - START).total_seconds() - shift) < 1e-3
+    assert meta["run"]["wall_start_source"] == "the file's first date-time stamp"
+
+
+def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_path):
+    """As the UTFSM press's acquisition wrote it: 7 preamble lines, `Sample Number,
+    Date/Time, CHANNEL0, CHANNEL1, Events`, US stamps, volts with their offsets."""
+    t, x, F = crank(rate=1000.0, n=3000)
+    rows = [f"{i + 1:>10},   {s}, {(x[i] - 0.0495) / 0.01:.5f}, {F[i] / 980.665 + 0.01:.6f}"
+            + (", DAQ Start" if i == 0 else "") for i, s in enumerate(_stamps(t, "%m/%d/%Y %I:%M:%S.%f %p"))]
+    text = ("Header Size:  7\r\nVersion:  2\r\nSampling Interval:  0.001\r\nSampling Rate:  1000\r\n"
+            "Sample Count:  3000\r\nDevice Serial Number:  0\r\nSample Number, Date/Time, CHANNEL0, CHANNEL1, Events\r\n"
+            + "\r\n".join(rows) + "\r\n")
+    src = _written(tmp_path, "daq.txt", text)
+    r = dyno("import", src, "--inspect")
+    assert r.returncode == 0 and "header on line 7" in r.stdout and "sampling rate 1000 Hz" in r.stdout, r.stdout
+    assert "--map 'time=Date/Time'" in r.stdout and not list(tmp_path.glob("*.mcap"))
+    channels, meta, _ = _imported(tmp_path, src, "--map", "time=Date/Time", "--map", "displacement=CHANNEL0:mm",
+                                  "--gain", "displacement=10", "--offset", "displacement=49.5",
+                                  "--map", "force=CHANNEL1:N", "--gain", "force=980.665", "--offset", "force=-9.80665")
+    _same_motion(channels, t, x, F, tol_x=1e-7, tol_F=1e-2)
+
+
+def test_a_semicolon_file_with_decimal_commas_in_windows_encoding(tmp_path):
+    t, x, F = crank()
+    body = "".join(f"{a:.4f};{1e3 * b:.5f};{c:.3f};\n".replace(".", ",") for a, b, c in zip(t, x, F))
+    src = _written(tmp_path, "de.csv", "Zeit [s];Weg [mm];Kraft [N];\n" + body, "latin-1")
+    channels, _, _ = _imported(tmp_path, src, "--map", "time=Zeit [s]", "--map", "displacement=Weg [mm]:mm",
+                               "--map", "force=Kraft [N]")
+    _same_motion(channels, np.round(t, 4), np.round(x, 8), np.round(F, 3), tol_x=1e-8)
+
+
+def test_tabs_and_milliseconds(tmp_path):
+    t, x, F = crank()
+    src = _written(tmp_path, "tab.txt", "t_ms\tx_in\tF_lbf\n" + "".join(
+        f"{1e3 * a:.4f}\t{b / 0.0254:.8f}\t{c / 4.4482216:.6f}\n" for a, b, c in zip(t, x, F)))
+    channels, _, _ = _imported(tmp_path, src, "--map", "time=t_ms:ms", "--map", "displacement=x_in:in",
+                               "--map", "force=F_lbf:lbf")
+    _same_motion(channels, t, x, F, tol_F=1e-2)
+
+
+def test_whitespace_without_a_header_by_position_and_time_from_the_rate(tmp_path):
+    t, x, F = crank()
+    src = _written(tmp_path, "sine.txt", "".join(f"   {a:.7e}  {1e3 * b:.7e}  {c:.7e}\r\n" for a, b, c in zip(t, x, F)))
+    channels, _, _ = _imported(tmp_path, src, "--map", "time=1", "--map", "displacement=2:mm", "--map", "force=3")
+    _same_motion(channels, t, x, F)
+    channels, meta, _ = _imported(tmp_path, src, "--map", "displacement=2:mm", "--map", "force=3", "--rate", "300",
+                                  "--overwrite")
+    _same_motion(channels, t, x, F)
+    assert meta["run"]["time_source"] == "time from the sampling rate, 300 Hz"
+    one_line_error(dyno("import", src, "--out", tmp_path / "y.mcap", "--map", "displacement=2:mm", "--map", "force=9"),
+                   "no column '9'")
+
+
+def test_parquet_and_matlab(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    from scipy.io import savemat
+    t, x, F = crank()
+    pq.write_table(pa.table({"time": t, "x_mm": 1e3 * x, "force": F}), tmp_path / "run.parquet")
+    channels, _, _ = _imported(tmp_path, tmp_path / "run.parquet", "--map", "time=time", "--map",
+                               "displacement=x_mm:mm", "--map", "force=force")
+    _same_motion(channels, t, x, F)
+    savemat(tmp_path / "run.mat", {"data": np.column_stack([t, 1e3 * x, F])})
+    channels, _, _ = _imported(tmp_path, tmp_path / "run.mat", "--map", "time=data[1]", "--map",
+                               "displacement=data[2]:mm", "--map", "force=data[3]", "--overwrite")
+    _same_motion(channels, t, x, F)
+
+
+def test_the_other_sign_convention_is_named_in_one_line_and_flipped(tmp_path):
+    t, x, F = crank()
+    src = _written(tmp_path, "tension.csv", "t,x,F\n" + "".join(f"{a},{1e3 * b},{-c}\n" for a, b, c in zip(t, x, F)))
+    args = ["--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F"]
+    _, _, r = _imported(tmp_path, src, *args)
+    said = [line for line in r.stdout.splitlines() if line.startswith("sign: ")]
+    assert len(said) == 1 and "--flip force" in said[0] and "other sign convention" in said[0], r.stdout
+    for command in (["identify", tmp_path / "x.mcap", "--damper", "koni", "--out", tmp_path / "m.json"],
+                    ["diagnose", tmp_path / "x.mcap"]):
+        one_line_error(dyno(*command), "other sign convention", "--flip force")
+    channels, _, r = _imported(tmp_path, src, *args, "--flip", "force", "--overwrite")
+    assert "sign: " not in r.stdout and np.allclose(channels["force"][1], F, atol=1e-6)
+    # displacement measured from the other end: flipped about its most extended reading
+    src = _written(tmp_path, "other-end.csv", "t,x,F\n" + "".join(f"{a},{1e3 * (0.1 - b)},{c}\n"
+                                                                    for a, b, c in zip(t, x, F)))
+    _, _, r = _imported(tmp_path, src, *args, "--overwrite")
+    assert "import it again with --flip displacement (or --flip force)" in r.stdout, r.stdout
+    channels, _, _ = _imported(tmp_path, src, *args, "--flip", "displacement", "--overwrite")
+    assert np.allclose(np.diff(channels["x"][1]), np.diff(x), atol=1e-9)
+
+
+def test_import_reads_a_million_rows(tmp_path):
+    """The time goal is measured by `dyno bench import`; here only that a large file imports."""
+    n = 200_000
+    t = np.arange(n) / 1000.0
+    src = tmp_path / "big.csv"
+    np.savetxt(src, np.column_stack([t, 30 + 5 * np.sin(t), 100 * np.cos(t)]), delimiter=",", header="t,x,F",
+               comments="", fmt="%.6f")
+    channels, _, _ = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    assert len(channels["force"][0]) == n and math.isclose(channels["force"][0][-1], t[-1])

@@ -12,6 +12,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from models import segmentation
 from models.recording import other_sign
 from protocols import catalogue
 from protocols.io import table
@@ -94,16 +95,25 @@ def _import(args, mapping, gains, offsets, claim):
               "gain": args.gain or [], "offset": args.offset or []}
     rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start,
                    run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {})})
+    ok = ~np.isnan(data["displacement"])
+    found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
     try:
         for n, (tt, v, _) in channels.items():
             for i in range(0, len(tt), 5000):
                 rec.samples({n: (tt[i:i + 5000], v[i:i + 5000])})
+        for e in segmentation.events(found):  # as a run of ours marks its segments
+            rec.event(e["t"], e["kind"], e["segment"], e["params"])
         rec.commit()
     finally:
         rec.close()
     print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
+    sines = [f for f in found if f.kind == "sine"]
+    print(f"segments: {len(sines)} periodic" + (": " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)"
+                                                                for f in sines[:6]) + (", ..." if len(sines) > 6 else "")
+                                              if sines else " (motion that does not repeat: analysed in blocks)")
+          + (f"; {len(found) - len(sines)} holds" if len(found) > len(sines) else ""))
     sign = other_sign(data["displacement"], data["force"])
     if sign:
         print(f"sign: {sign}")

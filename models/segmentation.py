@@ -1,0 +1,125 @@
+"""A recording made elsewhere cut into the segments our analyses read (issue 43): periodic
+motion (a sine, a crank dyno's skewed stroke, a triangle) into cycles, grouped by frequency
+and amplitude into sine segments named as ours are (`sine 19 mm 1.05 Hz`), and static holds.
+Motion that does not repeat is left to the analyses, which cut it into blocks.
+
+Arrays in (t [s], x [m]), dataclasses out; the events a run would have written come from
+`events()`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise about a hold)
+REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back
+SAME_PERIOD = 0.05  # cycles within 5 % of each other's period ...
+SAME_AMPLITUDE = 0.10  # ... and 10 % of amplitude (and mean) belong to one segment
+MIN_CYCLES = 2
+HOLD_S = 0.5  # s: a hold lasts at least this long ...
+HOLD_TRAVEL = 5e-5  # m: ... within this band
+
+
+@dataclass
+class Segment:
+    name: str
+    kind: str  # "sine" or "hold"
+    t0: float
+    t1: float
+    params: dict = field(default_factory=dict)
+
+
+def _g(v):
+    return f"{v:.3g}"
+
+
+def cycles(t, x):
+    """[(t_start, t_end, amplitude [m], mean [m])] of whole strokes: x rising through its
+    local mid-level, each counted once the motion has gone REVERSAL_SHARE of the range back."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    ok = np.isfinite(t) & np.isfinite(x)
+    t, x = t[ok], x[ok]
+    if len(t) < 8 or np.ptp(x) < 2 * MIN_TRAVEL:
+        return []
+    # the mid-level follows the motion: a running median over a few seconds would be costly,
+    # so the level is the midpoint of the range between successive extremes
+    starts, armed, lo, hi = [], False, x[0], x[0]
+    for i in range(1, len(x)):
+        lo, hi = min(lo, x[i]), max(hi, x[i])
+        span = hi - lo
+        if span < 2 * MIN_TRAVEL:
+            continue
+        mid = 0.5 * (hi + lo)
+        if not armed and x[i] < mid - REVERSAL_SHARE * span / 2:
+            armed = True  # come down far enough: the next rise through mid is a new cycle
+        elif armed and x[i - 1] < mid <= x[i]:
+            starts.append(i)
+            armed = False
+            lo = hi = x[i]
+    out = []
+    for a, b in zip(starts, starts[1:]):
+        seg = x[a:b + 1]
+        out.append((float(t[a]), float(t[b]), float(np.ptp(seg) / 2), float((seg.max() + seg.min()) / 2)))
+    return out
+
+
+def _alike(c, ref):
+    return (abs((c[1] - c[0]) / (ref[1] - ref[0]) - 1) <= SAME_PERIOD
+            and abs(c[2] / ref[2] - 1) <= SAME_AMPLITUDE and abs(c[3] - ref[3]) <= SAME_AMPLITUDE * ref[2])
+
+
+def find(t, x) -> list[Segment]:
+    """The sine segments (runs of at least MIN_CYCLES alike cycles) and holds of a
+    recording, in time order."""
+    out = []
+    run = []
+    for c in cycles(t, x) + [None]:
+        if c is not None and c[2] >= MIN_TRAVEL and run and _alike(c, run[0]):
+            run.append(c)
+            continue
+        if len(run) >= MIN_CYCLES:
+            t0, t1 = run[0][0], run[-1][1]
+            amp = float(np.median([r[2] for r in run]))
+            hz = len(run) / (t1 - t0)
+            out.append(Segment(f"sine {_g(amp * 1e3)} mm {_g(hz)} Hz", "sine", t0, t1,
+                               {"kind": "sine", "amplitude_mm": round(amp * 1e3, 4), "freq_hz": round(hz, 5),
+                                "cycles": len(run), "measured": True, "found": "import"}))
+        run = [c] if c is not None and c[2] >= MIN_TRAVEL else []
+    out += holds(t, x, [(s.t0, s.t1) for s in out])
+    out.sort(key=lambda s: s.t0)
+    seen = {}
+    for s in out:  # the same test repeated (at another current, another temperature): numbered
+        seen[s.name] = seen.get(s.name, 0) + 1
+        if seen[s.name] > 1:
+            s.name = f"{s.name} ({seen[s.name]})"
+    return out
+
+
+def holds(t, x, taken=()):
+    """Static holds: HOLD_S or longer with x within HOLD_TRAVEL, outside the `taken` spans."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    out, i, n = [], 0, len(t)
+    while i < n:
+        j = i
+        lo = hi = x[i]
+        while j + 1 < n and max(hi, x[j + 1]) - min(lo, x[j + 1]) <= HOLD_TRAVEL:
+            j += 1
+            lo, hi = min(lo, x[j]), max(hi, x[j])
+        if t[j] - t[i] >= HOLD_S and not any(a < t[j] and t[i] < b for a, b in taken):
+            xm = float(np.mean(x[i:j + 1]))
+            came = x[i] - x[max(i - 50, 0)]  # the motion into the hold: as the static test's approaches
+            out.append(Segment(f"hold {xm * 1e3:.1f} mm", "hold", float(t[i]), float(t[j]),
+                               {"kind": "hold", "x_mm": round(xm * 1e3, 1), "measured": True, "found": "import",
+                                "approach": "compression stroke" if came > 0 else "extension stroke"}))
+        i = j + 1
+    return out
+
+
+def events(segments) -> list[dict]:
+    """The segment_start and segment_end events a run writes, for these segments."""
+    out = []
+    for s in segments:
+        out.append({"t": s.t0, "kind": "segment_start", "segment": s.name, "params": s.params})
+        out.append({"t": s.t1, "kind": "segment_end", "segment": s.name, "params": {}})
+    return out

@@ -165,3 +165,27 @@ def test_import_reads_a_million_rows(tmp_path):
                comments="", fmt="%.6f")
     channels, _, _ = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
     assert len(channels["force"][0]) == n and math.isclose(channels["force"][0][-1], t[-1])
+
+
+def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
+    """The crank-dyno-like file of the issue: 300 Hz, date-time stamps, one stroke of 38 mm
+    at 1.05 Hz for 30 cycles, then a hold: one sine segment named as ours are, its peaks in
+    the report."""
+    t, x, F = crank(n=int(30 / 1.05 * RATE))
+    hold = np.arange(1, int(RATE)) / RATE + t[-1]
+    t, x, F = np.concatenate([t, hold]), np.concatenate([x, np.full(len(hold), x[-1])]), \
+        np.concatenate([F, np.full(len(hold), F[-1])])
+    src = _written(tmp_path, "crank.csv", "Time,Position (mm),Force (N)\n" + "".join(
+        f"{s},{1e3 * a:.4f},{b:.3f}\n" for s, a, b in zip(_stamps(t, "%Y-%m-%d %H:%M:%S.%f"), x, F)))
+    r = dyno("import", src, "--inspect")
+    assert "--map 'time=Time' --map 'displacement=Position (mm):mm' --map 'force=Force (N):N'" in r.stdout, r.stdout
+    _, _, r = _imported(tmp_path, src, "--map", "time=Time", "--map", "displacement=Position (mm):mm",
+                        "--map", "force=Force (N):N")
+    assert "segments: 1 periodic: sine 19 mm 1.05 Hz (28 cycles); 1 holds" in r.stdout, r.stdout
+    rep = dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "rep")
+    assert rep.returncode == 0, rep.stderr
+    peaks = (tmp_path / "rep" / "peaks.csv").read_text().splitlines()
+    row = peaks[1].split(",")
+    assert len(peaks) == 2 and row[0] == "sine 19 mm 1.05 Hz" and abs(float(row[1]) - 19) < 0.01, peaks
+    v_peak = float(row[6])  # mm/s: a crank's peak speed is near 2 pi f r
+    assert abs(v_peak / (2 * np.pi * 1.05 * 19) - 1) < 0.05

@@ -12,6 +12,26 @@ WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures se
 # a gap longer than this share of a cycle leaves its segment out: resampled across it, a sine
 # is off by up to (2 pi share)^2 / 8 of its amplitude (1.2 % at 5 %); a shorter one is harmless
 GAP_CYCLE_SHARE = 0.05
+MIN_SEGMENTS = 3  # fewer sine segments than this: each is cut into groups of its cycles
+GROUPS = 6  # ... at most this many, of at least two cycles each
+
+
+def by_cycles(channels, span):
+    """A long sine segment as consecutive groups of its whole cycles (the valves are fitted
+    on some and judged on others: held-out cycles); the segment itself when it has fewer
+    than four cycles."""
+    from models.segmentation import cycles
+    name, params, t0, t1 = span
+    t, x = channels["x"]
+    k = (t >= t0) & (t <= t1)
+    found = cycles(t[k], x[k])
+    if len(found) < 4:
+        return [span]
+    out = []
+    for part in np.array_split(np.arange(len(found)), min(GROUPS, len(found) // 2)):
+        c = [found[i] for i in part]
+        out.append((f"{name} cycles {part[0] + 1}-{part[-1] + 1}", {**params, "cycles": len(c)}, c[0][0], c[-1][1]))
+    return out
 
 
 @dataclass
@@ -43,6 +63,8 @@ def dynamic_segments(channels, events, left_out=None):
     spans = segments(events, kinds=("sine",))
     if not spans and not events:  # an imported recording: blocks of whole cycles
         spans = cycle_blocks(channels)
+    if 0 < len(spans) < MIN_SEGMENTS:  # a crank dyno's run of one stroke: its cycles held out in groups
+        spans = [part for span in spans for part in by_cycles(channels, span)]
     tf = channels["force"][0]
     h = float(np.median(np.diff(tf)))
     holes = gaps(tf) + gaps(channels["x"][0])

@@ -81,7 +81,7 @@ def test_a_compensator_tracks_a_lagging_servo_better_than_none(comp, delay):
 
 
 @pytest.mark.parametrize("spec, message", [
-    ("bump:5", "unknown kind 'bump'"), ("sine:0:5", "hz must be positive"), ("sweep:20:1:5", "must rise"),
+    ("bump:5", "unknown kind 'bump'"), ("sine:0:5", "hz must be above 0"), ("sweep:20:1:5", "must rise"),
     ("iso8608:Z:50", "class is one of A-H"), ("step:x", "not all numbers"), ("file:/nonexistent.csv", "no such file"),
 ])
 def test_a_bad_road_is_named(spec, message):

@@ -268,7 +268,7 @@ CASES = [
     (["run", "hil", "--road", "iso8608:C:50:1e12"], ["a random road at 1 to 400 km/h for 1 to 600 s"]),
     (["run", "hil", "--road", "sine:1e-12:5"], ["a run lasts at most 4 hours"]),
     (["import", "{far_times}", "--out", "{folder}/far.mcap", *MAP], ["spans 1.9e+09 s", "at most 7 days"]),
-    (["import", "{fat_cell}", "--out", "{folder}/fat.mcap", *MAP], ["not a table of numbers"]),
+    (["import", "{fat_cell}", "--out", "{folder}/fat.mcap", *MAP], ["not a table"]),
     (["rig", "check", "--rig", "{deep_toml}"], ["nested too deeply"]),
     (["report", "{f308}", "--out", "{folder}/r"], ["/channels/force: values beyond"]),
     (["report", "{hz0}", "--out", "{folder}/r"], ["freq_hz = 0 (a finite number above 0)"]),
@@ -781,5 +781,5 @@ def test_dyno_serve_starts_on_a_catalogue_it_cannot_use_and_serves_the_live_view
     finally:
         p.send_signal(signal.SIGINT)
         assert p.wait(30) == 0
-    err = p.stderr.read().strip().splitlines()
-    assert len(err) == 1 and "not a dyno run catalogue; serving what can be read" in err[0], err
+    err = [line for line in p.stderr.read().splitlines() if not line.startswith("127.0.0.1 - - ")]  # werkzeug's log
+    assert len(err) == 1 and "not a dyno run catalogue" in err[0] and err[0].endswith("; serving what can be read"), err

@@ -134,8 +134,8 @@ def _screened(channels, force, x, aux):
     return flags, bad, drop(*force), drop(*x), {n: drop(*c) for n, c in aux.items()}
 
 
-def prepare(channels, events) -> Data:
-    """Data from a recording's channels {name: (t, values)} and events."""
+def _usable(channels):
+    """DiagnoseError unless the recording has force and displacement in our sign convention."""
     missing = [n for n in ("force", "x") if n not in channels or len(channels[n][0]) < 10]
     if missing:
         raise DiagnoseError(f"the recording has no {' or '.join(missing)} channel: diagnosis needs time, "
@@ -143,6 +143,11 @@ def prepare(channels, events) -> Data:
     sign = sign_problem(channels)
     if sign:
         raise DiagnoseError(sign)
+
+
+def prepare(channels, events) -> Data:
+    """Data from a recording's channels {name: (t, values)} and events."""
+    _usable(channels)
     notes = []
     tF, F = _clean(*channels["force"])
     tx, x = _clean(*channels["x"])

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import math
 import os
 import sys
 from importlib import metadata
-from pathlib import Path
 
 from models.damper import DamperError
 from models.parallel import TaskFailed
+from protocols.app.arguments import MAX_BUDGET_S, Parser, holdout, number, setup_item, sizes
+from protocols.app.output import check_outputs
 from rig.errors import RigError
 
 
@@ -26,8 +26,6 @@ def _hidden_physics(p):
 
 
 FILE, FOLDER = "file", "folder"
-BUDGET_S = 120.0  # s: rig time the dyno's own next tests take unless --budget says otherwise
-MAX_BUDGET_S = 7200.0  # s: what a run may move without --long (protocols/preflight.py)
 
 
 def _writes(p, flag, kind, **kw):
@@ -47,66 +45,6 @@ def _units(p):
     p.add_argument("--units", choices=("si", "metric", "us"), default="metric",
                    help="units of the output: si (m, m/s, N, Pa, K), metric (mm, mm/s, N, bar gauge, C; the "
                         "default) or us (in, in/s, lbf, psi gauge, F)")
-
-
-class Parser(argparse.ArgumentParser):
-    """Usage mistakes are one line, like every other bad input, and exit 2."""
-
-    def error(self, message):
-        where = self.prog.removeprefix("dyno").strip()
-        self.exit(2, f"dyno: error: {where + ': ' if where else ''}{message}\n")
-
-
-def setup_item(text):
-    """--setup KEY=VALUE: a key of letters, digits, '_', '-' or '.', and a value."""
-    key, eq, value = text.partition("=")
-    if not eq or not value.strip() or not key or not all(c.isalnum() or c in "_-." for c in key):
-        raise argparse.ArgumentTypeError(f"{text!r} is not KEY=VALUE (a key of letters, digits, _ - or ., then a value)")
-    return key, value.strip()
-
-
-def number(lo=None, hi=None, integer=False, above=None):
-    """An argparse type: a finite number (an integer if asked) within [lo, hi], above `above`."""
-    def parse(text):
-        try:
-            v = int(text) if integer else float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if integer else 'a number'}") from None
-        if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
-        if above is not None and not v > above:
-            raise argparse.ArgumentTypeError(f"must be above {above:g}, got {text}")
-        if lo is not None and v < lo or hi is not None and v > hi:
-            raise argparse.ArgumentTypeError(f"must be within {'-inf' if lo is None else f'{lo:g}'}.."
-                                             f"{'inf' if hi is None else f'{hi:g}'}, got {text}")
-        return v
-    return parse
-
-
-def sizes(text):
-    """An argparse type: comma-separated positive numbers."""
-    try:
-        out = [float(v) for v in text.split(",")]
-    except ValueError:
-        out = []
-    if not out or not all(math.isfinite(v) and v > 0 for v in out):
-        raise argparse.ArgumentTypeError(f"{text!r}: give positive numbers separated by commas, e.g. 1,3,10")
-    return out
-
-
-def holdout(text):
-    """An argparse type: "interleaved", or "tail:F" with 0 < F <= 0.3 (returned as F)."""
-    if text == "interleaved":
-        return text
-    kind, _, frac = text.partition(":")
-    if kind == "tail":
-        try:
-            f = float(frac)
-        except ValueError:
-            f = math.nan
-        if 0 < f <= 0.3:
-            return f
-    raise argparse.ArgumentTypeError(f"{text!r}: give interleaved or tail:FRACTION with 0 < FRACTION <= 0.3")
 
 
 def parser():
@@ -379,6 +317,10 @@ def _analysis_commands(sub):
     _units(ex)
     _overwrite(ex)
     ex.set_defaults(command="export")
+    _import_command(sub)
+
+
+def _import_command(sub):
     im = sub.add_parser("import", help="a recording from another dyno or a DAQ (CSV, text export, Parquet, MATLAB) "
                                        "as an MCAP recording")
     im.add_argument("file", metavar="FILE", help="CSV or any delimited text (a preamble, a decimal comma, no header: "
@@ -453,37 +395,6 @@ def _bench_commands(sub):
     bl = _bench(bsub, "loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
-
-
-def chosen(p, args):
-    """The parsers `args` went through: dyno's, then each subcommand's."""
-    out = [p]
-    while True:
-        subs = [a for a in out[-1]._actions if isinstance(a, argparse._SubParsersAction)]
-        name = getattr(args, subs[0].dest, None) if subs else None
-        if name is None:
-            return out
-        out.append(subs[0].choices[name])
-
-
-def check_outputs(p, args):
-    """Every file or folder the command will write, checked by the one rule before it
-    starts: never an input (any file named among its other arguments), kept unless
-    --overwrite, each a path of its own."""
-    from protocols.io.files import existing_files, output_file, output_folder
-    actions = [a for q in chosen(p, args) for a in q._actions if a.dest != "help"]
-    outputs = [(a, getattr(args, a.dest, None)) for a in actions if getattr(a, "writes", None)]
-    outputs = [(a, v) for a, v in outputs if v is not None]
-    inputs = existing_files(*(getattr(args, a.dest, None) for a in actions if not getattr(a, "writes", None)))
-    seen = {}
-    for a, value in outputs:
-        flag = a.option_strings[0]
-        where = Path(value).resolve()
-        if where in seen:
-            raise RigError(f"{flag} {value}: also given to {seen[where]}; each output needs a path of its own")
-        seen[where] = flag
-        check = output_file if a.writes == FILE else output_folder
-        check(value, inputs, getattr(args, "overwrite", False), flag)
 
 
 def main(argv=None):

@@ -16,7 +16,7 @@ from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose import quality
 from models.diagnose.data import DiagnoseError
-from protocols.app.cli import BUDGET_S
+from protocols.app.arguments import BUDGET_S
 from protocols.io.files import existing_files, filled, output_folder
 from rig.errors import RigError
 

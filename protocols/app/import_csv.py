@@ -41,6 +41,8 @@ def _scales(items, what):
 
 
 def run(args):
+    for option in ("inspect", "gain", "offset", "flip", "rate"):  # a caller's namespace may have only the map
+        setattr(args, option, getattr(args, option, None))
     if args.inspect:
         return inspect(args)
     if not args.map:

@@ -14,7 +14,7 @@ from rig.errors import RigError
 from rig import operator_stop
 
 from protocols import catalogue, cell, preflight
-from protocols.app.cli import BUDGET_S
+from protocols.app.arguments import BUDGET_S
 from protocols.app.sim_rig import virtual_plant
 from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder

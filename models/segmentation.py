@@ -83,7 +83,7 @@ def find(t, x) -> list[Segment]:
             amp = float(np.median([r[2] for r in run]))
             hz = len(run) / (t1 - t0)
             out.append(Segment(f"sine {_g(amp * 1e3)} mm {_g(hz)} Hz", "sine", t0, t1,
-                               {"kind": "sine", "amplitude_mm": round(amp * 1e3, 4), "freq_hz": round(hz, 5),
+                               {"kind": "sine", "amplitude_mm": float(_g(amp * 1e3)), "freq_hz": float(_g(hz)),
                                 "cycles": len(run), "measured": True, "found": "import"}))
         run = [c] if c is not None and c[2] >= MIN_TRAVEL else []
     out += holds(t, x, [(s.t0, s.t1) for s in out])

@@ -372,3 +372,45 @@ def test_any_road_or_target_reads_or_gives_one_line(tmp_path_factory, data):
         if result is not None:
             t = result.t if hasattr(result, "t") else result[0]
             assert len(t) <= preflight.MAX_RUN_S * 1000 + 2000 and np.all(np.isfinite(t))
+
+
+STAMPS = st.sampled_from(["2025-11-14 20:14:37.917152", "2025-11-14T20:14:37Z", "2025-11-14T20:14:37.5+01:00",
+                          "05/13/2022 05:04:23.839 PM", "13/05/2022 05:04:23", "2025-02-30 10:00:00",
+                          "12/31/2022 12:00:00.000 AM", "2025-11-14 25:61:00"])
+
+
+@FUZZ
+@given(st.data())
+def test_any_foreign_table_imports_or_gives_one_line(tmp_path_factory, data):
+    """Another dyno's export (issue 43): a preamble, any delimiter, a decimal comma, date-time
+    stamps, a missing or odd header, an events column, spoiled here and there."""
+    folder = tmp_path_factory.mktemp("foreign")
+    src = folder / data.draw(st.sampled_from(["in.csv", "in.txt"]))
+    sep = data.draw(st.sampled_from([",", ";", "\t", "  ", " "]))
+    comma = sep != "," and data.draw(st.booleans())
+    preamble = data.draw(st.lists(st.sampled_from(["Header Size:  7", "Sampling Rate:  1000", "Sampling Rate: x",
+                                                   "Sampling Interval: 0", "Version 2", "", "fs = 300 Hz"]), max_size=4))
+    header = data.draw(st.sampled_from([["t", "x", "F"], ["Date/Time", "CHANNEL0", "CHANNEL1", "Events"], []]))
+    stamped = data.draw(st.booleans())
+    n = data.draw(st.integers(0, 40))
+    rows = []
+    for i in range(n):
+        t = data.draw(STAMPS) if stamped and data.draw(st.integers(0, 9)) == 0 else (
+            f"2025-11-14 20:14:{37 + i * 0.01:09.6f}" if stamped else f"{i * 1e-3:.4f}")
+        row = [t, f"{30 + 5 * np.sin(i / 5):.4f}", f"{100 * np.cos(i / 5):.2f}"]
+        if data.draw(st.integers(0, 9)) == 0:
+            row[data.draw(st.integers(0, 2))] = data.draw(CELLS)
+        if comma:
+            row = [c.replace(".", ",") for c in row]
+        rows.append(row + ([data.draw(st.sampled_from(["", "DAQ Start"]))] if len(header) == 4 else []))
+    text = "\n".join([*preamble, *([sep.join(header)] if header else []), *(sep.join(r) for r in rows)]) + "\n"
+    src.write_text(text)
+    names = header or ["1", "2", "3"]
+    args = SimpleNamespace(file=str(src), out=str(folder / "out.mcap"), overwrite=False, inspect=False,
+                           map=[f"time={names[0]}", f"displacement={names[1]}:mm", f"force={names[2]}:N"],
+                           gain=None, offset=None, flip=None, rate=None)
+    read(src, lambda p: import_csv.run(SimpleNamespace(**{**vars(args), "inspect": True, "out": None})))
+    _, error = read(src, lambda p: import_csv.run(args))
+    if error is None:
+        channels, _, _ = load_recording(folder / "out.mcap")
+        assert {"x", "force"} <= set(channels)

@@ -404,6 +404,9 @@ def main(argv=None):
             return _main(sys.argv[1:] if argv is None else argv)
     except KeyboardInterrupt:  # before or after a command's own handling: no traceback
         return 130
+    except BrokenPipeError:  # `dyno ... | head`: the reader left; nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 def _main(argv):

@@ -23,6 +23,8 @@ from rig.errors import RigError
 
 FLIPS = ("force", "displacement")
 SAMPLES = 3  # values shown per column by --inspect
+PLOT_POINTS = 100_000  # /plot messages per channel at most: a display's worth; /channels keeps every sample
+BATCH = 5000  # samples per /channels message
 
 
 def _scales(items, what):
@@ -95,14 +97,16 @@ def _import(args, mapping, gains, offsets, claim):
         wall_start, how = os.path.getmtime(args.file) - duration, "file time less its duration"
     params = {"source": str(args.file), "map": args.map, "flip": args.flip or [],
               "gain": args.gain or [], "offset": args.offset or []}
-    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start,
-                   run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {})})
+    every = -(-len(t) // PLOT_POINTS)
+    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
+                   run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
+                             **({"plot_every": every} if every > 1 else {})})
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
     try:
         for n, (tt, v, _) in channels.items():
-            for i in range(0, len(tt), 5000):
-                rec.samples({n: (tt[i:i + 5000], v[i:i + 5000])})
+            for i in range(0, len(tt), BATCH):
+                rec.samples({n: (tt[i:i + BATCH], v[i:i + BATCH])})
         for e in segmentation.events(found):  # as a run of ours marks its segments
             rec.event(e["t"], e["kind"], e["segment"], e["params"])
         rec.commit()

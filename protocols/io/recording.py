@@ -82,8 +82,11 @@ class Recorder:
     MCAP tool shows the date; the messages carry the run clock in seconds."""
 
     def __init__(self, path, config, damper_json: str, protocol: str, params: dict, wall_start=None,
-                 overwrite=False, run_info=None):
-        """path: the target, or a Claim on it taken earlier (to refuse before the rig opens)."""
+                 overwrite=False, run_info=None, plot_every=1):
+        """path: the target, or a Claim on it taken earlier (to refuse before the rig opens);
+        plot_every: every how many samples go on /plot (an import's long file: the batches
+        keep them all)."""
+        self.plot_every = max(1, int(plot_every))
         self.claim = path if isinstance(path, Claim) else Claim(path, overwrite)
         self.path = self.claim.target
         self.file = self.claim.open()
@@ -130,6 +133,7 @@ class Recorder:
         """One message per sample on /plot/NAME at its own log time."""
         topic = f"/plot/{name}"
         cid, n, add = self.topics[topic], self.seq[topic], self.w.add_message
+        t, v = t[::self.plot_every], v[::self.plot_every]
         for i, (ti, vi) in enumerate(zip(t.tolist(), v.tolist())):
             ns = self.t0_ns + int(max(ti, 0.0) * 1e9 + 0.5)
             add(cid, ns, f'{{"value":{vi:.7g}}}'.encode() if -1e308 < vi < 1e308 else b'{"value":null}', ns,

@@ -120,11 +120,14 @@ def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
     V, F_, X = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force", "length"))
     fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
     for j, a in enumerate(amps):
-        for i, (name, prm, t0, t1) in enumerate(s for s in sine if s[1]["amplitude_mm"] == a):
+        panel = [s for s in sine if s[1]["amplitude_mm"] == a]
+        labels = [f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
+                  for _, prm, _, _ in panel]
+        for i, (name, prm, t0, t1) in enumerate(panel):
             t, (F, x, v) = peaks.window(ch, ("force", "x", "v"), t0, t1)
             if len(F) < 10:
                 continue
-            label = f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
+            label = labels[i] if labels.count(labels[i]) == 1 else name  # a repeated test: its own name
             c = f"C{i % 10}"
             axes[0, j].plot(V(v), F_(F), lw=0.8, color=c, label=label)
             axes[1, j].plot(X(x), F_(F), lw=0.8, color=c, label=label)

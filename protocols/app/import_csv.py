@@ -4,6 +4,7 @@ or acquisition system made (CSV, a DAQ's text export, Parquet, MATLAB) as a dyno
 protocols/io/table.py; the columns' units: protocols/io/csv_import.py."""
 from __future__ import annotations
 
+import gc
 import json
 import math
 import os
@@ -57,9 +58,13 @@ def run(args):
     if args.out is None:
         raise RigError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
+    gc_was = gc.isenabled()
+    gc.disable()  # millions of cells and floats, no cycles among them: the collector would take most of the time
     try:
         return _import(args, mapping, gains, offsets, claim)
     finally:
+        if gc_was:
+            gc.enable()
         claim.abandon()  # nothing, once the recording was committed
         claim.release()
 

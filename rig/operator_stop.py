@@ -25,8 +25,12 @@ def on_signal(signum, frame):
 
 @contextlib.contextmanager
 def quiet():
-    """A section where a stop only sets the flag (looked at after it)."""
+    """A section where a stop only sets the flag (looked at after it); on the main thread,
+    where Python runs signal handlers (a loop on another thread needs none)."""
     global _quiet
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
     _quiet += 1
     try:
         yield

@@ -189,3 +189,22 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
     assert len(peaks) == 2 and row[0] == "sine 19 mm 1.05 Hz" and abs(float(row[1]) - 19) < 0.01, peaks
     v_peak = float(row[6])  # mm/s: a crank's peak speed is near 2 pi f r
     assert abs(v_peak / (2 * np.pi * 1.05 * 19) - 1) < 0.05
+
+
+def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_out_cycles(tmp_path):
+    """A crank dyno's file names no damper: identify fits the model that needs none, says
+    its held-out error and which parameters the recording could not determine."""
+    import json
+    t, x, F = crank(n=int(20 / 1.05 * RATE))
+    F = F + np.random.default_rng(0).normal(0, 5.0, len(F))
+    src = _written(tmp_path, "crank.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                               for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("identify", tmp_path / "x.mcap")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "x.minimal.json").read_text())
+    assert doc["model"] == "minimal" and doc["heldout_nrmse"] < 0.05 and doc["heldout_r2"] > 0.99
+    assert abs(doc["parameters"]["G0"]["value"] - np.mean(150 + 800 * x)) < 20  # the gas force at mid-stroke
+    assert all(("undetermined" in p) or np.isfinite(p["sd"]) for p in doc["parameters"].values())
+    assert "held out by cycles" in r.stdout and "model: " in r.stdout
+    one_line_error(dyno("identify", tmp_path / "x.mcap", "--report", tmp_path / "rep"), "need a damper description")

@@ -216,6 +216,36 @@ def scores(F, r, k):
             "r2_heldout": 1.0 - float(np.sum(e ** 2)) / max(sst, 1e-30)}
 
 
+AT_BOUND = 1e-3  # a value within this share of its range from a bound sits at the bound
+
+
+def minimal_model(channels, events, holdout="interleaved") -> tuple[Baseline, dict]:
+    """The baseline `minimal` alone, a damper model that needs no description: per-direction
+    valve curves, the gas force and its slope, sliding friction, fitted on some cycles (or
+    blocks) and judged on the others. (Baseline, {parameter: why the recording could not
+    determine it}): a parameter without influence on the fit (infinite deviation), or at a
+    bound of its range (held there, not measured)."""
+    d = prepare(channels, events)
+    base = Minimal(d)
+    folds, _, shown = holdout_masks(d, holdout)
+    model = Model(d, base=base)
+    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True)
+    values, sd = pooled(fold_vals, sds)
+    fit0 = folds[0][0]
+    r_train = model.force(d, fold_vals[0]) - d.F
+    res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
+                   residual=r0, model_gas_force=None)
+    unknown = {}
+    for p in model.params:
+        span = p.hi - p.lo
+        if not np.isfinite(sd.get(p.name, np.inf)):
+            unknown[p.name] = "no influence on the fit: the recording does not determine it"
+        elif min(values[p.name] - p.lo, p.hi - values[p.name]) <= AT_BOUND * span:
+            bound = "lower" if values[p.name] - p.lo <= AT_BOUND * span else "upper"
+            unknown[p.name] = f"at the {bound} bound of its range ({p.lo:g}..{p.hi:g} {p.unit}): held, not measured"
+    return res, unknown
+
+
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
              holdout="interleaved") -> Diagnosis:
     """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for

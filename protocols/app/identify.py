@@ -106,10 +106,12 @@ def run(args):
         if not Path(p).exists():
             raise RigError(f"{p}: no such file")
     inputs = existing_files(args.recordings, args.damper, args.truth)
+    channels, events, meta = merge(args.recordings)
+    if not args.damper and not meta.get("damper", {}).get("model"):
+        return _minimal(args, channels, events, inputs)
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), inputs, args.overwrite)
     if args.report:
         output_folder(args.report, inputs, args.overwrite, "--report")
-    channels, events, meta = merge(args.recordings)
     desc = description(args.damper, meta)
     truth = dm.load(args.truth) if args.truth else None
     say = (lambda m: print(m, file=sys.stderr)) if args.json else print
@@ -135,6 +137,52 @@ def run(args):
     else:
         print(text(doc))
         print(f"model: {out}")
+    return 0
+
+
+MINIMAL_SUFFIX = ".minimal.json"  # not .model.json: report overlays that as a full damper model
+
+
+def _minimal(args, channels, events, inputs):
+    """A recording that names no damper, and no --damper: the model that needs no
+    description (models/diagnose minimal_model), judged on held-out cycles, with what the
+    recording could not determine; written as JSON."""
+    from models.diagnose import minimal_model
+    from models.diagnose.data import DiagnoseError
+    if args.report or args.truth:
+        raise RigError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
+    out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
+    try:
+        base, unknown = minimal_model(channels, events)
+    except (DiagnoseError, dm.DamperError) as e:
+        raise RigError(f"{', '.join(map(str, args.recordings))}: {e}") from None
+    from models.diagnose.candidates import baseline_params
+    from models.diagnose.data import prepare
+    units = {p.name: p.unit for p in baseline_params(prepare(channels, events))}
+    doc = {"model": "minimal", "what": "per-direction valve curves (c1 v + c2 v^2 blended into C v above the crack "
+                                       "force Fcr), a polytropic gas force G0 with its length L, sliding friction F_c "
+                                       "(models/diagnose/candidates.py); no damper description needed",
+           "recordings": [str(p) for p in args.recordings],
+           "parameters": {k: {"value": float(v), "sd": float(base.sd.get(k, float("inf"))), "unit": units.get(k, ""),
+                              **({"undetermined": unknown[k]} if k in unknown else {})}
+                          for k, v in base.parameters.items()},
+           "heldout_nrmse": base.nrmse_heldout, "heldout_rmse_N": base.rmse_heldout, "heldout_r2": base.r2_heldout,
+           "held_out": "every other cycle (or block), fitted on the rest"}
+    with written(out) as tmp:
+        tmp.write_text(json.dumps(_clean(doc), indent=1))
+    from protocols import catalogue
+    for recording in args.recordings:
+        print(catalogue.add_model(recording, out, base.nrmse_heldout, {k: float(v) for k, v in base.parameters.items()
+                                                                      if k not in unknown}), file=sys.stderr)
+    if args.json:
+        print(json.dumps(_clean(doc), indent=2))
+        return 0
+    print(f"identify: the recording names no damper: the model that needs no description, held out by cycles: "
+          f"{100 * base.nrmse_heldout:.2f} % of the force range (R^2 {base.r2_heldout:.3f})")
+    for k, p in doc["parameters"].items():
+        print(f"  {k:6s} {p['value']:12.5g} {p['unit']:10s}" + (f"  undetermined: {p['undetermined']}"
+                                                                 if "undetermined" in p else f"  +- {p['sd']:.3g}"))
+    print(f"model: {out}")
     return 0
 
 

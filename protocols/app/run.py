@@ -4,7 +4,6 @@ as observers."""
 from __future__ import annotations
 
 import json
-import math
 import sys
 
 from models.damper import load as load_damper

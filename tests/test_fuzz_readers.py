@@ -201,6 +201,17 @@ def test_any_csv_imports_or_gives_one_line(tmp_path_factory, data):
     assert {"x", "force"} <= set(channels) and all(len(t) == len(v) for t, v in channels.values())
 
 
+def _spoil(path, data, how, flips):
+    """The file cut short ("cut"), or up to `flips` of its bytes changed ("flip")."""
+    raw = bytearray(path.read_bytes())
+    if how == "cut":
+        raw = raw[:data.draw(st.integers(0, len(raw) - 1))]
+    else:
+        for _ in range(data.draw(st.integers(1, flips))):
+            raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
+    path.write_bytes(bytes(raw))
+
+
 def _good_mcap(folder):
     from tests.mcap_files import good_channels, write
     events = [{"t": 0.0, "kind": "segment_start", "segment": "s1", "params": {"kind": "sine"}},
@@ -233,13 +244,7 @@ def test_any_mcap_reads_or_gives_one_line(tmp_path_factory, data):
                        data.draw(st.text(max_size=8))}})
     else:
         path = _good_mcap(folder)
-        raw = bytearray(path.read_bytes())
-        if how == "cut":
-            raw = raw[:data.draw(st.integers(0, len(raw) - 1))]
-        else:
-            for _ in range(data.draw(st.integers(1, 8))):
-                raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
-        path.write_bytes(bytes(raw))
+        _spoil(path, data, how, 8)
     result, error = read(path, load_recording)
     if error is None:
         channels, events, meta = result
@@ -288,13 +293,7 @@ def test_any_catalogue_file_reads_or_gives_one_line(tmp_path_factory, data):
         db.write_bytes(data.draw(st.binary(max_size=2048)))
     else:
         shutil.copy(_catalogue_folder(tmp_path_factory) / catalogue.DB_NAME, db)
-        raw = bytearray(db.read_bytes())
-        if how == "cut":
-            raw = raw[:data.draw(st.integers(0, len(raw) - 1))]
-        else:
-            for _ in range(data.draw(st.integers(1, 16))):
-                raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
-        db.write_bytes(bytes(raw))
+        _spoil(db, data, how, 16)
 
     def look(_):  # as runs list, show and trend and the web view read it
         with catalogue.reading(folder) as c:

@@ -17,7 +17,7 @@ from models import segmentation
 from models.recording import other_sign
 from protocols import catalogue
 from protocols.io import table
-from protocols.io.csv_import import CHANNELS, SI, UNITS, parse_map, read, source, velocity_from
+from protocols.io.csv_import import CHANNELS, SI, UNITS, derived_velocity, parse_map, read, source
 from protocols.io.files import Claim
 from protocols.io.recording import Recorder
 from rig.errors import RigError
@@ -78,7 +78,7 @@ def _import(args, mapping, gains, offsets, claim):
     if "velocity" not in data:
         ok = ~np.isnan(data["displacement"])
         data["velocity"] = np.full_like(t, np.nan)
-        data["velocity"][ok] = velocity_from(t[ok], data["displacement"][ok])
+        data["velocity"][ok] = derived_velocity(t[ok], data["displacement"][ok])
         units["velocity"] = "derived from displacement"
     elif "displacement" in (args.flip or ()):
         data["velocity"] = -data["velocity"]

@@ -175,4 +175,16 @@ def inspect(args):
                            + (f":{g.split(':')[1]}" if ":" in g else ""))
     if guesses:
         print("guessed map (check the units): " + " ".join(f"--map '{g}'" for g in guesses))
+    mapped = {g.split("=", 1)[1].split(":")[0] for g in guesses}
+    unnamed = [f"{j + 1} ({name})" for j, (name, cells) in enumerate(cols.items())
+               if name not in mapped and str(j + 1) not in mapped and _numeric(cells) and _guess(name, cells) is None]
+    if unnamed:
+        print(f"not guessed from their names: {', '.join(unnamed)}: map them yourself, raw volts with a gain "
+              f"(e.g. --map force=COLUMN:N --gain force=980.665)")
     return 0
+
+
+def _numeric(cells) -> bool:
+    """A column whose first values are numbers (a DAQ's channels, not a sample counter's name)."""
+    first = [str(c) for c in list(cells[:SAMPLES]) if str(c)]
+    return bool(first) and all(table.NUMBER.match(c) for c in first)

@@ -189,6 +189,15 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
     assert len(peaks) == 2 and row[0] == "sine 19 mm 1.05 Hz" and abs(float(row[1]) - 19) < 0.01, peaks
     v_peak = float(row[6])  # mm/s: a crank's peak speed is near 2 pi f r
     assert abs(v_peak / (2 * np.pi * 1.05 * 19) - 1) < 0.05
+    # one speed: the velocity table is read along the stroke, up to the top speed reached
+    assert "read along the stroke of a one-speed run" in (tmp_path / "rep" / "index.html").read_text()
+    table = {float(r.split(",")[0]): r.split(",")[1:3] for r in
+             (tmp_path / "rep" / "velocity.csv").read_text().splitlines()[1:]}
+    x_mid = 0.03 + 0.019  # m: the gas and spring force of the file's damper at mid-stroke
+    for speed, comp, reb in ((25.0, 2500, 4200), (100.0, 2500, 4200)):
+        expected = 150 + 800 * x_mid + np.array([comp, -reb]) * speed * 1e-3 + np.array([30, -30]) * np.tanh(speed / 10)
+        assert np.allclose([float(f) for f in table[speed]], expected, atol=6), (speed, table[speed], expected)  # 1 % of the range
+    assert table[150.0] == ["", ""]  # beyond the top speed: not extrapolated
 
 
 def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_out_cycles(tmp_path):
@@ -207,4 +216,10 @@ def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_o
     assert abs(doc["parameters"]["G0"]["value"] - np.mean(150 + 800 * x)) < 20  # the gas force at mid-stroke
     assert all(("undetermined" in p) or np.isfinite(p["sd"]) for p in doc["parameters"].values())
     assert "held out by cycles" in r.stdout and "model: " in r.stdout
+    # the model is a reference for QA and the report's overlay, along the run's own motion
+    r = dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "x.minimal.json")
+    assert r.returncode == 0 and "PASS: 8 of 8" in r.stdout, r.stdout + r.stderr
+    r = dyno("report", tmp_path / "x.mcap", "--model", tmp_path / "x.minimal.json", "--out", tmp_path / "overlaid")
+    assert r.returncode == 0 and "Model overlaid: x.minimal.json" in (tmp_path / "overlaid" / "index.html").read_text()
+    one_line_error(dyno("check", tmp_path / "x.mcap", "--against", src.with_suffix(".json")), "no such file")
     one_line_error(dyno("identify", tmp_path / "x.mcap", "--report", tmp_path / "rep"), "need a damper description")

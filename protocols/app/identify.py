@@ -158,7 +158,8 @@ def _minimal(args, channels, events, inputs):
         raise RigError(f"{', '.join(map(str, args.recordings))}: {e}") from None
     from models.diagnose.candidates import baseline_params
     from models.diagnose.data import prepare
-    units = {p.name: p.unit for p in baseline_params(prepare(channels, events))}
+    d = prepare(channels, events)
+    units = {p.name: p.unit for p in baseline_params(d)}
     doc = {"model": "minimal", "what": "per-direction valve curves (c1 v + c2 v^2 blended into C v above the crack "
                                        "force Fcr), a polytropic gas force G0 with its length L, sliding friction F_c "
                                        "(models/diagnose/candidates.py); no damper description needed",
@@ -167,7 +168,8 @@ def _minimal(args, channels, events, inputs):
                               **({"undetermined": unknown[k]} if k in unknown else {})}
                           for k, v in base.parameters.items()},
            "heldout_nrmse": base.nrmse_heldout, "heldout_rmse_N": base.rmse_heldout, "heldout_r2": base.r2_heldout,
-           "held_out": "every other cycle (or block), fitted on the rest"}
+           "held_out": "every other cycle (or block), fitted on the rest",
+           "x_mid_m": float(np.mean(d.x))}  # the gas force's reference position [m] (Minimal.x_m)
     with written(out) as tmp:
         tmp.write_text(json.dumps(_clean(doc), indent=1))
     from protocols import catalogue

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from models.damper import DamperError
-from models.damper import load as load_damper
+from models.minimal import load_reference as load_damper
 from rig.errors import RigError
 
 from protocols.io.files import existing_files, filled, output_folder

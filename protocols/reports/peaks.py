@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -15,6 +15,7 @@ from protocols.units import Units, fmt
 READS = ("force", "x", "v", "T_body")  # the channels the peaks are read from (load_recording's channels=)
 T_ROOM = 293.15  # K: a segment's temperature when the recording has no body thermocouple
 SHORT_PCT = 3.0  # a segment whose peak speed falls short of its target by more is flagged
+STROKE_BINS = 20  # speed bins per direction of the force read along the stroke
 
 
 @dataclass
@@ -35,6 +36,12 @@ class Peak:
     achieved_mm: float = np.nan  # amplitude the rod reached, half its travel over the segment [mm]
     short_pct: float = np.nan  # how far the peak speed fell short of 2 pi f A [% of it]
     adapted: str = ""  # recorded at another frequency than asked for by the pre-flight: what and why
+    # the force read along the stroke (stroke()): speeds [m/s] rising from rebound to
+    # compression, the measured force and the model's there [N]; what a one-speed run's
+    # velocity table is read from
+    stroke_v: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    stroke_F: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    model_stroke_F: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def key(self):
@@ -71,8 +78,12 @@ def sines(segs):
 def simulate_segment(damper, t, x, v, T):
     """A full damper model's force [N] along measured motion (x [m], v [m/s]) at T [K]:
     the compressible model (eq 3.19-3.32) on a uniform clock, with the gas spring's rest
-    position at mid-stroke (eq 4.4) as on the rig."""
+    position at mid-stroke (eq 4.4) as on the rig. A minimal model (models/minimal.py)
+    gives its force along the motion itself."""
+    from models.minimal import MinimalModel
     from models.physics.simulate import simulate
+    if isinstance(damper, MinimalModel):
+        return damper.simulate(t, x, v, T)
     tu = np.linspace(t[0], t[-1], len(t))
     stroke = damper.geometry.stroke
     r = simulate(damper, tu, np.clip(x, 0.0, stroke), v, T=T, compressible=True, x_e=damper.mid_stroke)
@@ -93,6 +104,31 @@ def segment_temperature(ch, t0, t1):
     return float(np.mean(T)) if len(T) else T_ROOM
 
 
+def stroke(v, F):
+    """The force along the stroke: (speed at each bin's centre [m/s], mean force there [N])
+    over STROKE_BINS bins per direction up to the top speed reached. Each bin averages the
+    accelerating and the decelerating half of the cycle, as a crank dyno's curve is read
+    (the loop's mid-line); bins nothing reached are left out."""
+    out_v, out_F = [], []
+    for sign in (-1.0, 1.0):
+        s = sign * v
+        top = float(np.max(s, initial=0.0))
+        if top <= 0:
+            continue
+        edges = np.linspace(0.0, top, STROKE_BINS + 1)
+        k = s > 0
+        idx = np.minimum(np.searchsorted(edges, s[k], side="right") - 1, STROKE_BINS - 1)
+        n = np.bincount(idx, minlength=STROKE_BINS)
+        mean = np.bincount(idx, weights=F[k], minlength=STROKE_BINS) / np.maximum(n, 1)
+        centre = 0.5 * (edges[:-1] + edges[1:])
+        centre[-1] = top  # the last bin is read at the top speed, where the peak is
+        ok = n > 0
+        out_v.append(sign * centre[ok]), out_F.append(mean[ok])
+    v_all, F_all = np.concatenate(out_v or [np.zeros(0)]), np.concatenate(out_F or [np.zeros(0)])
+    order = np.argsort(v_all)
+    return v_all[order], F_all[order]
+
+
 def peaks(ch, segs, damper=None, model=None):
     """[Peak] of the sine segments. damper: a full model whose gas and friction are taken
     off for the damping force; model: a full model simulated along each segment."""
@@ -111,6 +147,7 @@ def peaks(ch, segs, damper=None, model=None):
                  float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]))
         p.achieved_mm = 0.5 * float(np.ptp(x[late])) * 1e3
         p.adapted = prm.get("adapted", "")
+        p.stroke_v, p.stroke_F = stroke(v[late], F[late])
         target = 2 * np.pi * prm["freq_hz"] * prm["amplitude_mm"] * 1e-3
         p.short_pct = 100.0 * (1.0 - 0.5 * (p.v_comp - p.v_reb) / target) if target > 0 else np.nan
         if damper is not None:
@@ -121,6 +158,7 @@ def peaks(ch, segs, damper=None, model=None):
         if model is not None:
             r = simulate_segment(model, t, x, v, T)
             p.model_comp, p.model_reb = float(r.force[ic]), float(r.force[ir])
+            p.model_stroke_F = stroke(v[late], r.force[late])[1]
         out.append(p)
     return out
 

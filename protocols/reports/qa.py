@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from models.damper import DamperError
-from models.damper import load as load_damper
+from models.minimal import load_reference as load_damper
 from models.recording import segments
 from protocols.io.reader import load_recording
 from protocols.reports import peaks
@@ -81,9 +81,11 @@ class Verdict:
 
 def verdicts(run_rows, ref_rows, tol: Tolerance, speeds=None, units=Units()) -> list[Verdict]:
     """Per speed (the velocity table's, [m/s]; by default the unit system's standard
-    points) and direction where both were measured."""
-    run = vt.velocity_table(run_rows, speeds, units)
-    ref = vt.velocity_table(ref_rows, [r.v_m_s for r in run])
+    points) and direction where both were measured. Both are read the same way: along the
+    stroke when either ran one speed only (velocity_table.method), else from the peaks."""
+    how = "peaks" if vt.method(run_rows) == vt.method(ref_rows) == "peaks" else "stroke"
+    run = vt.velocity_table(run_rows, speeds, units, how)
+    ref = vt.velocity_table(ref_rows, [r.v_m_s for r in run], how=how)
     out = []
     for a, b in zip(run, ref):
         for direction, m, r in (("compression", a.F_comp_N, b.F_comp_N), ("rebound", a.F_reb_N, b.F_reb_N)):
@@ -142,7 +144,8 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
         else:
             at_run, at_ref = _rows(path, model), _rows(path, model, T_ref + 273.15)
             run = [dataclasses.replace(p, F_comp=p.F_comp + b.model_comp - a.model_comp,
-                                       F_reb=p.F_reb + b.model_reb - a.model_reb)
+                                       F_reb=p.F_reb + b.model_reb - a.model_reb,
+                                       stroke_F=p.stroke_F + b.model_stroke_F - a.model_stroke_F)
                    for p, a, b in zip(run, at_run, at_ref)]
             note = (f"compensated for temperature: the run's forces moved from its {T_run:.0f} C to the "
                     f"reference's {T_ref:.0f} C with its identified model {identified.name}")
@@ -152,7 +155,8 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
 def model_rows(rows):
     """Peaks whose forces are the model's at the same instants (peaks(..., model=M)): the
     reference a model gives along the run's own motion and temperature."""
-    return [dataclasses.replace(p, F_comp=p.model_comp, F_reb=p.model_reb) for p in rows]
+    return [dataclasses.replace(p, F_comp=p.model_comp, F_reb=p.model_reb, stroke_F=p.model_stroke_F)
+            for p in rows]
 
 
 def band_figure(results, out_path, title, units=Units()):

@@ -49,7 +49,9 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         speeds_table = vt.velocity_table(rows, speeds, units)
         if vt.has_rows(speeds_table):
             vt.write_csv(speeds_table, out / "velocity.csv", units)
-            page.heading("Force at standard shaft velocities, from the peaks (also velocity.csv)")
+            how = ("from the peaks" if vt.method(rows) == "peaks" else
+                   "read along the stroke of a one-speed run, both halves of each cycle averaged")
+            page.heading(f"Force at standard shaft velocities, {how} (also velocity.csv)")
             page.table(*vt.html_table(speeds_table, units))
     steps = step_measures(ch, segs)
     if steps:

@@ -1,5 +1,7 @@
 """The dyno sheet's table: force per direction at standard shaft velocities, interpolated
-from the sine segments' peaks (protocols/reports/peaks.py). Speeds come from
+from the sine segments' peaks (protocols/reports/peaks.py), or, for a run of one speed (a
+crank dyno's, or any single sine), read along its stroke: the force at each speed on the
+way up to the top speed, both halves of the cycle averaged. Speeds come from
 velocities.toml unless given. SI inside (m/s, N; compression positive, rebound
 negative); the CSV and the page in the chosen unit system."""
 from __future__ import annotations
@@ -57,11 +59,41 @@ def _at(speeds, v, F):
     return np.interp(speeds, vc, Fc, left=np.nan, right=np.nan)
 
 
-def velocity_table(rows, speeds=None, units=Units()) -> list[VelocityRow]:
+def method(rows) -> str:
+    """"peaks" when the run's sine segments reached two speeds or more, "stroke" for one."""
+    rows = [p for p in rows if np.isnan(p.target_c)]
+    return "peaks" if len(_curve(np.array([p.v_comp for p in rows], float),
+                                 np.array([p.F_comp for p in rows], float))[0]) >= 2 else "stroke"
+
+
+def _along_stroke(speeds, rows, field):
+    """F at +speeds and -speeds read along the segments' strokes (the mean of the segments
+    that reached each speed), nan where none did."""
+    comp, reb = np.full((2, len(rows), len(speeds)), np.nan)
+    for i, p in enumerate(rows):
+        F = getattr(p, field)
+        if len(F):
+            comp[i] = np.interp(speeds, p.stroke_v, F, left=np.nan, right=np.nan)
+            reb[i] = np.interp(-speeds, p.stroke_v, F, left=np.nan, right=np.nan)
+    return _mean(comp), _mean(reb)
+
+
+def _mean(a):
+    """Column means over the finite values, nan for a column with none."""
+    n = np.isfinite(a).sum(axis=0)
+    return np.where(n > 0, np.nansum(a, axis=0) / np.maximum(n, 1), np.nan)
+
+
+def velocity_table(rows, speeds=None, units=Units(), how=None) -> list[VelocityRow]:
     """[VelocityRow] at speeds [m/s] from the Peak rows of sine segments at the cell's
-    temperature (a temperature sweep's segments are left out: they are another curve)."""
+    temperature (a temperature sweep's segments are left out: they are another curve).
+    how: "peaks" or "stroke" (method()); by default the run's own."""
     speeds = np.asarray(standard_speeds(units) if speeds is None else speeds, float)
     rows = [p for p in rows if np.isnan(p.target_c)]
+    if (how or method(rows)) == "stroke":
+        nan = np.full(len(speeds), np.nan)
+        out = [*_along_stroke(speeds, rows, "stroke_F"), nan, nan]
+        return [VelocityRow(float(s), *(float(c[i]) for c in out)) for i, s in enumerate(speeds)]
     col = {name: np.array([getattr(p, name) for p in rows], float)
            for name in ("v_comp", "v_reb", "F_comp", "F_reb", "Fd_comp", "Fd_reb")}
     out = [_at(speeds, col["v_comp"], col["F_comp"]), _at(speeds, col["v_reb"], col["F_reb"]),

@@ -223,3 +223,32 @@ def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_o
     assert r.returncode == 0 and "Model overlaid: x.minimal.json" in (tmp_path / "overlaid" / "index.html").read_text()
     one_line_error(dyno("check", tmp_path / "x.mcap", "--against", src.with_suffix(".json")), "no such file")
     one_line_error(dyno("identify", tmp_path / "x.mcap", "--report", tmp_path / "rep"), "need a damper description")
+
+
+def test_a_force_smoothed_by_its_source_is_said_as_such_and_white_noise_is_not():
+    from models.diagnose import quality
+    rng = np.random.default_rng(1)
+    t = np.arange(20_000) / 1000.0  # 20 s at 1 kHz of a 1.3 Hz sine, as the UTFSM files
+    F = 800 * np.tanh(6 * np.cos(2 * np.pi * 1.3 * t)) + rng.normal(0, 5, len(t))
+    cycles = [(1.3, 0.0, t[-1])]
+    assert quality.smoothed("force", t, F, cycles) == []
+    averaged = np.convolve(F, np.ones(77) / 77, "same")  # a tenth of a period
+    flag = quality.smoothed("force", t[100:-100], averaged[100:-100], cycles)
+    assert len(flag) == 1 and "smoothed by its source" in flag[0].message
+    # a second stretch, not smoothed: the source would have smoothed both
+    assert quality.smoothed("force", t, np.where(t < 10, np.convolve(F, np.ones(77) / 77, "same"), F),
+                            [(1.3, 0.5, 9.5), (1.3, 10.5, 19.5)]) == []
+
+
+def test_the_diagnosis_holds_out_the_tail_of_a_recording_of_several_strokes(tmp_path):
+    """--holdout tail:F judges only the last segments; the noise is read where it judges."""
+    parts = [crank(n=int(12 / hz * RATE), hz=hz) for hz in (0.8, 1.6)]
+    t = np.concatenate([parts[0][0], parts[1][0] + parts[0][0][-1] + 1 / RATE])
+    x, F = (np.concatenate([p[i] for p in parts]) for i in (1, 2))
+    F = F + np.random.default_rng(2).normal(0, 3.0, len(F))
+    src = _written(tmp_path, "two.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                            for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("diagnose", tmp_path / "x.mcap", "--holdout", "tail:0.15")
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert "the last 15 % held out" in r.stdout and "what differs from cycle to cycle at the same phase" in r.stdout

@@ -100,7 +100,7 @@ def noise_sd(r, d: Data, k):
     out = []
     for s, (_, f) in enumerate(d.segments):
         j = np.nonzero(d.segment == s)[0]
-        if len(j) < 64:
+        if np.count_nonzero(k[j]) < 64:  # (a time split judges the last segments only)
             continue
         h = float(np.median(d.h[j]))
         got = _by_phase(r[j], k[j], d.t[j], h, f)
@@ -108,6 +108,15 @@ def noise_sd(r, d: Data, k):
         if got is not None:
             out.append(got)
     return float(np.median(out)) if out else diff
+
+
+def noise_from(d: Data) -> str:
+    """Where noise_sd's estimate came from, in words, with the source's smoothing if any."""
+    how = ("what differs from cycle to cycle at the same phase" if d.periodic else
+           "sample-to-sample differences (the motion does not repeat: only the noise's white part)")
+    if any(f.kind == "smoothed" for f in d.flags):
+        how += "; the force was smoothed by its source, so this is the filter's noise, not the load cell's"
+    return how
 
 
 def _by_phase(r, k, t, h, f):
@@ -319,7 +328,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     return Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
                      locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
                      left_over(r_cur, judged, block, judged_blocks, sigma, rng),
-                     Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)))
+                     Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
+                     noise_from(d))
 
 
 def _term(e):

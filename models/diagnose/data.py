@@ -161,6 +161,7 @@ def prepare(channels, events) -> Data:
     flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
     spans = _spans(events, tx, x)
+    flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1 in spans if f is not None])
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))
     h = period * step
     T_ch = next((n for n in ("T_body", "temperature", "T_reservoir") if n in channels and len(channels[n][0]) > 1), None)

@@ -8,6 +8,8 @@ reported, never fitted.
 - unit mismatches: a displacement spanning more than a damper's stroke, a velocity channel
   a power of ten away from the displacement's derivative. These are reported, not
   excluded: no sample is wrong, the whole channel is.
+- smoothed: a force channel whose noise was filtered before the file was written (a moving
+  average, a low-pass): reported, not excluded, so its noise is not read as the load cell's.
 
 Thresholds are choices, stated here once.
 """
@@ -16,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 FLAT_MIN = 8  # identical samples in a row at the extreme: saturated
 SPIKE_SIGMA = 12.0  # spike: away from its neighbours' mean by this many noise sd ...
@@ -23,12 +26,19 @@ SPIKE_RANGE = 0.02  # ... and by this share of the channel's 1-99 % range
 MARGIN_S = 0.02  # s excluded either side of a flagged run (the conditioning settles)
 MAX_STROKE = 0.5  # m: no damper strokes more
 CHANNELS = ("force", "x")  # the channels the model is fitted to
+# smoothed: the lag-one correlation of the force's change from one cycle to the next
+# (_cycle_to_cycle) above which, in every periodic stretch, the source smoothed it.
+# Measured: white noise 0; our rig 0.06-0.07; a crank dyno's file 0.28; the UTFSM DAQ's raw
+# export 0.15-0.94 over its five currents; its sine files, a moving average of a tenth of a
+# period, 0.78 (4 samples) to 1.00 (100 samples).
+SMOOTHED_RHO = 0.7
+MIN_CYCLE = 20  # samples a cycle needs to tell smoothing from the force's own shape
 
 
 @dataclass(frozen=True)
 class Flag:
     channel: str
-    kind: str  # "saturated" | "spike" | "units"
+    kind: str  # "saturated" | "spike" | "units" | "smoothed"
     t0: float  # s, excluded span (with margin); equal t0 = t1 = nan for a channel-wide note
     t1: float
     samples: int
@@ -111,6 +121,47 @@ def units(channels):
     return out
 
 
+def _cycle_to_cycle(t, y, f, k):
+    """y's change from one cycle to the next over samples k, less what a cycle's shift in
+    time or a slow change leaves (the repeating force cancels; the noise stays). The period
+    is where the force repeats best: a segment's frequency is known to a few digits only."""
+    period = minimize_scalar(lambda T: np.mean((y[k] - np.interp(t[k] - T, t, y)) ** 2),
+                             bounds=(0.99 / f, 1.01 / f), method="bounded", options={"xatol": 1e-5 / f}).x
+    e = y[k] - np.interp(t[k] - period, t, y)
+    slope = np.gradient(y, t)
+    cols = (np.ones(len(e)), slope[k], np.gradient(slope, t)[k], t[k] - t[k].mean())
+    cycle = np.floor((t[k] - t[k][0]) / period).astype(int)
+    for c in np.unique(cycle):
+        j = cycle == c
+        A = np.column_stack([a[j] for a in cols])
+        e[j] -= A @ np.linalg.lstsq(A, e[j], rcond=None)[0]
+    return e
+
+
+def smoothed(name, t, y, cycles):
+    """A channel-wide flag when the channel y(t) was smoothed by its source. cycles: [(f [Hz],
+    t0, t1 [s])] of periodic stretches. From one cycle to the next the repeating force
+    cancels and the noise is left: white noise changes from sample to sample with no
+    correlation, smoothed noise keeps it. A source smooths the whole channel, so every
+    stretch must show it (a damper's own slow change from cycle to cycle can in one)."""
+    rho = []
+    for f, t0, t1 in cycles:
+        k = np.nonzero((t >= t0 + 1.01 / f) & (t <= t1))[0]
+        if len(k) < 4 * MIN_CYCLE or 1.0 / (f * np.median(np.diff(t))) < MIN_CYCLE:
+            continue
+        e = _cycle_to_cycle(t, y, f, k)
+        ss = float(e @ e)
+        if np.sqrt(ss / len(e)) > 1e-5 * np.ptp(y):  # a noiseless recording has nothing to tell
+            rho.append(float(e[:-1] @ e[1:]) / ss)
+    if not rho or min(rho) <= SMOOTHED_RHO:
+        return []
+    return [Flag(name, "smoothed", np.nan, np.nan, 0,
+                 f"{name} was smoothed by its source (a moving average or a low-pass before the file was "
+                 f"written): its change from one cycle to the next keeps a sample-to-sample correlation of "
+                 f"{min(rho):.2f} or more (white noise: 0), so its noise is the filter's, not the load cell's, "
+                 f"and a model compared with it needs the same filter")]
+
+
 def check(channels):
     """[Flag] for the channels the model is fitted to and its aux channels; channels
     {name: (t, values)}, each sorted and finite."""
@@ -142,7 +193,7 @@ def describe(flags, most=3):
     for f in flags:
         groups.setdefault((f.channel, f.kind), []).append(f)
     for (ch, kind), fs in groups.items():
-        if kind == "units":
+        if not np.isfinite(fs[0].t0):  # a note on the whole channel
             out += [f.message for f in fs]
             continue
         shown = "; ".join(f.message for f in fs[:most]) + (f"; and {len(fs) - most} more" if len(fs) > most else "")

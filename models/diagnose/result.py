@@ -96,3 +96,4 @@ class Diagnosis:
     not_assessed: list  # effects that could not be tried, and why
     left_over: LeftOver
     final: Final
+    noise_from: str = ""  # where the noise estimate came from, in words (noise_from())

@@ -112,7 +112,7 @@ def summary(res):
         lines.append(f"Data quality: {line}.")
     lines.append(f"Baseline ({b.name}): held-out error {100 * b.nrmse_heldout:.3g} % of the force range, "
                  f"R^2 {b.r2_heldout:.3f} ({_held(res)}; training {100 * b.nrmse_train:.3g} %); "
-                 f"force noise {res.noise_sd:.2f} N.")
+                 f"force noise {res.noise_sd:.2f} N ({res.noise_from}).")
     if "k_damping" in b.parameters:  # a damper model as the baseline: what the refit changed
         p = b.parameters
         lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
@@ -164,7 +164,7 @@ def to_json(res):
                      "message": f.message} for f in res.data.flags],
         "baseline": {"name": b.name, "parameters": {k: num(v) for k, v in b.parameters.items()},
                      "nrmse_train": b.nrmse_train, **{k: getattr(b, k) for k in held}},
-        "noise_sd": res.noise_sd,
+        "noise_sd": res.noise_sd, "noise_from": res.noise_from,
         "locations": res.locations,
         "remaining": res.remaining,
         "candidates": [{"effect": c.effect, "round": c.round,

@@ -7,6 +7,8 @@ params' keys (`segment_kind`), in this one place.
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 from scipy.signal import butter, filtfilt
 
@@ -46,6 +48,34 @@ def segments(events, measured=True, kinds=None):
                 out.append((open_["name"], params, open_["t0"], e["t"]))
             open_ = {}
     return out
+
+
+def only(events, names):
+    """The events with only the named segments' starts and ends kept (ValueError names an
+    unknown segment and the recording's own)."""
+    known = [n for n, _, _, _ in segments(events, measured=False)]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(f"no segment {unknown[0]!r} in the recording (its segments: {', '.join(known) or 'none'})")
+    return [e for e in events if e["kind"] not in ("segment_start", "segment_end") or e["segment"] in names]
+
+
+REPEATS_DIFFER = 0.15  # repeats of one test whose force ranges differ by more were not one damper
+
+
+def differing_repeats(channels, events) -> list[tuple[str, list[str], list[float]]]:
+    """[(test, [segment names], [force range, N])] of the sine tests run more than once
+    (their repeats named "NAME (2)", ...) whose force ranges (1 to 99 %) differ by more than
+    REPEATS_DIFFER: something the recording does not carry changed between them (a coil
+    current, an adjuster, the oil's temperature), and one model cannot follow them all."""
+    groups = {}
+    t, F = channels["force"]
+    for name, prm, t0, t1 in segments(events, kinds=("sine",)):
+        k = (t >= t0) & (t <= t1)
+        if k.sum() > 10:
+            groups.setdefault(re.sub(r" \(\d+\)$", "", name), []).append((name, float(np.ptp(np.percentile(F[k], [1, 99])))))
+    return [(test, [n for n, _ in g], [r for _, r in g]) for test, g in groups.items()
+            if len(g) > 1 and max(r for _, r in g) > (1 + REPEATS_DIFFER) * min(r for _, r in g)]
 
 
 def missing(channels, names):

@@ -252,3 +252,29 @@ def test_the_diagnosis_holds_out_the_tail_of_a_recording_of_several_strokes(tmp_
     r = dyno("diagnose", tmp_path / "x.mcap", "--holdout", "tail:0.15")
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     assert "the last 15 % held out" in r.stdout and "what differs from cycle to cycle at the same phase" in r.stdout
+
+
+def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
+    """One test run twice with a setting changed between (a clicker, a coil current) that
+    the file does not carry: one model cannot follow both, identify says so and fits each
+    with --segment."""
+    import json
+    t, x, F = crank(n=int(10 / 1.05 * RATE))
+    hold = np.arange(1, int(RATE)) / RATE
+    F2 = F + 3000 * np.gradient(x, t)  # the same stroke, stiffer valves
+    t = np.concatenate([t, t[-1] + hold, t + t[-1] + 1.0])
+    x = np.concatenate([x, np.full(len(hold), x[-1]), x])
+    F = np.concatenate([F, np.full(len(hold), F[-1]), F2]) + np.random.default_rng(3).normal(0, 3.0, len(t))
+    src = _written(tmp_path, "two.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                            for a, b, c in zip(t, x, F)))
+    _, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    assert "sine 19 mm 1.05 Hz (2)" in r.stdout, r.stdout
+    r = dyno("identify", tmp_path / "x.mcap")
+    assert r.returncode == 0 and "note: sine 19 mm 1.05 Hz was run 2 times" in r.stdout, r.stdout + r.stderr
+    r = dyno("identify", tmp_path / "x.mcap", "--segment", "sine 19 mm 1.05 Hz (2)", "--json", "--out",
+             tmp_path / "second.json")
+    doc = json.loads(r.stdout)
+    assert r.returncode == 0 and doc["segments"] == ["sine 19 mm 1.05 Hz (2)"] and doc["heldout_nrmse"] < 0.02
+    assert doc["repeats_differ"] == []
+    one_line_error(dyno("identify", tmp_path / "x.mcap", "--segment", "sine 5 mm", "--out", tmp_path / "o.json"),
+                   "no segment 'sine 5 mm'", "sine 19 mm 1.05 Hz (2)")

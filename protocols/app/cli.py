@@ -260,6 +260,8 @@ def _analysis_commands(sub):
                      help="description giving layout and geometry (default: the damper the recording names)")
     _writes(idf, "--out", FILE, default=None, help="model JSON (default: RECORDING.model.json)")
     idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
+    idf.add_argument("--segment", action="append", metavar="NAME", help="fit these segments only (repeatable), "
+                     "e.g. one of a file's repeats at another coil current or clicker")
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
     _writes(idf, "--report", FOLDER, default=None, metavar="DIR", help="HTML report with loops and held-out errors")
     _overwrite(idf, "--out, --report's files and --batch's outputs")

@@ -12,6 +12,7 @@ import numpy as np
 
 from models import damper as dm
 from models.identify import IdentifyError, identify
+from models.recording import differing_repeats, only
 from protocols.io.files import existing_files, filled, output_file, output_folder, written
 from protocols.io.reader import load_recording
 from protocols.reports.page import number
@@ -107,6 +108,11 @@ def run(args):
             raise RigError(f"{p}: no such file")
     inputs = existing_files(args.recordings, args.damper, args.truth)
     channels, events, meta = merge(args.recordings)
+    if args.segment:
+        try:
+            events = only(events, args.segment)
+        except ValueError as e:
+            raise RigError(f"--segment: {e}") from None
     if not args.damper and not meta.get("damper", {}).get("model"):
         return _minimal(args, channels, events, inputs)
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), inputs, args.overwrite)
@@ -169,7 +175,10 @@ def _minimal(args, channels, events, inputs):
                           for k, v in base.parameters.items()},
            "heldout_nrmse": base.nrmse_heldout, "heldout_rmse_N": base.rmse_heldout, "heldout_r2": base.r2_heldout,
            "held_out": "every other cycle (or block), fitted on the rest",
-           "x_mid_m": float(np.mean(d.x))}  # the gas force's reference position [m] (Minimal.x_m)
+           "x_mid_m": float(np.mean(d.x)),  # the gas force's reference position [m] (Minimal.x_m)
+           **({"segments": args.segment} if args.segment else {}),
+           "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
+                              for test, names, ranges in differing_repeats(channels, events)]}
     with written(out) as tmp:
         tmp.write_text(json.dumps(_clean(doc), indent=1))
     from protocols import catalogue
@@ -179,6 +188,11 @@ def _minimal(args, channels, events, inputs):
     if args.json:
         print(json.dumps(_clean(doc), indent=2))
         return 0
+    for r in doc["repeats_differ"]:
+        print(f"note: {r['test']} was run {len(r['segments'])} times and its force range went from "
+              f"{min(r['force_range_N']):.0f} to {max(r['force_range_N']):.0f} N: something the recording does not "
+              f"carry changed between them (a coil current, an adjuster, warm-up), and one model cannot follow them "
+              f"all; fit each alone with --segment NAME ({'; '.join(r['segments'])})")
     print(f"identify: the recording names no damper: the model that needs no description, held out by cycles: "
           f"{100 * base.nrmse_heldout:.2f} % of the force range (R^2 {base.r2_heldout:.3f})")
     for k, p in doc["parameters"].items():

@@ -117,7 +117,8 @@ def _import(args, mapping, gains, offsets, claim):
         rec.commit()
     finally:
         rec.close()
-    print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC, channels " + ", ".join(
+    dated = "" if got.start_epoch is not None else f" (no date in the file: {how})"
+    print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC{dated}, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
     sines = [f for f in found if f.kind == "sine"]

@@ -84,3 +84,5 @@ results: $(STAMP)
 	$(VENV)/bin/dyno prove --adaptive --effects null --seeds 20 --markdown > docs/results/prove-adaptive-nulls.md.tmp && mv docs/results/prove-adaptive-nulls.md.tmp docs/results/prove-adaptive-nulls.md
 	$(VENV)/bin/python -m tests.outside_matrix --seeds 1 --markdown > docs/results/outside-nulls.md.tmp; mv docs/results/outside-nulls.md.tmp docs/results/outside-nulls.md
 	$(VENV)/bin/python -m tests.outside_physics --seeds 1 --rates 1000 --markdown > docs/results/open-physics.md.tmp; mv docs/results/open-physics.md.tmp docs/results/open-physics.md
+	$(VENV)/bin/dyno bench import --markdown > docs/results/bench-import.md.tmp && mv docs/results/bench-import.md.tmp docs/results/bench-import.md
+	$(VENV)/bin/python -m tests.real_data --markdown > docs/results/real-data.md.tmp && mv docs/results/real-data.md.tmp docs/results/real-data.md

@@ -32,7 +32,7 @@ import numpy as np
 from models.damper import Damper
 from models.identify import gas as identify_gas, low_speed as identify_low_speed
 from models.identify.dynamic import dynamic_step, simulate_segment
-from models.identify.incompressible import valves_step
+from models.identify.incompressible import charge_from_reversals, valves_step
 from models.identify.parameters import canonical, parameter_value, set_parameter
 from models.identify.result import IdentifyError, Result
 from models.identify.segments import GAP_CYCLE_SHARE, dynamic_segments
@@ -75,6 +75,10 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
         return res
     res.test = dyn[HELDOUT_EVERY - 1::HELDOUT_EVERY]
     res.train = [s for s in dyn if s not in res.test]
+    if charge is None:
+        refit = charge_from_reversals(d, res.train)
+        if refit:
+            res.steps["static"] += f"; {refit}"
     gamma_known = _gamma_step(d, res)
     progress(f"identify: valves from {len(res.train)} training segments ({len(res.test)} held out)")
     valves_step(d, res, fit_K=not need)

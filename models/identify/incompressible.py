@@ -25,6 +25,45 @@ def _gas_force(d: Damper, s: Segment):
     return force_from_pressure(polytropic_pressure(s.x, x_e, V_e, P_e, d.geometry.A_r, g.gamma), d.geometry.A_r)
 
 
+GAS_MISFIT = 0.1  # the description's gas force this share of the force range off the data's: refitted
+
+
+def _at_reversals(s: Segment):
+    """Indices of a segment's velocity reversals (scored part): there the damping is nil and
+    the force is the gas force give or take friction, which the two ends cancel."""
+    v = s.v[s.score_from:]
+    return s.score_from + np.nonzero(np.diff(np.sign(v)) != 0)[0]
+
+
+def charge_from_reversals(d: Damper, segments) -> str:
+    """With no static holds and no gas pressure, the gas charge P0 [Pa] set so that the gas
+    force at the velocity reversals (eq 4.3) is the force measured there, when the
+    description's is more than GAS_MISFIT of the force range off: a description gives the
+    layout and geometry, its charge is another damper's. Returns what was done, or ""."""
+    from scipy.optimize import brentq
+    rev = [(s, _at_reversals(s)) for s in segments if s.P_gas is None]
+    rev = [(s, k) for s, k in rev if len(k) >= 4]
+    if not rev:
+        return ""
+    measured = float(np.mean([s.F[k].mean() for s, k in rev]))
+    span = float(np.mean([np.ptp(np.percentile(s.F[s.score_from:], [1, 99])) for s, _ in rev]))
+
+    def gas_at(P0):
+        d.gas_spring.P0 = P0
+        return float(np.mean([_gas_force(d, s)[k].mean() for s, k in rev]))
+    P0 = d.gas_spring.P0
+    described = gas_at(P0)
+    if abs(described - measured) <= GAS_MISFIT * span:
+        return ""
+    lo, hi = 1.001 * P_ATM, 1000 * P_ATM
+    if not gas_at(lo) < measured < gas_at(hi):
+        d.gas_spring.P0 = P0
+        return ""
+    d.gas_spring.P0 = brentq(lambda p: gas_at(p) - measured, lo, hi, xtol=1.0)
+    return (f"then the gas charge refitted from the force at the velocity reversals: "
+            f"{described:.0f} N described, {measured:.0f} N measured; P0 {P0 / 1e5:.2f} -> {d.gas_spring.P0 / 1e5:.2f} bar")
+
+
 def _low_acceleration(s: Segment):
     """Samples where the compressibility hardly matters (thesis 4.2.3.1): within half the
     amplitude of mid-stroke (|acceleration| below half its peak)."""

@@ -47,7 +47,7 @@ def sentence(step):
     text, pname, factor, unit = EFFECTS[key].say
     p, ci = step.parameters, step.ci
     late = ""
-    if pname is None or key == "interference":  # a smooth basis: said by where it lives and its size
+    if (pname is None and key != "cavitation") or key == "interference":  # a smooth basis: by where and size
         return text.format(region=step.region, size=_size(step), hz=step.tone_hz or 0.0) + _change(step)
     if key == "cavitation":
         v = min(p["Fcav_c"], p["Fcav_r"])

@@ -91,3 +91,24 @@ def test_a_warmer_run_is_compensated_to_its_references_temperature_with_its_mode
     moved = qa.check(warm, cool, tol)
     assert moved.compensation.startswith("compensated for temperature: the run's forces moved from its 5")
     assert all(r.passed for r in moved.results), [(r.v_m_s, r.direction, r.margin_N) for r in moved.results]
+
+
+def _one_speed(top, c):
+    """A one-speed run's Peak: its stroke read as F = c v up to the top speed [m/s]."""
+    p = _peak(0.1, c * top)
+    p.v_comp, p.v_reb, p.F_reb = top, -top, -c * top
+    p.stroke_v = np.linspace(-top, top, 41)
+    p.stroke_F = c * p.stroke_v
+    return p
+
+
+def test_one_speed_runs_are_read_along_the_stroke_and_a_slow_one_at_its_own_speeds():
+    run, ref = [_one_speed(0.3, 1000.0)], [_one_speed(0.3, 1030.0)]
+    out = qa.verdicts(run, ref, qa.parse_tolerance("5%"))
+    from protocols.reports.velocity_table import standard_speeds
+    assert [r.v_m_s for r in out[::2]] == [s for s in standard_speeds() if s <= 0.3]  # never past the top
+    assert all(r.passed for r in out) and out[0].measured_N == pytest.approx(1000.0 * out[0].v_m_s)
+    assert not any(r.passed for r in qa.verdicts(run, [_one_speed(0.3, 1200.0)], qa.parse_tolerance("5%")))
+    slow = [_one_speed(0.012, 1000.0)]  # 12 mm/s: below every standard speed
+    out = qa.verdicts(slow, slow, qa.parse_tolerance("5%"))
+    assert [r.v_m_s for r in out[::2]] == pytest.approx([0.003, 0.006, 0.009]) and all(r.passed for r in out)

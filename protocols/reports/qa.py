@@ -84,6 +84,13 @@ def verdicts(run_rows, ref_rows, tol: Tolerance, speeds=None, units=Units()) -> 
     points) and direction where both were measured. Both are read the same way: along the
     stroke when either ran one speed only (velocity_table.method), else from the peaks."""
     how = "peaks" if vt.method(run_rows) == vt.method(ref_rows) == "peaks" else "stroke"
+    out = _verdicts(run_rows, ref_rows, tol, speeds, units, how)
+    if not out and speeds is None:  # a slow run: no standard speed reached; its own speeds
+        out = _verdicts(run_rows, ref_rows, tol, vt.own_speeds(run_rows), units, "stroke")
+    return out
+
+
+def _verdicts(run_rows, ref_rows, tol, speeds, units, how):
     run = vt.velocity_table(run_rows, speeds, units, how)
     ref = vt.velocity_table(ref_rows, [r.v_m_s for r in run], how=how)
     out = []

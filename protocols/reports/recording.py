@@ -47,11 +47,15 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
                            f"{', '.join(short)}. Their peaks are at the speed reached (the actuator's flow "
                            "or force limit, or the pre-flight's adaptation).")
         speeds_table = vt.velocity_table(rows, speeds, units)
+        at = "standard shaft velocities"
+        if not vt.has_rows(speeds_table) and speeds is None:  # a slow run: at its own speeds
+            speeds_table = vt.velocity_table(rows, vt.own_speeds(rows), units, "stroke")
+            at = "a quarter, half and three quarters of the top speed (no standard speed was reached)"
         if vt.has_rows(speeds_table):
             vt.write_csv(speeds_table, out / "velocity.csv", units)
-            how = ("from the peaks" if vt.method(rows) == "peaks" else
-                   "read along the stroke of a one-speed run, both halves of each cycle averaged")
-            page.heading(f"Force at standard shaft velocities, {how} (also velocity.csv)")
+            how = ("from the peaks" if vt.method(rows) == "peaks" and at.startswith("standard") else
+                   "read along the stroke, both halves of each cycle averaged")
+            page.heading(f"Force at {at}, {how} (also velocity.csv)")
             page.table(*vt.html_table(speeds_table, units))
     steps = step_measures(ch, segs)
     if steps:

@@ -66,6 +66,16 @@ def method(rows) -> str:
                                  np.array([p.F_comp for p in rows], float))[0]) >= 2 else "stroke"
 
 
+SHARES = (0.25, 0.5, 0.75)  # of the top speed: a slow run's own table speeds
+
+
+def own_speeds(rows) -> list[float]:
+    """Speeds [m/s] within a run that reached none of the standard ones (a slow crank, a
+    0.1 Hz sine): SHARES of the lower of its top compression and rebound speeds."""
+    top = min((min(abs(p.v_comp), abs(p.v_reb)) for p in rows if np.isnan(p.target_c)), default=0.0)
+    return [s * top for s in SHARES] if top > 0 else []
+
+
 def _along_stroke(speeds, rows, field):
     """F at +speeds and -speeds read along the segments' strokes (the mean of the segments
     that reached each speed), nan where none did."""

@@ -305,3 +305,17 @@ def test_every_effect_of_the_catalogue_is_said_in_a_sentence():
                     region="speed 0-1 m/s", size_rms_n=10.0, size_peak_n=20.0)
         text = sentence(step)
         assert "Held-out error falls from 5 % to 3 %" in text and "{" not in text, (key, text)
+
+
+def test_an_imported_run_compares_and_checks_against_a_run_of_ours(tmp_path, koni_run):
+    t, x, F = crank(n=int(12 / 1.05 * RATE))
+    src = _written(tmp_path, "crank.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                              for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("report", koni_run[0], tmp_path / "x.mcap", "--out", tmp_path / "cmp")
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "cmp" / "index.html").read_text()
+    assert "compared by their velocity tables and curves" in page and "every run read the same way (along the stroke" \
+        in page and (tmp_path / "cmp" / "compare_composite.png").stat().st_size > 10_000
+    r = dyno("check", tmp_path / "x.mcap", "--against", koni_run[0])  # another damper: measured, and failed
+    assert r.returncode == 1 and "FAIL: 0 of" in r.stdout and " 100 mm/s compression " in r.stdout, r.stdout + r.stderr

@@ -16,6 +16,7 @@ import numpy as np
 from models.recording import segments
 from protocols.io.reader import load_recording
 from protocols.reports import peaks
+from protocols.reports import velocity_table as vt
 from protocols.reports.page import Page, save
 from protocols.reports.plots import plt
 from protocols.units import Units, amplitude, fmt
@@ -110,10 +111,48 @@ def compare(paths, out_dir, units=Units()):
         if drawn:
             pngs.append(out / drawn[1])
             page.figure(*drawn)
-    else:
+    elif any(rows for _, _, rows, _ in runs):  # other tests (another dyno's run): the curves still compare
         page.paragraph(f"No run shares a sine segment with {first[0]} (same amplitude, frequency and target "
-                       "temperature): nothing to compare.")
+                       "temperature): the runs are compared by their velocity tables and curves.")
+        pngs.append(out / _composite(runs, out, units))
+        page.figure("Composite curves, one colour per run (a one-speed run: its force along the stroke)",
+                    pngs[-1].name)
+    else:
+        page.paragraph("No run has a sine segment: nothing to compare.")
+    table = _speeds_table(runs, units)
+    if table:
+        page.heading(f"Force at shaft velocities, every run read the same way ({table[0]}; difference against "
+                     f"{first[0]})")
+        page.table(*table[1:])
     return page.write(out), pngs
+
+
+def _speeds_table(runs, units):
+    """(how read, header, rows) of every run's velocity table at the speeds all reached, read
+    the same way (along the stroke when one of them ran one speed, as `dyno check` reads
+    them), with each run's difference from the first [%]; None when no speed is shared."""
+    how = "peaks" if all(vt.method(rows) == "peaks" for _, _, rows, _ in runs) else "stroke"
+    tables = [vt.velocity_table(rows, None, units, how) for _, _, rows, _ in runs]
+    keep = [i for i in range(len(tables[0])) if all(np.isfinite(t[i].F_comp_N) and np.isfinite(t[i].F_reb_N)
+                                                     for t in tables)]
+    if not keep:
+        speeds = min((vt.own_speeds(rows) for _, _, rows, _ in runs), key=lambda s: s[-1] if s else 0.0)
+        tables, how = [vt.velocity_table(rows, speeds, units, "stroke") for _, _, rows, _ in runs], "stroke"
+        keep = [i for i in range(len(speeds)) if all(np.isfinite(t[i].F_comp_N) for t in tables)]
+    if not keep:
+        return None
+    F = lambda si: fmt(units.show("force", si))
+    head = [units.label("speed", "velocity")]
+    for tag, *_ in runs:
+        head += [units.label(f"{tag} comp", "force"), units.label(f"{tag} reb", "force")]
+    head += [f"{tag} diff comp/reb [%]" for tag, *_ in runs[1:]]
+    rows = []
+    for i in keep:
+        a = tables[0][i]
+        rows.append([f"{units.show('velocity', a.v_m_s):.4g}"] + [F(v) for t in tables for v in (t[i].F_comp_N, t[i].F_reb_N)]
+                    + [f"{_pct(t[i].F_comp_N, a.F_comp_N):+.1f} / {_pct(-t[i].F_reb_N, -a.F_reb_N):+.1f}"
+                       for t in tables[1:]])
+    return ("from the peaks" if how == "peaks" else "along the stroke"), head, rows
 
 
 def _composite(runs, out, units):
@@ -134,6 +173,11 @@ def _composite(runs, out, units):
                     color=c, ms=4)
             ax.plot(V([-p.v_reb for p in ps]), F([-(p.Fd_reb if damping else p.F_reb) for p in ps]), m + "--",
                     color=c, ms=4, alpha=0.8)
+        if vt.method(rows) == "stroke":  # one speed: its force along the stroke, not one point
+            for p in rows:
+                comp, reb = p.stroke_v > 0, p.stroke_v < 0
+                ax.plot(V(p.stroke_v[comp]), F(p.stroke_F[comp]), "-", color=c, lw=1)
+                ax.plot(V(-p.stroke_v[reb]), F(-p.stroke_F[reb]), "--", color=c, lw=1, alpha=0.8)
         ax.plot([], [], "-", color=c, label=f"{tag}: {run_name(meta, path)}")
     ax.plot([], [], "k-", label="compression")
     ax.plot([], [], "k--", label="rebound (magnitude)")

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise about a hold)
 REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back
@@ -42,26 +43,51 @@ def cycles(t, x):
     t, x = t[ok], x[ok]
     if len(t) < 8 or np.ptp(x) < 2 * MIN_TRAVEL:
         return []
-    # the mid-level follows the motion: a running median over a few seconds would be costly,
-    # so the level is the midpoint of the range between successive extremes
-    starts, armed, lo, hi = [], False, x[0], x[0]
-    for i in range(1, len(x)):
-        lo, hi = min(lo, x[i]), max(hi, x[i])
-        span = hi - lo
-        if span < 2 * MIN_TRAVEL:
-            continue
-        mid = 0.5 * (hi + lo)
-        if not armed and x[i] < mid - REVERSAL_SHARE * span / 2:
-            armed = True  # come down far enough: the next rise through mid is a new cycle
-        elif armed and x[i - 1] < mid <= x[i]:
-            starts.append(i)
-            armed = False
-            lo = hi = x[i]
+    starts = _cycle_starts(x, 2 * MIN_TRAVEL, REVERSAL_SHARE).tolist()
     out = []
     for a, b in zip(starts, starts[1:]):
         seg = x[a:b + 1]
         out.append((float(t[a]), float(t[b]), float(np.ptp(seg) / 2), float((seg.max() + seg.min()) / 2)))
     return out
+
+
+@njit(cache=True)
+def _cycle_starts(x, min_span, share):
+    """Indices where x rises through its mid-level, once it has come down share of the
+    range below it. The mid-level follows the motion: a running median over a few seconds
+    would be costly, so the level is the midpoint of the range between successive extremes."""
+    starts = np.empty(len(x), np.int64)
+    n, armed, lo, hi = 0, False, x[0], x[0]
+    for i in range(1, len(x)):
+        lo, hi = min(lo, x[i]), max(hi, x[i])
+        span = hi - lo
+        if span < min_span:
+            continue
+        mid = 0.5 * (hi + lo)
+        if not armed and x[i] < mid - share * span / 2:
+            armed = True  # come down far enough: the next rise through mid is a new cycle
+        elif armed and x[i - 1] < mid <= x[i]:
+            starts[n] = i
+            n += 1
+            armed = False
+            lo = hi = x[i]
+    return starts[:n]
+
+
+@njit(cache=True)
+def _still_runs(x, travel):
+    """(first, last) index pairs of the maximal runs within `travel` of each other, in order."""
+    out = np.empty((len(x), 2), np.int64)
+    n, i = 0, 0
+    while i < len(x):
+        j, lo, hi = i, x[i], x[i]
+        while j + 1 < len(x) and max(hi, x[j + 1]) - min(lo, x[j + 1]) <= travel:
+            j += 1
+            lo, hi = min(lo, x[j]), max(hi, x[j])
+        out[n, 0], out[n, 1] = i, j
+        n += 1
+        i = j + 1
+    return out[:n]
 
 
 def _alike(c, ref):
@@ -99,20 +125,14 @@ def find(t, x) -> list[Segment]:
 def holds(t, x, taken=()):
     """Static holds: HOLD_S or longer with x within HOLD_TRAVEL, outside the `taken` spans."""
     t, x = np.asarray(t, float), np.asarray(x, float)
-    out, i, n = [], 0, len(t)
-    while i < n:
-        j = i
-        lo = hi = x[i]
-        while j + 1 < n and max(hi, x[j + 1]) - min(lo, x[j + 1]) <= HOLD_TRAVEL:
-            j += 1
-            lo, hi = min(lo, x[j]), max(hi, x[j])
+    out = []
+    for i, j in _still_runs(x, HOLD_TRAVEL).tolist():
         if t[j] - t[i] >= HOLD_S and not any(a < t[j] and t[i] < b for a, b in taken):
             xm = float(np.mean(x[i:j + 1]))
             came = x[i] - x[max(i - 50, 0)]  # the motion into the hold: as the static test's approaches
             out.append(Segment(f"hold {xm * 1e3:.1f} mm", "hold", float(t[i]), float(t[j]),
                                {"kind": "hold", "x_mm": round(xm * 1e3, 1), "measured": True, "found": "import",
                                 "approach": "compression stroke" if came > 0 else "extension stroke"}))
-        i = j + 1
     return out
 
 

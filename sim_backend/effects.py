@@ -63,7 +63,8 @@ def parse(specs) -> dict:
         name, sep, value = s.partition("=")
         name, _, form = name.partition(":")
         if name not in EFFECTS:
-            raise EffectError(f"--effect {s}: unknown effect {name!r} (known: {', '.join(EFFECTS)}, extra:EXPR)")
+            raise EffectError(f"--effect {s}: unknown effect {name!r} (known, with the unit of VALUE: "
+                              f"{', '.join(f'{n} [{h.unit}]' for n, h in EFFECTS.items())}, extra:EXPR)")
         if form:
             if form not in EFFECTS[name].forms:
                 known = ", ".join(EFFECTS[name].forms) or "none"

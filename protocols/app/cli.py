@@ -16,9 +16,11 @@ from rig.errors import RigError
 
 
 def _hidden_physics(p):
-    from sim_backend.effects import EFFECTS
+    # the effects are not listed here: their catalogue takes a second to import, which every
+    # dyno command would pay; an unknown name lists them
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                   help="hide physics in the virtual rig: " + ", ".join(f"{n} [{h.unit}]" for n, h in EFFECTS.items()))
+                   help="hide physics in the virtual rig, e.g. compressibility=0.5 (docs/diagnosis.md; an unknown "
+                        "NAME lists the effects)")
     p.add_argument("--plain", action="store_true",
                    help="the plain cell dyno prove uses (sim_backend/plain.toml): nothing the minimal model leaves out")
     p.add_argument("--seed", type=number(0, 2**32 - 1, integer=True), default=0,

@@ -24,7 +24,7 @@ from rig.errors import RigError
 
 FLIPS = ("force", "displacement")
 SAMPLES = 3  # values shown per column by --inspect
-PLOT_POINTS = 100_000  # /plot messages per channel at most: a display's worth; /channels keeps every sample
+PLOT_POINTS = 20_000  # /plot messages per channel at most: five per pixel of a 4k display; /channels keeps every sample
 BATCH = 5000  # samples per /channels message
 
 
@@ -82,13 +82,14 @@ def _import(args, mapping, gains, offsets, claim):
         units["velocity"] = "derived from displacement"
     elif "displacement" in (args.flip or ()):
         data["velocity"] = -data["velocity"]
+    rel = np.round(t - t[0], 9)  # s; to the ns the MCAP's clock keeps: stamps' float error makes long JSON
     channels = {}
     for name, a in data.items():
         ok = ~np.isnan(a)
         if not ok.any():  # an empty column
             continue
         ch = CHANNELS.get(name, name)
-        channels[ch] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
+        channels[ch] = (rel[ok], a[ok], SI.get(name, units.get(name, "")))
     cfg = SimpleNamespace(
         name="imported", path=Path(args.file),
         channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0)

@@ -132,6 +132,15 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
     """{column name: [cell, ...]} of the data rows (a short row's missing cells empty)."""
     lines = [line for line in text.splitlines()[layout.first:] if line.strip()]
     d = layout.delimiter
+    n = len(layout.names)
+    if d is not None and '"' not in text and all(line.count(d) == n - 1 for line in lines):
+        # every row complete (the common case): one split of the whole body, columns by slicing
+        flat = d.join(lines).split(d)
+        cols = {name: flat[j::n] for j, name in enumerate(layout.names)}
+        for name, cells in cols.items():  # padded cells (a DAQ's ", 05/13/2022"), looked for at both ends
+            if any(c != c.strip() for c in cells[:50] + cells[-50:]):
+                cols[name] = [c.strip() for c in cells]
+        return cols
     if d is None:
         rows = [line.split() for line in lines]
     elif '"' in text:  # quoted cells: the csv module's reading
@@ -141,7 +150,6 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
             raise RigError(f"not a table of numbers ({e})") from None
     else:
         rows = [line.split(d) for line in lines]
-    n = len(layout.names)
     rows = [r if len(r) == n else r[:n] if len(r) > n else r + [""] * (n - len(r)) for r in rows]
     return {name: [c.strip() for c in cells] for name, cells in zip(layout.names, zip(*rows))} if rows else \
         {name: [] for name in layout.names}
@@ -160,6 +168,11 @@ def column(cols: dict, layout: Layout, key: str) -> str:
 def numbers(cells: list[str], decimal=".") -> tuple[np.ndarray, int | None]:
     """(float array with NaN for an empty cell, index of the first cell that is not a
     number or None)."""
+    if decimal == ".":
+        try:  # every cell a number (the common case): no string array
+            return np.fromiter(map(float, cells), float, len(cells)), None
+        except ValueError:
+            pass  # an empty cell or a non-number: below
     a = np.array(cells, dtype=str)
     if decimal == ",":
         a = np.char.replace(a, ",", ".")

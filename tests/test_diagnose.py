@@ -209,3 +209,44 @@ def test_a_fold_stuck_in_a_local_minimum_restarts_from_the_other_folds_values():
     again, _, r = cross_fit(m, d, folds, [truth, stuck], effort=1, restart=True)
     assert rms(alone[1], folds[1][0]) > 10.0 and rms(again[1], folds[1][0]) < 2.0
     assert np.sqrt(np.mean(r[folds[1][1]] ** 2)) < 2.0
+
+
+def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winner():
+    """A paired test block by block: a candidate whose held-out error is the winner's, give or
+    take noise, is its rival; one clearly worse is not; another form of the same effect is
+    the same physics. The sentence names the group and tells no mechanism's story."""
+    from models.diagnose import _rivals
+    from models.diagnose.result import Candidate, Step
+    from protocols.app.diagnose import rivals_sentence
+    rng = np.random.default_rng(0)
+    block = np.repeat(np.arange(40), 50)
+    judged, ids = np.ones(len(block), bool), np.arange(40)
+    r_best = rng.normal(0, 10.0, len(block))
+
+    def cand(effect, r):
+        return (Candidate(effect, 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 50.0, 2.0), {}, [], r)
+    alike = cand("presliding_friction", r_best * (1 + rng.normal(0, 0.02, len(block))))
+    worse = cand("compressibility", r_best * 1.5)
+    own_form = cand("bouc_wen:aux.current", r_best)
+    best = Candidate("bouc_wen", 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 60.0, 2.4)
+    rivals = _rivals(best, r_best, [alike, worse, own_form], block, judged, ids, np.random.default_rng(1))
+    assert [e for e, _, _ in rivals] == ["presliding_friction"] and rivals[0][2] >= 0.01
+    step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=rivals,
+                depends_on=["displacement", "direction"], character="elastic", region="both directions",
+                size_rms_n=80.0, size_peak_n=200.0)
+    text = rivals_sentence(step)
+    assert text.startswith("The recording cannot tell which physics was left out: hysteresis")
+    assert "pre-sliding friction" in text and "magnetorheological" not in text and "--next" in text
+
+
+def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
+    from models.diagnose.result import Step
+    from protocols.app.diagnose import sentence
+
+    def said(tau, sample_s):
+        step = Step("sensor_delay", 0.0249, 0.0193, {"tau": tau}, {"tau": [0.8 * tau, 1.2 * tau]}, 1e-4,
+                    np.zeros(3), np.zeros(3), [], [], [])
+        return sentence(step, sample_s)
+    small = said(1.6e-5, 1e-3)  # a sixtieth of a 1 kHz sample
+    assert "below one sample, unresolved" in small and "Align" not in small and "0.016 ms" in small
+    assert "Align the channels" in said(2e-4, 1e-4)  # two samples: a real offset

@@ -198,6 +198,8 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
         expected = 150 + 800 * x_mid + np.array([comp, -reb]) * speed * 1e-3 + np.array([30, -30]) * np.tanh(speed / 10)
         assert np.allclose([float(f) for f in table[speed]], expected, atol=6), (speed, table[speed], expected)  # 1 % of the range
     assert table[150.0] == ["", ""]  # beyond the top speed: not extrapolated
+    r = dyno("diagnose", tmp_path / "x.mcap", "--holdout", "tail:0.15")  # and a diagnosis, as ours get
+    assert r.returncode == 0 and "Baseline (minimal): held-out error" in r.stdout, r.stdout + r.stderr
 
 
 def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_out_cycles(tmp_path):

@@ -299,6 +299,10 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         if not ok:
             break
         best, b_vals, b_folds, b_r = _chosen(ok, block, judged, judged_blocks, alpha, rng)
+        significant = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE]
+        # (their own resamples: the main sequence, and so every other verdict, stays as it was)
+        rivals = _rivals(best, b_r, significant, block, judged, judged_blocks,
+                         np.random.default_rng([seed, 1, len(accepted)]))
         m_best = Model(d, accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
             # from the screening's values, close to the optimum: a few evaluations per parameter
@@ -312,7 +316,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         steps.append(Step(best.effect, scores(d.F, r_cur, shown)["nrmse_heldout"], best.nrmse_heldout,
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
                           # the earlier effects whose form this one may be compensating, in acceptance order
-                          [e for e in accepted if e in dict(traded) or e in dict(form_of)]))
+                          [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals))
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
@@ -352,6 +356,25 @@ def _chosen(ok, block, judged, judged_blocks, alpha, rng):
     rel = np.log(np.maximum(sse[0], 1e-30) / np.maximum(sse[1], 1e-30))
     better = best[0].relevance - cat[0].relevance >= RELEVANCE and p_value(rel, rng, alpha) < alpha
     return best if better else cat
+
+
+def _rivals(best, r_best, significant, block, judged, judged_blocks, rng):
+    """[(effect, gain in noise variances, paired p)] of the round's significant candidates
+    the recording cannot tell from the winner: on the same held-out blocks, the log ratio of
+    the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner is not
+    better (a paired test, not two p-values against the baseline compared). Another form of
+    the winner's own effect is not a rival: it is the same physics."""
+    sse_best = _block_sse(np.where(judged, r_best, 0.0), block, judged_blocks)
+    out = []
+    for c, _, _, r in significant:
+        if c.effect.split(":")[0] == best.effect.split(":")[0]:
+            continue
+        rel = np.log(np.maximum(_block_sse(np.where(judged, r, 0.0), block, judged_blocks), 1e-30)
+                     / np.maximum(sse_best, 1e-30))
+        p = p_value(rel, rng, ALPHA)
+        if p >= ALPHA:
+            out.append((c.effect, c.relevance, p))
+    return sorted(out, key=lambda x: -x[1])
 
 
 def _round(d, base, names, accepted, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma, alpha,

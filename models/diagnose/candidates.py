@@ -417,10 +417,12 @@ CATALOGUE = {e.name: e for e in (
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
            _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
            depends_on=("displacement", "direction"),
+           # {aux}: what the element is, said by the command layer: a yield-stress (MR) fluid only
+           # when a channel drives its size, as a coil current does; otherwise what gives way in
+           # any damper
            say=("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
-                "element, as in Spencer's magnetorheological damper model): a yield-stress fluid or a stiff "
-                "element that gives way, which a valve curve cannot follow around the loops.{aux} Model the "
-                "damper with the hysteretic element (its parameters are in the JSON).", "alpha_bw", 1.0, "N"),
+                "element){aux} Model the damper with the hysteretic element (its parameters are in the JSON).",
+                "alpha_bw", 1.0, "N"),
            hidden=Hidden('N', 'force at yield of a hysteretic element in the load path, Bouc-Wen with exponent '
                               'n = 1 over BW_YIELD of travel (the diagnosis fits n = 2)', 1.0, {
                'elastoplastic': 'elasto-plastic: linear up to VALUE over BW_YIELD of travel, then yields',

@@ -53,6 +53,9 @@ class Step:
     form_of: list  # [(earlier effect, share of the gain a change in its form also brings)]
     compensates: list  # earlier effects whose form this one may be compensating
     replaced_by: str | None = None  # a term outside the catalogue that explains it as well
+    # the round's other candidates the held-out blocks cannot tell from it:
+    # [(effect, gain in noise variances, paired p that this one is better)], largest gain first
+    rivals: list = field(default_factory=list)
     # what it is (describe): spec.NATURES, spec.VARIABLES, where it lives, elastic or dissipative, size
     nature: str = ""
     depends_on: list = field(default_factory=list)

@@ -41,7 +41,9 @@ def said(effect):
     return NAMES.get(key, key.replace("_", " "))
 
 
-def sentence(step):
+def sentence(step, sample_s=None):
+    """An accepted effect in words; sample_s: the recording's sample period [s], below
+    which a lag is said as unresolved, never as channels to re-align."""
     e = step.effect
     key = e.split(":")[0]
     text, pname, factor, unit = EFFECTS[key].say
@@ -53,12 +55,16 @@ def sentence(step):
         v = min(p["Fcav_c"], p["Fcav_r"])
         vs = f"{v:.0f}"
     elif key == "bouc_wen":
-        aux = ""
-        if ":" in e:
+        if ":" in e:  # a channel scales it: the MR story (Spencer's phenomenological model)
             ch = e.split(":", 1)[1]
-            aux = (f" Its size follows {ch}, {p[f'alpha_u:{ch}']:.3g} N per unit, through a first-order lag of "
-                   f"{1e3 * p[f'eta:{ch}']:.3g} ms: as an MR damper's yield force follows its coil current, which "
-                   f"lags the driver's voltage.")
+            aux = (f", as in Spencer's magnetorheological damper model: a yield-stress fluid whose yield force "
+                   f"follows {ch}, {p[f'alpha_u:{ch}']:.3g} N per unit, through a first-order lag of "
+                   f"{1e3 * p[f'eta:{ch}']:.3g} ms, as an MR damper's follows its coil current, which lags the "
+                   f"driver's voltage.")
+        else:  # no channel drives it: what gives way in any damper, not an MR story
+            aux = (": something stiff that gives way at each reversal, which a valve curve cannot follow around the "
+                   "loops (a seal or bush that deforms before it slides, trapped air; a yield-stress fluid only in "
+                   "a damper that has one).")
         return text.format(v=f"{p['alpha_bw']:.3g}", xy=f"{1e3 * p['x_y']:.3g}", aux=aux) + _change(step)
     elif key == "aux_channel":
         ch = e.split(":", 1)[1]
@@ -82,8 +88,25 @@ def sentence(step):
                     else "displacement reading lags the force")
             # the size of the lag; an interval across zero starts at zero
             v, lo, hi = abs(v), (0.0 if lo * hi < 0 else min(abs(lo), abs(hi))), max(abs(lo), abs(hi))
+            if sample_s and v < sample_s * factor:
+                return (f"The {late} by {v:.2g} {unit} ({v / (sample_s * factor):.2g} of a sample period): "
+                        f"below one sample, unresolved at this rate and no reason to re-align the channels; it "
+                        f"may stand for anything that shifts the loop a little in time." + _change(step))
         vs = f"{v:.3g} ({lo:.3g} to {hi:.3g})"
     return text.format(v=vs, u=unit, late=late) + _change(step)
+
+
+def rivals_sentence(step):
+    """An effect the recording cannot tell from others: the group, what they share, the
+    one the model carries, and no mechanism's story."""
+    names = [said(step.effect)] + [said(e) for e, _, _ in step.rivals]
+    group = ", ".join(names[:-1]) + " and " + names[-1]
+    ps = ", ".join(f"{said(e)} {p:.2g}" for e, _, p in step.rivals)
+    return (f"The recording cannot tell which physics was left out: {group} explain the same misfit about equally "
+            f"here (on the held-out blocks none is significantly better than {said(step.effect)}: paired p {ps}). "
+            f"What they share: it {_what(step)}. The model carries {said(step.effect)}, the largest gain of the "
+            f"group, as a stand-in, not as a finding; `dyno diagnose RECORDING --next` designs the test that "
+            f"separates them." + _change(step))
 
 
 def _size(step):
@@ -133,8 +156,11 @@ def summary(res):
             lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s.compensates))}: "
                          f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
                          f"of its own." + _change(s))
+        elif s.rivals:
+            lines.append(rivals_sentence(s))
         else:
-            lines.append(OPENING[s.nature].format(name=name) + sentence(s) + f" ({_what(s)}.)")
+            lines.append(OPENING[s.nature].format(name=name) + sentence(s, float(np.median(res.data.h)))
+                         + f" ({_what(s)}.)")
     if res.accepted:
         f = res.final
         lines.append(f"Final: held-out error {100 * f.nrmse_heldout:.3g} % of the force range, RMSE "
@@ -177,7 +203,8 @@ def to_json(res):
         # each accepted effect or term: what it depends on, where it lives, what kind and how big
         "effects": [{"effect": s.effect, "replaced_by": s.replaced_by} if s.replaced_by else
                     {"effect": s.effect, **{k: getattr(s, k) for k in ("nature", "depends_on", "region", "character",
-                                                                       "size_rms_n", "size_peak_n", "tone_hz")}}
+                                                                       "size_rms_n", "size_peak_n", "tone_hz")},
+                     "rivals": [{"effect": e, "gain_noise_variances": g, "paired_p": p} for e, g, p in s.rivals]}
                     for s in res.steps],
         "left_over": dataclasses.asdict(res.left_over),
         "final": {**{k: getattr(res.final, k) for k in held},

@@ -250,3 +250,18 @@ def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
     small = said(1.6e-5, 1e-3)  # a sixtieth of a 1 kHz sample
     assert "below one sample, unresolved" in small and "Align" not in small and "0.016 ms" in small
     assert "Align the channels" in said(2e-4, 1e-4)  # two samples: a real offset
+
+
+def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_path):
+    """The embedded Koni has compressible oil by design: the minimal baseline leaves it out,
+    and the diagnosis says it is the damper's own physics, with no repair advice."""
+    out = tmp_path / "koni.mcap"
+    r = subprocess.run([*DYNO, "run", "sine-matrix", "amplitudes_mm=12.7", "freqs_hz=1,4", "record_cycles=3",
+                        "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([*DYNO, "diagnose", str(out), "--json"], capture_output=True, text=True, timeout=600)
+    doc = json.loads(r.stdout)
+    own = [e for e in doc["effects"] if e["effect"] == "compressibility"]
+    assert own and own[0]["in_own_description"] == "koni", doc["accepted"]
+    assert "In koni's own description, not a fault: compressibility" in doc["summary"]
+    assert "Bleed the damper" not in doc["summary"]

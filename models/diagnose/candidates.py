@@ -320,6 +320,9 @@ CATALOGUE = {e.name: e for e in (
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
            estimate="inv_k_oil", apply=_compressibility, acts_on="parts", depends_on=("velocity", "frequency"),
+           # eq 3.32's pressure-dependent modulus, a finite constant one, or entrained air
+           described=lambda dm: (dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12
+                                 or dm.compressibility.air_fraction > 0),
            say=("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
                 "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
                 "inv_k_oil", None, "kN/mm"),
@@ -360,6 +363,7 @@ CATALOGUE = {e.name: e for e in (
     Effect("gas_temperature", "gas-spring force rising with temperature",
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
            estimate="k_gT", apply=_gas_temperature, acts_on="parts", needs="T",
+           described=lambda dm: True,  # every damper's gas follows its temperature (eq 3.19)
            depends_on=("temperature", "displacement"),
            say=("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
                 "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%"),

@@ -100,3 +100,4 @@ class Diagnosis:
     left_over: LeftOver
     final: Final
     noise_from: str = ""  # where the noise estimate came from, in words (noise_from())
+    described: dict = field(default_factory=dict)  # {effect: damper}: physics the recording's own damper has

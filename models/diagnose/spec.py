@@ -51,3 +51,6 @@ class Effect:
     say: tuple = ()  # (sentence, parameter shown, factor, unit): see protocols/app/diagnose.py
     hidden: Hidden | None = None  # how the virtual plant hides it; None: the plant has no form of it
     linear: bool = False  # a smooth basis, linear in its coefficients: screened by one Gauss-Newton step
+    # (Damper) -> bool: a damper description that has this physics (models/damper.py); the
+    # minimal baseline leaving it out is then no fault of that damper
+    described: callable = None

@@ -21,6 +21,7 @@ from protocols.io.files import existing_files, filled, output_folder
 from rig.errors import RigError
 
 from protocols.io.reader import load_recording
+from protocols.reports.peaks import recorded_damper
 
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
          "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form"}
@@ -156,6 +157,10 @@ def summary(res):
             lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s.compensates))}: "
                          f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
                          f"of its own." + _change(s))
+        elif s.effect in res.described:
+            lines.append(f"In {res.described[s.effect]}'s own description, not a fault: {name}. The minimal baseline "
+                         f"leaves it out and the damper model has it (`--baseline {res.described[s.effect]}` starts "
+                         f"from that model)." + _change(s) + f" ({_what(s)}.)")
         elif s.rivals:
             lines.append(rivals_sentence(s))
         else:
@@ -204,7 +209,8 @@ def to_json(res):
         "effects": [{"effect": s.effect, "replaced_by": s.replaced_by} if s.replaced_by else
                     {"effect": s.effect, **{k: getattr(s, k) for k in ("nature", "depends_on", "region", "character",
                                                                        "size_rms_n", "size_peak_n", "tone_hz")},
-                     "rivals": [{"effect": e, "gain_noise_variances": g, "paired_p": p} for e, g, p in s.rivals]}
+                     "rivals": [{"effect": e, "gain_noise_variances": g, "paired_p": p} for e, g, p in s.rivals],
+                     "in_own_description": res.described.get(s.effect)}
                     for s in res.steps],
         "left_over": dataclasses.asdict(res.left_over),
         "final": {**{k: getattr(res.final, k) for k in held},
@@ -288,12 +294,16 @@ def run(args):
         limits = next_test.limits(args.rig)
     if args.report:
         output_folder(args.report, existing_files(args.recording, args.baseline), args.overwrite, "--report")
-    ch, events, _ = load_recording(args.recording)
+    ch, events, meta = load_recording(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     try:
         res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout)
     except (DiagnoseError, DamperError) as e:
         raise RigError(f"{args.recording}: {e}") from None
+    own = recorded_damper(meta)
+    if own is not None and baseline is None:  # physics the recording's own damper has is no fault of it
+        res.described = {s.effect: own.name for s in res.steps
+                         if EFFECTS[s.effect.split(":")[0]].described and EFFECTS[s.effect.split(":")[0]].described(own)}
     if args.report:
         with filled(args.report, "--report") as folder:
             page = report(res, folder)

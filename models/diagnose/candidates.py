@@ -21,9 +21,8 @@ from models.diagnose import terms
 from models.diagnose.terms import TERMS
 
 GAMMA = 1.38  # thesis section 4.1.2
-# the force channel's averaging time, in sample periods: a first-order anti-alias filter
-# at the Nyquist frequency averages over about 0.6 of one (a choice; the data cannot tell it
-# from the size of a short clearance crossing, which it scales)
+# the force channel's averaging time, in sample periods: a first-order anti-alias filter at Nyquist
+# averages over about 0.6 of one (a choice; the data cannot tell it from a short clearance crossing's size)
 W_FORCE = 0.5
 FRICTION_KNOTS = 8  # basis functions of position_friction over the stroke
 
@@ -320,8 +319,7 @@ CATALOGUE = {e.name: e for e in (
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
            estimate="inv_k_oil", apply=_compressibility, acts_on="parts", depends_on=("velocity", "frequency"),
-           # eq 3.32's pressure-dependent modulus, a finite constant one, or entrained air
-           described=lambda dm: (dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12
+           described=lambda dm: (dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12  # eq 3.32
                                  or dm.compressibility.air_fraction > 0),
            say=("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
                 "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
@@ -421,10 +419,7 @@ CATALOGUE = {e.name: e for e in (
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
            _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
            depends_on=("displacement", "direction"),
-           # {aux}: what the element is, said by the command layer: a yield-stress (MR) fluid only
-           # when a channel drives its size, as a coil current does; otherwise what gives way in
-           # any damper
-           say=("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
+           say=(  # {aux}: what it is (the command layer): an MR fluid only when a channel drives its size"The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
                 "element){aux} Model the damper with the hysteretic element (its parameters are in the JSON).",
                 "alpha_bw", 1.0, "N"),
            hidden=Hidden('N', 'force at yield of a hysteretic element in the load path, Bouc-Wen with exponent '

@@ -46,6 +46,11 @@ def _velocity_rows(csv_path, most=3):
     return "; ".join(shown[:most]) or "-"
 
 
+def _said(p, d):
+    """A command's one-line error, without the temporary folder it ran in."""
+    return (p.stderr.strip().splitlines() or [f"exit {p.returncode}"])[-1].replace(f"{d}/", "")
+
+
 def one(task):
     """Everything measured on one file: {column: text} and the exit codes."""
     src, imports = task
@@ -56,7 +61,7 @@ def one(task):
         p, s = _dyno(d, "import", src, "--out", rec, *imports)
         out["codes"] = {"import": p.returncode}
         if p.returncode != 0:
-            out["import"] = p.stderr.strip().splitlines()[-1]
+            out["import"] = _said(p, d)
             return out
         lines = p.stdout.splitlines()
         ch, _, _ = load_recording(rec, ("force",))
@@ -74,6 +79,8 @@ def one(task):
         p, _ = _dyno(d, "identify", rec, "--json")
         out["codes"]["identify"] = p.returncode
         model = json.loads(p.stdout) if p.returncode == 0 else {}
+        if p.returncode != 0:
+            out["identify"] = _said(p, d)
         out["nrmse"] = model.get("heldout_nrmse")
         out["undetermined"] = sum("undetermined" in v for v in model.get("parameters", {}).values())
         each = [n for r in model.get("repeats_differ", []) for n in r["segments"]]
@@ -91,12 +98,12 @@ def one(task):
                                 + f" ({s:.0f} s)")
             out["smoothed"] = any(q["kind"] == "smoothed" for q in res["quality"])
         else:
-            out["diagnosis"] = p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}"
+            out["diagnosis"] = _said(p, d)
         if model:
             p, _ = _dyno(d, "check", rec, "--against", Path(d) / "x.minimal.json")
             out["codes"]["check"] = p.returncode
             out["check"] = (p.stdout.strip().splitlines() or ["-"])[-2 if "catalogued" in p.stdout else -1] \
-                if p.returncode in (0, 1) else p.stderr.strip().splitlines()[-1]
+                if p.returncode in (0, 1) else _said(p, d)
     return out
 
 
@@ -107,7 +114,7 @@ def markdown(results):
               "diagnosis, last 15 % held out: baseline → final", "check against its own model")
     rows = [(r["file"], r["import"] + (f"; {r['sign']}" if r.get("sign") else ""),
              r.get("segments", "-")[:160], r.get("velocity", "-"),
-             "-" if r.get("nrmse") is None else f"{100 * r['nrmse']:.2f} % ({r['undetermined']} undetermined)"
+             r.get("identify", "-") if r.get("nrmse") is None else f"{100 * r['nrmse']:.2f} % ({r['undetermined']} undetermined)"
              + (f"; its repeats differ, each alone {100 * min(r['each']):.2f}-{100 * max(r['each']):.2f} %"
                 if r.get("each") else ""),
              r.get("diagnosis", "-") + ("; force smoothed by its source" if r.get("smoothed") else ""),

@@ -118,8 +118,10 @@ def linear_fit(model: Model, d: Data, folds, starts, hold=()):
             As = A[train] / norm
             lam = 1e-3 * float(np.linalg.norm(As, 2)) ** 2
             damp = np.r_[np.zeros(len(own)), np.full(len(rest), lam)]
-            # (least squares: a column the data leaves at zero makes the system singular)
-            sol = np.linalg.lstsq(As.T @ As + np.diag(damp), As.T @ y, rcond=None)[0] / norm
+            try:
+                sol = np.linalg.solve(As.T @ As + np.diag(damp), As.T @ y) / norm
+            except np.linalg.LinAlgError:  # a column the data leaves at zero: least squares
+                sol = np.linalg.lstsq(As.T @ As + np.diag(damp), As.T @ y, rcond=None)[0] / norm
             w = dict(z)
             for p, ci in zip(own + rest, sol[:len(own)].tolist() + [z[q.name] + dq for q, dq in zip(rest, sol[len(own):])]):
                 w[p.name] = float(np.clip(ci, p.lo, p.hi))

@@ -82,14 +82,13 @@ def _import(args, mapping, gains, offsets, claim):
         units["velocity"] = "derived from displacement"
     elif "displacement" in (args.flip or ()):
         data["velocity"] = -data["velocity"]
-    rel = np.round(t - t[0], 9)  # s; to the ns the MCAP's clock keeps: stamps' float error makes long JSON
     channels = {}
     for name, a in data.items():
         ok = ~np.isnan(a)
         if not ok.any():  # an empty column
             continue
         ch = CHANNELS.get(name, name)
-        channels[ch] = (rel[ok], a[ok], SI.get(name, units.get(name, "")))
+        channels[ch] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
     cfg = SimpleNamespace(
         name="imported", path=Path(args.file),
         channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0)

@@ -6,8 +6,9 @@ stop when nothing is left unsure or the budget of rig time is spent.
 Every round is in the recording as events: a `next_test` per sine (its reason in the
 message) before it runs, and a `diagnosis` after each diagnosis (what it named, what it
 was unsure of), so the live view, the report and a reader of the file see each round.
-Each run has its run_start and run_end; the recording ends with a last run_end, segment
-"discover", once the last diagnosis is made.
+Each run has its run_start and run_end; the recording ends with a `verdict` (what was found,
+what is still unresolved, why it stopped) and a last run_end, segment "discover", once the
+last diagnosis is made.
 Between rounds the actuator holds where the last sine left it (mid-stroke).
 """
 from __future__ import annotations
@@ -41,6 +42,7 @@ class Discovery:
     diagnosis: object  # the last Diagnosis (models/diagnose/result.py); None if none could be made
     spent_s: float  # rig time of the sines the design asked for [s]
     runs: list  # [RunResult] of the opening and each round
+    verdict: str = ""  # found, unresolved and why it stopped, in sentences (verdict())
 
     @property
     def result(self) -> RunResult:
@@ -85,6 +87,15 @@ def _tell(observers, t, kind, segment, params, message):
             print(f"dyno: {type(o).__name__.lower()}: {e}", file=sys.stderr)
 
 
+def verdict(rounds, stopped, spent_s, budget_s) -> str:
+    """What a discovery ends with, as a test engineer reads it."""
+    last = rounds[-1] if rounds else Round([], [])
+    found = ", ".join(e.replace("_", " ") for e in last.accepted) or "nothing beyond the baseline"
+    unsure = ("; ".join(last.unsure) + ".") if last.unsure else "nothing."
+    return (f"Found: {found}. Still unresolved: {unsure} Stopped: {stopped}. Rig time of its own tests: "
+            f"{spent_s:.1f} of {budget_s:g} s.")
+
+
 def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_rounds=MAX_ROUNDS) -> Discovery:
     """Run `opening` on the cell, then rounds of designed sines within budget_s of rig time.
     say(line): a line per round for the operator."""
@@ -105,6 +116,7 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
             why = f"round {len(rounds) + 1}: diagnosis failed: {describe(e)}"
             _tell(observers, cell.rig.clock(), "diagnosis", "", {"round": len(rounds) + 1}, why)
             say(f"{why}; no further tests")
+            stopped = f"the diagnosis failed ({describe(e)})"
             break
         now = Round(list(diag.accepted), [r.said for r in rv.values()],
                     settled=[r.said for k, r in before.items() if k not in rv])
@@ -117,6 +129,11 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
         say(f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}"
             + "".join(f"\n  unsure: {u}" for u in now.unsure) + "".join(f"\n  settled: {s}" for s in now.settled))
         if not proposals:
+            stopped = (f"the run ended: {runs[-1].fault}" if runs[-1].fault else
+                       f"the round limit of its own tests ({max_rounds})" if last else
+                       "nothing was left unsure" if not now.unsure else
+                       f"no test separates what is unresolved within the {budget_s - spent:.1f} s of budget left, the "
+                       f"cell's limits and the envelope the diagnosis is proven on")
             break
         for p in proposals:
             s = p.sine
@@ -131,8 +148,13 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
         tried |= {(design.key(p.rival), p.sine) for p in proposals}
         before = rv
         runs.append(run_plan(next_plan(proposals), cell, observers))
+    said = verdict(rounds, stopped, spent, budget_s)
+    _tell(observers, cell.rig.clock(), "verdict", "discover",
+          {"found": rounds[-1].accepted if rounds else [], "unresolved": rounds[-1].unsure if rounds else [],
+           "stopped": stopped, "spent_s": spent, "budget_s": budget_s}, said)
+    say(f"verdict: {said}")
     # the recording ends as every recording does: with the run's end and how it ended
     fault = runs[-1].fault
     _tell(observers, cell.rig.clock(), "run_end", "discover", {"rounds": len(rounds), "added_s": spent},
           fault or "completed")
-    return Discovery(rounds, diag, spent, runs)
+    return Discovery(rounds, diag, spent, runs, said)

@@ -217,7 +217,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     the same physics. The sentence names the group and tells no mechanism's story."""
     from models.diagnose import _rivals
     from models.diagnose.result import Candidate, Step
-    from protocols.app.diagnose import rivals_sentence
+    from models.diagnose.words import rivals_sentence
     rng = np.random.default_rng(0)
     block = np.repeat(np.arange(40), 50)
     judged, ids = np.ones(len(block), bool), np.arange(40)
@@ -241,7 +241,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
 
 def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
     from models.diagnose.result import Step
-    from protocols.app.diagnose import sentence
+    from models.diagnose.words import sentence
 
     def said(tau, sample_s):
         step = Step("sensor_delay", 0.0249, 0.0193, {"tau": tau}, {"tau": [0.8 * tau, 1.2 * tau]}, 1e-4,

@@ -292,7 +292,7 @@ def test_every_effect_of_the_catalogue_is_said_in_a_sentence():
     KeyError on a real MR recording)."""
     from models.diagnose.candidates import EFFECTS
     from models.diagnose.result import Step
-    from protocols.app.diagnose import sentence
+    from models.diagnose.words import sentence
 
     class Values(dict):  # every parameter a plausible number, every interval about it
         def __missing__(self, key):

@@ -285,3 +285,12 @@ def test_a_sine_segment_with_a_hole_in_its_force_record_is_left_out_and_named():
     keep = (t < 4.00) | (t > 4.008)  # 8 ms, as a VM's stall leaves: 1.6 % of the cycle, harmless
     ch = {"force": (t[keep], F[keep]), "x": (t, x)}
     assert [s.name for s in dynamic_segments(ch, events)] == ["sine A", "sine B"]
+
+
+def test_the_high_speed_lines_penalty_takes_an_intercept_through_zero():
+    """A fit can pass the high line's intercept through zero: the penalty stays finite and
+    says the line is outside (a wired run's identify ended in ZeroDivisionError there)."""
+    from models.identify.valves import crossover_penalty
+    assert crossover_penalty({"m": 2.0, "m2": 1.0, "c": 1.0, "c2": 2.0}, 10.0).tolist() == [0.0, 0.0]
+    through_zero = crossover_penalty({"m": 2.0, "m2": 1.0, "c": 1.0, "c2": 0.0}, 10.0)
+    assert through_zero[0] == 0.0 and np.isfinite(through_zero[1]) and through_zero[1] > 1.0

@@ -89,8 +89,16 @@ def crossover_penalty(p: dict, weight: float) -> np.ndarray:
     valid fit is unchanged; weight makes a 1 % violation cost more than the whole fit."""
     if "m2" not in p:
         return np.zeros(0)
-    return weight * np.maximum(0.0, [np.log(p["m2"] / p["m"]) + CROSSOVER_MARGIN,
-                                     np.log(p["c"] / p["c2"]) + CROSSOVER_MARGIN])
+    return weight * np.maximum(0.0, [_above(p["m2"], p["m"]) + CROSSOVER_MARGIN,
+                                     _above(p["c"], p["c2"]) + CROSSOVER_MARGIN])
+
+
+def _above(a, b):
+    """How far a is above b: log(a / b) where both are positive, else relative to the
+    larger (a fit can pass an intercept through zero: no division by it)."""
+    if a > 0 and b > 0:
+        return float(np.log(a / b))
+    return (a - b) / max(abs(a), abs(b), 1e-12)
 
 
 def make_valid(p: dict) -> dict:

@@ -99,7 +99,7 @@ def _header(page, meta, events, model):
     moved = {prm["adapted_from"] for _, prm, _, _ in segments(events) if "adapted_from" in prm}
     page.items(("adapted" if e["kind"] == "skipped" and e["segment"] in moved else e["kind"],
                 f"{e['segment']} {e.get('message', '')}") for e in ends)
-    rounds = [e for e in events if e["kind"] in ("diagnosis", "next_test")]
+    rounds = [e for e in events if e["kind"] in ("diagnosis", "next_test", "verdict")]
     if rounds:  # dyno run discover (protocols/discover.py)
         page.paragraph("The dyno's own next tests: after each diagnosis, what it named and was unsure of, what "
                        "the following data settled, and each sine it ran next with why.")
@@ -111,6 +111,8 @@ def _round_item(e):
     p = e.get("params", {})
     if e["kind"] == "next_test":
         return f"round {p.get('round', '?')}: ran {e['segment']}", e.get("message", "")
+    if e["kind"] == "verdict":
+        return "verdict", e.get("message", "")
     said = [*(f"unsure: {u}" for u in p.get("unsure", [])), *(f"settled: {s}" for s in p.get("settled", []))]
     return f"round {p.get('round', '?')}: diagnosis", "; ".join([e.get("message", ""), *said])
 

@@ -1,0 +1,170 @@
+"""The diagnosis in sentences a damper engineer acts on: each finding opened by what kind of
+thing it is, its size and held-out evidence, rivals the recording cannot tell apart, and the
+summary (what `dyno diagnose` prints). Arrays and dataclasses in (models/diagnose/result.py),
+text out."""
+from __future__ import annotations
+
+import numpy as np
+
+from models.diagnose import quality
+from models.diagnose.candidates import EFFECTS
+
+NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
+         "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form"}
+# how a finding opens, by its nature (models/diagnose/spec.py NATURES)
+# (an open term's or the valve form's sentence opens with what it is)
+OPENING = {"physics": "Left out: {name}. ", "cell": "In the cell, not the damper: {name}. ", "form": "", "open": ""}
+
+
+def _what(step):
+    said_already = step.nature in ("open", "form") or step.effect == "interference"
+    return (f"depends on {', '.join(step.depends_on)}; {step.character}"
+            + ("" if said_already else f"; {step.region}; {_size(step)}"))
+
+
+def said(effect):
+    """An effect id ("aux_channel:aux.x") in words."""
+    key = effect.split(":")[0]
+    return NAMES.get(key, key.replace("_", " "))
+
+
+def sentence(step, sample_s=None):
+    """An accepted effect in words; sample_s: the recording's sample period [s], below
+    which a lag is said as unresolved, never as channels to re-align."""
+    e = step.effect
+    key = e.split(":")[0]
+    text, pname, factor, unit = EFFECTS[key].say
+    p, ci = step.parameters, step.ci
+    late = ""
+    if (pname is None and key != "cavitation") or key == "interference":  # a smooth basis: by where and size
+        return text.format(region=step.region, size=_size(step), hz=step.tone_hz or 0.0) + _change(step)
+    if key == "cavitation":
+        v = min(p["Fcav_c"], p["Fcav_r"])
+        vs = f"{v:.0f}"
+    elif key == "bouc_wen":
+        if ":" in e:  # a channel scales it: the MR story (Spencer's phenomenological model)
+            ch = e.split(":", 1)[1]
+            aux = (f", as in Spencer's magnetorheological damper model: a yield-stress fluid whose yield force "
+                   f"follows {ch}, {p[f'alpha_u:{ch}']:.3g} N per unit, through a first-order lag of "
+                   f"{1e3 * p[f'eta:{ch}']:.3g} ms, as an MR damper's follows its coil current, which lags the "
+                   f"driver's voltage.")
+        else:  # no channel drives it: what gives way in any damper, not an MR story
+            aux = (": something stiff that gives way at each reversal, which a valve curve cannot follow around the "
+                   "loops (a seal or bush that deforms before it slides, trapped air; a yield-stress fluid only in "
+                   "a damper that has one).")
+        return text.format(v=f"{p['alpha_bw']:.3g}", xy=f"{1e3 * p['x_y']:.3g}", aux=aux) + _change(step)
+    elif key == "aux_channel":
+        ch = e.split(":", 1)[1]
+        name = f"lag:{ch}"
+        vs = f"{p[name] * factor:.1f}"
+        return text.format(ch=ch, v=vs, u=unit) + _change(step)
+    elif key == "compressibility":
+        k = 1.0 / max(p[pname], 1e-30)
+        lo, hi = (1.0 / max(c, 1e-30) for c in ci[pname][::-1])
+        vs = f"{k / 1e6:.3g} ({max(lo, 0) / 1e6:.3g} to {hi / 1e6:.3g})"
+    elif key == "free_play" and p[pname] < 1e-6:
+        return (f"The force dips towards zero for less than a sample each time it changes sign: a clearance of "
+                f"roughly {p[pname] * 1e6:.2g} um crossed that fast (at this sample rate its size is uncertain by a "
+                f"factor of two or three), in the damper's mounts or bearings. Check the rod-end and eye bushes."
+                + _change(step))
+    else:
+        v = p[pname] * factor
+        lo, hi = (c * factor for c in ci[pname])
+        if key == "sensor_delay":
+            late = ("force reading lags the displacement" if v < 0
+                    else "displacement reading lags the force")
+            # the size of the lag; an interval across zero starts at zero
+            v, lo, hi = abs(v), (0.0 if lo * hi < 0 else min(abs(lo), abs(hi))), max(abs(lo), abs(hi))
+            if sample_s and v < sample_s * factor:
+                return (f"The {late} by {v:.2g} {unit} ({v / (sample_s * factor):.2g} of a sample period): "
+                        f"below one sample, unresolved at this rate and no reason to re-align the channels; it "
+                        f"may stand for anything that shifts the loop a little in time." + _change(step))
+        vs = f"{v:.3g} ({lo:.3g} to {hi:.3g})"
+    return text.format(v=vs, u=unit, late=late) + _change(step)
+
+
+def rivals_sentence(step):
+    """An effect the recording cannot tell from others: the group, what they share, the
+    one the model carries, and no mechanism's story."""
+    names = [said(step.effect)] + [said(e) for e, _, _ in step.rivals]
+    group = ", ".join(names[:-1]) + " and " + names[-1]
+    ps = ", ".join(f"{said(e)} {p:.2g}" for e, _, p in step.rivals)
+    return (f"The recording cannot tell which physics was left out: {group} explain the same misfit about equally "
+            f"here (on the held-out blocks none is significantly better than {said(step.effect)}: paired p {ps}). "
+            f"What they share: it {_what(step)}. The model carries {said(step.effect)}, the largest gain of the "
+            f"group, as a stand-in, not as a finding; `dyno diagnose RECORDING --next` designs the test that "
+            f"separates them." + _change(step))
+
+
+def _size(step):
+    return f"{step.size_rms_n:.3g} N RMS, {step.size_peak_n:.3g} N at most"
+
+
+def _change(step):
+    return (f" Held-out error falls from {100 * step.before:.3g} % to {100 * step.after:.3g} % "
+            f"of the force range (p = {step.p_value:.2g}).")
+
+
+def _where(loc):
+    return (f"{loc['where']}: {100 * loc['energy_share']:.0f} % of the residual energy in "
+            f"{100 * loc['sample_share']:.0f} % of the samples")
+
+
+def _held(res):
+    h = res.holdout
+    return "alternate cycles held out" if h == "interleaved" else f"the last {100 * h:.0f} % held out, never chosen on"
+
+
+def summary(res):
+    lines = []
+    b = res.baseline
+    for line in quality.describe(res.data.flags):
+        lines.append(f"Data quality: {line}.")
+    lines.append(f"Baseline ({b.name}): held-out error {100 * b.nrmse_heldout:.3g} % of the force range, "
+                 f"R^2 {b.r2_heldout:.3f} ({_held(res)}; training {100 * b.nrmse_train:.3g} %); "
+                 f"force noise {res.noise_sd:.2f} N ({res.noise_from}).")
+    if "k_damping" in b.parameters:  # a damper model as the baseline: what the refit changed
+        p = b.parameters
+        lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
+                     f"mean position (the model: {b.model_gas_force:.0f} N) and its slope with stroke "
+                     f"x{p['k_gas']:.3f}, friction x{p['k_friction']:.3f}.")
+    strong = [loc for loc in res.locations if loc["concentration"] > 2.0][:3]
+    if strong:
+        lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
+    for s in res.steps:
+        name = said(s.effect)
+        if s.replaced_by:
+            lines.append(f"Dropped again: {name}. {said(s.replaced_by)} explains its gain as well without it.")
+        elif s.compensates:
+            why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
+                   for e, c in s.trades_with]
+            why += [f"changing the form of {said(e)} (its size by direction, with speed, along the stroke or with "
+                    f"its own size, or a lag) brings {100 * sh:.0f} % of its gain" for e, sh in s.form_of]
+            lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s.compensates))}: "
+                         f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
+                         f"of its own." + _change(s))
+        elif s.effect in res.described:
+            lines.append(f"In {res.described[s.effect]}'s own description, not a fault: {name}. The minimal baseline "
+                         f"leaves it out and the damper model has it (`--baseline {res.described[s.effect]}` starts "
+                         f"from that model)." + _change(s) + f" ({_what(s)}.)")
+        elif s.rivals:
+            lines.append(rivals_sentence(s))
+        else:
+            lines.append(OPENING[s.nature].format(name=name) + sentence(s, float(np.median(res.data.h)))
+                         + f" ({_what(s)}.)")
+    if res.accepted:
+        f = res.final
+        lines.append(f"Final: held-out error {100 * f.nrmse_heldout:.3g} % of the force range, RMSE "
+                     f"{f.rmse_heldout:.3g} N, R^2 {f.r2_heldout:.3f}, {len(f.parameters)} parameters.")
+    lo = res.left_over
+    if lo.within_noise:
+        lines.append(f"Nothing significant was left out: the held-out residual is within the force noise "
+                     f"(p = {lo.p_value:.2g} that it is above it).")
+    else:
+        left = [loc for loc in res.remaining if loc["concentration"] > 1.5][:2]
+        where = ("; it lives " + "; ".join(_where(loc) for loc in left)) if left else ", spread over the whole recording"
+        lines.append(f"Still unexplained: {lo.above_noise_rms_n:.3g} N RMS above the force noise on the held-out "
+                     f"cycles (p = {lo.p_value:.2g}); no effect or term tried takes it further{where}.")
+    for n in res.data.notes:
+        lines.append(f"Not assessed: {n}.")
+    return "\n".join(lines)

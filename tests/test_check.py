@@ -112,3 +112,12 @@ def test_one_speed_runs_are_read_along_the_stroke_and_a_slow_one_at_its_own_spee
     slow = [_one_speed(0.012, 1000.0)]  # 12 mm/s: below every standard speed
     out = qa.verdicts(slow, slow, qa.parse_tolerance("5%"))
     assert [r.v_m_s for r in out[::2]] == pytest.approx([0.003, 0.006, 0.009]) and all(r.passed for r in out)
+
+
+def test_a_catalogued_one_speed_run_trends_as_unmeasured_not_as_an_error():
+    """The catalogue keeps a run's peaks, not its strokes: a one-speed run's force at a speed
+    is unknown there (nan), never an AttributeError in `runs trend`."""
+    from protocols.catalogue import force_at
+    row = {"segment": "sine 19 mm 1.05 Hz", "amplitude_mm": 19.0, "freq_hz": 1.05, "target_c": None,
+           "v_comp": 0.125, "F_comp": 500.0, "v_reb": -0.125, "F_reb": -400.0}
+    assert np.isnan(force_at([row], "compression", 0.1))

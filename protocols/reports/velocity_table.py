@@ -81,7 +81,7 @@ def _along_stroke(speeds, rows, field):
     that reached each speed), nan where none did."""
     comp, reb = np.full((2, len(rows), len(speeds)), np.nan)
     for i, p in enumerate(rows):
-        F = getattr(p, field)
+        F = getattr(p, field, ())  # (the catalogue keeps peaks, not strokes: nothing to read)
         if len(F):
             comp[i] = np.interp(speeds, p.stroke_v, F, left=np.nan, right=np.nan)
             reb[i] = np.interp(-speeds, p.stroke_v, F, left=np.nan, right=np.nan)

@@ -190,7 +190,8 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
     v_peak = float(row[6])  # mm/s: a crank's peak speed is near 2 pi f r
     assert abs(v_peak / (2 * np.pi * 1.05 * 19) - 1) < 0.05
     # one speed: the velocity table is read along the stroke, up to the top speed reached
-    assert "read along the stroke" in (tmp_path / "rep" / "index.html").read_text()
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "read along the stroke" in page and "Force against shaft speed along the stroke" in page
     table = {float(r.split(",")[0]): r.split(",")[1:3] for r in
              (tmp_path / "rep" / "velocity.csv").read_text().splitlines()[1:]}
     x_mid = 0.03 + 0.019  # m: the gas and spring force of the file's damper at mid-stroke

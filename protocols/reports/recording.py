@@ -106,6 +106,26 @@ def _header(page, meta, events, model):
         page.items(_round_item(e) for e in rounds)
 
 
+def _stroke_figure(rows, out, model, units):
+    """A one-speed run's curve: the force read along its stroke against shaft speed, per
+    direction (rebound as magnitude), the model's along the same motion dashed."""
+    V, F_ = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for i, p in enumerate(rows):
+        c, r = p.stroke_v > 0, p.stroke_v < 0
+        line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}", label=f"{p.segment} compression")[0]
+        ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color(), label=f"{p.segment} rebound")
+        if model is not None and len(p.model_stroke_F):
+            ax.plot(V(p.stroke_v[c]), F_(p.model_stroke_F[c]), ":", color="k", lw=1)
+            ax.plot(V(-p.stroke_v[r]), -F_(p.model_stroke_F[r]), ":", color="k", lw=1)
+    ax.set(title="Force along the stroke\n(one speed tested: the loop's mid-line" + ("; dotted: model)" if model is not None
+                                                                                   else ")"),
+           xlabel=units.label("shaft speed", "velocity"), ylabel=f"{units.label('force', 'force')}, rebound as magnitude")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return "Force against shaft speed along the stroke", save(fig, out / "composite.png")
+
+
 def _round_item(e):
     """(label, text) of a discovery event."""
     p = e.get("params", {})
@@ -152,6 +172,8 @@ def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7, title="dashed: model" if model is not None else None, title_fontsize=7)
     figures = [("Force-velocity and force-displacement loops (compression positive)", save(fig, out / "loops.png"))]
+    if vt.method(rows) == "stroke":  # one speed: a composite would be two points
+        return figures + [_stroke_figure(rows, out, model, units)] + force_temperature_figure(rows, out, units)
     damping = all(np.isfinite(p.Fd_comp) for p in rows)
     fig, ax = plt.subplots(figsize=(7, 5))
     groups = {}

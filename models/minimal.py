@@ -13,8 +13,7 @@ import numpy as np
 
 from models.damper import DamperError
 from models.damper import load as load_damper
-from models.diagnose.candidates import VALVES, damping, gas
-from models.diagnose.spec import V_EPS
+from models.diagnose.candidates import VALVES, Minimal
 
 KIND = "minimal"  # the JSON's "model"
 NEEDED = VALVES + ("G0", "L", "F_c")
@@ -27,11 +26,11 @@ class MinimalModel:
     x_mid_m: float | None = None  # the gas force's reference position [m]; None: the motion's mean
 
     def force(self, x, v):
-        """Force [N] along displacement x [m] and velocity v [m/s] (compression positive)."""
+        """Force [N] along displacement x [m] and velocity v [m/s] (compression positive):
+        the diagnosis's baseline with these values (candidates.Minimal)."""
         x, v = np.asarray(x, float), np.asarray(v, float)
-        x_m = float(np.mean(x)) if self.x_mid_m is None else self.x_mid_m
-        p = self.parameters
-        return damping(v, p) + gas(x, x_m, p) + p["F_c"] * np.tanh(v / V_EPS)
+        Fd, Fg, Ff, _ = Minimal(SimpleNamespace(x=x), self.x_mid_m).parts(None, self.parameters, x, v, 0.0)
+        return Fd + Fg + Ff
 
     def simulate(self, t, x, v, T=None):
         """The force along measured motion, shaped as a full model's simulation (.force)."""
@@ -43,7 +42,9 @@ def load(path) -> MinimalModel:
     try:
         doc = json.loads(Path(path).read_text())
         values = {k: float(doc["parameters"][k]["value"]) for k in NEEDED}
-    except (KeyError, TypeError, ValueError) as e:
+    except KeyError as e:
+        raise DamperError(f"{Path(path).name}: not a minimal model: no parameter {e}") from None
+    except (TypeError, ValueError) as e:
         raise DamperError(f"{Path(path).name}: not a minimal model ({e})") from None
     if not all(np.isfinite(list(values.values()))):
         raise DamperError(f"{Path(path).name}: a parameter is not a finite number")

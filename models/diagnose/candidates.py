@@ -117,8 +117,8 @@ class Minimal:
     """Baseline `minimal` (see the module's docstring), fitted whole."""
     name = "minimal"
 
-    def __init__(self, d):
-        self.x_m = float(np.mean(d.x))
+    def __init__(self, d, x_m=None):  # x_m [m]: the gas force's reference, by default the data's mean
+        self.x_m = float(np.mean(d.x)) if x_m is None else x_m
 
     def params(self, d):
         return baseline_params(d)

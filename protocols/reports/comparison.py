@@ -131,7 +131,7 @@ def _speeds_table(runs, units):
     """(how read, header, rows) of every run's velocity table at the speeds all reached, read
     the same way (along the stroke when one of them ran one speed, as `dyno check` reads
     them), with each run's difference from the first [%]; None when no speed is shared."""
-    how = "peaks" if all(vt.method(rows) == "peaks" for _, _, rows, _ in runs) else "stroke"
+    how = vt.method(*(rows for _, _, rows, _ in runs))
     tables = [vt.velocity_table(rows, None, units, how) for _, _, rows, _ in runs]
     keep = [i for i in range(len(tables[0])) if all(np.isfinite(t[i].F_comp_N) and np.isfinite(t[i].F_reb_N)
                                                      for t in tables)]

@@ -83,7 +83,7 @@ def verdicts(run_rows, ref_rows, tol: Tolerance, speeds=None, units=Units()) -> 
     """Per speed (the velocity table's, [m/s]; by default the unit system's standard
     points) and direction where both were measured. Both are read the same way: along the
     stroke when either ran one speed only (velocity_table.method), else from the peaks."""
-    how = "peaks" if vt.method(run_rows) == vt.method(ref_rows) == "peaks" else "stroke"
+    how = vt.method(run_rows, ref_rows)
     out = _verdicts(run_rows, ref_rows, tol, speeds, units, how)
     if not out and speeds is None:  # a slow run: no standard speed reached; its own speeds
         out = _verdicts(run_rows, ref_rows, tol, vt.own_speeds(run_rows), units, "stroke")

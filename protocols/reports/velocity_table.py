@@ -59,11 +59,13 @@ def _at(speeds, v, F):
     return np.interp(speeds, vc, Fc, left=np.nan, right=np.nan)
 
 
-def method(rows) -> str:
-    """"peaks" when the run's sine segments reached two speeds or more, "stroke" for one."""
-    rows = [p for p in rows if np.isnan(p.target_c)]
-    return "peaks" if len(_curve(np.array([p.v_comp for p in rows], float),
-                                 np.array([p.F_comp for p in rows], float))[0]) >= 2 else "stroke"
+def method(*runs) -> str:
+    """"peaks" when every run's sine segments reached two speeds or more, else "stroke":
+    runs compared are read alike, along the stroke when one of them ran one speed."""
+    def speeds(rows):
+        rows = [p for p in rows if np.isnan(p.target_c)]
+        return len(_curve(np.array([p.v_comp for p in rows], float), np.array([p.F_comp for p in rows], float))[0])
+    return "peaks" if all(speeds(rows) >= 2 for rows in runs) else "stroke"
 
 
 SHARES = (0.25, 0.5, 0.75)  # of the top speed: a slow run's own table speeds

@@ -118,7 +118,7 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
             say(f"{why}; no further tests")
             stopped = f"the diagnosis failed ({describe(e)})"
             break
-        now = Round(list(diag.accepted), [r.said for r in rv.values()],
+        now = Round(diag.named(), [r.said for r in rv.values()],
                     settled=[r.said for k, r in before.items() if k not in rv])
         rounds.append(now)
         t = cell.rig.clock()

@@ -140,7 +140,7 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
     r = found.diagnosis if found else diagnose(ch, ev)
     rounds = found.rounds if found else []
     hidden = set(effect.split("+")) if effect else set()
-    first = _first(r.accepted, hidden)
+    first = _first(r.named(), hidden)
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
         est = next(s.parameters for s in r.steps if s.effect.split(":")[0] == first).get(CATALOGUE[effect].estimate)
@@ -157,14 +157,16 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
     # compensating the form of" an earlier one (docs/diagnosis.md)
     # a timing offset of the cell or the valve curve's form is no claim of physics
     # (models/diagnose/spec.py NATURES): not counted against a null or as an extra
-    claims = [e for e in r.accepted if SPECS[e.split(":")[0]].nature in ("physics", "open")]
+    # physics below the practical size is kept in the model but not named: no claim
+    claims = [e for e in r.named() if SPECS[e.split(":")[0]].nature in ("physics", "open")]
     extra = [s for s in r.steps if s.effect.split(":")[0] not in hidden and s.effect in claims]
     return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
             "rounds": [dataclasses.asdict(x) for x in rounds], "added_s": found.spent_s if found else 0.0,
             # the opening's diagnosis: what the prove plan alone named, on the same recording
             "first_opening": _first(rounds[0].accepted, hidden) if rounds else first,
             "accepted": r.accepted, "claims": claims, "first": first, "noise_sd": r.noise_sd,
-            "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n")}
+            "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n",
+                                                  "relevance", "excess_share")}
                       for s in r.steps if not s.replaced_by],
             "within_noise": r.left_over.within_noise,
             "rmse": (r.baseline.rmse_heldout, r.final.rmse_heldout),

@@ -19,6 +19,9 @@ def test_prove_conceals_every_effect_in_every_form():
     from sim_backend.effects import FORMS
     _, _, prove = plain_cell()
     assert set(prove["concealed"]) == set(CATALOGUE) | set(FORMS)
+    # each concealed value is one the plant takes
+    for key, value in prove["concealed"].items():
+        parse([f"{key}={value}"])
 
 
 def test_each_effect_is_sized_by_one_of_its_own_parameters():

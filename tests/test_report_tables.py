@@ -132,3 +132,52 @@ def test_a_sine_the_plan_moved_to_another_frequency_is_marked_adapted_with_why(t
     assert body[1][0].startswith("sine 12.7 mm 7.3 Hz (adapted: asked 18 Hz: expected force")
     head, *lines = peaks.write_csv(rows, tmp_path / "p.csv").read_text().splitlines()
     assert head.endswith(",short_pct,adapted") and lines[0].endswith(",") and "asked 18 Hz" in lines[1]
+
+
+def _sine_run(amp_m, f, noise_v, rate=1000.0, seconds=8.0, c=3000.0, offset=100.0, seed=0):
+    """A sine segment with a damper of force c v + offset, its velocity channel noisy."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, seconds, 1.0 / rate)
+    x = 0.05 + amp_m * np.sin(2 * np.pi * f * t)
+    v_true = 2 * np.pi * f * amp_m * np.cos(2 * np.pi * f * t)
+    ch = {"force": (t, c * v_true + offset + rng.normal(0.0, 5.0, len(t))), "x": (t, x),
+          "v": (t, v_true + rng.normal(0.0, noise_v, len(t)))}
+    return ch, [(f"sine {1e3 * amp_m:g} mm {f:g} Hz", {"kind": "sine", "amplitude_mm": 1e3 * amp_m, "freq_hz": f},
+                 0.0, seconds)]
+
+
+def test_peak_speed_comes_from_the_motion_not_from_a_noisy_velocity_sample():
+    # issue 45: 1.6 mm at 1 Hz read 17.30 mm/s off the largest sample where 2 pi f A is 10.05
+    ch, segs = _sine_run(1.6e-3, 1.0, noise_v=3e-3)
+    v_max_sample = float(np.max(ch["v"][1]))
+    assert v_max_sample > 1.5 * 2 * np.pi * 1.6e-3  # the old reading: far over
+    p = peaks.peaks(ch, segs)[0]
+    target = 2 * np.pi * 1.0 * 1.6e-3
+    assert p.v_comp == pytest.approx(target, rel=0.005) and p.v_reb == pytest.approx(-target, rel=0.005)
+    assert p.F_comp == pytest.approx(3000 * target + 100, abs=2.0)  # the averaged cycle at the peak
+    assert p.F_reb == pytest.approx(-3000 * target + 100, abs=2.0)
+    assert p.cycles == 6 and abs(p.short_pct) < 0.5  # 8 s less the settling cycle: 6 whole ones
+
+
+def test_a_run_faster_than_asked_is_flagged_over_speed():
+    ch, segs = _sine_run(2.0e-3, 2.0, noise_v=0.0)
+    segs[0][1]["amplitude_mm"] = 1.6  # asked 1.6 mm, ran 2 mm
+    p = peaks.peaks(ch, segs)[0]
+    assert p.short_pct == pytest.approx(-25.0, abs=0.5)
+    _, body = peaks.table([p])
+    assert body[0][0].endswith("(speed 25 % over)")
+
+
+def test_a_crank_stroke_is_fitted_with_its_overtones_and_no_sine_falls_back_to_samples():
+    rate, f, r, l = 500.0, 2.0, 0.02, 0.06  # a slider-crank: crank radius 20 mm, rod 60 mm
+    t = np.arange(0.0, 6.0, 1.0 / rate)
+    th = 2 * np.pi * f * t
+    x = r * (1 - np.cos(th)) + l - np.sqrt(l ** 2 - (r * np.sin(th)) ** 2)
+    v = np.gradient(x, t)
+    ch = {"force": (t, 2000 * v), "x": (t, x), "v": (t, v)}
+    segs = [("crank", {"kind": "sine", "amplitude_mm": 20.0, "freq_hz": f}, 0.0, 6.0)]
+    p = peaks.peaks(ch, segs)[0]
+    assert p.cycles > 0 and p.v_comp == pytest.approx(np.max(v), rel=0.01)
+    assert p.v_reb == pytest.approx(np.min(v), rel=0.01)  # a crank's rebound peak differs from compression
+    ch["x"] = (t, np.where(t < 3.0, 0.0, 0.01))  # a step: no sine at that frequency
+    assert peaks.peaks(ch, segs)[0].cycles == 0

@@ -41,6 +41,12 @@ RELEVANCE = 0.1
 REFIT_EFFORT = 4  # function evaluations per parameter when an accepted term is refitted with the rest
 LAG_RESOLVED = 0.02  # of a sample period: a lag shorter than this, its interval reaching zero, is not resolved
 SHARE = 0.01
+# practical size (docs/diagnosis.md, chosen on the nulls of both generators): physics is
+# named only when its held-out gain is at least NAMED_NOISE force-noise variances and at
+# least NAMED_SHARE of the held-out mean-square error above the noise; smaller significant
+# gains stay in the model and are said as small, not named
+NAMED_NOISE = 0.3
+NAMED_SHARE = 0.25
 BOOT = 2000
 SURE_HITS = 50
 
@@ -228,7 +234,9 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         steps.append(Step(best.effect, scores(d.F, r_cur, shown)["nrmse_heldout"], best.nrmse_heldout,
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
                           # the earlier effects whose form this one may be compensating, in acceptance order
-                          [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals))
+                          [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals,
+                          relevance=best.relevance, excess_share=best.gain / max(mse - sigma ** 2, 1e-30),
+                          small=_small(best, mse, sigma)))
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
@@ -251,6 +259,15 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
 def _term(e):
     """Is e a term outside the catalogue (or the baseline's form reshaped), not a named effect?"""
     return EFFECTS[e.split(":")[0]].nature in ("open", "form")
+
+
+def _small(c, mse, sigma):
+    """Is an accepted candidate's gain below the practical size (NAMED_NOISE, NAMED_SHARE)?
+    Only physics and terms outside the catalogue are held to it: the cell's timing and the
+    valve curve's form are not said as physics left out."""
+    if EFFECTS[c.effect.split(":")[0]].nature not in ("physics", "open"):
+        return False
+    return c.relevance < NAMED_NOISE or c.gain < NAMED_SHARE * max(mse - sigma ** 2, 0.0)
 
 
 def _chosen(ok, block, judged, judged_blocks, alpha, rng):

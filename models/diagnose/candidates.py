@@ -402,7 +402,7 @@ CATALOGUE = {e.name: e for e in (
                'lingering': 'the air released below VALUE redissolves over CAV_REDISSOLVE_S: the lost push recovers '
                             'with that lag',
                'soft': 'air comes out of solution from twice VALUE down: the chamber approaches VALUE exponentially',
-           }, hi=1e6),
+           }, hi=1e7),  # 100 bar: above any gas charge
     ),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
            _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),

@@ -56,6 +56,11 @@ class Step:
     # the round's other candidates the held-out blocks cannot tell from it:
     # [(effect, gain in noise variances, paired p that this one is better)], largest gain first
     rivals: list = field(default_factory=list)
+    # its practical size when accepted: held-out gain in force-noise variances, and the share
+    # of the held-out mean-square error above the noise it took away
+    relevance: float = float("nan")
+    excess_share: float = float("nan")
+    small: bool = False  # significant but below the practical size: kept in the model, not named (named())
     # what it is (describe): spec.NATURES, spec.VARIABLES, where it lives, elastic or dissipative, size
     nature: str = ""
     depends_on: list = field(default_factory=list)
@@ -101,3 +106,7 @@ class Diagnosis:
     final: Final
     noise_from: str = ""  # where the noise estimate came from, in words (noise_from())
     described: dict = field(default_factory=dict)  # {effect: damper}: physics the recording's own damper has
+
+    def named(self):
+        """The accepted effects said as findings: not dropped again, not small."""
+        return [s.effect for s in self.steps if not s.replaced_by and not s.small]

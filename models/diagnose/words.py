@@ -96,6 +96,15 @@ def rivals_sentence(step):
             f"separates them." + _change(step))
 
 
+def small_sentence(step, span):
+    """A significant gain below the practical size: its size, and no mechanism."""
+    pct = f", {100 * step.size_rms_n / span:.2g} % of the force range" if span > 0 else ""
+    return (f"Small, not named: a misfit that {said(step.effect)} takes up, {step.size_rms_n:.3g} N RMS{pct} "
+            f"({step.relevance:.2g} force-noise variances, {100 * step.excess_share:.0f} % of the held-out error "
+            f"above the noise): real on the held-out cycles but too small to say which physics it is; kept in "
+            f"the model." + _change(step))
+
+
 def _size(step):
     return f"{step.size_rms_n:.3g} N RMS, {step.size_peak_n:.3g} N at most"
 
@@ -131,10 +140,13 @@ def summary(res):
     strong = [loc for loc in res.locations if loc["concentration"] > 2.0][:3]
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
+    span = float(np.ptp(res.data.F)) if len(res.data.F) else 0.0
     for s in res.steps:
         name = said(s.effect)
         if s.replaced_by:
             lines.append(f"Dropped again: {name}. {said(s.replaced_by)} explains its gain as well without it.")
+        elif s.small:
+            lines.append(small_sentence(s, span))
         elif s.compensates:
             why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
                    for e, c in s.trades_with]

@@ -43,13 +43,16 @@ def to_json(res):
                         **{k: getattr(c, k) for k in held}, "p_value": c.p_value,
                         "gain_noise_variances": c.relevance} for c in res.candidates],
         "accepted": res.accepted,
+        "named": res.named(),
         "may_compensate": {s.effect: s.compensates for s in res.steps if s.compensates},
         # each accepted effect or term: what it depends on, where it lives, what kind and how big
         "effects": [{"effect": s.effect, "replaced_by": s.replaced_by} if s.replaced_by else
                     {"effect": s.effect, **{k: getattr(s, k) for k in ("nature", "depends_on", "region", "character",
                                                                        "size_rms_n", "size_peak_n", "tone_hz")},
                      "rivals": [{"effect": e, "gain_noise_variances": g, "paired_p": p} for e, g, p in s.rivals],
-                     "in_own_description": res.described.get(s.effect)}
+                     "in_own_description": res.described.get(s.effect),
+                     # below the practical size: kept in the model, not named (docs/diagnosis.md)
+                     "small": s.small, "gain_noise_variances": s.relevance, "excess_share": s.excess_share}
                     for s in res.steps],
         "left_over": dataclasses.asdict(res.left_over),
         "final": {**{k: getattr(res.final, k) for k in held},
@@ -149,8 +152,8 @@ def run(args):
         say(f"report: {Path(args.report) / page.name}")
     from protocols import catalogue
     findings = [{"effect": s.effect, "nature": s.nature, "parameters": {k: float(v) for k, v in s.parameters.items()}}
-                for s in res.steps if not s.replaced_by]
-    say(catalogue.add_diagnosis(args.recording, res.baseline.name, res.accepted, findings, res.left_over.within_noise))
+                for s in res.steps if s.effect in res.named()]
+    say(catalogue.add_diagnosis(args.recording, res.baseline.name, res.named(), findings, res.left_over.within_noise))
     props = None
     if getattr(args, "next", False):
         props = design.propose(res, limits, budget)

@@ -73,6 +73,12 @@ def run(args):
                     tasks.append((None if e == "null" else e, form, size, values, seed, level, rate, *adaptive))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
                 tasks.append((None, None, 1.0, None, seed, level, rate, *adaptive))
+    from sim_backend.effects import EffectError, parse
+    for _, form, size, values, *_ in tasks:  # a size the plant cannot take is refused before any run
+        try:
+            parse([f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()])
+        except EffectError as err:
+            raise RigError(f"--sizes {size:g}: {err}") from None
     names = [f"{e or 'null'} {form or ''} x{size:g} noise x{level:g} {rate:g} Hz seed {seed}"
              for e, form, size, _, seed, level, rate, *_ in tasks]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):

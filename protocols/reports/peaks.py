@@ -16,6 +16,11 @@ READS = ("force", "x", "v", "T_body")  # the channels the peaks are read from (l
 T_ROOM = 293.15  # K: a segment's temperature when the recording has no body thermocouple
 SHORT_PCT = 3.0  # a segment whose peak speed falls short of its target by more is flagged
 STROKE_BINS = 20  # speed bins per direction of the force read along the stroke
+# the motion's fit: a sine and its overtones (a crank's stroke carries its rod ratio's
+# second and third harmonics; a servo's sine has none to speak of) - a choice
+HARMONICS = 3
+FIT_MISFIT = 0.05  # of the half-travel: a worse fit is no sine, its peaks are read off the samples
+PHASE_WINDOW = 0.01  # of a cycle either side of the peak speed's phase the force is averaged over
 
 
 @dataclass
@@ -34,7 +39,8 @@ class Peak:
     model_comp: float = np.nan  # the model's force at the same instants [N]
     model_reb: float = np.nan
     achieved_mm: float = np.nan  # amplitude the rod reached, half its travel over the segment [mm]
-    short_pct: float = np.nan  # how far the peak speed fell short of 2 pi f A [% of it]
+    short_pct: float = np.nan  # how far the peak speed fell short of 2 pi f A [% of it]; negative: over
+    cycles: int = 0  # settled cycles the peaks are averaged over (0: read off single samples)
     adapted: str = ""  # recorded at another frequency than asked for by the pre-flight: what and why
     # the force read along the stroke (stroke()): speeds [m/s] rising from rebound to
     # compression, the measured force and the model's there [N]; what a one-speed run's
@@ -129,6 +135,70 @@ def stroke(v, F):
     return v_all[order], F_all[order]
 
 
+@dataclass
+class Cycle:
+    """A sine segment's averaged cycle: the displacement's harmonic fit at the segment's
+    frequency, and where on the cycle its speed peaks."""
+    freq_hz: float
+    phase: np.ndarray  # of each sample, 0..1 of a cycle
+    x: np.ndarray  # fitted displacement at each sample [m]
+    v: np.ndarray  # its derivative [m/s]
+    peak_phase: tuple  # (compression, rebound) phase of the fitted peak speeds
+    v_peak: tuple  # (compression, rebound) fitted peak speeds [m/s]
+    cycles: int  # whole cycles averaged
+
+    def at_peaks(self, y):
+        """The mean of y over the samples within PHASE_WINDOW of each peak's phase, all
+        cycles together: (compression, rebound)."""
+        half = max(PHASE_WINDOW, 0.6 / max(len(y) / max(self.cycles, 1), 1.0))
+        out = []
+        for ph in self.peak_phase:
+            near = np.abs((self.phase - ph + 0.5) % 1.0 - 0.5) <= half
+            out.append(float(np.mean(y[near])) if np.any(near) else np.nan)
+        return tuple(out)
+
+
+def _harmonics(t, f, n=HARMONICS):
+    w = 2 * np.pi * f * t
+    return np.column_stack([np.ones(len(t))] + [g(k * w) for k in range(1, n + 1) for g in (np.sin, np.cos)])
+
+
+def cycle(t, x, freq_hz):
+    """The averaged cycle of a sine segment's settled samples (Cycle), or None when its
+    displacement is no periodic motion at that frequency (the fit misses by more than
+    FIT_MISFIT of the half-travel). The frequency is refined within 2 % first: an imported
+    run's is estimated."""
+    if freq_hz <= 0 or len(t) < 4 * (2 * HARMONICS + 1):
+        return None
+    t = t - t[0]
+    half = 0.5 * float(np.ptp(x))
+    if half <= 0 or t[-1] * freq_hz < 1.0:
+        return None
+
+    def fit(f, step=1):
+        A = _harmonics(t[::step], f)
+        c = np.linalg.lstsq(A, x[::step], rcond=None)[0]
+        return float(np.sum((A @ c - x[::step]) ** 2)), c
+    step = max(1, len(t) // 20000)  # the search on a thinned copy: a long import's million samples
+    fs = freq_hz * np.linspace(0.98, 1.02, 41)
+    i = int(np.argmin([fit(f, step)[0] for f in fs]))
+    fine = fs[max(i - 1, 0)] + (fs[min(i + 1, len(fs) - 1)] - fs[max(i - 1, 0)]) * np.linspace(0, 1, 21)
+    f = float(min(fine, key=lambda g: fit(g, step)[0]))
+    sse, c = fit(f)
+    if np.sqrt(sse / len(t)) > FIT_MISFIT * half:
+        return None
+    k = np.arange(1, HARMONICS + 1)
+    w = 2 * np.pi * f
+
+    def speed(tt):  # the fit's derivative [m/s]
+        return sum(w * kk * (c[2 * kk - 1] * np.cos(kk * w * tt) - c[2 * kk] * np.sin(kk * w * tt)) for kk in k)
+    grid = np.linspace(0.0, 1.0 / f, 2000, endpoint=False)
+    vg = speed(grid)
+    ic, ir = int(np.argmax(vg)), int(np.argmin(vg))
+    return Cycle(f, (t * f) % 1.0, _harmonics(t, f) @ c, speed(t), (ic / len(grid), ir / len(grid)),
+                 (float(vg[ic]), float(vg[ir])), int(t[-1] * f))
+
+
 def peaks(ch, segs, damper=None, model=None):
     """[Peak] of the sine segments. damper: a full model whose gas and friction are taken
     off for the damping force; model: a full model simulated along each segment."""
@@ -141,24 +211,36 @@ def peaks(ch, segs, damper=None, model=None):
             continue
         late = t >= t[0] + settled_after(prm)  # a model simulated along the segment has settled
         late = late if late.sum() > 10 else np.ones(len(t), bool)
-        ic, ir = (int(np.flatnonzero(late)[0] + f(v[late])) for f in (np.argmax, np.argmin))
         T = segment_temperature(ch, t0, t1)
-        p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T - 273.15,
-                 float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]))
+        # peak speed from the fitted motion, force from the averaged cycle at that phase (as
+        # commercial dyno software reads it): a noisy velocity channel's largest sample is not
+        # the rod's speed; a segment that is no sine falls back to single samples
+        cyc = cycle(t[late], x[late], prm["freq_hz"])
+        if cyc is not None:
+            (vc, vr), (Fc, Fr) = cyc.v_peak, cyc.at_peaks(F[late])
+            xs = np.array(cyc.at_peaks(x[late]))
+            v_read = cyc.v
+        else:
+            ic, ir = (int(np.flatnonzero(late)[0] + f(v[late])) for f in (np.argmax, np.argmin))
+            vc, Fc, vr, Fr, xs = float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]), x[[ic, ir]]
+            v_read = v[late]
+        p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T - 273.15, vc, Fc, vr, Fr)
+        p.cycles = cyc.cycles if cyc is not None else 0
         p.achieved_mm = 0.5 * float(np.ptp(x[late])) * 1e3
         p.adapted = prm.get("adapted", "")
-        p.stroke_v, p.stroke_F = stroke(v[late], F[late])
+        p.stroke_v, p.stroke_F = stroke(v_read, F[late])
         target = 2 * np.pi * prm["freq_hz"] * prm["amplitude_mm"] * 1e-3
         p.short_pct = 100.0 * (1.0 - 0.5 * (p.v_comp - p.v_reb) / target) if target > 0 else np.nan
         if damper is not None:
             from models.physics.simulate import simulate
-            r = simulate(damper, np.arange(2) * 1e-3, x[[ic, ir]], v[[ic, ir]], T=T, compressible=False,
+            r = simulate(damper, np.arange(2) * 1e-3, xs, np.array([vc, vr]), T=T, compressible=False,
                          x_e=damper.mid_stroke)
             p.Fd_comp, p.Fd_reb = np.array([p.F_comp, p.F_reb]) - (r.gas + r.friction)
         if model is not None:
             r = simulate_segment(model, t, x, v, T)
-            p.model_comp, p.model_reb = float(r.force[ic]), float(r.force[ir])
-            p.model_stroke_F = stroke(v[late], r.force[late])[1]
+            p.model_comp, p.model_reb = (cyc.at_peaks(r.force[late]) if cyc is not None
+                                         else (float(r.force[ic]), float(r.force[ir])))
+            p.model_stroke_F = stroke(v_read, r.force[late])[1]
         out.append(p)
     return out
 
@@ -184,9 +266,9 @@ def write_csv(rows, path, units=Units()):
     """peaks.csv: a column per field with its unit in the name; blank where not measured."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["segment"] + [units.column(name, q) for _, name, q, _, _ in COLUMNS] + ["short_pct", "adapted"])
+        w.writerow(["segment"] + [units.column(name, q) for _, name, q, _, _ in COLUMNS] + ["cycles_averaged", "short_pct", "adapted"])
         for p in rows:
-            values = [shown(p, c[0], units) for c in COLUMNS] + [p.short_pct]
+            values = [shown(p, c[0], units) for c in COLUMNS] + [p.cycles, p.short_pct]
             w.writerow([p.segment] + ["" if not np.isfinite(v) else f"{v:.6g}" for v in values] + [p.adapted])
     return path
 
@@ -204,7 +286,8 @@ def table(rows, units=Units()):
     body = []
     for p in rows:
         span = max(p.F_comp - p.F_reb, 1e-9)
-        short = f" (speed {p.short_pct:.0f} % short)" if p.short_pct > SHORT_PCT else ""
+        short = (f" (speed {p.short_pct:.0f} % short)" if p.short_pct > SHORT_PCT else
+                 f" (speed {-p.short_pct:.0f} % over)" if p.short_pct < -SHORT_PCT else "")
         short += f" (adapted: {p.adapted})" if p.adapted else ""
         fields = ["amplitude_mm", "achieved_mm", "freq_hz", "T_c", "v_comp", "F_comp", "v_reb", "F_reb"]
         fields += ["Fd_comp", "Fd_reb"] if has_d else []

@@ -41,11 +41,21 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         peaks.write_csv(rows, out / "peaks.csv", units)
         page.heading("Peak forces per sine segment (also peaks.csv)")
         page.table(*peaks.table(rows, units))
+        averaged = sorted({p.cycles for p in rows if p.cycles})
+        if averaged:
+            page.paragraph(f"Peak speeds are those of a sine and its overtones fitted to the measured displacement; "
+                           f"forces are read at those instants from the averaged cycle of the settled cycles "
+                           f"({averaged[0]}{'' if len(averaged) == 1 else f' to {averaged[-1]}'} per segment).")
         short = [p.segment for p in rows if p.short_pct > peaks.SHORT_PCT]
         if short:
             page.paragraph(f"Short of the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: "
                            f"{', '.join(short)}. Their peaks are at the speed reached (the actuator's flow "
                            "or force limit, or the pre-flight's adaptation).")
+        over = [p.segment for p in rows if p.short_pct < -peaks.SHORT_PCT]
+        if over:
+            page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {', '.join(over)}. "
+                           "The rod moved faster than asked (an overshooting actuator, or a run imported with "
+                           "another amplitude than it ran).")
         speeds_table = vt.velocity_table(rows, speeds, units)
         at = "standard shaft velocities"
         if not vt.has_rows(speeds_table) and speeds is None:  # a slow run: at its own speeds

@@ -27,6 +27,7 @@ from protocols.io.files import writer
 from protocols.io.reader import load_recording
 from protocols.reports import peaks as peak_rows
 from protocols.reports import velocity_table as vt
+from protocols.units import parse_with_unit
 from rig.errors import RigError
 
 DB_NAME = "dyno-runs.sqlite"
@@ -319,7 +320,7 @@ def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=No
     """The catalogue's runs, oldest first, filtered by serial, start (ISO date or time,
     UTC), protocol and a `where` expression (condition)."""
     sql, args = [], []
-    for col, op, value in (("serial", "=", serial), ("started", ">=", since), ("protocol", "=", protocol)):
+    for col, op, value in (("serial", "=", serial), ("started", ">=", since_time(since)), ("protocol", "=", protocol)):
         if value is not None:
             sql.append(f"{col} {op} ?")
             args.append(value)
@@ -385,20 +386,35 @@ def run(c: sqlite3.Connection, run_id) -> tuple[sqlite3.Row, list[sqlite3.Row]]:
     return row, c.execute("SELECT * FROM peaks WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
 
 
-QUANTITY = re.compile(r"^(compression|rebound)@([0-9]{1,6}(?:\.[0-9]{0,9})?|\.[0-9]{1,9})(m/s|in/s)$")
 MAX_SPEED = 20.0  # m/s: beyond any damper dyno
 
 
 def quantity(text):
-    """("compression" | "rebound", speed [m/s]) from e.g. "rebound@0.5m/s" or
-    "compression@10in/s"."""
-    m = QUANTITY.match(text.replace(" ", ""))
-    if not m:
-        raise CatalogueError(f"--quantity {text!r}: give DIRECTION@SPEED with a unit, e.g. rebound@0.5m/s")
-    speed = float(m.group(2)) * (0.0254 if m.group(3) == "in/s" else 1.0)
+    """("compression" | "rebound", speed [m/s]) from e.g. "rebound@0.5m/s", "rebound@500mm/s"
+    or "compression@10in/s": any velocity unit units.toml names."""
+    direction, at, speed_text = text.replace(" ", "").partition("@")
+    if direction not in ("compression", "rebound") or not at:
+        raise CatalogueError(f"--quantity {text!r}: give DIRECTION@SPEED with a unit, e.g. rebound@0.5m/s "
+                             f"(DIRECTION: compression or rebound)")
+    try:
+        speed = parse_with_unit("velocity", speed_text)
+    except ValueError as e:
+        raise CatalogueError(f"--quantity {text!r}: the speed {e}") from None
     if not 0 < speed <= MAX_SPEED:
         raise CatalogueError(f"--quantity {text!r}: a speed above 0 and at most {MAX_SPEED:g} m/s")
-    return m.group(1), speed
+    return direction, speed
+
+
+def since_time(text):
+    """A --since filter as the catalogue stores start times (ISO, UTC): a date or a date and
+    time; CatalogueError otherwise ("yesterday" matched nothing without a word)."""
+    if text is None:
+        return None
+    try:
+        t = datetime.fromisoformat(text.strip())
+    except ValueError:
+        raise CatalogueError(f"--since {text!r}: not a date: give YYYY-MM-DD or YYYY-MM-DDTHH:MM (UTC)") from None
+    return (t.astimezone(timezone.utc) if t.tzinfo else t).isoformat()  # compared as the stored UTC text
 
 
 def force_at(peaks, direction, speed):

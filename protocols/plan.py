@@ -126,9 +126,12 @@ def parse(cls, pairs):
         kind = hints[name]
         try:
             if typing.get_origin(kind) in (list, tuple):
-                kwargs[name] = [float(v) for v in text.split(",") if v.strip()]
-                if not kwargs[name]:
+                items = text.split(",")
+                if not text.strip():
                     raise ParamError(f"{name}: needs at least one value")
+                if any(not v.strip() for v in items):
+                    raise ParamError(f"{name}: {text!r} has an empty item: give values separated by single commas")
+                kwargs[name] = [float(v) for v in items]
             elif kind is bool:
                 if text.lower() not in ("true", "false"):
                     raise ParamError(f"{name}: {text!r} is not true or false")

@@ -43,6 +43,24 @@ class Units:
         return f"{name}_{self.unit(quantity).replace('/', '_')}"
 
 
+def parse_with_unit(quantity: str, text: str) -> float:
+    """'5lbf', '20 N', '500mm/s' -> the SI value; the unit any system names for the
+    quantity. ValueError names the units accepted when there is none or another."""
+    names = {u: (scale, offset) for s in SYSTEMS.values() for u, scale, offset in [s[quantity]]}
+    t = text.replace(" ", "")
+    unit = max((u for u in names if t.endswith(u)), key=len, default=None)
+    number = t[:-len(unit)] if unit else t
+    try:
+        value = float(number)
+    except ValueError:
+        value = None
+    if unit is None or value is None or not np.isfinite(value):
+        raise ValueError(f"{text!r} is not a {quantity} with its unit (one of {', '.join(names)}, e.g. "
+                         f"{ {'force': '5N', 'velocity': '0.5m/s'}.get(quantity, '1' + next(iter(names)))})")
+    scale, offset = names[unit]
+    return (value - offset) / scale
+
+
 def quantity_of(si_unit: str) -> str | None:
     """The quantity an SI unit measures ('N' -> 'force'), or None (a recording's channels
     carry SI unit names)."""

@@ -56,6 +56,7 @@ def test_a_serials_force_is_trended_at_a_speed_as_the_velocity_table_reads_it(fo
     with pytest.raises(catalogue.CatalogueError, match="DIRECTION@SPEED"):
         catalogue.quantity("rebound at 0.5")
     assert catalogue.quantity("compression@10in/s") == ("compression", pytest.approx(0.254))
+    assert catalogue.quantity("rebound@500mm/s") == ("rebound", pytest.approx(0.5))  # any unit the systems name
 
 
 def test_two_runs_ending_at_once_are_both_indexed(folder, tmp_path):

@@ -19,10 +19,21 @@ def _peak(freq, F):
 def test_the_tolerance_is_a_percentage_newtons_or_the_larger_of_both():
     assert qa.parse_tolerance("5%").band(np.array([1000.0, -200.0])).tolist() == [50.0, 10.0]
     assert qa.parse_tolerance("5%,30N").band(np.array([1000.0, -200.0])).tolist() == [50.0, 30.0]
-    assert qa.parse_tolerance("40").band(np.array([1000.0])).tolist() == [40.0]
-    for bad in ("5x", "-5%", "0", "150%", ""):
+    assert qa.parse_tolerance("40N").band(np.array([1000.0])).tolist() == [40.0]
+    assert qa.parse_tolerance("5 lbf").newtons == pytest.approx(22.2411, abs=1e-4)
+    for bad in ("5x", "-5%", "0N", "150%", ""):
         with pytest.raises(ValueError, match="--tolerance"):
             qa.parse_tolerance(bad)
+    # a bare number is refused with the units: 5 % and 5 N differ thirtyfold at 150 N
+    with pytest.raises(ValueError, match=r"'5' is not a force with its unit \(one of N, lbf"):
+        qa.parse_tolerance("5")
+
+
+def test_one_qa_sentence_with_the_count_inside_and_where_it_is_outside():
+    out = qa.Verdict(0.5, "rebound", -1000.0, -959.0, 20.0)
+    assert qa.verdict(18, 1, [out]) == "FAIL: 17 of 18 inside the band; 1 outside: rebound at 500 mm/s, -4.1 %"
+    assert qa.verdict(18, 1) == "FAIL: 17 of 18 inside the band; 1 outside"
+    assert qa.verdict(8, 0) == "PASS: 8 of 8 inside the band"
 
 
 def test_each_speed_and_direction_passes_or_fails_with_its_margin():

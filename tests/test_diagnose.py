@@ -239,6 +239,28 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     assert "pre-sliding friction" in text and "magnetorheological" not in text and "--next" in text
 
 
+def test_a_significant_gain_below_the_practical_size_is_kept_but_not_named():
+    """Issue 44's null: a Bouc-Wen element took 16 % of the held-out error above the noise
+    (19.8 to 18.9 N against 13.4 N of noise) and was told as an MR fluid. Below NAMED_SHARE
+    it is said as small, with its size, and not among the names; the cell's timing is never
+    held to it."""
+    from models.diagnose import NAMED_SHARE, _small
+    from models.diagnose.result import Candidate, Step
+    from models.diagnose.words import small_sentence
+    mse, sigma = 19.8 ** 2, 13.4
+    bw = Candidate("bouc_wen", 1, {}, {}, 0.02, 18.9, 0.9, 1e-4, gain=mse - 18.9 ** 2, relevance=0.19)
+    assert _small(bw, mse, sigma)
+    bw.gain = 1.1 * NAMED_SHARE * (mse - sigma ** 2)
+    assert not _small(bw, mse, sigma)
+    lag = Candidate("sensor_delay", 1, {}, {}, 0.02, 18.9, 0.9, 1e-4, gain=1.0, relevance=0.01)
+    assert not _small(lag, mse, sigma)
+    step = Step("bouc_wen", 0.021, 0.020, {}, {}, 1e-4, np.zeros(3), np.zeros(3), [], [], [], relevance=0.19,
+                excess_share=0.16, small=True, size_rms_n=5.6)
+    text = small_sentence(step, 1200.0)
+    assert text.startswith("Small, not named: a misfit that hysteresis (Bouc-Wen) takes up, 5.6 N RMS, 0.47 %")
+    assert "16 % of the held-out error above the noise" in text and "magnetorheological" not in text
+
+
 def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
     from models.diagnose.result import Step
     from models.diagnose.words import sentence

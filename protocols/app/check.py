@@ -46,6 +46,6 @@ def run(args):
             png = qa.band_figure(results, Path(folder) / "check.png",
                                  f"{Path(args.recording).name} against {ref_name}, ±{tol}", units)
         print(out / png)
-    print(f"{'FAIL' if failed else 'PASS'}: {len(results) - len(failed)} of {len(results)} points inside the band")
+    print(qa.verdict(len(results), len(failed), failed, units))
     print(catalogue.add_check(args.recording, ref_name, tol, results))
     return 1 if failed else 0

@@ -305,7 +305,8 @@ def _analysis_commands(sub):
     ck.add_argument("--against", required=True, metavar="REF.mcap|MODEL",
                     help="the reference: another run, or a damper model (preset or FILE.json) simulated along "
                          "this run's motion")
-    ck.add_argument("--tolerance", default="5%", help="the band: 5%% of the reference, 50N, or 5%%,50N (the larger)")
+    ck.add_argument("--tolerance", default="5%",
+                    help="the band, with its unit: 5%% of the reference, 50N, 11lbf, or 5%%,50N (the larger)")
     _writes(ck, "--out", FOLDER, default=None, help="folder for check.png, the band and the run's points")
     _units(ck)
     _overwrite(ck)

@@ -77,9 +77,10 @@ def show(args):
                               [(p["segment"], V(p["v_comp"]), F(p["F_comp"]), V(p["v_reb"]), F(p["F_reb"]))
                                for p in peaks]))
     if checks:
+        from protocols.reports.qa import verdict
         print("\n" + md.table(("checked (UTC)", "against", "tolerance", "verdict", units.label("worst margin", "force")),
                               [(k["checked"], k["reference"], k["tolerance"],
-                                f"FAIL ({k['failed']} of {k['points']})" if k["failed"] else f"PASS ({k['points']})",
+                                verdict(k["points"], k["failed"]),
                                 F(k["worst_margin_n"])) for k in checks]))
     if models:
         print("\n" + md.table(("identified (UTC)", "model", "held-out NRMSE [%]"),

@@ -24,7 +24,7 @@ from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
 from protocols.reports.plots import plt
 from protocols.reports.page import save
-from protocols.units import Units
+from protocols.units import Units, fmt, parse_with_unit
 
 
 @dataclass
@@ -45,20 +45,37 @@ MAX_TOLERANCE_N = 1e5  # N: a band wider than any damper dyno's load cell passes
 
 
 def parse_tolerance(text: str) -> Tolerance:
-    """'5%' (of the reference), '50N' or '50' (newtons), or both: '5%,50N' (the larger)."""
+    """'5%' (of the reference), '50N' or '11lbf' (any force unit units.toml names), or
+    both: '5%,50N' (the larger). A bare number is refused: 5 % and 5 N differ thirtyfold."""
     tol = Tolerance()
     for part in text.replace(" ", "").split(","):
-        try:
-            if part.endswith("%"):
+        if part.endswith("%"):
+            try:
                 tol.pct = float(part[:-1])
-            else:
-                tol.newtons = float(part.removesuffix("N"))
-        except ValueError:
-            raise ValueError(f"--tolerance: {text!r} is not like 5% or 50N or 5%,50N") from None
+            except ValueError:
+                raise ValueError(f"--tolerance: {text!r} is not like 5% or 50N or 5%,50N") from None
+            continue
+        try:
+            tol.newtons = parse_with_unit("force", part)
+        except ValueError as e:
+            raise ValueError(f"--tolerance: {e}, or a percentage of the reference (5%)") from None
     if not (0 <= tol.pct <= 100 and 0 <= tol.newtons <= MAX_TOLERANCE_N and (tol.pct > 0 or tol.newtons > 0)):
         raise ValueError(f"--tolerance: {text!r} must be positive: a percentage up to 100, newtons up to "
                          f"{MAX_TOLERANCE_N:g}")
     return tol
+
+
+def verdict(points: int, failed: int, outside=(), units=Units()) -> str:
+    """The one QA sentence (CLI, web, catalogue): "FAIL: 17 of 18 inside the band; 1 outside:
+    rebound at 500 mm/s, -4.1 %" (the force's size against the reference's: -4.1 % is weak).
+    outside: the failing Verdicts, when known."""
+    head = f"{'FAIL' if failed else 'PASS'}: {points - failed} of {points} inside the band"
+    if not failed:
+        return head
+    where = "; ".join(f"{v.direction} at {fmt(units.show('velocity', v.v_m_s), 3)} {units.unit('velocity')}, "
+                      f"{100 * (abs(v.measured_N) / max(abs(v.reference_N), 1e-9) - 1):+.1f} %"
+                      for v in outside)
+    return f"{head}; {failed} outside" + (f": {where}" if where else "")
 
 
 @dataclass

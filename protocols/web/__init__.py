@@ -122,6 +122,7 @@ def run(run_id):
         except catalogue.CatalogueError:
             abort(404)
         checks, models, diagnoses = (catalogue.attached(c, t, run_id) for t in ("checks", "models", "diagnoses"))
+    checks = [dict(k, verdict=_verdict(k)) for k in checks]
     made, error = None, row["error"]
     if not error:
         try:
@@ -190,7 +191,8 @@ def made_file(name):
 def _verdict(check) -> str:
     if check is None:
         return ""
-    return f"FAIL {check['failed']}/{check['points']}" if check["failed"] else f"PASS {check['points']}"
+    from protocols.reports.qa import verdict
+    return verdict(check["points"], check["failed"])
 
 
 def _model(path):

@@ -105,6 +105,9 @@ def test_runs_show_and_trend_speak_the_chosen_units(folder, capsys):
     assert main(["runs", "show", str(run_id), str(folder), "--units", "us"]) == 0
     out = capsys.readouterr().out
     assert "v comp [in/s]" in out and "F reb [lbf]" in out and "[N]" not in out, out
+    import re  # file times and starts as dates, not seconds since 1970
+    assert re.search(r"^mtime +20\d\d-\d\d-\d\d \d\d:\d\d:\d\d UTC$", out, re.M), out
+    assert re.search(r"^started +20\d\d-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} UTC$", out, re.M), out
     assert main(["runs", "trend", str(folder), "--serial", "D12", "--quantity", "rebound@4in/s", "--units", "us",
                  "--out", str(folder / "t.png")]) == 0
     assert "rebound@4in/s [lbf]" in capsys.readouterr().out and (folder / "t.png").stat().st_size > 10_000

@@ -114,7 +114,7 @@ def test_every_protocol_parameter_is_described_and_nothing_else():
 
     from protocols.library import DESCRIPTIONS, PROTOCOLS
     doc = tomllib.loads(DESCRIPTIONS.read_text())
-    assert set(doc) == set(PROTOCOLS)
+    assert set(doc) == set(PROTOCOLS) | {"discover"}  # discover: a summary, the sine matrix's parameters
     for name, module in PROTOCOLS.items():
         assert set(doc[name]["params"]) == {f.name for f in dataclasses.fields(module.Params)}, name
         assert all(" | " in v for v in doc[name]["params"].values()), name
@@ -129,3 +129,20 @@ def test_protocols_and_a_protocols_help_list_parameters_with_defaults_and_units(
     assert line.split()[1:3] == ["2.0", "mm"]
     p = run("run", "--help")
     assert p.returncode == 0 and "dyno run PROTOCOL --help" in p.stdout
+
+
+def test_dyno_alone_lists_the_commands_and_a_typo_gets_the_nearest():
+    p = run()
+    assert p.returncode == 2 and "diagnose" in p.stderr and "where the model misses a recording" in p.stderr
+    p = run("reprot", "x.mcap")
+    assert p.returncode == 2 and p.stderr.strip() == ("dyno: error: unknown command 'reprot'; did you mean 'report'? "
+                                                      "(dyno alone lists the commands)")
+
+
+def test_discover_is_among_the_protocols_with_its_own_help():
+    p = run("protocols")
+    assert p.returncode == 0 and any(ln.startswith("discover ") and "--budget" in ln for ln in p.stdout.splitlines())
+    p = run("run", "discover", "--help")
+    assert p.returncode == 0 and p.stdout.startswith("dyno run discover [name=value ...] [options] [--budget SECONDS]")
+    line = next(ln for ln in p.stdout.splitlines() if ln.strip().startswith("amplitudes_mm"))
+    assert line.split()[1:3] == ["12.7,3.2", "mm"]  # the opening's defaults, not the sine matrix's

@@ -3,6 +3,7 @@ ranges, lists, the hold-out split, --setup items) and the budgets' bounds."""
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
 
 BUDGET_S = 120.0  # s: rig time the dyno's own next tests take unless --budget says otherwise
@@ -12,9 +13,20 @@ MAX_BUDGET_S = 7200.0  # s: what a run may move without --long (protocols/prefli
 class Parser(argparse.ArgumentParser):
     """Usage mistakes are one line, like every other bad input, and exit 2."""
 
+    commands: dict = {}
+
     def error(self, message):
         where = self.prog.removeprefix("dyno").strip()
         self.exit(2, f"dyno: error: {where + ': ' if where else ''}{message}\n")
+
+    def check_command(self, argv):
+        """`dyno` alone lists the commands; a mistyped one is named with the nearest, in one line."""
+        if not argv:
+            self.exit(2, self.format_help())
+        if not argv[0].startswith("-") and argv[0] not in self.commands:
+            near = difflib.get_close_matches(argv[0], self.commands, n=1)
+            self.error(f"unknown command {argv[0]!r}" + (f"; did you mean {near[0]!r}?" if near else "")
+                       + " (dyno alone lists the commands)")
 
 
 def setup_item(text):

@@ -55,6 +55,7 @@ def parser():
     sub = p.add_subparsers(dest="cmd", required=True)
     for add in (_model_commands, _cell_commands, _analysis_commands, _catalogue_commands, _bench_commands):
         add(sub)
+    p.commands = sub.choices  # {name: its parser}: what a mistyped command is matched against (check_command)
     return p
 
 
@@ -420,6 +421,7 @@ def _main(argv):
         if any(protocol_help(a) for a in argv[1:]):
             return 0
     p = parser()
+    p.check_command(argv)
     args, extra = p.parse_known_args(argv)
     if extra:  # `dyno run` takes name=value anywhere among its options
         if getattr(args, "cmd", None) == "run" and all("=" in e and not e.startswith("-") for e in extra):

@@ -2,15 +2,28 @@
 (defaults from each protocol's Params, units and meanings from protocols/library/params.toml)."""
 from __future__ import annotations
 
-from protocols.library import PROTOCOLS, describe
+import tomllib
+
+from protocols.library import DESCRIPTIONS, DISCOVER, PROTOCOLS, describe
+
+
+def _discover():
+    """(summary, rows) of `dyno run discover`: the sine matrix's parameters with the
+    opening's defaults (the matrix the diagnosis is proven on)."""
+    from sim_backend.effects import plain_cell
+    opening = plain_cell()[2]["params"]
+    rows = [(p, ",".join(f"{v:g}" for v in opening[p]) if isinstance(opening.get(p), list)
+             else str(opening.get(p, default)), unit, meaning) for p, default, unit, meaning in describe("sine-matrix")[1]]
+    return tomllib.loads(DESCRIPTIONS.read_text())[DISCOVER]["summary"], rows
 
 
 def protocol_help(name):
     """Print a protocol's parameters; False when there is no such protocol."""
-    if name not in PROTOCOLS:
+    if name not in PROTOCOLS and name != DISCOVER:
         return False
-    summary, rows = describe(name)
-    print(f"dyno run {name} [name=value ...] [options]: {summary}\n")
+    summary, rows = _discover() if name == DISCOVER else describe(name)
+    print(f"dyno run {name} [name=value ...] [options]{' [--budget SECONDS]' if name == DISCOVER else ''}: "
+          f"{summary}\n")
     print("parameters (name=value anywhere among the options; lists comma-separated):")
     w = max(len(r[0]) for r in rows)
     d = max(len(r[1]) for r in rows)
@@ -24,5 +37,6 @@ def run(args):
     w = max(map(len, PROTOCOLS))
     for name in PROTOCOLS:
         print(f"{name:{w}s}  {describe(name)[0]}")
+    print(f"{DISCOVER:{w}s}  {tomllib.loads(DESCRIPTIONS.read_text())[DISCOVER]['summary']}")
     print("\nparameters of one: dyno run PROTOCOL --help")
     return 0

@@ -17,7 +17,7 @@ from protocols.app.arguments import BUDGET_S
 from protocols.app.sim_rig import virtual_plant
 from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder
-from protocols.library import PROTOCOLS
+from protocols.library import DISCOVER, PROTOCOLS
 from protocols.discover import discover
 from protocols.units import Units
 from protocols.plan import Plan, as_dict, parse, rig_info
@@ -25,7 +25,6 @@ from protocols.rehearsal import rehearse
 from protocols.runner import run_plan
 from sim_backend.effects import plain_cell
 
-DISCOVER = "discover"  # `dyno run discover`: an opening sine matrix, then the dyno's own next tests
 
 
 def run(args):

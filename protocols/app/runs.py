@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 from protocols import catalogue
@@ -58,6 +59,20 @@ def list_runs(args):
     return 0
 
 
+def _shown(key, value):
+    """A catalogue field as a person reads it: file times as UTC dates, durations in s."""
+    if key == "mtime":
+        return datetime.fromtimestamp(value, timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+    if key == "started":
+        try:
+            return datetime.fromisoformat(value).astimezone(timezone.utc).strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] + " UTC"
+        except ValueError:
+            return value
+    if key == "duration_s":
+        return f"{value:.1f}"
+    return value
+
+
 def show(args):
     with _connect(args) as c:
         row, peaks = catalogue.run(c, args.id)
@@ -68,7 +83,7 @@ def show(args):
         return 0
     for k in row.keys():
         if row[k] not in (None, "", "{}"):
-            print(f"{k:11s} {row[k]}")
+            print(f"{k:11s} {_shown(k, row[k])}")
     units = Units(args.units)
     V, F = (lambda si, q=q: fmt(units.show(q, si)) for q in ("velocity", "force"))
     if peaks:

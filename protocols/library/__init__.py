@@ -7,6 +7,7 @@ from protocols.library import hil, low_speed, replay, sine_matrix, standard, sta
 
 PROTOCOLS = {m.NAME: m for m in (static, low_speed, sine_matrix, temperature_sweep, step, standard, hil, replay)}
 DESCRIPTIONS = Path(__file__).parent / "params.toml"
+DISCOVER = "discover"  # not a plan: an opening sine matrix, then the dyno's own tests (protocols/discover.py)
 
 
 def describe(name):

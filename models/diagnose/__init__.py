@@ -235,8 +235,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
                           # the earlier effects whose form this one may be compensating, in acceptance order
                           [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals,
-                          relevance=best.relevance, excess_share=best.gain / max(mse - sigma ** 2, 1e-30),
-                          small=_small(best, mse, sigma)))
+                          **_practical(best, mse, sigma)))
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
@@ -268,6 +267,12 @@ def _small(c, mse, sigma):
     if EFFECTS[c.effect.split(":")[0]].nature not in ("physics", "open"):
         return False
     return c.gain < NAMED_SHARE * max(mse - sigma ** 2, 0.0)
+
+
+def _practical(c, mse, sigma):
+    """A Step's practical size: gain in noise variances, share of the excess, small."""
+    return {"relevance": c.relevance, "excess_share": c.gain / max(mse - sigma ** 2, 1e-30),
+            "small": _small(c, mse, sigma)}
 
 
 def _chosen(ok, block, judged, judged_blocks, alpha, rng):

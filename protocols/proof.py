@@ -110,6 +110,9 @@ def calibrate(target, progress, effects=None, forms=False, pool=None):
     return {n: v for n, (v, _) in zip(names, results)}
 
 
+GROUP = 3  # a rival group larger than this tells the engineer too little to count as found
+
+
 def run_task(task):
     """Record one prove run through the wire protocols (and, given a budget, the next tests
     it asks for: protocols/discover.py), diagnose it."""
@@ -141,6 +144,7 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
     rounds = found.rounds if found else []
     hidden = set(effect.split("+")) if effect else set()
     first = _first(r.named(), hidden)
+    group = _group(r, hidden)
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
         est = next(s.parameters for s in r.steps if s.effect.split(":")[0] == first).get(CATALOGUE[effect].estimate)
@@ -164,7 +168,7 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
             "rounds": [dataclasses.asdict(x) for x in rounds], "added_s": found.spent_s if found else 0.0,
             # the opening's diagnosis: what the prove plan alone named, on the same recording
             "first_opening": _first(rounds[0].accepted, hidden) if rounds else first,
-            "accepted": r.accepted, "claims": claims, "first": first, "noise_sd": r.noise_sd,
+            "accepted": r.accepted, "claims": claims, "first": first, "group": group, "noise_sd": r.noise_sd,
             "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n",
                                                   "relevance", "excess_share")}
                       for s in r.steps if not s.replaced_by],
@@ -181,6 +185,18 @@ def _first(accepted, hidden):
     (the plant's, on every null) do not take the first place unless the row hides them."""
     named = [e for e in accepted if SPECS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
     return named[0].split(":")[0] if named else None
+
+
+def _group(r, hidden):
+    """The first finding that counts (as _first, small ones aside), with what the recording
+    cannot tell from it: its rivals, when it is said as a group or a flexible stand-in
+    explained it as well. [effect names]"""
+    for s in r.steps:
+        key = s.effect.split(":")[0]
+        if s.replaced_by or s.small or (SPECS[key].nature in ("form", "cell") and key not in hidden):
+            continue
+        return [key] + [e.split(":")[0] for e, _, _ in s.rivals]
+    return []
 
 
 def measured_rms_diff(a, b):
@@ -207,6 +223,9 @@ def table(results, effects, concealed):
                "detection_opening": (float(np.mean([r["first_opening"] == e for r in rs])) if e in EFFECTS
                                      else None),
                "added_s": float(np.median([r["added_s"] for r in rs])),
+               # named first, or inside a group of at most GROUP that holds the truth (rivals, stand-in)
+               "detection_group": (float(np.mean([r["first"] == e or (e in r["group"] and len(r["group"]) <= GROUP)
+                                                  for r in rs])) if e in EFFECTS else None),
                "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
                              else float(np.mean([parts <= n for n in named])) if e != "null" else None),
                "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS

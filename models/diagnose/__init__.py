@@ -47,6 +47,9 @@ SHARE = 0.01
 # least RELEVANCE noise variances); a smaller significant gain stays in the model and is
 # said as small, not named
 NAMED_SHARE = 0.2
+# a mechanism whose variables the loop shows is named only when it beats this stand-in
+STAND_IN = "loop_surface"
+LOOP_VARIABLES = {"displacement", "velocity", "direction", "acceleration", "frequency"}
 BOOT = 2000
 SURE_HITS = 50
 
@@ -89,6 +92,8 @@ def available(d: Data, accepted):
     out, skipped = [], []
     taken = {a.split(":")[0] for a in accepted}
     for name, e in EFFECTS.items():
+        if e.needs == "referee":
+            continue
         if e.needs == "T" and d.T is None:
             skipped.append(name)
         elif e.needs == "tone":
@@ -217,10 +222,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         if not ok:
             break
         best, b_vals, b_folds, b_r = _chosen(ok, block, judged, judged_blocks, alpha, rng)
-        significant = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE]
-        # (their own resamples: the main sequence, and so every other verdict, stays as it was)
-        rivals = _rivals(best, b_r, significant, block, judged, judged_blocks,
-                         np.random.default_rng([seed, 1, len(accepted)]))
+        rivals, stand_in = _referees(d, base, accepted, best, b_r, round_, folds, current, block, judged,
+                                     judged_blocks, alpha, seed)
         m_best = Model(d, accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
             # from the screening's values, close to the optimum: a few evaluations per parameter
@@ -235,7 +238,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
                           # the earlier effects whose form this one may be compensating, in acceptance order
                           [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals,
-                          **_practical(best, mse, sigma)))
+                          stand_in=stand_in, **_practical(best, mse, sigma)))
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
@@ -290,6 +293,34 @@ def _chosen(ok, block, judged, judged_blocks, alpha, rng):
     rel = np.log(np.maximum(sse[0], 1e-30) / np.maximum(sse[1], 1e-30))
     better = best[0].relevance - cat[0].relevance >= RELEVANCE and p_value(rel, rng, alpha) < alpha
     return best if better else cat
+
+
+def _referees(d, base, accepted, best, r_best, round_, folds, current, block, judged, judged_blocks, alpha, seed):
+    """(rivals, stand-in) of a round's winner, each on resamples of its own (the main
+    sequence, and so every other verdict, stays as it was): the candidates the held-out
+    blocks cannot tell from it, and the flexible stand-in when it explains as much."""
+    significant = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE]
+    rivals = _rivals(best, r_best, significant, block, judged, judged_blocks,
+                     np.random.default_rng([seed, 1, len(accepted)]))
+    return rivals, _stood_in(d, base, accepted, best, r_best, folds, current, block, judged, judged_blocks,
+                             np.random.default_rng([seed, 2, len(accepted)]))
+
+
+def _stood_in(d, base, accepted, best, r_best, folds, current, block, judged, judged_blocks, rng):
+    """(stand-in, paired p) when a mechanism of the loop does not beat, on the same held-out
+    blocks at p < ALPHA, a smooth surface in displacement, speed and direction with no
+    mechanism in it (terms.py loop_surface), fitted beside the same accepted effects; else
+    None. Only physics whose variables the loop shows is held to it: a channel (aux),
+    temperature or time it depends on is evidence the surface cannot have."""
+    spec = EFFECTS[best.effect.split(":")[0]]
+    if spec.nature != "physics" or ":" in best.effect or not set(spec.depends_on) <= LOOP_VARIABLES:
+        return None
+    m = Model(d, accepted + [STAND_IN], base)
+    r = linear_fit(m, d, folds, current, hold=open_params(d, accepted))[2]
+    rel = np.log(np.maximum(_block_sse(np.where(judged, r, 0.0), block, judged_blocks), 1e-30)
+                 / np.maximum(_block_sse(np.where(judged, r_best, 0.0), block, judged_blocks), 1e-30))
+    p = p_value(rel, rng, ALPHA)
+    return None if p < ALPHA else (STAND_IN, p)
 
 
 def _rivals(best, r_best, significant, block, judged, judged_blocks, rng):

@@ -446,5 +446,5 @@ EFFECTS = {**CATALOGUE, **TERMS}
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
 ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility", "gas_temperature",
          "elastic_stroke", "presliding_friction", "position_friction", "breakaway_friction",
-         "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "cavitation",
+         "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "loop_surface", "cavitation",
          "free_play")

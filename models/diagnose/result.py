@@ -61,6 +61,8 @@ class Step:
     relevance: float = float("nan")
     excess_share: float = float("nan")
     small: bool = False  # significant but below the practical size: kept in the model, not named (named())
+    # (stand-in, paired p) when a flexible surface with no mechanism explains as much: not named
+    stand_in: tuple | None = None
     # what it is (describe): spec.NATURES, spec.VARIABLES, where it lives, elastic or dissipative, size
     nature: str = ""
     depends_on: list = field(default_factory=list)
@@ -108,5 +110,5 @@ class Diagnosis:
     described: dict = field(default_factory=dict)  # {effect: damper}: physics the recording's own damper has
 
     def named(self):
-        """The accepted effects said as findings: not dropped again, not small."""
-        return [s.effect for s in self.steps if not s.replaced_by and not s.small]
+        """The accepted effects said as findings: not dropped again, not small, not stood in for."""
+        return [s.effect for s in self.steps if not s.replaced_by and not s.small and not s.stand_in]

@@ -45,7 +45,8 @@ class Effect:
     estimate: str | None  # the parameter that sizes the effect (what `dyno prove` reports); None: a basis
     apply: callable  # (model, d, values, Forces, effect id): its force, in place
     acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
-    needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel; "tone": a tone
+    needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel; "tone": a
+    # tone; "referee": never a candidate, the stand-in a mechanism must beat (loop_surface)
     depends_on: tuple = ()  # of VARIABLES
     nature: str = "physics"  # of NATURES
     say: tuple = ()  # (sentence, parameter shown, factor, unit): see protocols/app/diagnose.py

@@ -15,6 +15,8 @@ evidence (issue 29). Each is a smooth basis with linear coefficients:
   interference     a tone at a frequency unrelated to the motion, found in the residual's
                    spectrum (mains hum, a pump, a fan)
   temperature_force an offset varying with temperature: B(T)
+  loop_surface     not a candidate: the flexible stand-in a mechanism of the loop must beat
+                   before it is named, per direction B(x) times a quadratic in |v|
 
 B is a cubic B-spline basis whose knots are spread evenly over the variable's recorded
 range (KNOTS functions). SI units: x [m], v [m/s], t [s], T [K]; forces [N].
@@ -29,6 +31,7 @@ from models.diagnose.spec import Effect, P
 DEGREE = 3
 KNOTS = {"valve_form": 8, "elastic_stroke": 8, "stroke_damping": 6, "temperature_force": 4}
 DRIFT_S = 10.0  # s of recording per drift basis function (4 to 8 of them)
+SURFACE = (6, 3)  # the loop's stand-in: B-splines along the stroke, powers of |v| (a choice)
 
 
 def bspline(u, lo, hi, n):
@@ -124,6 +127,21 @@ def _temperature_force(m, d, p, f, e):
     f.F = f.F + B @ np.array([p[f"tf{i}"] for i in range(B.shape[1])])
 
 
+def _surface_basis(ref, d):
+    """Per direction, B(x) times 1, |v|, v^2 (|v| over ref's 99th percentile): a smooth
+    surface over the loop, which follows any force that depends on where the rod is, how
+    fast and which way it moves."""
+    bx = x_basis(ref, d, SURFACE[0])
+    s = np.abs(d.v) / max(float(np.percentile(np.abs(ref.v), 99)), 1e-3)
+    B = np.hstack([bx * (s ** k)[:, None] for k in range(SURFACE[1])])
+    return np.hstack([B * (d.v > 0)[:, None], B * (d.v <= 0)[:, None]])
+
+
+def _loop_surface(m, d, p, f, e):
+    B = cached(m, d, e, _surface_basis)
+    f.F = f.F + B @ np.array([p[f"ls{i}"] for i in range(B.shape[1])])
+
+
 def _damping_params(d, e):
     n = KNOTS["stroke_damping"]
     return ([P(f"sdc{i}", 0.0, -0.95, 3.0, "-") for i in range(n)]
@@ -201,6 +219,10 @@ TERMS = {e.name: e for e in (
            say=("A tone at {hz:.2f} Hz, unrelated to the motion, rides on the force ({size}): interference in "
                 "the cell (mains at 50 or 60 Hz, a pump, a fan), not the damper. Shield or filter the force "
                 "channel.", None, 1.0, "N")),
+    Effect("loop_surface", "a smooth surface in displacement, speed and direction, with no mechanism in it",
+           lambda d, e: coefficients("ls", 2 * SURFACE[0] * SURFACE[1], force_bound(d)), None, _loop_surface,
+           "total", needs="referee", depends_on=("displacement", "velocity", "direction"), linear=True,
+           nature="open", say=("{region}; {size}", None, 1.0, "N")),
     Effect("temperature_force", "a force varying with temperature, apart from the motion",
            lambda d, e: coefficients("tf", KNOTS["temperature_force"], force_bound(d)), "tf0", _temperature_force, "total",
            needs="T", depends_on=("temperature",), linear=True, nature="open",

@@ -105,6 +105,20 @@ def small_sentence(step, span):
             f"the model." + _change(step))
 
 
+def stand_in_sentence(step, span):
+    """A mechanism a flexible surface with none in it explains as well: the dependence and
+    its size, and no mechanism's name."""
+    pct = f", {100 * step.size_rms_n / span:.2g} % of the force range" if span > 0 else ""
+    on = ", ".join(step.depends_on) or "displacement, velocity and direction"
+    rivals = (f"; {', '.join(said(e) for e, _, _ in step.rivals)} explain it about equally too" if step.rivals else "")
+    return (f"Not named: the force depends on {on} beyond the baseline, {step.size_rms_n:.3g} N RMS{pct}. A smooth "
+            f"surface in displacement, speed and direction with no mechanism in it explains it as well as "
+            f"{said(step.effect)} on the held-out cycles (paired p {step.stand_in[1]:.2g} that {said(step.effect)} is "
+            f"better){rivals}: this recording cannot tell which mechanism it is. The model carries "
+            f"{said(step.effect)} as a stand-in; `dyno diagnose RECORDING --next` designs the test at other amplitudes "
+            f"and frequencies that can tell." + _change(step))
+
+
 def _size(step):
     return f"{step.size_rms_n:.3g} N RMS, {step.size_peak_n:.3g} N at most"
 
@@ -147,6 +161,8 @@ def summary(res):
             lines.append(f"Dropped again: {name}. {said(s.replaced_by)} explains its gain as well without it.")
         elif s.small:
             lines.append(small_sentence(s, span))
+        elif s.stand_in:
+            lines.append(stand_in_sentence(s, span))
         elif s.compensates:
             why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
                    for e, c in s.trades_with]

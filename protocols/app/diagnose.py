@@ -52,7 +52,9 @@ def to_json(res):
                      "rivals": [{"effect": e, "gain_noise_variances": g, "paired_p": p} for e, g, p in s.rivals],
                      "in_own_description": res.described.get(s.effect),
                      # below the practical size: kept in the model, not named (docs/diagnosis.md)
-                     "small": s.small, "gain_noise_variances": s.relevance, "excess_share": s.excess_share}
+                     "small": s.small, "gain_noise_variances": s.relevance, "excess_share": s.excess_share,
+                     # a flexible surface with no mechanism explained as much: not named
+                     "stand_in": {"term": s.stand_in[0], "paired_p": s.stand_in[1]} if s.stand_in else None}
                     for s in res.steps],
         "left_over": dataclasses.asdict(res.left_over),
         "final": {**{k: getattr(res.final, k) for k in held},

@@ -137,7 +137,7 @@ def prove_open(args, say):
 
 
 HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",
-          "wrong effect", "false positive", "also named: left out / may compensate", "estimate (median)",
+          "named first or in a group of <= 3", "wrong effect", "false positive", "also named: left out / may compensate", "estimate (median)",
           "held-out NRMSE before / after [%]")
 
 
@@ -145,7 +145,7 @@ def _cells(r):
     f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
     return (r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f"x{r['noise']:g}", f"{r['rate_hz']:g}",
             f(r["value"], ".3g"), f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"),
-            f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"),
+            f(r["detection_group"], ".0%"), f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"),
             f"{f(r['extra_left_out'], '.0%')} / {f(r['extra_compensating'], '.0%')}", f(r["estimate"], ".3g"),
             f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}")
 

@@ -261,6 +261,46 @@ def test_a_significant_gain_below_the_practical_size_is_kept_but_not_named():
     assert "16 % of the held-out error above the noise" in text and "magnetorheological" not in text
 
 
+def _crank_run(extra, seconds=40.0, rate=300.0, hz=1.05, seed=0):
+    """A crank dyno's one stroke (300 Hz, the issue's student dyno): channels and events of a
+    damper with valves, gas and friction, plus extra(t, x, v, F) [N], with 3 N of noise."""
+    t = np.arange(int(seconds * rate)) / rate
+    th = 2 * np.pi * hz * t
+    x = 0.03 + 0.019 * (1 - np.cos(th)) + (0.019 ** 2 / 0.24) * np.sin(th) ** 2
+    v = np.gradient(x, t)
+    F = 150 + 800 * x + np.where(v > 0, 2500 * v, 4200 * v) + 30 * np.tanh(v / 0.01)
+    F = extra(t, x, v, F) + np.random.default_rng(seed).normal(0.0, 3.0, len(t))
+    return {"force": (t, F), "x": (t, x)}, [
+        {"t": 0.0, "kind": "segment_start", "segment": "crank", "params": {"kind": "sine", "freq_hz": hz}},
+        {"t": t[-1] + 1e-9, "kind": "segment_end", "segment": "crank", "params": {}}]
+
+
+def test_one_stroke_cannot_tell_a_mechanism_of_the_loop_from_a_flexible_stand_in():
+    """Friction in a band of the bore, on one crank stroke: position friction is accepted,
+    but a smooth surface in displacement, speed and direction with no mechanism in it
+    explains as much, so the dependence and its size are said and no mechanism named."""
+    from models.diagnose.words import summary
+    spot = (lambda t, x, v, F: F + 30.0 * np.exp(-((x - 0.045) / 0.012) ** 2) * np.tanh(v / 0.01))
+    res = diagnose(*_crank_run(spot))
+    step = res.steps[0]
+    assert step.effect == "position_friction" and step.stand_in and step.stand_in[0] == "loop_surface"
+    assert res.named() == [] and res.final.nrmse_heldout < 0.7 * res.baseline.nrmse_heldout
+    text = summary(res)
+    assert "Not named: the force depends on displacement, direction beyond the baseline" in text
+    assert "Left out" not in text
+
+
+def test_a_rival_group_on_a_recording_made_for_it():
+    """The force channel read 2 ms late on one crank stroke: compressibility and the cell's
+    timing explain the same misfit about equally and the answer names them as a group."""
+    from models.diagnose.words import summary
+    late = (lambda t, x, v, F: np.interp(t - 0.002, t, F))
+    res = diagnose(*_crank_run(late))
+    group = {res.steps[0].effect} | {e for e, _, _ in res.steps[0].rivals}
+    assert {"sensor_delay", "compressibility"} <= group and res.named() == []
+    assert "a timing offset of the cell" in summary(res) and "Left out" not in summary(res)
+
+
 def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
     from models.diagnose.result import Step
     from models.diagnose.words import sentence

@@ -15,9 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from models.diagnose import kernels
+from models.diagnose import kernels, terms
 from models.diagnose.spec import V_EPS, Effect, Hidden, P
-from models.diagnose import terms
 from models.diagnose.terms import TERMS
 
 GAMMA = 1.38  # thesis section 4.1.2
@@ -419,7 +418,8 @@ CATALOGUE = {e.name: e for e in (
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
            _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
            depends_on=("displacement", "direction"),
-           say=(  # {aux}: what it is (the command layer): an MR fluid only when a channel drives its size"The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
+           # {aux}: what it is (words.sentence): an MR fluid only when a channel drives its size
+           say=("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
                 "element){aux} Model the damper with the hysteretic element (its parameters are in the JSON).",
                 "alpha_bw", 1.0, "N"),
            hidden=Hidden('N', 'force at yield of a hysteretic element in the load path, Bouc-Wen with exponent '
@@ -444,7 +444,7 @@ CATALOGUE = {e.name: e for e in (
 EFFECTS = {**CATALOGUE, **TERMS}
 # the order the effects act in, whatever order they were accepted in: multiplications
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
-ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility", "gas_temperature",
-         "elastic_stroke", "presliding_friction", "position_friction", "breakaway_friction",
-         "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "loop_surface", "cavitation",
-         "free_play")
+ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility",
+         "gas_temperature", "elastic_stroke", "presliding_friction", "position_friction", "breakaway_friction",
+         "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "loop_surface",
+         "cavitation", "free_play")

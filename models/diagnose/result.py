@@ -110,5 +110,6 @@ class Diagnosis:
     described: dict = field(default_factory=dict)  # {effect: damper}: physics the recording's own damper has
 
     def named(self):
-        """The accepted effects said as findings: not dropped again, not small, not stood in for."""
-        return [s.effect for s in self.steps if not s.replaced_by and not s.small and not s.stand_in]
+        """The accepted effects said by name: not dropped again, not small, not said as a
+        rival group or as what a flexible stand-in explains as well."""
+        return [s.effect for s in self.steps if not (s.replaced_by or s.small or s.stand_in or s.rivals)]

@@ -32,6 +32,7 @@ DEGREE = 3
 KNOTS = {"valve_form": 8, "elastic_stroke": 8, "stroke_damping": 6, "temperature_force": 4}
 DRIFT_S = 10.0  # s of recording per drift basis function (4 to 8 of them)
 SURFACE = (6, 3)  # the loop's stand-in: B-splines along the stroke, powers of |v| (a choice)
+SURFACE_RCOND = 1e-4  # below this share of the largest singular value a surface direction is not resolved
 
 
 def bspline(u, lo, hi, n):
@@ -127,14 +128,24 @@ def _temperature_force(m, d, p, f, e):
     f.F = f.F + B @ np.array([p[f"tf{i}"] for i in range(B.shape[1])])
 
 
-def _surface_basis(ref, d):
-    """Per direction, B(x) times 1, |v|, v^2 (|v| over ref's 99th percentile): a smooth
-    surface over the loop, which follows any force that depends on where the rod is, how
-    fast and which way it moves."""
+def _surface_raw(ref, d):
     bx = x_basis(ref, d, SURFACE[0])
     s = np.abs(d.v) / max(float(np.percentile(np.abs(ref.v), 99)), 1e-3)
     B = np.hstack([bx * (s ** k)[:, None] for k in range(SURFACE[1])])
     return np.hstack([B * (d.v > 0)[:, None], B * (d.v <= 0)[:, None]])
+
+
+def _surface_basis(ref, d):
+    """Per direction, B(x) times 1, |v|, v^2 (|v| over ref's 99th percentile): a smooth
+    surface over the loop, which follows any force that depends on where the rod is, how
+    fast and which way it moves. Orthonormalised over ref's samples, the directions the
+    recording does not span (one stroke: |v| is a function of x in each direction) set to
+    zero: unresolved coefficients would otherwise run to their bounds between folds."""
+    _, S, Vt = np.linalg.svd(_surface_raw(ref, ref), full_matrices=False)
+    keep = S > SURFACE_RCOND * S[0]
+    W = np.zeros((Vt.shape[1], Vt.shape[1]))
+    W[:, :int(keep.sum())] = Vt[keep].T / S[keep] * np.sqrt(len(ref.t))  # unit RMS columns [N per N]
+    return _surface_raw(ref, d) @ W
 
 
 def _loop_surface(m, d, p, f, e):

@@ -122,10 +122,17 @@ def _merged(items):
     return chunk, [e for *_, evs in items for e in evs]
 
 
+# SI unit -> (the unit an engineer reads it in, scale): a charge in bar, volumes in cm^3
+SHOWN_UNITS = {"Pa": ("bar abs", 1e-5), "m^3": ("cm^3", 1e6), "m^3/K": ("cm^3/K", 1e6), "m": ("mm", 1e3)}
+
+
 def _fmt(e):
+    """An estimate in engineering units: 'P0 24.57 bar abs (24.1..25.0)'."""
+    unit, k = SHOWN_UNITS.get(e.get("unit", ""), (e.get("unit", ""), 1.0))
+    unit = "" if unit in ("", "-") else f" {unit}"
     if not e["identifiable"]:
-        return f"{e['value']:.4g} (not identifiable)"
-    return f"{e['value']:.4g} ({e['ci_low']:.4g}..{e['ci_high']:.4g})"
+        return f"{e['value'] * k:.4g}{unit} (not identifiable)"
+    return f"{e['value'] * k:.4g}{unit} ({e['ci_low'] * k:.4g}..{e['ci_high'] * k:.4g})"
 
 
 def predicted_force(damper, channels, events, points=2000):
@@ -192,7 +199,7 @@ def _worker(inbox, outbox, description, model_path, ending):
         t_now = float(channels["force"][0][-1])
         outbox.put(("estimates", {"t": t_now, "estimates": [
             {"name": e.name, "value": float(e.value), "ci_low": float(e.ci_low), "ci_high": float(e.ci_high),
-             "identifiable": bool(e.identifiable)} for e in res.estimates]}))
+             "unit": e.unit, "identifiable": bool(e.identifiable)} for e in res.estimates]}))
         if not done:
             predicted = predicted_force(res.damper, channels, events)
             if predicted is not None:

@@ -160,6 +160,7 @@ def test_live_identification_writes_the_model_next_to_the_recording(tmp_path):
                         "--out", str(out)], capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-2000:]
     assert "identify: gas_spring.gamma " in p.stderr  # estimates while it ran
+    assert re.search(r"P0 \d+\.?\d* bar abs \(", p.stderr), p.stderr[-2000:]  # engineering units, not 2.457e+06
     d = load_file(out.with_suffix(".model.json"))
     assert d.layout == "monotube" and d.name == "koni-identified"
     heldout = float(re.search(r"held-out loop NRMSE ([0-9.]+) %", p.stderr).group(1))

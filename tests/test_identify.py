@@ -295,3 +295,19 @@ def test_the_high_speed_lines_penalty_takes_an_intercept_through_zero():
     assert crossover_penalty({"m": 2.0, "m2": 1.0, "c": 1.0, "c2": 2.0}, 10.0).tolist() == [0.0, 0.0]
     through_zero = crossover_penalty({"m": 2.0, "m2": 1.0, "c": 1.0, "c2": 0.0}, 10.0)
     assert through_zero[0] == 0.0 and np.isfinite(through_zero[1]) and through_zero[1] > 1.0
+
+
+def test_a_parameter_on_its_bound_is_flagged_not_shown_as_measured():
+    """Issue 45: C_linw 999999.99 (the range ends at 1e6) was printed as identified."""
+    from models.damper import load
+    from models.identify.parameters import at_bounds
+    from protocols.app.identify import text
+    d = load("koni")
+    assert at_bounds(d) == []  # a zero that means "none" (no air, no pre-sliding travel) is no bound hit
+    d.valves.piston.compression.mid.C_linw = 999999.99
+    got = at_bounds(d)
+    assert [(n, end) for n, _, _, _, end in got] == [("valves.piston.compression.mid.C_linw", "upper")]
+    doc = {"steps": {}, "estimates": [], "correlated": [], "heldout": [], "heldout_nrmse": None,
+           "at_bound": [{"parameter": n, "value": v, "range": list(r), "unit": u, "bound": e} for n, v, r, u, e in got]}
+    assert ("at its upper bound, held there, not measured: valves.piston.compression.mid.C_linw = 1e+06 N s/m "
+            "(range 0 .. 1e+06)") in text(doc)

@@ -127,3 +127,37 @@ def canonical(d: Damper) -> Damper:
             # where the same seat coefficient meets the rebound C_fd (within 1e-4 of the peak)
             d.valves.bypass.C_seatw /= s
     return d
+
+
+AT_BOUND = 1e-3  # of the bound's size (of the range when it is 0): a value this close sits on it
+
+
+def at_bounds(obj, path=""):
+    """[(dotted name, value, (lo, hi), unit, "lower" | "upper")] of the fields of a damper
+    (or any part of it) that sit on an end of their declared range (models.damper.q): a fit
+    that ran into its bound, a value held there, not measured."""
+    out = []
+    if dataclasses.is_dataclass(obj):
+        for f in dataclasses.fields(obj):
+            v, name = getattr(obj, f.name), f"{path}.{f.name}".lstrip(".")
+            lo_hi = f.metadata.get("range")
+            if lo_hi and isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v):
+                # a lower end of 0 is the physics' "none" (no air, no pre-sliding): not a bound hit
+                for end, b in (("lower", lo_hi[0]), ("upper", lo_hi[1])):
+                    if (end == "upper" or b != 0) and abs(v - b) <= AT_BOUND * (abs(b) or lo_hi[1] - lo_hi[0]):
+                        out.append((name, float(v), lo_hi, f.metadata.get("unit", ""), end))
+            else:
+                out += at_bounds(v, name)
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            out += at_bounds(v, f"{path}[{i}]")
+    elif isinstance(obj, dict):
+        for k, v in obj.items():
+            out += at_bounds(v, f"{path}.{k}")
+    return out
+
+
+def bound_sentence(b):
+    """An at_bound entry {parameter, value, range, unit, bound} in words."""
+    return (f"at its {b['bound']} bound, held there, not measured: {b['parameter']} = {b['value']:.6g} {b['unit']} "
+            f"(range {b['range'][0]:g} .. {b['range'][1]:g})")

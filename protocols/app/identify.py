@@ -12,6 +12,7 @@ import numpy as np
 
 from models import damper as dm
 from models.identify import IdentifyError, identify
+from models.identify.parameters import at_bounds, bound_sentence
 from models.recording import differing_repeats, only
 from protocols.io.files import existing_files, filled, output_file, output_folder, written
 from protocols.io.reader import load_recording
@@ -208,7 +209,10 @@ def summary(res):
                            "unit": e.unit, "identifiable": e.identifiable, "note": e.note} for e in res.estimates],
             "correlated": [{"a": a, "b": b, "rho": r} for a, b, r in res.correlated],
             "heldout": [{"segment": n, "nrmse": e} for n, e in res.heldout],
-            "heldout_nrmse": res.heldout_nrmse}
+            "heldout_nrmse": res.heldout_nrmse,
+            # a fit that ran into its declared range: held there, not measured
+            "at_bound": [{"parameter": n, "value": v, "range": list(r), "unit": u, "bound": end}
+                         for n, v, r, u, end in at_bounds(res.damper)]}
 
 
 def _clean(o):
@@ -248,6 +252,7 @@ def text(doc):
             lines.append(f"  {e['name']:36s} {number(e['value']):>12s}   {ci}")
     for c in doc["correlated"]:
         lines.append(f"strongly correlated: {c['a']} and {c['b']} (rho {c['rho']:+.2f})")
+    lines += [bound_sentence(b) for b in doc.get("at_bound", [])]
     lines.append(f"held-out loop NRMSE: {100 * doc['heldout_nrmse']:.2f} % (mean over "
                  f"{len(doc['heldout'])} segments never used for fitting)" if doc["heldout"] else
                  "held-out loop NRMSE: none (too few sine segments to hold one out: the fit is not validated; "

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from models.identify import simulate_segment
+from models.identify.parameters import bound_sentence
 from models.recording import nrmse
 from protocols.reports.plots import plt
 from protocols.reports.page import Page, number, save
@@ -76,6 +77,8 @@ def write(res, doc, out_dir):
          f"{number(r['ci_low'])} .. {number(r['ci_high'])}" if r["identifiable"] else "not identifiable",
          number(r["truth"]) if r["truth"] is not None else "",
          "" if r["rel_error"] is None else f"{100 * r['rel_error']:+.1f} %", r.get("note") or "") for r in rows])
+    for b in doc.get("at_bound", []):  # a fit that ran into its range: said, not shown as measured
+        page.paragraph(bound_sentence(b)[0].upper() + bound_sentence(b)[1:] + ".")
     if doc["correlated"]:
         page.paragraph("Strongly correlated: " + ", ".join(f"{c['a']} / {c['b']} ({c['rho']:+.2f})"
                                                           for c in doc["correlated"]))

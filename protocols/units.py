@@ -3,6 +3,7 @@ converted only here, at the edge. A quantity's value in SI goes to the chosen sy
 `shown = SI x scale + offset`."""
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 SYSTEMS_FILE = Path(__file__).with_name("units.toml")
+_MM = re.compile(r"(\d+(?:\.\d+)?) mm\b")  # a length in a recorded segment name (protocols name them in mm)
 with open(SYSTEMS_FILE, "rb") as _f:
     SYSTEMS = tomllib.load(_f)
 
@@ -37,6 +39,12 @@ class Units:
     def label(self, name: str, quantity: str) -> str:
         """A column or axis name with its unit: 'F comp [lbf]'."""
         return f"{name} [{self.unit(quantity)}]"
+
+    def segment(self, name: str) -> str:
+        """A segment's recorded name in this system: 'sine 12.7 mm 4 Hz' -> 'sine 0.5 in 4 Hz'."""
+        if self.unit("length") == "mm":
+            return name
+        return _MM.sub(lambda m: f"{self.show('length', float(m.group(1)) * 1e-3):.3g} {self.unit('length')}", name)
 
     def column(self, name: str, quantity: str) -> str:
         """A CSV column name with its unit, as pandas users like them: 'F_comp_lbf'."""

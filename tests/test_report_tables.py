@@ -181,3 +181,10 @@ def test_a_crank_stroke_is_fitted_with_its_overtones_and_no_sine_falls_back_to_s
     assert p.v_reb == pytest.approx(np.min(v), rel=0.01)  # a crank's rebound peak differs from compression
     ch["x"] = (t, np.where(t < 3.0, 0.0, 0.01))  # a step: no sine at that frequency
     assert peaks.peaks(ch, segs)[0].cycles == 0
+
+
+def test_segment_names_are_shown_in_the_chosen_units():
+    from protocols.units import Units
+    _, body = peaks.table([_peak(12.7, 4, 20, 1000.0)], Units("us"))
+    assert body[0][0] == "sine 0.5 in 4 Hz"  # recorded as 'sine 12.7 mm 4 Hz'
+    assert peaks.table([_peak(12.7, 4, 20, 1000.0)])[1][0][0] == "sine 12.7 mm 4 Hz"

@@ -209,8 +209,8 @@ def _loops(runs, loops, out, units):
         for ax, along in zip(axes, (V(v), X(x))):
             ax.plot(along, F(f), lw=0.8, color=f"C{i % 10}", label=f"{tag}: {run_name(meta, path)}")
     for ax, (what, q) in zip(axes, (("velocity", "velocity"), ("displacement", "length"))):
-        ax.set(title=f"{first.segment}: force vs {what}", xlabel=units.label(what, q), ylabel=units.label("force", "force"))
+        ax.set(title=f"{units.segment(first.segment)}: force vs {what}", xlabel=units.label(what, q), ylabel=units.label("force", "force"))
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, loc="upper left")
-    return (f"Loops of {first.segment}, the fastest segment every run shares (compression positive)",
+    return (f"Loops of {units.segment(first.segment)}, the fastest segment every run shares (compression positive)",
             save(fig, out / "compare_loops.png"))

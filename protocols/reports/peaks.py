@@ -292,7 +292,7 @@ def table(rows, units=Units()):
         fields = ["amplitude_mm", "achieved_mm", "freq_hz", "T_c", "v_comp", "F_comp", "v_reb", "F_reb"]
         fields += ["Fd_comp", "Fd_reb"] if has_d else []
         fields += ["model_comp", "model_reb"] if has_m else []
-        r = [p.segment + short] + [fmt(shown(p, f, units)) for f in fields]
+        r = [units.segment(p.segment) + short] + [fmt(shown(p, f, units)) for f in fields]
         if has_m:
             r.append(f"{100 * (p.model_comp - p.F_comp) / span:+.1f} / {100 * (p.model_reb - p.F_reb) / span:+.1f}")
         body.append(r)

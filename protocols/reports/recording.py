@@ -46,12 +46,12 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
             page.paragraph(f"Peak speeds are those of a sine and its overtones fitted to the measured displacement; "
                            f"forces are read at those instants from the averaged cycle of the settled cycles "
                            f"({averaged[0]}{'' if len(averaged) == 1 else f' to {averaged[-1]}'} per segment).")
-        short = [p.segment for p in rows if p.short_pct > peaks.SHORT_PCT]
+        short = [units.segment(p.segment) for p in rows if p.short_pct > peaks.SHORT_PCT]
         if short:
             page.paragraph(f"Short of the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: "
                            f"{', '.join(short)}. Their peaks are at the speed reached (the actuator's flow "
                            "or force limit, or the pre-flight's adaptation).")
-        over = [p.segment for p in rows if p.short_pct < -peaks.SHORT_PCT]
+        over = [units.segment(p.segment) for p in rows if p.short_pct < -peaks.SHORT_PCT]
         if over:
             page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {', '.join(over)}. "
                            "The rod moved faster than asked (an overshooting actuator, or a run imported with "
@@ -123,8 +123,8 @@ def _stroke_figure(rows, out, model, units):
     fig, ax = plt.subplots(figsize=(7, 5))
     for i, p in enumerate(rows):
         c, r = p.stroke_v > 0, p.stroke_v < 0
-        line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}", label=f"{p.segment} compression")[0]
-        ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color(), label=f"{p.segment} rebound")
+        line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}", label=f"{units.segment(p.segment)} compression")[0]
+        ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color(), label=f"{units.segment(p.segment)} rebound")
         if model is not None and len(p.model_stroke_F):
             ax.plot(V(p.stroke_v[c]), F_(p.model_stroke_F[c]), ":", color="k", lw=1)
             ax.plot(V(-p.stroke_v[r]), -F_(p.model_stroke_F[r]), ":", color="k", lw=1)

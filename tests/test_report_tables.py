@@ -27,6 +27,9 @@ def test_peak_force_against_temperature_only_where_temperatures_differ(tmp_path)
     assert force_temperature_figure(swept + same, tmp_path) == [("Peak force against temperature",
                                                                  "force_temperature.png")]
     assert (tmp_path / "force_temperature.png").stat().st_size > 10_000
+    for p in swept + same:  # gas and friction known: the damping force is what follows the oil's heat
+        p.Fd_comp, p.Fd_reb = p.F_comp - 300.0, p.F_reb - 300.0
+    assert force_temperature_figure(swept + same, tmp_path)[0][0] == "Damping force against temperature"
 
 
 def test_the_csv_names_each_column_with_its_unit_in_every_unit_system(tmp_path):

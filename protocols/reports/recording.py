@@ -225,17 +225,23 @@ def force_temperature_figure(rows, out, units=Units()):
     if not groups:
         return []
     T, F = (lambda si, q=q: units.show(q, si) for q in ("temperature", "force"))
+    # the damping force where the gas and friction are known: the total's compression peak
+    # rises as the gas warms while the damping falls, which reads the wrong way round
+    damping = all(np.isfinite(p.Fd_comp) and np.isfinite(p.Fd_reb) for ps in groups.values() for p in ps)
+    comp, reb = ("Fd_comp", "Fd_reb") if damping else ("F_comp", "F_reb")
+    what = "damping force" if damping else "peak force"
     fig, ax = plt.subplots(figsize=(7, 5))
     for i, (key, ps) in enumerate(sorted(groups.items())):
         c = f"C{i % 10}"
         Ts = T(np.array([p.T_c for p in ps]) + 273.15)
-        ax.plot(Ts, F(np.array([p.F_comp for p in ps])), "o-", color=c, label=f"{amplitude(units, key[0])} {key[1]:g} Hz")
-        ax.plot(Ts, F(-np.array([p.F_reb for p in ps])), "s--", color=c)
-    ax.set(title="Peak force against temperature (o compression, s rebound magnitude)",
-           xlabel=units.label("body temperature", "temperature"), ylabel=units.label("peak force", "force"))
+        ax.plot(Ts, F(np.array([getattr(p, comp) for p in ps])), "o-", color=c,
+                label=f"{amplitude(units, key[0])} {key[1]:g} Hz")
+        ax.plot(Ts, F(-np.array([getattr(p, reb) for p in ps])), "s--", color=c)
+    ax.set(title=f"{what.capitalize()}{'' if damping else ', gas included'} vs temperature (o comp., s reb. size)",
+           xlabel=units.label("body temperature", "temperature"), ylabel=units.label(what, "force"))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    return [("Peak force against temperature", save(fig, out / "force_temperature.png"))]
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the data, not over it
+    return [(f"{what.capitalize()} against temperature", save(fig, out / "force_temperature.png"))]
 
 
 STEP_BAND = 0.02  # settled: within 2 % of the step of its target, to stay

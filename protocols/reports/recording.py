@@ -196,8 +196,8 @@ def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
         Fr = -F_(np.array([p.Fd_reb if damping else p.F_reb for p in ps]))
         label = amplitude(units, a) + ("" if np.isnan(T) else f", {units.show('temperature', T + 273.15):.3g} "
                                                             f"{units.unit('temperature')}")
-        line = ax.plot(vc, Fc, "o-", label=f"{label} compression")[0]
-        ax.plot(vr, Fr, "s--", color=line.get_color(), label=f"{label} rebound")
+        line = ax.plot(vc, Fc, "o-", label=label)[0]  # one entry per amplitude: the markers say the direction
+        ax.plot(vr, Fr, "s--", color=line.get_color())
         if model is not None:
             gas = np.array([(p.F_comp - p.Fd_comp) if damping else 0.0 for p in ps])
             gas_r = np.array([(p.F_reb - p.Fd_reb) if damping else 0.0 for p in ps])
@@ -207,9 +207,9 @@ def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
     ax.set(title=f"Composite: {what} vs peak velocity" + ("\n(measured - gas - friction)" if damping else "")
            + (", x: model" if model is not None else ""),
            xlabel=units.label("peak velocity", "velocity"),
-           ylabel=f"{units.label(what, 'force')}, rebound as magnitude")
+           ylabel=f"{units.label(what, 'force')} (o comp., s reb. size)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the data, not over it
     figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
     return figures + force_temperature_figure(rows, out, units)
 

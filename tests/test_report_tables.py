@@ -191,3 +191,19 @@ def test_segment_names_are_shown_in_the_chosen_units():
     _, body = peaks.table([_peak(12.7, 4, 20, 1000.0)], Units("us"))
     assert body[0][0] == "sine 0.5 in 4 Hz"  # recorded as 'sine 12.7 mm 4 Hz'
     assert peaks.table([_peak(12.7, 4, 20, 1000.0)])[1][0][0] == "sine 12.7 mm 4 Hz"
+
+
+def test_compared_loops_overlay_about_each_runs_mid_stroke(tmp_path, monkeypatch):
+    """Two runs of one damper set up 10 mm apart: their force-displacement loops overlay."""
+    from protocols.reports import comparison
+    figs = []
+    monkeypatch.setattr(comparison, "save", lambda fig, path: figs.append(fig) or path.name)
+    th = np.linspace(0, 2 * np.pi, 200)
+    rows = [_peak(12.7, 4, 20, 1000.0)]
+    loops = {tag: {rows[0].segment: (np.cos(th), mid + 0.0127 * np.sin(th), 1000 * np.cos(th))}
+             for tag, mid in (("A", 0.040), ("B", 0.050))}
+    runs = [(tag, f"{tag}.mcap", rows, {}) for tag in ("A", "B")]
+    title, _ = comparison._loops(runs, loops, tmp_path, comparison.Units())
+    a, b = (line.get_xdata() for line in figs[0].axes[1].get_lines())
+    assert np.allclose(a, b) and abs(np.mean(a)) < 0.1  # mm about each run's mid-stroke
+    assert figs[0].axes[1].get_xlabel() == "displacement from mid-stroke [mm]"

@@ -206,9 +206,10 @@ def _loops(runs, loops, out, units):
         if name not in loops[tag]:
             continue
         v, x, f = loops[tag][name]
-        for ax, along in zip(axes, (V(v), X(x))):
+        # about each run's own mid-stroke: runs set up at other positions overlay
+        for ax, along in zip(axes, (V(v), X(x - 0.5 * (np.max(x) + np.min(x))))):
             ax.plot(along, F(f), lw=0.8, color=f"C{i % 10}", label=f"{tag}: {run_name(meta, path)}")
-    for ax, (what, q) in zip(axes, (("velocity", "velocity"), ("displacement", "length"))):
+    for ax, (what, q) in zip(axes, (("velocity", "velocity"), ("displacement from mid-stroke", "length"))):
         ax.set(title=f"{units.segment(first.segment)}: force vs {what}", xlabel=units.label(what, q), ylabel=units.label("force", "force"))
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, loc="upper left")

@@ -198,6 +198,11 @@ def test_a_safety_trip_and_an_operator_stop_end_the_recording(tmp_path):
     result, events = run_in_process(tmp_path, inject="open_thermocouple")
     assert [e["kind"] for e in events[-2:]] == ["fault", "run_end"]
     assert events[-2]["message"] == "T_body (tc): open thermocouple" == result.fault
+    # the report of the tripped run shows its trace up to the trip, not "No measured segments"
+    from protocols.reports.recording import report
+    index, pngs = report(tmp_path / "r.mcap", tmp_path / "rep")
+    assert "trace.png" in [p.name for p in pngs] and "to where it was stopped" in index.read_text()
+    assert "No measured segments" not in index.read_text()
     result, events = run_in_process(tmp_path, interrupt_at=1.5)
     assert [e["kind"] for e in events[-2:]] == ["operator_stop", "run_end"]
     assert events[-1]["message"] == "operator stop"

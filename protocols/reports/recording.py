@@ -82,6 +82,9 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         page.heading("Replay: the error of each iteration (docs/hil.md)")
         page.table(("iteration", "NRMS error [%]"), replayed)
         page.paragraph(hil.REPLAY_MEANING)
+    stopped = [e for e in events if e["kind"] in ("fault", "operator_stop")]
+    if (stopped or not figures) and {"force", "x"} <= set(ch) and len(ch["force"][0]):
+        figures.append(_trace_figure(ch, stopped, out, units))  # what happened up to the trip
     for title, png in figures:
         page.figure(title, png)
     if not figures:
@@ -89,6 +92,29 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     index = page.write(out)
     write_pdf(page, out, paper=paper)
     return index, [out / png for _, png in figures]
+
+
+TRACE_POINTS = 20_000  # samples drawn of a whole run's trace (every n-th)
+
+
+def _trace_figure(ch, stopped, out, units):
+    """(title, PNG) of displacement and force against time over the whole recording, each
+    trip or stop marked where it came: a run that ended early is still seen."""
+    fig, ax = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
+    for a, (name, q) in zip(ax, (("x", "length"), ("force", "force"))):
+        t, y = ch[name]
+        k = max(1, len(t) // TRACE_POINTS)
+        a.plot(t[::k], units.show(q, y[::k]), lw=0.6)
+        a.set(ylabel=units.label("displacement" if name == "x" else "force", q))
+        a.grid(alpha=0.3)
+        for e in stopped:
+            a.axvline(e["t"], color="C3", lw=1.0)
+    for e in stopped:
+        ax[0].annotate(f"{e['kind'].replace('_', ' ')}: {e.get('message', '')}"[:70], (e["t"], 1.0),
+                       xycoords=("data", "axes fraction"), ha="right", va="bottom", fontsize=7, color="C3")
+    ax[1].set(xlabel="time [s]")
+    return ("The whole run against time" + (", to where it was stopped" if stopped else ""),
+            save(fig, out / "trace.png"))
 
 
 def _header(page, meta, events, model):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from protocols import catalogue
+from protocols.io.reader import load_recording
 
 DYNO = [str(Path(sys.executable).parent / "dyno")]
 
@@ -111,3 +112,23 @@ def test_runs_show_and_trend_speak_the_chosen_units(folder, capsys):
     assert main(["runs", "trend", str(folder), "--serial", "D12", "--quantity", "rebound@4in/s", "--units", "us",
                  "--out", str(folder / "t.png")]) == 0
     assert "rebound@4in/s [lbf]" in capsys.readouterr().out and (folder / "t.png").stat().st_size > 10_000
+
+
+def test_runs_edit_corrects_the_recording_and_its_row_and_nothing_else(folder, capsys):
+    from protocols.app.cli import main
+    catalogue.index(folder)
+    with catalogue.connect(folder) as c:
+        row = next(r for r in catalogue.runs(c) if not r["error"])
+    before = load_recording(row["path"])
+    assert main(["runs", "edit", str(row["id"]), str(folder), "--serial", "K-77", "--operator", "ana",
+                 "--setup", "clicks_reb=14", "--note", ""]) == 0
+    assert "damper_serial K-77" in capsys.readouterr().out
+    after = load_recording(row["path"])
+    assert after[2]["run"]["damper_serial"] == "K-77" and after[2]["run"]["setup.clicks_reb"] == "14"
+    assert "note" not in after[2]["run"]  # '' removes it
+    assert {k for k in before[2] if before[2][k] != after[2][k]} == {"run"} and before[1] == after[1]
+    assert all(np.array_equal(before[0][k][1], after[0][k][1]) for k in before[0])
+    with catalogue.connect(folder) as c:
+        edited, _ = catalogue.run(c, row["id"])
+    assert edited["serial"] == "K-77" and edited["operator"] == "ana" and '"clicks_reb": "14"' in edited["setup"]
+    assert main(["runs", "edit", str(row["id"]), str(folder)]) == 2  # nothing to change: one line

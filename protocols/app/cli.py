@@ -207,10 +207,9 @@ def _catalogue_commands(sub):
     rl.add_argument("--serial", help="one damper serial")
     rl.add_argument("--since", help="started on or after this UTC date or time (ISO 8601, e.g. 2026-03-01)")
     rl.add_argument("--protocol", help="one protocol (sine-matrix, standard, ...)")
-    rl.add_argument("--where", metavar="EXPR",
-                    help='conditions FIELD OP VALUE joined by "and": OP = != < <= > >= ~ (contains); FIELD serial, '
-                         'operator, note, damper, protocol, started, duration_s, outcome, ... or setup.KEY, e.g. '
-                         '"setup.clicks >= 10 and outcome = completed"')
+    rl.add_argument("--where", metavar="EXPR", help='conditions FIELD OP VALUE joined by "and": OP = != < <= > >= ~ '
+                    '(contains); FIELD serial, operator, note, damper, protocol, started, duration_s, outcome, ... or '
+                    'setup.KEY, e.g. "setup.clicks >= 10 and outcome = completed"')
     rl.add_argument("--json", action="store_true")
     rl.set_defaults(command="runs:list_runs")
     rw = rsub.add_parser("show", help="one run: identity, setup, outcome and its peaks")
@@ -219,6 +218,11 @@ def _catalogue_commands(sub):
     rw.add_argument("--json", action="store_true", help="everything in SI, as the catalogue holds it")
     _units(rw)
     rw.set_defaults(command="runs:show")
+    re_ = rsub.add_parser("edit", help="correct a run's serial, operator, note or setup KEY=VALUE ('' removes one)")
+    for a, kw in (("id", {"type": int}), ("dir", {"nargs": "?", "default": "recordings"}), ("--serial", {}),
+                  ("--operator", {}), ("--note", {}), ("--setup", {"action": "append", "type": setup_item, "default": []})):
+        re_.add_argument(a, **kw)
+    re_.set_defaults(command="runs:edit")
     rt = rsub.add_parser("trend", help="a serial's force at one speed over its runs")
     rt.add_argument("dir", nargs="?", default="recordings")
     rt.add_argument("--serial", required=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+from contextlib import closing
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -124,4 +125,21 @@ def trend(args):
         with written(args.out) as tmp:
             trend_report.figure(points, args.serial, args.quantity, tmp, units, kind)
         print(f"figure: {args.out}", file=sys.stderr)
+    return 0
+
+
+def edit(args):
+    """`dyno runs edit ID --serial/--operator/--note/--setup KEY=VALUE`: what was typed wrong
+    or left out at the run, in the recording's metadata and its catalogue row both."""
+    from protocols.io.recording import edit_run_info
+    changes = {k: v for k, v in (("damper_serial", args.serial), ("operator", args.operator), ("note", args.note))
+               if v is not None}
+    changes.update({f"setup.{k}": v for k, v in args.setup})
+    if not changes:
+        raise RigError("runs edit: nothing to change: give --serial, --operator, --note or --setup KEY=VALUE")
+    with closing(catalogue.connect(_folder(args))) as c:
+        row, _ = catalogue.run(c, args.id)
+        new = edit_run_info(row["path"], changes)
+        catalogue.index_file(c, row["path"])
+    print(f"run {args.id} ({Path(row['path']).name}): " + ", ".join(f"{k} {new.get(k, '(removed)')}" for k in changes))
     return 0

@@ -354,10 +354,37 @@ def recover(path) -> dict:
     return counts
 
 
-def _rewrite(out, records, schemas, channels, counts):
+def edit_run_info(path, changes: dict) -> dict:
+    """Rewrite a recording with its "run" metadata changed ({damper_serial, operator, note,
+    setup.KEY: text}; "" removes one); every other record is kept as it was: the messages
+    with their times, the attachments, the other metadata. Returns the new run metadata."""
+    path = not_being_written(input_file(path), "runs edit")
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise RigError(f"{path}: cannot read ({e.strerror})") from None
+    records, skipped = scan(data)
+    channels = {r.id: r for r in records if isinstance(r, Channel)}
+    if skipped or not channels:
+        raise RigError(f"{path}: damaged ({skipped} bytes unreadable): run `dyno recover {path}` first")
+    runs = [i for i, r in enumerate(records) if isinstance(r, Metadata) and r.name == "run"]
+    old = dict(records[runs[-1]].metadata) if runs else {}
+    new = {k: v for k, v in {**old, **changes}.items() if v != ""}
+    for i in runs:
+        records[i] = Metadata(name="run", metadata=new)
+    if not runs:
+        records.append(Metadata(name="run", metadata=new))
+    counts = {"metadata": 0, "attachments": 0}
+    with written(path, "runs edit:") as tmp:
+        with open(tmp, "wb") as out:
+            _rewrite(out, records, {r.id: r for r in records if isinstance(r, Schema)}, channels, counts, "edit")
+    return new
+
+
+def _rewrite(out, records, schemas, channels, counts, why="recover"):
     """The intact records, written as a new indexed MCAP; counts what was kept."""
     w = Writer(out, chunk_size=1 << 20, compression=CompressionType.ZSTD)
-    w.start(profile="", library=f"dyno {VERSION} recover")
+    w.start(profile="", library=f"dyno {VERSION} {why}")
     sid = {i: w.register_schema(s.name, s.encoding, s.data) for i, s in schemas.items()}
     cid = {i: w.register_channel(c.topic, c.message_encoding, sid.get(c.schema_id, 0), c.metadata)
            for i, c in channels.items()}

@@ -430,10 +430,12 @@ def force_at(peaks, direction, speed):
 
 
 def trend(c: sqlite3.Connection, serial, text):
-    """[(started, force [N], run id)] of a serial's runs at the quantity, oldest first."""
+    """[(started, force [N], run id, setup "KEY=VALUE ...")] of a serial's runs at the
+    quantity, oldest first."""
     direction, speed = quantity(text)
     out = []
     for r in runs(c, serial=serial):
         if r["error"] is None:
-            out.append((r["started"], force_at(run(c, r["id"])[1], direction, speed), r["id"]))
+            setup = " ".join(f"{k}={v}" for k, v in json.loads(r["setup"] or "{}").items())
+            out.append((r["started"], force_at(run(c, r["id"])[1], direction, speed), r["id"], setup))
     return out

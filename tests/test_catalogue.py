@@ -50,7 +50,7 @@ def test_a_serials_force_is_trended_at_a_speed_as_the_velocity_table_reads_it(fo
         points = catalogue.trend(c, "D12", "rebound@0.1m/s")
         _, peaks = catalogue.run(c, points[0][2])
         assert catalogue.runs(c, serial="nobody") == [] and len(catalogue.runs(c, protocol="sine-matrix")) == 2
-    assert len(points) == 2 and points[0][1] == points[1][1] < 0
+    assert len(points) == 2 and points[0][1] == points[1][1] < 0 and points[0][3] == "clicks=12"
     # between the two measured speeds: on the line through their peaks
     (v1, F1), (v2, F2) = sorted((-p["v_reb"], p["F_reb"]) for p in peaks)
     assert v1 < 0.1 < v2 and points[0][1] == pytest.approx(np.interp(0.1, [v1, v2], [F1, F2]))
@@ -114,8 +114,10 @@ def test_runs_show_and_trend_speak_the_chosen_units(folder, capsys):
     assert "rebound@4in/s [lbf]" in capsys.readouterr().out and (folder / "t.png").stat().st_size > 10_000
 
 
-def test_runs_edit_corrects_the_recording_and_its_row_and_nothing_else(folder, capsys):
+def test_runs_edit_corrects_the_recording_and_its_row_and_nothing_else(folder, tmp_path, capsys):
     from protocols.app.cli import main
+    shutil.copy(folder / "d12-a.mcap", tmp_path / "d12-a.mcap")  # the shared folder stays as it was
+    folder = tmp_path
     catalogue.index(folder)
     with catalogue.connect(folder) as c:
         row = next(r for r in catalogue.runs(c) if not r["error"])

@@ -119,8 +119,8 @@ def trend(args):
     if not points:
         raise RigError(f"no readable runs of serial {args.serial!r} in {args.dir}")
     units = Units(args.units)
-    print(md.table(("started", units.label(args.quantity, "force"), "run id"),
-                   [(s, fmt(units.show("force", F)), i) for s, F, i in points]))
+    print(md.table(("started", units.label(args.quantity, "force"), "run id", "setup"),
+                   [(s, fmt(units.show("force", F)), i, setup or "-") for s, F, i, setup in points]))
     if args.out:
         with written(args.out) as tmp:
             trend_report.figure(points, args.serial, args.quantity, tmp, units, kind)

@@ -2,7 +2,7 @@
 trends): the catalogue's points as a figure."""
 from __future__ import annotations
 
-from datetime import datetime
+from datetime import datetime, timedelta
 from pathlib import Path
 
 import matplotlib.dates as mdates
@@ -16,17 +16,32 @@ from protocols.units import Units
 FORMATS = ("png", "svg", "pdf")
 
 
+BAND_PCT = 5.0  # the band drawn about the runs' mean: dyno check's default tolerance
+
+
 def figure(points, serial, quantity, path, units=Units(), fmt=None):
-    """points: [(started ISO, force [N], run id)]; the PNG (or fmt, one of FORMATS) at path
-    (its name)."""
-    fig, ax = plt.subplots(figsize=(7, 3.8))
-    ok = [(datetime.fromisoformat(s), F) for s, F, _ in points if np.isfinite(F)]
-    ax.plot([s for s, _ in ok], [units.show("force", F) for _, F in ok], "o-")
-    locator = mdates.AutoDateLocator()
+    """points: [(started ISO, force [N], run id, setup text)]; the PNG (or fmt, one of
+    FORMATS) at path (its name). Each point is labelled with its run and setup; the band is
+    the runs' mean +- BAND_PCT."""
+    fig, ax = plt.subplots(figsize=(8, 4.2))
+    ok = [(datetime.fromisoformat(s), units.show("force", F), i, setup) for s, F, i, setup in points if np.isfinite(F)]
+    ax.plot([p[0] for p in ok], [p[1] for p in ok], "o-")
+    if ok:
+        mean = float(np.mean([p[1] for p in ok]))
+        ax.axhspan(mean * (1 - BAND_PCT / 100), mean * (1 + BAND_PCT / 100), color="C2", alpha=0.15,
+                   label=f"mean +- {BAND_PCT:g} % (dyno check's default band)")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    for k, (when, F, i, setup) in enumerate(ok):  # staggered: runs minutes apart would overprint
+        ax.annotate(f"#{i} {setup}".strip(), (when, F), textcoords="offset points", xytext=(3, 5 + 9 * (k % 3)),
+                    fontsize=6)
+    if ok and (ok[-1][0] - ok[0][0]).total_seconds() < 600:  # runs of one session: an hour about them
+        mid = ok[0][0] + (ok[-1][0] - ok[0][0]) / 2
+        ax.set_xlim(mid - timedelta(minutes=30), mid + timedelta(minutes=30))
+    locator = mdates.AutoDateLocator(maxticks=6)
     ax.xaxis.set_major_locator(locator)
     ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
-    ax.margins(x=0.1)
-    ax.tick_params(axis="x", labelsize=7)
+    ax.margins(x=0.15, y=0.2)
+    ax.tick_params(axis="x", labelsize=8)
     ax.set_title(f"{serial}: {quantity}")
     ax.set_ylabel(units.label("force", "force"))
     ax.set_xlabel("run started (UTC)")

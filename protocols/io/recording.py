@@ -318,6 +318,17 @@ def scan(data):
     return out, skipped
 
 
+def _scanned(path):
+    """(records, bytes skipped, {id: Schema}, {id: Channel}) of a recording read whole."""
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise RigError(f"{path}: cannot read ({e.strerror})") from None
+    records, skipped = scan(data)
+    return (records, skipped, {r.id: r for r in records if isinstance(r, Schema)},
+            {r.id: r for r in records if isinstance(r, Channel)})
+
+
 def recover(path) -> dict:
     """Rebuild an indexed MCAP from a damaged one (a run that was killed, a torn or
     corrupted file): every intact record is kept, also those after a damaged part. The
@@ -331,13 +342,7 @@ def recover(path) -> dict:
         return {"intact": True}
     except Exception:  # noqa: BLE001 - anything the indexed reader refuses is recovered below
         pass
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise RigError(f"{path}: cannot read ({e.strerror})") from None
-    records, skipped = scan(data)
-    schemas = {r.id: r for r in records if isinstance(r, Schema)}
-    channels = {r.id: r for r in records if isinstance(r, Channel)}
+    records, skipped, schemas, channels = _scanned(path)
     messages = [r for r in records if isinstance(r, Message) and r.channel_id in channels]
     if not channels:
         raise RigError(f"{path}: not an MCAP recording, or nothing recoverable in it")
@@ -359,12 +364,7 @@ def edit_run_info(path, changes: dict) -> dict:
     setup.KEY: text}; "" removes one); every other record is kept as it was: the messages
     with their times, the attachments, the other metadata. Returns the new run metadata."""
     path = not_being_written(input_file(path), "runs edit")
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise RigError(f"{path}: cannot read ({e.strerror})") from None
-    records, skipped = scan(data)
-    channels = {r.id: r for r in records if isinstance(r, Channel)}
+    records, skipped, schemas, channels = _scanned(path)
     if skipped or not channels:
         raise RigError(f"{path}: damaged ({skipped} bytes unreadable): run `dyno recover {path}` first")
     runs = [i for i, r in enumerate(records) if isinstance(r, Metadata) and r.name == "run"]
@@ -377,7 +377,7 @@ def edit_run_info(path, changes: dict) -> dict:
     counts = {"metadata": 0, "attachments": 0}
     with written(path, "runs edit:") as tmp:
         with open(tmp, "wb") as out:
-            _rewrite(out, records, {r.id: r for r in records if isinstance(r, Schema)}, channels, counts, "edit")
+            _rewrite(out, records, schemas, channels, counts, "edit")
     return new
 
 

@@ -18,12 +18,13 @@ run: $(STAMP)
 	$(VENV)/bin/dyno run standard --damper $(DAMPER) --out recordings/standard-$(DAMPER).mcap --overwrite
 	$(VENV)/bin/dyno report recordings/standard-$(DAMPER).mcap --out reports/standard-$(DAMPER) --overwrite
 
-# the browser tests' Chromium: Debian's package (Playwright's own download cannot reach its host)
+# the browser tests' Chromium: Debian's package (Playwright's own download cannot reach its host), and the
+# Pango WeasyPrint typesets the PDF with (Chromium brings it too)
 CHROMIUM ?= /usr/bin/chromium
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 $(CHROMIUM):
 	@command -v apt-get >/dev/null || { echo "make: the browser tests need Chromium at $(CHROMIUM) (or CHROMIUM=PATH)" >&2; exit 1; }
-	$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium >/dev/null
+	$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium libpango-1.0-0 libpangoft2-1.0-0 >/dev/null
 
 # the suite in two parts: in parallel on two workers, then the tests against the wall clock
 # alone (a loaded machine would delay their processes past the 50 ms watchdog); each part

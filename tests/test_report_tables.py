@@ -84,21 +84,42 @@ def test_a_segment_short_of_its_target_speed_is_flagged_with_the_amplitude_reach
     assert body[1][:3] == ["sine 12.7 mm 16 Hz (speed 7 % short)", "12.70", "11.83"]
 
 
-def test_the_printable_report_flows_text_tables_and_figures_over_a4_pages(tmp_path):
-    import re
+def _pdf_text_and_sizes(path):
+    """(text per page, smallest font size [pt] drawn) of a PDF, read back with pypdf."""
+    from pypdf import PdfReader
+    sizes, pages = [], []
+    for pg in PdfReader(path).pages:
+        pages.append(pg.extract_text(visitor_text=lambda text, cm, tm, font, size: text.strip() and sizes.append(
+            abs(size * tm[0] * cm[0]) or abs(size * tm[3] * cm[3]))))
+    return pages, min(sizes)
+
+
+def test_the_printed_report_is_typeset_text_with_headings_kept_with_their_tables(tmp_path):
+    """Issue 45: the PDF's peak table was set at about 4 pt with columns run together. Now
+    WeasyPrint sets the page's own HTML: the table is text at 8 pt, 60 rows flow onto a
+    second page with the header repeated, a heading never ends a page."""
     from protocols.reports.page import Page, save
     from protocols.reports.pdf import write_pdf
     from protocols.reports.plots import plt
     page = Page("Dyno report: x.mcap")
     page.paragraph("started (UTC): 2026-11-25 · damper serial: K-1")
-    page.table(["segment"] + [f"column {i} [N]" for i in range(14)], [[f"sine {k}"] + list(range(14)) for k in range(60)])
+    page.heading("Peak forces")
+    page.table(["segment"] + [f"column {i} [N]" for i in range(13)],
+               [[f"sine {k} mm"] + [f"{1000 + 10 * k + i}" for i in range(13)] for k in range(60)])
     fig, ax = plt.subplots()
     ax.plot([0, 1], [0, 1])
     page.figure("A figure", save(fig, tmp_path / "f.png"))
-    pdf = write_pdf(page, tmp_path, paper="a4").read_bytes()
-    assert pdf.startswith(b"%PDF") and b"Dyno report: x.mcap" in pdf
-    assert len(re.findall(rb"/Type /Page\b", pdf)) == 2  # 60 table rows and a figure need a second page
-    assert re.search(rb"/MediaBox \[ 0 0 595\.4\d* 841\.6\d* \]", pdf)  # A4 in points
+    path = write_pdf(page, tmp_path, paper="a4")
+    pages, smallest = _pdf_text_and_sizes(path)
+    assert pages[0].startswith("Dyno report: x.mcap") and len(pages) >= 2
+    assert "sine 59" in "".join(pages) and "1602" in "".join(pages)  # the table's numbers, as text
+    assert "Peak forces" in pages[0]  # the heading stays with the table's first rows
+    assert sum(p.count("segment\ncolumn 0") for p in pages) >= 2  # the header repeats on the next page
+    assert smallest >= 7.99, smallest  # 8 pt, as the PDF rounds it
+    assert not any(p.rstrip().endswith("A figure") for p in pages[:-1])  # kept with its figure
+    from pypdf import PdfReader
+    box = PdfReader(path).pages[0].mediabox
+    assert (round(float(box.width)), round(float(box.height))) == (842, 595)  # A4 landscape in points
 
 
 def test_a_clipped_or_overlapping_label_is_found_and_a_clean_figure_passes():
@@ -207,3 +228,13 @@ def test_compared_loops_overlay_about_each_runs_mid_stroke(tmp_path, monkeypatch
     a, b = (line.get_xdata() for line in figs[0].axes[1].get_lines())
     assert np.allclose(a, b) and abs(np.mean(a)) < 0.1  # mm about each run's mid-stroke
     assert figs[0].axes[1].get_xlabel() == "displacement from mid-stroke [mm]"
+
+
+def test_without_weasyprint_the_pdf_is_still_written(tmp_path, monkeypatch):
+    """A machine without the OS's Pango (make run on a bare one): a plainer PDF, not a failure."""
+    from protocols.reports import pdf
+    from protocols.reports.page import Page
+    monkeypatch.setattr(pdf, "_weasyprint", lambda: None)
+    page = Page("Dyno report: bare.mcap")
+    page.table(["segment", "F [N]"], [["sine 1", "100"]])
+    assert pdf.write_pdf(page, tmp_path).read_bytes().startswith(b"%PDF")

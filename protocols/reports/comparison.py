@@ -18,6 +18,7 @@ from protocols.io.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
 from protocols.reports.page import Page, save
+from protocols.reports.pdf import write_pdf
 from protocols.reports.plots import plt
 from protocols.units import Units, amplitude, fmt
 
@@ -124,7 +125,9 @@ def compare(paths, out_dir, units=Units()):
         page.heading(f"Force at shaft velocities, every run read the same way ({table[0]}; difference against "
                      f"{first[0]})")
         page.table(*table[1:])
-    return page.write(out), pngs
+    index = page.write(out)
+    write_pdf(page, out)  # report.pdf beside it, as a single run's report has
+    return index, pngs
 
 
 def _speeds_table(runs, units):

@@ -13,6 +13,9 @@ STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto}img{max-w
          "td:first-child,th:first-child{text-align:left}")
 
 
+SHORT_TABLE = 25  # rows a printed table is kept on one page with
+
+
 def number(v):
     """A value for a table: 4 significant digits, '-' for none or not finite."""
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
@@ -98,7 +101,9 @@ class Page:
         self.blocks.append(("table", (list(header), rows)))
         cells = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
         body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
-        self.parts.append(f"<table><tr>{cells}</tr>{body}</table>")
+        # printed (protocols/reports/pdf.py): the header repeats on each page; a short table is kept whole
+        short = " class='short'" if len(rows) <= SHORT_TABLE else ""
+        self.parts.append(f"<table{short}><thead><tr>{cells}</tr></thead><tbody>{body}</tbody></table>")
 
     def figure(self, title, png):
         self.heading(title)

@@ -1,6 +1,9 @@
-"""The printable report: a Page's blocks (protocols/reports/page.py) laid out on A4 or
-Letter pages with matplotlib's PDF backend: text flowing down the page, tables in a
-monospaced font, each figure scaled to the page width."""
+"""The printable report: a Page (protocols/reports/page.py) typeset on A4 or Letter, in
+landscape (a dyno sheet's peak table has fourteen columns), by
+WeasyPrint from the page's own HTML and a print stylesheet (tables as text at 8 pt,
+a heading kept with what follows it, figures fitted to the page). Where WeasyPrint cannot
+load (it needs Pango from the OS: `make test` installs it with Chromium), the blocks are
+laid out with matplotlib's PDF backend instead, and the report says which."""
 from __future__ import annotations
 
 import textwrap
@@ -73,9 +76,39 @@ def _table(header, rows):
     return [fmt[0], "-" * len(fmt[0]), *fmt[1:]]
 
 
+PRINT_CSS = """@page {{ size: {paper} landscape; margin: 12mm 12mm; @bottom-right {{ content: counter(page) " / " counter(pages);
+font: 8pt sans-serif; }} }}
+body {{ font: 9pt sans-serif; max-width: none; margin: 0; }}
+h1 {{ font-size: 14pt; margin: 0 0 4mm; }}
+h2 {{ font-size: 10.5pt; margin: 5mm 0 2mm; break-after: avoid; }}
+p, li {{ orphans: 3; widows: 3; }}
+table {{ font-size: 8pt; border-collapse: collapse; width: 100%; }}
+table.short {{ break-inside: avoid; }}
+tr {{ break-inside: avoid; }}
+td, th {{ padding: 1px 3px; }}
+td {{ white-space: nowrap; }}
+td:first-child {{ white-space: normal; }}
+th {{ vertical-align: bottom; }}
+img {{ max-width: 100%; max-height: 160mm; break-inside: avoid; }}"""
+
+
+def _weasyprint():
+    """The weasyprint module, or None where it or the OS's Pango cannot load."""
+    try:
+        import weasyprint
+    except (ImportError, OSError):
+        return None
+    return weasyprint
+
+
 def write_pdf(page, out_dir, name="report.pdf", paper="a4") -> Path:
     """Write the page as DIR/NAME; its path. Figures are read from DIR."""
     out = Path(out_dir) / name
+    wp = _weasyprint()
+    if wp is not None:
+        wp.HTML(string="\n".join(page.parts), base_url=str(Path(out_dir).resolve())).write_pdf(
+            out, stylesheets=[wp.CSS(string=PRINT_CSS.format(paper=paper.upper() if paper == "a4" else paper))])
+        return out
     with PdfPages(out, metadata={"Title": page.title, "Creator": "dyno"}) as pdf:
         sheet = _Sheet(pdf, paper)
         sheet.lines("title", _wrap("title", page.title), weight="bold")

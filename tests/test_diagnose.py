@@ -244,16 +244,22 @@ def test_a_significant_gain_below_the_practical_size_is_kept_but_not_named():
     (19.8 to 18.9 N against 13.4 N of noise) and was told as an MR fluid. Below NAMED_SHARE
     it is said as small, with its size, and not among the names; the cell's timing is never
     held to it."""
-    from models.diagnose import NAMED_SHARE, _small
-    from models.diagnose.result import Candidate, Step
+    from models.diagnose import NAMED_SHARE, _sized
+    from models.diagnose.result import Step
     from models.diagnose.words import small_sentence
-    mse, sigma = 19.8 ** 2, 13.4
-    bw = Candidate("bouc_wen", 1, {}, {}, 0.02, 18.9, 0.9, 1e-4, gain=mse - 18.9 ** 2, relevance=0.19)
-    assert _small(bw, mse, sigma)
-    bw.gain = 1.1 * NAMED_SHARE * (mse - sigma ** 2)
-    assert not _small(bw, mse, sigma)
-    lag = Candidate("sensor_delay", 1, {}, {}, 0.02, 18.9, 0.9, 1e-4, gain=1.0, relevance=0.01)
-    assert not _small(lag, mse, sigma)
+    sigma, excess = 13.4, 19.8 ** 2 - 13.4 ** 2
+
+    def steps(*pairs):  # (effect, gain in noise variances) in the order accepted
+        out = [Step(e, 0.0, 0.0, {}, {}, 1e-4, np.zeros(3), np.zeros(3), [], [], [], relevance=g) for e, g in pairs]
+        _sized(out, excess, sigma)
+        return out
+    bw, = steps(("bouc_wen", (19.8 ** 2 - 18.9 ** 2) / sigma ** 2))  # 16 % of the excess
+    assert bw.small and abs(bw.excess_share - 0.16) < 0.01
+    bw, = steps(("bouc_wen", 1.1 * NAMED_SHARE * excess / sigma ** 2))
+    assert not bw.small
+    # the cell's own timing took most of the excess: the physics is sized against what is left
+    lag, fp = steps(("sensor_delay", 0.9 * excess / sigma ** 2), ("free_play", 0.05 * excess / sigma ** 2))
+    assert not lag.small and not fp.small and abs(fp.excess_share - 0.5) < 0.01
     step = Step("bouc_wen", 0.021, 0.020, {}, {}, 1e-4, np.zeros(3), np.zeros(3), [], [], [], relevance=0.19,
                 excess_share=0.16, small=True, size_rms_n=5.6)
     text = small_sentence(step, 1200.0)

@@ -238,7 +238,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
                           # the earlier effects whose form this one may be compensating, in acceptance order
                           [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals,
-                          stand_in=stand_in, **_practical(best, mse, sigma)))
+                          stand_in=stand_in, relevance=best.relevance))
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
@@ -251,6 +251,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         if st.effect in accepted:
             for k, v in describe(d, st.effect, st.residual_after - st.residual_before, held).items():
                 setattr(st, k, v)
+    _sized(steps, float(np.mean(r0[judged] ** 2)) - sigma ** 2, sigma)
     return Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
                      locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
                      left_over(r_cur, judged, block, judged_blocks, sigma, rng),
@@ -263,19 +264,18 @@ def _term(e):
     return EFFECTS[e.split(":")[0]].nature in ("open", "form")
 
 
-def _small(c, mse, sigma):
-    """Is an accepted candidate's gain below the practical size (NAMED_SHARE)? Only physics
-    and terms outside the catalogue are held to it: the cell's timing and the valve curve's
-    form are not said as physics left out."""
-    if EFFECTS[c.effect.split(":")[0]].nature not in ("physics", "open"):
-        return False
-    return c.gain < NAMED_SHARE * max(mse - sigma ** 2, 0.0)
-
-
-def _practical(c, mse, sigma):
-    """A Step's practical size: gain in noise variances, share of the excess, small."""
-    return {"relevance": c.relevance, "excess_share": c.gain / max(mse - sigma ** 2, 1e-30),
-            "small": _small(c, mse, sigma)}
+def _sized(steps, excess, sigma):
+    """Each step's practical size (NAMED_SHARE): its gain's share of the held-out
+    mean-square error above the noise that the damper's physics has to explain, the
+    baseline's excess less what the cell's timing and the valve curve's form took (the
+    plain cell's own timing offset is no physics to share with). Only physics and terms
+    outside the catalogue can be small: the cell's timing and the valve curve's form are
+    never said as physics left out."""
+    physics = [s for s in steps if EFFECTS[s.effect.split(":")[0]].nature in ("physics", "open")]
+    left = excess - sigma ** 2 * sum(s.relevance for s in steps if s not in physics)
+    for s in physics:
+        s.excess_share = s.relevance * sigma ** 2 / max(left, 1e-30)
+        s.small = left > 0 and s.excess_share < NAMED_SHARE
 
 
 def _chosen(ok, block, judged, judged_blocks, alpha, rng):

@@ -212,8 +212,10 @@ def _loops(runs, loops, out, units):
         # about each run's own mid-stroke: runs set up at other positions overlay
         for ax, along in zip(axes, (V(v), X(x - 0.5 * (np.max(x) + np.min(x))))):
             ax.plot(along, F(f), lw=0.8, color=f"C{i % 10}", label=f"{tag}: {run_name(meta, path)}")
-    for ax, (what, q) in zip(axes, (("velocity", "velocity"), ("displacement from mid-stroke", "length"))):
-        ax.set(title=f"{units.segment(first.segment)}: force vs {what}", xlabel=units.label(what, q), ylabel=units.label("force", "force"))
+    for ax, (what, label, q) in zip(axes, (("velocity", "velocity", "velocity"),
+                                           ("displacement", "displacement from mid-stroke", "length"))):
+        ax.set(title=f"{units.segment(first.segment)}: force vs {what}", xlabel=units.label(label, q),
+               ylabel=units.label("force", "force"))
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, loc="upper left")
     return (f"Loops of {units.segment(first.segment)}, the fastest segment every run shares (compression positive)",

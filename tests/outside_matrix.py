@@ -33,7 +33,9 @@ def one(task):
         path = record(Path(d) / "null.mcap", seed=seed, **cell)
         ch, ev, _ = load_recording(path)
     res = diagnose(ch, ev)
-    return cell, seed, [s.effect for s in res.steps if not s.replaced_by]
+    # what is said by name: small findings, rival groups and what a stand-in explains as well are not
+    return cell, seed, [s.effect for s in res.steps if s.effect in res.named() or
+                        s.effect.split(":")[0] in TIMING | FORM and not s.replaced_by]
 
 
 def false_named(cell, accepted):
@@ -60,8 +62,8 @@ def main(argv=None):
     from protocols.reports import markdown as md
     summary = (f"{len(done)} recordings ({len(CELLS)} cells x {args.seeds} seed(s)); physics named that is not "
                f"there in {bad} ({100 * bad / len(done):.0f} %); goal: at most 5 %.")
-    body = md.table(("kHz", "noise", "load cell Hz", "misalign us", "valves", "friction N", "seed", "accepted",
-                     "false physics"), rows)
+    body = md.table(("kHz", "noise", "load cell Hz", "misalign us", "valves", "friction N", "seed",
+                     "said: named, the cell's timing, the valve form", "false physics"), rows)
     if args.markdown:
         stamp = md.stamp().replace("`dyno ", "`python -m tests.outside_matrix ")
         print("\n\n".join(["# The second generator's nulls", stamp, __doc__.split("\n\n")[0].replace("\n", " "),

@@ -43,9 +43,9 @@ LAG_RESOLVED = 0.02  # of a sample period: a lag shorter than this, its interval
 SHARE = 0.01
 # practical size (docs/diagnosis.md, chosen on nulls and concealed effects of both
 # generators): physics is named only when its held-out gain is at least NAMED_SHARE of the
-# held-out mean-square error above the noise it met (and, as every accepted effect, at
-# least RELEVANCE noise variances); a smaller significant gain stays in the model and is
-# said as small, not named
+# excess over the noise the damper's physics has to explain (_sized), and, as every
+# accepted effect, at least RELEVANCE noise variances; a smaller significant gain stays in
+# the model and is said as small, not named
 NAMED_SHARE = 0.2
 # a mechanism whose variables the loop shows is named only when it beats this stand-in
 STAND_IN = "loop_surface"
@@ -271,9 +271,9 @@ def _sized(steps, excess, sigma):
     plain cell's own timing offset is no physics to share with). Only physics and terms
     outside the catalogue can be small: the cell's timing and the valve curve's form are
     never said as physics left out."""
-    physics = [s for s in steps if EFFECTS[s.effect.split(":")[0]].nature in ("physics", "open")]
-    left = excess - sigma ** 2 * sum(s.relevance for s in steps if s not in physics)
-    for s in physics:
+    is_physics = [EFFECTS[s.effect.split(":")[0]].nature in ("physics", "open") for s in steps]
+    left = excess - sigma ** 2 * sum(s.relevance for s, ph in zip(steps, is_physics) if not ph)
+    for s in (s for s, ph in zip(steps, is_physics) if ph):
         s.excess_share = s.relevance * sigma ** 2 / max(left, 1e-30)
         s.small = left > 0 and s.excess_share < NAMED_SHARE
 

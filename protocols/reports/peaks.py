@@ -138,11 +138,9 @@ def stroke(v, F):
 @dataclass
 class Cycle:
     """A sine segment's averaged cycle: the displacement's harmonic fit at the segment's
-    frequency, and where on the cycle its speed peaks."""
-    freq_hz: float
+    (refined) frequency, and where on the cycle its speed peaks."""
     phase: np.ndarray  # of each sample, 0..1 of a cycle
-    x: np.ndarray  # fitted displacement at each sample [m]
-    v: np.ndarray  # its derivative [m/s]
+    v: np.ndarray  # the fitted displacement's derivative at each sample [m/s]
     peak_phase: tuple  # (compression, rebound) phase of the fitted peak speeds
     v_peak: tuple  # (compression, rebound) fitted peak speeds [m/s]
     cycles: int  # whole cycles averaged
@@ -195,8 +193,8 @@ def cycle(t, x, freq_hz):
     grid = np.linspace(0.0, 1.0 / f, 2000, endpoint=False)
     vg = speed(grid)
     ic, ir = int(np.argmax(vg)), int(np.argmin(vg))
-    return Cycle(f, (t * f) % 1.0, _harmonics(t, f) @ c, speed(t), (ic / len(grid), ir / len(grid)),
-                 (float(vg[ic]), float(vg[ir])), int(t[-1] * f))
+    return Cycle((t * f) % 1.0, speed(t), (ic / len(grid), ir / len(grid)), (float(vg[ic]), float(vg[ir])),
+                 int(t[-1] * f))
 
 
 def peaks(ch, segs, damper=None, model=None):

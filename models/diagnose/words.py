@@ -98,8 +98,7 @@ def rivals_sentence(step):
 
 def small_sentence(step, span):
     """A significant gain below the practical size: its size, and no mechanism."""
-    pct = f", {100 * step.size_rms_n / span:.2g} % of the force range" if span > 0 else ""
-    return (f"Small, not named: a misfit that {said(step.effect)} takes up, {step.size_rms_n:.3g} N RMS{pct} "
+    return (f"Small, not named: a misfit that {said(step.effect)} takes up, {_rms(step, span)} "
             f"({step.relevance:.2g} force-noise variances, {100 * step.excess_share:.0f} % of the held-out error "
             f"above the noise): real on the held-out cycles but too small to say which physics it is; kept in "
             f"the model." + _change(step))
@@ -108,15 +107,20 @@ def small_sentence(step, span):
 def stand_in_sentence(step, span):
     """A mechanism a flexible surface with none in it explains as well: the dependence and
     its size, and no mechanism's name."""
-    pct = f", {100 * step.size_rms_n / span:.2g} % of the force range" if span > 0 else ""
     on = ", ".join(step.depends_on) or "displacement, velocity and direction"
     rivals = (f"; {', '.join(said(e) for e, _, _ in step.rivals)} explain it about equally too" if step.rivals else "")
-    return (f"Not named: the force depends on {on} beyond the baseline, {step.size_rms_n:.3g} N RMS{pct}. A smooth "
+    return (f"Not named: the force depends on {on} beyond the baseline, {_rms(step, span)}. A smooth "
             f"surface in displacement, speed and direction with no mechanism in it explains it as well as "
             f"{said(step.effect)} on the held-out cycles (paired p {step.stand_in[1]:.2g} that {said(step.effect)} is "
             f"better){rivals}: this recording cannot tell which mechanism it is. The model carries "
             f"{said(step.effect)} as a stand-in; `dyno diagnose RECORDING --next` designs the test at other amplitudes "
             f"and frequencies that can tell." + _change(step))
+
+
+def _rms(step, span):
+    """A finding's RMS force and its share of the recording's force range."""
+    return f"{step.size_rms_n:.3g} N RMS" + (f", {100 * step.size_rms_n / span:.2g} % of the force range" if span > 0
+                                             else "")
 
 
 def _size(step):

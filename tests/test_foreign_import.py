@@ -324,3 +324,20 @@ def test_an_imported_run_compares_and_checks_against_a_run_of_ours(tmp_path, kon
     assert "compared by their velocity tables" in PdfReader(tmp_path / "cmp" / "report.pdf").pages[0].extract_text()
     r = dyno("check", tmp_path / "x.mcap", "--against", koni_run[0])  # another damper: measured, and failed
     assert r.returncode == 1 and "FAIL: 0 of" in r.stdout and " 100 mm/s compression " in r.stdout, r.stdout + r.stderr
+
+
+def test_a_recording_of_three_cycles_is_judged_by_quarter_cycles(tmp_path):
+    """A slow sine of three whole cycles (the UTFSM 0.1 Hz files) is too short to hold out
+    whole cycles: its quarter cycles are fitted and judged alternately, and the answer says so."""
+    t, x, F = crank(n=int(4.6 / 0.1 * 50), rate=50.0, hz=0.1)
+    F = F + np.random.default_rng(3).normal(0, 2.0, len(F))
+    src = _written(tmp_path, "slow.csv", "t,x,F\n" + "".join(f"{a:.4f},{1e3 * b:.4f},{c:.3f}\n"
+                                                             for a, b, c in zip(t, x, F)))
+    _, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    assert "(3 cycles)" in r.stdout, r.stdout
+    r = dyno("identify", tmp_path / "x.mcap")
+    assert r.returncode == 0, r.stderr
+    assert float(r.stdout.split("held out by cycles: ")[1].split(" %")[0]) < 5.0, r.stdout
+    r = dyno("diagnose", tmp_path / "x.mcap", "--holdout", "tail:0.15")
+    assert r.returncode == 0 and "(only 3 whole cycles): fitted and held out by quarter cycles" in r.stdout, \
+        r.stdout + r.stderr

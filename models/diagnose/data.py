@@ -17,7 +17,8 @@ from models.diagnose import quality
 from models.recording import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
-MIN_CYCLES = 6  # fewer whole cycles than this cannot be split into train and held-out
+MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
+MIN_WHOLE = 2  # fewer whole cycles than this cannot be split into train and held-out
 BLOCK_S = 0.5  # s: the unit of motion that does not repeat (random, road replay), as a cycle is of a sine
 REGULAR = 0.2  # strokes whose rates vary by more than this share do not repeat: judged in blocks
 
@@ -217,10 +218,28 @@ def prepare(channels, events) -> Data:
             continue
         d.aux[n] = np.interp(d.t, ta, va)
     n_whole = len(np.unique(d.cycle))
-    if n_whole < MIN_CYCLES:
+    if n_whole < MIN_WHOLE:
         raise DiagnoseError(f"only {n_whole} whole cycle(s) without gaps: too short to judge "
-                            f"(at least {MIN_CYCLES} needed, half fitted and half held out)")
+                            f"(at least {MIN_WHOLE} needed, one fitted and one held out)")
+    if n_whole < MIN_CYCLES:
+        d.cycle = _quartered(d)
+        notes.append(f"cycle by cycle (only {n_whole} whole cycles): fitted and held out by quarter cycles, "
+                     f"alternate ones in alternate cycles, so that fit and judgement both see every stroke")
     return d
+
+
+def _quartered(d: Data):
+    """Unit numbers of a recording of few cycles: each cycle cut into quarters, numbered so
+    that even units are quarters 0 and 2 of even cycles and 1 and 3 of odd ones (a
+    checkerboard): alternate units then hold both directions, all speeds and, across two
+    cycles, both halves of the stroke and both the speeding-up and slowing-down strokes."""
+    out = np.empty(len(d.cycle), int)
+    starts = np.r_[0, np.nonzero(np.diff(d.cycle))[0] + 1, len(d.cycle)]
+    for a, b in zip(starts[:-1], starts[1:]):
+        c = d.cycle[a]
+        q = (np.arange(b - a) * 4) // (b - a)
+        out[a:b] = 4 * c + (q ^ 1 if c % 2 else q)  # q ^ 1 swaps 0<->1 and 2<->3
+    return out
 
 
 def _on_clock(tF, a, b, h):

@@ -16,7 +16,9 @@ from numba import njit
 MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise about a hold)
 REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back
 SAME_PERIOD = 0.05  # cycles within 5 % of each other's period ...
-SAME_AMPLITUDE = 0.10  # ... and 10 % of amplitude (and mean) belong to one segment
+SAME_AMPLITUDE = 0.10  # ... and 10 % of amplitude (and mean) belong to one segment ...
+SAME_SHAPE = 0.10  # ... and whose strokes, put on one phase scale, differ by at most this RMS share of the amplitude
+SHAPE_POINTS = 32  # phases a stroke's shape is compared at
 MIN_CYCLES = 2
 HOLD_S = 0.5  # s: a hold lasts at least this long ...
 HOLD_TRAVEL = 5e-5  # m: ... within this band
@@ -36,8 +38,9 @@ def _g(v):
 
 
 def cycles(t, x):
-    """[(t_start, t_end, amplitude [m], mean [m])] of whole strokes: x rising through its
-    local mid-level, each counted once the motion has gone REVERSAL_SHARE of the range back."""
+    """[(t_start, t_end, amplitude [m], mean [m], shape)] of whole strokes: x rising through
+    its local mid-level, each counted once the motion has gone REVERSAL_SHARE of the range
+    back; shape: x at SHAPE_POINTS phases of the stroke, less its mean, over its amplitude."""
     t, x = np.asarray(t, float), np.asarray(x, float)
     ok = np.isfinite(t) & np.isfinite(x)
     t, x = t[ok], x[ok]
@@ -47,7 +50,9 @@ def cycles(t, x):
     out = []
     for a, b in zip(starts, starts[1:]):
         seg = x[a:b + 1]
-        out.append((float(t[a]), float(t[b]), float(np.ptp(seg) / 2), float((seg.max() + seg.min()) / 2)))
+        amp, mid = float(np.ptp(seg) / 2), float((seg.max() + seg.min()) / 2)
+        shape = (np.interp(np.linspace(t[a], t[b], SHAPE_POINTS), t[a:b + 1], seg) - mid) / max(amp, 1e-12)
+        out.append((float(t[a]), float(t[b]), amp, mid, shape))
     return out
 
 
@@ -90,9 +95,14 @@ def _still_runs(x, travel):
     return out[:n]
 
 
-def _alike(c, ref):
+def _alike(c, run):
+    """A stroke of the test the strokes `run` are: period, amplitude and mean as its first,
+    shape as the one before (a random input's strokes can match in period and size by
+    chance, seldom in shape as well)."""
+    ref = run[0]
     return (abs((c[1] - c[0]) / (ref[1] - ref[0]) - 1) <= SAME_PERIOD
-            and abs(c[2] / ref[2] - 1) <= SAME_AMPLITUDE and abs(c[3] - ref[3]) <= SAME_AMPLITUDE * ref[2])
+            and abs(c[2] / ref[2] - 1) <= SAME_AMPLITUDE and abs(c[3] - ref[3]) <= SAME_AMPLITUDE * ref[2]
+            and float(np.sqrt(np.mean((c[4] - run[-1][4]) ** 2))) <= SAME_SHAPE)
 
 
 def find(t, x) -> list[Segment]:
@@ -101,7 +111,7 @@ def find(t, x) -> list[Segment]:
     out = []
     run = []
     for c in cycles(t, x) + [None]:
-        if c is not None and c[2] >= MIN_TRAVEL and run and _alike(c, run[0]):
+        if c is not None and c[2] >= MIN_TRAVEL and run and _alike(c, run):
             run.append(c)
             continue
         if len(run) >= MIN_CYCLES:

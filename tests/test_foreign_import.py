@@ -341,3 +341,47 @@ def test_a_recording_of_three_cycles_is_judged_by_quarter_cycles(tmp_path):
     r = dyno("diagnose", tmp_path / "x.mcap", "--holdout", "tail:0.15")
     assert r.returncode == 0 and "(only 3 whole cycles): fitted and held out by quarter cycles" in r.stdout, \
         r.stdout + r.stderr
+
+
+def _random_run(tmp_path, name, seed, gain=1.0):
+    """An imported random-input run (band-limited 0.3-4 Hz, 8 mm RMS, 200 Hz, a velocity
+    column as such files carry) of the crank test's damper, its damping scaled by gain;
+    (recording, mean displacement [m])."""
+    rng = np.random.default_rng(seed)
+    h, n = 1 / 200.0, 12_000
+    spec = np.fft.rfft(rng.normal(size=n))
+    f = np.fft.rfftfreq(n, h)
+    spec[(f < 0.3) | (f > 4.0)] = 0
+    x = 0.05 + 0.008 * (lambda y: y / np.std(y))(np.fft.irfft(spec, n))
+    t = np.arange(n) * h
+    v = np.gradient(x, h)
+    F = 150 + 800 * x + gain * np.where(v > 0, 2500 * v, 4200 * v) + 30 * np.tanh(v / 0.01) + rng.normal(0, 3, n)
+    src = _written(tmp_path, f"{name}.csv", "t,x,v,F\n" + "".join(f"{a:.4f},{1e3 * b:.4f},{1e3 * c:.3f},{d:.3f}\n"
+                                                                   for a, b, c, d in zip(t, x, v, F)))
+    out = tmp_path / f"{name}.mcap"
+    r = dyno("import", src, "--out", out, "--map", "time=t", "--map", "displacement=x:mm", "--map", "velocity=v:mm/s",
+             "--map", "force=F")
+    assert r.returncode == 0 and "0 periodic" in r.stdout, r.stdout + r.stderr
+    return out, float(np.mean(x))
+
+
+def test_a_random_input_is_read_by_speed_for_the_velocity_table_and_the_check(tmp_path):
+    """A random-input file has no stroke that repeats: its velocity table is the mean force at
+    each speed over all samples, and `check` compares two such runs at those speeds."""
+    a, xm = _random_run(tmp_path, "a", 1)
+    r = dyno("report", a, "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "the force-velocity scatter" in page and "Force against shaft speed" in page
+    rows = {float(r[0]): r[1:3] for r in (ln.split(",") for ln in
+                                          (tmp_path / "rep" / "velocity.csv").read_text().splitlines()[1:])}
+    for speed in (50.0, 100.0):  # the damper's curve at that speed, within 1 % of the force range (11 N)
+        v = speed / 1e3
+        comp, reb = (150 + 800 * xm + 2500 * v + 30), (150 + 800 * xm - 4200 * v - 30)
+        assert abs(float(rows[speed][0]) - comp) < 11 and abs(float(rows[speed][1]) - reb) < 11, (rows, comp, reb)
+    b, _ = _random_run(tmp_path, "b", 2)
+    r = dyno("check", b, "--against", a, "--tolerance", "5%")
+    assert r.returncode == 0 and "PASS" in r.stdout, r.stdout + r.stderr
+    c, _ = _random_run(tmp_path, "c", 3, gain=1.3)
+    r = dyno("check", c, "--against", a, "--tolerance", "5%")
+    assert r.returncode == 1 and "FAIL" in r.stdout, r.stdout + r.stderr

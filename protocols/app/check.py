@@ -29,8 +29,8 @@ def run(args):
     results, ref_name = checked.results, checked.reference
     if not results:
         raise RigError(f"{Path(args.recording).name} and {ref_name}: no shaft speed measured in both: the check "
-                       "reads the force at shaft speeds from sine or crank strokes, and motion that does not repeat "
-                       "(a random or road input) has none")
+                       "reads the force at shaft speeds from sine or crank strokes, or from a random input's "
+                       "force-velocity scatter, and these share none")
     u, f = units.unit("velocity"), units.unit("force")
     print(f"check {Path(args.recording).name} against {ref_name}, tolerance {tol}:")
     if checked.compensation:

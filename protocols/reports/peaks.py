@@ -243,6 +243,38 @@ def peaks(ch, segs, damper=None, model=None):
     return out
 
 
+SCATTER = "motion that does not repeat"  # the name of scatter()'s row
+SCATTER_QUANTILE = 0.005  # of each direction's samples left out at its top speed: a random input's rare extremes
+
+
+def repeats(segs) -> bool:
+    """Whether the recording holds tests of ours or cut from periodic motion (anything but
+    road or random input): then its table is read from them, not from scatter()."""
+    return any(prm.get("kind") != "road" for _, prm, _, _ in segs)
+
+
+def scatter(ch, model=None):
+    """A recording of motion that does not repeat (a random or road input) read as one
+    stroke (Peak named SCATTER): the mean force in speed bins over all its samples, the
+    force-velocity scatter's mid-line, as a random-input test is read; the model's force
+    along the same motion binned alike. None without force, x and v."""
+    if not {"force", "x", "v"} <= set(ch) or len(ch["force"][0]) < 10:
+        return None
+    t, (F, x, v) = window(ch, ("force", "x", "v"), -np.inf, np.inf)
+    lo, hi = np.quantile(v, [SCATTER_QUANTILE, 1 - SCATTER_QUANTILE])
+    k = (v >= lo) & (v <= hi)
+    T = segment_temperature(ch, t[0], t[-1])
+    p = Peak(SCATTER, np.nan, np.nan, np.nan, T - 273.15, float(hi), np.nan, float(lo), np.nan)
+    p.stroke_v, p.stroke_F = stroke(v[k], F[k])
+    if len(p.stroke_v) == 0:
+        return None
+    p.F_comp, p.F_reb = float(p.stroke_F[-1]), float(p.stroke_F[0])
+    if model is not None:
+        p.model_stroke_F = stroke(v[k], simulate_segment(model, t, x, v, T).force[k])[1]
+        p.model_comp, p.model_reb = float(p.model_stroke_F[-1]), float(p.model_stroke_F[0])
+    return p
+
+
 # (Peak field, column name, quantity, and the scale and offset that take it to SI) of the
 # CSV and the page's table, shown in the chosen unit system (protocols/units.py)
 COLUMNS = (("amplitude_mm", "amplitude", "length", 1e-3, 0.0), ("achieved_mm", "reached", "length", 1e-3, 0.0),

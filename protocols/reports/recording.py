@@ -56,17 +56,9 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
             page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {', '.join(over)}. "
                            "The rod moved faster than asked (an overshooting actuator, or a run imported with "
                            "another amplitude than it ran).")
-        speeds_table = vt.velocity_table(rows, speeds, units)
-        at = "standard shaft velocities"
-        if not vt.has_rows(speeds_table) and speeds is None:  # a slow run: at its own speeds
-            speeds_table = vt.velocity_table(rows, vt.own_speeds(rows), units, "stroke")
-            at = "a quarter, half and three quarters of the top speed (no standard speed was reached)"
-        if vt.has_rows(speeds_table):
-            vt.write_csv(speeds_table, out / "velocity.csv", units)
-            how = ("from the peaks" if vt.method(rows) == "peaks" and at.startswith("standard") else
-                   "read along the stroke, both halves of each cycle averaged")
-            page.heading(f"Force at {at}, {how} (also velocity.csv)")
-            page.table(*vt.html_table(speeds_table, units))
+    scattered = [] if rows or peaks.repeats(segs) else [p for p in (peaks.scatter(ch, model),) if p is not None]
+    if rows or scattered:
+        _velocity_section(page, rows or scattered, speeds, units, out)
     steps = step_measures(ch, segs)
     if steps:
         page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")
@@ -85,6 +77,8 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     stopped = [e for e in events if e["kind"] in ("fault", "operator_stop")]
     if (stopped or not figures) and {"force", "x"} <= set(ch) and len(ch["force"][0]):
         figures.append(_trace_figure(ch, stopped, out, units))  # what happened up to the trip
+    if scattered:
+        figures.append(_stroke_figure(scattered, out, model, units))
     for title, png in figures:
         page.figure(title, png)
     if not figures:
@@ -92,6 +86,23 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     index = page.write(out)
     write_pdf(page, out, paper=paper)
     return index, [out / png for _, png in figures]
+
+
+def _velocity_section(page, rows, speeds, units, out):
+    """The velocity table (also velocity.csv), at the standard speeds or, for a slow run,
+    at its own; read from the peaks, along the stroke, or from a random input's scatter."""
+    speeds_table = vt.velocity_table(rows, speeds, units)
+    at = "standard shaft velocities"
+    if not vt.has_rows(speeds_table) and speeds is None:  # a slow run: at its own speeds
+        speeds_table = vt.velocity_table(rows, vt.own_speeds(rows), units, "stroke")
+        at = "a quarter, half and three quarters of the top speed (no standard speed was reached)"
+    if vt.has_rows(speeds_table):
+        vt.write_csv(speeds_table, out / "velocity.csv", units)
+        how = ("from the peaks" if vt.method(rows) == "peaks" and at.startswith("standard") else
+               "the mean of all samples at each speed (the force-velocity scatter's mid-line)"
+               if rows[0].segment == peaks.SCATTER else "read along the stroke, both halves of each cycle averaged")
+        page.heading(f"Force at {at}, {how} (also velocity.csv)")
+        page.table(*vt.html_table(speeds_table, units))
 
 
 TRACE_POINTS = 20_000  # samples drawn of a whole run's trace (every n-th)
@@ -154,12 +165,14 @@ def _stroke_figure(rows, out, model, units):
         if model is not None and len(p.model_stroke_F):
             ax.plot(V(p.stroke_v[c]), F_(p.model_stroke_F[c]), ":", color="k", lw=1)
             ax.plot(V(-p.stroke_v[r]), -F_(p.model_stroke_F[r]), ":", color="k", lw=1)
-    ax.set(title="Force along the stroke\n(one speed tested: the loop's mid-line" + ("; dotted: model)" if model is not None
-                                                                                   else ")"),
+    what = ("Force against shaft speed\n(a random input: the mean force at each speed" if rows[0].segment == peaks.SCATTER
+            else "Force along the stroke\n(one speed tested: the loop's mid-line")
+    ax.set(title=what + ("; dotted: model)" if model is not None else ")"),
            xlabel=units.label("shaft speed", "velocity"), ylabel=f"{units.label('force', 'force')}, rebound as magnitude")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    return "Force against shaft speed along the stroke", save(fig, out / "composite.png")
+    return ("Force against shaft speed" + ("" if rows[0].segment == peaks.SCATTER else " along the stroke"),
+            save(fig, out / "composite.png"))
 
 
 def _round_item(e):

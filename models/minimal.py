@@ -1,11 +1,16 @@
 """The model that needs no damper description (`dyno identify` without --damper writes it as
 RECORDING.minimal.json): per-direction valve curves, a polytropic gas force and sliding
-friction (models/diagnose/candidates.py, eqs 3.30, 3.19, 3.3), read back so that `check`
-and `report` can use it as a reference along any recording's motion. SI: m, m/s, N."""
+friction (models/diagnose/candidates.py, eqs 3.30, 3.19, 3.3), with the effects the
+diagnosis accepted on that recording, read back so that `check` and `report` can use it as
+a reference along any recording's motion. SI: m, m/s, N.
+
+An effect's form may be built on the recording it was fitted on (a spline's knots along its
+stroke, the mean of an auxiliary channel it scales): a model with effects names that
+recording (`source`) and is evaluated along a whole recording at once (`along`)."""
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -13,7 +18,8 @@ import numpy as np
 
 from models.damper import DamperError
 from models.damper import load as load_damper
-from models.diagnose.candidates import VALVES, Minimal
+from models.diagnose.candidates import EFFECTS, VALVES, Minimal, Model
+from models.diagnose.data import DiagnoseError, prepare
 
 KIND = "minimal"  # the JSON's "model"
 NEEDED = VALVES + ("G0", "L", "F_c")
@@ -24,6 +30,8 @@ class MinimalModel:
     name: str
     parameters: dict  # {name: value in SI}
     x_mid_m: float | None = None  # the gas force's reference position [m]; None: the motion's mean
+    effects: list = field(default_factory=list)  # the diagnosis's effect ids (candidates.EFFECTS), in order
+    source: list = field(default_factory=list)  # the recordings the effects were fitted on (paths)
 
     def force(self, x, v):
         """Force [N] along displacement x [m] and velocity v [m/s] (compression positive):
@@ -35,6 +43,19 @@ class MinimalModel:
     def simulate(self, t, x, v, T=None):
         """The force along measured motion, shaped as a full model's simulation (.force)."""
         return SimpleNamespace(force=self.force(x, v))
+
+    def along(self, fitted_on, recording):
+        """(t [s], force [N]) along a recording's prepared motion (models/diagnose/data.py),
+        the effects included; fitted_on and recording: (channels, events) of the source and
+        of the recording. DamperError when the recording lacks what an effect reads."""
+        try:
+            ref, d = prepare(*fitted_on), prepare(*recording)
+            model = Model(ref, self.effects, base=Minimal(ref, self.x_mid_m))
+            return d.t, model.force(d, self.parameters)
+        except DiagnoseError as e:
+            raise DamperError(f"{self.name}: {e}") from None
+        except KeyError as e:  # an effect's auxiliary channel or temperature
+            raise DamperError(f"{self.name}: its effects read {e}, which the recording does not carry") from None
 
 
 def load(path) -> MinimalModel:
@@ -49,7 +70,16 @@ def load(path) -> MinimalModel:
     if not all(np.isfinite(list(values.values()))):
         raise DamperError(f"{Path(path).name}: a parameter is not a finite number")
     x_mid = doc.get("x_mid_m")
-    return MinimalModel(Path(path).name, values, None if x_mid is None else float(x_mid))
+    effects = [str(e) for e in doc.get("effects", [])]
+    unknown = [e for e in effects if e.split(":")[0] not in EFFECTS]
+    if unknown:
+        raise DamperError(f"{Path(path).name}: effects not in this version's catalogue: {', '.join(unknown)}")
+    try:
+        values.update({k: float(p["value"]) for k, p in doc["parameters"].items() if k not in values})
+    except (TypeError, ValueError, KeyError) as e:
+        raise DamperError(f"{Path(path).name}: an effect's parameter is not a number ({e})") from None
+    return MinimalModel(Path(path).name, values, None if x_mid is None else float(x_mid), effects,
+                        [str(Path(path).parent / s) for s in doc.get("source", [])] if effects else [])
 
 
 def is_minimal(path) -> bool:

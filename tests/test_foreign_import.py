@@ -385,3 +385,30 @@ def test_a_random_input_is_read_by_speed_for_the_velocity_table_and_the_check(tm
     c, _ = _random_run(tmp_path, "c", 3, gain=1.3)
     r = dyno("check", c, "--against", a, "--tolerance", "5%")
     assert r.returncode == 1 and "FAIL" in r.stdout, r.stdout + r.stderr
+
+
+def test_identify_keeps_the_effects_the_diagnosis_accepts_and_check_reads_them(tmp_path):
+    """A crank file whose force channel lags 4 ms: the model that needs no description takes
+    the sensor delay the diagnosis accepts, says both held-out errors, and `check` and
+    `report` evaluate it along the recording it was built on; without that recording, one line."""
+    import json
+    import shutil
+    t, x, F = crank(n=int(20 / 1.05 * RATE))
+    F = np.interp(t - 0.004, t, F) + np.random.default_rng(0).normal(0, 5.0, len(F))
+    src = _written(tmp_path, "lag.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                            for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("identify", tmp_path / "x.mcap")
+    assert r.returncode == 0 and "with the effects the diagnosis accepts (sensor_delay)" in r.stdout, r.stdout + r.stderr
+    doc = json.loads((tmp_path / "x.minimal.json").read_text())
+    assert doc["effects"] == ["sensor_delay"] and doc["source"] == ["x.mcap"]
+    assert doc["heldout_nrmse"] < doc["baseline_heldout_nrmse"]
+    assert abs(abs(doc["parameters"]["tau"]["value"]) - 0.004) < 0.001  # (its sign: the diagnosis's convention)
+    r = dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "x.minimal.json", "--tolerance", "2%")
+    assert r.returncode == 0 and "PASS" in r.stdout, r.stdout + r.stderr
+    r = dyno("report", tmp_path / "x.mcap", "--model", tmp_path / "x.minimal.json", "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    (tmp_path / "moved").mkdir()
+    shutil.copy(tmp_path / "x.minimal.json", tmp_path / "moved")
+    one_line_error(dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "moved" / "x.minimal.json"),
+                   "its effects are built on the recording it was fitted on")

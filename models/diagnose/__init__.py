@@ -167,15 +167,22 @@ def minimal_model(channels, events, holdout="interleaved") -> tuple[Baseline, di
     r_train = model.force(d, fold_vals[0]) - d.F
     res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
                    residual=r0, model_gas_force=None)
+    return res, undetermined(model.params, values, sd)
+
+
+def undetermined(params, values, sd) -> dict:
+    """{parameter: why the recording could not determine it}: no influence on the fit (an
+    infinite deviation in sd; a parameter sd lacks is not judged so), or at a bound of its
+    range (held there, not measured)."""
     unknown = {}
-    for p in model.params:
+    for p in params:
         span = p.hi - p.lo
-        if not np.isfinite(sd.get(p.name, np.inf)):
+        if not np.isfinite(sd.get(p.name, 0.0)):
             unknown[p.name] = "no influence on the fit: the recording does not determine it"
         elif min(values[p.name] - p.lo, p.hi - values[p.name]) <= AT_BOUND * span:
             bound = "lower" if values[p.name] - p.lo <= AT_BOUND * span else "upper"
             unknown[p.name] = f"at the {bound} bound of its range ({p.lo:g}..{p.hi:g} {p.unit}): held, not measured"
-    return res, unknown
+    return unknown
 
 
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,

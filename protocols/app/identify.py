@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -15,26 +16,9 @@ from models.identify import IdentifyError, identify
 from models.identify.parameters import at_bounds, bound_sentence
 from models.recording import differing_repeats, only
 from protocols.io.files import existing_files, filled, output_file, output_folder, written
-from protocols.io.reader import load_recording
+from protocols.io.reader import load_recording, merged
 from protocols.reports.page import number
 from rig.errors import RigError
-
-
-def merge(paths):
-    """(channels, events, metadata of the first) from several recordings, each later one
-    shifted in time to start 10 s after the one before ends."""
-    channels, events, meta, offset = {}, [], None, 0.0
-    for p in paths:
-        ch, ev, m = load_recording(p)
-        meta = meta if meta is not None else m
-        end = offset
-        for name, (t, v) in ch.items():
-            T, V = channels.get(name, (np.empty(0), np.empty(0)))
-            channels[name] = (np.concatenate([T, t + offset]), np.concatenate([V, v]))
-            end = max(end, float(t[-1]) + offset) if len(t) else end
-        events += [{**e, "t": e["t"] + offset} for e in ev]
-        offset = end + 10.0
-    return channels, events, meta or {}
 
 
 def description(arg, meta):
@@ -108,7 +92,7 @@ def run(args):
         if not Path(p).exists():
             raise RigError(f"{p}: no such file")
     inputs = existing_files(args.recordings, args.damper, args.truth)
-    channels, events, meta = merge(args.recordings)
+    channels, events, meta = merged(args.recordings)
     if args.segment:
         try:
             events = only(events, args.segment)
@@ -152,40 +136,27 @@ MINIMAL_SUFFIX = ".minimal.json"  # not .model.json: report overlays that as a f
 
 def _minimal(args, channels, events, inputs):
     """A recording that names no damper, and no --damper: the model that needs no
-    description (models/diagnose minimal_model), judged on held-out cycles, with what the
-    recording could not determine; written as JSON."""
-    from models.diagnose import minimal_model
+    description (models/diagnose minimal_model) with the effects the diagnosis accepts on
+    it, judged on held-out cycles, with what the recording could not determine; written as
+    JSON (models/minimal.py reads it)."""
+    from models.diagnose import diagnose, minimal_model
     from models.diagnose.data import DiagnoseError
     if args.report or args.truth:
         raise RigError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
     try:
-        base, unknown = minimal_model(channels, events)
+        base, _ = minimal_model(channels, events)
+        found = diagnose(channels, events)
     except (DiagnoseError, dm.DamperError) as e:
         raise RigError(f"{', '.join(map(str, args.recordings))}: {e}") from None
-    from models.diagnose.candidates import baseline_params
-    from models.diagnose.data import prepare
-    d = prepare(channels, events)
-    units = {p.name: p.unit for p in baseline_params(d)}
-    doc = {"model": "minimal", "what": "per-direction valve curves (c1 v + c2 v^2 blended into C v above the crack "
-                                       "force Fcr), a polytropic gas force G0 with its length L, sliding friction F_c "
-                                       "(models/diagnose/candidates.py); no damper description needed",
-           "recordings": [str(p) for p in args.recordings],
-           "parameters": {k: {"value": float(v), "sd": float(base.sd.get(k, float("inf"))), "unit": units.get(k, ""),
-                              **({"undetermined": unknown[k]} if k in unknown else {})}
-                          for k, v in base.parameters.items()},
-           "heldout_nrmse": base.nrmse_heldout, "heldout_rmse_N": base.rmse_heldout, "heldout_r2": base.r2_heldout,
-           "held_out": "every other cycle (or block), fitted on the rest",
-           "x_mid_m": float(np.mean(d.x)),  # the gas force's reference position [m] (Minimal.x_m)
-           **({"segments": args.segment} if args.segment else {}),
-           "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
-                              for test, names, ranges in differing_repeats(channels, events)]}
+    doc = _minimal_doc(args, out, base, found, channels, events)
     with written(out) as tmp:
         tmp.write_text(json.dumps(_clean(doc), indent=1))
     from protocols import catalogue
     for recording in args.recordings:
-        print(catalogue.add_model(recording, out, base.nrmse_heldout, {k: float(v) for k, v in base.parameters.items()
-                                                                      if k not in unknown}), file=sys.stderr)
+        print(catalogue.add_model(recording, out, doc["heldout_nrmse"],
+                                  {k: p["value"] for k, p in doc["parameters"].items() if "undetermined" not in p}),
+              file=sys.stderr)
     if args.json:
         print(json.dumps(_clean(doc), indent=2))
         return 0
@@ -196,11 +167,53 @@ def _minimal(args, channels, events, inputs):
               f"all; fit each alone with --segment NAME ({'; '.join(r['segments'])})")
     print(f"identify: the recording names no damper: the model that needs no description, held out by cycles: "
           f"{100 * base.nrmse_heldout:.2f} % of the force range (R^2 {base.r2_heldout:.3f})")
+    if doc["effects"]:
+        print(f"  with the effects the diagnosis accepts ({', '.join(doc['effects'])}): "
+              f"{100 * doc['heldout_nrmse']:.2f} % (R^2 {doc['heldout_r2']:.3f})")
     for k, p in doc["parameters"].items():
-        print(f"  {k:6s} {p['value']:12.5g} {p['unit']:10s}" + (f"  undetermined: {p['undetermined']}"
-                                                                 if "undetermined" in p else f"  +- {p['sd']:.3g}"))
+        print(f"  {k:14s} {p['value']:12.5g} {p['unit']:10s}" + (f"  undetermined: {p['undetermined']}"
+                                                                  if "undetermined" in p else
+                                                                  f"  +- {p['sd']:.3g}" if p["sd"] is not None else ""))
     print(f"model: {out}")
     return 0
+
+
+def _minimal_doc(args, out, base, found, channels, events):
+    """The minimal model's JSON: the baseline's values, or the diagnosis's final model when it
+    accepted effects (their forms built on this recording: `source`)."""
+    from models.diagnose import undetermined
+    from models.diagnose.candidates import Model
+    d = found.data
+    effects = list(found.accepted)
+    model = Model(d, effects)
+    values = found.final.parameters if effects else base.parameters
+    sd = {} if effects else base.sd  # the baseline fit's deviations: not of the final model's values
+    unknown = undetermined(model.params, values, sd)
+    fit = found.final if effects else base
+    return {"model": "minimal",
+            "what": "per-direction valve curves (c1 v + c2 v^2 blended into C v above the crack force Fcr), a "
+                    "polytropic gas force G0 with its length L, sliding friction F_c (models/diagnose/candidates.py), "
+                    "and the effects the diagnosis accepted; no damper description needed",
+            "recordings": [str(p) for p in args.recordings],
+            "effects": effects,
+            # an effect's form is built on the recording it was fitted on (models/minimal.py)
+            "source": [os.path.relpath(Path(p).resolve(), Path(out).resolve().parent) for p in args.recordings]
+            if effects else [],
+            "parameters": {p.name: {"value": float(values[p.name]), "unit": p.unit,
+                                    "sd": _finite(sd.get(p.name)),
+                                    **({"undetermined": unknown[p.name]} if p.name in unknown else {})}
+                           for p in model.params},
+            "heldout_nrmse": fit.nrmse_heldout, "heldout_rmse_N": fit.rmse_heldout, "heldout_r2": fit.r2_heldout,
+            "baseline_heldout_nrmse": base.nrmse_heldout,
+            "held_out": "every other cycle (or block), fitted on the rest",
+            "x_mid_m": float(np.mean(d.x)),  # the gas force's reference position [m] (Minimal.x_m)
+            **({"segments": args.segment} if args.segment else {}),
+            "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
+                               for test, names, ranges in differing_repeats(channels, events)]}
+
+
+def _finite(x):
+    return None if x is None or not math.isfinite(x) else float(x)
 
 
 def summary(res):

@@ -50,7 +50,10 @@ def run(args):
             if model is not None:
                 print(f"model overlaid: {model.name}")
             units = Units(args.units)
-            index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units)
+            try:
+                index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units)
+            except DamperError as e:  # a model whose effects this recording cannot carry
+                raise RigError(f"--model: {e}") from None
             pngs = [*pngs, Path(folder) / "report.pdf"]
     for p in [*pngs, index]:
         print(out / Path(p).name)

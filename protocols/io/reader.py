@@ -87,6 +87,23 @@ def load_recording(path, channels=None):
     return out, events, meta
 
 
+def merged(paths):
+    """(channels, events, metadata of the first) from several recordings, each later one
+    shifted in time to start 10 s after the one before ends."""
+    channels, events, meta, offset = {}, [], None, 0.0
+    for p in paths:
+        ch, ev, m = load_recording(p)
+        meta = meta if meta is not None else m
+        end = offset
+        for name, (t, v) in ch.items():
+            T, V = channels.get(name, (np.empty(0), np.empty(0)))
+            channels[name] = (np.concatenate([T, t + offset]), np.concatenate([V, v]))
+            end = max(end, float(t[-1]) + offset) if len(t) else end
+        events += [{**e, "t": e["t"] + offset} for e in ev]
+        offset = end + 10.0
+    return channels, events, meta or {}
+
+
 def _messages(f, reader, summary, topics):
     """(topic, data) of the messages on `topics` (None: all) in log-time order. Where every
     chunk has its message indexes, only the wanted messages are read out of each chunk: a

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -86,14 +87,42 @@ def simulate_segment(damper, t, x, v, T):
     the compressible model (eq 3.19-3.32) on a uniform clock, with the gas spring's rest
     position at mid-stroke (eq 4.4) as on the rig. A minimal model (models/minimal.py)
     gives its force along the motion itself."""
-    from models.minimal import MinimalModel
     from models.physics.simulate import simulate
-    if isinstance(damper, MinimalModel):
+    if not hasattr(damper, "geometry"):  # a minimal model, or one sampled along the recording (along())
         return damper.simulate(t, x, v, T)
     tu = np.linspace(t[0], t[-1], len(t))
     stroke = damper.geometry.stroke
     r = simulate(damper, tu, np.clip(x, 0.0, stroke), v, T=T, compressible=True, x_e=damper.mid_stroke)
     return r
+
+
+@dataclass
+class Sampled:
+    """A model's force computed once along a whole recording, read at any instants of it."""
+    name: str
+    t: np.ndarray  # s
+    force: np.ndarray  # N
+
+    def simulate(self, t, x, v, T=None):
+        return SimpleNamespace(force=np.interp(t, self.t, self.force))
+
+
+def along(model, ch, events):
+    """The model to read along this recording: a minimal model with the diagnosis's effects
+    (which read time, history and auxiliary channels, and are built on the recording they
+    were fitted on) computed once along all of it (Sampled; between the samples the
+    diagnosis keeps, interpolated); any other model as it is. DamperError when its source
+    recording or a channel its effects read is missing."""
+    if not getattr(model, "effects", None):
+        return model
+    from models.damper import DamperError
+    from protocols.io.reader import merged
+    from rig.errors import RigError
+    try:
+        source = merged(model.source)[:2]
+    except (RigError, OSError) as e:
+        raise DamperError(f"{model.name}: its effects are built on the recording it was fitted on: {e}") from None
+    return Sampled(model.name, *model.along(source, (ch, events)))
 
 
 def settled_after(prm):

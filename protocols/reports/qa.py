@@ -131,7 +131,8 @@ class Check:
 def _rows(path, model=None, at_K=None):
     """The recording's peaks; with a model, its force at the same instants (at the body
     temperature measured, or at at_K [K] for every segment when given)."""
-    ch, events, meta = load_recording(path, peaks.READS)
+    ch, events, meta = load_recording(path, None if getattr(model, "effects", None) else peaks.READS)
+    model = peaks.along(model, ch, events)
     if at_K is not None and "T_body" in ch:
         t = ch["T_body"][0]
         ch = {**ch, "T_body": (t, np.full(len(t), at_K))}

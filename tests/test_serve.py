@@ -178,6 +178,42 @@ def test_a_run_in_progress_shows_its_progress_readings_and_trip(page, server, ru
     assert "now.mcap" in tripped.inner_text() and "force 9000 N" in tripped.inner_text()
 
 
+def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, server, runs_folder):
+    """Issue 45: the live page draws force against time and the running segment's force
+    against velocity and displacement, with the damper model's force and the rig's limits,
+    and redraws them as the recording grows, without reloading."""
+    from models import damper as dm
+    from protocols.io.recording import Recorder
+    from rig import config as rig_config
+    rec = Recorder(runs_folder / "plots.mcap", rig_config.load("virtual"), json.dumps(dm.to_dict(dm.load("koni"))),
+                   "sine-matrix", {})
+
+    def motion(t0, t1):
+        t = np.arange(t0, t1, 0.001)
+        x = 0.038 + 0.0127 * np.sin(2 * np.pi * t)
+        v = 0.0127 * 2 * np.pi * np.cos(2 * np.pi * t)
+        rec.samples({"force": (t, 300.0 + 4000.0 * v), "x": (t, x), "v": (t, v)})
+        rec.flush()
+    try:
+        rec.event(0.0, "run_start", "sine-matrix", {}, "1 segments, 30 s at most")
+        rec.event(0.0, "segment_start", "sine 12.7 mm 1 Hz")
+        motion(0.0, 2.0)
+        page.goto(server + "/live")
+        trace, fv, fx = (page.locator(f"section.live[data-key='plots.mcap'] canvas.{c}") for c in ("trace", "fv", "fx"))
+        page.wait_for_function("() => document.querySelector(\"section.live[data-key='plots.mcap'] canvas.fv\")"
+                               ".dataset.points > 0", timeout=10_000)
+        assert float(trace.get_attribute("data-xmax")) < 2.0
+        assert fv.get_attribute("data-series") == "measured,model" == fx.get_attribute("data-series")
+        assert "stroke" in fx.get_attribute("data-limits")  # the rig's stroke limits, drawn
+        motion(2.0, 3.0)  # more of the run: the same page redraws within a second or two
+        page.wait_for_function("() => +document.querySelector(\"section.live[data-key='plots.mcap'] canvas.trace\")"
+                               ".dataset.xmax > 2.9", timeout=5_000)
+        assert "3.0 s" in page.locator("section.live[data-key='plots.mcap'] .progress-text").inner_text()
+        page.screenshot(path=str(runs_folder.parent / "live.png"), full_page=True)
+    finally:
+        rec.close()
+
+
 def test_dyno_serve_serves_on_loopback_until_ctrl_c_and_refuses_a_busy_port(runs_folder, capsys):
     import re
     import signal

@@ -80,6 +80,7 @@ def create_app(folder, units=Units(), cache=None, reindex_s=REINDEX_S) -> Flask:
                               reindex_s)
     for rule, endpoint, fn in (("/", "runs", runs), ("/run/<int:run_id>", "run", run), ("/compare", "comparison",
                                comparison), ("/trend", "trend", trend), ("/qa", "qa", qa), ("/live", "live", live),
+                               ("/live.json", "live_json", live_json),
                                ("/made/<path:name>", "made_file", made_file)):
         app.add_url_rule(rule, endpoint, fn)
     app.add_template_filter(lambda args, key, desc: urlencode({**args, "sort": key, "desc": desc}), "urlencode_sort")
@@ -182,6 +183,10 @@ def qa():
 
 def live():
     return render_template("live.html", runs=in_progress(view().folder))
+
+
+def live_json():
+    return {"runs": [r.as_json(view().units) for r in in_progress(view().folder)]}
 
 
 def made_file(name):

@@ -1,6 +1,7 @@
 """Runs being recorded now in a folder, read from their recordings as they are written (the
 chunks the recorder flushes every FLUSH_S), never from the rig: what runs, how far it is,
-the latest reading of each channel, and a trip's reason the moment it is recorded."""
+the latest reading of each channel, a trip's reason the moment it is recorded, and the
+recent force, displacement and velocity the live page plots (plots())."""
 from __future__ import annotations
 
 import json
@@ -9,7 +10,8 @@ import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mcap.records import Channel, Message, Metadata
+import numpy as np
+from mcap.records import Attachment, Channel, Message, Metadata
 
 from protocols.io.files import writer
 from protocols.io.recording import intact_from
@@ -17,6 +19,10 @@ from protocols.reports.comparison import run_name
 from protocols.units import Units, quantity_of
 
 PLANNED = re.compile(r"^(\d+) segments")  # the run_start event's message (protocols/runner.py)
+PLOTTED = ("force", "x", "v")  # the channels the live page plots, kept for KEEP_S
+KEEP_S = 20.0  # s of them kept: the force trace's TRACE_S and the running segment's loops
+TRACE_S = 10.0  # s of force against time shown
+POINTS = 1500  # at most this many points a series sent to the page
 
 
 @dataclass
@@ -30,6 +36,8 @@ class Live:
     meta: dict = field(default_factory=dict)  # metadata name -> {key: value}
     events: list = field(default_factory=list)
     latest: dict = field(default_factory=dict)  # channel -> (t [s], value, unit)
+    recent: dict = field(default_factory=dict)  # PLOTTED channel -> [t array, value array], the last KEEP_S
+    rig_toml: str = ""  # the rig's configuration, as attached: its limits
 
     def read_on(self, file: Path):
         """Take in what was written since the last read."""
@@ -45,6 +53,8 @@ class Live:
                 self.topics[r.id] = r.topic
             elif isinstance(r, Metadata):
                 self.meta[r.name] = r.metadata
+            elif isinstance(r, Attachment) and r.name == "rig.toml":
+                self.rig_toml = r.data.decode(errors="replace")
             elif isinstance(r, Message):
                 self._message(self.topics.get(r.channel_id, ""), r.data)
 
@@ -53,8 +63,14 @@ class Live:
             self.events.append(json.loads(data))
         elif topic.startswith("/channels/"):
             d = json.loads(data)
+            name = topic.removeprefix("/channels/")
             if d.get("t"):
-                self.latest[topic.removeprefix("/channels/")] = (d["t"][-1], d["value"][-1], d.get("unit", ""))
+                self.latest[name] = (d["t"][-1], d["value"][-1], d.get("unit", ""))
+                if name in PLOTTED:
+                    t, v = self.recent.get(name, (np.zeros(0), np.zeros(0)))
+                    t, v = np.append(t, d["t"]), np.append(v, d["value"])
+                    keep = t >= t[-1] - KEEP_S
+                    self.recent[name] = [t[keep], v[keep]]
 
     @property
     def elapsed_s(self):
@@ -83,6 +99,17 @@ class Live:
         ends = [e for e in self.events if e.get("kind") in ("fault", "operator_stop")]
         return ends[0].get("message") or ends[0]["kind"] if ends else None
 
+    @property
+    def progress(self):
+        """'12.3 s · segment 2 of 6: sine 12.7 mm 1 Hz'."""
+        return (f"{self.elapsed_s:.1f} s · segment {self.done + 1}" + (f" of {self.planned}" if self.planned else "")
+                + f": {self.segment}")
+
+    def as_json(self, units: Units) -> dict:
+        """What the live page redraws on each refresh."""
+        return {"key": self.target.name, "progress": self.progress, "tripped": self.tripped,
+                "readings": self.readings(units), "plots": self.plots(units)}
+
     def readings(self, units: Units):
         """[(channel, value, unit)] of the latest readings in the unit system."""
         out = []
@@ -94,9 +121,73 @@ class Live:
                 out.append((name, f"{units.show(quantity, v):.4g}", units.unit(quantity)))
         return out
 
+    def plots(self, units: Units) -> dict:
+        """What the live page draws, in the unit system: force against time over the last
+        TRACE_S; the running segment's force against velocity and displacement (what was
+        kept of it), with the force the recording's damper model gives along the same
+        motion; and the rig's limits. Series thinned to at most POINTS."""
+        if "force" not in self.recent:
+            return {}
+        tF, F = self.recent["force"]
+        trace = tF >= tF[-1] - TRACE_S
+        out = {"units": {q: units.unit(q) for q in ("force", "length", "velocity")},
+               "trace": {"t": _thin(tF[trace]), "force": _thin(units.show("force", F[trace]))}}
+        starts = [e["t"] for e in self.events if e.get("kind") == "segment_start"]
+        seg = tF >= (starts[-1] if starts else tF[0])
+        if {"x", "v"} <= set(self.recent) and seg.sum() > 2:
+            t = tF[seg]
+            x, v = (np.interp(t, *self.recent[n]) for n in ("x", "v"))
+            out["loop"] = {"x": _thin(units.show("length", x)), "v": _thin(units.show("velocity", v)),
+                           "force": _thin(units.show("force", F[seg]))}
+            model = self._model_force(t, x, v)
+            if model is not None:
+                out["loop"]["model"] = _thin(units.show("force", model))
+        limits = self._limits()
+        if limits:
+            out["limits"] = {"force": units.show("force", limits["force_max"]),
+                             "x": [units.show("length", limits["x_min"]), units.show("length", limits["x_max"])],
+                             "v": units.show("velocity", limits["velocity_max"])}
+        return out
+
+    def _model_force(self, t, x, v):
+        """The recording's damper model's force [N] along the motion (incompressible: no
+        state to settle, quick enough for every refresh), or None without a full model."""
+        from models.physics.simulate import simulate
+        from protocols.reports.peaks import recorded_damper
+        damper = recorded_damper(self.meta)
+        if damper is None:
+            return None
+        T = self.latest.get("T_body", (0, 293.15, ""))[1]
+        k = _thinned(len(t))
+        try:
+            r = simulate(damper, t[k], np.clip(x[k], 0.0, damper.geometry.stroke), v[k], T=T, compressible=False,
+                         x_e=damper.mid_stroke)
+        except (ValueError, FloatingPointError):
+            return None
+        return np.interp(t, t[k], r.force)
+
+    def _limits(self):
+        from rig import config as rig_config
+        from rig.errors import RigError
+        try:
+            return rig_config.parse(self.rig_toml).limits if self.rig_toml else None
+        except RigError:
+            return None
+
     @property
     def name(self):
         return run_name(self.meta, self.target)
+
+
+def _thinned(n):
+    """Indices of every k-th of n samples, at most POINTS of them, the last always kept."""
+    return np.unique(np.r_[np.arange(0, n, max(1, -(-n // POINTS))), n - 1]) if n else np.zeros(0, int)
+
+
+def _thin(a):
+    """A series as the page gets it: at most POINTS values, rounded to 5 significant figures."""
+    a = np.asarray(a, float)
+    return [float(f"{y:.5g}") for y in a[_thinned(len(a))]]
 
 
 _SEEN: dict[Path, Live] = {}

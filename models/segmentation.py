@@ -17,9 +17,14 @@ MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise a
 REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back
 SAME_PERIOD = 0.05  # cycles within 5 % of each other's period ...
 SAME_AMPLITUDE = 0.10  # ... and 10 % of amplitude (and mean) belong to one segment ...
-SAME_SHAPE = 0.10  # ... and whose strokes, put on one phase scale, differ by at most this RMS share of the amplitude
+SAME_SHAPE = 0.15  # ... and whose strokes, put on one phase scale, differ by at most this RMS share of the amplitude
 SHAPE_POINTS = 32  # phases a stroke's shape is compared at
 MIN_CYCLES = 2
+# motion that mostly does not repeat (a random input) holds pairs of alike strokes by chance:
+# where the sine segments cover less than REPEATING of the time not held, only runs of
+# CHANCE_CYCLES or more are tests (a sine run in a random file is still found)
+REPEATING = 0.5
+CHANCE_CYCLES = 4
 HOLD_S = 0.5  # s: a hold lasts at least this long ...
 HOLD_TRAVEL = 5e-5  # m: ... within this band
 
@@ -122,7 +127,11 @@ def find(t, x) -> list[Segment]:
                                {"kind": "sine", "amplitude_mm": float(_g(amp * 1e3)), "freq_hz": float(_g(hz)),
                                 "cycles": len(run), "measured": True, "found": "import"}))
         run = [c] if c is not None and c[2] >= MIN_TRAVEL else []
-    out += holds(t, x, [(s.t0, s.t1) for s in out])
+    still = holds(t, x, [(s.t0, s.t1) for s in out])
+    moving = (t[-1] - t[0]) - sum(s.t1 - s.t0 for s in still) if len(t) else 0.0
+    if sum(s.t1 - s.t0 for s in out) < REPEATING * moving:
+        out = [s for s in out if s.params["cycles"] >= CHANCE_CYCLES]
+    out += still
     out.sort(key=lambda s: s.t0)
     seen = {}
     for s in out:  # the same test repeated (at another current, another temperature): numbered

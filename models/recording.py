@@ -10,7 +10,6 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from scipy.signal import butter, filtfilt
 
 # what a segment of motion is; the analyses choose segments by these
 # road: motion a virtual car or a replayed history asks for (hardware-in-the-loop, replay)
@@ -111,6 +110,7 @@ def smooth(y, h, freq):
     fc = min(max(10.0 * freq, 20.0), 0.2 / h)
     if len(y) < 30:
         return y
+    from scipy.signal import butter, filtfilt  # here: scipy.signal takes a second to import
     b, a = butter(2, fc * 2 * h)
     return filtfilt(b, a, y)
 

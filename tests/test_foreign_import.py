@@ -412,3 +412,13 @@ def test_identify_keeps_the_effects_the_diagnosis_accepts_and_check_reads_them(t
     shutil.copy(tmp_path / "x.minimal.json", tmp_path / "moved")
     one_line_error(dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "moved" / "x.minimal.json"),
                    "its effects are built on the recording it was fitted on")
+
+
+@pytest.mark.parametrize("n", [11, 12, 57, 5000])
+def test_the_derived_velocity_is_scipys_savitzky_golay_derivative(n):
+    """Import derives velocity with its own Savitzky-Golay slope (scipy.signal's import costs
+    a second): the same numbers as scipy's, edges included."""
+    from scipy.signal import savgol_filter
+    from protocols.io.csv_import import savgol_slope
+    x = np.cumsum(np.random.default_rng(n).normal(size=n))
+    assert np.allclose(savgol_slope(x, 0.003), savgol_filter(x, 11, 2, deriv=1, delta=0.003), rtol=0, atol=1e-9)

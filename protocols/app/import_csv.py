@@ -24,7 +24,7 @@ from rig.errors import RigError
 
 FLIPS = ("force", "displacement")
 SAMPLES = 3  # values shown per column by --inspect
-PLOT_POINTS = 20_000  # /plot messages per channel at most: five per pixel of a 4k display; /channels keeps every sample
+PLOT_POINTS = 10_000  # /plot messages per channel at most: over two per pixel of a 4k display; /channels keeps every sample
 BATCH = 5000  # samples per /channels message
 
 

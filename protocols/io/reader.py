@@ -17,6 +17,7 @@ import json
 import math
 
 import numpy as np
+import orjson
 from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
 from mcap.records import Chunk, MessageIndex
@@ -52,7 +53,7 @@ def load_recording(path, channels=None):
             for topic, data in _messages(f, r, summary, topics):
                 if topic.startswith("/channels/") and (wanted is None or topic in wanted):
                     name = topic[len("/channels/"):]
-                    t, v, unit = _batch(json.loads(data), topic)
+                    t, v, unit = _batch(_batch_json(data), topic)
                     ts, vs = chans.setdefault(name, ([], []))
                     ts.extend(t)
                     vs.extend(v)
@@ -133,6 +134,15 @@ def _messages(f, reader, summary, topics):
     found.sort(key=lambda m: m[:3])
     for *_, topic, data in found:
         yield topic, data
+
+
+def _batch_json(data):
+    """A /channels batch's JSON: orjson, a third of json's time; json for an older
+    recording's NaN, which orjson (keeping to JSON) refuses."""
+    try:
+        return orjson.loads(data)
+    except orjson.JSONDecodeError:
+        return json.loads(data)
 
 
 def _batch(d, topic):

@@ -16,6 +16,8 @@ from importlib import metadata
 from io import BytesIO
 from datetime import datetime, timezone
 
+import numpy as np
+import orjson
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
@@ -28,6 +30,13 @@ from rig.errors import RigError
 from protocols.io.files import Claim, input_file, not_being_written, output_file, written
 
 FLUSH_S = 0.5
+
+
+def SAMPLES(payload) -> bytes:
+    """A /channels batch as JSON, its arrays written by orjson (a tenth of json's time on a
+    million-row import); a sample that is no number is written null, as JSON has no NaN."""
+    return orjson.dumps(payload, option=orjson.OPT_SERIALIZE_NUMPY)
+
 SCHEMAS = {
     "dyno.Samples": {
         "type": "object", "title": "dyno.Samples",
@@ -140,11 +149,11 @@ class Recorder:
                 sequence=n + i)  # 7 digits plot (the batches keep all); JSON has no nan or inf
         self.seq[topic] = n + len(t)
 
-    def _write(self, topic, t, payload):
+    def _write(self, topic, t, payload, encode=None):
         payload = {"seq": self.seq[topic], **payload}
         ns = self.t0_ns + int(round(max(t, 0.0) * 1e9))
-        self.w.add_message(self.topics[topic], ns, json.dumps(payload, separators=(",", ":")).encode(), ns,
-                           sequence=self.seq[topic])
+        data = encode(payload) if encode else json.dumps(payload, separators=(",", ":")).encode()
+        self.w.add_message(self.topics[topic], ns, data, ns, sequence=self.seq[topic])
         self.seq[topic] += 1
         self.last_t = max(self.last_t, t)
 
@@ -162,7 +171,8 @@ class Recorder:
             if len(t):
                 n0 = self.n.get(name, 0)
                 self._write(f"/channels/{name}", float(t[0]), {"n0": n0, "unit": self.unit_of.get(name, ""),
-                                                               "t": t.tolist(), "value": v.tolist()})
+                                                               "t": np.ascontiguousarray(t, float),
+                                                               "value": np.ascontiguousarray(v, float)}, SAMPLES)
                 self._plot(name, t, v)
                 self.n[name] = n0 + len(t)
         self.maybe_flush()

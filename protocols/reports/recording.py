@@ -134,13 +134,14 @@ def _header(page, meta, events, model):
     proto = meta.get("protocol", {})
     damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
     run = meta.get("run", {})
-    page.paragraph(" · ".join(f"{label}: {run[k]}" for k, label in (
+    shown = {**run, "wall_start": str(run.get("wall_start", ""))[:19].replace("T", " ")}  # to the second
+    page.paragraph(" · ".join(f"{label}: {shown[k]}" for k, label in (
         ("wall_start", "started (UTC)"), ("operator", "operator"), ("damper_serial", "damper serial"), ("note", "note"))
-        if run.get(k)))
+        if shown.get(k)))
     setup = {k.removeprefix("setup."): v for k, v in run.items() if k.startswith("setup.")}
     if setup:
         page.paragraph("Setup: " + ", ".join(f"{k} {v}" for k, v in setup.items()))
-    page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {proto.get('params', '')}; damper "
+    page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {_params(proto.get('params', ''))}; damper "
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}."
                    + (f" Model overlaid: {model.name}." if model is not None else ""))
     ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
@@ -152,6 +153,17 @@ def _header(page, meta, events, model):
         page.paragraph("The dyno's own next tests: after each diagnosis, what it named and was unsure of, what "
                        "the following data settled, and each sine it ran next with why.")
         page.items(_round_item(e) for e in rounds)
+
+
+def _params(text):
+    """A protocol's parameters as a reader writes them: 'amplitudes_mm 12.7, 6.4; freqs_hz 1, 4'."""
+    try:
+        params = json.loads(text or "{}")
+    except ValueError:
+        return text
+    if not isinstance(params, dict):
+        return text
+    return "; ".join(f"{k} {', '.join(map(str, v)) if isinstance(v, list) else v}" for k, v in params.items())
 
 
 def _stroke_figure(rows, out, model, units):

@@ -7,6 +7,7 @@ params' keys (`segment_kind`), in this one place.
 """
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
@@ -195,3 +196,16 @@ def covariance(jac, residual):
         with np.errstate(invalid="ignore", divide="ignore"):
             rho[np.ix_(live, live)] = np.clip(np.nan_to_num(cov / np.outer(sdl, sdl)), -1.0, 1.0)
     return sd, rho
+
+
+def drives(meta) -> list[str]:
+    """The aux.* channels a recording says drive the damper (its calibration's `drives`:
+    an MR coil's current, an adjuster's command), from load_recording's metadata."""
+    out = []
+    for name, text in meta.get("calibration", {}).items():
+        try:
+            if json.loads(text).get("drives"):
+                out.append(name)
+        except (ValueError, AttributeError):
+            continue
+    return out

@@ -108,7 +108,8 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
     diag = None
     while True:
         try:
-            diag = diagnose(kept.arrays(), kept.events)
+            diag = diagnose(kept.arrays(), kept.events,
+                            drives=[n for n, c in cell.config.channels.items() if getattr(c, "drives", "")])
             rv = {design.key(r): r for r in design.rivals(diag)}
             last = runs[-1].fault or len(rounds) + 1 > max_rounds
             proposals = [] if last else design.propose(diag, lim, budget_s - spent, tried)

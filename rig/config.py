@@ -38,8 +38,12 @@ RIG = {"name": Field("string"), "rate_hz": _num(above=0.0, hi=10000.0), "safe_po
 # what the actuator declares it can do (on the device that takes setpoints): limits within
 ACTUATOR_RATINGS = {"stroke": _num(above=0.0, hi=2.0), "force_rating": _num(above=0.0),
                     "velocity_rating": _num(above=0.0, hi=50.0)}
+# an aux.* channel that drives the damper (an MR coil's current, an adjuster's command) says
+# so and how: only such a channel may scale an effect in the diagnosis (models/diagnose)
+DRIVES = ("coil current", "coil voltage", "valve current", "valve command")
 CHANNEL = {"device": Field("string", True), "signal": Field("string", True),
-           "gain": _num(required=True, nonzero=True), "offset": _num(), "unit": Field("string", True)}
+           "gain": _num(required=True, nonzero=True), "offset": _num(), "unit": Field("string", True),
+           "drives": Field("string", choices=DRIVES)}
 LIMITS = {
     "x_min": _num(required=True, lo=0.0, hi=2.0), "x_max": _num(required=True, above=0.0, hi=2.0),
     "force_max": _num(required=True, above=0.0, hi=1e7),
@@ -72,6 +76,7 @@ class Channel:
     offset: float  # SI unit
     unit: str
     line: int
+    drives: str = ""  # what of the damper it drives (DRIVES); "" for a reading
 
     def scale(self, raw):
         """Device output (V, degC ...) to SI: the one place bytes become physics."""
@@ -101,6 +106,12 @@ def at_rate(config: RigConfig, hz: float) -> RigConfig:
     devices = {n: dataclasses.replace(d, params={**d.params, "frame_hz": hz})
                if "frame_hz" in TRANSPORTS[d.transport].schema else d for n, d in config.devices.items()}
     return dataclasses.replace(config, rate_hz=hz, devices=devices)
+
+
+def driven(config: RigConfig, channel: str, kind: str) -> RigConfig:
+    """The config with `channel` declared to drive the damper (DRIVES: kind)."""
+    return dataclasses.replace(config, channels={**config.channels,
+                                                 channel: dataclasses.replace(config.channels[channel], drives=kind)})
 
 
 def quantity(channel_name):
@@ -241,8 +252,10 @@ def _channels(c, table, devices):
         if q is None and unit not in AUX_UNITS:
             c.fail(c.line(parts, "unit"), f"channel {name!r}: unit {unit!r} is not an SI unit "
                                           f"({', '.join(AUX_UNITS)})")
+        if ch.get("drives") and not name.startswith("aux."):
+            c.fail(c.line(parts, "drives"), f"channel {name!r}: only an aux.* channel drives the damper")
         channels[name] = Channel(name, ch["device"], ch["signal"], float(ch["gain"]), float(ch.get("offset", 0.0)),
-                                 unit, c.line(parts))
+                                 unit, c.line(parts), ch.get("drives", ""))
     for name in REQUIRED_CHANNELS:
         if name not in channels:
             c.fail(c.line(["channels"]), f"required channel {name!r} is missing")

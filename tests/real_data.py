@@ -26,7 +26,7 @@ def files(data: Path):
     spec = tomllib.loads((HERE / "real_data.toml").read_text())
     out = []
     for entry in spec["file"]:
-        args = [a for k in ("map", "gain") for v in entry.get(k, []) for a in (f"--{k}", v)]
+        args = [a for k in ("map", "gain", "drive") for v in entry.get(k, []) for a in (f"--{k}", v)]
         out += [(p, args) for p in sorted(data.glob(entry["path"]))]
     return out
 

@@ -2,6 +2,7 @@
 format they come in, imported as one of ours: date-time stamps, a DAQ's preamble and
 volts, a decimal comma, tabs, whitespace without a header, Parquet, MATLAB, and the other
 sign convention."""
+import json
 import math
 from datetime import datetime, timedelta, timezone
 
@@ -206,7 +207,6 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
 def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_out_cycles(tmp_path):
     """A crank dyno's file names no damper: identify fits the model that needs none, says
     its held-out error and which parameters the recording could not determine."""
-    import json
     t, x, F = crank(n=int(20 / 1.05 * RATE))
     F = F + np.random.default_rng(0).normal(0, 5.0, len(F))
     src = _written(tmp_path, "crank.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
@@ -266,7 +266,6 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
     """One test run twice with a setting changed between (a clicker, a coil current) that
     the file does not carry: one model cannot follow both, identify says so and fits each
     with --segment."""
-    import json
     t, x, F = crank(n=int(10 / 1.05 * RATE))
     hold = np.arange(1, int(RATE)) / RATE
     F2 = F + 3000 * np.gradient(x, t)  # the same stroke, stiffer valves
@@ -391,7 +390,6 @@ def test_identify_keeps_the_effects_the_diagnosis_accepts_and_check_reads_them(t
     """A crank file whose force channel lags 4 ms: the model that needs no description takes
     the sensor delay the diagnosis accepts, says both held-out errors, and `check` and
     `report` evaluate it along the recording it was built on; without that recording, one line."""
-    import json
     import shutil
     t, x, F = crank(n=int(20 / 1.05 * RATE))
     F = np.interp(t - 0.004, t, F) + np.random.default_rng(0).normal(0, 5.0, len(F))
@@ -422,3 +420,23 @@ def test_the_derived_velocity_is_scipys_savitzky_golay_derivative(n):
     from protocols.io.csv_import import savgol_slope
     x = np.cumsum(np.random.default_rng(n).normal(size=n))
     assert np.allclose(savgol_slope(x, 0.003), savgol_filter(x, 11, 2, deriv=1, delta=0.003), rtol=0, atol=1e-9)
+
+
+def test_an_aux_reading_scales_no_effect_unless_the_recording_says_it_drives_the_damper(tmp_path):
+    """Issue 44: an aux.* channel (here the actuator's command, as in the UTFSM chirps) scales
+    an effect only when the recording declares it drives the damper (--drive NAME=KIND)."""
+    t, x, F = crank(n=int(12 / 1.05 * RATE))
+    cmd = x + np.random.default_rng(4).normal(0, 1e-4, len(x))
+    src = _written(tmp_path, "aux.csv", "t,x,F,cmd\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f},{1e3 * d:.4f}\n"
+                                                                  for a, b, c, d in zip(t, x, F, cmd)))
+    maps = ("--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F", "--map", "aux.command=cmd:mm")
+    _imported(tmp_path, src, *maps)
+    r = dyno("diagnose", tmp_path / "x.mcap")
+    assert r.returncode == 0 and "aux.command: the recording does not say it drives the damper" in r.stdout, r.stdout
+    assert ":aux.command" not in r.stdout.split("Candidates")[1]  # no candidate scaled by it
+    one_line_error(dyno("import", src, "--out", tmp_path / "y.mcap", *maps, "--drive", "aux.command=magic"),
+                   "say what it drives: aux.command=coil current")
+    _, meta, _ = _imported(tmp_path, src, *maps, "--drive", "aux.command=valve command", "--overwrite")
+    assert json.loads(meta["calibration"]["aux.command"])["drives"] == "valve command"
+    r = dyno("diagnose", tmp_path / "x.mcap")
+    assert r.returncode == 0 and "does not say it drives" not in r.stdout and ":aux.command" in r.stdout, r.stdout

@@ -25,7 +25,7 @@ def dyno(*args, timeout=600):
 def test_the_mr_recording_names_hysteresis_and_the_voltage_on_a_time_split(tmp_path):
     rec = tmp_path / "mr.mcap"
     r = dyno("import", MR, "--out", rec, "--map", "time=t:s", "--map", "displacement=D:cm", "--map",
-             "velocity=V:cm/s", "--map", "force=F:N", "--map", "aux.voltage=Y:V")
+             "velocity=V:cm/s", "--map", "force=F:N", "--map", "aux.voltage=Y:V", "--drive", "aux.voltage=coil voltage")
     assert r.returncode == 0, r.stderr
     r = dyno("diagnose", rec, "--holdout", "tail:0.15", "--json")
     assert r.returncode == 0, r.stderr

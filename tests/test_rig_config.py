@@ -32,6 +32,9 @@ def line_of(text, needle):
     ('transport = "serial"', 'transport = "rs485"', "unknown transport 'rs485'", 'transport = "rs485"'),
     ('map = "tc-module"', 'map = "tc-modul"', "unknown register map 'tc-modul'", 'map = "tc-modul"'),
     ('signal = "tc2"', 'signal = "tc9"', "device 'tc' has no signal 'tc9'", 'signal = "tc9"'),
+    ('unit = "A"', 'unit = "A"\ndrives = "magic"', "'magic' is not one of coil current", 'drives = "magic"'),
+    ('unit = "N"', 'unit = "N"\ndrives = "coil current"', "only an aux.* channel drives the damper",
+     'drives = "coil current"'),
 ])
 def test_mistakes_name_the_line(old, new, message, needle):
     text = BASE.replace(old, new, 1)

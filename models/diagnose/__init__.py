@@ -151,13 +151,13 @@ def scores(F, r, k):
 AT_BOUND = 1e-3  # a value within this share of its range from a bound sits at the bound
 
 
-def minimal_model(channels, events, holdout="interleaved") -> tuple[Baseline, dict]:
+def minimal_model(channels, events, holdout="interleaved", drives=None) -> tuple[Baseline, dict]:
     """The baseline `minimal` alone, a damper model that needs no description: per-direction
     valve curves, the gas force and its slope, sliding friction, fitted on some cycles (or
     blocks) and judged on the others. (Baseline, {parameter: why the recording could not
     determine it}): a parameter without influence on the fit (infinite deviation), or at a
     bound of its range (held there, not measured)."""
-    d = prepare(channels, events)
+    d = prepare(channels, events, drives)
     base = Minimal(d)
     folds, _, shown = holdout_masks(d, holdout)
     model = Model(d, base=base)
@@ -186,11 +186,12 @@ def undetermined(params, values, sd) -> dict:
 
 
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
-             holdout="interleaved") -> Diagnosis:
+             holdout="interleaved", drives=None) -> Diagnosis:
     """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for
     `minimal`, or (name, damper model) to start from that model, refitted. holdout:
-    "interleaved" or the tail's fraction (holdout_masks)."""
-    d = prepare(channels, events)
+    "interleaved" or the tail's fraction (holdout_masks). drives: the aux channels that drive
+    the damper (models.recording.drives), the only ones an effect may be scaled by; None: all."""
+    d = prepare(channels, events, drives)
     if baseline is None:
         base = Minimal(d)
     else:

@@ -146,13 +146,14 @@ def _usable(channels):
         raise DiagnoseError(sign)
 
 
-def prepare(channels, events) -> Data:
+def prepare(channels, events, drives=None) -> Data:
     """Data from a recording's channels {name: (t, values)} and events."""
     _usable(channels)
     notes = []
     tF, F = _clean(*channels["force"])
     tx, x = _clean(*channels["x"])
-    aux = {n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10}
+    aux = _driving({n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10},
+                   drives, notes)
     period = float(np.median(np.diff(tF)))
     holes = _gaps(tF, period) + _gaps(tx)
     if holes:
@@ -217,14 +218,34 @@ def prepare(channels, events) -> Data:
             notes.append(f"{n} does not cover the cycling: not assessed")
             continue
         d.aux[n] = np.interp(d.t, ta, va)
+    return _enough(d)
+
+
+def _driving(aux, drives, notes):
+    """The aux channels an effect may be scaled by: those the recording says drive the damper
+    (every one when drives is None); the others said in notes."""
+    if drives is None:
+        return aux
+    for n in sorted(set(aux) - set(drives)):
+        notes.append(f"{n}: the recording does not say it drives the damper, so no effect is scaled by it "
+                     f"(a coil current or valve command is declared: `dyno import --drive {n}=coil current`, "
+                     f"or `drives` in the rig config's channel)")
+    return {n: c for n, c in aux.items() if n in drives}
+
+
+def _enough(d: Data) -> Data:
+    """d, periodic motion split by quarter cycles when it has fewer than MIN_CYCLES whole
+    cycles; DiagnoseError below MIN_WHOLE cycles, or MIN_CYCLES blocks of motion that does
+    not repeat (a block is no stroke to cut)."""
     n_whole = len(np.unique(d.cycle))
-    if n_whole < MIN_WHOLE:
-        raise DiagnoseError(f"only {n_whole} whole cycle(s) without gaps: too short to judge "
-                            f"(at least {MIN_WHOLE} needed, one fitted and one held out)")
+    least = MIN_WHOLE if d.periodic else MIN_CYCLES
+    if n_whole < least:
+        raise DiagnoseError(f"only {n_whole} whole {'cycle' if d.periodic else 'block'}(s) without gaps: too short "
+                            f"to judge (at least {least} needed, half fitted and half held out)")
     if n_whole < MIN_CYCLES:
         d.cycle = _quartered(d)
-        notes.append(f"cycle by cycle (only {n_whole} whole cycles): fitted and held out by quarter cycles, "
-                     f"alternate ones in alternate cycles, so that fit and judgement both see every stroke")
+        d.notes.append(f"cycle by cycle (only {n_whole} whole cycles): fitted and held out by quarter cycles, "
+                       f"alternate ones in alternate cycles, so that fit and judgement both see every stroke")
     return d
 
 

@@ -16,8 +16,7 @@ from rig.errors import RigError
 
 
 def _hidden_physics(p):
-    # the effects are not listed here: their catalogue takes a second to import, which every
-    # dyno command would pay; an unknown name lists them
+    # not listed here: their catalogue's import would cost every dyno command a second
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help="hide physics in the virtual rig, e.g. compressibility=0.5 (docs/diagnosis.md; an unknown "
                         "NAME lists the effects)")
@@ -335,18 +334,19 @@ def _import_command(sub):
                                        "as an MCAP recording")
     im.add_argument("file", metavar="FILE", help="CSV or any delimited text (a preamble, a decimal comma, no header: "
                                                  "found), .parquet, or .mat")
-    im.add_argument("--inspect", action="store_true",
-                    help="show what would be read (layout, columns, sample values, rate, a guessed map); write nothing")
+    im.add_argument("--inspect", action="store_true", help="show what would be read (layout, columns, sample values, "
+                                                           "rate, a guessed map); write nothing")
     _writes(im, "--out", FILE, metavar="FILE.mcap", help="the recording to write")
     _overwrite(im, "--out")
     im.add_argument("--map", action="append", metavar="NAME=COLUMN[:UNIT]",
                     help="time, displacement, velocity, force, temperature, pressure or aux.NAME from a column by "
                          "its header or 1-based position (a MATLAB matrix's: VAR[N]); units e.g. ms, mm, mm/s, kN, C, "
                          "bar (default SI); time may be date-time stamps")
-    im.add_argument("--gain", action="append", metavar="NAME=NUMBER",
-                    help="a raw channel's gain into its mapped unit, e.g. force=980.665 (volts to N)")
-    im.add_argument("--offset", action="append", metavar="NAME=NUMBER",
-                    help="added after the gain, in the mapped unit, e.g. displacement=29.9")
+    for flag, meta, what in (("--gain", "NAME=NUMBER", "a raw channel's gain into its mapped unit, e.g. force=980.665"),
+                             ("--offset", "NAME=NUMBER", "added after the gain, in the mapped unit, e.g. displacement=29.9"),
+                             ("--drive", "aux.NAME=KIND", "an aux channel that drives the damper: coil current, coil "
+                                                          "voltage, valve current or valve command (else a reading)")):
+        im.add_argument(flag, action="append", metavar=meta, help=what)
     im.add_argument("--flip", action="append", choices=("force", "displacement"),
                     help="the file counts it the other way: force positive in tension, or displacement from the "
                          "other end (dyno: both positive in compression)")

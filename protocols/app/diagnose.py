@@ -16,6 +16,7 @@ from models.diagnose.words import summary
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose.data import DiagnoseError
+from models.recording import drives
 from protocols.app.arguments import BUDGET_S
 from protocols.io.files import existing_files, filled, output_folder
 from rig.errors import RigError
@@ -141,7 +142,7 @@ def run(args):
     ch, events, meta = load_recording(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     try:
-        res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout)
+        res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout, drives=drives(meta))
     except (DiagnoseError, DamperError) as e:
         raise RigError(f"{args.recording}: {e}") from None
     own = recorded_damper(meta)

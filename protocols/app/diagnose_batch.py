@@ -14,12 +14,13 @@ def _one(task):
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     from protocols.app.diagnose import to_json
+    from models.recording import drives
     from protocols.io.reader import load_recording
     with batch.unpacked(name, data) as path:
         try:
-            ch, events, _ = load_recording(path)
+            ch, events, meta = load_recording(path)
             base = None if baseline is None else (baseline[0], from_dict(baseline[1]))
-            res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout)
+            res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta))
         except (RigError, DiagnoseError, DamperError) as e:
             return name, None, str(e).replace(str(path), name)
     return name, to_json(res), None

@@ -14,7 +14,7 @@ import numpy as np
 from models import damper as dm
 from models.identify import IdentifyError, identify
 from models.identify.parameters import at_bounds, bound_sentence
-from models.recording import differing_repeats, only
+from models.recording import differing_repeats, drives, only
 from protocols.io.files import existing_files, filled, output_file, output_folder, written
 from protocols.io.reader import load_recording, merged
 from protocols.reports.page import number
@@ -99,7 +99,7 @@ def run(args):
         except ValueError as e:
             raise RigError(f"--segment: {e}") from None
     if not args.damper and not meta.get("damper", {}).get("model"):
-        return _minimal(args, channels, events, inputs)
+        return _minimal(args, channels, events, inputs, drives(meta))
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), inputs, args.overwrite)
     if args.report:
         output_folder(args.report, inputs, args.overwrite, "--report")
@@ -134,7 +134,7 @@ def run(args):
 MINIMAL_SUFFIX = ".minimal.json"  # not .model.json: report overlays that as a full damper model
 
 
-def _minimal(args, channels, events, inputs):
+def _minimal(args, channels, events, inputs, driving):
     """A recording that names no damper, and no --damper: the model that needs no
     description (models/diagnose minimal_model) with the effects the diagnosis accepts on
     it, judged on held-out cycles, with what the recording could not determine; written as
@@ -145,8 +145,8 @@ def _minimal(args, channels, events, inputs):
         raise RigError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
     try:
-        base, _ = minimal_model(channels, events)
-        found = diagnose(channels, events)
+        base, _ = minimal_model(channels, events, drives=driving)
+        found = diagnose(channels, events, drives=driving)
     except (DiagnoseError, dm.DamperError) as e:
         raise RigError(f"{', '.join(map(str, args.recordings))}: {e}") from None
     doc = _minimal_doc(args, out, base, found, channels, events)

@@ -43,8 +43,22 @@ def _scales(items, what):
     return out
 
 
+def _drives(items, mapping):
+    """{aux channel: what of the damper it drives} from --drive NAME=KIND."""
+    from rig.config import DRIVES
+    out = {}
+    for item in items or ():
+        name, _, kind = item.partition("=")
+        if not name.startswith("aux.") or name not in {n for n, _, _ in mapping}:
+            raise RigError(f"--drive {item}: {name!r} is not a mapped aux.NAME channel")
+        if kind not in DRIVES:
+            raise RigError(f"--drive {item}: say what it drives: {', '.join(f'{name}={k}' for k in DRIVES)}")
+        out[name] = kind
+    return out
+
+
 def run(args):
-    for option in ("inspect", "gain", "offset", "flip", "rate"):  # a caller's namespace may have only the map
+    for option in ("inspect", "gain", "offset", "flip", "rate", "drive"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
         return inspect(args)
@@ -55,6 +69,7 @@ def run(args):
     gains, offsets = _scales(args.gain, "--gain"), _scales(args.offset, "--offset")
     for name in {*gains, *offsets} - {n for n, _, _ in mapping}:
         raise RigError(f"--gain/--offset {name}: not a mapped channel")
+    args.drives = _drives(args.drive, mapping)
     if args.out is None:
         raise RigError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
@@ -91,8 +106,8 @@ def _import(args, mapping, gains, offsets, claim):
         channels[ch] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
     cfg = SimpleNamespace(
         name="imported", path=Path(args.file),
-        channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0)
-                  for n, (_, _, u) in channels.items()},
+        channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0,
+                                     drives=args.drives.get(n, "")) for n, (_, _, u) in channels.items()},
         text=f'# imported by dyno import\n[import]\nsource = "{Path(args.file).name}"\n'
              f"map = {json.dumps(args.map)}\n")
     duration = float(t[-1] - t[0])
@@ -101,7 +116,7 @@ def _import(args, mapping, gains, offsets, claim):
     else:  # the file's own start is unknown: its file time less its duration stands for it
         wall_start, how = os.path.getmtime(args.file) - duration, "file time less its duration"
     params = {"source": str(args.file), "map": args.map, "flip": args.flip or [],
-              "gain": args.gain or [], "offset": args.offset or []}
+              "gain": args.gain or [], "offset": args.offset or [], "drive": args.drive or []}
     every = -(-len(t) // PLOT_POINTS)
     rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
                    run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),

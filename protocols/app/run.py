@@ -115,6 +115,9 @@ def _plan_run(args):
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     if getattr(args, "rate_hz", None):  # `dyno prove --rates`: the virtual cell at another loop rate
         cfg = rig_config.at_rate(cfg, args.rate_hz)
+    if args.rig is None and plant["effects"].get("aux_channel") and "aux.valve_current" in cfg.channels:
+        # the plant's adjuster follows its valve current: the recording says the channel drives the damper
+        cfg = rig_config.driven(cfg, "aux.valve_current", "valve current")
     info = rig_info(cfg, damper)
     skipped = module.check(params, info)  # refuse before anything connects or moves
     for name, why in skipped:

@@ -121,7 +121,8 @@ class Recorder:
                                     **{k: str(v) for k, v in (run_info or {}).items()}})
         self.w.add_metadata("rig", {"name": config.name, "config_path": str(config.path)})
         self.w.add_metadata("calibration", {n: json.dumps({"device": c.device, "signal": c.signal, "gain": c.gain,
-                                                           "offset": c.offset, "unit": c.unit})
+                                                           "offset": c.offset, "unit": c.unit,
+                                                           **({"drives": c.drives} if getattr(c, "drives", "") else {})})
                                             for n, c in config.channels.items()})
         self.w.add_metadata("damper", {"model": damper_json})
         self.w.add_metadata("protocol", {"name": protocol, "params": json.dumps(params)})

@@ -188,11 +188,13 @@ def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, ser
     rec = Recorder(runs_folder / "plots.mcap", rig_config.load("virtual"), json.dumps(dm.to_dict(dm.load("koni"))),
                    "sine-matrix", {})
 
-    def motion(t0, t1):
+    def motion(t0, t1, dropout=False):
         t = np.arange(t0, t1, 0.001)
         x = 0.038 + 0.0127 * np.sin(2 * np.pi * t)
         v = 0.0127 * 2 * np.pi * np.cos(2 * np.pi * t)
-        rec.samples({"force": (t, 300.0 + 4000.0 * v), "x": (t, x), "v": (t, v)})
+        F = 300.0 + 4000.0 * v
+        F[len(F) // 2] = np.nan if dropout else F[len(F) // 2]  # a sample that is no number: written null
+        rec.samples({"force": (t, F), "x": (t, x), "v": (t, v)})
         rec.flush()
     try:
         rec.event(0.0, "run_start", "sine-matrix", {}, "1 segments, 30 s at most")
@@ -205,7 +207,7 @@ def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, ser
         assert float(trace.get_attribute("data-xmax")) < 2.0
         assert fv.get_attribute("data-series") == "measured,model" == fx.get_attribute("data-series")
         assert "stroke" in fx.get_attribute("data-limits")  # the rig's stroke limits, drawn
-        motion(2.0, 3.0)  # more of the run: the same page redraws within a second or two
+        motion(2.0, 3.0, dropout=True)  # more of the run: the same page redraws within a second or two
         page.wait_for_function("() => +document.querySelector(\"section.live[data-key='plots.mcap'] canvas.trace\")"
                                ".dataset.xmax > 2.9", timeout=5_000)
         assert "3.0 s" in page.locator("section.live[data-key='plots.mcap'] .progress-text").inner_text()

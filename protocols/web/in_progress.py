@@ -65,10 +65,11 @@ class Live:
             d = json.loads(data)
             name = topic.removeprefix("/channels/")
             if d.get("t"):
-                self.latest[name] = (d["t"][-1], d["value"][-1], d.get("unit", ""))
+                values = np.asarray(d["value"], float)  # a sample that is no number is written null
+                self.latest[name] = (d["t"][-1], float(values[-1]), d.get("unit", ""))
                 if name in PLOTTED:
                     t, v = self.recent.get(name, (np.zeros(0), np.zeros(0)))
-                    t, v = np.append(t, d["t"]), np.append(v, d["value"])
+                    t, v = np.append(t, d["t"]), np.append(v, values)
                     keep = t >= t[-1] - KEEP_S
                     self.recent[name] = [t[keep], v[keep]]
 
@@ -185,9 +186,10 @@ def _thinned(n):
 
 
 def _thin(a):
-    """A series as the page gets it: at most POINTS values, rounded to 5 significant figures."""
+    """A series as the page gets it: at most POINTS values, rounded to 5 significant figures
+    (null where no number: JSON has no NaN)."""
     a = np.asarray(a, float)
-    return [float(f"{y:.5g}") for y in a[_thinned(len(a))]]
+    return [float(f"{y:.5g}") if np.isfinite(y) else None for y in a[_thinned(len(a))]]
 
 
 _SEEN: dict[Path, Live] = {}

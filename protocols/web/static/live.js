@@ -5,7 +5,7 @@ const REFRESH_MS = 500;
 
 function extent(values, pad) {
   let lo = Infinity, hi = -Infinity;
-  for (const v of values) { if (v < lo) lo = v; if (v > hi) hi = v; }
+  for (const v of values) { if (v === null) continue; if (v < lo) lo = v; if (v > hi) hi = v; }
   if (!isFinite(lo)) return [0, 1];
   if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
   const m = (hi - lo) * pad;
@@ -53,7 +53,12 @@ function plot(canvas, title, series, xlabel, ylabel, marks) {
   ctx.textAlign = "left"; ctx.font = "bold 12px sans-serif"; ctx.fillText(title, L, 12); ctx.font = "11px sans-serif";
   for (const s of series) {
     ctx.strokeStyle = s.color; ctx.setLineDash(s.dash || []); ctx.lineWidth = 1.3; ctx.beginPath();
-    s.x.forEach((v, i) => i ? ctx.lineTo(px(v), py(s.y[i])) : ctx.moveTo(px(v), py(s.y[i])));
+    let pen = false;  // lifted over a sample that is no number (null)
+    s.x.forEach((v, i) => {
+      if (v === null || s.y[i] === null) { pen = false; return; }
+      pen ? ctx.lineTo(px(v), py(s.y[i])) : ctx.moveTo(px(v), py(s.y[i]));
+      pen = true;
+    });
     ctx.stroke();
   }
   ctx.strokeStyle = "#c00"; ctx.setLineDash([6, 4]);

@@ -23,7 +23,7 @@ from rig.loop import describe
 from protocols.library import sine_matrix
 from protocols.plan import Plan
 from protocols.runner import Kept, RunResult, run_plan
-from sim_backend.effects import plain_cell
+from protocols import proven
 
 MAX_ROUNDS = 2  # a design that keeps asking for more would otherwise spend the budget on one rival
 
@@ -58,15 +58,15 @@ class Discovery:
 def limits(config) -> design.Limits:
     """The cell's limits from its rig config, and the proven envelope: the amplitudes and
     peak speeds of the plan the diagnosis is proven clean on nulls with
-    (sim_backend/plain.toml [prove])."""
+    (protocols/proven.toml)."""
     L = config.limits
-    proven = plain_cell()[2]["params"]
-    a_min = 1e-3 * min(proven["amplitudes_mm"])
-    a_max = 1e-3 * max(proven["amplitudes_mm"])
+    plan = proven.opening()[1]
+    a_min = 1e-3 * min(plan["amplitudes_mm"])
+    a_max = 1e-3 * max(plan["amplitudes_mm"])
     return design.Limits(L["x_min"], L["x_max"], L["velocity_max"], L["force_max"],
                          L.get("frequency_max", math.inf), amplitude_min=a_min,
-                         velocity_min=2 * math.pi * min(proven["freqs_hz"]) * a_min, amplitude_max=a_max,
-                         velocity_proven=2 * math.pi * max(proven["freqs_hz"]) * a_max)
+                         velocity_min=2 * math.pi * min(plan["freqs_hz"]) * a_min, amplitude_max=a_max,
+                         velocity_proven=2 * math.pi * max(plan["freqs_hz"]) * a_max)
 
 
 def next_plan(proposals) -> Plan:

@@ -26,11 +26,13 @@ from protocols.plan import Plan
 
 
 def prove_plan(override=None) -> Plan:
-    """The prove protocol with plain.toml's parameters (or `override`)."""
+    """The plan the diagnosis is proven on (protocols/proven.toml), or its protocol with
+    `override` for parameters."""
     from protocols.library import PROTOCOLS
-    prove = plain_cell()[2]
-    module = PROTOCOLS[prove["protocol"]]
-    return Plan(module, module.Params(**(override or prove["params"])))
+    from protocols.proven import opening
+    protocol, params = opening()
+    module = PROTOCOLS[protocol]
+    return Plan(module, module.Params(**(override or params)))
 
 
 def offline_recording(effects=None, seed=0, rate_hz=1000.0, params=None):

@@ -61,7 +61,7 @@ def test_no_sine_is_proposed_outside_the_envelope_the_nulls_are_proven_on():
     from protocols.discover import limits
     from rig import config
     lim = limits(config.load("virtual"))
-    # plain.toml's prove plan: 3.2 mm at 2 Hz to 12.7 mm at 16 Hz
+    # the proven plan (protocols/proven.toml): 3.2 mm at 2 Hz to 12.7 mm at 16 Hz
     assert (lim.amplitude_min, lim.amplitude_max, round(lim.velocity_min, 4)) == (0.0032, 0.0127, 0.0402)
     assert round(lim.velocity_proven, 3) == 1.277
     sines = feasible(lim, _diagnosis().data)

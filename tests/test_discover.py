@@ -70,3 +70,17 @@ def test_paired_sines_are_checked_as_pairs():
                       (["record_s=-1"], "record_s: must be 0 or more")):
         with pytest.raises(ParamError, match=re.escape(said)):
             sine_matrix.check(parse(sine_matrix.Params, bad), info)
+
+
+def test_a_real_cells_discover_reads_no_simulator_file():
+    """Issue 46: the opening and the proven envelope come from protocols/proven.toml, so
+    `dyno run discover --rig CELL.toml` on a real cell reads nothing of the simulator's:
+    discover's planning imports and runs with the simulator's package unavailable."""
+    import subprocess
+    import sys
+    code = ("import sys; sys.modules['sim_backend'] = None\n"
+            "from protocols.discover import limits\nfrom protocols.proven import opening\n"
+            "from rig import config\nlim = limits(config.load('virtual'))\n"
+            "print(round(lim.velocity_proven, 3), opening()[1]['freqs_hz'])")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.split() == ["1.277", "[2.0,", "4.0,", "8.0,", "16.0]"], r.stderr

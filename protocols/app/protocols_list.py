@@ -10,8 +10,8 @@ from protocols.library import DESCRIPTIONS, DISCOVER, PROTOCOLS, describe
 def _discover():
     """(summary, rows) of `dyno run discover`: the sine matrix's parameters with the
     opening's defaults (the matrix the diagnosis is proven on)."""
-    from sim_backend.effects import plain_cell
-    opening = plain_cell()[2]["params"]
+    from protocols.proven import opening as proven
+    opening = proven()[1]
     rows = [(p, ",".join(f"{v:g}" for v in opening[p]) if isinstance(opening.get(p), list)
              else str(opening.get(p, default)), unit, meaning) for p, default, unit, meaning in describe("sine-matrix")[1]]
     return tomllib.loads(DESCRIPTIONS.read_text())[DISCOVER]["summary"], rows

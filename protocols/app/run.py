@@ -23,7 +23,7 @@ from protocols.units import Units
 from protocols.plan import Plan, as_dict, parse, rig_info
 from protocols.rehearsal import rehearse
 from protocols.runner import run_plan
-from sim_backend.effects import plain_cell
+from protocols import proven
 
 
 
@@ -99,9 +99,9 @@ def _plan_run(args):
         raise RigError(f"--budget: the rig time of `dyno run {DISCOVER}`'s own tests; {args.protocol} has none")
     if args.protocol == DISCOVER:
         args.budget = BUDGET_S if args.budget is None else args.budget
-        # the opening: the sine matrix the diagnosis is proven on (sim_backend/plain.toml), name=value overriding
+        # the opening: the sine matrix the diagnosis is proven on (protocols/proven.toml), name=value overriding
         given = [f"{k}={','.join(f'{x:g}' for x in v) if isinstance(v, list) else v}"
-                 for k, v in plain_cell()[2]["params"].items() if not any(p.startswith(f"{k}=") for p in pairs)]
+                 for k, v in proven.opening()[1].items() if not any(p.startswith(f"{k}=") for p in pairs)]
     params = parse(module.Params, [*pairs, *given])
     if args.rig is not None and (args.effect or args.plain):
         raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")

@@ -142,12 +142,16 @@ def other_sign(x, F) -> str | None:
     passive damper dissipates: over whole cycles the work done on it, the integral of
     F dx [J], is positive with force and displacement both positive in compression (ours).
     Negative work, a clear share of all the work, means the force or the displacement is
-    counted the other way (tension positive, or displacement from the other end)."""
+    counted the other way (tension positive, or displacement from the other end). The
+    work of the force's part that depends on position alone (a gas spring's: a cubic in x
+    fitted to F) is left out first: on a path that does not close (a static test's moves,
+    a run so far) it is energy stored or given back, not dissipated."""
     ok = np.isfinite(x) & np.isfinite(F)
-    x, F = np.asarray(x)[ok], np.asarray(F)[ok]
+    x, F = np.asarray(x, float)[ok], np.asarray(F, float)[ok]
     if len(x) < 3:
         return None
-    dW = 0.5 * (F[1:] + F[:-1]) * np.diff(x)
+    Fd = F - np.polyval(np.polyfit(u := (x - np.mean(x)) / np.ptp(x), F, 3), u) if np.ptp(x) > 0 else F
+    dW = 0.5 * (Fd[1:] + Fd[:-1]) * np.diff(x)
     W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
     if not (A > 0 and W < -SIGN_SHARE * A):
         return None

@@ -440,3 +440,22 @@ def test_an_aux_reading_scales_no_effect_unless_the_recording_says_it_drives_the
     assert json.loads(meta["calibration"]["aux.command"])["drives"] == "valve command"
     r = dyno("diagnose", tmp_path / "x.mcap")
     assert r.returncode == 0 and "does not say it drives" not in r.stdout and ":aux.command" in r.stdout, r.stdout
+
+
+def test_a_path_that_does_not_close_is_not_read_as_the_other_sign():
+    """A static test's move against the gas force stores energy, it does not dissipate it:
+    the sign check leaves the force's part that depends on position alone out (the live
+    identification met it on the standard run's first segments and advised --flip)."""
+    from models.recording import other_sign
+    t = np.linspace(0, 20, 20_000)
+    x = 0.03 - 0.001 * t  # extending 20 mm against a 600-760 N gas force: -15 J
+    v = np.gradient(x, t)
+    F = 600 + 8000 * x + 30 * np.tanh(v / 1e-3) + 3000 * v
+    assert other_sign(x, F) is None
+    t = np.linspace(0, 10, 10_000)
+    x = 0.03 + 0.01 * np.sin(2 * np.pi * t)
+    v = np.gradient(x, t)
+    F = 600 + 8000 * x + 30 * np.tanh(v / 1e-3) + 3000 * v
+    assert other_sign(x, F) is None
+    assert "import it again with --flip displacement" in other_sign(0.08 - x, F)
+    assert "import it again with --flip force" in other_sign(x, -F)

@@ -151,25 +151,6 @@ def scores(F, r, k):
 AT_BOUND = 1e-3  # a value within this share of its range from a bound sits at the bound
 
 
-def minimal_model(channels, events, holdout="interleaved", drives=None) -> tuple[Baseline, dict]:
-    """The baseline `minimal` alone, a damper model that needs no description: per-direction
-    valve curves, the gas force and its slope, sliding friction, fitted on some cycles (or
-    blocks) and judged on the others. (Baseline, {parameter: why the recording could not
-    determine it}): a parameter without influence on the fit (infinite deviation), or at a
-    bound of its range (held there, not measured)."""
-    d = prepare(channels, events, drives)
-    base = Minimal(d)
-    folds, _, shown = holdout_masks(d, holdout)
-    model = Model(d, base=base)
-    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True)
-    values, sd = pooled(fold_vals, sds)
-    fit0 = folds[0][0]
-    r_train = model.force(d, fold_vals[0]) - d.F
-    res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
-                   residual=r0, model_gas_force=None)
-    return res, undetermined(model.params, values, sd)
-
-
 def undetermined(params, values, sd) -> dict:
     """{parameter: why the recording could not determine it}: no influence on the fit (an
     infinite deviation in sd; a parameter sd lacks is not judged so), or at a bound of its

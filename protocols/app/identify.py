@@ -136,19 +136,19 @@ MINIMAL_SUFFIX = ".minimal.json"  # not .model.json: report overlays that as a f
 
 def _minimal(args, channels, events, inputs, driving):
     """A recording that names no damper, and no --damper: the model that needs no
-    description (models/diagnose minimal_model) with the effects the diagnosis accepts on
+    description (the diagnosis's baseline `minimal`) with the effects the diagnosis accepts on
     it, judged on held-out cycles, with what the recording could not determine; written as
     JSON (models/minimal.py reads it)."""
-    from models.diagnose import diagnose, minimal_model
+    from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     if args.report or args.truth:
         raise RigError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
     try:
-        base, _ = minimal_model(channels, events, drives=driving)
         found = diagnose(channels, events, drives=driving)
     except (DiagnoseError, dm.DamperError) as e:
         raise RigError(f"{', '.join(map(str, args.recordings))}: {e}") from None
+    base = found.baseline  # the model without effects, fitted and judged on the same cycles
     doc = _minimal_doc(args, out, base, found, channels, events)
     with written(out) as tmp:
         tmp.write_text(json.dumps(_clean(doc), indent=1))

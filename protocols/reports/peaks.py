@@ -276,10 +276,13 @@ SCATTER = "motion that does not repeat"  # the name of scatter()'s row
 SCATTER_QUANTILE = 0.005  # of each direction's samples left out at its top speed: a random input's rare extremes
 
 
-def repeats(segs) -> bool:
-    """Whether the recording holds tests of ours or cut from periodic motion (anything but
-    road or random input): then its table is read from them, not from scatter()."""
-    return any(prm.get("kind") != "road" for _, prm, _, _ in segs)
+def scattered(ch, segs, model=None) -> list:
+    """[scatter()] of a recording that holds only motion that does not repeat (no segment
+    but road input); [] when it holds tests of ours or cut from periodic motion, whose
+    table is read from them."""
+    if any(prm.get("kind") != "road" for _, prm, _, _ in segs):
+        return []
+    return [p for p in (scatter(ch, model),) if p is not None]
 
 
 def scatter(ch, model=None):

@@ -137,9 +137,7 @@ def _rows(path, model=None, at_K=None):
         t = ch["T_body"][0]
         ch = {**ch, "T_body": (t, np.full(len(t), at_K))}
     segs = segments(events)
-    if not peaks.repeats(segs):  # a random or road input: its force-velocity scatter's mid-line
-        return [p for p in (peaks.scatter(ch, model),) if p is not None]
-    return peaks.peaks(ch, segs, damper=peaks.recorded_damper(meta), model=model)
+    return peaks.scattered(ch, segs, model) or peaks.peaks(ch, segs, damper=peaks.recorded_damper(meta), model=model)
 
 
 def _table_temperature(rows):

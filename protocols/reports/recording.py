@@ -57,7 +57,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
             page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {', '.join(over)}. "
                            "The rod moved faster than asked (an overshooting actuator, or a run imported with "
                            "another amplitude than it ran).")
-    scattered = [] if rows or peaks.repeats(segs) else [p for p in (peaks.scatter(ch, model),) if p is not None]
+    scattered = [] if rows else peaks.scattered(ch, segs, model)
     if rows or scattered:
         _velocity_section(page, rows or scattered, speeds, units, out)
     steps = step_measures(ch, segs)

@@ -5,7 +5,7 @@ plan on any of them:
     with cell.embedded("koni") as c:           # the virtual rig over its wire protocols
         result = runner.run_plan(Plan(sine_matrix, params), c, [recorder])
     cell.wired(rig_config.load("cell.toml"), damper)   # a real cell (or `dyno sim-rig`)
-    cell.direct(config, "koni", effects=...)   # the plant without wires: many times faster
+    cell.direct(config, "koni", PlantOptions(effects=...))   # the plant without wires: many times faster
 
 A cell outlives a run: `dyno run discover` runs several plans on one, and between them the
 actuator holds where the last one left it (its command watchdog holds a lost controller).
@@ -76,16 +76,19 @@ def _opened(c: Cell) -> Cell:
     return c
 
 
-def embedded(damper, config=None, realtime=False, **plant) -> Cell:
+def embedded(damper, config=None, realtime=False, plant=None) -> Cell:
     """The embedded virtual rig: the plant behind its emulators, read through the same wire
-    protocols a real cell speaks. damper: a preset name, JSON path or Damper; plant: the
-    VirtualRig's keywords (seed, T0, effects, params)."""
+    protocols a real cell speaks. damper: a preset name, JSON path or Damper; plant: its
+    PlantOptions (sim_backend/options.py; its damper field is not read here)."""
     from models.damper import load as load_damper
     from rig import config as rig_config
     from rig.rig import Rig
     from sim_backend.virtual_rig import VirtualRig
     d = load_damper(damper) if isinstance(damper, str) else damper
-    vr = VirtualRig(config or rig_config.load("virtual"), damper=d, **plant)
+    from sim_backend.options import PlantOptions
+    p = plant or PlantOptions()
+    vr = VirtualRig(config or rig_config.load("virtual"), damper=d, seed=p.seed, T0=p.T0, effects=p.effects,
+                    params=p.params)
     c = Cell(None, None, d, vr, realtime, [vr.close])
     c.config = vr.start()
     c.rig = Rig(c.config, clock=vr.clock)
@@ -100,11 +103,13 @@ def wired(config, damper=None) -> Cell:
     return _opened(Cell(rig, config, damper, None, True, [rig.close]))
 
 
-def direct(config, damper, **plant) -> Cell:
+def direct(config, damper, plant=None) -> Cell:
     """The plant without wires (sim_backend/direct_rig.py), on its simulated clock: for the
     calibration, the rehearsal and work that needs the runner's stepping, not the wires."""
     from models.damper import load as load_damper
     from sim_backend.direct_rig import DirectRig
     d = load_damper(damper) if isinstance(damper, str) else damper
-    rig = DirectRig(config, d, **plant)
+    from sim_backend.options import PlantOptions
+    p = plant or PlantOptions()
+    rig = DirectRig(config, d, seed=p.seed, T0=p.T0, effects=p.effects, params=p.params)
     return _opened(Cell(rig, config, d, rig, False, []))

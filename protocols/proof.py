@@ -19,7 +19,8 @@ from models.parallel import run_all
 from models.recording import segments
 from rig import config as rig_config
 from rig.errors import RigError
-from sim_backend.effects import EFFECTS, plain_cell, scaled
+from sim_backend.effects import EFFECTS, scaled
+from sim_backend.options import PlantOptions, plain_cell
 
 from protocols import cell, runner
 from protocols.plan import Plan
@@ -43,7 +44,7 @@ def offline_recording(effects=None, seed=0, rate_hz=1000.0, params=None):
     name, plant_params, _ = plain_cell()
     cfg = rig_config.at_rate(rig_config.load("virtual"), rate_hz)
     kept = runner.Kept()
-    with cell.direct(cfg, name, seed=seed, effects=effects, params=plant_params) as c:
+    with cell.direct(cfg, name, PlantOptions(name, effects or {}, plant_params, seed)) as c:
         result = runner.run_plan(prove_plan(params), c, [kept])
     if result.fault:
         raise RigError(f"offline run with {effects or 'no effects'}: {result.fault}")
@@ -129,14 +130,14 @@ def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None,
     from protocols.discover import discover
     from protocols.io.reader import load_recording
     from protocols.io.recording import for_run
-    from sim_backend.effects import plant_options
+    from sim_backend.options import plant_options
     out = Path(folder) / f"{effect or 'null'}-{form or 'default'}-{size:g}-{noise:g}-{rate:g}-{seed}.mcap"
     specs = ([f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()]
              + ([f"extra:{extra}"] if extra else []))
     plant = plant_options(None, specs, plain=True, seed=seed, noise=noise)
-    damper = load_damper(plant.pop("damper"))
+    damper = load_damper(plant.damper)
     plan = prove_plan()
-    with cell.embedded(damper, rig_config.at_rate(rig_config.load("virtual"), rate), **plant) as c:
+    with cell.embedded(damper, rig_config.at_rate(rig_config.load("virtual"), rate), plant=plant) as c:
         with closing(for_run(out, c, plan, overwrite=True)) as rec:
             found = discover(plan, c, [rec], budget_s) if budget_s else None
             if found is None:  # a run that tripped is diagnosed on what it recorded, as a user's would be

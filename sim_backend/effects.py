@@ -1,23 +1,37 @@
 """Physics the virtual rig can hide in a run (`--effect NAME=VALUE`), so the diagnosis
 (models/diagnose/) is tested against effects it was not told about.
 
-Each is built into the plant's physics (sim_backend/plant/), in a form different from
-the one the diagnosis fits; both are declared with the effect (models/diagnose/candidates.py): a first-order filter against a pure
-delay, a mount whose rod floats across the gap against a stationary one, a Stribeck seal
-against a breakaway that decays with travel, and so on.
+Each is built into the plant's physics (sim_backend/plant/), in a form different from the
+one the diagnosis fits, and declared in sim_backend/hidden.toml: a first-order filter
+against a pure delay, a mount whose rod floats across the gap against a stationary one, a
+Stribeck seal against a breakaway that decays with travel, and so on. The plant does not
+read the diagnosis's catalogue: the names are the same, the knowledge is each side's own.
 """
 from __future__ import annotations
 
 import dataclasses
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from models.damper import Compressibility, Damper, TempCoeff, TemperatureSensitivity
-from models.diagnose.candidates import CATALOGUE
 
 
-# each catalogue effect's hidden forms, declared with the effect (models/diagnose/candidates.py)
-EFFECTS = {name: e.hidden for name, e in CATALOGUE.items()}
+@dataclass(frozen=True)
+class Hidden:
+    """How the virtual plant hides an effect (an entry of hidden.toml)."""
+    unit: str  # of VALUE
+    form: str  # what VALUE sets, in the plant's default form
+    guess: float  # a VALUE of roughly noise size: where `dyno prove --calibrate` starts
+    grows: str  # how VALUE makes it stronger (scaled)
+    forms: dict = field(default_factory=dict)  # {other form: what VALUE sets in it}
+    hi: float = float("inf")  # VALUE's range: what a damper or cell could have; beyond it, a typing mistake
+    lo: float = 0.0
+
+
+EFFECTS = {name: Hidden(**h) for name, h in tomllib.loads((Path(__file__).parent / "hidden.toml").read_text()).items()}
 # the other forms, in the plant's words (VALUE keeps its meaning and unit in each)
 FORMS = {f"{name}:{form}": what for name, h in EFFECTS.items() for form, what in h.forms.items()}
 # Stribeck curve per form: (shape, Stribeck velocity [m/s]); seals run 1-20 mm/s (a choice)
@@ -33,12 +47,11 @@ P_REF_AIR = 2e6  # Pa: where the air form's effective modulus is VALUE (the pres
 
 
 def scaled(name, value, s):
-    """The VALUE that makes effect `name` s times as strong as at `value`: a bulk modulus
-    falls (value / s), a breakaway ratio's excess grows (1 + (value - 1) s), the rest grow
-    in proportion."""
-    if name == "compressibility":
+    """The VALUE that makes effect `name` s times as strong as at `value` (its `grows`)."""
+    grows = EFFECTS[name].grows
+    if grows == "inversely":  # a bulk modulus
         return value / s
-    if name == "breakaway_friction":
+    if grows == "in its excess over 1":  # a ratio of frictions
         return 1 + (value - 1) * s
     return value * s
 
@@ -111,33 +124,3 @@ def damper_with(d: Damper, fx: dict) -> Damper:
         F = np.interp(x, f.x_table, f.F_table) * (1 + fx["position_friction"] * shape)
         d = dataclasses.replace(d, friction=dataclasses.replace(f, x_table=list(x), F_table=list(F)))
     return d
-
-
-def plain_cell():
-    """(damper name, plant parameters, prove settings) of sim_backend/plain.toml: the
-    virtual rig with nothing the minimal model leaves out."""
-    import tomllib
-    from pathlib import Path
-
-    from sim_backend.plant import plant_params
-    plain = tomllib.loads((Path(__file__).parent / "plain.toml").read_text())
-    params = plant_params()
-    for section in ("frame", "sensors", "thermal", "actuator"):
-        params[section].update(plain.get(section, {}))
-    return plain["damper"], params, plain["prove"]
-
-
-def plant_options(damper=None, effects=(), plain=False, seed=0, noise=1.0) -> dict:
-    """The virtual plant's keywords (damper, effects, params, seed): effects as
-    ["NAME[:FORM]=VALUE", ...] (EffectError names a bad one); plain: the plain cell of
-    plain.toml (its damper unless another than the default is given); noise: the sensors'
-    noise times this."""
-    from sim_backend.plant import plant_params
-    fx, params = parse(effects), None
-    if plain:
-        name, params, _ = plain_cell()
-        damper = name if damper in (None, "koni") else damper
-    if noise != 1.0:
-        params = params or plant_params()
-        params["sensors"].update({k: v * noise for k, v in params["sensors"].items() if k.endswith("_noise")})
-    return {"damper": damper, "effects": fx, "params": params, "seed": seed}

@@ -19,8 +19,10 @@ import gc
 import time
 from pathlib import Path
 
-from rig.devices import FRAME_HZ, TRANSPORTS, by_transport, frame_hz
-from sim_backend.emulators import EMULATORS, free_port
+from rig.devices import TRANSPORTS, by_transport
+from rig.devices.transport import FRAME_HZ, frame_hz
+from sim_backend.emulators import EMULATORS
+from sim_backend.emulators.ports import free_port
 from sim_backend.plant import Plant
 
 PLANT_STEP = 5e-4  # s: the plant's longest integration step

@@ -4,9 +4,11 @@ Layers import downward only:
     protocols (the application)  ->  sim_backend  ->  rig, models
     rig and models import nothing of each other, of sim_backend or of protocols;
     inside models, the equations (physics) import nothing built on them.
-No module imports another module's private names (_name). Transports are named in one
-place (the registry), and so are the hidden effects."""
+No module imports another module's private names (_name), no modules import each other in a
+circle, no command imports another command. Transports are named in one place (the
+registry), and so are the hidden effects."""
 import ast
+import re
 import subprocess
 from pathlib import Path
 
@@ -21,7 +23,7 @@ FORBIDDEN = {  # importer prefix -> imported prefixes it must not use
     "models.physics": ("models.identify", "models.diagnose", "models.quarter_car", "models.validation"),
     "models.identify": ("models.diagnose", "models.quarter_car", "models.validation"),
     "models.diagnose": ("models.identify", "models.quarter_car", "models.validation"),
-    "sim_backend": ("protocols",),
+    "sim_backend": ("protocols", "models.diagnose"),  # the plant hides physics it knows itself
 }
 MAX_FILE_LINES = 450
 MAX_FUNCTION_LINES = 80
@@ -84,6 +86,72 @@ def test_no_module_imports_another_modules_private_names():
             if imported.split(".")[0] in PACKAGES and imported != mod:
                 bad += [f"{mod}: from {imported} import {n}" for n in names if n.startswith("_")]
     assert not bad
+
+
+def graph():
+    """{module: project modules it imports}; `from package import submodule` is an edge to
+    the submodule alone."""
+    mods = {module_name(p)[0]: p for p in sources()}
+    out = {}
+    for mod, path in mods.items():
+        edges = set()
+        for imported, names in imports(path):
+            subs = [f"{imported}.{n}" for n in names if f"{imported}.{n}" in mods]
+            edges.update(t for t in (subs if names and len(subs) == len(names) else [imported, *subs])
+                         if t in mods and t != mod)
+        out[mod] = edges
+    return out
+
+
+def _reached(g, start):
+    reach, todo = set(), [start]
+    while todo:
+        for t in g[todo.pop()] - reach:
+            reach.add(t)
+            todo.append(t)
+    return reach
+
+
+def circles(g):
+    """The sets of modules that import each other, directly or round about."""
+    reach = {m: _reached(g, m) for m in g}
+    return sorted({tuple(sorted({m} | {n for n in reach[m] if m in reach[n]})) for m in g if m in reach[m]})
+
+
+def test_no_modules_import_each_other_in_a_circle():
+    assert not circles(graph())
+
+
+def test_no_command_imports_another_command():
+    """A command parses, calls the library and prints: what two commands share lives below them."""
+    cli = (ROOT / "protocols/app/cli.py").read_text()
+    names = {m.split(":")[0] for m in re.findall(r'command=f?"([a-z_:{}]+)"', cli)} - {"bench"}
+    commands = {f"protocols.app.{n}" for n in names if (ROOT / f"protocols/app/{n}.py").exists()}
+    commands |= {f"protocols.app.bench.{p.stem}" for p in (ROOT / "protocols/app/bench").glob("*.py")
+                 if p.stem != "__init__"}
+    assert len(commands) > 15
+    g = graph()
+    assert not sorted(f"{c} imports {t}" for c in commands for t in g[c] & commands)
+
+
+def test_no_application_code_opens_a_simulator_file():
+    """A real cell reads only its own files: no path in rig/ or protocols/ names a file of
+    sim_backend/ (the simulator opens its own, in its functions). Sentences may name one."""
+    own = {p.name for p in (ROOT / "sim_backend").rglob("*.toml")}
+    bad = []
+    for path in sources():
+        if path.relative_to(ROOT).parts[0] in ("rig", "protocols"):
+            for n in ast.walk(ast.parse(path.read_text())):
+                path_like = isinstance(n, ast.Constant) and isinstance(n.value, str) and not re.search(r"\s", n.value)
+                if (path_like and (n.value.rpartition("/")[2] in own or "sim_backend/" in n.value)
+                        or isinstance(n, ast.Attribute) and n.attr == "__file__" and "sim_backend" in ast.unparse(n)):
+                    bad.append(f"{path.relative_to(ROOT)}:{n.lineno}")
+    assert not bad
+
+
+def test_the_circle_check_finds_a_circle():
+    assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [("a", "b", "c")]
+    assert not circles({"a": {"b"}, "b": set()})
 
 
 def test_files_and_functions_stay_small():

@@ -14,7 +14,7 @@ from protocols.library import sine_matrix
 from protocols.plan import ParamError, Plan, parse, rig_info
 from protocols.runner import Kept
 from rig import config
-from sim_backend.effects import plant_options
+from sim_backend.options import plant_options
 
 OPENING = ["amplitudes_mm=6.4,1.6", "freqs_hz=2,8", "record_cycles=4", "settle_cycles=1"]
 
@@ -35,7 +35,7 @@ def test_the_next_plan_takes_the_rig_time_the_design_counted():
 def test_discovery_runs_the_designed_sines_with_their_reasons_and_diagnoses_again():
     plant = plant_options(None, ["sensor_delay=3e-4"], plain=True, seed=1)
     kept = Kept()
-    with cell.direct(config.load("virtual"), plant.pop("damper"), **plant) as c:
+    with cell.direct(config.load("virtual"), plant.damper, plant) as c:
         found = discover(Plan(sine_matrix, parse(sine_matrix.Params, OPENING)), c, [kept], budget_s=3.0,
                          max_rounds=1)
     assert len(found.rounds) == 2 and len(found.runs) == 2 and found.result.fault is None

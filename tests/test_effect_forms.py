@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from models.physics.compressibility import AIR_P_MIN, pressure_air, strain_air
-from sim_backend.effects import EFFECTS, FORMS, plain_cell
+from sim_backend.effects import EFFECTS, FORMS
+from sim_backend.options import plain_cell
 from sim_backend.plant import MODE_FOLLOW, Plant
 from sim_backend.plant.load_path import elastoplastic, floored, stribeck
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from models.diagnose.candidates import CATALOGUE
-from sim_backend.effects import EFFECTS, parse, plain_cell
+from sim_backend.effects import EFFECTS, parse
+from sim_backend.options import plain_cell
 
 
 def test_the_plant_hides_exactly_the_catalogues_effects():

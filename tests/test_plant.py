@@ -54,7 +54,7 @@ def test_free_play_reads_zero_while_the_mount_crosses_the_clearance(c):
     """The rod floats where the damper's force on it is zero while the mount, accelerating
     at a, moves c away from it: the load cell reads zero for sqrt(2 c / a) each time the
     force would change sign, however that compares with the step."""
-    from sim_backend.effects import plain_cell
+    from sim_backend.options import plain_cell
     name, params, _ = plain_cell()
     h, f, A = 5e-4, 2.0, 0.0127
     p = Plant(name, params=params, effects={"free_play": c}, h=h)

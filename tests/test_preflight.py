@@ -15,6 +15,7 @@ from protocols.library import PROTOCOLS
 from protocols.plan import MARGIN, ParamError, Plan, Segment, rig_info
 from protocols.rehearsal import rehearse
 from rig import config
+from sim_backend.options import PlantOptions
 
 PRESETS = ("koni", "mechformance", "fox-light", "fox-heavy")
 HOLD_S = 3.0  # a wait (a settled force, a temperature) is cut to this: it starts at its temperature
@@ -29,7 +30,7 @@ def run_span(damper, params, segments, T0):
             if len(drained[k][1]):
                 peaks[k] = max(peaks[k], float(np.max(np.abs(drained[k][1]))))
     module = SimpleNamespace(NAME="span", check=lambda p, i: [], plan=lambda p, i: iter(segments))
-    with cell.direct(config.load("virtual"), damper, T0=T0) as c:  # the plant's own trips, not the wires'
+    with cell.direct(config.load("virtual"), damper, PlantOptions(T0=T0)) as c:  # the plant's own trips, not the wires'
         result = runner.run_plan(Plan(module, params), c, sinks=[sink])
     return result, peaks
 

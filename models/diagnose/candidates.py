@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from models.diagnose import kernels, terms
-from models.diagnose.spec import V_EPS, Effect, Hidden, P
+from models.diagnose.spec import V_EPS, Effect, P
 from models.diagnose.terms import TERMS
 
 GAMMA = 1.38  # thesis section 4.1.2
@@ -296,10 +296,6 @@ CATALOGUE = {e.name: e for e in (
            say=("The {late} by {v} {u}: a timing offset of the cell (a filter or transport lag in a sensor's "
                 "signal chain, or the channels' clocks), not the damper. Align the channels (or fix the "
                 "conditioning) before fitting valves.", "tau", 1e3, "ms"),
-           hidden=Hidden('s', 'time constant of a first-order filter in the LVDT/LVT conditioning', 0.0001, {
-               'transport': 'a pure transport delay of VALUE in the LVDT/LVT signal',
-               'second_order': 'two first-order filters of VALUE / 2 in series (critically damped)',
-           }, hi=0.05),
     ),
     Effect("free_play", "clearance (free play) in the damper's mounts",
            _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
@@ -308,12 +304,6 @@ CATALOGUE = {e.name: e for e in (
                 "meanwhile where the damper's own force on it is zero) each time it changes sign: "
                 "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
                 "c_play", 1e3, "mm"),
-           hidden=Hidden('m', "clearance in the damper's lower mount, in the load path (rigid contact)", 2e-05, {
-               'contact': 'the clearance closes onto a linear contact stiffness that gives way VALUE more under '
-                          'CONTACT_F (a worn elastomer bush)',
-               'hertz': 'the clearance closes onto a Hertzian contact, deflection (F / CONTACT_F)^(2/3) VALUE (a worn'
-                        ' ball joint)',
-           }, hi=0.005),
     ),
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
@@ -323,12 +313,6 @@ CATALOGUE = {e.name: e for e in (
            say=("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
                 "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
                 "inv_k_oil", None, "kN/mm"),
-           hidden=Hidden('Pa', 'effective bulk modulus of the oil (entrained air), constant', 20000000000.0, {
-               'pressure': 'bulk modulus rising with chamber pressure (eq 3.32): VALUE / 4 at zero, VALUE at 2 MPa, '
-                           'at most 4 VALUE (from 10 MPa)',
-               'air': 'free air entrained in the oil, compressed isothermally: effective modulus VALUE at 2 MPa, '
-                      'softer below, stiffer above',
-           }, hi=1e11, lo=1e6),
     ),
     Effect("breakaway_friction", "seal friction higher at breakaway than when sliding",
            _p(P("r_break", 1.2, 1.0, 5.0, "-"),
@@ -338,12 +322,6 @@ CATALOGUE = {e.name: e for e in (
            say=("Friction is higher just after each velocity reversal, static/dynamic ratio {v}: "
                 "seal breakaway. It sets the force near zero velocity; check seal and rod finish.",
                 "r_break", 1.0, ""),
-           hidden=Hidden('-', 'Stribeck seal (Gaussian, 5 mm/s): friction at rest over sliding friction', 1.1, {
-               'exponential': 'Stribeck seal, exp(-|v| / 2 mm/s)',
-               'lorentzian': 'Stribeck seal, 1 / (1 + (v / 10 mm/s)^2)',
-               'power': 'Stribeck seal, a power law (1 + |v| / 20 mm/s)^-2',
-               'slow': 'Stribeck seal, Gaussian at 1 mm/s',
-           }, hi=10.0),
     ),
     Effect("position_friction", "seal friction varying along the bore",
            lambda d, e: terms.coefficients("pf", FRICTION_KNOTS, terms.force_bound(d)),
@@ -351,11 +329,6 @@ CATALOGUE = {e.name: e for e in (
            linear=True,
            say=("Friction changes along the stroke ({region}; {size}): a tight spot or wear in the bore or "
                 "seal. Inspect the bore and rod.", None, 1.0, "N"),
-           hidden=Hidden('-', "a tight spot in the bore: extra friction at its peak over the table's", 0.1, {
-               'narrow': 'a tight spot 1.5 mm wide, 3 mm below mid-stroke',
-               'step': 'friction VALUE higher over the bore above mid-stroke + 2 mm (a worn lower bore), the step '
-                       'over 0.5 mm',
-           }, hi=10.0),
     ),
     Effect("gas_temperature", "gas-spring force rising with temperature",
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
@@ -364,10 +337,6 @@ CATALOGUE = {e.name: e for e in (
            depends_on=("temperature", "displacement"),
            say=("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
                 "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%"),
-           hidden=Hidden('-', "share of the body's temperature rise the gas charge takes on", 0.1, {
-               'reservoir': "share of the reservoir's temperature rise (it lags the body by its 60 s)",
-               'lagged': "share of the body's temperature rise through a 10 s lag (heat through the floating piston)",
-           }, hi=1.0),
     ),
     Effect("damping_temperature", "damping changing with oil temperature",
            _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
@@ -375,10 +344,6 @@ CATALOGUE = {e.name: e for e in (
            depends_on=("temperature", "velocity", "direction"),
            say=("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
                 "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
-           hidden=Hidden('1/K', 'K_effoil of eq 4.17 in both directions (oil density with temperature)', 0.0001, {
-               'compression': 'K_effoil of twice VALUE in compression only',
-               'rebound': 'K_effoil of twice VALUE in rebound only',
-           }, hi=0.05),
     ),
     Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
            _p(P("m_oil", 0.0, -20.0, 200.0, "kg")),
@@ -386,22 +351,11 @@ CATALOGUE = {e.name: e for e in (
            say=("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
                 "(or unsupported mass in the load path). It matters in step and high-frequency tests.",
                 "m_oil", 1.0, "kg"),
-           hidden=Hidden('kg', 'mass of the oil column accelerated through the valves (1 ms lag)', 0.5, {
-               'resonant': "the oil column on the oil's spring: its force through a 150 Hz resonance, "
-                           "damping ratio 0.3",
-               'direction': '1.5 VALUE while oil flows in compression, 0.5 VALUE in rebound (longer path)',
-           }, hi=100.0),
     ),
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
            estimate="Fcav_c", apply=_cavitation, acts_on="total", depends_on=("velocity", "direction", "displacement"),
            say=("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
                 "charge or check for air.", None, 1.0, "N"),
-           hidden=Hidden('Pa', 'absolute pressure below which the oil releases air: chambers cannot go lower',
-                         300000.0, {
-               'lingering': 'the air released below VALUE redissolves over CAV_REDISSOLVE_S: the lost push recovers '
-                            'with that lag',
-               'soft': 'air comes out of solution from twice VALUE down: the chamber approaches VALUE exponentially',
-           }, hi=1e7),  # 100 bar: above any gas charge
     ),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
            _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
@@ -410,10 +364,6 @@ CATALOGUE = {e.name: e for e in (
                 "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
                 "corners of small-amplitude loops; keep it in the model when tuning low-speed valving.",
                 "x_stick", 1e3, "mm"),
-           hidden=Hidden('m', "the seal's pre-sliding travel (the plant's Dahl law, stepped with the frame)", 1e-05, {
-               'jenkins': 'friction builds linearly over VALUE of travel, then slides (elasto-plastic)',
-               'iwan': 'four elasto-plastic elements of 0.25, 0.75, 1.25 and 1.75 VALUE in parallel',
-           }, hi=1e-3),
     ),
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
            _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
@@ -422,22 +372,11 @@ CATALOGUE = {e.name: e for e in (
            say=("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
                 "element){aux} Model the damper with the hysteretic element (its parameters are in the JSON).",
                 "alpha_bw", 1.0, "N"),
-           hidden=Hidden('N', 'force at yield of a hysteretic element in the load path, Bouc-Wen with exponent '
-                              'n = 1 over BW_YIELD of travel (the diagnosis fits n = 2)', 1.0, {
-               'elastoplastic': 'elasto-plastic: linear up to VALUE over BW_YIELD of travel, then yields',
-               'wide': 'the default element over five times BW_YIELD',
-           }, hi=1e4),
     ),
     Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
            estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux", depends_on=("aux",),
            say=("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
                 "Hold it constant or include it in the model.", "lag", 1e3, "ms"),
-           hidden=Hidden('1/A', 'damping change per ampere of the adjuster current aux.valve_current (20 ms '
-                                'solenoid lag)', 0.01, {
-               'fast': 'the solenoid follows the current within 2 ms',
-               'quadratic': "damping change VALUE (i^2 - 1) / 2: the solenoid's force goes with the current "
-                            "squared (VALUE per ampere at 1 A)",
-           }, hi=10.0),
     ),
 )}
 # the catalogue and the open terms (models/diagnose/terms.py), which compete in every round

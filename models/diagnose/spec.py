@@ -1,9 +1,9 @@
 """What is known of an effect, in one place: its parameters (bounds, starts), its force
-and where that acts, what it depends on, what kind of thing it is, how it is said, and how
-the virtual plant hides it (sim_backend/, in forms other than the one fitted here)."""
+and where that acts, what it depends on, what kind of thing it is and how it is said. How
+the virtual plant hides it is the plant's own knowledge (sim_backend/hidden.toml)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 V_EPS = 5e-5  # m/s: a friction's sign is softened over this (the model's velocity is fitted, not measured)
 
@@ -26,17 +26,6 @@ class P:
 
 
 @dataclass(frozen=True)
-class Hidden:
-    """How the virtual plant hides an effect (`--effect NAME[:FORM]=VALUE`)."""
-    unit: str  # of VALUE
-    form: str  # what VALUE sets, in the plant's default form
-    guess: float  # a VALUE of roughly noise size: where `dyno prove --calibrate` starts
-    forms: dict = field(default_factory=dict)  # {other form: what VALUE sets in it}
-    hi: float = float("inf")  # VALUE's range: what a damper or cell could have; beyond it, a typing mistake
-    lo: float = 0.0
-
-
-@dataclass(frozen=True)
 class Effect:
     """An effect the baseline may have left out."""
     name: str
@@ -49,8 +38,7 @@ class Effect:
     # tone; "referee": never a candidate, the stand-in a mechanism must beat (loop_surface)
     depends_on: tuple = ()  # of VARIABLES
     nature: str = "physics"  # of NATURES
-    say: tuple = ()  # (sentence, parameter shown, factor, unit): see protocols/app/diagnose.py
-    hidden: Hidden | None = None  # how the virtual plant hides it; None: the plant has no form of it
+    say: tuple = ()  # (sentence, parameter shown, factor, unit): see models/diagnose/words.py
     linear: bool = False  # a smooth basis, linear in its coefficients: screened by one Gauss-Newton step
     # (Damper) -> bool: a damper description that has this physics (models/damper.py); the
     # minimal baseline leaving it out is then no fault of that damper

@@ -6,6 +6,8 @@ import argparse
 import difflib
 import math
 
+from rig.errors import RigError
+
 BUDGET_S = 120.0  # s: rig time the dyno's own next tests take unless --budget says otherwise
 MAX_BUDGET_S = 7200.0  # s: what a run may move without --long (protocols/preflight.py)
 
@@ -79,3 +81,13 @@ def holdout(text):
         if 0 < f <= 0.3:
             return f
     raise argparse.ArgumentTypeError(f"{text!r}: give interleaved or tail:FRACTION with 0 < FRACTION <= 0.3")
+
+
+def virtual_plant(args):
+    """The virtual plant's PlantOptions from --damper, --effect, --plain, --seed (and prove's --noise)."""
+    from sim_backend.effects import EffectError
+    from sim_backend.options import plant_options
+    try:
+        return plant_options(args.damper, args.effect, args.plain, args.seed, getattr(args, "noise", 1.0))
+    except EffectError as e:
+        raise RigError(str(e)) from None

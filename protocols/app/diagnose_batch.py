@@ -13,7 +13,7 @@ def _one(task):
     from models.damper import DamperError, from_dict
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
-    from protocols.app.diagnose import to_json
+    from protocols.reports.diagnosis import to_json
     from models.recording import drives
     from protocols.io.reader import load_recording
     with batch.unpacked(name, data) as path:

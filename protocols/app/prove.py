@@ -17,7 +17,8 @@ import sys
 
 from models.parallel import run_all
 from rig.errors import RigError
-from sim_backend.effects import EFFECTS, plain_cell, scaled
+from sim_backend.effects import EFFECTS, scaled
+from sim_backend.options import plain_cell
 
 from protocols import cluster
 from protocols.discover import MAX_ROUNDS

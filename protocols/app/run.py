@@ -14,7 +14,7 @@ from rig import operator_stop
 
 from protocols import catalogue, cell, preflight
 from protocols.app.arguments import BUDGET_S
-from protocols.app.sim_rig import virtual_plant
+from protocols.app.arguments import virtual_plant
 from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder
 from protocols.library import DISCOVER, PROTOCOLS
@@ -106,7 +106,7 @@ def _plan_run(args):
     if args.rig is not None and (args.effect or args.plain):
         raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
     plant = virtual_plant(args)
-    damper = load_damper(plant.pop("damper"))
+    damper = load_damper(plant.damper)
     if damper.layout == "simplified":
         raise RigError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
                        f"rig; give a full damper (a preset or JSON)")
@@ -115,7 +115,7 @@ def _plan_run(args):
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     if getattr(args, "rate_hz", None):  # `dyno prove --rates`: the virtual cell at another loop rate
         cfg = rig_config.at_rate(cfg, args.rate_hz)
-    if args.rig is None and plant["effects"].get("aux_channel") and "aux.valve_current" in cfg.channels:
+    if args.rig is None and plant.effects.get("aux_channel") and "aux.valve_current" in cfg.channels:
         # the plant's adjuster follows its valve current: the recording says the channel drives the damper
         cfg = rig_config.driven(cfg, "aux.valve_current", "valve current")
     info = rig_info(cfg, damper)
@@ -133,7 +133,7 @@ def _plan_run(args):
 def open_cell(args, cfg, damper, plant):
     """The embedded virtual rig unless --rig names a cell (protocols/cell.py), open."""
     if args.rig is None:
-        return cell.embedded(damper, cfg, realtime=args.realtime, **plant)
+        return cell.embedded(damper, cfg, realtime=args.realtime, plant=plant)
     return cell.wired(cfg, damper)
 
 

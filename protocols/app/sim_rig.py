@@ -10,6 +10,8 @@ from rig import config as rig_config
 from rig.devices import TRANSPORTS
 from rig.errors import RigError
 
+from protocols.app.arguments import virtual_plant
+
 
 def parse_faults(specs):
     """['open_thermocouple@2.5', 'can_bus_off'] -> [(2.5, 'open_thermocouple'), (0.0, 'can_bus_off')]."""
@@ -29,20 +31,12 @@ def parse_faults(specs):
     return out
 
 
-def virtual_plant(args):
-    """VirtualRig keywords from --damper, --effect, --plain, --seed (and prove's --noise)."""
-    from sim_backend.effects import EffectError, plant_options
-    try:
-        return plant_options(args.damper, args.effect, args.plain, args.seed, getattr(args, "noise", 1.0))
-    except EffectError as e:
-        raise RigError(str(e)) from None
-
-
 def run(args):
     from sim_backend.virtual_rig import VirtualRig
     faults = parse_faults(args.fault)
     cfg = rig_config.load(args.config)
-    vr = VirtualRig(cfg, **virtual_plant(args))
+    p = virtual_plant(args)
+    vr = VirtualRig(cfg, damper=p.damper, seed=p.seed, effects=p.effects, params=p.params)
     try:
         served = vr.start()
     except OSError as e:

@@ -12,7 +12,7 @@ from rig.codecs.actuator import MODES
 from rig.errors import RigError
 from rig.schema import Field, number
 from rig.stream_clock import StreamClock
-from rig.devices import FRAME_HZ, Transport, frame_hz
+from rig.devices.transport import FRAME_HZ, Transport, frame_hz
 
 NODES = {"actuator": ("position",), "daq": ("lvdt", "lvt")}  # node -> its signals
 ROUTES = {"ACT_STATUS": "actuator", "DAQ_MOTION": "daq"}  # frame -> node

@@ -10,7 +10,7 @@ import time
 from rig.codecs import registers
 from rig.errors import RigError
 from rig.schema import Field, number
-from rig.devices import Transport
+from rig.devices.transport import Transport
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors ourselves
 

@@ -8,7 +8,7 @@ from rig.codecs import loadcell
 from rig.errors import RigError
 from rig.schema import Field, number
 from rig.stream_clock import StreamClock
-from rig.devices import Transport, frame_hz
+from rig.devices.transport import Transport, frame_hz
 
 
 class SerialLoadCell:

@@ -13,6 +13,7 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 from rig.codecs import registers as modbus_map
 
 from sim_backend.emulators.outputs import outputs
+from sim_backend.emulators.ports import free_port
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
 
@@ -88,7 +89,6 @@ class ModbusServers:
     one free port for all), each module at its device id."""
 
     def __init__(self, config, names):
-        from sim_backend.emulators import free_port
         self.faults = set()
         by_port, auto = {}, None
         for name in names:

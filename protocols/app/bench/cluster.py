@@ -20,7 +20,7 @@ from protocols import cluster
 
 def _prove_tasks(n):
     """n prove runs: the null and sensor_delay hidden at ten times the noise floor, seeds 0..."""
-    from sim_backend.effects import plain_cell
+    from sim_backend.options import plain_cell
     concealed = plain_cell()[2]["concealed"]
     effects = [(None, None), ("sensor_delay", {"sensor_delay": 10 * concealed["sensor_delay"]})]
     return [(e, None, 10.0, v, seed, 1.0, 1000.0) for seed in range(n // 2 + 1) for e, v in effects][:n]

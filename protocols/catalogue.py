@@ -28,7 +28,7 @@ from protocols.io.reader import load_recording
 from protocols.reports import peaks as peak_rows
 from protocols.reports import velocity_table as vt
 from protocols.units import parse_with_unit
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 DB_NAME = "dyno-runs.sqlite"
 BUSY_MS = 10_000
@@ -56,7 +56,7 @@ COLUMNS = ("serial", "operator", "note", "setup", "damper", "rig", "protocol", "
 ENDINGS = {"fault": "tripped", "operator_stop": "stopped"}
 
 
-class CatalogueError(RigError, ValueError):
+class CatalogueError(UsageError, ValueError):
     """A query the catalogue cannot answer, or a catalogue file it cannot use; the message
     says why in one line."""
 
@@ -182,7 +182,7 @@ def _recordings(folder):
 
 
 def describe(path):
-    """(run row {column: value}, [peak rows]) of one recording; RigError if unreadable."""
+    """(run row {column: value}, [peak rows]) of one recording; UsageError if unreadable."""
     ch, events, meta = load_recording(path, peak_rows.READS)
     run = meta.get("run", {})
     t = ch["force"][0] if "force" in ch else next(iter(ch.values()))[0]

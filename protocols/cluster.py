@@ -13,7 +13,7 @@ import contextlib
 import re
 
 from models.parallel import warm
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 INSTALL = "pip install 'dyno[cluster]' (Dask distributed)"
 
@@ -24,11 +24,11 @@ def parse(spec: str):
     if m:
         workers = int(m.group(1)) if m.group(1) else None
         if workers is not None and not 1 <= workers <= 1024:
-            raise RigError(f"--cluster {spec}: WORKERS must be 1-1024")
+            raise UsageError(f"--cluster {spec}: WORKERS must be 1-1024")
         return "local", workers
     if re.fullmatch(r"tcp://[^\s:/]+:\d+", spec):
         return "tcp", spec
-    raise RigError(f"--cluster {spec!r}: give local, local:WORKERS or tcp://HOST:PORT (a Dask scheduler)")
+    raise UsageError(f"--cluster {spec!r}: give local, local:WORKERS or tcp://HOST:PORT (a Dask scheduler)")
 
 
 @contextlib.contextmanager
@@ -66,7 +66,7 @@ def executor(spec: str):
     try:
         from distributed import Client, LocalCluster
     except ImportError:
-        raise RigError(f"--cluster needs Dask: {INSTALL}") from None
+        raise UsageError(f"--cluster needs Dask: {INSTALL}") from None
     cluster = None
     try:
         if kind == "local":
@@ -79,7 +79,7 @@ def executor(spec: str):
     except OSError as e:
         if cluster is not None:
             cluster.close()
-        raise RigError(f"--cluster {spec}: cannot connect ({e})") from None
+        raise UsageError(f"--cluster {spec}: cannot connect ({e})") from None
     try:
         workers = len(client.scheduler_info()["workers"])
         client.register_plugin(_warm_plugin())  # also on workers that join later

@@ -22,7 +22,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 from protocols.display import shown
 
@@ -64,10 +64,10 @@ class LiveView:
                 rr.spawn(connect=False, executable_path=str(viewer) if viewer.exists() else None,
                          recording=self.rec)
             except RuntimeError as e:
-                raise RigError(f"--live: cannot start the rerun viewer ({e}); --rrd FILE saves the view "
+                raise UsageError(f"--live: cannot start the rerun viewer ({e}); --rrd FILE saves the view "
                                f"to open later") from None
             if not _listening(VIEWER_PORT):  # no display, say: streaming to it would block
-                raise RigError("--live: the rerun viewer did not start (no display?); --rrd FILE saves the "
+                raise UsageError("--live: the rerun viewer did not start (no display?); --rrd FILE saves the "
                                "view to open later")
             sinks.append(rr.GrpcSink())
         if rrd:

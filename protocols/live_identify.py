@@ -167,7 +167,7 @@ def _worker(inbox, outbox, description, model_path, ending):
     from models import damper as dm
     from models.identify import identify
     from protocols.io.files import written
-    from rig.errors import RigError
+    from protocols.errors import UsageError
     desc = dm.from_dict(description)
     channels, events = {}, []
     done = False
@@ -210,7 +210,7 @@ def _worker(inbox, outbox, description, model_path, ending):
             try:
                 with written(model_path, "--identify") as tmp:
                     dm.save(res.damper, tmp)
-            except (dm.DamperError, RigError) as e:
+            except (dm.DamperError, UsageError) as e:
                 outbox.put(("error", f"identified model not written: {e}"))
                 return
             outbox.put(("note", f"held-out loop NRMSE {100 * res.heldout_nrmse:.2f} %" if res.heldout

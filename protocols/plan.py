@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 
 # predicted force and gas pressure must stay below this share of the rig's limits: the
@@ -24,7 +24,7 @@ from rig.errors import RigError
 MARGIN = 0.95
 
 
-class ParamError(RigError):
+class ParamError(UsageError):
     """A protocol parameter that cannot be run; the message names it."""
 
 

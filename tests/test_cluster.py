@@ -13,7 +13,7 @@ import pytest
 from models.damper import load as load_damper
 from models.physics.simulate import simulate, sine
 from protocols import cluster
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -49,12 +49,12 @@ def test_a_local_cluster_gives_what_this_process_gives_and_survives_a_dead_worke
                                            ("local:0", "WORKERS must be 1-1024"),
                                            ("tcp://127.0.0.1", "give local")])
 def test_a_bad_cluster_is_named(spec, message):
-    with pytest.raises(RigError, match=message):
+    with pytest.raises(UsageError, match=message):
         cluster.parse(spec)
 
 
 def test_an_unreachable_scheduler_is_named():
-    with pytest.raises(RigError, match="cannot connect"):
+    with pytest.raises(UsageError, match="cannot connect"):
         with cluster.executor("tcp://127.0.0.1:9"):
             pass
 

@@ -1,6 +1,6 @@
 """Fuzzing every reader of what a user hands dyno: cell files, damper files, protocol
 parameters, CSV and MCAP. Whatever the input, the reader gives a valid result or one line
-naming the problem (RigError, DamperError), never a traceback, never a hang past a few
+naming the problem (RigError, UsageError, DamperError), never a traceback, never a hang past a few
 seconds, and never changes the file it read.
 
 The suite runs a few dozen examples per reader; `make fuzz` runs 10,000 each
@@ -22,6 +22,7 @@ from protocols.io.reader import load_recording
 from protocols.library import PROTOCOLS
 from protocols.plan import parse, rig_info
 from rig import config as rig_config
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 # no explain phase: its tracing slows every call tenfold and a slow call would read as a hang
@@ -45,7 +46,7 @@ def within(seconds=HANG_S):
 
 
 def refused_in_one_line(e):
-    assert isinstance(e, (RigError, dm.DamperError)), f"{type(e).__name__}: {e}"
+    assert isinstance(e, (RigError, UsageError, dm.DamperError)), f"{type(e).__name__}: {e}"
     assert str(e) and "\n" not in str(e), repr(str(e))
 
 
@@ -55,7 +56,7 @@ def read(path, reader, seconds=HANG_S):
     try:
         with within(seconds):
             result, error = reader(path), None
-    except (RigError, dm.DamperError) as e:
+    except (RigError, UsageError, dm.DamperError) as e:
         refused_in_one_line(e)
         result, error = None, e
     assert path.read_bytes() == before, "the reader changed its input"
@@ -147,7 +148,7 @@ def test_any_protocol_parameters_plan_or_give_one_line(data):
             params = parse(module.Params, [f"{k}={v}" if k else v for k, v in pairs])
             module.check(params, info)
             f = preflight.check(list(module.plan(params, info)), info)
-    except RigError as e:
+    except UsageError as e:
         refused_in_one_line(e)
         return
     assert f.duration_s + f.wait_max_s <= preflight.MAX_RUN_S and f.duration_s <= preflight.MAX_MOTION_S

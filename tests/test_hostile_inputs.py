@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from models import damper as dm
 from protocols.app import cli, import_csv
 from rig.config import CONFIG_DIR
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 MAP = ["--map", "time=t:s", "--map", "displacement=x:mm", "--map", "force=F:N"]
@@ -354,7 +354,7 @@ def test_network_waits_end_with_the_endpoint_named(tmp_path):
                                    st.sampled_from(["", "nan", "inf", "-1e308", "1e-320"])),
                          min_size=0, max_size=4), max_size=30))
 def test_any_csv_imports_or_gives_one_line(tmp_path_factory, rows):
-    """Whatever the rows, `dyno import` writes a recording or refuses with a RigError."""
+    """Whatever the rows, `dyno import` writes a recording or refuses with a UsageError."""
     t = tmp_path_factory.mktemp("csv")
     src = t / "in.csv"
     src.write_text("t,x,F\n" + "\n".join(",".join(str(v).replace(",", ";") for v in r) for r in rows))
@@ -362,7 +362,7 @@ def test_any_csv_imports_or_gives_one_line(tmp_path_factory, rows):
                            map=["time=t:s", "displacement=x:mm", "force=F:N"])
     try:
         import_csv.run(args)
-    except RigError as e:
+    except UsageError as e:
         assert "\n" not in str(e)
         assert not (t / "out.mcap").exists()
         return
@@ -656,7 +656,7 @@ def test_rig_zero_writes_within_range_into_a_linked_cell_files_target(tmp_path):
     link.symlink_to(real)
     cfg = rig_config.load(link)
     before = real.read_text()
-    with pytest.raises(RigError, match="moves the zero by more than the channel's range"):
+    with pytest.raises(UsageError, match="moves the zero by more than the channel's range"):
         write_offsets(link, cfg, [("x", 1e297, "a gauge read as 1e300 mm")])
     assert real.read_text() == before and link.is_symlink()
     new = cfg.channels["x"].offset + 0.0005

@@ -5,7 +5,7 @@ import os
 import pytest
 
 from protocols.io.files import existing_files, filled, output_file, output_folder, written
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 
 def test_an_output_is_never_an_input_by_path_link_or_folder(tmp_path):
@@ -14,11 +14,11 @@ def test_an_output_is_never_an_input_by_path_link_or_folder(tmp_path):
     os.link(src, tmp_path / "hard.mcap")
     (tmp_path / "soft.mcap").symlink_to(src)
     for out in (src, tmp_path / "hard.mcap", tmp_path / "soft.mcap", tmp_path / "." / "in.mcap"):
-        with pytest.raises(RigError, match="that is an input"):
+        with pytest.raises(UsageError, match="that is an input"):
             output_file(out, [src], overwrite=True)
-    with pytest.raises(RigError, match="holds the input"):
+    with pytest.raises(UsageError, match="holds the input"):
         output_folder(tmp_path, [src], overwrite=True)
-    with pytest.raises(RigError, match="holds the input"):
+    with pytest.raises(UsageError, match="holds the input"):
         output_folder(tmp_path.parent, [src], overwrite=True)
     assert output_folder(tmp_path / "new", [src]) == tmp_path / "new"
     assert src.read_bytes() == b"recording"
@@ -27,14 +27,14 @@ def test_an_output_is_never_an_input_by_path_link_or_folder(tmp_path):
 def test_an_existing_output_is_kept_unless_overwrite(tmp_path):
     f = tmp_path / "m.json"
     f.write_text("old")
-    with pytest.raises(RigError, match="exists; give --overwrite"):
+    with pytest.raises(UsageError, match="exists; give --overwrite"):
         output_file(f)
     assert output_file(f, overwrite=True) == f
     (tmp_path / "empty").mkdir()
     assert output_folder(tmp_path / "empty") == tmp_path / "empty"  # an empty folder holds nothing to lose
     (tmp_path / "busy").mkdir()
     (tmp_path / "busy" / "mine.txt").write_text("mine")
-    with pytest.raises(RigError, match="not empty"):
+    with pytest.raises(UsageError, match="not empty"):
         output_folder(tmp_path / "busy")
 
 

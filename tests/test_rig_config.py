@@ -6,6 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rig import config
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 BASE = config.CONFIG_DIR.joinpath("virtual.toml").read_text()
@@ -129,7 +130,7 @@ def test_rig_zero_changes_one_offset_and_leaves_the_rest_of_the_file():
     import pytest
 
     from protocols.app.rig_zero import set_offset
-    from rig.errors import RigError
+    from protocols.errors import UsageError
     text = ('[channels.force]\ndevice = "loadcell"\ngain = 1032.0  # N/V\noffset = 0.0  # tared\nunit = "N"\n\n'
             '[channels.x]\noffset = 0.0381\n')
     out = set_offset(text, "force", -419.8, "dyno rig zero 2026-11-24: tared")
@@ -137,7 +138,7 @@ def test_rig_zero_changes_one_offset_and_leaves_the_rest_of_the_file():
     assert out.replace("offset = -419.8  # tared\n# dyno rig zero 2026-11-24: tared", "offset = 0.0  # tared") == text
     assert "offset = 0.0381" in set_offset(text, "force", 1.0, "x") and \
         "offset = 0.04\n# y" in set_offset(text, "x", 0.04, "y")
-    with pytest.raises(RigError, match=r"no \[channels.v\] section"):
+    with pytest.raises(UsageError, match=r"no \[channels.v\] section"):
         set_offset(text, "v", 1.0, "z")
 
 

@@ -6,7 +6,7 @@ import argparse
 import difflib
 import math
 
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 BUDGET_S = 120.0  # s: rig time the dyno's own next tests take unless --budget says otherwise
 MAX_BUDGET_S = 7200.0  # s: what a run may move without --long (protocols/preflight.py)
@@ -90,4 +90,9 @@ def virtual_plant(args):
     try:
         return plant_options(args.damper, args.effect, args.plain, args.seed, getattr(args, "noise", 1.0))
     except EffectError as e:
-        raise RigError(str(e)) from None
+        raise UsageError(str(e)) from None
+
+
+def cluster_option(p):
+    p.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
+                   help="fan out on Dask distributed (docs/cluster.md; pip install 'dyno[cluster]')")

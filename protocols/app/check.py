@@ -11,24 +11,24 @@ from protocols import catalogue
 from protocols.io.files import existing_files, input_file, output_folder, filled
 from protocols.reports import qa
 from protocols.units import Units, fmt
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 
 def run(args):
     try:
         tol = qa.parse_tolerance(args.tolerance)
     except ValueError as e:
-        raise RigError(str(e)) from None
+        raise UsageError(str(e)) from None
     units = Units(args.units)
     if Path(args.against).suffix == ".mcap":
         input_file(args.against, "--against")
     try:
         checked = qa.check(args.recording, args.against, tol, units)
     except (DamperError, OSError, ValueError) as e:
-        raise RigError(f"--against: {e}") from None
+        raise UsageError(f"--against: {e}") from None
     results, ref_name = checked.results, checked.reference
     if not results:
-        raise RigError(f"{Path(args.recording).name} and {ref_name}: no shaft speed measured in both: the check "
+        raise UsageError(f"{Path(args.recording).name} and {ref_name}: no shaft speed measured in both: the check "
                        "reads the force at shaft speeds from sine or crank strokes, or from a random input's "
                        "force-velocity scatter, and these share none")
     u, f = units.unit("velocity"), units.unit("force")

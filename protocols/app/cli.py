@@ -10,8 +10,10 @@ from importlib import metadata
 
 from models.damper import DamperError
 from models.parallel import TaskFailed
-from protocols.app.arguments import MAX_BUDGET_S, Parser, holdout, number, setup_item, sizes
+from protocols.app.arguments import MAX_BUDGET_S, Parser, cluster_option, holdout, number, setup_item, sizes
+from protocols.app.bench.arguments import add as _bench_commands
 from protocols.app.output import check_outputs
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 
@@ -98,7 +100,7 @@ def _model_commands(sub):
             q.add_argument("--temp", type=number(), default=90.0, help="damper temperature in C (default 90)")
         q.add_argument("--workers", type=number(1, 256, integer=True), default=None,
                        help="processes (default: all cores)")
-        _cluster_option(q)
+        cluster_option(q)
         q.set_defaults(command=command)
 
 
@@ -184,14 +186,9 @@ def _batch_options(p, what, beside):
     p.add_argument("--batch", nargs="+", metavar="FILE",
                    help=f"many recordings, one task each: {beside} beside each and a summary table")
     _writes(p, "--summary", FILE, default=None, help=f"--batch's summary CSV (default {what}-summary.csv)")
-    _cluster_option(p)
+    cluster_option(p)
     p.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
                    help="--batch without --cluster: recordings analysed in parallel (default 2)")
-
-
-def _cluster_option(p):
-    p.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
-                   help="fan out on Dask distributed (docs/cluster.md; pip install 'dyno[cluster]')")
 
 
 def _catalogue_commands(sub):
@@ -302,7 +299,7 @@ def _analysis_commands(sub):
                     help="find each effect's concealed value (contribution = force noise) and print it")
     pv.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
                     help="recordings made and diagnosed in parallel (default 2)")
-    _cluster_option(pv)
+    cluster_option(pv)
     pv.set_defaults(command="prove")
     ck = sub.add_parser("check", help="QA: a run against a reference run or model, within a tolerance band")
     ck.add_argument("recording")
@@ -355,58 +352,6 @@ def _import_command(sub):
     im.set_defaults(command="import_csv")
 
 
-def _bench(bsub, name, help):
-    """A benchmark's parser: its numbers as text, --json or stamped --markdown."""
-    b = bsub.add_parser(name, help=help)
-    b.add_argument("--json", action="store_true")
-    b.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
-    b.set_defaults(command=f"bench:{name}")
-    return b
-
-
-def _bench_commands(sub):
-    """Benchmarks (measured numbers, not tests)."""
-    b = sub.add_parser("bench", help="benchmarks (not tests)")
-    bsub = b.add_subparsers(dest="what", required=True)
-    bs = _bench(bsub, "sim", help="compressible model speed vs a solve_ivp Radau reference")
-    bs.add_argument("--seconds", type=number(above=0, hi=3600), default=10.0, help="simulated seconds (default 10)")
-    bs.add_argument("--ref-seconds", type=number(above=0, hi=3600), default=None,
-                    help="simulate only this much with the slow reference (default: all)")
-    bw = _bench(bsub, "sweep", help="quarter-car frequency sweep time (2 amplitudes x 60 frequencies, Koni)")
-    bw.add_argument("--workers", type=number(1, 256, integer=True), default=None,
-                    help="processes (default: all cores)")
-    _cluster_option(bw)
-    bim = _bench(bsub, "import", help="dyno import's time on 1,000,000 CSV rows (goal < 5 s)")
-    bim.add_argument("--rows", type=number(10, 10**8, integer=True), default=1_000_000)
-    bim.set_defaults(command="bench:import_")
-    bg = _bench(bsub, "log", help="samples per second into MCAP against a protocol's data rate")
-    bg.add_argument("--seconds", type=number(above=0, hi=3600), default=5.0)
-    bi = _bench(bsub, "identify", help="dyno identify's time on a full standard sequence (goal < 2 min)")
-    bi.add_argument("recording", nargs="?", default=None,
-                    help="a standard-sequence recording (default: record one on the virtual rig first, ~4 min)")
-    bi.add_argument("--damper", default="koni",
-                    help="damper(s) for the recording made first, comma-separated (default koni)")
-    bi.add_argument("--truth", action="store_true", help="compare with the damper the rig ran (the round trip)")
-    bd = _bench(bsub, "diagnose", help="dyno diagnose's time on 60 s recorded at 5 kHz (goal < 3 min)")
-    bd.add_argument("--seconds", type=number(above=0, hi=3600), default=60.0)
-    bd.add_argument("--rate", type=number(above=0, hi=100000), default=5000.0, help="sample rate [Hz] (default 5000)")
-    bh = _bench(bsub, "hil", help="hardware-in-the-loop tracking of each compensator on three roads")
-    bh.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
-    bc = _bench(bsub, "cluster", help="prove and a sweep on one worker and on a Dask LocalCluster")
-    bc.add_argument("--workers", type=number(1, 64, integer=True), default=2, help="cluster workers (default 2)")
-    bc.add_argument("--prove-tasks", type=number(1, 1000, integer=True), default=6,
-                    help="prove runs (default 6, about a minute each)")
-    bc.add_argument("--sweep-tasks", type=number(1, 10000, integer=True), default=60,
-                    help="harmonic points (default 60)")
-    bk = _bench(bsub, "catalogue", help="the run catalogue and its browser view at 1,000 runs; dyno check's time")
-    bk.add_argument("--runs", type=number(1, 100000, integer=True), default=1000, help="recordings (default 1000)")
-    bk.add_argument("--check-recording", default=None,
-                    help="a standard recording to time dyno check on (default: record one on the direct cell first)")
-    bl = _bench(bsub, "loop", help="control loop timing in real time against sim-rig in a separate process")
-    bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
-    bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
-
-
 def main(argv=None):
     from rig import operator_stop
     try:
@@ -436,7 +381,7 @@ def _main(argv):
     try:
         check_outputs(p, args)
         return getattr(importlib.import_module(f"protocols.app.{module}"), function or "run")(args)
-    except (DamperError, RigError) as e:
+    except (DamperError, RigError, UsageError) as e:
         print(f"dyno: error: {e}", file=sys.stderr)
         return 2
     except TaskFailed as e:  # a fanned-out task failed twice (models/parallel.py)

@@ -17,7 +17,7 @@ from models.diagnose.data import DiagnoseError
 from models.recording import drives
 from protocols.app.arguments import BUDGET_S
 from protocols.io.files import existing_files, filled, output_folder
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 from protocols.io.reader import load_recording
 from protocols.reports.peaks import recorded_damper
@@ -28,9 +28,9 @@ def run(args):
         try:
             model = load_damper(args.baseline)
         except (DamperError, OSError, ValueError) as e:
-            raise RigError(f"--baseline {args.baseline}: {e}") from None
+            raise UsageError(f"--baseline {args.baseline}: {e}") from None
         if isinstance(model, SimplifiedDamper):
-            raise RigError(f"--baseline {args.baseline}: a simplified model has no gas spring or friction to refit; "
+            raise UsageError(f"--baseline {args.baseline}: a simplified model has no gas spring or friction to refit; "
                            f"give a full damper model")
         baseline = (Path(args.baseline).stem, model)
     if getattr(args, "batch", None):
@@ -38,11 +38,11 @@ def run(args):
         from protocols.app import diagnose_batch
         return diagnose_batch.run(args, baseline and (baseline[0], to_dict(baseline[1])))
     if args.recording is None:
-        raise RigError("diagnose: give a RECORDING, or --batch FILE...")
+        raise UsageError("diagnose: give a RECORDING, or --batch FILE...")
     if getattr(args, "next", False) and baseline is not None:
-        raise RigError("--next designs from the minimal baseline: drop --baseline")
+        raise UsageError("--next designs from the minimal baseline: drop --baseline")
     if args.budget is not None and not getattr(args, "next", False):
-        raise RigError("--budget: the rig time of --next's proposals; give --next with it")
+        raise UsageError("--budget: the rig time of --next's proposals; give --next with it")
     budget = BUDGET_S if args.budget is None else args.budget
     if getattr(args, "next", False):  # the rig config read before the diagnosis, not after it
         from protocols.app import next_test
@@ -54,7 +54,7 @@ def run(args):
     try:
         res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout, drives=drives(meta))
     except (DiagnoseError, DamperError) as e:
-        raise RigError(f"{args.recording}: {e}") from None
+        raise UsageError(f"{args.recording}: {e}") from None
     own = recorded_damper(meta)
     if own is not None and baseline is None:  # physics the recording's own damper has is no fault of it
         res.described = {s.effect: own.name for s in res.steps

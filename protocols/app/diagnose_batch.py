@@ -2,6 +2,7 @@
 as FILE.diagnosis.json, a summary row each."""
 from __future__ import annotations
 
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 from protocols.app import batch
@@ -21,7 +22,7 @@ def _one(task):
             ch, events, meta = load_recording(path)
             base = None if baseline is None else (baseline[0], from_dict(baseline[1]))
             res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta))
-        except (RigError, DiagnoseError, DamperError) as e:
+        except (UsageError, RigError, DiagnoseError, DamperError) as e:
             return name, None, str(e).replace(str(path), name)
     return name, to_json(res), None
 

@@ -21,7 +21,7 @@ from protocols.io.files import output_file, written
 from protocols.io.reader import load_recording
 from protocols.reports.peaks import recorded_damper
 from protocols.units import Units
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 SIGNIFICANT = 7  # digits of a channel's range kept where its samples sit on no coarser grid
 
@@ -47,11 +47,11 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
     force clock, channels in the unit system `shown` (units: each channel's SI unit, as
     recorded); wall_start (ISO 8601) adds the UTC time of every row."""
     if "force" not in channels:
-        raise RigError("the recording has no force channel to put the table on")
+        raise UsageError("the recording has no force channel to put the table on")
     names = names or sorted(channels, key=lambda n: (n != "force", n))
     unknown = [n for n in names if n not in channels]
     if unknown:
-        raise RigError(f"--channels: no channel {unknown[0]!r} in the recording (it has {', '.join(sorted(channels))})")
+        raise UsageError(f"--channels: no channel {unknown[0]!r} in the recording (it has {', '.join(sorted(channels))})")
     t = channels["force"][0]
     spans = [channels[n][0] for n in names if len(channels[n][0]) > 1]
     keep = (t >= max(s[0] for s in spans)) & (t <= min(s[-1] for s in spans)) if spans else np.ones(len(t), bool)
@@ -84,11 +84,11 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
 
 def run(args):
     if sum(bool(getattr(args, k, None)) for k in ("csv", "parquet", "target")) != 1:
-        raise RigError("give one of --csv FILE, --parquet FILE or --target FILE")
+        raise UsageError("give one of --csv FILE, --parquet FILE or --target FILE")
     if args.target:
         return _target(args)
     if getattr(args, "segment", None):
-        raise RigError("--segment goes with --target (a replay target of one segment)")
+        raise UsageError("--segment goes with --target (a replay target of one segment)")
     what = "--csv" if args.csv else "--parquet"
     out = output_file(args.csv or args.parquet, [args.recording], args.overwrite, what)
     side = out.with_name(out.name + ".meta.json") if args.csv else None
@@ -118,13 +118,13 @@ def _target(args):
     out = output_file(args.target, [args.recording], args.overwrite, "--target")
     channels, events, meta = load_recording(args.recording)
     if "x" not in channels or len(channels["x"][0]) < 2:
-        raise RigError(f"{args.recording}: no position channel x to make a target of")
+        raise UsageError(f"{args.recording}: no position channel x to make a target of")
     t, x = channels["x"]
     if args.segment:
         span = [(t0, t1) for name, _, t0, t1 in segments(events, measured=False) if name == args.segment]
         if not span:
             names = ", ".join(dict.fromkeys(n for n, *_ in segments(events, measured=False))) or "none"
-            raise RigError(f"--segment {args.segment!r}: no such segment (segments: {names})")
+            raise UsageError(f"--segment {args.segment!r}: no such segment (segments: {names})")
         keep = (t >= span[0][0]) & (t <= span[0][1])
         t, x = t[keep], x[keep]
     damper = recorded_damper(meta)
@@ -148,7 +148,7 @@ def _write(args, cols, data, dec, out, info):
             import pyarrow as pa
             import pyarrow.parquet as pq
         except ImportError:
-            raise RigError("--parquet needs pyarrow: .venv/bin/pip install pyarrow (or use --csv)") from None
+            raise UsageError("--parquet needs pyarrow: .venv/bin/pip install pyarrow (or use --csv)") from None
         tab = pa.table({c: (list(d) if d.dtype == object else d) for c, d in zip(cols, data)})
         pq.write_table(tab.replace_schema_metadata({"dyno": json.dumps(info)}), out)
     else:

@@ -18,6 +18,7 @@ from models.recording import differing_repeats, drives, only
 from protocols.io.files import existing_files, filled, output_file, output_folder, written
 from protocols.io.reader import load_recording, merged
 from protocols.reports.page import number
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 
@@ -42,11 +43,11 @@ def model_of(channels, events, desc, names, say):
     try:
         res = identify(channels, events, desc, progress=say)
     except IdentifyError as e:
-        raise RigError(str(e)) from None
+        raise UsageError(str(e)) from None
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:  # a fit that cannot proceed
-        raise RigError(f"identification failed: {e}") from None
+        raise UsageError(f"identification failed: {e}") from None
     if not any(str(v).startswith("done") for v in res.steps.values()):
-        raise RigError(f"nothing to identify in {', '.join(names)}: no static holds, low-speed or sine "
+        raise UsageError(f"nothing to identify in {', '.join(names)}: no static holds, low-speed or sine "
                        f"segments (no model written)")
     res.damper.name = f"{desc.name}-identified"
     res.damper.description = f"identified by dyno identify from {', '.join(Path(p).name for p in names)}"
@@ -63,7 +64,7 @@ def _one(task):
             channels, events, meta = load_recording(path)
             d = dm.from_dict(desc) if desc is not None else description(None, meta)
             res = model_of(channels, events, d, [name], lambda m: None)
-        except (RigError, dm.DamperError) as e:
+        except (UsageError, RigError, dm.DamperError) as e:
             return name, None, str(e).replace(str(path), name)
     return name, {"model": dm.to_dict(res.damper), "summary": _clean(summary(res))}, None
 
@@ -80,24 +81,24 @@ def run(args):
     if getattr(args, "batch", None):
         from protocols.app import batch
         if args.recordings or args.out or args.report or args.truth:
-            raise RigError("--batch writes FILE.model.json beside each recording and one summary: RECORDING, "
+            raise UsageError("--batch writes FILE.model.json beside each recording and one summary: RECORDING, "
                            "--out, --report and --truth are for a single identification")
         desc = dm.to_dict(dm.load(args.damper)) if args.damper else None
         args.summary = args.summary or "identify-summary.csv"
         # FILE.model.json is the damper model, as `dyno identify FILE` writes it (dyno report overlays it)
         return batch.run(args, _one, (desc,), ".model.json", _row, "identify", kept=lambda doc: doc["model"])
     if not args.recordings:
-        raise RigError("identify: give RECORDING..., or --batch FILE...")
+        raise UsageError("identify: give RECORDING..., or --batch FILE...")
     for p in args.recordings:
         if not Path(p).exists():
-            raise RigError(f"{p}: no such file")
+            raise UsageError(f"{p}: no such file")
     inputs = existing_files(args.recordings, args.damper, args.truth)
     channels, events, meta = merged(args.recordings)
     if args.segment:
         try:
             events = only(events, args.segment)
         except ValueError as e:
-            raise RigError(f"--segment: {e}") from None
+            raise UsageError(f"--segment: {e}") from None
     if not args.damper and not meta.get("damper", {}).get("model"):
         return _minimal(args, channels, events, inputs, drives(meta))
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), inputs, args.overwrite)
@@ -142,12 +143,12 @@ def _minimal(args, channels, events, inputs, driving):
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     if args.report or args.truth:
-        raise RigError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
+        raise UsageError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
     try:
         found = diagnose(channels, events, drives=driving)
     except (DiagnoseError, dm.DamperError) as e:
-        raise RigError(f"{', '.join(map(str, args.recordings))}: {e}") from None
+        raise UsageError(f"{', '.join(map(str, args.recordings))}: {e}") from None
     base = found.baseline  # the model without effects, fitted and judged on the same cycles
     doc = _minimal_doc(args, out, base, found, channels, events)
     with written(out) as tmp:

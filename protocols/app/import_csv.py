@@ -20,7 +20,7 @@ from protocols.io import table
 from protocols.io.csv_import import CHANNELS, SI, UNITS, derived_velocity, parse_map, read, source
 from protocols.io.files import Claim
 from protocols.io.recording import Recorder
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 FLIPS = ("force", "displacement")
 SAMPLES = 3  # values shown per column by --inspect
@@ -38,7 +38,7 @@ def _scales(items, what):
         except ValueError:
             v = math.nan
         if not sep or not math.isfinite(v) or (what == "--gain" and v == 0) or abs(v) > 1e12:
-            raise RigError(f"{what} {item}: expected NAME=NUMBER (a finite number{', not 0' * (what == '--gain')})")
+            raise UsageError(f"{what} {item}: expected NAME=NUMBER (a finite number{', not 0' * (what == '--gain')})")
         out[name] = v
     return out
 
@@ -50,9 +50,9 @@ def _drives(items, mapping):
     for item in items or ():
         name, _, kind = item.partition("=")
         if not name.startswith("aux.") or name not in {n for n, _, _ in mapping}:
-            raise RigError(f"--drive {item}: {name!r} is not a mapped aux.NAME channel")
+            raise UsageError(f"--drive {item}: {name!r} is not a mapped aux.NAME channel")
         if kind not in DRIVES:
-            raise RigError(f"--drive {item}: say what it drives: {', '.join(f'{name}={k}' for k in DRIVES)}")
+            raise UsageError(f"--drive {item}: say what it drives: {', '.join(f'{name}={k}' for k in DRIVES)}")
         out[name] = kind
     return out
 
@@ -63,15 +63,15 @@ def run(args):
     if args.inspect:
         return inspect(args)
     if not args.map:
-        raise RigError("--map: give at least displacement=COLUMN and force=COLUMN (dyno import FILE --inspect "
+        raise UsageError("--map: give at least displacement=COLUMN and force=COLUMN (dyno import FILE --inspect "
                        "shows the columns)")
     mapping = parse_map(args.map)
     gains, offsets = _scales(args.gain, "--gain"), _scales(args.offset, "--offset")
     for name in {*gains, *offsets} - {n for n, _, _ in mapping}:
-        raise RigError(f"--gain/--offset {name}: not a mapped channel")
+        raise UsageError(f"--gain/--offset {name}: not a mapped channel")
     args.drives = _drives(args.drive, mapping)
     if args.out is None:
-        raise RigError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
+        raise UsageError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
     gc_was = gc.isenabled()
     gc.disable()  # millions of cells and floats, no cycles among them: the collector would take most of the time

@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 from protocols.reports import markdown as md
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 
 def emit(args, title, result, text, body=None, note=""):
@@ -46,7 +46,7 @@ def check_outputs(p, args):
         flag = a.option_strings[0]
         where = Path(value).resolve()
         if where in seen:
-            raise RigError(f"{flag} {value}: also given to {seen[where]}; each output needs a path of its own")
+            raise UsageError(f"{flag} {value}: also given to {seen[where]}; each output needs a path of its own")
         seen[where] = flag
         check = output_file if a.writes == "file" else output_folder
         check(value, inputs, getattr(args, "overwrite", False), flag)

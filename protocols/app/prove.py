@@ -16,7 +16,7 @@ import json
 import sys
 
 from models.parallel import run_all
-from rig.errors import RigError
+from protocols.errors import UsageError
 from sim_backend.effects import EFFECTS, scaled
 from sim_backend.options import plain_cell
 
@@ -45,14 +45,14 @@ def run(args):
     variants = list(dict.fromkeys((e.partition(":")[0], e.partition(":")[2] or None) for e in named))
     bad = [f"{e}:{f}" for e, f in variants if f and e in EFFECTS and f not in EFFECTS[e].forms]
     if bad:
-        raise RigError(f"--effects: {bad[0]}: no such form (sim_backend/effects.py FORMS)")
+        raise UsageError(f"--effects: {bad[0]}: no such form (sim_backend/effects.py FORMS)")
     args.sizes = getattr(args, "sizes", None) or [1.0]
     unknown = [e for e in effects if e != "null" and not set(e.split("+")) <= set(EFFECTS)]
     if unknown:
-        raise RigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
+        raise UsageError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
                        f"A+B hidden together)")
     if not all(200.0 <= r <= 10000.0 for r in args.rates):
-        raise RigError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in args.rates)}")
+        raise UsageError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in args.rates)}")
     if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
         variants = [v for e in effects
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
@@ -79,7 +79,7 @@ def run(args):
         try:
             parse([f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()])
         except EffectError as err:
-            raise RigError(f"--sizes {size:g}: {err}") from None
+            raise UsageError(f"--sizes {size:g}: {err}") from None
     names = [f"{e or 'null'} {form or ''} x{size:g} noise x{level:g} {rate:g} Hz seed {seed}"
              for e, form, size, _, seed, level, rate, *_ in tasks]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
@@ -109,7 +109,7 @@ def prove_open(args, say):
     try:
         parse([f"extra:{args.open}"])
     except EffectError as e:
-        raise RigError(str(e).replace("--effect extra:", "--open ")) from None
+        raise UsageError(str(e).replace("--effect extra:", "--open ")) from None
     level, rate = args.noise[0], args.rates[0]
     tasks = [t for seed in range(args.seeds) for t in ((None, None, 1.0, None, seed, level, rate),
                                                         (None, None, 1.0, None, seed, level, rate, args.open))]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from models.damper import DamperError
 from models.minimal import load_reference as load_damper
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 from protocols.io.files import existing_files, filled, output_folder
 from protocols.reports.comparison import compare
@@ -22,7 +22,7 @@ def _model(args):
     try:
         return load_damper(str(path))
     except (DamperError, OSError, ValueError) as e:
-        raise RigError(f"--model: {e}") from None
+        raise UsageError(f"--model: {e}") from None
 
 
 def _speeds(text, units):
@@ -33,9 +33,9 @@ def _speeds(text, units):
     try:
         speeds = [float(units.to_si("velocity", float(v))) for v in text.split(",")]
     except ValueError:
-        raise RigError(f"--speeds: {text!r} is not a comma-separated list of speeds in {unit}") from None
+        raise UsageError(f"--speeds: {text!r} is not a comma-separated list of speeds in {unit}") from None
     if not speeds or not all(0 < v < 20 for v in speeds):
-        raise RigError(f"--speeds: {text!r}: every speed must be above 0 and below "
+        raise UsageError(f"--speeds: {text!r}: every speed must be above 0 and below "
                        f"{units.show('velocity', 20.0):g} {unit}")
     return sorted(speeds)
 
@@ -53,7 +53,7 @@ def run(args):
             try:
                 index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units)
             except DamperError as e:  # a model whose effects this recording cannot carry
-                raise RigError(f"--model: {e}") from None
+                raise UsageError(f"--model: {e}") from None
             pngs = [*pngs, Path(folder) / "report.pdf"]
     for p in [*pngs, index]:
         print(out / Path(p).name)

@@ -11,6 +11,7 @@ import re
 from models.damper import load as load_damper
 from models.physics.gas_spring import static_force
 from rig import config as rig_config
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 from protocols import cell, commissioning, runner
@@ -38,13 +39,13 @@ def set_offset(text, channel, value, note):
     line after it; RigError if the section or its offset line is missing."""
     head = re.search(rf"^\[channels\.{re.escape(channel)}\]\s*$", text, re.M)
     if head is None:
-        raise RigError(f"no [channels.{channel}] section to write the offset into")
+        raise UsageError(f"no [channels.{channel}] section to write the offset into")
     end = re.search(r"^\[", text[head.end():], re.M)
     body_end = head.end() + (end.start() if end else len(text) - head.end())
     body = text[head.end():body_end]
     line = re.search(r"^offset\s*=\s*[^#\n]*(#[^\n]*)?$", body, re.M)
     if line is None:
-        raise RigError(f"[channels.{channel}] has no offset line to change")
+        raise UsageError(f"[channels.{channel}] has no offset line to change")
     comment = f"  {line.group(1)}" if line.group(1) else ""
     new = f"offset = {value:.9g}{comment}\n# {note}"
     body = body[:line.start()] + new + body[line.end():]
@@ -72,7 +73,7 @@ def write_offsets(path, cfg, changes, units=Units()):
     for name, value, _ in changes:
         q = QUANTITY[name]
         if not abs(value - cfg.channels[name].offset) <= span(cfg, name):
-            raise RigError(f"{name}: the new offset {as_shown(units, q, value)} moves the zero by more than the "
+            raise UsageError(f"{name}: the new offset {as_shown(units, q, value)} moves the zero by more than the "
                            f"channel's range ({as_shown(units, q, span(cfg, name))}); nothing written: check the "
                            f"sensor and its wiring")
     path = path.resolve()
@@ -93,7 +94,7 @@ def run(args):
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     lim = cfg.limits
     if args.x_mm is not None and not lim["x_min"] <= args.x_mm / 1e3 <= lim["x_max"]:
-        raise RigError(f"--x-mm {args.x_mm:g}: the gauge's reading at mid-stroke must lie within the cell's "
+        raise UsageError(f"--x-mm {args.x_mm:g}: the gauge's reading at mid-stroke must lie within the cell's "
                        f"stroke, {lim['x_min'] * 1e3:g} to {lim['x_max'] * 1e3:g} mm")
     damper = load_damper(args.damper)
     info = rig_info(cfg, damper)

@@ -9,6 +9,7 @@ import sys
 from models.damper import load as load_damper
 from models.damper import to_dict
 from rig import config as rig_config
+from protocols.errors import UsageError
 from rig.errors import RigError
 from rig import operator_stop
 
@@ -65,7 +66,7 @@ def _run(args):
                               progress=getattr(args, "progress", True), units=Units(args.units))
     except KeyboardInterrupt:
         errors.append("operator stop")
-    except RigError as e:
+    except (RigError, UsageError) as e:
         if claim is None:
             raise
         errors.append(str(e))
@@ -91,12 +92,12 @@ def _plan_run(args):
     params, virtual plant options, damper, rig config, RigInfo)."""
     module = PROTOCOLS.get("sine-matrix" if args.protocol == DISCOVER else args.protocol)
     if module is None:
-        raise RigError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)}, {DISCOVER})")
+        raise UsageError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)}, {DISCOVER})")
     given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator", "target", "iterations")
              if getattr(args, n, None) is not None]
     pairs = args.params
     if args.budget is not None and args.protocol != DISCOVER:
-        raise RigError(f"--budget: the rig time of `dyno run {DISCOVER}`'s own tests; {args.protocol} has none")
+        raise UsageError(f"--budget: the rig time of `dyno run {DISCOVER}`'s own tests; {args.protocol} has none")
     if args.protocol == DISCOVER:
         args.budget = BUDGET_S if args.budget is None else args.budget
         # the opening: the sine matrix the diagnosis is proven on (protocols/proven.toml), name=value overriding
@@ -104,11 +105,11 @@ def _plan_run(args):
                  for k, v in proven.opening()[1].items() if not any(p.startswith(f"{k}=") for p in pairs)]
     params = parse(module.Params, [*pairs, *given])
     if args.rig is not None and (args.effect or args.plain):
-        raise RigError("--effect and --plain hide physics in the virtual rig: not with --rig")
+        raise UsageError("--effect and --plain hide physics in the virtual rig: not with --rig")
     plant = virtual_plant(args)
     damper = load_damper(plant.damper)
     if damper.layout == "simplified":
-        raise RigError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
+        raise UsageError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
                        f"rig; give a full damper (a preset or JSON)")
     if args.rrd:
         output_file(args.rrd, _inputs(args), args.overwrite, "--rrd")
@@ -187,7 +188,7 @@ def _output(args, name, identifying):
     if identifying:
         try:
             output_file(claim.target.with_suffix(".model.json"), inputs, args.overwrite, "--identify")
-        except RigError:
+        except UsageError:
             claim.release()
             raise
     return claim

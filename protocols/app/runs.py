@@ -12,13 +12,13 @@ from protocols import catalogue
 from protocols.io.files import written
 from protocols.reports import markdown as md
 from protocols.units import Units, fmt
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 
 def _folder(args):
     folder = Path(args.dir)
     if not folder.is_dir():
-        raise RigError(f"{folder}: no such folder of recordings")
+        raise UsageError(f"{folder}: no such folder of recordings")
     return folder
 
 
@@ -113,11 +113,11 @@ def trend(args):
     from protocols.reports import trend as trend_report
     kind = Path(args.out).suffix.lower().lstrip(".") if args.out else None
     if args.out and kind not in trend_report.FORMATS:
-        raise RigError(f"--out {args.out}: a figure is written as .{', .'.join(trend_report.FORMATS)}")
+        raise UsageError(f"--out {args.out}: a figure is written as .{', .'.join(trend_report.FORMATS)}")
     with _connect(args) as c:
         points = catalogue.trend(c, args.serial, args.quantity)
     if not points:
-        raise RigError(f"no readable runs of serial {args.serial!r} in {args.dir}")
+        raise UsageError(f"no readable runs of serial {args.serial!r} in {args.dir}")
     units = Units(args.units)
     print(md.table(("started", units.label(args.quantity, "force"), "run id", "setup"),
                    [(s, fmt(units.show("force", F)), i, setup or "-") for s, F, i, setup in points]))
@@ -136,7 +136,7 @@ def edit(args):
                if v is not None}
     changes.update({f"setup.{k}": v for k, v in args.setup})
     if not changes:
-        raise RigError("runs edit: nothing to change: give --serial, --operator, --note or --setup KEY=VALUE")
+        raise UsageError("runs edit: nothing to change: give --serial, --operator, --note or --setup KEY=VALUE")
     with closing(catalogue.connect(_folder(args))) as c:
         row, _ = catalogue.run(c, args.id)
         new = edit_run_info(row["path"], changes)

@@ -14,7 +14,7 @@ from werkzeug.serving import make_server
 from protocols import catalogue
 from protocols.units import Units
 from protocols.web import create_app
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 
 def _free(port):
@@ -23,13 +23,13 @@ def _free(port):
         try:
             s.bind(("127.0.0.1", port))
         except OSError as e:
-            raise RigError(f"--port {port}: cannot listen on 127.0.0.1 ({e.strerror}); give another --port") from None
+            raise UsageError(f"--port {port}: cannot listen on 127.0.0.1 ({e.strerror}); give another --port") from None
 
 
 def run(args):
     folder = Path(args.dir)
     if not folder.is_dir():
-        raise RigError(f"{folder}: no such folder of recordings")
+        raise UsageError(f"{folder}: no such folder of recordings")
     _free(args.port)  # werkzeug would print its own two lines and exit
     try:
         catalogue.index(folder)

@@ -8,7 +8,7 @@ import threading
 
 from rig import config as rig_config
 from rig.devices import TRANSPORTS
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 from protocols.app.arguments import virtual_plant
 
@@ -20,13 +20,13 @@ def parse_faults(specs):
     for spec in specs or ():
         name, _, at = spec.partition("@")
         if name not in FAULTS and name != "process_death":
-            raise RigError(f"--fault {spec}: unknown fault (known: {', '.join(FAULTS)}, process_death)")
+            raise UsageError(f"--fault {spec}: unknown fault (known: {', '.join(FAULTS)}, process_death)")
         try:
             t = float(at) if at else 0.0
         except ValueError:
             t = math.nan
         if not (math.isfinite(t) and t >= 0):
-            raise RigError(f"--fault {spec}: the time after @ must be seconds from the start (0 or more)")
+            raise UsageError(f"--fault {spec}: the time after @ must be seconds from the start (0 or more)")
         out.append((t, name))
     return out
 
@@ -40,7 +40,7 @@ def run(args):
     try:
         served = vr.start()
     except OSError as e:
-        raise RigError(f"sim-rig: cannot serve {cfg.path} ({e.strerror or e})") from None
+        raise UsageError(f"sim-rig: cannot serve {cfg.path} ({e.strerror or e})") from None
     for name, d in served.devices.items():
         print(f"sim-rig: {name:12s} {d.transport:7s} {TRANSPORTS[d.transport].address(d.params)}")
     print(f"sim-rig: serving {served.name!r} with damper {vr.plant.damper.name} in real time; Ctrl-C stops",

@@ -17,7 +17,7 @@ import numpy as np
 from protocols.io import table
 from protocols.io.files import input_file
 from rig.config import quantity
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 P_ATM = 101_325.0
 CHANNELS = {"time": "t", "displacement": "x", "velocity": "v", "force": "force", "temperature": "T_body",
@@ -66,23 +66,23 @@ def parse_map(items):
     for item in items:
         name, sep, rest = item.partition("=")
         if not sep or not rest:
-            raise RigError(f"--map {item}: expected NAME=COLUMN[:UNIT]")
+            raise UsageError(f"--map {item}: expected NAME=COLUMN[:UNIT]")
         column, _, unit = rest.partition(":")
         if name not in CHANNELS and not (name.startswith("aux.") and len(name) > 4):
-            raise RigError(f"--map {item}: unknown channel name {name!r} (standard: {', '.join(CHANNELS)}, "
+            raise UsageError(f"--map {item}: unknown channel name {name!r} (standard: {', '.join(CHANNELS)}, "
                            f"or aux.NAME)")
         if name in CHANNELS:
             unit = unit or SI[name]
             if unit not in UNITS[name]:
-                raise RigError(f"--map {item}: unknown {name} unit {unit!r} (known: {', '.join(UNITS[name])})")
+                raise UsageError(f"--map {item}: unknown {name} unit {unit!r} (known: {', '.join(UNITS[name])})")
         out.append((name, column, unit))
     names = [n for n, _, _ in out]
     for n in set(names):
         if names.count(n) > 1:
-            raise RigError(f"--map: {n} mapped twice")
+            raise UsageError(f"--map: {n} mapped twice")
     for need in ("displacement", "force"):
         if need not in names:
-            raise RigError(f"--map: needs {need}=COLUMN (displacement and force are required; time too, unless "
+            raise UsageError(f"--map: needs {need}=COLUMN (displacement and force are required; time too, unless "
                            f"the file or --rate gives the sampling rate)")
     return out
 
@@ -107,18 +107,18 @@ def source(path):
         try:
             import pyarrow.parquet as pq
         except ImportError:
-            raise RigError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
+            raise UsageError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
         try:
             t = pq.read_table(path)
         except Exception as e:  # noqa: BLE001 - whatever pyarrow refuses
-            raise RigError(f"{path}: not a readable Parquet file ({str(e).splitlines()[0]})") from None
+            raise UsageError(f"{path}: not a readable Parquet file ({str(e).splitlines()[0]})") from None
         return {n: np.asarray(t.column(n).to_numpy(zero_copy_only=False)) for n in t.column_names}, None
     if suffix == ".mat":
         from scipy.io import loadmat
         try:
             m = loadmat(path, squeeze_me=False)
         except Exception as e:  # noqa: BLE001 - whatever scipy refuses
-            raise RigError(f"{path}: not a readable MATLAB file ({str(e).splitlines()[0]})") from None
+            raise UsageError(f"{path}: not a readable MATLAB file ({str(e).splitlines()[0]})") from None
         cols = {}
         for k, v in m.items():
             if k.startswith("__") or not isinstance(v, np.ndarray) or v.dtype.kind not in "iuf" or v.ndim != 2:
@@ -129,19 +129,19 @@ def source(path):
             for j in range(v.shape[1]):
                 cols[f"{k}[{j + 1}]"] = v[:, j].astype(float)
         if not cols:
-            raise RigError(f"{path}: no numeric matrix in this MATLAB file")
+            raise UsageError(f"{path}: no numeric matrix in this MATLAB file")
         return cols, None
     try:
         text = decode(path.read_bytes())
     except UnicodeDecodeError:
-        raise RigError(f"{path}: not a text (CSV) file") from None
+        raise UsageError(f"{path}: not a text (CSV) file") from None
     except OSError as e:
-        raise RigError(f"{path}: cannot read ({e.strerror})") from None
+        raise UsageError(f"{path}: cannot read ({e.strerror})") from None
     try:
         layout = table.sniff(text)
         return table.split(text, layout), layout
-    except RigError as e:
-        raise RigError(f"{path}: {e}") from None
+    except UsageError as e:
+        raise UsageError(f"{path}: {e}") from None
 
 
 def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
@@ -158,7 +158,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     for name, column, unit in mapping:
         key = table.column(cols, layout, column) if layout else column
         if key not in cols:
-            raise RigError(f"{path}: no column {column!r} (mapped to {name}); columns: {', '.join(cols)}")
+            raise UsageError(f"{path}: no column {column!r} (mapped to {name}); columns: {', '.join(cols)}")
         names[name] = key
         cells = cols[key]
         if isinstance(cells, np.ndarray):
@@ -180,11 +180,11 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
             a, bad = table.numbers(cells, layout.decimal if layout else ".")
         if bad is not None:
             cell = cells[bad] if not isinstance(cells, np.ndarray) else str(cells[bad])
-            raise RigError(f"{path}:{first_row + bad}: column {column!r}: {cell!r} is not a "
+            raise UsageError(f"{path}:{first_row + bad}: column {column!r}: {cell!r} is not a "
                            f"{'date-time stamp' if name == 'time' and start is None and table.is_stamp(cols[key][0]) else 'number'}")
         if not np.all(np.isfinite(a[~np.isnan(a)])):
             i = int(np.nonzero(np.isinf(a))[0][0])
-            raise RigError(f"{path}:{first_row + i}: column {column!r}: {cells[i]!r} is not a finite number")
+            raise UsageError(f"{path}:{first_row + i}: column {column!r}: {cells[i]!r} is not a finite number")
         a = a * gains.get(name, 1.0) + offsets.get(name, 0.0)
         if name in UNITS:
             scale, offset = UNITS[name][unit]
@@ -194,7 +194,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     if "time" not in data:
         rate = rate_hz or (layout.rate_hz if layout else None)
         if not rate:
-            raise RigError(f"{path}: no time column mapped and no sampling rate in the file: give --map time=COLUMN "
+            raise UsageError(f"{path}: no time column mapped and no sampling rate in the file: give --map time=COLUMN "
                            f"or --rate HZ")
         n = len(next(iter(data.values())))
         data["time"] = np.arange(n) / rate
@@ -204,20 +204,20 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     bad = np.nonzero(np.diff(t[keep]) < 0)[0]  # repeated stamps happen in logged data; going back does not
     if len(bad):
         row = first_row + np.nonzero(keep)[0][bad[0] + 1]
-        raise RigError(f"{path}:{row}: time goes backwards ({t[keep][bad[0]]:.9g} then {t[keep][bad[0] + 1]:.9g} s)")
+        raise UsageError(f"{path}:{row}: time goes backwards ({t[keep][bad[0]]:.9g} then {t[keep][bad[0] + 1]:.9g} s)")
     if keep.sum() < 10:
-        raise RigError(f"{path}: {keep.sum()} rows with a time (need at least 10)")
+        raise UsageError(f"{path}: {keep.sum()} rows with a time (need at least 10)")
     if not t[keep][-1] - t[keep][0] <= MAX_SPAN_S:
-        raise RigError(f"{path}: the time column spans {t[keep][-1] - t[keep][0]:.3g} s; a recording spans at most "
+        raise UsageError(f"{path}: the time column spans {t[keep][-1] - t[keep][0]:.3g} s; a recording spans at most "
                        f"{MAX_SPAN_S / 86400:g} days: check its unit")
     if not t[keep][-1] > t[keep][0]:
         column = next((c for n, c, _ in mapping if n == "time"), "time")
-        raise RigError(f"{path}: the time column {column!r} does not advance (all {t[keep][0]:g} s)")
+        raise UsageError(f"{path}: the time column {column!r} does not advance (all {t[keep][0]:g} s)")
     for name, column, _ in mapping:  # an empty optional column is left out; one number is no channel
         have = int(np.sum(~np.isnan(data[name][keep])))
         need = 10 if name in ("time", "displacement", "force") else 2
         if 0 < have < need or (have == 0 and need == 10):
-            raise RigError(f"{path}: column {column!r} ({name}) holds {have} number{'s' * (have != 1)} "
+            raise UsageError(f"{path}: column {column!r} ({name}) holds {have} number{'s' * (have != 1)} "
                            f"with a time (needs at least {need})")
     return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived)
 
@@ -235,7 +235,7 @@ def _plausible(path, name, column, a, first_row=2):
     if len(bad):
         i = bad[0]
         where = f"{q[1]:g}..{q[2]:g} {q[0]}" if q else "+-1e12"
-        raise RigError(f"{path}:{i + first_row}: column {column!r}: {a[i]:.6g} {q[0] if q else ''} is not a plausible "
+        raise UsageError(f"{path}:{i + first_row}: column {column!r}: {a[i]:.6g} {q[0] if q else ''} is not a plausible "
                        f"{name} (outside {where}): check its unit")
 
 
@@ -247,7 +247,7 @@ def derived_velocity(t, x):
     bad = np.nonzero(~((v >= lo) & (v <= hi)))[0]
     if len(bad):
         i = bad[0]
-        raise RigError(f"the velocity derived from displacement reaches {v[i]:.3g} m/s at t = {t[i]:.6g} s, outside "
+        raise UsageError(f"the velocity derived from displacement reaches {v[i]:.3g} m/s at t = {t[i]:.6g} s, outside "
                        f"{lo:g}..{hi:g} m/s: check the time and displacement columns' units")
     return v
 

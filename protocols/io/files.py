@@ -31,7 +31,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from rig.errors import RigError
+from protocols.errors import UsageError
 from rig.operator_stop import quiet
 
 TEMP_ROOM = 32  # characters the temporary names add to a file name
@@ -60,15 +60,15 @@ def input_file(path, what="") -> Path:
     try:
         st = path.stat()
     except FileNotFoundError:
-        raise RigError(f"{label}: no such file") from None
+        raise UsageError(f"{label}: no such file") from None
     except OSError as e:
-        raise RigError(f"{label}: cannot read ({_why(e)})") from None
+        raise UsageError(f"{label}: cannot read ({_why(e)})") from None
     if stat.S_ISDIR(st.st_mode):
-        raise RigError(f"{label}: a folder, not a file")
+        raise UsageError(f"{label}: a folder, not a file")
     if not stat.S_ISREG(st.st_mode):
-        raise RigError(f"{label}: not a regular file (a FIFO, socket or device is not read)")
+        raise UsageError(f"{label}: not a regular file (a FIFO, socket or device is not read)")
     if not os.access(path, os.R_OK):
-        raise RigError(f"{label}: cannot read (permission denied)")
+        raise UsageError(f"{label}: cannot read (permission denied)")
     return path
 
 
@@ -103,19 +103,19 @@ def _name_fits(path: Path, what):
     except (OSError, ValueError):
         limit = 255
     if len(path.name.encode()) + TEMP_ROOM > limit:
-        raise RigError(f"{what} {path.name[:40]}...: file name too long ({len(path.name)} characters; "
+        raise UsageError(f"{what} {path.name[:40]}...: file name too long ({len(path.name)} characters; "
                        f"at most {limit - TEMP_ROOM})")
 
 
 def _make_folder(folder: Path, what, label):
     if folder.exists() and not folder.is_dir():
-        raise RigError(f"{what} {label}: {folder} is a file, not a folder")
+        raise UsageError(f"{what} {label}: {folder} is a file, not a folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise RigError(f"{what} {label}: cannot create its folder ({_why(e)})") from None
+        raise UsageError(f"{what} {label}: cannot create its folder ({_why(e)})") from None
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise RigError(f"{what} {label}: folder {folder} not writable")
+        raise UsageError(f"{what} {label}: folder {folder} not writable")
 
 
 def output_file(path, inputs=(), overwrite=False, what="--out") -> Path:
@@ -125,15 +125,15 @@ def output_file(path, inputs=(), overwrite=False, what="--out") -> Path:
     _name_fits(path, what)
     for i in inputs:
         if i is not None and _same(path, Path(i)):
-            raise RigError(f"{what} {path}: that is an input of this command (an output never replaces one); "
+            raise UsageError(f"{what} {path}: that is an input of this command (an output never replaces one); "
                            f"give another name")
     if path.is_dir():
-        raise RigError(f"{what} {path}: is a folder, not a file")
+        raise UsageError(f"{what} {path}: is a folder, not a file")
     if path.exists() and not path.is_file():
-        raise RigError(f"{what} {path}: not a regular file")
+        raise UsageError(f"{what} {path}: not a regular file")
     _make_folder(path.parent, what, path)
     if not overwrite and (path.exists() or path.is_symlink()):
-        raise RigError(f"{what} {path}: exists; give --overwrite to replace it, or another name "
+        raise UsageError(f"{what} {path}: exists; give --overwrite to replace it, or another name "
                        f"(free: {numbered(path).name})")
     return path
 
@@ -144,17 +144,17 @@ def output_folder(path, inputs=(), overwrite=False, what="--out") -> Path:
     path = Path(path)
     _name_fits(path, what)
     if path.exists() and not path.is_dir():
-        raise RigError(f"{what} {path}: exists and is not a folder")
+        raise UsageError(f"{what} {path}: exists and is not a folder")
     here = path.resolve()
     for i in inputs:
         if i is not None and here in Path(i).resolve().parents:
-            raise RigError(f"{what} {path}: holds the input {i}; give a folder of its own")
+            raise UsageError(f"{what} {path}: holds the input {i}; give a folder of its own")
     _make_folder(path.parent, what, path)
     if not overwrite and path.is_dir() and any(path.iterdir()):
-        raise RigError(f"{what} {path}: folder exists and is not empty; give --overwrite to replace "
+        raise UsageError(f"{what} {path}: folder exists and is not empty; give --overwrite to replace "
                        f"the files it writes, or another folder")
     if path.is_dir() and not os.access(path, os.W_OK | os.X_OK):
-        raise RigError(f"{what} {path}: folder not writable")
+        raise UsageError(f"{what} {path}: folder not writable")
     return path
 
 
@@ -170,7 +170,7 @@ def written(path, what="--out"):
         yield Path(tmp)
         os.replace(tmp, path)
     except OSError as e:
-        raise RigError(f"{what} {path}: cannot write ({_why(e)})") from None
+        raise UsageError(f"{what} {path}: cannot write ({_why(e)})") from None
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
@@ -209,7 +209,7 @@ def filled(path, what="--out"):
         else:
             _move_into(tmp, path)
     except OSError as e:
-        raise RigError(f"{what} {path}: cannot write ({_why(e)})") from None
+        raise UsageError(f"{what} {path}: cannot write ({_why(e)})") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -239,7 +239,7 @@ class Claim:
             try:
                 fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as e:
-                raise RigError(f"{self.what} {self.target}: cannot create its lock file ({_why(e)})") from None
+                raise UsageError(f"{self.what} {self.target}: cannot create its lock file ({_why(e)})") from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -248,7 +248,7 @@ class Claim:
                 if attempt < LOCK_TRIES - 1:  # a reader looking at the lock holds it for microseconds
                     time.sleep(0.05)
                     continue
-                raise RigError(f"{self.what} {self.target}: another run is writing it (process {holder}; "
+                raise UsageError(f"{self.what} {self.target}: another run is writing it (process {holder}; "
                                f"lock {self.lock_path.name})") from None
             # the lock file may have been removed by its last holder between open and flock
             try:
@@ -266,7 +266,7 @@ class Claim:
             return open(self.partial, "wb")
         except OSError as e:
             self.release()
-            raise RigError(f"{self.what} {self.target}: cannot write ({_why(e)})") from None
+            raise UsageError(f"{self.what} {self.target}: cannot write ({_why(e)})") from None
 
     def commit(self):
         """The partial file becomes the target (an open file keeps writing to it)."""
@@ -366,7 +366,7 @@ def not_being_written(path, doing="read") -> Path:
     pid = writer(path)
     if pid is not None:
         who = f"process {pid}" if pid > 0 else "a process starting up"
-        raise RigError(f"{path}: being recorded now (by {who}); {doing} it once the run has finished "
+        raise UsageError(f"{path}: being recorded now (by {who}); {doing} it once the run has finished "
                        f"(dyno serve shows it live)")
     note = clear_stale_lock(path)
     if note:

@@ -24,7 +24,7 @@ from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import get_chunk_data_stream
 
 from protocols.io.files import input_file, not_being_written
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 
 MAX_VALUE = 1e15  # SI: above any force, pressure or length a dyno measures; the arithmetic stays finite
@@ -61,30 +61,30 @@ def load_recording(path, channels=None):
                 elif topic == "/events":
                     events.append(_event(json.loads(data)))
         _check_metadata(meta)
-    except RigError as e:
-        raise RigError(f"{path}: {e}") from None
+    except UsageError as e:
+        raise UsageError(f"{path}: {e}") from None
     except Exception as e:  # noqa: BLE001 - whatever the MCAP reader or JSON refuses
-        raise RigError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
+        raise UsageError(f"{path}: not a readable recording ({e}); try `dyno recover {path}`") from None
     if not chans:
-        raise RigError(f"{path}: no dyno channels (/channels/NAME): not a recording dyno run or import wrote")
+        raise UsageError(f"{path}: no dyno channels (/channels/NAME): not a recording dyno run or import wrote")
     meta["units"] = units
     out = {}
     for name, (t, v) in chans.items():
         try:
             out[name] = (np.array(t, dtype=float), np.array(v, dtype=float))
         except (TypeError, ValueError):
-            raise RigError(f"{path}: /channels/{name}: values are not numbers") from None
+            raise UsageError(f"{path}: /channels/{name}: values are not numbers") from None
         t, v = out[name]
         if not np.all(np.isfinite(t)):
-            raise RigError(f"{path}: /channels/{name}: a time that is not a finite number")
+            raise UsageError(f"{path}: /channels/{name}: a time that is not a finite number")
         back = np.nonzero(np.diff(t) < 0)[0]
         if len(back):
-            raise RigError(f"{path}: /channels/{name}: time runs backwards ({t[back[0]]:.6g} s, then "
+            raise UsageError(f"{path}: /channels/{name}: time runs backwards ({t[back[0]]:.6g} s, then "
                            f"{t[back[0] + 1]:.6g} s)")
         if np.any(np.abs(v) > MAX_VALUE):
-            raise RigError(f"{path}: /channels/{name}: values beyond +-{MAX_VALUE:g} (SI): no sensor reads that")
+            raise UsageError(f"{path}: /channels/{name}: values beyond +-{MAX_VALUE:g} (SI): no sensor reads that")
         if name in ESSENTIAL and len(v) and not np.any(np.isfinite(v)):
-            raise RigError(f"{path}: /channels/{name}: not one value is a number")
+            raise UsageError(f"{path}: /channels/{name}: not one value is a number")
     return out, events, meta
 
 
@@ -148,9 +148,9 @@ def _batch_json(data):
 def _batch(d, topic):
     """(t, value, unit) of one batch of samples, as docs/recording.md gives it."""
     if not isinstance(d, dict) or not isinstance(d.get("t"), list) or not isinstance(d.get("value"), list):
-        raise RigError(f"{topic}: a message without the lists t and value")
+        raise UsageError(f"{topic}: a message without the lists t and value")
     if len(d["t"]) != len(d["value"]):
-        raise RigError(f"{topic}: a message with {len(d['t'])} times and {len(d['value'])} values")
+        raise UsageError(f"{topic}: a message with {len(d['t'])} times and {len(d['value'])} values")
     unit = d.get("unit", "")
     return d["t"], d["value"], unit if isinstance(unit, str) else str(unit)
 
@@ -161,11 +161,11 @@ def _event(d):
         and not isinstance(d.get("t"), bool) and np.isfinite(d["t"]) \
         and isinstance(d.setdefault("segment", ""), str) and isinstance(d.setdefault("params", {}), dict)
     if not ok or (d["kind"].startswith("segment_") and not d["segment"]):
-        raise RigError(f"/events: an event without its fields (t, kind, segment, params): {str(d)[:80]}")
+        raise UsageError(f"/events: an event without its fields (t, kind, segment, params): {str(d)[:80]}")
     for k, v in d["params"].items():
         if isinstance(v, (int, float)) and not isinstance(v, bool) and not (
                 math.isfinite(v) and abs(v) <= MAX_VALUE and (v > 0 or k not in POSITIVE)):
-            raise RigError(f"/events: segment {d['segment']!r}: {k} = {v!r} (a finite number"
+            raise UsageError(f"/events: segment {d['segment']!r}: {k} = {v!r} (a finite number"
                            f"{' above 0' if k in POSITIVE else ''})")
     return d
 
@@ -179,4 +179,4 @@ def _check_metadata(meta):
                 try:
                     json.loads(text)
                 except ValueError:
-                    raise RigError(f"metadata {name}.{key}: not JSON") from None
+                    raise UsageError(f"metadata {name}.{key}: not JSON") from None

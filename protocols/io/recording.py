@@ -25,6 +25,7 @@ from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
 from mcap.stream_reader import breakup_chunk
 from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 from protocols.io.files import Claim, input_file, not_being_written, output_file, written
@@ -334,7 +335,7 @@ def _scanned(path):
     try:
         data = path.read_bytes()
     except OSError as e:
-        raise RigError(f"{path}: cannot read ({e.strerror})") from None
+        raise UsageError(f"{path}: cannot read ({e.strerror})") from None
     records, skipped = scan(data)
     return (records, skipped, {r.id: r for r in records if isinstance(r, Schema)},
             {r.id: r for r in records if isinstance(r, Channel)})
@@ -356,7 +357,7 @@ def recover(path) -> dict:
     records, skipped, schemas, channels = _scanned(path)
     messages = [r for r in records if isinstance(r, Message) and r.channel_id in channels]
     if not channels:
-        raise RigError(f"{path}: not an MCAP recording, or nothing recoverable in it")
+        raise UsageError(f"{path}: not an MCAP recording, or nothing recoverable in it")
     damaged, k = path.with_name(path.name + ".damaged"), 2
     while damaged.exists():
         damaged, k = path.with_name(f"{path.name}.damaged-{k}"), k + 1
@@ -377,7 +378,7 @@ def edit_run_info(path, changes: dict) -> dict:
     path = not_being_written(input_file(path), "runs edit")
     records, skipped, schemas, channels = _scanned(path)
     if skipped or not channels:
-        raise RigError(f"{path}: damaged ({skipped} bytes unreadable): run `dyno recover {path}` first")
+        raise UsageError(f"{path}: damaged ({skipped} bytes unreadable): run `dyno recover {path}` first")
     runs = [i for i, r in enumerate(records) if isinstance(r, Metadata) and r.name == "run"]
     old = dict(records[runs[-1]].metadata) if runs else {}
     new = {k: v for k, v in {**old, **changes}.items() if v != ""}

@@ -21,7 +21,7 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 DELIMITERS = (",", ";", "\t", None)  # None: runs of whitespace
 TAIL = 40  # data lines looked at to learn the table's shape
@@ -83,7 +83,7 @@ def sniff(text: str) -> Layout:
     lines = text.splitlines()
     filled = [i for i, line in enumerate(lines) if line.strip()]
     if not filled:
-        raise RigError("an empty file")
+        raise UsageError("an empty file")
     tail = [lines[i] for i in filled[-TAIL:]]
     best = None
     for d in DELIMITERS:
@@ -94,7 +94,7 @@ def sniff(text: str) -> Layout:
         if n >= 2 and (best is None or values > best[2] or values == best[2] and n > best[1]):
             best = (d, n, values)
     if best is None or best[2] == 0:
-        raise RigError("not a table: no delimiter (comma, semicolon, tab, spaces) gives two columns of numbers")
+        raise UsageError("not a table: no delimiter (comma, semicolon, tab, spaces) gives two columns of numbers")
     d, n, _ = best
     decimal = "," if d != "," and any("," in c for line in tail for c in _fields(line, d)) else "."
     first = None
@@ -104,7 +104,7 @@ def sniff(text: str) -> Layout:
             first = i
             break
     if first is None:
-        raise RigError("not a table: no row of numbers")
+        raise UsageError("not a table: no row of numbers")
     before = [i for i in filled if i < first]
     header = before[-1] if before else None
     names = _fields(lines[header], d) if header is not None else []
@@ -147,7 +147,7 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
         try:
             rows = list(csv.reader(lines, delimiter=d))
         except csv.Error as e:
-            raise RigError(f"not a table of numbers ({e})") from None
+            raise UsageError(f"not a table of numbers ({e})") from None
     else:
         rows = [line.split(d) for line in lines]
     rows = [r if len(r) == n else r[:n] if len(r) > n else r + [""] * (n - len(r)) for r in rows]
@@ -161,7 +161,7 @@ def column(cols: dict, layout: Layout, key: str) -> str:
         return key
     if key.isdigit() and 1 <= int(key) <= len(layout.names):
         return layout.names[int(key) - 1]
-    raise RigError(f"no column {key!r}; columns: " + ", ".join(
+    raise UsageError(f"no column {key!r}; columns: " + ", ".join(
         f"{j + 1}={c}" if c != str(j + 1) else c for j, c in enumerate(layout.names)))
 
 

@@ -117,10 +117,10 @@ def along(model, ch, events):
         return model
     from models.damper import DamperError
     from protocols.io.reader import merged
-    from rig.errors import RigError
+    from protocols.errors import UsageError
     try:
         source = merged(model.source)[:2]
-    except (RigError, OSError) as e:
+    except (UsageError, OSError) as e:
         raise DamperError(f"{model.name}: its effects are built on the recording it was fitted on: {e}") from None
     return Sampled(model.name, *model.along(source, (ch, events)))
 

@@ -26,13 +26,14 @@ from protocols.reports.comparison import compare
 from protocols.reports.recording import report
 from protocols.units import Units, fmt
 from protocols.web.in_progress import being_written, in_progress
+from protocols.errors import UsageError
 from rig.errors import RigError
 
 REINDEX_S = 5.0  # new recordings show up on the runs page within this
 COLUMNS = {"id": "id", "started": "started", "serial": "serial", "damper": "damper", "protocol": "protocol",
            "duration_s": "duration [s]", "outcome": "outcome", "qa": "QA", "path": "file"}
 SEARCHED = ("serial", "damper", "note", "operator", "protocol", "path", "setup")
-PAGE_ERRORS = (RigError, DamperError, OSError, ValueError)  # a page that cannot be made says why
+PAGE_ERRORS = (UsageError, RigError, DamperError, OSError, ValueError)  # a page that cannot be made says why
 
 
 @dataclass

@@ -2,7 +2,7 @@
 prints text, --json, or --markdown for docs/results."""
 from __future__ import annotations
 
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 from protocols.app.output import emit
 from protocols.reports import markdown as md
@@ -80,7 +80,7 @@ def identify(args):
     from protocols.app.bench.throughput import bench_identify
     dampers = args.damper.split(",")
     if args.recording and len(dampers) > 1:
-        raise RigError("bench identify: one --damper with a RECORDING")
+        raise UsageError("bench identify: one --damper with a RECORDING")
     runs = [bench_identify(args.recording, d, truth=args.truth) for d in dampers]
     text = "\n".join(f"identify {r['damper']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
                      f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %"

@@ -11,7 +11,7 @@ import numpy as np
 
 from rig import config as rig_config
 from rig.devices import TRANSPORTS
-from rig.errors import RigError
+from protocols.errors import UsageError
 
 from protocols.io.recording import Recorder
 
@@ -77,14 +77,14 @@ def bench_identify(recording=None, damper="koni", truth=False):
                                   capture_output=True, text=True)
             if made.returncode:
                 last = made.stderr.strip().splitlines()[-1] if made.stderr.strip() else f"exit {made.returncode}"
-                raise RigError(f"bench identify: recording {damper}: {last.removeprefix('dyno: error: ')}")
+                raise UsageError(f"bench identify: recording {damper}: {last.removeprefix('dyno: error: ')}")
         t0 = time.perf_counter()
         p = subprocess.run([dyno, "identify", recording, "--json", "--out", str(Path(tmp) / "m.json")]
                            + (["--truth", damper] if truth else []), capture_output=True, text=True)
         wall = time.perf_counter() - t0
     if p.returncode:
         last = p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}"
-        raise RigError(f"bench identify: {last.removeprefix('dyno: error: ')}")
+        raise UsageError(f"bench identify: {last.removeprefix('dyno: error: ')}")
     doc = json.loads(p.stdout)
     out = {"recording": str(recording), "damper": damper, "wall_s": wall, "goal_wall_s": GOAL_IDENTIFY_S,
            "goal_met": wall < GOAL_IDENTIFY_S, "heldout_nrmse": doc["heldout_nrmse"], "steps": doc["steps"]}
@@ -160,7 +160,7 @@ def bench_import(rows=1_000_000):
                     code = cli.main(["import", str(src), "--out", str(Path(d) / f"{src.stem}.mcap"), "--overwrite",
                                      "--map", time_map, "--map", "displacement=x:mm", "--map", "force=F:N"])
                 if code != 0:
-                    raise RigError(f"bench import: dyno import of the {name} file failed")
+                    raise UsageError(f"bench import: dyno import of the {name} file failed")
                 took.append(time.perf_counter() - t0)
             out[name] = float(np.median(took))
             out[f"{name}, slowest"] = max(took)

@@ -291,7 +291,9 @@ def preset_names() -> list[str]:
 
 def load(name_or_path) -> Damper | SimplifiedDamper:
     """A preset by name (koni, mechformance, fox-light, fox-heavy, simplified-I, ...) or a
-    path to a JSON file."""
+    path to a JSON file; a model already loaded is returned as it is."""
+    if isinstance(name_or_path, (Damper, SimplifiedDamper)):
+        return name_or_path
     s = str(name_or_path)
     if s.endswith(".json") or "/" in s:
         return load_file(s)

@@ -84,7 +84,7 @@ def embedded(damper, config=None, realtime=False, plant=None) -> Cell:
     from rig import config as rig_config
     from rig.rig import Rig
     from sim_backend.virtual_rig import VirtualRig
-    d = load_damper(damper) if isinstance(damper, str) else damper
+    d = load_damper(damper)
     from sim_backend.options import PlantOptions
     p = plant or PlantOptions()
     vr = VirtualRig(config or rig_config.load("virtual"), damper=d, seed=p.seed, T0=p.T0, effects=p.effects,
@@ -108,7 +108,7 @@ def direct(config, damper, plant=None) -> Cell:
     calibration, the rehearsal and work that needs the runner's stepping, not the wires."""
     from models.damper import load as load_damper
     from sim_backend.direct_rig import DirectRig
-    d = load_damper(damper) if isinstance(damper, str) else damper
+    d = load_damper(damper)
     from sim_backend.options import PlantOptions
     p = plant or PlantOptions()
     rig = DirectRig(config, d, seed=p.seed, T0=p.T0, effects=p.effects, params=p.params)

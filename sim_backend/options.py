@@ -17,7 +17,7 @@ class PlantOptions:
     effects: dict = field(default_factory=dict)  # hidden physics, {name: VALUE, "forms": {...}} (effects.parse)
     params: dict | None = None  # the plant's parameters, if not sim_backend/plant.toml
     seed: int = 0  # the sensors' noise and the adjuster's wander
-    T0: float | None = None  # C: the damper's starting temperature, if not the plant's ambient
+    T0: float | None = None  # K: the damper's starting temperature, if not the plant's ambient
 
 
 def plain_cell():

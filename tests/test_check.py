@@ -87,10 +87,11 @@ def test_a_warmer_run_is_compensated_to_its_references_temperature_with_its_mode
     from protocols.library import PROTOCOLS
     from protocols.plan import Plan
     from rig import config as rig_config
+    from sim_backend.options import PlantOptions
     module = PROTOCOLS["sine-matrix"]
     plan = Plan(module, module.Params(amplitudes_mm=[12.7], freqs_hz=[0.5, 2.0, 8.0], record_cycles=2))
     for name, T0 in (("cool", 293.15), ("warm", 333.15)):
-        with cell.direct(rig_config.load("virtual"), "koni", T0=T0) as c, \
+        with cell.direct(rig_config.load("virtual"), "koni", PlantOptions(T0=T0)) as c, \
                 closing(for_run(tmp_path / f"{name}.mcap", c, plan)) as rec:
             runner.run_plan(plan, c, [rec])
     warm, cool, tol = tmp_path / "warm.mcap", tmp_path / "cool.mcap", qa.parse_tolerance("3%")

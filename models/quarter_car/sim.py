@@ -206,7 +206,7 @@ def run(qc: QuarterCar, damper, t, y_in, v_in=None, T=C_to_K(94.0), compressible
     force (eq 5.1), adds its friction (eq 3.3) and meets its stops at the stroke ends;
     the compressible model takes one implicit step per car step. A simplified model
     (eqs 6.1-6.2) is damping only: no gas force, no stops."""
-    d = load(damper) if isinstance(damper, str) else damper
+    d = load(damper)
     if isinstance(d, SimplifiedDamper):
         tv = np.array([-V_TABLE, 0.0, V_TABLE])
         if d.rebound.v_transition is not None:

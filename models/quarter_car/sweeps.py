@@ -113,7 +113,7 @@ def check_sweep(amplitudes, freqs):
 
 
 def _damper(damper):
-    return load(damper) if isinstance(damper, str) else damper
+    return load(damper)
 
 
 def _check_amplitude(d, amplitudes):

@@ -96,3 +96,11 @@ def virtual_plant(args):
 def cluster_option(p):
     p.add_argument("--cluster", default=None, metavar="local[:N]|tcp://HOST:PORT",
                    help="fan out on Dask distributed (docs/cluster.md; pip install 'dyno[cluster]')")
+
+
+def unit_system(text):
+    """--units: the one place a command's unit system is built."""
+    from protocols.units import SYSTEMS, Units
+    if text not in SYSTEMS:
+        raise argparse.ArgumentTypeError(f"{text!r}: give one of {', '.join(SYSTEMS)}")
+    return Units(text)

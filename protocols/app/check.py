@@ -10,7 +10,7 @@ from models.damper import DamperError
 from protocols import catalogue
 from protocols.io.files import existing_files, input_file, output_folder, filled
 from protocols.reports import qa
-from protocols.units import Units, fmt
+from protocols.units import fmt
 from protocols.errors import UsageError
 
 
@@ -19,7 +19,7 @@ def run(args):
         tol = qa.parse_tolerance(args.tolerance)
     except ValueError as e:
         raise UsageError(str(e)) from None
-    units = Units(args.units)
+    units = args.units
     if Path(args.against).suffix == ".mcap":
         input_file(args.against, "--against")
     try:

@@ -10,7 +10,7 @@ from importlib import metadata
 
 from models.damper import DamperError
 from models.parallel import TaskFailed
-from protocols.app.arguments import MAX_BUDGET_S, Parser, cluster_option, holdout, number, setup_item, sizes
+from protocols.app.arguments import MAX_BUDGET_S, Parser, cluster_option, holdout, number, setup_item, sizes, unit_system
 from protocols.app.bench.arguments import add as _bench_commands
 from protocols.app.output import check_outputs
 from protocols.errors import UsageError
@@ -45,8 +45,8 @@ def _overwrite(p, what="the output"):
 
 
 def _units(p):
-    p.add_argument("--units", choices=("si", "metric", "us"), default="metric",
-                   help="units of the output: si (m, m/s, N, Pa, K), metric (mm, mm/s, N, bar gauge, C; the "
+    p.add_argument("--units", type=unit_system, default="metric", metavar="{si,metric,us}",
+                   help="the unit system shown: si (m, m/s, N, Pa, K), metric (mm, mm/s, N, bar gauge, C; the "
                         "default) or us (in, in/s, lbf, psi gauge, F)")
 
 

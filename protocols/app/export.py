@@ -97,9 +97,9 @@ def run(args):
     channels, events, meta = load_recording(args.recording)
     names = [n.strip() for n in args.channels.split(",")] if args.channels else None
     cols, data, dec = table(channels, events, meta.get("units", {}), names, meta.get("run", {}).get("wall_start"),
-                            Units(args.units))
+                            args.units)
     rounded = [np.round(d, k) if k is not None else d for d, k in zip(data, dec)]
-    info = {"recording": Path(args.recording).name, "columns": cols, "unit_system": args.units, **_json_safe(meta)}
+    info = {"recording": Path(args.recording).name, "columns": cols, "unit_system": args.units.system, **_json_safe(meta)}
     with written(out, what) as tmp:
         _write(args, cols, rounded, dec, tmp, info)
     if side is not None:

@@ -12,7 +12,6 @@ from protocols.errors import UsageError
 from protocols.io.files import existing_files, filled, output_folder
 from protocols.reports.comparison import compare
 from protocols.reports.recording import report
-from protocols.units import Units
 
 
 def _model(args):
@@ -44,12 +43,12 @@ def run(args):
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
     with filled(out) as folder:
         if args.other:
-            index, pngs = compare([args.file, *args.other], folder, Units(args.units))
+            index, pngs = compare([args.file, *args.other], folder, args.units)
         else:
             model = _model(args)
             if model is not None:
                 print(f"model overlaid: {model.name}")
-            units = Units(args.units)
+            units = args.units
             try:
                 index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units)
             except DamperError as e:  # a model whose effects this recording cannot carry

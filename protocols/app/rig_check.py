@@ -10,7 +10,6 @@ from rig.safety import Safety
 from rig.rig import Rig
 
 from protocols.display import shown
-from protocols.units import Units
 
 
 CHECK_S = 0.5  # how long rig check listens
@@ -46,7 +45,7 @@ def run(args):
         cfg = rig.config
         safety = Safety(cfg)
         where = "embedded virtual rig" if vr is not None else cfg.path
-        units = Units(args.units)
+        units = args.units
         print(f"rig {cfg.name!r} ({where})")
         print(f"{'channel':12s} {'device':12s} {'value':>14s} {'unit':5s} {'age':>8s}  status")
         missing = []

@@ -89,7 +89,7 @@ def write_offsets(path, cfg, changes, units=Units()):
 
 
 def run(args):
-    units = Units(args.units)
+    units = args.units
     F, X = (lambda si, q=q: as_shown(units, q, si) for q in ("force", "length"))
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
     lim = cfg.limits

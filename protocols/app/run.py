@@ -20,7 +20,6 @@ from protocols.io.files import Claim, existing_files, numbered, output_file
 from protocols.io.recording import Recorder
 from protocols.library import DISCOVER, PROTOCOLS
 from protocols.discover import discover
-from protocols.units import Units
 from protocols.plan import Plan, as_dict, parse, rig_info
 from protocols.rehearsal import rehearse
 from protocols.runner import run_plan
@@ -63,7 +62,7 @@ def _run(args):
             result = found.result
         else:
             result = run_plan(Plan(module, params), c, [recorder, live, ident],
-                              progress=getattr(args, "progress", True), units=Units(args.units))
+                              progress=getattr(args, "progress", True), units=args.units)
     except KeyboardInterrupt:
         errors.append("operator stop")
     except (RigError, UsageError) as e:
@@ -124,7 +123,7 @@ def _plan_run(args):
     for name, why in skipped:
         print(f"skipping {name}: {why}", file=sys.stderr)
     forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
-    print(preflight.summary(forecast, Units(args.units)), file=sys.stderr)
+    print(preflight.summary(forecast, args.units), file=sys.stderr)
     if getattr(module, "REHEARSE", False):
         for name, found in rehearse(module, params, cfg, damper):
             print(f"pre-flight (the run against the virtual plant): {name}: {module.summary(found)}", file=sys.stderr)

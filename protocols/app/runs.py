@@ -11,7 +11,7 @@ from pathlib import Path
 from protocols import catalogue
 from protocols.io.files import written
 from protocols.reports import markdown as md
-from protocols.units import Units, fmt
+from protocols.units import fmt
 from protocols.errors import UsageError
 
 
@@ -85,7 +85,7 @@ def show(args):
     for k in row.keys():
         if row[k] not in (None, "", "{}"):
             print(f"{k:11s} {_shown(k, row[k])}")
-    units = Units(args.units)
+    units = args.units
     V, F = (lambda si, q=q: fmt(units.show(q, si)) for q in ("velocity", "force"))
     if peaks:
         print("\n" + md.table(("segment", *(units.label(n, q) for n, q in (("v comp", "velocity"), ("F comp", "force"),
@@ -118,7 +118,7 @@ def trend(args):
         points = catalogue.trend(c, args.serial, args.quantity)
     if not points:
         raise UsageError(f"no readable runs of serial {args.serial!r} in {args.dir}")
-    units = Units(args.units)
+    units = args.units
     print(md.table(("started", units.label(args.quantity, "force"), "run id", "setup"),
                    [(s, fmt(units.show("force", F)), i, setup or "-") for s, F, i, setup in points]))
     if args.out:

@@ -12,7 +12,6 @@ from pathlib import Path
 from werkzeug.serving import make_server
 
 from protocols import catalogue
-from protocols.units import Units
 from protocols.web import create_app
 from protocols.errors import UsageError
 
@@ -42,7 +41,7 @@ def run(args):
     except catalogue.CatalogueError:
         found = "no readable catalogue (live runs only)"
     cache = tempfile.mkdtemp(prefix="dyno-serve-")
-    server = make_server("127.0.0.1", args.port, create_app(folder, Units(args.units), cache), threaded=True)
+    server = make_server("127.0.0.1", args.port, create_app(folder, args.units, cache), threaded=True)
     print(f"{folder}: {found}; "
           f"serving http://127.0.0.1:{server.server_port}/ (Ctrl-C stops)", flush=True)
     try:

@@ -38,7 +38,7 @@ class Plant:
         self.forms = self.fx.pop("forms", {})  # {effect: form} other than the default
         extra = self.fx.pop("extra", None)  # a force the user writes (sim_backend/extra.py)
         self.extra = compile_extra(extra) if extra else None
-        damper = load_damper(damper) if isinstance(damper, str) else damper
+        damper = load_damper(damper)
         self.damper = fx_mod.damper_with(damper, {**self.fx, "forms": self.forms})
         self.h = h
         self.t = 0.0

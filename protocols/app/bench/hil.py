@@ -30,7 +30,7 @@ def known_model(damper):
     """The damper model with its friction in the virtual plant's pre-sliding form
     (sim_backend/plant.toml [frame] friction_x_stick): the plant's damper is then exactly
     the model, and what is left between the run and the reference is the loop's own."""
-    d = load_damper(damper) if isinstance(damper, str) else damper
+    d = load_damper(damper)
     x_stick = plant_params()["frame"]["friction_x_stick"]
     return dataclasses.replace(d, name=f"{d.name}, friction pre-sliding {1e3 * x_stick:g} mm",
                                friction=dataclasses.replace(d.friction, x_stick=x_stick))
@@ -44,7 +44,7 @@ def _embedded(module, params, d):
 
 def run_one(damper, road, compensator, car="race-car"):
     """Measures of one HIL run on the embedded virtual rig (a trip: its reason in "fault")."""
-    d = load_damper(damper) if isinstance(damper, str) else damper
+    d = load_damper(damper)
     params = parse(hil.Params, [f"road={road}", f"compensator={compensator}", f"car={car}"])
     result = _embedded(hil, params, d)
     found = dict(result.measures[0][1]) if result.measures else {}
@@ -54,7 +54,7 @@ def run_one(damper, road, compensator, car="race-car"):
 def replay_errors(damper, iterations=5, car="race-car", road="iso8608:C:50"):
     """NRMS error of each replay iteration of the car's damper travel on `road` (the
     reference run's, content to 20 Hz) on the embedded virtual rig."""
-    d = load_damper(damper) if isinstance(damper, str) else damper
+    d = load_damper(damper)
     r = roads.parse(road, 1000.0)
     ref = simulate(load_car(car), d, r.t, r.y, r.v, T=293.15)
     with tempfile.TemporaryDirectory() as tmp:

@@ -4,7 +4,7 @@ PY ?= python3
 VENV := .venv
 STAMP := $(VENV)/.installed
 
-.PHONY: run test quick fuzz results report-examples clean
+.PHONY: run test lint quick fuzz results report-examples clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -29,13 +29,17 @@ $(CHROMIUM):
 # the suite in two parts: in parallel on two workers, then the tests against the wall clock
 # alone (a loaded machine would delay their processes past the 50 ms watchdog); each part
 # names its ten slowest tests (the suite's budget is 8 minutes on 2 cores)
-test: $(STAMP) $(CHROMIUM)
+test: lint $(CHROMIUM)
 	DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup -m "not slow and not realtime" --durations=10
 	$(VENV)/bin/python -m pytest -q -m "realtime and not slow" --durations=10
 
 # the inner loop: the layers and sizes, wire formats, configs, damper files, the physics
 # components and effects, tables and metrics; no run, no diagnosis, no browser (about a minute)
 QUICK := architecture wire_formats rig_config damper_json components output_rule report_tables metrics design effects plant
+# the linter's rules and why: pyproject.toml [tool.ruff.lint]
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
 quick: $(STAMP)
 	$(VENV)/bin/python -m pytest -q -x -n 2 -m "not slow and not realtime" $(QUICK:%=tests/test_%.py)
 

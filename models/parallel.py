@@ -106,7 +106,7 @@ def _once_more(name, result, again, bar):
             print(text, file=sys.stderr, flush=True)
     try:
         return again()
-    except Exception as e:  # noqa: BLE001
+    except Exception as e:
         raise TaskFailed(f"{name} failed twice: {e}") from e
 
 

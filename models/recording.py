@@ -70,7 +70,7 @@ def differing_repeats(channels, events) -> list[tuple[str, list[str], list[float
     current, an adjuster, the oil's temperature), and one model cannot follow them all."""
     groups = {}
     t, F = channels["force"]
-    for name, prm, t0, t1 in segments(events, kinds=("sine",)):
+    for name, _prm, t0, t1 in segments(events, kinds=("sine",)):
         k = (t >= t0) & (t <= t1)
         if k.sum() > 10:
             groups.setdefault(re.sub(r" \(\d+\)$", "", name), []).append((name, float(np.ptp(np.percentile(F[k], [1, 99])))))

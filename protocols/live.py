@@ -83,7 +83,7 @@ class LiveView:
     def _layout(self):
         """The blueprint for the channels known so far, and each channel's name with its
         unit; a closed loop's channels (hardware in the loop) get a column of their own."""
-        ch = lambda *names: [f"channels/{n}" for n in names if n in self.channels]  # noqa: E731
+        ch = lambda *names: [f"channels/{n}" for n in names if n in self.channels]
         # one view per unit, in the operator's units (force, displacement, velocity,
         # temperatures in C, pressures in bar, then any other)
         by_unit = {}

@@ -190,7 +190,7 @@ def _worker(inbox, outbox, description, model_path, ending):
             continue
         try:
             res = identify(channels, events, desc, progress=lambda m: None, dynamic=done)
-        except Exception as e:  # partial data: say so and wait for more
+        except Exception as e:  # noqa: BLE001 - partial data: say so and wait for more
             if done:
                 outbox.put(("error", f"final identification failed: {e}"))
                 return

@@ -122,7 +122,8 @@ def parse(cls, pairs):
         if name not in names:
             raise ParamError(f"{name}: unknown parameter (known: {', '.join(sorted(names))})")
         if name in kwargs:
-            raise ParamError(f"{name}: given twice ({name}={kwargs[name] if not isinstance(kwargs[name], list) else ','.join(f'{v:g}' for v in kwargs[name])} and {pair})")
+            raise ParamError(f"{name}: given twice "
+                             f"({name}={kwargs[name] if not isinstance(kwargs[name], list) else ','.join(f'{v:g}' for v in kwargs[name])} and {pair})")
         kind = hints[name]
         try:
             if typing.get_origin(kind) in (list, tuple):

@@ -159,7 +159,8 @@ def summary(f: Forecast, units=Units()) -> str:
     waits = f" + {f.waits} wait{'s' * (f.waits > 1)} (at most {_hours(f.wait_max_s)})" if f.waits else ""
     gas = f", gas up to {q('pressure', f.gas_peak)}" if f.gas_peak else ""
     force = f", force up to {q('force', f.force_peak, 4)}" if f.force_peak else ""
-    return (f"pre-flight: {_hours(f.duration_s)} of motion{waits}; stroke {fmt(units.show('length', f.x_range[0]), 3)}.."
+    return (f"pre-flight: {_hours(f.duration_s)} of motion{waits}; stroke "
+            f"{fmt(units.show('length', f.x_range[0]), 3)}.."
             f"{q('length', f.x_range[1])}, velocity up to {q('velocity', f.v_peak)}{force}{gas} (damper model)")
 
 

@@ -181,7 +181,7 @@ class ControlLoop:
                     try:
                         self.rig.follow(x)
                         return True
-                    except Exception as e:  # noqa: BLE001
+                    except Exception as e:  # noqa: BLE001 - any failure to command the actuator trips the run safely
                         stop.trip(describe(e))
                         return False
         stop.trip(fault, self._trusted_x(readings, fault))
@@ -207,13 +207,13 @@ class ControlLoop:
             stop.cannot_move()
             try:
                 self.rig.hold()
-            except Exception:  # noqa: BLE001
+            except Exception:  # noqa: BLE001 - already stopping: its own watchdog holds it
                 pass
 
     def _drain(self, stop):
         try:
             samples = self.rig.drain()
-        except Exception as e:  # noqa: BLE001
+        except Exception as e:  # noqa: BLE001 - whatever a driver raises trips the run, never kills the loop
             stop.trip(f"rig: {describe(e)}")
             return
         for sink in list(self.sinks):

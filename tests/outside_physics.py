@@ -72,7 +72,7 @@ def main(argv=None):
     with ProcessPoolExecutor(args.jobs) as ex:
         done = list(ex.map(one, tasks))
     rows, tally = [], {s: [0, 0] for s in SIZES}
-    for (name, size, rate, seed), accepted, explained, dep, quiet in done:
+    for (name, size, rate, seed), accepted, explained, dep, _quiet in done:
         ok = explained >= MODELLED and dep is not None and PHYSICS[name][1] in dep
         tally[size][0] += ok
         tally[size][1] += 1

@@ -93,7 +93,8 @@ def one(task):
         out["codes"]["diagnose"] = p.returncode
         if p.returncode == 0:
             res = json.loads(p.stdout)
-            out["diagnosis"] = (f"{100 * res['baseline']['nrmse_heldout']:.2f} → {100 * res['final']['nrmse_heldout']:.2f} %, "
+            out["diagnosis"] = (f"{100 * res['baseline']['nrmse_heldout']:.2f} → "
+                                f"{100 * res['final']['nrmse_heldout']:.2f} %, "
                                 f"R² {res['final']['r2_heldout']:.3f}; " + (", ".join(res["accepted"]) or "nothing accepted")
                                 + f" ({s:.0f} s)")
             out["smoothed"] = any(q["kind"] == "smoothed" for q in res["quality"])

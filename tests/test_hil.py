@@ -27,7 +27,7 @@ def test_the_stepper_is_the_simulation_one_step_at_a_time():
     qc = load_car("simulator")
     t = np.arange(0.0, 1.0, H)
     y = faded(t, 0.01 * np.sin(2 * np.pi * 3 * t), 0.2)
-    damper = lambda x, v: 2000.0 * v + 300.0  # noqa: E731 - a linear damper with a gas force
+    damper = lambda x, v: 2000.0 * v + 300.0
     ref = simulate(qc, damper, t, y, F_static=300.0, x_install=0.04, stroke=0.08)
     car = Stepper(qc, t, y, F_static=300.0, x_install=0.04, stroke=0.08)
     x, v, _ = car.motion()

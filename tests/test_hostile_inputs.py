@@ -459,7 +459,7 @@ def test_identify_creates_its_output_folder_before_the_work(tmp_path, files):
 def test_recover_twice_never_overwrites_a_damaged_original(tmp_path, files):
     data = files.rec.read_bytes()
     bad = tmp_path / "torn.mcap"
-    for i in range(2):
+    for _i in range(2):
         bad.write_bytes(data[:-100])  # the summary torn off, as by a kill
         p = dyno("recover", bad)
         assert p.returncode == 0 and "recovered" in p.stdout, p.stderr

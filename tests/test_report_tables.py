@@ -193,10 +193,10 @@ def test_a_run_faster_than_asked_is_flagged_over_speed():
 
 
 def test_a_crank_stroke_is_fitted_with_its_overtones_and_no_sine_falls_back_to_samples():
-    rate, f, r, l = 500.0, 2.0, 0.02, 0.06  # a slider-crank: crank radius 20 mm, rod 60 mm
+    rate, f, r, rod = 500.0, 2.0, 0.02, 0.06  # a slider-crank: crank radius 20 mm, rod 60 mm
     t = np.arange(0.0, 6.0, 1.0 / rate)
     th = 2 * np.pi * f * t
-    x = r * (1 - np.cos(th)) + l - np.sqrt(l ** 2 - (r * np.sin(th)) ** 2)
+    x = r * (1 - np.cos(th)) + rod - np.sqrt(rod ** 2 - (r * np.sin(th)) ** 2)
     v = np.gradient(x, t)
     ch = {"force": (t, 2000 * v), "x": (t, x), "v": (t, v)}
     segs = [("crank", {"kind": "sine", "amplitude_mm": 20.0, "freq_hz": f}, 0.0, 6.0)]

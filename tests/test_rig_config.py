@@ -6,7 +6,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rig import config
-from protocols.errors import UsageError
 from rig.errors import RigError
 
 BASE = config.CONFIG_DIR.joinpath("virtual.toml").read_text()

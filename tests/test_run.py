@@ -159,7 +159,7 @@ def test_sigkill_then_recover_keeps_all_but_the_last_second(tmp_path):
     p.send_signal(signal.SIGKILL)
     p.wait(10)
     elapsed = time.monotonic() - t_start
-    with pytest.raises(Exception):  # the indexed reader refuses the torn file
+    with pytest.raises(Exception):  # noqa: B017 - the indexed reader refuses the torn file, by its own error
         with open(out, "rb") as f:
             list(make_reader(f).iter_messages())
     r = subprocess.run([DYNO, "recover", str(out)], capture_output=True, text=True, timeout=60)
@@ -342,7 +342,7 @@ def test_progress_counts_waits_by_their_approach_not_their_timeout():
     from types import SimpleNamespace
 
     from protocols.plan import Segment
-    hold = lambda t: 0.1  # noqa: E731
+    hold = lambda t: 0.1
     segs = [Segment("sine", {}, 10.0, hold), Segment("warm up", {}, 1800.0, hold, False, None, ("T_body", 320.0)),
             Segment("sine hot", {}, 5.0, hold), Segment("cool to 30 C", {}, 1800.0, hold, False, None,
                                                          ("T_body", 303.15))]
@@ -374,7 +374,7 @@ def test_progress_into_a_log_is_a_line_per_segment_or_ten_seconds_never_a_redraw
     import io
 
     from protocols.plan import Segment
-    hold = lambda t: 0.1  # noqa: E731
+    hold = lambda t: 0.1
     segs = [Segment("sine 1", {}, 10.0, hold), Segment("sine 2", {}, 10.0, hold)]
     out = io.StringIO()  # not a terminal: a file, a pipe
     line = runner.ProgressLine(segs, "t", out)

@@ -94,7 +94,8 @@ def spikes(name, t, y):
     for a, b in _runs(hit):
         if b - a <= 3:  # longer departures are motion, not a glitch
             out.append(Flag(name, "spike", t[a] - MARGIN_S, t[b - 1] + MARGIN_S, int(b - a),
-                            f"{name} spike at {t[a]:.3f} s ({b - a} sample(s), {max(np.max(dev[a:b]), np.max(dev2[a:b])):.3g} "
+                            f"{name} spike at {t[a]:.3f} s ({b - a} sample(s), "
+                            f"{max(np.max(dev[a:b]), np.max(dev2[a:b])):.3g} "
                             f"beyond its neighbours)"))
     return out
 

@@ -46,7 +46,7 @@ def locate(d: Data, r, sigma=0.0):
     regions[f"at the extended end (x < {lo * 1e3:.1f} mm)"] = d.x < lo
     mid = (d.x > np.percentile(d.x, 40)) & (d.x < np.percentile(d.x, 60))
     regions[f"mid-stroke ({np.percentile(d.x, 40) * 1e3:.1f}-{np.percentile(d.x, 60) * 1e3:.1f} mm)"] = mid
-    for s, (name, f) in enumerate(d.segments):
+    for s, (name, _f) in enumerate(d.segments):
         regions[f"in segment {name}"] = d.segment == s
     bands = np.linspace(d.x.min(), d.x.max(), 6)
     for a, b in zip(bands[:-1], bands[1:]):

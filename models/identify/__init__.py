@@ -171,7 +171,7 @@ def _low_speed_step(channels, events, d: Damper, res: Result):
         res.steps["low-speed"] = "skipped: needs the static friction table"
     else:
         rows = []
-        for name, p, t0, t1 in slow:
+        for _name, _p, t0, t1 in slow:
             t, F = channels["force"]
             k = (t >= t0) & (t <= t1)
             x = at(channels, "x", t[k])
@@ -195,7 +195,7 @@ def _thermal_expansion(channels, rests, charge, T_s, A_r):
     P0s, V0s = charge
     nR = P0s.value * V0s.value / T_s  # from the static charge (isothermal at T_s)
     Ts, dV = [], []
-    for name, p, t0, t1 in rests:
+    for _name, _p, t0, t1 in rests:
         t = channels["P_gas"][0]
         t = t[(t >= t0 + 0.5 * (t1 - t0)) & (t <= t1)]  # the second half: the gas has settled
         if len(t) < 3:

@@ -227,7 +227,7 @@ def _free_parameters(d: Damper, structures, form, fit_K, fixed, segs, extras, wa
             p.update(m2=p["m"], c2=p["c"], m=2.5 * p["m"], c=0.7 * p["c"])
             structures[key] = (structure + "+high", p, K, K_fit)
     names = []
-    for (path, tag), (structure, p, K, K_fit) in structures.items():
+    for (path, tag), (structure, _p, K, K_fit) in structures.items():
         names += [f"valves.{path}.{tag}.{k}" for k in identify_valves.STRUCTURES[structure]]
         if path != "piston":
             continue

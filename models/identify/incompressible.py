@@ -61,7 +61,8 @@ def charge_from_reversals(d: Damper, segments) -> str:
         return ""
     d.gas_spring.P0 = brentq(lambda p: gas_at(p) - measured, lo, hi, xtol=1.0)
     return (f"then the gas charge refitted from the force at the velocity reversals: "
-            f"{described:.0f} N described, {measured:.0f} N measured; P0 {P0 / 1e5:.2f} -> {d.gas_spring.P0 / 1e5:.2f} bar")
+            f"{described:.0f} N described, {measured:.0f} N measured; P0 {P0 / 1e5:.2f} -> "
+            f"{d.gas_spring.P0 / 1e5:.2f} bar")
 
 
 def _low_acceleration(s: Segment):
@@ -108,7 +109,8 @@ def valves_step(d: Damper, res: Result, fit_K=True):
         u, G, T, g = (np.concatenate([p[j] for p in parts]) for j in range(4))
         if len(u) < 12:
             raise IdentifyError(f"{path} {tag}: {len(u)} low-acceleration samples (need 12)" + (
-                f": the force less the description's gas force ({np.mean([_gas_force(d, s).mean() for s in res.train]):.0f} N) "
+                f": the force less the description's gas force "
+                f"({np.mean([_gas_force(d, s).mean() for s in res.train]):.0f} N) "
                 f"and friction never opposes the motion; the data's static force is about "
                 f"{np.mean([np.median(s.F) for s in res.train]):.0f} N: the description's gas charge does not fit "
                 f"this damper (record static holds, or describe it with --damper)" if not split else ""))

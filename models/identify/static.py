@@ -34,7 +34,7 @@ def static_holds(channels, events, window_s=1.0, name="force", extrapolate=False
     rows = {}
     spans = [(p, t0, t1) for _, p, t0, t1 in segments(events, kinds=("hold",))]
     ends = settled(*channels[name], [(t0, t1) for _, t0, t1 in spans]) if extrapolate else None
-    for i, (params, t0, t1) in enumerate(spans):
+    for i, (params, _t0, t1) in enumerate(spans):
         means = []
         for ch in (name, "x"):
             t, v = channels[ch]

@@ -37,7 +37,8 @@ def run(args):
         print(f"  {checked.compensation}")
     for r in results:
         print(f"  {fmt(units.show('velocity', r.v_m_s), 3):>6} {u} {r.direction:11s} reference "
-              f"{fmt(units.show('force', r.reference_N), 4):>7} {f}, measured {fmt(units.show('force', r.measured_N), 4):>7} "
+              f"{fmt(units.show('force', r.reference_N), 4):>7} {f}, measured "
+              f"{fmt(units.show('force', r.measured_N), 4):>7} "
               f"{f}, margin {fmt(units.show('force', r.margin_N), 3):>6} {f}  {'pass' if r.passed else 'FAIL'}")
     failed = [r for r in results if not r.passed]
     if args.out:

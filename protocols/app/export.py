@@ -51,7 +51,8 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
     names = names or sorted(channels, key=lambda n: (n != "force", n))
     unknown = [n for n in names if n not in channels]
     if unknown:
-        raise UsageError(f"--channels: no channel {unknown[0]!r} in the recording (it has {', '.join(sorted(channels))})")
+        raise UsageError(f"--channels: no channel {unknown[0]!r} in the recording (it has "
+                         f"{', '.join(sorted(channels))})")
     t = channels["force"][0]
     spans = [channels[n][0] for n in names if len(channels[n][0]) > 1]
     keep = (t >= max(s[0] for s in spans)) & (t <= min(s[-1] for s in spans)) if spans else np.ones(len(t), bool)

@@ -52,7 +52,8 @@ def run(args):
         raise UsageError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
                        f"A+B hidden together)")
     if not all(200.0 <= r <= 10000.0 for r in args.rates):
-        raise UsageError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in args.rates)}")
+        raise UsageError(f"--rates: the virtual cell runs at 200-10000 Hz, not "
+                         f"{', '.join(f'{r:g}' for r in args.rates)}")
     if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
         variants = [v for e in effects
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]

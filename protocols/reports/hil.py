@@ -61,7 +61,7 @@ def figures(ch, events, out, units=Units()):
     figs = [("Damper motion: where the car wants it and where it was", save(_tracking(ch, units), out / "hil-tracking.png")),
             ("The car around the damper against the car around the damper model",
              save(_responses(ch, units), out / "hil-responses.png"))]
-    for name, m in found:
+    for _name, m in found:
         spec = m.get("road", "")
         if spec.startswith("sweep:"):
             figs.append((f"Transmissibility over the sweep ({spec})",
@@ -70,7 +70,7 @@ def figures(ch, events, out, units=Units()):
 
 
 def _tracking(ch, units):
-    X = lambda si: units.show("length", si)  # noqa: E731
+    X = lambda si: units.show("length", si)
     x_label = units.label("damper x", "length")
     t, target = ch["hil.x_target"]
     measured = np.interp(t, *ch["x"])

@@ -330,7 +330,7 @@ def step_measures(ch, segs):
             rows.append((name, prm["step_mm"], np.nan, np.nan, np.nan, peak))
             continue
         u = (xk - x0) / d  # 0 at the start, 1 at the target
-        up = lambda level: float(tk[np.argmax(u >= level)]) if np.any(u >= level) else float("nan")  # noqa: E731
+        up = lambda level: float(tk[np.argmax(u >= level)]) if np.any(u >= level) else float("nan")
         out = np.nonzero(np.abs(u - 1) > STEP_BAND)[0]
         settle = float(tk[out[-1] + 1]) if len(out) and out[-1] + 1 < len(tk) else (0.0 if not len(out) else float("nan"))
         rows.append((name, prm["step_mm"], 1e3 * (up(0.9) - up(0.1)), 100 * max(float(np.max(u)) - 1, 0.0),
@@ -344,7 +344,7 @@ def _step_figures(ch, segs, out, units=Units()):
     if not steps or not {"x", "force"} <= set(ch):
         return []
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
-    for i, (name, prm, t0, t1) in enumerate(steps):
+    for i, (name, _prm, t0, t1) in enumerate(steps):
         _, (F, x) = peaks.window(ch, ("force", "x"), t0, t1)
         tt = ch["force"][0][(ch["force"][0] >= t0) & (ch["force"][0] <= t1)] - t0
         n = min(len(tt), len(x))
@@ -392,7 +392,7 @@ def _low_speed_figures(ch, segs, out, units=Units()):
     slow = [s for s in segs if s[1]["kind"] == "low-speed"]
     if slow and "force" in ch:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        for name, prm, t0, t1 in slow:
+        for name, _prm, t0, t1 in slow:
             _, (F, x) = peaks.window(ch, ("force", "x"), t0, t1)
             n = len(F)
             ax.plot(units.show("length", x[:n]), units.show("force", F[:n]), lw=0.8, label=name)
@@ -415,7 +415,7 @@ def _temperature_figures(ch, segs, out, units=Units()):
         for key, label in (("T_body", "body"), ("T_reservoir", "reservoir")):
             if key in ch:
                 ax[1].plot(ch[key][0], units.show("temperature", ch[key][1]), label=label)
-        for name, prm, t0, t1 in segs:
+        for _name, prm, t0, t1 in segs:
             if "target_c" in prm:
                 ax[1].axvspan(t0, t1, color="C2", alpha=0.3)
         ax[1].set(xlabel="time [s]", ylabel=units.label("temperature", "temperature"))

@@ -16,7 +16,7 @@ DBC = Path(__file__).parent / "dyno.dbc"
 def database(path=DBC):
     try:
         return cantools.database.load_file(str(path))
-    except Exception as e:  # cantools raises several parser errors
+    except Exception as e:  # noqa: BLE001 - cantools raises several parser errors
         raise RigError(f"{Path(path).name}: cannot load DBC ({e})") from None
 
 
@@ -29,7 +29,7 @@ def encode(name: str, signals: dict, strict=True) -> bytes:
     clipped to the wire's range already (the checks were a tenth of a simulated run)."""
     try:
         return bytes(database().get_message_by_name(name).encode(signals, strict=strict))
-    except Exception as e:
+    except Exception as e:  # noqa: BLE001 - cantools raises its own errors and ValueError, per signal
         raise RigError(f"CAN {name}: cannot encode {signals} ({e})") from None
 
 
@@ -43,5 +43,5 @@ def decode(frame_id: int, data: bytes) -> tuple[str, dict]:
         raise RigError(f"CAN id 0x{frame_id:03X}: not in {DBC.name}") from None
     try:
         return msg.name, msg.decode(bytes(data), decode_choices=False)
-    except Exception as e:
+    except Exception as e:  # noqa: BLE001 - cantools raises its own errors and ValueError, per signal
         raise RigError(f"CAN {msg.name}: bad payload {bytes(data).hex()} ({e})") from None

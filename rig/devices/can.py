@@ -51,7 +51,7 @@ def open_can_bus(params: dict, where: str):
         socket.setdefaulttimeout(timeout)  # its socket: the handshake cannot block forever
     try:
         return can.Bus(**kwargs)
-    except Exception as e:  # python-can raises per-interface errors
+    except Exception as e:  # noqa: BLE001 - python-can raises per-interface errors
         raise RigError(f"{where}: cannot open CAN {params['interface']} {params['channel']!r} "
                        f"({str(e).splitlines()[0][:160] if str(e) else type(e).__name__})") from None
     finally:
@@ -76,7 +76,7 @@ class CanBus:
         while True:
             try:
                 msg = self.bus.recv(timeout=0.0)
-            except Exception as e:
+            except Exception as e:  # noqa: BLE001 - python-can raises per-interface errors
                 raise RigError(f"{self.where}: CAN receive failed ({str(e).splitlines()[0][:120]})") from None
             if msg is None:
                 return

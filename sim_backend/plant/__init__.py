@@ -20,7 +20,7 @@ from models.physics.simulate import Stepper
 from sim_backend import effects as fx_mod
 from sim_backend.extra import compile_extra
 from sim_backend.plant import actuator, frame, load_path, sensors, thermal
-from sim_backend.plant.actuator import (MODE_FOLLOW, MODE_HOLD, MODE_OFF, STATE_ALARM,  # noqa: F401
+from sim_backend.plant.actuator import (MODE_FOLLOW, MODE_HOLD, MODE_OFF, STATE_ALARM,
                                         STATE_FOLLOWING, STATE_HOLDING, STATE_OFF)
 
 PARAMS = Path(__file__).parent.parent / "plant.toml"  # the plant's parameters

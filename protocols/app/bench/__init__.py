@@ -52,7 +52,8 @@ def import_(args):
     r = bench_import(args.rows)
     text = (f"dyno import of {r['rows']:,} CSV rows, median of 3: {r['seconds']:.1f} s with times in seconds, "
             f"{r['date-time stamps']:.1f} s with date-time stamps (slowest {r['seconds, slowest']:.1f} and "
-            f"{r['date-time stamps, slowest']:.1f} s; goal < {r['goal_s']:g} s: {'met' if r['goal_met'] else 'NOT met'})")
+            f"{r['date-time stamps, slowest']:.1f} s; goal < {r['goal_s']:g} s: "
+            f"{'met' if r['goal_met'] else 'NOT met'})")
     return emit(args, "CSV import time (dyno bench import)", r, text)
 
 
@@ -118,17 +119,20 @@ def hil(args):
              f"{x.get('residual_delay_ms', float('nan')):+.2f}", pct(x.get("body_acc_nrmse")),
              pct(x.get("travel_nrmse")), pct(x.get("tire_load_nrmse")), x["fault"] or "-") for x in r["rows"]]
     cost = ", ".join(f"{c} {us:.1f} us" for c, us in r["tick_us"].items())
-    goals = (f"best J2 <= {100 * GOALS['j2']:.0f} % on every road: {'met' if r['goals']['j2_best_le_2pct'] else 'NOT met'}; "
+    goals = (f"best J2 <= {100 * GOALS['j2']:.0f} % on every road: "
+             f"{'met' if r['goals']['j2_best_le_2pct'] else 'NOT met'}; "
              f"responses within {100 * GOALS['responses']:.0f} % of the reference: "
              f"{'met' if r['goals']['responses_le_3pct'] else 'NOT met'}; car step and compensator under "
              f"{GOALS['tick_us']:.0f} us a tick: {'met' if r['goals']['tick_le_50us'] else 'NOT met'}; replay within "
-             f"{100 * GOALS['replay']:.0f} % in at most 5 iterations: {'met' if r['goals']['replay_le_1pct_in_5'] else 'NOT met'}")
+             f"{100 * GOALS['replay']:.0f} % in at most 5 iterations: "
+             f"{'met' if r['goals']['replay_le_1pct_in_5'] else 'NOT met'}")
     rp = r["replay"]
     replayed = (f"replay of the race car's damper travel on {rp['road']}: NRMS error by iteration "
                 + ", ".join(f"{100 * v:.2f} %" for v in rp["nrmse"]) + (f" (stopped: {rp['fault']})" if rp["fault"] else ""))
     text = "\n".join(["  ".join(f"{c[:40]:>12s}" for c in row) for row in [head, *rows]]
                      + [f"per tick (car step + compensator): {cost}", replayed, goals])
-    note = (f"On the embedded virtual rig (wire emulators, simulated clock) at 1 kHz, the race-car quarter car (eqs 5.12-5.14); the "
+    note = (f"On the embedded virtual rig (wire emulators, simulated clock) at 1 kHz, the race-car quarter car (eqs "
+            f"5.12-5.14); the "
             f"reference is the same car, road and damper model in simulation. The preset's friction is eq 3.3's "
             f"Coulomb law, the virtual plant's seal has pre-sliding travel: that difference is physics the preset "
             f"leaves out, which is what a hardware-in-the-loop run shows; the goals are judged on the model with "

@@ -109,8 +109,7 @@ def valves_step(d: Damper, res: Result, fit_K=True):
         u, G, T, g = (np.concatenate([p[j] for p in parts]) for j in range(4))
         if len(u) < 12:
             raise IdentifyError(f"{path} {tag}: {len(u)} low-acceleration samples (need 12)" + (
-                f": the force less the description's gas force "
-                f"({np.mean([_gas_force(d, s).mean() for s in res.train]):.0f} N) "
+                f": the force less the description's gas force ({np.mean([_gas_force(d, s).mean() for s in res.train]):.0f} N) "
                 f"and friction never opposes the motion; the data's static force is about "
                 f"{np.mean([np.median(s.F) for s in res.train]):.0f} N: the description's gas charge does not fit "
                 f"this damper (record static holds, or describe it with --damper)" if not split else ""))

@@ -321,13 +321,20 @@ def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
 
 
 def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_path):
-    """The embedded Koni has compressible oil by design: the minimal baseline leaves it out,
-    and the diagnosis says it is the damper's own physics, with no repair advice."""
+    """The embedded Koni has compressible oil by design. By default the baseline is the
+    damper the recording names, refitted: its compressibility is in the model from the
+    start. The minimal baseline leaves it out, and the diagnosis says it is the damper's own
+    physics, with no repair advice."""
     out = tmp_path / "koni.mcap"
     r = subprocess.run([*DYNO, "run", "sine-matrix", "amplitudes_mm=12.7", "freqs_hz=1,4", "record_cycles=3",
                         "--out", str(out)], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     r = subprocess.run([*DYNO, "diagnose", str(out), "--json"], capture_output=True, text=True, timeout=600)
+    doc = json.loads(r.stdout)
+    assert doc["baseline"]["name"] == "koni" and "compressibility" not in doc["accepted"], doc["accepted"]
+    assert "Bleed the damper" not in doc["summary"]
+    r = subprocess.run([*DYNO, "diagnose", str(out), "--baseline", "minimal", "--json"], capture_output=True,
+                       text=True, timeout=600)
     doc = json.loads(r.stdout)
     own = [e for e in doc["effects"] if e["effect"] == "compressibility"]
     assert own and own[0]["in_own_description"] == "koni", doc["accepted"]

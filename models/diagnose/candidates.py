@@ -107,6 +107,12 @@ def baseline_params(d):
 
 
 @kernels.recent
+def soft_sign(v):
+    """A friction's direction, softened over V_EPS [m/s]."""
+    return np.tanh(v / V_EPS)
+
+
+@kernels.recent
 def shift(y, t, tau):
     """y [any unit] at t - tau [s] (linear between samples)."""
     return np.interp(t - tau, t, y)
@@ -129,7 +135,7 @@ class Minimal:
     def parts(self, d, p, x, v, tau):
         """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
         along motion x, v (already shifted by the sensor delay tau)."""
-        return damping(v, p), gas(x, self.x_m, p), p["F_c"] * np.tanh(v / V_EPS), lambda: _slope(v, p)
+        return damping(v, p), gas(x, self.x_m, p), p["F_c"] * soft_sign(v), lambda: _slope(v, p)
 
 
 class Model:
@@ -206,7 +212,7 @@ def _position_friction(m, d, p, f, e):
     # stroke rather than a law, since a tight spot, a worn band or a step in the bore each
     # have their own shape (the thesis's friction is a constant, eq 3.3)
     B = terms.cached(m, d, e, lambda ref, dd: terms.x_basis(ref, dd, FRICTION_KNOTS))
-    f.Ff = f.Ff + (B @ np.array([p[f"pf{i}"] for i in range(B.shape[1])])) * np.tanh(f.v / V_EPS)
+    f.Ff = f.Ff + (B @ np.array([p[f"pf{i}"] for i in range(B.shape[1])])) * soft_sign(f.v)
 
 
 def _breakaway_friction(m, d, p, f, e):

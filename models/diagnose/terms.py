@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import BSpline
 
+from models.diagnose import kernels
 from models.diagnose.spec import Effect, P
 
 DEGREE = 3
@@ -70,7 +71,13 @@ def coefficients(prefix, n, bound):
 def _valve_basis(d, v):
     """Per direction, over the square root of the speed: a valve's curve bends most at low
     speed (the bleed giving way to the shims), where the knots are closest."""
-    vmax = max(float(np.percentile(np.abs(d.v), 99)), 1e-3)
+    return _valve_basis_at(v, max(float(np.percentile(np.abs(d.v), 99)), 1e-3))
+
+
+@kernels.recent
+def _valve_basis_at(v, vmax):
+    # remembered: with a sensor delay the velocity is a shifted copy, the same array while
+    # the delay is not the parameter being moved
     B = bspline(np.sqrt(np.abs(v) / vmax), 0.0, 1.0, KNOTS["valve_form"])[:, 1:]  # the first is the only one non-zero at rest
     return np.hstack([B * (v > 0)[:, None], -B * (v < 0)[:, None]])
 

@@ -239,8 +239,9 @@ def _diagnose_command(sub):
     dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
     dg.add_argument("recording", nargs="?")
     _batch_options(dg, "diagnosis", "FILE.diagnosis.json")
-    dg.add_argument("--baseline", default="minimal",
-                    help="minimal (default: fitted whole), or a damper preset or model JSON, refitted")
+    dg.add_argument("--baseline", default=None,
+                    help="minimal (the thesis's minimal model, fitted whole), or a damper preset or model JSON, "
+                         "refitted (default: the damper the recording names, else minimal)")
     dg.add_argument("--json", action="store_true", help="machine-readable result")
     _writes(dg, "--report", FOLDER, metavar="DIR", help="HTML report with residual maps and loops")
     _overwrite(dg, "--report's files and --batch's outputs")

@@ -8,9 +8,8 @@ from pathlib import Path
 
 from models.diagnose import diagnose
 from models.diagnose import design
-from models.diagnose.candidates import EFFECTS
 from models.diagnose.words import summary
-from protocols.reports.diagnosis import report, to_json
+from protocols.reports.diagnosis import described, own_baseline, report, to_json
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from models.diagnose.data import DiagnoseError
@@ -20,26 +19,26 @@ from protocols.io.files import existing_files, filled, output_folder
 from protocols.errors import UsageError
 
 from protocols.io.reader import load_recording
-from protocols.reports.peaks import recorded_damper
+
 
 def run(args):
     baseline = None
-    if args.baseline != "minimal":
+    if args.baseline not in (None, "minimal"):
         try:
             model = load_damper(args.baseline)
         except (DamperError, OSError, ValueError) as e:
             raise UsageError(f"--baseline {args.baseline}: {e}") from None
         if isinstance(model, SimplifiedDamper):
             raise UsageError(f"--baseline {args.baseline}: a simplified model has no gas spring or friction to refit; "
-                           f"give a full damper model")
+                             f"give a full damper model")
         baseline = (Path(args.baseline).stem, model)
     if getattr(args, "batch", None):
         from models.damper import to_dict
         from protocols.app import diagnose_batch
-        return diagnose_batch.run(args, baseline and (baseline[0], to_dict(baseline[1])))
+        return diagnose_batch.run(args, baseline and (baseline[0], to_dict(baseline[1])) or args.baseline)
     if args.recording is None:
         raise UsageError("diagnose: give a RECORDING, or --batch FILE...")
-    if getattr(args, "next", False) and baseline is not None:
+    if getattr(args, "next", False) and args.baseline not in (None, "minimal"):
         raise UsageError("--next designs from the minimal baseline: drop --baseline")
     if args.budget is not None and not getattr(args, "next", False):
         raise UsageError("--budget: the rig time of --next's proposals; give --next with it")
@@ -51,14 +50,17 @@ def run(args):
         output_folder(args.report, existing_files(args.recording, args.baseline), args.overwrite, "--report")
     ch, events, meta = load_recording(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
+    if args.baseline is None and not getattr(args, "next", False):  # --next designs from the minimal model
+        baseline = own_baseline(meta)
+        if baseline:
+            say(f"baseline: {baseline[0]}, the damper the recording names, refitted (--baseline minimal for "
+                f"the thesis's minimal model)")
     try:
         res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout, drives=drives(meta))
     except (DiagnoseError, DamperError) as e:
         raise UsageError(f"{args.recording}: {e}") from None
-    own = recorded_damper(meta)
-    if own is not None and baseline is None:  # physics the recording's own damper has is no fault of it
-        res.described = {s.effect: own.name for s in res.steps
-                         if EFFECTS[s.effect.split(":")[0]].described and EFFECTS[s.effect.split(":")[0]].described(own)}
+    if baseline is None:
+        res.described = described(res, meta)
     if args.report:
         with filled(args.report, "--report") as folder:
             page = report(res, folder)

@@ -14,13 +14,16 @@ def _one(task):
     from models.damper import DamperError, from_dict
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
-    from protocols.reports.diagnosis import to_json
+    from protocols.reports.diagnosis import own_baseline, to_json
     from models.recording import drives
     from protocols.io.reader import load_recording
     with batch.unpacked(name, data) as path:
         try:
             ch, events, meta = load_recording(path)
-            base = None if baseline is None else (baseline[0], from_dict(baseline[1]))
+            if baseline in (None, "minimal"):  # None: each recording's own damper, if it names one
+                base = None if baseline else own_baseline(meta)
+            else:
+                base = (baseline[0], from_dict(baseline[1]))
             res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta))
         except (UsageError, RigError, DiagnoseError, DamperError) as e:
             return name, None, str(e).replace(str(path), name)
@@ -38,6 +41,7 @@ def _row(name, doc, error):
 
 
 def run(args, baseline):
-    """baseline: None (the minimal model) or (name, damper dict)."""
+    """baseline: None (each recording's own damper, else the minimal model), "minimal" or
+    (name, damper dict)."""
     args.summary = args.summary or "diagnosis-summary.csv"
     return batch.run(args, _one, (baseline, args.holdout), ".diagnosis.json", _row, "diagnose")

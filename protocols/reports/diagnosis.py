@@ -10,6 +10,24 @@ import numpy as np
 from models.diagnose.words import summary
 
 
+def own_baseline(meta):
+    """(name, damper) the recording says it was made with, the default baseline: its own
+    physics is then in the model from the start, refitted; None: the minimal model."""
+    from protocols.reports.peaks import recorded_damper
+    own = recorded_damper(meta)
+    return None if own is None else (own.name, own)
+
+
+def described(res, meta):
+    """{effect: damper} of the accepted effects the recording's own damper has in its
+    description (Effect.described): on the minimal baseline, no fault of that damper."""
+    from models.diagnose.candidates import EFFECTS
+    from protocols.reports.peaks import recorded_damper
+    own = recorded_damper(meta)
+    spec = (lambda e: EFFECTS[e.split(":")[0]].described)
+    return {} if own is None else {s.effect: own.name for s in res.steps if spec(s.effect) and spec(s.effect)(own)}
+
+
 def to_json(res):
     def num(v):
         return float(v) if np.isfinite(v) else None

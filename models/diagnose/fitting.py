@@ -11,6 +11,11 @@ from models.diagnose.data import Data
 from models.recording import covariance
 
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
+# steps (each a finite-difference Jacobian, a model evaluation per parameter) after which a
+# fit is crawling along a valley, not converging: on a crank recording one Bouc-Wen fit
+# took 900 steps (13,000 evaluations, a third of the diagnosis) for a candidate refused;
+# every other fit of the benchmarks and the shared recordings converges within 80
+MAX_STEPS = 100
 
 
 def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
@@ -52,7 +57,8 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
             if cost < best[0]:
                 best = (cost, z)
         z0 = best[1]
-    r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=effort * len(z0), method="trf")
+    r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=min(effort * len(z0), MAX_STEPS),
+                      method="trf")
     values = {**held, **dict(zip(names, r.x))}
     try:
         sd = dict(zip(names, covariance(r.jac, r.fun)[0]))

@@ -101,8 +101,15 @@ def identify(args):
 
 
 def diagnose(args):
+    if args.crank:
+        from protocols.app.bench.crank import bench
+        r = bench(args.seconds or 100.0, args.rate or 300.0)
+        text = (f"diagnosed {r['recording_s']:.0f} s of a slider-crank at {r['rate_hz']:.0f} Hz ({r['samples']} "
+                f"samples per channel, hidden: {', '.join(r['hidden'])}) in {r['diagnose_s']:.1f} s (goal < "
+                f"{r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}, named {r['named'] or 'nothing'}")
+        return emit(args, "Diagnosis time on a crank dyno's recording (dyno bench diagnose --crank)", r, text)
     from protocols.app.bench.throughput import bench_diagnose
-    r = bench_diagnose(args.seconds, args.rate)
+    r = bench_diagnose(args.seconds or 60.0, args.rate or 5000.0)
     text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
             f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}; "
             f"next test designed in {r['design_s']:.1f} s (goal < {r['design_goal_s']:.0f} s, "

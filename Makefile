@@ -81,6 +81,7 @@ results: $(STAMP)
 	$(VENV)/bin/dyno bench log --markdown > docs/results/bench-log.md.tmp && mv docs/results/bench-log.md.tmp docs/results/bench-log.md
 	$(VENV)/bin/dyno bench loop --markdown > docs/results/bench-loop.md.tmp && mv docs/results/bench-loop.md.tmp docs/results/bench-loop.md
 	$(VENV)/bin/dyno bench diagnose --markdown > docs/results/bench-diagnose.md.tmp && mv docs/results/bench-diagnose.md.tmp docs/results/bench-diagnose.md
+	$(VENV)/bin/dyno bench diagnose --crank --markdown > docs/results/bench-diagnose-crank.md.tmp && mv docs/results/bench-diagnose-crank.md.tmp docs/results/bench-diagnose-crank.md
 	$(VENV)/bin/dyno bench identify --truth --damper koni,mechformance,fox-light,fox-heavy --markdown > docs/results/identify.md.tmp && mv docs/results/identify.md.tmp docs/results/identify.md
 	$(VENV)/bin/dyno bench cluster --prove-tasks 4 --markdown > docs/results/bench-cluster.md.tmp && mv docs/results/bench-cluster.md.tmp docs/results/bench-cluster.md
 	$(VENV)/bin/dyno bench hil --markdown > docs/results/bench-hil.md.tmp && mv docs/results/bench-hil.md.tmp docs/results/bench-hil.md

@@ -1,13 +1,8 @@
-"""The run catalogue (issue 33): one SQLite file beside the recordings (WAL, no server)
-that indexes each recording's identity and setup, protocol and parameters, duration and
-outcome, and its sine peaks, so that runs can be found and a damper's forces trended; and
-what was made of each run later: QA checks, identified models, diagnoses.
-
-Indexing is incremental (a file is read again only when its size or time changed) and
-idempotent; a file that cannot be read is one row with its error and never stops the
-index. Several writers may index at once (WAL, a busy timeout): each run is one
-transaction. SI inside: m/s, N, s; times as ISO 8601 UTC.
-"""
+"""The run catalogue: one SQLite file beside the recordings (WAL, no server) indexing each
+recording's identity, setup, protocol, duration, outcome and sine peaks, and what was made of
+it later (QA checks, models, diagnoses). Readers (the CLI, the web view) use these functions:
+no SQL elsewhere. Indexing is incremental and idempotent; an unreadable file is a row with
+its error; each run is one transaction. SI inside; times as ISO 8601 UTC."""
 from __future__ import annotations
 
 import json
@@ -312,8 +307,22 @@ def attached(c: sqlite3.Connection, table, run_id) -> list[sqlite3.Row]:
 
 def latest_checks(c: sqlite3.Connection) -> dict[int, sqlite3.Row]:
     """{run id: its last QA check}."""
-    return {r["run_id"]: r for r in c.execute(
-        "SELECT * FROM checks WHERE rowid IN (SELECT MAX(rowid) FROM checks GROUP BY run_id)")}
+    return {r["run_id"]: r for r in c.execute("SELECT * FROM checks WHERE rowid IN (SELECT MAX(rowid) FROM checks GROUP BY run_id)")}
+
+
+def checks(c: sqlite3.Connection) -> list[sqlite3.Row]:
+    """Every QA check, newest first, with its run's serial, damper and path."""
+    return c.execute("SELECT k.*, r.serial, r.damper, r.path FROM checks k JOIN runs r ON r.id = k.run_id "
+                     "ORDER BY k.rowid DESC").fetchall()
+
+
+def serials(c: sqlite3.Connection) -> list[str]:
+    return [r[0] for r in c.execute("SELECT DISTINCT serial FROM runs WHERE serial IS NOT NULL ORDER BY serial")]
+
+
+def counts(c: sqlite3.Connection) -> tuple[int, int]:
+    """(recordings, of them unreadable) in the catalogue."""
+    return tuple(c.execute("SELECT COUNT(*), COUNT(error) FROM runs").fetchone())
 
 
 def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=None) -> list[sqlite3.Row]:

@@ -149,6 +149,14 @@ def test_no_application_code_opens_a_simulator_file():
     assert not bad
 
 
+def test_only_the_catalogue_speaks_sql():
+    """The run catalogue owns its schema: every reader (the CLI, the web view) goes through
+    protocols/catalogue.py."""
+    bad = [f"{p.relative_to(ROOT)}" for p in sources() if p.name != "catalogue.py"
+           and re.search(r"\b(SELECT|INSERT INTO|UPDATE \w+ SET|DELETE FROM)\b", p.read_text())]
+    assert not bad
+
+
 def test_the_circle_check_finds_a_circle():
     assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [("a", "b", "c")]
     assert not circles({"a": {"b"}, "b": set()})

@@ -36,7 +36,7 @@ def run(args):
         print(f"dyno: {e}; serving what can be read", file=sys.stderr)
     try:
         with closing(catalogue.connect(folder, write=False)) as c:
-            total, unreadable = c.execute("SELECT COUNT(*), COUNT(error) FROM runs").fetchone()
+            total, unreadable = catalogue.counts(c)
         found = f"{total} recordings ({unreadable} unreadable)"
     except catalogue.CatalogueError:
         found = "no readable catalogue (live runs only)"

@@ -7,6 +7,7 @@ recordings as they appear.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import tempfile
@@ -91,10 +92,6 @@ def create_app(folder, units=Units(), cache=None, reindex_s=REINDEX_S) -> Flask:
     return app
 
 
-def _serials(c):
-    return [r[0] for r in c.execute("SELECT DISTINCT serial FROM runs WHERE serial IS NOT NULL ORDER BY serial")]
-
-
 def runs():
     a = request.args
     error, rows = None, []
@@ -104,7 +101,7 @@ def runs():
                                   protocol=a.get("protocol") or None, where=a.get("where") or None)
         except catalogue.CatalogueError as e:
             error = str(e)
-        checks, serials = catalogue.latest_checks(c), _serials(c)
+        checks, serials = catalogue.latest_checks(c), catalogue.serials(c)
     rows = [dict(r, qa=_verdict(checks.get(r["id"]))) for r in rows]
     q = a.get("q", "").strip().lower()
     if q:
@@ -140,9 +137,11 @@ def run(run_id):
 def comparison():
     v = view()
     with v.db() as c:
-        chosen = [c.execute("SELECT * FROM runs WHERE id = ?", (i,)).fetchone()
-                  for i in request.args.getlist("id", type=int) if 0 < i <= catalogue.MAX_ID]
-    chosen = [r for r in chosen if r is not None and not r["error"]]
+        chosen = []
+        for i in request.args.getlist("id", type=int):
+            with contextlib.suppress(catalogue.CatalogueError):  # gone since the page was drawn
+                chosen.append(catalogue.run(c, i)[0])
+    chosen = [r for r in chosen if not r["error"]]
     error, made = None, None
     if len(chosen) < 2:
         error = "Choose two or more readable runs to compare (tick them in the runs table)."
@@ -160,7 +159,7 @@ def trend():
     serial, quantity = request.args.get("serial", ""), request.args.get("quantity", "rebound@0.5m/s")
     points, error, png = [], None, None
     with v.db() as c:
-        serials = _serials(c)
+        serials = catalogue.serials(c)
         if serial:
             try:
                 points = catalogue.trend(c, serial, quantity)
@@ -177,8 +176,7 @@ def trend():
 
 def qa():
     with view().db() as c:
-        rows = c.execute("SELECT k.*, r.serial, r.damper, r.path FROM checks k JOIN runs r ON r.id = k.run_id "
-                         "ORDER BY k.rowid DESC").fetchall()
+        rows = catalogue.checks(c)
     return render_template("qa.html", rows=[dict(r, verdict=_verdict(r)) for r in rows])
 
 

@@ -7,7 +7,6 @@ import sys
 import numpy as np
 import pytest
 
-from models.diagnose.bootstrap import Resamples
 from models.diagnose.candidates import EFFECTS
 
 from models.diagnose.candidates import _direction
@@ -230,7 +229,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     worse = cand("compressibility", r_best * 1.5)
     own_form = cand("bouc_wen:aux.current", r_best)
     best = Candidate("bouc_wen", 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 60.0, 2.4)
-    rivals = _rivals(best, r_best, [alike, worse, own_form], block, judged, ids, Resamples(1))
+    rivals = _rivals(best, r_best, [alike, worse, own_form], block, judged, ids, np.random.default_rng(1))
     assert [e for e, _, _ in rivals] == ["presliding_friction"] and rivals[0][2] >= 0.01
     step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=rivals,
                 depends_on=["displacement", "direction"], character="elastic", region="both directions",
@@ -341,19 +340,3 @@ def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_pa
     assert own and own[0]["in_own_description"] == "koni", doc["accepted"]
     assert "In koni's own description, not a fault: compressibility" in doc["summary"]
     assert "Bleed the damper" not in doc["summary"]
-
-
-def test_the_shared_resamples_give_the_bootstrap_p_and_do_not_depend_on_what_was_asked_before():
-    from models.diagnose import p_value
-    rng = np.random.default_rng(3)
-    better = rng.normal(0.5, 1.0, 300)  # a clear gain over 300 blocks
-    null = rng.normal(0.0, 1.0, 300)
-    null -= null.mean()  # no gain at all
-    a, b = Resamples(0), Resamples(0)
-    b.chunk(300, 5)  # asked in another order: the same draws
-    assert np.array_equal(a.chunk(300, 2), b.chunk(300, 2))
-    assert np.all(a.chunk(300, 0).sum(axis=1) == 300)  # each resample draws every block's count, n in all
-    assert p_value(better, a) < 1e-3 and 0.3 < p_value(null, a) < 0.7
-    # the counts' product is the mean over the drawn blocks
-    idx = np.random.default_rng([0, 300, 0]).integers(0, 300, (2000, 300))
-    assert np.allclose(a.means(better, 0), better[idx].mean(axis=1))

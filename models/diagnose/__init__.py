@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.diagnose.bootstrap import CHUNK, Resamples
 from models.diagnose.candidates import EFFECTS, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
 from models.diagnose.data import Data, DiagnoseError, prepare
@@ -51,7 +50,7 @@ NAMED_SHARE = 0.2
 # a mechanism whose variables the loop shows is named only when it beats this stand-in
 STAND_IN = "loop_surface"
 LOOP_VARIABLES = {"displacement", "velocity", "direction", "acceleration", "frequency"}
-BOOT = CHUNK  # resamples at least
+BOOT = 2000
 SURE_HITS = 50
 
 
@@ -69,20 +68,21 @@ def _block_sse(r, block, ids):
     return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
 
 
-def p_value(d_c, boot: Resamples, alpha=ALPHA):
+def p_value(d_c, rng, alpha=ALPHA):
     """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
     (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha.
     It stops early once p is surely above alpha (SURE_HITS hits, and alpha under p's
-    lower bound at 3.3 sd), as for most candidates tried: p is then known to about 15 %.
-    The resamples are the diagnosis's shared ones (bootstrap.py)."""
-    if len(d_c) < 3:
+    lower bound at 3.3 sd), as for most candidates tried: p is then known to about 15 %."""
+    n = len(d_c)
+    if n < 3:
         return 1.0
     m = d_c.mean()
     total = max(BOOT, int(np.ceil(20 / alpha)))
     hits = done = 0
-    for i in range(-(-total // CHUNK)):
-        means = boot.means(d_c, i)
-        hits, done = hits + int(np.sum(means - m >= m)), done + len(means)
+    while done < total:  # in chunks: a (resamples x blocks) index array each
+        k = min(BOOT, total - done)
+        boot = d_c[rng.integers(0, n, (k, n))].mean(axis=1)
+        hits, done = hits + int(np.sum(boot - m >= m)), done + k
         if hits >= SURE_HITS and hits - 3.3 * np.sqrt(hits) > alpha * done:
             break
     return float((hits + 1) / (done + 1))
@@ -178,7 +178,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     else:
         progress(f"simulating {baseline[0]} along the recorded motion")
         base = FromModel(baseline[1], d, baseline[0])
-    rng = Resamples(seed)  # every test of this diagnosis draws on the same resamples
+    rng = np.random.default_rng(seed)
     folds, judged, shown = holdout_masks(d, holdout)
     block = blocks(d)
     judged_blocks = np.unique(block[judged])
@@ -212,7 +212,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
             break
         best, b_vals, b_folds, b_r = _chosen(ok, block, judged, judged_blocks, alpha, rng)
         rivals, stand_in = _referees(d, base, accepted, best, b_r, round_, folds, current, block, judged,
-                                     judged_blocks, alpha, rng)
+                                     judged_blocks, alpha, seed)
         m_best = Model(d, accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
             # from the screening's values, close to the optimum: a few evaluations per parameter
@@ -284,12 +284,15 @@ def _chosen(ok, block, judged, judged_blocks, alpha, rng):
     return best if better else cat
 
 
-def _referees(d, base, accepted, best, r_best, round_, folds, current, block, judged, judged_blocks, alpha, rng):
-    """(rivals, stand-in) of a round's winner: the candidates the held-out blocks cannot
-    tell from it, and the flexible stand-in when it explains as much."""
+def _referees(d, base, accepted, best, r_best, round_, folds, current, block, judged, judged_blocks, alpha, seed):
+    """(rivals, stand-in) of a round's winner, each on resamples of its own (the main
+    sequence, and so every other verdict, stays as it was): the candidates the held-out
+    blocks cannot tell from it, and the flexible stand-in when it explains as much."""
     significant = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE]
-    rivals = _rivals(best, r_best, significant, block, judged, judged_blocks, rng)
-    return rivals, _stood_in(d, base, accepted, best, r_best, folds, current, block, judged, judged_blocks, rng)
+    rivals = _rivals(best, r_best, significant, block, judged, judged_blocks,
+                     np.random.default_rng([seed, 1, len(accepted)]))
+    return rivals, _stood_in(d, base, accepted, best, r_best, folds, current, block, judged, judged_blocks,
+                             np.random.default_rng([seed, 2, len(accepted)]))
 
 
 def _stood_in(d, base, accepted, best, r_best, folds, current, block, judged, judged_blocks, rng):
@@ -366,7 +369,7 @@ def _replaced(d, base, folds, judged, block, judged_blocks, accepted, values, cu
     open_ = [e for e in accepted if _term(e)]
     if not open_:
         return accepted, values, current, r_cur, replaced
-    rng = Resamples(1)
+    rng = np.random.default_rng(1)
     for e in [e for e in accepted if not _term(e) and accepted.index(e) < accepted.index(open_[0])]:
         rest = [a for a in accepted if a != e]
         m = Model(d, rest, base)

@@ -141,42 +141,29 @@ def dahl(x, t, h, x_stick):
     return z
 
 
-# |z| a Bouc-Wen state is held under: at 1 - 1e-15 the state near saturation kept only
-# rounding (atanh there spans 17-18, so when it unloaded depended on the last bit)
-SATURATED = 1.0 - 1e-12
-
-
 @njit(cache=True)
 def bw_up(z, s, x_y, gamma):
     """Bouc-Wen state after travel s >= 0 [m] from z (dz/dx = (1 - c z^2) / x_y, c = 1
-    loading (z >= 0), c = 1 - 2 gamma unloading (z < 0)), in closed form:
-    tanh(atanh(z) + u) = (z + tanh u) / (1 + z tanh u), and tan's addition alike, so a
-    sample costs one tanh (the inverse functions only where z crosses zero)."""
-    u = s / x_y
+    loading (z >= 0), c = 1 - 2 gamma unloading (z < 0)), in closed form."""
     if z < 0.0:
         c = 1.0 - 2.0 * gamma
         r = np.sqrt(abs(c))
-        w = r * z
         if c > 1e-9:
-            w = max(w, -r * SATURATED)  # saturated: atanh(w) finite, so it can unload
-            q = np.tanh(r * u)
-            if w + q < 0.0:  # still unloading
-                return (w + q) / (1.0 + w * q) / r
-            u += np.arctanh(w) / r  # the travel left once z reaches zero
+            s0 = -np.arctanh(max(r * z, -1.0 + 1e-15)) / r * x_y
         elif c < -1e-9:
-            if r * u < 0.5 * np.pi:
-                q = np.tan(r * u)
-                if w + q < 0.0:
-                    return (w + q) / (1.0 - w * q) / r
-            u += np.arctan(w) / r
+            s0 = -np.arctan(r * z) / r * x_y
         else:
-            if z + u < 0.0:
-                return z + u
-            u += z
+            s0 = -z * x_y
+        if s < s0:
+            u = s / x_y
+            if c > 1e-9:
+                return np.tanh(np.arctanh(max(r * z, -1.0 + 1e-15)) + r * u) / r
+            if c < -1e-9:
+                return np.tan(np.arctan(r * z) + r * u) / r
+            return z + u
+        s -= s0
         z = 0.0
-    z = min(z, SATURATED)
-    q = np.tanh(u)
-    return (z + q) / (1.0 + z * q)
+    return np.tanh(np.arctanh(min(z, 1.0 - 1e-15)) + s / x_y)
 
 
 @njit(cache=True)

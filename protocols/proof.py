@@ -6,6 +6,7 @@ its next tests, given a budget) and the table of many.
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 import math
 import tempfile
 from contextlib import closing
@@ -116,21 +117,43 @@ def calibrate(target, progress, effects=None, forms=False, pool=None):
 GROUP = 3  # a rival group larger than this tells the engineer too little to count as found
 
 
-def run_task(task):
+@dataclass(frozen=True)
+class ProveTask:
+    """One prove run: what is hidden in the plain cell, how strong, on which seed, noise
+    and rate; the user's own force law (--open) and the next tests' rig time (--adaptive)."""
+    effect: str | None  # a catalogue effect, a pair "a+b", or None: a null
+    form: str | None  # the plant's form of it (sim_backend/hidden.toml), None: the default
+    size: float  # times the noise floor
+    values: dict | None  # {effect: VALUE} hidden
+    seed: int
+    noise: float  # the sensors' noise, times the plain cell's
+    rate: float  # Hz
+    extra: str | None = None  # a force law of the user's own (sim_backend/extra.py)
+    budget_s: float = 0.0  # rig time of the next tests discover may run after the plan
+
+    @property
+    def name(self):
+        what = "open" if self.extra else f"{self.effect or 'null'} {self.form or ''} x{self.size:g}"
+        return f"{what} noise x{self.noise:g} {self.rate:g} Hz seed {self.seed}"
+
+
+def run_task(task: ProveTask):
     """Record one prove run through the wire protocols (and, given a budget, the next tests
     it asks for: protocols/discover.py), diagnose it."""
-    effect, form, size, values, seed, noise, rate, *extra = task
     with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:  # on the worker's own disk
-        return _recorded(effect, form, size, values, seed, noise, rate, folder, *extra)
+        return _recorded(task, folder)
 
 
-def _recorded(effect, form, size, values, seed, noise, rate, folder, extra=None, budget_s=0.0):
+def _recorded(task: ProveTask, folder):
     from models.damper import load as load_damper
     from models.diagnose import diagnose
     from protocols.discover import discover
     from protocols.io.reader import load_recording
     from protocols.io.recording import for_run
     from sim_backend.options import plant_options
+    effect, form, size, values, seed, noise, rate = (task.effect, task.form, task.size, task.values, task.seed,
+                                                     task.noise, task.rate)
+    extra, budget_s = task.extra, task.budget_s
     out = Path(folder) / f"{effect or 'null'}-{form or 'default'}-{size:g}-{noise:g}-{rate:g}-{seed}.mcap"
     specs = ([f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()]
              + ([f"extra:{extra}"] if extra else []))

@@ -22,7 +22,7 @@ from sim_backend.options import plain_cell
 
 from protocols import cluster
 from protocols.discover import MAX_ROUNDS
-from protocols.proof import calibrate, key, measured_rms_diff, run_task
+from protocols.proof import ProveTask, calibrate, key, measured_rms_diff, run_task
 from protocols.proof import table as proof_table
 
 def run(args):
@@ -64,7 +64,7 @@ def run(args):
                     f"(run dyno prove --calibrate{' --forms all' if form else ''})")
                 return 2
     tasks = []
-    adaptive = (None, args.budget) if getattr(args, "adaptive", False) else ()  # (no open physics, budget)
+    budget = args.budget if getattr(args, "adaptive", False) else 0.0
     for seed in range(args.seeds):
         for level, rate in [(n, r) for n in args.noise for r in args.rates]:
             for e, form in variants:
@@ -72,17 +72,17 @@ def run(args):
                     # a size is a multiple of the noise floor at this noise level
                     values = None if e == "null" else {
                         p: scaled(p, concealed[key(p, form)], size * level) for p in e.split("+")}
-                    tasks.append((None if e == "null" else e, form, size, values, seed, level, rate, *adaptive))
+                    tasks.append(ProveTask(None if e == "null" else e, form, size, values, seed, level, rate,
+                                           budget_s=budget))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
-                tasks.append((None, None, 1.0, None, seed, level, rate, *adaptive))
+                tasks.append(ProveTask(None, None, 1.0, None, seed, level, rate, budget_s=budget))
     from sim_backend.effects import EffectError, parse
-    for _, form, size, values, *_ in tasks:  # a size the plant cannot take is refused before any run
+    for t in tasks:  # a size the plant cannot take is refused before any run
         try:
-            parse([f"{e}{':' + form if form else ''}={v}" for e, v in (values or {}).items()])
+            parse([f"{e}{':' + t.form if t.form else ''}={v}" for e, v in (t.values or {}).items()])
         except EffectError as err:
-            raise UsageError(f"--sizes {size:g}: {err}") from None
-    names = [f"{e or 'null'} {form or ''} x{size:g} noise x{level:g} {rate:g} Hz seed {seed}"
-             for e, form, size, _, seed, level, rate, *_ in tasks]
+            raise UsageError(f"--sizes {t.size:g}: {err}") from None
+    names = [t.name for t in tasks]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
         results = run_all(run_task, tasks, pool, progress=True, label="prove", names=names)
     for name, r in zip(names, results):
@@ -92,7 +92,7 @@ def run(args):
         if r["effect"]:
             r["contribution"] = measured_rms_diff(r, nulls[r["seed"], r["noise"], r["rate"]])
     table = proof_table(results, effects, concealed)
-    doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table, "adaptive_budget_s": adaptive[1] if adaptive else None,
+    doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table, "adaptive_budget_s": budget or None,
            "goals": {"detection": 0.9, "false_positive": 0.05}}
     if args.json:
         print(json.dumps(doc, indent=1))
@@ -112,11 +112,10 @@ def prove_open(args, say):
     except EffectError as e:
         raise UsageError(str(e).replace("--effect extra:", "--open ")) from None
     level, rate = args.noise[0], args.rates[0]
-    tasks = [t for seed in range(args.seeds) for t in ((None, None, 1.0, None, seed, level, rate),
-                                                        (None, None, 1.0, None, seed, level, rate, args.open))]
+    tasks = [t for seed in range(args.seeds) for t in (ProveTask(None, None, 1.0, None, seed, level, rate),
+                                                        ProveTask(None, None, 1.0, None, seed, level, rate, args.open))]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-        results = run_all(run_task, tasks, pool, progress=True, label="prove --open",
-                          names=[f"{'open' if len(t) > 7 else 'null'} seed {t[4]}" for t in tasks])
+        results = run_all(run_task, tasks, pool, progress=True, label="prove --open", names=[t.name for t in tasks])
     rows = []
     for null, r in zip(results[::2], results[1::2]):
         size = measured_rms_diff(r, null)

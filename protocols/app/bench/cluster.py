@@ -23,7 +23,8 @@ def _prove_tasks(n):
     from sim_backend.options import plain_cell
     concealed = plain_cell()[2]["concealed"]
     effects = [(None, None), ("sensor_delay", {"sensor_delay": 10 * concealed["sensor_delay"]})]
-    return [(e, None, 10.0, v, seed, 1.0, 1000.0) for seed in range(n // 2 + 1) for e, v in effects][:n]
+    from protocols.proof import ProveTask
+    return [ProveTask(e, None, 10.0, v, seed, 1.0, 1000.0) for seed in range(n // 2 + 1) for e, v in effects][:n]
 
 
 def _sweep_tasks(n):

@@ -196,8 +196,11 @@ class Sequence:
     def __call__(self, t, readings):
         self.t = t
         if self.t0 is None:
-            self.event(t, "run_start", name=self.module.NAME, params=as_dict(self.params),
-                       message=f"{len(self.segments)} segments, {sum(s.duration for s in self.segments):.0f} s at most")
+            longest = sum(s.duration for s in self.segments)
+            # the plan's size as fields beside the protocol's parameters: a reader takes them, not the sentence
+            self.event(t, "run_start", name=self.module.NAME,
+                       params={**as_dict(self.params), "segment_count": len(self.segments), "duration_max_s": longest},
+                       message=f"{len(self.segments)} segments, {longest:.0f} s at most")
             for name, why in self.skipped:
                 self.event(t, "skipped", name=name, params={}, message=why)
             self.t0 = t

@@ -78,6 +78,8 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert measured == ["sine 6.4 mm 2 Hz", "sine 6.4 mm 8 Hz", "sine 6.4 mm 20 Hz", "sine 12.7 mm 2 Hz",
                         "sine 12.7 mm 8 Hz"]
     assert any(e["kind"] == "skipped" and e["segment"] == "sine 12.7 mm 20 Hz" for e in events)
+    # the plan's size travels as fields (the live page reads them), the sentence is for people
+    assert events[0]["params"]["segment_count"] == sum(e["kind"] == "segment_start" for e in events)
     # 1 kHz for the whole run; the load cell's last frame may still be on the line at the stop
     assert n["/channels/x"] > 10000 and abs(n["/channels/force"] - n["/channels/x"]) <= 1
     # the same recording as one wide table on the force clock, for pandas or a spreadsheet

@@ -18,7 +18,7 @@ from protocols.io.recording import intact_from
 from protocols.reports.comparison import run_name
 from protocols.units import Units, quantity_of
 
-PLANNED = re.compile(r"^(\d+) segments")  # the run_start event's message (protocols/runner.py)
+PLANNED = re.compile(r"^(\d+) segments")  # an older recording's run_start has the count in its message only
 PLOTTED = ("force", "x", "v")  # the channels the live page plots, kept for KEEP_S
 KEEP_S = 20.0  # s of them kept: the force trace's TRACE_S and the running segment's loops
 TRACE_S = 10.0  # s of force against time shown
@@ -89,7 +89,11 @@ class Live:
     @property
     def planned(self):
         for e in self.events:
-            m = PLANNED.match(e.get("message", "")) if e.get("kind") == "run_start" else None
+            if e.get("kind") != "run_start":
+                continue
+            if "segment_count" in e.get("params", {}):  # protocols/runner.py
+                return int(e["params"]["segment_count"])
+            m = PLANNED.match(e.get("message", ""))
             if m:
                 return int(m.group(1))
         return None

@@ -6,19 +6,17 @@ import json
 import sys
 from pathlib import Path
 
-from models.diagnose import diagnose
-from models.diagnose import design
-from models.diagnose.words import summary
-from protocols.reports.diagnosis import described, own_baseline, report, to_json
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
+from models.diagnose import design, diagnose
 from models.diagnose.data import DiagnoseError
+from models.diagnose.words import summary
 from models.recording import drives
 from protocols.app.arguments import BUDGET_S
-from protocols.io.files import existing_files, filled, output_folder
 from protocols.errors import UsageError
-
+from protocols.io.files import existing_files, filled, output_folder
 from protocols.io.reader import load_recording
+from protocols.reports.diagnosis import described, own_baseline, report, to_json
 
 
 def run(args):

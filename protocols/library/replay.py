@@ -119,7 +119,11 @@ class Learning:
         E = np.fft.rfft(self.target - m)
         inverse = np.conj(self.H) / (np.abs(self.H) ** 2 + EPS * np.max(np.abs(self.H) ** 2))
         step = np.fft.irfft(np.where(self.band, E * inverse, 0.0), len(self.target))
-        self.drive = self.drive + self.p.gain * self.taper * step
+        # the first correction whole, then gain / (i + 1): the steps average what does not
+        # repeat from one iteration to the next (a real-time loop's timing, noise) instead of
+        # following each. With the whole gain every time, over the wires the third iteration
+        # came out worse than the second in 3 of 4 runs (2.3 % -> 4.9 % once)
+        self.drive = self.drive + self.p.gain / (i + 1) * self.taper * step
         worst = float(np.max(np.abs(self.drive - self.target)))
         if worst > self.p.correction_mm / 1e3:
             raise RigError(f"replay: the drive would leave the target by {worst * 1e3:.2f} mm (at most "

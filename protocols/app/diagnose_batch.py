@@ -20,10 +20,10 @@ def _one(task):
     with batch.unpacked(name, data) as path:
         try:
             ch, events, meta = load_recording(path)
-            if baseline in (None, "minimal"):  # None: each recording's own damper, if it names one
-                base = None if baseline else own_baseline(meta)
+            if baseline is None:  # the damper the recording names, if any
+                base = own_baseline(meta)
             else:
-                base = (baseline[0], from_dict(baseline[1]))
+                base = None if baseline == "minimal" else (baseline[0], from_dict(baseline[1]))
             res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta))
         except (UsageError, RigError, DiagnoseError, DamperError) as e:
             return name, None, str(e).replace(str(path), name)

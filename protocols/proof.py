@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from models.diagnose.candidates import CATALOGUE
 from models.diagnose.candidates import EFFECTS as SPECS
 from models.parallel import run_all
 from models.recording import segments
@@ -169,11 +168,14 @@ def _recorded(task: ProveTask, folder):
     r = found.diagnosis if found else diagnose(ch, ev)
     rounds = found.rounds if found else []
     hidden = set(effect.split("+")) if effect else set()
-    first = _first(r.named(), hidden)
+    # the channels' alignment within a sample, fitted with the baseline, is a lag too small to
+    # be a candidate: it stands for a hidden sensor delay (the effect that supersedes it)
+    first = _first([_covered(e) for e in r.cell_found()] + r.named(), hidden)
     group = _group(r, hidden)
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
-        est = next(s.parameters for s in r.steps if s.effect.split(":")[0] == first).get(CATALOGUE[effect].estimate)
+        fits = [(c.effect, c.parameters) for c in r.baseline.cell] + [(s.effect, s.parameters) for s in r.steps]
+        est = next(p[SPECS[e.split(":")[0]].estimate] for e, p in fits if _covered(e).split(":")[0] == first)
     t, F = ch["force"]
     # the prove plan's segments: the contribution is measured there, against the null of the
     # same seed (the next tests differ from run to run)
@@ -193,7 +195,9 @@ def _recorded(task: ProveTask, folder):
     return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
             "rounds": [dataclasses.asdict(x) for x in rounds], "added_s": found.spent_s if found else 0.0,
             # the opening's diagnosis: what the prove plan alone named, on the same recording
-            "first_opening": _first(rounds[0].accepted, hidden) if rounds else first,
+            # (with the channels' alignment of the last: every round fits it with the baseline)
+            "first_opening": _first([_covered(e) for e in r.cell_found()] + rounds[0].accepted, hidden) if rounds
+            else first,
             "accepted": r.accepted, "claims": claims, "first": first, "group": group, "noise_sd": r.noise_sd,
             "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n",
                                                   "relevance", "excess_share")}
@@ -213,10 +217,18 @@ def _first(accepted, hidden):
     return named[0].split(":")[0] if named else None
 
 
+def _covered(e):
+    """The effect that supersedes e (the lag the channels' alignment is at a larger scale), or e."""
+    return next((n for n, s in SPECS.items() if s.supersedes == e), e)
+
+
 def _group(r, hidden):
     """The first finding that counts (as _first, small ones aside), with what the recording
     cannot tell from it: its rivals, when it is said as a group or a flexible stand-in
     explained it as well. [effect names]"""
+    cell = [_covered(c) for c in r.cell_found() if _covered(c) in hidden]  # fitted with the baseline: no rivals
+    if cell:
+        return cell[:1]
     for s in r.steps:
         key = s.effect.split(":")[0]
         if s.replaced_by or s.small or (SPECS[key].nature in ("form", "cell") and key not in hidden):

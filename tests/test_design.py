@@ -20,8 +20,9 @@ def _diagnosis(extra=()):
                                                          0.0, 0.0, 0.0, p, rel, rel)
     cands = [cand("sensor_delay", {"tau": 2e-4}, 0.55), cand("fluid_inertia", {"m_oil": 0.4}, 0.30),
              cand("free_play", {"c_play": 1e-7}, 0.01, p=0.5)] + list(extra)
-    return SimpleNamespace(data=d, accepted=["sensor_delay"], candidates=cands, noise_sd=1.0,
-                           final=SimpleNamespace(parameters=final))
+    # the model as accepted: the lag took the place of the channels' alignment (supersedes)
+    return SimpleNamespace(data=d, accepted=["sensor_delay"], effects=lambda: ["sensor_delay"], candidates=cands,
+                           noise_sd=1.0, final=SimpleNamespace(parameters=final))
 
 
 def test_an_effect_taken_over_a_close_runner_up_is_a_rival_and_a_weak_one_is_not():

@@ -12,6 +12,7 @@ from models.diagnose.candidates import EFFECTS
 from models.diagnose.candidates import _direction
 from models.diagnose import diagnose
 from models.diagnose.data import DiagnoseError, prepare
+from models.diagnose.words import summary
 from protocols.io.reader import load_recording
 
 DYNO = [sys.executable, "-m", "protocols.app.cli"]
@@ -51,10 +52,12 @@ def test_two_stage_valve_curve_solves_eq_3_30():
 def test_null_recording_names_no_physics(recordings):
     res = diagnose(*load_recording(recordings["null"])[:2])
     # the plant's force and motion agree to first order (sim_backend/plant/sensors.py): what
-    # is left of their alignment may only be said as the cell's timing, and small
+    # is left of their alignment (about 20 us) is fitted with the baseline, never a round's
+    # finding, and said as under one sample
     assert [e for e in res.accepted if EFFECTS[e].nature in ("physics", "open")] == []
-    for s in res.steps:
-        assert s.nature != "cell" or abs(s.parameters["tau"]) < 50e-6
+    assert "sensor_delay" not in res.accepted and res.cell_found() == ["alignment"]
+    assert 5e-6 < abs(res.baseline.cell[0].parameters["tau_0"]) < 50e-6
+    assert "The channels' alignment, fitted with the baseline:" in summary(res) and "Align" not in summary(res)
     assert res.baseline.nrmse_heldout < 0.005
 
 
@@ -90,7 +93,8 @@ def test_cli_json_and_summary(recordings, tmp_path):
     assert (tmp_path / "rep" / "index.html").exists() and (tmp_path / "rep" / "residuals.png").exists()
     # the next test: within the budget, each proposal with why and the line that records it
     assert doc["next"] and sum(p["rig_s"] for p in doc["next"]) <= 60
-    assert doc["next"][0]["other"] == ["fluid_inertia"]  # a 1 ms lag against an oil mass: fast sines part them
+    # a 1 ms lag against an oil mass (with the channels' alignment the lag took over): fast sines part them
+    assert doc["next"][0]["other"] == ["alignment", "fluid_inertia"]
     assert all(p["command"].startswith("dyno run sine-matrix ") and p["why"] for p in doc["next"])
     # the run's catalogue keeps what the diagnosis found (dyno runs show)
     from protocols import catalogue
@@ -285,7 +289,6 @@ def test_one_stroke_cannot_tell_a_mechanism_of_the_loop_from_a_flexible_stand_in
     """Friction in a band of the bore, on one crank stroke: position friction is accepted,
     but a smooth surface in displacement, speed and direction with no mechanism in it
     explains as much, so the dependence and its size are said and no mechanism named."""
-    from models.diagnose.words import summary
     spot = (lambda t, x, v, F: F + 30.0 * np.exp(-((x - 0.045) / 0.012) ** 2) * np.tanh(v / 0.01))
     res = diagnose(*_crank_run(spot))
     step = res.steps[0]
@@ -299,7 +302,6 @@ def test_one_stroke_cannot_tell_a_mechanism_of_the_loop_from_a_flexible_stand_in
 def test_a_rival_group_on_a_recording_made_for_it():
     """The force channel read 2 ms late on one crank stroke: compressibility and the cell's
     timing explain the same misfit about equally and the answer names them as a group."""
-    from models.diagnose.words import summary
     late = (lambda t, x, v, F: np.interp(t - 0.002, t, F))
     res = diagnose(*_crank_run(late))
     group = {res.steps[0].effect} | {e for e, _, _ in res.steps[0].rivals}

@@ -1,4 +1,5 @@
-"""Missing-physics diagnosis: fit the baseline, locate where its residual lives, try each
+"""Missing-physics diagnosis: fit the baseline (with the channels' alignment within half a
+sample, candidates.WITH_BASELINE), locate where its residual lives, try each
 catalogue effect (models/diagnose/candidates.py) with the baseline refitted, judge it only on
 held-out cycles, accept the best one whose improvement is significant, repeat. Two-fold
 cross-fitting (even cycles fit, odd judged, and back) judges every cycle once; a time
@@ -22,12 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.diagnose.candidates import EFFECTS, Minimal, Model
+from models.diagnose.candidates import EFFECTS, WITH_BASELINE, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
 from models.diagnose.data import Data, DiagnoseError, prepare
 from models.diagnose.from_model import FromModel
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
-from models.diagnose.result import Baseline, Candidate, Diagnosis, Final, LeftOver, Step
+from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step
 from models.diagnose.noise import noise_from, noise_sd
 from models.diagnose.terms import tone
 from models.diagnose.where import describe, locate
@@ -92,7 +93,7 @@ def available(d: Data, accepted):
     out, skipped = [], []
     taken = {a.split(":")[0] for a in accepted}
     for name, e in EFFECTS.items():
-        if e.needs == "referee":
+        if e.needs in ("referee", "baseline"):
             continue
         if e.needs == "T" and d.T is None:
             skipped.append(name)
@@ -182,13 +183,17 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     folds, judged, shown = holdout_masks(d, holdout)
     block = blocks(d)
     judged_blocks = np.unique(block[judged])
-    model = Model(d, base=base)
+    # the cell's timing is fitted with the baseline, never a candidate: a lag between the
+    # channels is in every recording, and as a candidate it took the first round on nulls
+    # and read a compressible oil's lag as fluid inertia (docs/diagnosis.md)
+    cell = list(WITH_BASELINE)
+    model = Model(d, cell, base=base)
     fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True)
     values, sd = pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
     fit0 = folds[0][0]
     base_res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
-                        residual=r0, model_gas_force=getattr(base, "Fg_m", None))
+                        residual=r0, model_gas_force=getattr(base, "Fg_m", None), cell=_cell_fits(d, cell, values, sd))
     sigma = noise_sd(r0, d, judged)
     d.tone_hz = tone(d, r0, judged)
     progress(f"baseline: held-out error {100 * base_res.nrmse_heldout:.2f} % of the force range, "
@@ -202,8 +207,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         names, _ = available(d, accepted)
         alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
         sse_cur = _block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
-        round_ = _round(d, base, names, accepted, folds, current, block, judged, judged_blocks, shown, sse_cur,
-                        sigma, alpha, rng, progress)
+        round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, block, judged, judged_blocks,
+                        shown, sse_cur, sigma, alpha, rng, progress)
         candidates += [c for c, *_ in round_]
         mse = float(np.mean(r_cur[judged] ** 2))
         ok = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE
@@ -211,9 +216,9 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         if not ok:
             break
         best, b_vals, b_folds, b_r = _chosen(ok, block, judged, judged_blocks, alpha, rng)
-        rivals, stand_in = _referees(d, base, accepted, best, b_r, round_, folds, current, block, judged,
-                                     judged_blocks, alpha, seed)
-        m_best = Model(d, accepted + [best.effect], base)
+        rivals, stand_in = _referees(d, base, cell + accepted, len(steps), best, b_r, round_, folds, current, block,
+                                     judged, judged_blocks, alpha, seed)
+        m_best = Model(d, cell + accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
             # from the screening's values, close to the optimum: a few evaluations per parameter
             b_folds, f_sds, b_r = cross_fit(m_best, d, folds, b_folds, effort=REFIT_EFFORT)
@@ -231,9 +236,9 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
-    accepted, values, current, r_cur, replaced = _replaced(d, base, folds, judged, block, judged_blocks, accepted,
-                                                           values, current, r_cur, progress)
-    final_model = Model(d, accepted, base)
+    accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judged, block, judged_blocks,
+                                                           accepted, values, current, r_cur, progress)
+    final_model = Model(d, cell + accepted, base)
     held = judged | shown
     for st in steps:
         st.replaced_by = replaced.get(st.effect)
@@ -248,6 +253,17 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                      noise_from(d))
 
 
+def _cell_fits(d, cell, values, sd):
+    """The cell's effects as fitted with the baseline, each with its 95 % interval and
+    whether the recording resolves it (resolved)."""
+    out = []
+    for e in cell:
+        own = {p.name: values[p.name] for p in EFFECTS[e].params(d, e)}
+        ci = {k: [v - 1.96 * sd[k], v + 1.96 * sd[k]] for k, v in own.items()}
+        out.append(CellFit(e, own, ci, resolved(d, e, own, ci)))
+    return out
+
+
 def _term(e):
     """Is e a term outside the catalogue (or the baseline's form reshaped), not a named effect?"""
     return EFFECTS[e.split(":")[0]].nature in ("open", "form")
@@ -255,11 +271,10 @@ def _term(e):
 
 def _sized(steps, excess, sigma):
     """Each step's practical size (NAMED_SHARE): its gain's share of the held-out
-    mean-square error above the noise that the damper's physics has to explain, the
-    baseline's excess less what the cell's timing and the valve curve's form took (the
-    plain cell's own timing offset is no physics to share with). Only physics and terms
-    outside the catalogue can be small: the cell's timing and the valve curve's form are
-    never said as physics left out."""
+    mean-square error above the noise that the damper's physics has to explain: the
+    baseline's excess (its alignment fitted with it) less what the cell's timing beyond it
+    and interference and the valve curve's form took. Only physics and terms outside the catalogue can be small:
+    the cell's and the valve curve's form are never said as physics left out."""
     is_physics = [EFFECTS[s.effect.split(":")[0]].nature in ("physics", "open") for s in steps]
     left = excess - sigma ** 2 * sum(s.relevance for s, ph in zip(steps, is_physics) if not ph)
     for s in (s for s, ph in zip(steps, is_physics) if ph):
@@ -284,28 +299,29 @@ def _chosen(ok, block, judged, judged_blocks, alpha, rng):
     return best if better else cat
 
 
-def _referees(d, base, accepted, best, r_best, round_, folds, current, block, judged, judged_blocks, alpha, seed):
+def _referees(d, base, fitted, k, best, r_best, round_, folds, current, block, judged, judged_blocks, alpha, seed):
     """(rivals, stand-in) of a round's winner, each on resamples of its own (the main
     sequence, and so every other verdict, stays as it was): the candidates the held-out
     blocks cannot tell from it, and the flexible stand-in when it explains as much."""
     significant = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE]
     rivals = _rivals(best, r_best, significant, block, judged, judged_blocks,
-                     np.random.default_rng([seed, 1, len(accepted)]))
-    return rivals, _stood_in(d, base, accepted, best, r_best, folds, current, block, judged, judged_blocks,
-                             np.random.default_rng([seed, 2, len(accepted)]))
+                     np.random.default_rng([seed, 1, k]))
+    return rivals, _stood_in(d, base, fitted, best, r_best, folds, current, block, judged, judged_blocks,
+                             np.random.default_rng([seed, 2, k]))
 
 
-def _stood_in(d, base, accepted, best, r_best, folds, current, block, judged, judged_blocks, rng):
+def _stood_in(d, base, fitted, best, r_best, folds, current, block, judged, judged_blocks, rng):
     """(stand-in, paired p) when a mechanism of the loop does not beat, on the same held-out
     blocks at p < ALPHA, a smooth surface in displacement, speed and direction with no
     mechanism in it (terms.py loop_surface), fitted beside the same accepted effects; else
-    None. Only physics whose variables the loop shows is held to it: a channel (aux),
-    temperature or time it depends on is evidence the surface cannot have."""
+    None. Catalogue physics and terms outside it alike, so that the answer cannot slide from
+    one flexible name to the next; only those whose variables the loop shows: a channel
+    (aux), temperature or time it depends on is evidence the surface cannot have."""
     spec = EFFECTS[best.effect.split(":")[0]]
-    if spec.nature != "physics" or ":" in best.effect or not set(spec.depends_on) <= LOOP_VARIABLES:
+    if spec.nature not in ("physics", "open") or ":" in best.effect or not set(spec.depends_on) <= LOOP_VARIABLES:
         return None
-    m = Model(d, accepted + [STAND_IN], base)
-    r = linear_fit(m, d, folds, current, hold=open_params(d, accepted))[2]
+    m = Model(d, fitted + [STAND_IN], base)
+    r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))[2]
     rel = np.log(np.maximum(_block_sse(np.where(judged, r, 0.0), block, judged_blocks), 1e-30)
                  / np.maximum(_block_sse(np.where(judged, r_best, 0.0), block, judged_blocks), 1e-30))
     p = p_value(rel, rng, ALPHA)
@@ -331,27 +347,27 @@ def _rivals(best, r_best, significant, block, judged, judged_blocks, rng):
     return sorted(out, key=lambda x: -x[1])
 
 
-def _round(d, base, names, accepted, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma, alpha,
-           rng, progress):
-    """Each candidate fitted beside the accepted effects and judged on the held-out blocks:
-    [(Candidate, pooled values, values per fold, residual [N])]."""
-    n_before = len(Model(d, accepted, base).params)
+def _round(d, base, names, fitted, number, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma,
+           alpha, rng, progress):
+    """Each candidate fitted beside the effects fitted so far (the cell's and those
+    accepted) and judged on the held-out blocks: [(Candidate, pooled values, values per
+    fold, residual [N])] of round `number`."""
     n_judged = int(np.sum(judged))
     out = []
     for e in names:
-        m = Model(d, accepted + [e], base)
+        m = Model(d, fitted + [e], base)
         if EFFECTS[e.split(":")[0]].linear:
-            f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, accepted))
+            f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))
         else:  # the open terms' coefficients held: they are refitted with the rest once accepted
-            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, accepted))
+            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted))
         vals, sds = pooled(f_vals, f_sds)
         d_c = sse_cur - _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
         gain = float(d_c.sum() / n_judged)  # held-out mean-square improvement [N^2]
         # each block counts alike whatever its force, and symmetrically: a block made ten
         # times worse weighs what one made ten times better does
         rel = np.log(np.maximum(sse_cur, 1e-30) / np.maximum(sse_cur - d_c, 1e-30))
-        own = {p.name: vals[p.name] for p in m.params[n_before:]}
-        c = Candidate(e, len(accepted) + 1, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
+        own = {p.name: vals[p.name] for p in EFFECTS[e.split(":")[0]].params(d, e)}
+        c = Candidate(e, number, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
                       **scores(d.F, r, shown), p_value=p_value(rel, rng, alpha), gain=gain, relevance=gain / sigma ** 2)
         out.append((c, vals, f_vals, r))
         progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
@@ -359,7 +375,7 @@ def _round(d, base, names, accepted, folds, current, block, judged, judged_block
     return out
 
 
-def _replaced(d, base, folds, judged, block, judged_blocks, accepted, values, current, r_cur, progress):
+def _replaced(d, base, cell, folds, judged, block, judged_blocks, accepted, values, current, r_cur, progress):
     """A term outside the catalogue replaces catalogue names whose sum it explains better:
     each catalogue effect accepted before an open term is dropped again when the model
     without it, refitted, does as well on the held-out cycles (its gain no longer
@@ -372,7 +388,7 @@ def _replaced(d, base, folds, judged, block, judged_blocks, accepted, values, cu
     rng = np.random.default_rng(1)
     for e in [e for e in accepted if not _term(e) and accepted.index(e) < accepted.index(open_[0])]:
         rest = [a for a in accepted if a != e]
-        m = Model(d, rest, base)
+        m = Model(d, cell + rest, base)
         f_vals, f_sds, r = cross_fit(m, d, folds, current)
         sse_with = _block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         sse_without = _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
@@ -395,9 +411,10 @@ def resolved(d: Data, effect, params, ci):
     if key == "presliding_friction":
         a = [np.max(np.abs(d.a[d.segment == s])) for s in np.unique(d.segment)]
         return params["x_stick"] >= 0.5 * float(np.median(a)) * h * h
-    if key == "sensor_delay":
-        lo, hi = ci["tau"]
-        return abs(params["tau"]) >= LAG_RESOLVED * h or lo * hi > 0
+    if EFFECTS[key].acts_on == "motion":  # a lag: the sensor delay, the channels' alignment
+        tau = EFFECTS[key].estimate
+        lo, hi = ci[tau]
+        return abs(params[tau]) >= LAG_RESOLVED * h or lo * hi > 0
     return True
 
 

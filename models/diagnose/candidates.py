@@ -146,7 +146,9 @@ class Model:
         self.data = d  # what the model is built on: its bases' knots come from it (terms.cached)
         self.x_m = float(np.mean(d.x))
         self.params = self.base.params(d)
-        self.effects = list(effects)
+        # an effect that supersedes another takes its place (a lag beyond the alignment)
+        gone = {EFFECTS[e.split(":")[0]].supersedes for e in effects}
+        self.effects = [e for e in effects if e not in gone]
         self.cache = {}  # bases the open terms build once (terms.py)
         for e in self.effects:
             self.params += EFFECTS[e.split(":")[0]].params(d, e)
@@ -189,10 +191,23 @@ _bouc_wen, _dahl = kernels.recent(kernels.bouc_wen), kernels.recent(kernels.dahl
 
 
 # the forms of the catalogue's effects: (model, data, values, Forces, effect id) -> None
-def _sensor_delay(m, d, p, f, e):
-    f.tau = p["tau"]
-    if f.tau:  # the force answers the motion tau earlier than stamped
-        f.x, f.v, f.a = shift(f.x, f.t, -f.tau), shift(f.v, f.t, -f.tau), shift(f.a, f.t, -f.tau)
+def _timing(name):
+    """A timing offset's force: the motion shifted by the parameter `name` [s]."""
+    def apply(m, d, p, f, e):
+        f.tau = p[name]
+        if f.tau:  # the force answers the motion tau earlier than stamped
+            f.x, f.v, f.a = shift(f.x, f.t, -f.tau), shift(f.v, f.t, -f.tau), shift(f.a, f.t, -f.tau)
+    return apply
+
+
+# the channels' alignment fitted with the baseline, within this share of a sample period
+# either way: a cell in good order (docs/diagnosis.md: wider, it takes a compressible oil's lag)
+ALIGNMENT = 0.1
+
+
+def _alignment_params(d, e):
+    h = float(np.median(d.h))
+    return [P("tau_0", 0.0, -ALIGNMENT * h, ALIGNMENT * h, "s")]
 
 
 def _damping_temperature(m, d, p, f, e):
@@ -296,9 +311,16 @@ def _cav_params(d, e):
 
 
 CATALOGUE = {e.name: e for e in (
+    Effect("alignment", "the channels' alignment within half a sample",
+           _alignment_params, estimate="tau_0", apply=_timing("tau_0"), acts_on="motion", depends_on=("time",),
+           nature="cell", needs="baseline",
+           say=("The {late} by {v} {u}: a timing offset of the cell (a filter or transport lag in a sensor's "
+                "signal chain, or the channels' clocks), not the damper.", "tau_0", 1e3, "ms"),
+    ),
     Effect("sensor_delay", "a timing offset between the displacement and force channels",
            _p(P("tau", 0.0, -0.05, 0.05, "s", (-2e-2, -2e-3, -2e-4, -2e-5, 0.0, 2e-5, 2e-4, 2e-3, 2e-2))),
-           estimate="tau", apply=_sensor_delay, acts_on="motion", depends_on=("time",), nature="cell",
+           estimate="tau", apply=_timing("tau"), acts_on="motion", depends_on=("time",), nature="cell",
+           supersedes="alignment",
            say=("The {late} by {v} {u}: a timing offset of the cell (a filter or transport lag in a sensor's "
                 "signal chain, or the channels' clocks), not the damper. Align the channels (or fix the "
                 "conditioning) before fitting valves.", "tau", 1e3, "ms"),
@@ -387,9 +409,11 @@ CATALOGUE = {e.name: e for e in (
 )}
 # the catalogue and the open terms (models/diagnose/terms.py), which compete in every round
 EFFECTS = {**CATALOGUE, **TERMS}
+# the cell's part of every model the diagnosis fits, from the baseline on (needs="baseline")
+WITH_BASELINE = [n for n, e in EFFECTS.items() if e.needs == "baseline"]
 # the order the effects act in, whatever order they were accepted in: multiplications
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
-ORDER = ("sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility",
+ORDER = ("alignment", "sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility",
          "gas_temperature", "elastic_stroke", "presliding_friction", "position_friction", "breakaway_friction",
          "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "loop_surface",
          "cavitation", "free_play")

@@ -122,6 +122,8 @@ def rivals(diag: Diagnosis) -> list[Rival]:
     """The explanations the diagnosis could not tell apart (see the module's docstring);
     only those a motion can tell apart (not one in time, temperature or an aux channel)."""
     accepted = list(diag.accepted)
+    fitted = tuple(diag.effects())  # with the cell's timing, which every model carries
+    cell = fitted[:len(fitted) - len(accepted)]
     final = diag.final.parameters
     out = []
     by_round = {}
@@ -136,7 +138,7 @@ def rivals(diag: Diagnosis) -> list[Rival]:
         own = {p.name for p in EFFECTS[e.split(":")[0]].params(diag.data, e)}
         values = {**{n: v for n, v in final.items() if n not in own}, **c.parameters}
         chosen_gain = next(x.relevance for x in by_round[k + 1] if x.effect == e)
-        out.append(Rival(tuple(accepted), tuple(a if a != e else c.effect for a in accepted), values,
+        out.append(Rival(fitted, cell + tuple(a if a != e else c.effect for a in accepted), values,
                          f"{_say(e)} was taken over {_say(c.effect)}, {chosen_gain:.2f} to {c.relevance:.2f} "
                          f"noise variances"))
     last = by_round.get(len(accepted) + 1, [])
@@ -144,7 +146,7 @@ def rivals(diag: Diagnosis) -> list[Rival]:
              if c.effect not in accepted and (c.relevance >= RELEVANCE or c.p_value < HINT_P)
              and _designable(c.effect) and resolved(diag.data, c.effect, c.parameters, c.ci)]
     for c in hints[:MAX_HINTS]:
-        out.append(Rival(tuple(accepted), tuple(accepted) + (c.effect,), {**final, **c.parameters},
+        out.append(Rival(fitted, fitted + (c.effect,), {**final, **c.parameters},
                          f"{_say(c.effect)} is hinted at but not shown (gain {c.relevance:.2f} noise "
                          f"variances, p = {c.p_value:.2g})"))
     return out
@@ -198,19 +200,20 @@ def propose(diag: Diagnosis, limits: Limits, budget_s=120.0, tried=frozenset()) 
     d = diag.data
     sigma = diag.noise_sd
     best = []
-    ma = Model(d, list(diag.accepted))  # every rival competes with the model as accepted
+    ma = Model(d, diag.effects())  # every rival competes with the model as accepted
     sines = feasible(limits, d)
     motions = {s: motion(s, d) for s in sines}
     chosen = {s: ma.force(motions[s], diag.final.parameters) for s in sines}
     sines = [s for s in sines if np.max(np.abs(chosen[s])) <= limits.force_max]
     for rv in rivals(diag):
         mb = Model(d, list(rv.other))
+        start = {p.name: p.x0 for p in mb.params}  # what no fit gave it (the alignment an accepted lag took over)
         found = None
         for s in (s for s in sines if s.rig_s <= budget_s and (key(rv), s) not in tried):
             m = motions[s]
             fa = chosen[s]
             counted = m.cycle >= SETTLE_CYCLES
-            diff = (fa - mb.force(m, rv.values))[counted]
+            diff = (fa - mb.force(m, {**start, **rv.values}))[counted]
             diff = diff - diff.mean()
             score = float(np.sum(diff ** 2) / (2 * sigma ** 2) / s.rig_s)
             if found is None or score > found.score:

@@ -11,6 +11,15 @@ from models.diagnose.data import Data
 
 
 @dataclass
+class CellFit:
+    """An effect of the test cell fitted with the baseline (its timing), not a candidate."""
+    effect: str
+    parameters: dict
+    ci: dict  # {name: [lo, hi]}, 95 %
+    resolved: bool  # the recording resolves it (models.diagnose.resolved)
+
+
+@dataclass
 class Baseline:
     name: str
     parameters: dict
@@ -21,6 +30,7 @@ class Baseline:
     r2_heldout: float
     residual: np.ndarray  # N, model - measured; held-out samples from a fit that never saw them
     model_gas_force: float | None  # N: a damper model's gas force at the mean position, as simulated
+    cell: list = field(default_factory=list)  # [CellFit]: the cell's effects fitted with it
 
 
 @dataclass
@@ -108,6 +118,14 @@ class Diagnosis:
     final: Final
     noise_from: str = ""  # where the noise estimate came from, in words (noise_from())
     described: dict = field(default_factory=dict)  # {effect: damper}: physics the recording's own damper has
+
+    def effects(self):
+        """The final model's effects: the cell's, fitted with the baseline, then those accepted."""
+        return [c.effect for c in self.baseline.cell] + self.accepted
+
+    def cell_found(self):
+        """The cell's effects the recording resolves (its timing, said with the baseline)."""
+        return [c.effect for c in self.baseline.cell if c.resolved]
 
     def named(self):
         """The accepted effects said by name: not dropped again, not small, not said as a

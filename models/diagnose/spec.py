@@ -35,7 +35,8 @@ class Effect:
     apply: callable  # (model, d, values, Forces, effect id): its force, in place
     acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
     needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel; "tone": a
-    # tone; "referee": never a candidate, the stand-in a mechanism must beat (loop_surface)
+    # tone; "referee": never a candidate, the stand-in a mechanism must beat (loop_surface); "baseline": never a
+    # candidate, fitted with the baseline from the start (the cell's timing)
     depends_on: tuple = ()  # of VARIABLES
     nature: str = "physics"  # of NATURES
     say: tuple = ()  # (sentence, parameter shown, factor, unit): see models/diagnose/words.py
@@ -43,3 +44,4 @@ class Effect:
     # (Damper) -> bool: a damper description that has this physics (models/damper.py); the
     # minimal baseline leaving it out is then no fault of that damper
     described: callable = None
+    supersedes: str = ""  # an effect this one takes the place of in a model (a lag beyond the alignment)

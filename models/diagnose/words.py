@@ -10,7 +10,8 @@ from models.diagnose import quality
 from models.diagnose.candidates import EFFECTS
 
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
-         "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form"}
+         "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form",
+         "alignment": "the channels' alignment"}
 # how a finding opens, by its nature (models/diagnose/spec.py NATURES)
 # (an open term's or the valve form's sentence opens with what it is)
 OPENING = {"physics": "Left out: {name}. ", "cell": "In the cell, not the damper: {name}. ", "form": "", "open": ""}
@@ -35,7 +36,8 @@ def sentence(step, sample_s=None):
     key = e.split(":")[0]
     text, pname, factor, unit = EFFECTS[key].say
     p, ci = step.parameters, step.ci
-    late = ""
+    if EFFECTS[key].acts_on == "motion":  # a lag between the channels
+        return lag_sentence(key, p, ci, sample_s) + _change(step)
     if (pname is None and key != "cavitation") or key == "interference":  # a smooth basis: by where and size
         return text.format(region=step.region, size=_size(step), hz=step.tone_hz or 0.0) + _change(step)
     if key == "cavitation":
@@ -70,17 +72,25 @@ def sentence(step, sample_s=None):
     else:
         v = p[pname] * factor
         lo, hi = (c * factor for c in ci[pname])
-        if key == "sensor_delay":
-            late = ("force reading lags the displacement" if v < 0
-                    else "displacement reading lags the force")
-            # the size of the lag; an interval across zero starts at zero
-            v, lo, hi = abs(v), (0.0 if lo * hi < 0 else min(abs(lo), abs(hi))), max(abs(lo), abs(hi))
-            if sample_s and v < sample_s * factor:
-                return (f"The {late} by {v:.2g} {unit} ({v / (sample_s * factor):.2g} of a sample period): "
-                        f"below one sample, unresolved at this rate and no reason to re-align the channels; it "
-                        f"may stand for anything that shifts the loop a little in time." + _change(step))
         vs = f"{v:.3g} ({lo:.3g} to {hi:.3g})"
-    return text.format(v=vs, u=unit, late=late) + _change(step)
+    return text.format(v=vs, u=unit) + _change(step)
+
+
+def lag_sentence(key, p, ci, sample_s=None):
+    """A timing offset between the channels (effect `key`, its values p and 95 % interval
+    ci) in words; under one sample period sample_s [s], said as unresolved, never as
+    channels to re-align."""
+    text, pname, factor, unit = EFFECTS[key].say
+    v = p[pname] * factor
+    lo, hi = (c * factor for c in ci[pname])
+    late = "force reading lags the displacement" if v < 0 else "displacement reading lags the force"
+    # the size of the lag; an interval across zero starts at zero
+    v, lo, hi = abs(v), (0.0 if lo * hi < 0 else min(abs(lo), abs(hi))), max(abs(lo), abs(hi))
+    if sample_s and v < sample_s * factor:
+        return (f"The {late} by {v:.2g} {unit} ({v / (sample_s * factor):.2g} of a sample period): below one "
+                f"sample, unresolved at this rate and no reason to re-align the channels; it may stand for anything "
+                f"that shifts the loop a little in time.")
+    return text.format(v=f"{v:.3g} ({lo:.3g} to {hi:.3g})", u=unit, late=late)
 
 
 def rivals_sentence(step):
@@ -155,6 +165,10 @@ def summary(res):
         lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
                      f"mean position (the model: {b.model_gas_force:.0f} N) and its slope with stroke "
                      f"x{p['k_gas']:.3f}, friction x{p['k_friction']:.3f}.")
+    sample_s = float(np.median(res.data.h))
+    for c in (c for c in b.cell if c.resolved):
+        said_ = lag_sentence(c.effect, c.parameters, c.ci, sample_s)
+        lines.append(f"The channels' alignment, fitted with the baseline: {said_[0].lower()}{said_[1:]}")
     strong = [loc for loc in res.locations if loc["concentration"] > 2.0][:3]
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
@@ -182,8 +196,7 @@ def summary(res):
         elif s.rivals:
             lines.append(rivals_sentence(s))
         else:
-            lines.append(OPENING[s.nature].format(name=name) + sentence(s, float(np.median(res.data.h)))
-                         + f" ({_what(s)}.)")
+            lines.append(OPENING[s.nature].format(name=name) + sentence(s, sample_s) + f" ({_what(s)}.)")
     if res.accepted:
         f = res.final
         lines.append(f"Final: held-out error {100 * f.nrmse_heldout:.3g} % of the force range, RMSE "

@@ -166,10 +166,12 @@ def _minimal(args, channels, events, inputs, driving):
               f"{min(r['force_range_N']):.0f} to {max(r['force_range_N']):.0f} N: something the recording does not "
               f"carry changed between them (a coil current, an adjuster, warm-up), and one model cannot follow them "
               f"all; fit each alone with --segment NAME ({'; '.join(r['segments'])})")
-    print(f"identify: the recording names no damper: the model that needs no description, held out by cycles: "
-          f"{100 * base.nrmse_heldout:.2f} % of the force range (R^2 {base.r2_heldout:.3f})")
-    if doc["effects"]:
-        print(f"  with the effects the diagnosis accepts ({', '.join(doc['effects'])}): "
+    from models.diagnose.words import said
+    timing = "".join(f", with {said(e)}" for e in doc["effects"] if e in found.cell_found())
+    print(f"identify: the recording names no damper: the model that needs no description{timing}, held out by "
+          f"cycles: {100 * base.nrmse_heldout:.2f} % of the force range (R^2 {base.r2_heldout:.3f})")
+    if found.accepted:
+        print(f"  with the effects the diagnosis accepts ({', '.join(found.accepted)}): "
               f"{100 * doc['heldout_nrmse']:.2f} % (R^2 {doc['heldout_r2']:.3f})")
     for k, p in doc["parameters"].items():
         print(f"  {k:14s} {p['value']:12.5g} {p['unit']:10s}" + (f"  undetermined: {p['undetermined']}"
@@ -185,12 +187,15 @@ def _minimal_doc(args, out, base, found, channels, events):
     from models.diagnose import undetermined
     from models.diagnose.candidates import Model
     d = found.data
-    effects = list(found.accepted)
-    model = Model(d, effects)
-    values = found.final.parameters if effects else base.parameters
-    sd = {} if effects else base.sd  # the baseline fit's deviations: not of the final model's values
+    # the channels' alignment, fitted with the baseline, goes with the model where the
+    # recording resolves it (and no accepted lag took its place): the model is then evaluated
+    # along that recording as it was fitted
+    model = Model(d, found.cell_found() + found.accepted)
+    effects = model.effects
+    values = found.final.parameters if found.accepted else base.parameters
+    sd = {} if found.accepted else base.sd  # the baseline fit's deviations: not of the final model's values
     unknown = undetermined(model.params, values, sd)
-    fit = found.final if effects else base
+    fit = found.final if found.accepted else base
     return {"model": "minimal",
             "what": "per-direction valve curves (c1 v + c2 v^2 blended into C v above the crack force Fcr), a "
                     "polytropic gas force G0 with its length L, sliding friction F_c (models/diagnose/candidates.py), "

@@ -38,7 +38,11 @@ def to_json(res):
         "quality": [{"channel": f.channel, "kind": f.kind, "t0": num(f.t0), "t1": num(f.t1), "samples": f.samples,
                      "message": f.message} for f in res.data.flags],
         "baseline": {"name": b.name, "parameters": {k: num(v) for k, v in b.parameters.items()},
-                     "nrmse_train": b.nrmse_train, **{k: getattr(b, k) for k in held}},
+                     "nrmse_train": b.nrmse_train, **{k: getattr(b, k) for k in held},
+                     # the cell's timing, fitted with it (never a candidate)
+                     "cell": [{"effect": c.effect, "parameters": {k: num(v) for k, v in c.parameters.items()},
+                               "ci": {k: [num(a), num(z)] for k, (a, z) in c.ci.items()}, "resolved": c.resolved}
+                              for c in b.cell]},
         "noise_sd": res.noise_sd, "noise_from": res.noise_from,
         "locations": res.locations,
         "remaining": res.remaining,

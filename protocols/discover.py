@@ -19,6 +19,7 @@ import sys
 from dataclasses import dataclass, field
 
 from models.diagnose import design, diagnose
+from models.diagnose.words import said
 from rig.loop import describe
 from protocols.library import sine_matrix
 from protocols.plan import Plan
@@ -90,7 +91,7 @@ def _tell(observers, t, kind, segment, params, message):
 def verdict(rounds, stopped, spent_s, budget_s) -> str:
     """What a discovery ends with, as a test engineer reads it."""
     last = rounds[-1] if rounds else Round([], [])
-    found = ", ".join(e.replace("_", " ") for e in last.accepted) or "nothing beyond the baseline"
+    found = ", ".join(map(said, last.accepted)) or "nothing beyond the baseline"
     unsure = ("; ".join(last.unsure) + ".") if last.unsure else "nothing."
     return (f"Found: {found}. Still unresolved: {unsure} Stopped: {stopped}. Rig time of its own tests: "
             f"{spent_s:.1f} of {budget_s:g} s.")

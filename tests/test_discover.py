@@ -48,7 +48,7 @@ def test_discovery_runs_the_designed_sines_with_their_reasons_and_diagnoses_agai
     assert ev[-1]["kind"] == "run_end" and ev[-1]["segment"] == "discover" and ev[-1]["message"] == "completed"
     # it ends with a verdict a test engineer reads: found, unresolved, why it stopped
     assert ev[-2]["kind"] == "verdict" and ev[-2]["message"] == found.verdict
-    assert found.verdict.startswith("Found: sensor delay") and "Stopped: the round limit of its own tests (1)" in found.verdict
+    assert found.verdict.startswith("Found: a timing offset of the cell") and "Stopped: the round limit of its own tests (1)" in found.verdict
     assert ev[-2]["params"]["stopped"].startswith("the round limit") and ev[-2]["params"]["spent_s"] == found.spent_s
     # each reason is told before its sine runs, and the sine is recorded after it
     second = kinds.index("run_start", 1)

@@ -10,16 +10,21 @@ from models.diagnose.candidates import CATALOGUE
 from sim_backend.effects import EFFECTS, parse
 from sim_backend.options import plain_cell
 
+# the catalogue's candidates: the channels' alignment, fitted with every baseline, is no
+# effect the plant hides (a hidden sensor delay is the larger lag that takes its place)
+CANDIDATES = [n for n, e in CATALOGUE.items() if e.needs != "baseline"]
+
 
 def test_the_plant_hides_exactly_the_catalogues_effects():
-    assert list(EFFECTS) == list(CATALOGUE)
+    assert list(EFFECTS) == CANDIDATES and all(CATALOGUE[n].supersedes in CATALOGUE for n in CATALOGUE
+                                                if CATALOGUE[n].supersedes)
     assert all(name == e.name for name, e in CATALOGUE.items())
 
 
 def test_prove_conceals_every_effect_in_every_form():
     from sim_backend.effects import FORMS
     _, _, prove = plain_cell()
-    assert set(prove["concealed"]) == set(CATALOGUE) | set(FORMS)
+    assert set(prove["concealed"]) == set(CANDIDATES) | set(FORMS)
     # each concealed value is one the plant takes
     for key, value in prove["concealed"].items():
         parse([f"{key}={value}"])
@@ -27,7 +32,8 @@ def test_prove_conceals_every_effect_in_every_form():
 
 def test_each_effect_is_sized_by_one_of_its_own_parameters():
     t = np.linspace(0, 1, 200)
-    data = SimpleNamespace(F=np.sin(2 * np.pi * t) * 1000.0, aux={"aux.valve_current": 1 + 0.3 * np.sin(t)})
+    data = SimpleNamespace(F=np.sin(2 * np.pi * t) * 1000.0, aux={"aux.valve_current": 1 + 0.3 * np.sin(t)},
+                           h=np.full(len(t), t[1]))
     for name, e in CATALOGUE.items():
         eid = f"{name}:aux.valve_current" if e.needs == "aux" else name
         # a smooth basis has no one parameter that sizes it: its size is the force it adds

@@ -183,17 +183,9 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     folds, judged, shown = holdout_masks(d, holdout)
     block = blocks(d)
     judged_blocks = np.unique(block[judged])
-    # the cell's timing is fitted with the baseline, never a candidate: a lag between the
-    # channels is in every recording, and as a candidate it took the first round on nulls
-    # and read a compressible oil's lag as fluid inertia (docs/diagnosis.md)
     cell = list(WITH_BASELINE)
-    model = Model(d, cell, base=base)
-    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True)
-    values, sd = pooled(fold_vals, sds)
-    r_train = model.force(d, fold_vals[0]) - d.F
-    fit0 = folds[0][0]
-    base_res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
-                        residual=r0, model_gas_force=getattr(base, "Fg_m", None), cell=_cell_fits(d, cell, values, sd))
+    base_res, fold_vals, values = _fit_baseline(d, base, cell, folds, shown)
+    r0 = base_res.residual
     sigma = noise_sd(r0, d, judged)
     d.tone_hz = tone(d, r0, judged)
     progress(f"baseline: held-out error {100 * base_res.nrmse_heldout:.2f} % of the force range, "
@@ -201,7 +193,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     accepted, steps, candidates = [], [], []
     current, r_cur = fold_vals, r0
     # each fold's prediction [N] on every sample after each round: what an effect changed
-    preds = [[model.force(d, v) for v in fold_vals]]
+    preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
     _, not_assessed = available(d, accepted)
     for _ in range(max_effects):
         names, _ = available(d, accepted)
@@ -251,6 +243,20 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                      left_over(r_cur, judged, block, judged_blocks, sigma, rng),
                      Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
                      noise_from(d))
+
+
+def _fit_baseline(d, base, cell, folds, shown):
+    """(Baseline, values per fold, pooled values) of the baseline with the cell's part: the
+    channels' alignment is fitted with it, never a candidate, since every recording has one
+    and as a candidate it took the first round of every null (docs/diagnosis.md)."""
+    model = Model(d, cell, base=base)
+    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True)
+    values, sd = pooled(fold_vals, sds)
+    r_train = model.force(d, fold_vals[0]) - d.F
+    fit0 = folds[0][0]
+    res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
+                   residual=r0, model_gas_force=getattr(base, "Fg_m", None), cell=_cell_fits(d, cell, values, sd))
+    return res, fold_vals, values
 
 
 def _cell_fits(d, cell, values, sd):

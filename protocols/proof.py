@@ -174,7 +174,8 @@ def _recorded(task: ProveTask, folder):
     group = _group(r, hidden)
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
-        fits = [(c.effect, c.parameters) for c in r.baseline.cell] + [(s.effect, s.parameters) for s in r.steps]
+        # an accepted lag's own estimate before the alignment it took the place of
+        fits = [(s.effect, s.parameters) for s in r.steps] + [(c.effect, c.parameters) for c in r.baseline.cell]
         est = next(p[SPECS[e.split(":")[0]].estimate] for e, p in fits if _covered(e).split(":")[0] == first)
     t, F = ch["force"]
     # the prove plan's segments: the contribution is measured there, against the null of the

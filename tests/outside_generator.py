@@ -3,7 +3,7 @@ a damper as a plain force law sampled on a sine matrix, with what a real cell ad
 (issue 29, item 5). Nothing here imports models/ or sim_backend/: it stands for data we
 did not make.
 
-force = valves(v) + gas(x) + F_c sgn(v) [+ extra(x, v, t)]   (N, compression positive)
+force = valves(v) + gas(x) + F_c sgn(v) [+ extra(x, v, t, f)]   (N, compression positive)
 
 The cell: every channel sampled at `rate`; white or coloured (first-order) noise on force,
 displacement and velocity; the force through an optional first-order load-cell filter and
@@ -51,8 +51,8 @@ def noise(rng, n, sigma, colour):
 
 def record(path, rate=5000.0, friction=60.0, law="quadratic", colour="white", loadcell_hz=None, misalign=0.0,
            quantise=True, sigma_F=1.5, sigma_x=5e-6, sigma_v=2e-3, extra=None, extra_rms=None, seed=0, cycles=8):
-    """Write a sine-matrix recording to path; returns path. extra(x, v, t) -> N adds
-    physics the catalogue may not hold; extra_rms [N], when given, scales it to that RMS
+    """Write a sine-matrix recording to path; returns path. extra(x, v, t, f) -> N (f the
+    segment's frequency [Hz] at each sample) adds physics the catalogue may not hold; extra_rms [N], when given, scales it to that RMS
     over the recording."""
     rng = np.random.default_rng(seed)
     h = 1.0 / rate
@@ -78,7 +78,7 @@ def record(path, rate=5000.0, friction=60.0, law="quadratic", colour="white", lo
             ts = t - misalign  # the force channel's clock runs `misalign` behind the motion's
             xs, vs = motion(ts)
             F = valves(vs, law) + gas(xs) + friction * np.sign(vs)
-            E_all.append(extra(xs, vs, ts) if extra is not None else np.zeros(n))
+            E_all.append(extra(xs, vs, ts, np.full(n, f)) if extra is not None else np.zeros(n))
             name = f"sine {A * 1e3:g} mm {f:g} Hz"
             events += [{"t": float(t0 + 2 / f), "kind": "segment_start", "segment": name,
                         "params": {"kind": "sine", "freq_hz": f, "amplitude_mm": A * 1e3, "cycles": cycles}},

@@ -219,7 +219,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     """A paired test block by block: a candidate whose held-out error is the winner's, give or
     take noise, is its rival; one clearly worse is not; another form of the same effect is
     the same physics. The sentence names the group and tells no mechanism's story."""
-    from models.diagnose import _rivals
+    from models.diagnose.referees import rivals
     from models.diagnose.result import Candidate, Step
     from models.diagnose.words import rivals_sentence
     rng = np.random.default_rng(0)
@@ -233,9 +233,9 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     worse = cand("compressibility", r_best * 1.5)
     own_form = cand("bouc_wen:aux.current", r_best)
     best = Candidate("bouc_wen", 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 60.0, 2.4)
-    rivals = _rivals(best, r_best, [alike, worse, own_form], block, judged, ids, np.random.default_rng(1))
-    assert [e for e, _, _ in rivals] == ["presliding_friction"] and rivals[0][2] >= 0.01
-    step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=rivals,
+    found = rivals(best, r_best, [alike, worse, own_form], block, judged, ids, np.random.default_rng(1))
+    assert [e for e, _, _ in found] == ["presliding_friction"] and found[0][2] >= 0.01
+    step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=found,
                 depends_on=["displacement", "direction"], character="elastic", region="both directions",
                 size_rms_n=80.0, size_peak_n=200.0)
     text = rivals_sentence(step)
@@ -297,6 +297,52 @@ def test_one_stroke_cannot_tell_a_mechanism_of_the_loop_from_a_flexible_stand_in
     text = summary(res)
     assert "Not named: the force depends on displacement, direction beyond the baseline" in text
     assert "Left out" not in text
+
+
+def _sines_run(extra, freqs=(1.0, 3.0, 9.0), v_peak=0.3, cycles=8, rate=1000.0, seed=0):
+    """Sine segments of one peak speed (so every frequency covers the same velocities):
+    channels (force, x, and T rising 1 K/s) and events of a damper with valves, gas and
+    friction, plus extra(t, x, v, F, f, T) [N], with 1.5 N of noise."""
+    ts, xs, vs, fs, events, t0 = [], [], [], [], [], 0.0
+    for f in freqs:
+        t = t0 + np.arange(int(cycles / f * rate)) / rate
+        A = v_peak / (2 * np.pi * f)
+        xs.append(0.04 + A * np.sin(2 * np.pi * f * (t - t0)))
+        vs.append(v_peak * np.cos(2 * np.pi * f * (t - t0)))
+        ts.append(t), fs.append(np.full(len(t), f))
+        events += [{"t": t0, "kind": "segment_start", "segment": f"sine {f:g} Hz",
+                    "params": {"kind": "sine", "freq_hz": f}},
+                   {"t": t[-1] + 1e-9, "kind": "segment_end", "segment": f"sine {f:g} Hz", "params": {}}]
+        t0 = t[-1] + 1.0 / rate
+    t, x, v, f = (np.concatenate(a) for a in (ts, xs, vs, fs))
+    T = 300.0 + t
+    F = 150 + 800 * x + np.where(v > 0, 2500 * v, 4200 * v) + 30 * np.tanh(v / 0.01)
+    F = extra(t, x, v, F, f, T) + np.random.default_rng(seed).normal(0.0, 1.5, len(t))
+    return {"force": (t, F), "x": (t, x), "T_body": (t, T)}, events
+
+
+def test_damping_that_changes_with_the_test_frequency_is_said_as_that_dependence():
+    """Damping 10 % higher at each tripling of the frequency, at the same speeds: outside
+    the catalogue, said as the dependence on frequency, not as a valve form or physics."""
+    res = diagnose(*_sines_run(lambda t, x, v, F, f, T: F + 0.1 * np.log(f / 3.0) * np.where(v > 0, 2500 * v, 4200 * v)))
+    step = res.steps[0]
+    assert step.effect == "frequency_damping" and not step.stand_in and not step.small, summary(res)
+    assert "frequency" in step.depends_on
+    assert "damping that changes with the test frequency at the same velocity" in summary(res)
+
+
+def test_a_temperature_effect_the_time_explains_as_well_is_not_named():
+    """A reservoir's gas force, flat along the stroke, growing with a temperature
+    that only rises: a drift in time, with no mechanism in it, explains it as well, so the
+    time dependence is said and gas heating is not named."""
+    res = diagnose(*_sines_run(lambda t, x, v, F, f, T: F - 800 * x + 1.5 * (T - 300.0)))
+    text = summary(res)
+    assert "gas_temperature" not in res.named() and "charge is heating" not in text, text
+    gas = [s for s in res.steps if s.effect == "gas_temperature"]
+    if gas:  # it took a round: the drift stood in for it
+        assert gas[0].stand_in[0] == "drift" and "or on time alone" in text, text
+    else:
+        assert res.steps[0].effect == "drift" and "a slow offset in time" in text, text
 
 
 def test_a_rival_group_on_a_recording_made_for_it():

@@ -227,7 +227,7 @@ def test_a_bump_stop_and_mains_hum_outside_the_catalogue_are_read_by_what_they_d
     of the second generator: an elastic force beyond 42 mm (a bump stop, both directions)
     and 50 Hz on the force channel."""
     from tests.outside_generator import record
-    bump_and_hum = (lambda x, v, t: 2e6 * np.maximum(x - 0.042, 0.0) ** 2 + 4.0 * np.sin(2 * np.pi * 50.0 * t))
+    bump_and_hum = (lambda x, v, t, f: 2e6 * np.maximum(x - 0.042, 0.0) ** 2 + 4.0 * np.sin(2 * np.pi * 50.0 * t))
     rec = record(tmp_path / "open.mcap", rate=1000.0, seed=0, extra=bump_and_hum, cycles=6)
     r = dyno("diagnose", rec, "--json")
     assert r.returncode == 0, r.stderr

@@ -30,15 +30,14 @@ from models.diagnose.from_model import FromModel
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
 from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step
 from models.diagnose.noise import noise_from, noise_sd
-from models.diagnose.terms import tone
+from models.diagnose.referees import ALPHA, RELEVANCE, block_sse, chosen, p_value, referees, term
+from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
 from models.recording import nrmse
 
 __all__ = ["diagnose", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
 
-ALPHA = 0.01
 MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
-RELEVANCE = 0.1
 REFIT_EFFORT = 4  # function evaluations per parameter when an accepted term is refitted with the rest
 LAG_RESOLVED = 0.02  # of a sample period: a lag shorter than this, its interval reaching zero, is not resolved
 SHARE = 0.01
@@ -48,11 +47,6 @@ SHARE = 0.01
 # accepted effect, at least RELEVANCE noise variances; a smaller significant gain stays in
 # the model and is said as small, not named
 NAMED_SHARE = 0.2
-# a mechanism whose variables the loop shows is named only when it beats this stand-in
-STAND_IN = "loop_surface"
-LOOP_VARIABLES = {"displacement", "velocity", "direction", "acceleration", "frequency"}
-BOOT = 2000
-SURE_HITS = 50
 
 
 def blocks(d: Data, per_cycle=4):
@@ -65,30 +59,6 @@ def blocks(d: Data, per_cycle=4):
     return out
 
 
-def _block_sse(r, block, ids):
-    return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
-
-
-def p_value(d_c, rng, alpha=ALPHA):
-    """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
-    (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha.
-    It stops early once p is surely above alpha (SURE_HITS hits, and alpha under p's
-    lower bound at 3.3 sd), as for most candidates tried: p is then known to about 15 %."""
-    n = len(d_c)
-    if n < 3:
-        return 1.0
-    m = d_c.mean()
-    total = max(BOOT, int(np.ceil(20 / alpha)))
-    hits = done = 0
-    while done < total:  # in chunks: a (resamples x blocks) index array each
-        k = min(BOOT, total - done)
-        boot = d_c[rng.integers(0, n, (k, n))].mean(axis=1)
-        hits, done = hits + int(np.sum(boot - m >= m)), done + k
-        if hits >= SURE_HITS and hits - 3.3 * np.sqrt(hits) > alpha * done:
-            break
-    return float((hits + 1) / (done + 1))
-
-
 def available(d: Data, accepted):
     out, skipped = [], []
     taken = {a.split(":")[0] for a in accepted}
@@ -97,6 +67,9 @@ def available(d: Data, accepted):
             continue
         if e.needs == "T" and d.T is None:
             skipped.append(name)
+        elif e.needs == "frequencies":  # a function of frequency needs two of them
+            if len(frequencies(d)) >= 2 and name not in accepted:
+                out.append(name)
         elif e.needs == "tone":
             if d.tone_hz is not None and name not in accepted:
                 out.append(name)
@@ -198,7 +171,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
-        sse_cur = _block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
+        sse_cur = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, block, judged, judged_blocks,
                         shown, sse_cur, sigma, alpha, rng, progress)
         candidates += [c for c, *_ in round_]
@@ -207,8 +180,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
               and x[0].gain >= SHARE * mse and resolved(d, x[0].effect, x[0].parameters, x[0].ci)]
         if not ok:
             break
-        best, b_vals, b_folds, b_r = _chosen(ok, block, judged, judged_blocks, alpha, rng)
-        rivals, stand_in = _referees(d, base, cell + accepted, len(steps), best, b_r, round_, folds, current, block,
+        best, b_vals, b_folds, b_r = chosen(ok, block, judged, judged_blocks, alpha, rng)
+        rivals, stand_in = referees(d, base, cell + accepted, len(steps), best, b_folds, b_r, round_, folds, block,
                                      judged, judged_blocks, alpha, seed)
         m_best = Model(d, cell + accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
@@ -270,11 +243,6 @@ def _cell_fits(d, cell, values, sd):
     return out
 
 
-def _term(e):
-    """Is e a term outside the catalogue (or the baseline's form reshaped), not a named effect?"""
-    return EFFECTS[e.split(":")[0]].nature in ("open", "form")
-
-
 def _sized(steps, excess, sigma):
     """Each step's practical size (NAMED_SHARE): its gain's share of the held-out
     mean-square error above the noise that the damper's physics has to explain: the
@@ -286,71 +254,6 @@ def _sized(steps, excess, sigma):
     for s in (s for s, ph in zip(steps, is_physics) if ph):
         s.excess_share = s.relevance * sigma ** 2 / max(left, 1e-30)
         s.small = left > 0 and s.excess_share < NAMED_SHARE
-
-
-def _chosen(ok, block, judged, judged_blocks, alpha, rng):
-    """The accepted round's winner: the largest gain, except that a term outside the
-    catalogue must beat the best catalogue effect by the bar any effect must pass: by
-    RELEVANCE noise variances more, significantly (the catalogue's test, block by block on
-    the held-out cycles). Where it does not, the named effect is the better account of the
-    same residual (fewer parameters, each with a physical reading)."""
-    best = max(ok, key=lambda x: x[0].gain)
-    named = [x for x in ok if not _term(x[0].effect)]
-    if not _term(best[0].effect) or not named:
-        return best
-    cat = max(named, key=lambda x: x[0].gain)
-    sse = [_block_sse(np.where(judged, x[3], 0.0), block, judged_blocks) for x in (cat, best)]
-    rel = np.log(np.maximum(sse[0], 1e-30) / np.maximum(sse[1], 1e-30))
-    better = best[0].relevance - cat[0].relevance >= RELEVANCE and p_value(rel, rng, alpha) < alpha
-    return best if better else cat
-
-
-def _referees(d, base, fitted, k, best, r_best, round_, folds, current, block, judged, judged_blocks, alpha, seed):
-    """(rivals, stand-in) of a round's winner, each on resamples of its own (the main
-    sequence, and so every other verdict, stays as it was): the candidates the held-out
-    blocks cannot tell from it, and the flexible stand-in when it explains as much."""
-    significant = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE]
-    rivals = _rivals(best, r_best, significant, block, judged, judged_blocks,
-                     np.random.default_rng([seed, 1, k]))
-    return rivals, _stood_in(d, base, fitted, best, r_best, folds, current, block, judged, judged_blocks,
-                             np.random.default_rng([seed, 2, k]))
-
-
-def _stood_in(d, base, fitted, best, r_best, folds, current, block, judged, judged_blocks, rng):
-    """(stand-in, paired p) when a mechanism of the loop does not beat, on the same held-out
-    blocks at p < ALPHA, a smooth surface in displacement, speed and direction with no
-    mechanism in it (terms.py loop_surface), fitted beside the same accepted effects; else
-    None. Catalogue physics and terms outside it alike, so that the answer cannot slide from
-    one flexible name to the next; only those whose variables the loop shows: a channel
-    (aux), temperature or time it depends on is evidence the surface cannot have."""
-    spec = EFFECTS[best.effect.split(":")[0]]
-    if spec.nature not in ("physics", "open") or ":" in best.effect or not set(spec.depends_on) <= LOOP_VARIABLES:
-        return None
-    m = Model(d, fitted + [STAND_IN], base)
-    r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))[2]
-    rel = np.log(np.maximum(_block_sse(np.where(judged, r, 0.0), block, judged_blocks), 1e-30)
-                 / np.maximum(_block_sse(np.where(judged, r_best, 0.0), block, judged_blocks), 1e-30))
-    p = p_value(rel, rng, ALPHA)
-    return None if p < ALPHA else (STAND_IN, p)
-
-
-def _rivals(best, r_best, significant, block, judged, judged_blocks, rng):
-    """[(effect, gain in noise variances, paired p)] of the round's significant candidates
-    the recording cannot tell from the winner: on the same held-out blocks, the log ratio of
-    the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner is not
-    better (a paired test, not two p-values against the baseline compared). Another form of
-    the winner's own effect is not a rival: it is the same physics."""
-    sse_best = _block_sse(np.where(judged, r_best, 0.0), block, judged_blocks)
-    out = []
-    for c, _, _, r in significant:
-        if c.effect.split(":")[0] == best.effect.split(":")[0]:
-            continue
-        rel = np.log(np.maximum(_block_sse(np.where(judged, r, 0.0), block, judged_blocks), 1e-30)
-                     / np.maximum(sse_best, 1e-30))
-        p = p_value(rel, rng, ALPHA)
-        if p >= ALPHA:
-            out.append((c.effect, c.relevance, p))
-    return sorted(out, key=lambda x: -x[1])
 
 
 def _round(d, base, names, fitted, number, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma,
@@ -367,7 +270,7 @@ def _round(d, base, names, fitted, number, folds, current, block, judged, judged
         else:  # the open terms' coefficients held: they are refitted with the rest once accepted
             f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted))
         vals, sds = pooled(f_vals, f_sds)
-        d_c = sse_cur - _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
+        d_c = sse_cur - block_sse(np.where(judged, r, 0.0), block, judged_blocks)
         gain = float(d_c.sum() / n_judged)  # held-out mean-square improvement [N^2]
         # each block counts alike whatever its force, and symmetrically: a block made ten
         # times worse weighs what one made ten times better does
@@ -388,16 +291,16 @@ def _replaced(d, base, cell, folds, judged, block, judged_blocks, accepted, valu
     significant, by the test that accepted it). Returns the new (accepted, values, per fold
     values, residual, {dropped: replacing term})."""
     replaced = {}
-    open_ = [e for e in accepted if _term(e)]
+    open_ = [e for e in accepted if term(e)]
     if not open_:
         return accepted, values, current, r_cur, replaced
     rng = np.random.default_rng(1)
-    for e in [e for e in accepted if not _term(e) and accepted.index(e) < accepted.index(open_[0])]:
+    for e in [e for e in accepted if not term(e) and accepted.index(e) < accepted.index(open_[0])]:
         rest = [a for a in accepted if a != e]
         m = Model(d, cell + rest, base)
         f_vals, f_sds, r = cross_fit(m, d, folds, current)
-        sse_with = _block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
-        sse_without = _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
+        sse_with = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
+        sse_without = block_sse(np.where(judged, r, 0.0), block, judged_blocks)
         rel = np.log(np.maximum(sse_without, 1e-30) / np.maximum(sse_with, 1e-30))
         if p_value(rel, rng, ALPHA) >= ALPHA:
             replaced[e] = open_[0]
@@ -428,7 +331,7 @@ def left_over(r, judged, block, judged_blocks, sigma, rng):
     """Is the final held-out residual within the noise? The excess over the noise variance
     per block, log(SSE_b / (n_b sigma^2 (1 + RELEVANCE))), tested against zero by the
     catalogue's bootstrap; with the RMS above the noise [N]."""
-    sse = _block_sse(np.where(judged, r, 0.0), block, judged_blocks)
+    sse = block_sse(np.where(judged, r, 0.0), block, judged_blocks)
     n = np.bincount(block, weights=judged.astype(float), minlength=judged_blocks.max() + 1)[judged_blocks]
     ok = n > 0
     rel = np.log(np.maximum(sse[ok], 1e-30) / (n[ok] * sigma ** 2 * (1 + RELEVANCE)))

@@ -362,14 +362,14 @@ CATALOGUE = {e.name: e for e in (
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
            estimate="k_gT", apply=_gas_temperature, acts_on="parts", needs="T",
            described=lambda dm: True,  # every damper's gas follows its temperature (eq 3.19)
-           depends_on=("temperature", "displacement"),
+           depends_on=("temperature", "displacement"), referee="drift",
            say=("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
                 "is heating. Compare tests at the same temperature or correct the bias.", "k_gT", 100.0, "%"),
     ),
     Effect("damping_temperature", "damping changing with oil temperature",
            _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
            estimate="k_dT", apply=_damping_temperature, acts_on="parts", needs="T",
-           depends_on=("temperature", "velocity", "direction"),
+           depends_on=("temperature", "velocity", "direction"), referee="damping_drift",
            say=("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
                 "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
     ),
@@ -413,7 +413,7 @@ EFFECTS = {**CATALOGUE, **TERMS}
 WITH_BASELINE = [n for n, e in EFFECTS.items() if e.needs == "baseline"]
 # the order the effects act in, whatever order they were accepted in: multiplications
 # of one part, the total's sum, then its caps and the free play's zero-force crossings
-ORDER = ("alignment", "sensor_delay", "valve_form", "stroke_damping", "damping_drift", "damping_temperature", "compressibility",
-         "gas_temperature", "elastic_stroke", "presliding_friction", "position_friction", "breakaway_friction",
-         "fluid_inertia", "bouc_wen", "aux_channel", "drift", "interference", "temperature_force", "loop_surface",
-         "cavitation", "free_play")
+ORDER = ("alignment", "sensor_delay", "valve_form", "stroke_damping", "damping_drift", "frequency_damping",
+         "damping_temperature", "compressibility", "gas_temperature", "elastic_stroke", "presliding_friction",
+         "position_friction", "breakaway_friction", "fluid_inertia", "bouc_wen", "aux_channel", "drift",
+         "interference", "temperature_force", "loop_surface", "cavitation", "free_play")

@@ -205,6 +205,8 @@ def prepare(channels, events, drives=None) -> Data:
     d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans))
     keep = d.cycle >= 0
     d = d.take(keep)
+    if not len(d.t):  # every cycle touched by a gap: nothing to interpolate the other channels onto
+        return _enough(d)
     if T_ch is None:
         notes.append("no temperature channel: gas and damping temperature effects not assessed")
     else:

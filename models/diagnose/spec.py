@@ -45,3 +45,7 @@ class Effect:
     # minimal baseline leaving it out is then no fault of that damper
     described: callable = None
     supersedes: str = ""  # an effect this one takes the place of in a model (a lag beyond the alignment)
+    # the flexible model with no mechanism in it this effect must beat before it is named;
+    # "": the loop's surface when the loop shows all it depends on, else none
+    # (models/diagnose/__init__.py referee)
+    referee: str = ""

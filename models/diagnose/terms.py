@@ -12,6 +12,9 @@ evidence (issue 29). Each is a smooth basis with linear coefficients:
                    told from the baseline's misfit of that segment
   damping_drift    damping changing in time: (1 + B(t)) F_damping (warm-up the temperature
                    channel does not show, a valve bedding in)
+  frequency_damping damping changing with the test frequency at the same velocity, per
+                   direction: (1 + c1 u + c2 u^2) F_damping, u the segment's log frequency
+                   (valve dynamics, shim inertia; 2 or 3+ frequencies give 1 or 2 terms)
   interference     a tone at a frequency unrelated to the motion, found in the residual's
                    spectrum (mains hum, a pump, a fan)
   temperature_force an offset varying with temperature: B(T)
@@ -123,6 +126,34 @@ def _damping_drift(m, d, p, f, e):
     f.Fd = f.Fd * (1.0 + B @ np.array([p[f"dd{i}"] for i in range(B.shape[1])]))
 
 
+def frequency_u(d):
+    """Each sample's segment frequency as u = log(f / f_mid) over half the log range:
+    -1 at the lowest frequency, +1 at the highest; 0 where a segment has none."""
+    fs = np.array([f or np.nan for _, f in d.segments], float)[d.segment]
+    lo, hi = np.nanmin(fs), np.nanmax(fs)
+    return np.nan_to_num((2 * np.log(fs) - np.log(lo) - np.log(hi)) / max(np.log(hi / lo), 1e-9))
+
+
+def frequencies(d):
+    """The distinct sine frequencies [Hz] the recording holds."""
+    return sorted({round(f, 6) for _, f in d.segments if f})
+
+
+def _frequency_n(d):
+    return 1 if len(frequencies(d)) < 3 else 2
+
+
+def _frequency_damping(m, d, p, f, e):
+    def basis(ref, dd):  # powers of u on dd, the square centred over ref (its mean is the valve's level)
+        u, u_ref = frequency_u(dd), frequency_u(ref)
+        return np.stack([u, u ** 2 - np.mean(u_ref ** 2)][:_frequency_n(ref)], axis=1)
+    B = cached(m, d, e, basis)
+    n = B.shape[1]
+    gc = B @ np.array([p[f"fdc{i}"] for i in range(n)])
+    gr = B @ np.array([p[f"fdr{i}"] for i in range(n)])
+    f.Fd = f.Fd * (1.0 + np.where(f.v > 0, gc, gr))
+
+
 def _interference(m, d, p, f, e):
     w = 2 * np.pi * d.tone_hz
     f.F = f.F + p["hum_c"] * np.cos(w * d.t) + p["hum_s"] * np.sin(w * d.t)
@@ -231,19 +262,26 @@ TERMS = {e.name: e for e in (
            "parts", depends_on=("time", "velocity", "direction"), linear=True, nature="open",
            say=("Not in the catalogue: damping that changes in time ({region}; {size}): the oil warming without "
                 "a thermocouple to show it, or a valve settling in? Log the oil temperature.", None, 1.0, "N")),
+    Effect("frequency_damping", "damping changing with the test frequency at the same velocity",
+           lambda d, e: [P(f"fd{s}{i}", 0.0, -0.9, 0.9, "-") for s in "cr" for i in range(_frequency_n(d))], "fdc0",
+           _frequency_damping, "parts", needs="frequencies", depends_on=("frequency", "velocity", "direction"),
+           linear=True, nature="open",
+           say=("Not in the catalogue: damping that changes with the test frequency at the same velocity "
+                "({region}; {size}): the valves' own dynamics (shim stack inertia, a pressure-lagged bleed) or "
+                "oil compressibility beyond the model's?", None, 1.0, "N")),
     Effect("interference", "a tone unrelated to the motion",
            lambda d, e: [P("hum_c", 0.0, -force_bound(d), force_bound(d), "N"), P("hum_s", 0.0, -force_bound(d), force_bound(d), "N")],
            "hum_c", _interference, "total", needs="tone", depends_on=("time",), linear=True, nature="cell",
            say=("A tone at {hz:.2f} Hz, unrelated to the motion, rides on the force ({size}): interference in "
                 "the cell (mains at 50 or 60 Hz, a pump, a fan), not the damper. Shield or filter the force "
                 "channel.", None, 1.0, "N")),
-    Effect("loop_surface", "a smooth surface in displacement, speed and direction, with no mechanism in it",
+    Effect("loop_surface", "a smooth surface in displacement, speed and direction",
            lambda d, e: coefficients("ls", 2 * SURFACE[0] * SURFACE[1], force_bound(d)), None, _loop_surface,
            "total", needs="referee", depends_on=("displacement", "velocity", "direction"), linear=True,
            nature="open", say=("{region}; {size}", None, 1.0, "N")),
     Effect("temperature_force", "a force varying with temperature, apart from the motion",
            lambda d, e: coefficients("tf", KNOTS["temperature_force"], force_bound(d)), "tf0", _temperature_force, "total",
-           needs="T", depends_on=("temperature",), linear=True, nature="open",
+           needs="T", depends_on=("temperature",), linear=True, nature="open", referee="drift",
            say=("Not in the catalogue: a force that varies with temperature apart from the motion ({region}; "
                 "{size}): a thermal offset of the load cell?", None, 1.0, "N")),
 )}

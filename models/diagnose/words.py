@@ -115,16 +115,19 @@ def small_sentence(step, span):
 
 
 def stand_in_sentence(step, span):
-    """A mechanism a flexible surface with none in it explains as well: the dependence and
+    """A mechanism a flexible model with none in it explains as well: the dependence and
     its size, and no mechanism's name."""
+    judge = EFFECTS[step.stand_in[0]]
     on = ", ".join(step.depends_on) or "displacement, velocity and direction"
+    if "time" in judge.depends_on and "time" not in step.depends_on:  # a temperature that only rose
+        on += ", or on time alone"
     rivals = (f"; {', '.join(said(e) for e, _, _ in step.rivals)} explain it about equally too" if step.rivals else "")
-    return (f"Not named: the force depends on {on} beyond the baseline, {_rms(step, span)}. A smooth "
-            f"surface in displacement, speed and direction with no mechanism in it explains it as well as "
+    return (f"Not named: the force depends on {on} beyond the baseline, {_rms(step, span)}. "
+            f"{judge.what[0].upper() + judge.what[1:]} (a flexible model, no mechanism in it) explains it as well as "
             f"{said(step.effect)} on the held-out cycles (paired p {step.stand_in[1]:.2g} that {said(step.effect)} is "
             f"better){rivals}: this recording cannot tell which mechanism it is. The model carries "
-            f"{said(step.effect)} as a stand-in; `dyno diagnose RECORDING --next` designs the test at other amplitudes "
-            f"and frequencies that can tell." + _change(step))
+            f"{said(step.effect)} as a stand-in; `dyno diagnose RECORDING --next` designs a test that can tell."
+            + _change(step))
 
 
 def _rms(step, span):
@@ -165,10 +168,26 @@ def summary(res):
         lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
                      f"mean position (the model: {b.model_gas_force:.0f} N) and its slope with stroke "
                      f"x{p['k_gas']:.3f}, friction x{p['k_friction']:.3f}.")
-    sample_s = float(np.median(res.data.h))
     for c in (c for c in b.cell if c.resolved):
-        said_ = lag_sentence(c.effect, c.parameters, c.ci, sample_s)
+        said_ = lag_sentence(c.effect, c.parameters, c.ci, float(np.median(res.data.h)))
         lines.append(f"The channels' alignment, fitted with the baseline: {said_[0].lower()}{said_[1:]}")
+    found = findings(res)
+    if res.accepted:
+        f = res.final
+        found.insert(len(found) - 1, f"Final: held-out error {100 * f.nrmse_heldout:.3g} % of the force range, RMSE "
+                                     f"{f.rmse_heldout:.3g} N, R^2 {f.r2_heldout:.3f}, {len(f.parameters)} parameters.")
+    lines += found
+    for n in res.data.notes:
+        lines.append(f"Not assessed: {n}.")
+    return "\n".join(lines)
+
+
+def findings(res):
+    """What the diagnosis found, sentence by sentence: where the residual lives, each
+    accepted effect as it is said, and what is left over (summary's middle; the live
+    diagnosis's event)."""
+    lines = []
+    sample_s = float(np.median(res.data.h))
     strong = [loc for loc in res.locations if loc["concentration"] > 2.0][:3]
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
@@ -197,10 +216,6 @@ def summary(res):
             lines.append(rivals_sentence(s))
         else:
             lines.append(OPENING[s.nature].format(name=name) + sentence(s, sample_s) + f" ({_what(s)}.)")
-    if res.accepted:
-        f = res.final
-        lines.append(f"Final: held-out error {100 * f.nrmse_heldout:.3g} % of the force range, RMSE "
-                     f"{f.rmse_heldout:.3g} N, R^2 {f.r2_heldout:.3f}, {len(f.parameters)} parameters.")
     lo = res.left_over
     if lo.within_noise:
         lines.append(f"Nothing significant was left out: the held-out residual is within the force noise "
@@ -210,6 +225,4 @@ def summary(res):
         where = ("; it lives " + "; ".join(_where(loc) for loc in left)) if left else ", spread over the whole recording"
         lines.append(f"Still unexplained: {lo.above_noise_rms_n:.3g} N RMS above the force noise on the held-out "
                      f"cycles (p = {lo.p_value:.2g}); no effect or term tried takes it further{where}.")
-    for n in res.data.notes:
-        lines.append(f"Not assessed: {n}.")
-    return "\n".join(lines)
+    return lines

@@ -157,7 +157,8 @@ class LiveView:
                 self.loop[k].clear()
         level = rr.TextLogLevel.ERROR if kind in ("fault", "operator_stop") else rr.TextLogLevel.INFO
         self.rec.log("events", rr.TextLog(f"{kind}: {segment} {message}".strip(), level=level))
-        for key in ("unsure", "settled") if kind == "diagnosis" else ():  # dyno run discover's rounds
+        # dyno run discover's rounds; the live diagnosis's findings (protocols/live_diagnose.py)
+        for key in ("unsure", "settled", "findings") if kind == "diagnosis" else ():
             for said in params.get(key, []):
                 self.rec.log("events", rr.TextLog(f"  {key}: {said}", level=rr.TextLogLevel.INFO))
 

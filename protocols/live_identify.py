@@ -4,63 +4,34 @@ back the current estimates with their intervals; the observer prints them and pa
 to the live view. At the end of the run the worker fits the whole model (with the
 compressible step) and writes it next to the recording.
 
-The control loop never waits: the observer only appends arrays and moves whole segments
-into a queue without blocking (a backlog holds what the queue cannot take yet, so the
-identification may fall behind but loses nothing; the recording is another observer and
-is not touched by any of this).
+The control loop never waits (protocols/segment_feed.py); the recording is another
+observer and is not touched by any of this.
 """
 from __future__ import annotations
 
-import multiprocessing as mp
 import queue
 import sys
 
 import numpy as np
+
+from protocols.segment_feed import SegmentFeed, merged
 
 SHOWN = ("P0", "V0", "K_voil", "friction.C_ifT", "gas_spring.gamma", "friction.x_stick")
 
 
 class LiveIdentify:
     def __init__(self, description: dict, model_path, live=None, stream=None):
-        ctx = mp.get_context("spawn")  # no fork of a process holding buses and threads
-        self.inbox, self.outbox = ctx.Queue(maxsize=4), ctx.Queue()
-        self.ending = ctx.Event()  # the run is over: no more estimates, only the final fit
-        self.proc = ctx.Process(target=_worker, args=(self.inbox, self.outbox, description, str(model_path),
-                                                      self.ending), daemon=True)
-        self.proc.start()
+        self.feed = SegmentFeed(_worker, (description, str(model_path)), self._show)
         self.live, self.stream = live, stream or sys.stderr
-        self.buf, self.events, self.backlog = {}, [], []
         self.latest = None
         self.model_path = model_path
 
     # runner observer -----------------------------------------------------------------
     def samples(self, drained):
-        for name, (t, v) in drained.items():
-            if len(t):
-                self.buf.setdefault(name, []).append((np.array(t), np.array(v)))
+        self.feed.samples(drained)
 
     def event(self, t, kind, segment, params, message):
-        self.events.append({"t": t, "kind": kind, "segment": segment, "params": params, "message": message})
-        if kind == "segment_end":
-            chunk = {n: (np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts]))
-                     for n, parts in self.buf.items()}
-            self.backlog.append(("data", chunk, self.events))
-            self.buf, self.events = {}, []
-        self._pump()
-
-    def _pump(self):
-        while self.backlog:
-            try:
-                self.inbox.put_nowait(self.backlog[0])
-            except queue.Full:
-                break
-            self.backlog.pop(0)
-        while True:
-            try:
-                msg = self.outbox.get_nowait()
-            except queue.Empty:
-                return
-            self._show(msg)
+        self.feed.event(t, kind, segment, params, message)
 
     def _show(self, msg):
         kind, body = msg
@@ -82,24 +53,24 @@ class LiveIdentify:
     # after the run -------------------------------------------------------------------
     def cancel(self):
         """The run recorded nothing to identify: stop the worker."""
-        self.proc.terminate()
-        self.proc.join(timeout=10)
+        self.feed.cancel()
 
     def finish(self, timeout=600.0):
         """Hand over the rest, wait for the final model; returns its path or None."""
-        self.ending.set()
-        if self.buf:
-            self.event(self.events[-1]["t"] if self.events else 0.0, "segment_end", "", {}, "")
+        feed = self.feed
+        feed.ending.set()
+        if feed.buf:
+            feed.event(feed.events[-1]["t"] if feed.events else 0.0, "segment_end", "", {}, "")
         # what the worker has not had yet goes as one batch: one piece at a time, it would
         # re-identify after each (the queue is short) before it got to the final fit
-        if self.backlog:
-            self.inbox.put(("data", *_merged(self.backlog)), timeout=timeout)
-        self.inbox.put(("end", None, None), timeout=timeout)
-        self.backlog = []
+        if feed.backlog:
+            feed.inbox.put(("data", *merged(feed.backlog)), timeout=timeout)
+        feed.inbox.put(("end", None, None), timeout=timeout)
+        feed.backlog = []
         result = None
         while True:
             try:
-                kind, body = self.outbox.get(timeout=timeout)
+                kind, body = feed.outbox.get(timeout=timeout)
             except queue.Empty:
                 self.stream.write("identify: the final fit did not finish in time\n")
                 break
@@ -109,17 +80,8 @@ class LiveIdentify:
             self._show((kind, body))
             if kind == "error":
                 break
-        self.proc.join(timeout=10)
-        if self.proc.is_alive():
-            self.proc.terminate()
+        feed.stop()
         return result
-
-
-def _merged(items):
-    """One (chunk, events) of several queued ("data", chunk, events) in order."""
-    names = {n for _, chunk, _ in items for n in chunk}
-    chunk = {n: tuple(np.concatenate([c[n][j] for _, c, _ in items if n in c]) for j in (0, 1)) for n in names}
-    return chunk, [e for *_, evs in items for e in evs]
 
 
 # SI unit -> (the unit an engineer reads it in, scale): a charge in bar, volumes in cm^3
@@ -159,7 +121,7 @@ def predicted_force(damper, channels, events, points=2000):
     return {"v": v, "F": F[k], "F_model": r.force}
 
 
-def _worker(inbox, outbox, description, model_path, ending):
+def _worker(inbox, outbox, ending, description, model_path):
     """Accumulate segments; after each batch re-identify (without the slow compressible
     step); at the end identify everything and save the model. Once the run is over
     (`ending`), the batches still queued are only collected: an estimate of part of the

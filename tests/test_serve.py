@@ -181,7 +181,8 @@ def test_a_run_in_progress_shows_its_progress_readings_and_trip(page, server, ru
 def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, server, runs_folder):
     """Issue 45: the live page draws force against time and the running segment's force
     against velocity and displacement, with the damper model's force and the rig's limits,
-    and redraws them as the recording grows, without reloading."""
+    and the live diagnosis's findings, and redraws them as the recording grows, without
+    reloading."""
     from models import damper as dm
     from protocols.io.recording import Recorder
     from rig import config as rig_config
@@ -211,6 +212,13 @@ def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, ser
         page.wait_for_function("() => +document.querySelector(\"section.live[data-key='plots.mcap'] canvas.trace\")"
                                ".dataset.xmax > 2.9", timeout=5_000)
         assert "3.0 s" in page.locator("section.live[data-key='plots.mcap'] .progress-text").inner_text()
+        # the live diagnosis's findings (protocols/live_diagnose.py) appear as they are written
+        rec.event(3.0, "diagnosis", "sine 12.7 mm 1 Hz", {"source": "live", "findings": [
+            "Nothing significant was left out: the held-out residual is within the force noise."]}, "nothing named")
+        rec.flush()
+        findings = page.locator("section.live[data-key='plots.mcap'] .findings")
+        findings.get_by_text("Nothing significant was left out").wait_for(timeout=5_000)
+        assert findings.inner_text().startswith("sine 12.7 mm 1 Hz: Nothing significant")
         page.screenshot(path=str(runs_folder.parent / "live.png"), full_page=True)
     finally:
         rec.close()

@@ -141,6 +141,9 @@ def _cell_commands(sub):
     rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
                     help="identify the damper while the test runs and write RECORDING.model.json "
                          "(default: on for the standard sequence)")
+    rn.add_argument("--diagnose", action="store_true",
+                    help="diagnose each sine segment as it ends, against the damper's model: the findings go into "
+                         "the recording, the live view and here")
     for name, what in (("car", "hil: quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json"),
                        ("road", "hil: step:MM, sine:HZ:MM, sweep:F0:F1:MM, iso8608:CLASS:KMH[:SECONDS], file:CSV"),
                        ("compensator", "hil: actuator delay compensation: none, polynomial, adaptive"),

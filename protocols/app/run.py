@@ -36,7 +36,7 @@ def _run(args):
     module, params, plant, damper, cfg, info = _plan_run(args)
     operator_stop.raise_if_stopped()
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
-    claim = c = recorder = live = ident = result = None
+    claim = c = recorder = live = ident = diag = result = None
     errors = []  # the first is the one that ended the run; later ones are reported after it
     try:
         with operator_stop.quiet():  # the claim taken and held in `claim` together: a stop releases it
@@ -56,13 +56,18 @@ def _run(args):
         if identifying:
             from protocols.live_identify import LiveIdentify
             ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live)
+        if getattr(args, "diagnose", False):
+            from protocols.live_diagnose import LiveDiagnose
+            diag = LiveDiagnose(to_dict(damper), recorder, live)
         if args.protocol == DISCOVER:
-            found = discover(Plan(module, params), c, [recorder, live, ident], args.budget,
+            found = discover(Plan(module, params), c, [recorder, live, ident, diag], args.budget,
                              say=lambda line: print(f"discover: {line}", file=sys.stderr, flush=True))
             result = found.result
         else:
-            result = run_plan(Plan(module, params), c, [recorder, live, ident],
+            result = run_plan(Plan(module, params), c, [recorder, live, ident, diag],
                               progress=getattr(args, "progress", True), units=args.units)
+        if diag is not None:  # the last segments' findings, into the recording before it closes
+            diag.finish()
     except KeyboardInterrupt:
         errors.append("operator stop")
     except (RigError, UsageError) as e:
@@ -70,6 +75,8 @@ def _run(args):
             raise
         errors.append(str(e))
     finally:
+        if diag is not None:
+            diag.cancel()
         for close in (recorder and recorder.close, live and live.close, c and c.close):
             if close:
                 try:

@@ -105,6 +105,13 @@ class Live:
         return ends[0].get("message") or ends[0]["kind"] if ends else None
 
     @property
+    def findings(self):
+        """[(segment, [sentences])] of the live diagnosis so far (protocols/live_diagnose.py),
+        the latest first."""
+        got = [e for e in self.events if e.get("kind") == "diagnosis" and e.get("params", {}).get("source") == "live"]
+        return [(e["segment"], e["params"].get("findings", [])) for e in reversed(got)]
+
+    @property
     def progress(self):
         """'12.3 s · segment 2 of 6: sine 12.7 mm 1 Hz'."""
         return (f"{self.elapsed_s:.1f} s · segment {self.done + 1}" + (f" of {self.planned}" if self.planned else "")
@@ -112,7 +119,7 @@ class Live:
 
     def as_json(self, units: Units) -> dict:
         """What the live page redraws on each refresh."""
-        return {"key": self.target.name, "progress": self.progress, "tripped": self.tripped,
+        return {"key": self.target.name, "progress": self.progress, "tripped": self.tripped, "findings": self.findings,
                 "readings": self.readings(units), "plots": self.plots(units)}
 
     def readings(self, units: Units):

@@ -59,7 +59,7 @@ def import_(args):
 
 def loop(args):
     from protocols.app.bench.timing import baseline, bench_loop, goals_met
-    stats = bench_loop(args.rate, args.seconds)  # the parser bounds rate and seconds
+    stats = bench_loop(args.rate, args.seconds, diagnose=args.diagnose)  # the parser bounds rate and seconds
     stats["goals_met"] = goals_met(stats)
     stats["machine_baseline"] = baseline(args.rate, args.seconds)
     j, b = stats["jitter_us"], stats["machine_baseline"]
@@ -69,6 +69,11 @@ def loop(args):
              + (f", FAULT: {stats['fault']}" if stats["fault"] else ""),
              f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
              f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us"]
+    if args.diagnose:
+        lines.append(f"live diagnosis alongside, on the other core: {stats['live_diagnoses']} diagnoses of a 4 Hz "
+                     f"segment, median {stats['live_diagnosis_s.median']:.2f} s, worst "
+                     f"{stats['live_diagnosis_s.max']:.2f} s each" if stats["live_diagnoses"]
+                     else "live diagnosis alongside: none finished")
     if stats["goals_met"] is not None:
         lines.append("goals: " + ("met" if stats["goals_met"] else "NOT met"))
     return emit(args, "Control-loop timing (dyno bench loop)", stats, "\n".join(lines))

@@ -21,14 +21,19 @@ from rig.safety import Safety
 GOALS = {1000: {"p99_us": 250.0, "overrun_fraction": 0.001}, 500: {"overruns": 0}}
 
 
-def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni"):
+def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni", diagnose=False):
+    """Loop timing stats; diagnose: with the live diagnosis's worker diagnosing a sine
+    segment after another on the other core all along (its load on the machine), and the
+    time each of its diagnoses took."""
     from sim_backend.virtual_rig import sim_rig_config
-    cfg_path = sim_rig_config(tempfile.mkdtemp(prefix="dyno-bench-"), rate_hz=rate_hz)
+    folder = tempfile.mkdtemp(prefix="dyno-bench-")
+    cfg_path = sim_rig_config(folder, rate_hz=rate_hz)
     dyno = str(Path(sys.executable).parent / "dyno")
+    load = _diagnosis_load(Path(folder), dyno, damper) if diagnose else None
     proc = subprocess.Popen([dyno, "sim-rig", "--config", str(cfg_path), "--damper", damper,
                              "--seconds", str(seconds + 60)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)
-    pinned = _pin(proc.pid)
+    pinned = _pin(proc.pid, *([load[0].pid] if load else []))
     try:
         t0 = time.monotonic()
         while True:
@@ -52,21 +57,67 @@ def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni"):
             proc.wait(10)
         except subprocess.TimeoutExpired:
             proc.kill()
+        took = _stop_load(load) if load else None
     out = res.stats(rate_hz)
     out["fault"] = res.fault
     out["cpu_pinning"] = pinned
+    if took is not None:
+        out["live_diagnoses"] = len(took)
+        out["live_diagnosis_s.median"] = float(np.median(took)) if took else None
+        out["live_diagnosis_s.max"] = float(np.max(took)) if took else None
     return out
 
 
-def _pin(sim_pid):
-    """Controller on one core, sim-rig on the other, as two machines would be; returns
-    whether it could."""
+def _diagnosis_load(folder, dyno, damper):
+    """(process, queue of seconds per diagnosis): the live diagnosis's worker function on a
+    recorded 4 Hz sine segment of the embedded rig, over and over until stopped."""
+    import multiprocessing as mp
+    rec = folder / "segment.mcap"
+    subprocess.run([dyno, "run", "sine-matrix", "amplitudes_mm=12.7", "freqs_hz=4", "--plain", "--damper", damper,
+                    "--out", str(rec)], capture_output=True, check=True)
+    ctx = mp.get_context("spawn")
+    took, stop = ctx.Queue(), ctx.Event()
+    p = ctx.Process(target=_diagnose_again, args=(str(rec), took, stop), daemon=True)
+    p.start()
+    return p, took, stop
+
+
+def _diagnose_again(path, took, stop):
+    from models.recording import segments
+    from protocols.io.reader import load_recording
+    from protocols.live_diagnose import diagnosed
+    from protocols.reports.peaks import recorded_damper
+    channels, events, meta = load_recording(path)
+    damper = recorded_damper(meta)
+    name, _, t0, t1 = segments(events, kinds=("sine",))[0]
+    while not stop.is_set():
+        start = time.perf_counter()
+        diagnosed(damper, channels, events, name, t0, t1)
+        took.put(time.perf_counter() - start)
+
+
+def _stop_load(load):
+    p, took, stop = load
+    stop.set()
+    p.join(timeout=60)
+    if p.is_alive():
+        p.terminate()
+    out = []
+    while not took.empty():
+        out.append(took.get())
+    return out
+
+
+def _pin(sim_pid, *others):
+    """Controller on one core, sim-rig (and any other process given) on the other, as two
+    machines would be; returns whether it could."""
     import os
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
     if len(cores) < 2:
         return False
     try:
-        os.sched_setaffinity(sim_pid, {cores[-1]})
+        for pid in (sim_pid, *others):
+            os.sched_setaffinity(pid, {cores[-1]})
         os.sched_setaffinity(0, set(cores[:-1]))
     except OSError:
         return False

@@ -1,5 +1,5 @@
 // The live page: every REFRESH_MS the runs being recorded (/live.json) redrawn in place:
-// progress, latest readings, force against time, and the running segment's loops with the
+// progress, the live diagnosis's findings, latest readings, force against time, and the running segment's loops with the
 // damper model's force and the rig's limits. A run that starts, ends or trips reloads the page.
 const REFRESH_MS = 500;
 
@@ -83,6 +83,12 @@ function plot(canvas, title, series, xlabel, ylabel, marks) {
 
 function draw(section, r) {
   section.querySelector(".progress-text").textContent = r.progress;
+  section.querySelector(".findings").replaceChildren(...(r.findings || []).map(([seg, lines]) => {
+    const para = document.createElement("p"), b = document.createElement("b");
+    b.textContent = seg;
+    para.append(b, ": " + lines.join(" "));
+    return para;
+  }));
   section.querySelector("tbody").innerHTML = r.readings.map(([n, v, u]) => `<tr><td>${n}</td><td>${v}</td><td>${u}</td></tr>`).join("");
   const p = r.plots;
   if (!p.trace) return;

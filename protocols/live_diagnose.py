@@ -1,0 +1,144 @@
+"""Diagnosis while `dyno run` runs (issue 47): each finished sine segment is diagnosed in a
+worker process against the run's damper model, refitted (the baseline `dyno diagnose`
+takes for a recording that names its damper). What it found (where the mismatch lives, the
+effects accepted, their rivals, what is left over) goes into the recording as a
+`diagnosis` event, to the live view and to the terminal. The control loop never waits
+(protocols/segment_feed.py); a segment the worker has not reached when the run ends is
+diagnosed before the recording closes, within FINISH_S.
+"""
+from __future__ import annotations
+
+import queue
+import sys
+import time
+
+from models.recording import segment_kind
+from protocols.segment_feed import SegmentFeed
+
+FINISH_S = 60.0  # s the run's end waits for the last segments' findings
+MAX_EFFECTS = 2  # effects one segment's diagnosis accepts at most: a segment is short evidence
+
+
+class LiveDiagnose:
+    def __init__(self, description: dict, recorder, live=None, stream=None):
+        self.feed = SegmentFeed(_worker, (description,), self._show)
+        self.recorder, self.live, self.stream = recorder, live, stream or sys.stderr
+        self.t_now = 0.0
+        self.sine = False  # the running segment is a sine
+        self.cut_after = None  # [s] a sine segment's end: its samples go to the worker once they reach it
+        self.ended = {}  # sine segments handed over and not yet answered: name -> wall clock at their end [s]
+        self.written = []  # the diagnosis events written, as their params
+
+    # runner observer -----------------------------------------------------------------
+    def samples(self, drained):
+        self.feed.samples(drained)
+        t = [float(ts[-1]) for ts, _ in drained.values() if len(ts)]
+        self.t_now = max([self.t_now, *t])
+        if self.cut_after is not None and self.t_now >= self.cut_after:  # a sine's last samples are in: hand over
+            self.feed.cut()
+            self.cut_after = None
+        self.feed.pump()  # an answer is written as soon as it is back, not at the next event
+
+    def event(self, t, kind, segment, params, message):
+        if kind == "segment_start":
+            self.sine = segment_kind(params or {}) == "sine" and (params or {}).get("measured", True)
+        if kind == "segment_end" and self.sine:
+            self.ended[segment] = time.monotonic()
+            self.cut_after = t
+        self.feed.event(t, kind, segment, params, message)
+
+    def _show(self, msg):
+        kind, body = msg
+        if kind in ("diagnosis", "skipped"):
+            body["latency_s"] = time.monotonic() - self.ended.pop(body["segment"], time.monotonic())
+        if kind == "diagnosis":
+            t = max(self.t_now, body["segment_end_s"])
+            message = f"{body['segment']}: " + ("; ".join(body["named"]) if body["named"] else "nothing named")
+            self.recorder.event(t, "diagnosis", body["segment"], body, message)
+            if self.live is not None:
+                self.live.event(t, "diagnosis", body["segment"], body, message)
+            self.written.append(body)
+            self.stream.write(f"\ndiagnose: {body['segment']} ({body['latency_s']:.1f} s after its end): "
+                              + " ".join(body["findings"]) + "\n")
+        elif kind == "skipped":
+            self.stream.write(f"\ndiagnose: {body['segment']}: not diagnosed: {body['why']}\n")
+        self.stream.flush()
+
+    # after the run -------------------------------------------------------------------
+    def finish(self, timeout=FINISH_S):
+        """Hand over what is left, wait, at most timeout [s], for the findings of the
+        segments handed over (the rig is already safe), write them, and stop the worker."""
+        feed = self.feed
+        if feed.buf or feed.events:
+            feed.cut()
+        feed.backlog.append(("end", None, None))  # the worker diagnoses what still waits, then ends
+        deadline = time.monotonic() + timeout
+        while self.ended and time.monotonic() < deadline:
+            feed.pump()
+            try:
+                self._show(feed.outbox.get(timeout=0.2))
+            except queue.Empty:
+                pass
+        if self.ended:
+            self.stream.write(f"diagnose: {len(self.ended)} segment(s) not diagnosed within {timeout:.0f} s of the "
+                              f"run's end\n")
+        feed.cancel()
+
+    def cancel(self):
+        self.feed.cancel()
+
+
+def _worker(inbox, outbox, ending, description):
+    """Diagnose each sine segment once the samples up to its end are in (they may come with
+    the next segment: the runner hands samples over in batches), against the run's damper
+    model refitted. Samples before the oldest segment still waiting are let go."""
+    import numpy as np
+
+    from models import damper as dm
+    from models.recording import segments
+    damper = dm.from_dict(description)
+    channels, events, done = {}, [], set()
+    while True:
+        kind, chunk, evs = inbox.get()
+        final = kind == "end"
+        for n, (t, v) in (chunk or {}).items():
+            T, V = channels.get(n, (np.empty(0), np.empty(0)))
+            channels[n] = (np.concatenate([T, t]), np.concatenate([V, v]))
+        events += evs or []
+        t_in = float(channels["force"][0][-1]) if len(channels.get("force", ((),))[0]) else -np.inf
+        waiting = [(n, t0, t1) for n, _, t0, t1 in segments(events, kinds=("sine",)) if (n, t0) not in done]
+        for name, t0, t1 in waiting:
+            if t1 <= t_in or final:
+                done.add((name, t0))
+                outbox.put(diagnosed(damper, channels, events, name, t0, t1))
+        if final:
+            return
+        running = [e["t"] for e in events if e["kind"] == "segment_start"][-1:]  # it may be a sine still to come
+        keep_from = min([t0 for n, t0, _ in waiting if (n, t0) not in done] + running, default=t_in)
+        channels = {n: (t[t >= keep_from], v[t >= keep_from]) for n, (t, v) in channels.items()}
+
+
+def diagnosed(damper, channels, events, name, t0, t1):
+    """("diagnosis", what one sine segment shows against the damper model) or ("skipped", why)."""
+    from models.damper import DamperError
+    from models.diagnose import diagnose
+    from models.diagnose.data import DiagnoseError
+    from models.diagnose.words import findings, said
+    ch = {n: (t[(t >= t0) & (t <= t1)], v[(t >= t0) & (t <= t1)]) for n, (t, v) in channels.items()}
+    evs = [e for e in events if e["segment"] == name and t0 <= e["t"] <= t1]
+    start = time.perf_counter()
+    try:
+        res = diagnose({n: c for n, c in ch.items() if len(c[0])}, evs, baseline=(damper.name, damper),
+                       max_effects=MAX_EFFECTS)
+    except (DiagnoseError, DamperError) as e:
+        return "skipped", {"segment": name, "why": str(e)}
+    except Exception as e:  # noqa: BLE001 - a live analysis says what failed and goes on to the next segment
+        return "skipped", {"segment": name, "why": f"{type(e).__name__}: {e}"}
+    steps = [{"effect": s.effect, "said": said(s.effect), "size_rms_n": float(s.size_rms_n),
+              "rivals": [r[0] for r in s.rivals], "stand_in": bool(s.stand_in), "small": bool(s.small)}
+             for s in res.steps]
+    return "diagnosis", {"source": "live", "segment": name, "segment_end_s": float(t1),
+                         "baseline": res.baseline.name, "named": [said(e) for e in res.named()],
+                         "effects": steps, "findings": findings(res),
+                         "within_noise": bool(res.left_over.within_noise),
+                         "diagnosis_s": time.perf_counter() - start}

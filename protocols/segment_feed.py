@@ -7,19 +7,23 @@ loses nothing), and what the worker sent back is handed to `show` on the same ca
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import queue
 
 import numpy as np
+
+NICE = 19  # the worker yields the cores to the control loop, the recorder and (on a bench) the simulator
 
 
 class SegmentFeed:
     def __init__(self, target, args, show):
         """target(inbox, outbox, ending, *args) runs in a spawned process (no fork of a
-        process holding buses and threads); show((kind, body)) gets what it sends back."""
+        process holding buses and threads) at the lowest priority; show((kind, body)) gets
+        what it sends back."""
         ctx = mp.get_context("spawn")
         self.inbox, self.outbox = ctx.Queue(maxsize=4), ctx.Queue()
         self.ending = ctx.Event()  # the run is over: the worker finishes what it has
-        self.proc = ctx.Process(target=target, args=(self.inbox, self.outbox, self.ending, *args), daemon=True)
+        self.proc = ctx.Process(target=niced, args=(target, self.inbox, self.outbox, self.ending, *args), daemon=True)
         self.proc.start()
         self.show = show
         self.buf, self.events, self.backlog = {}, [], []
@@ -68,6 +72,13 @@ class SegmentFeed:
         self.proc.join(timeout=timeout)
         if self.proc.is_alive():
             self.proc.terminate()
+
+
+def niced(target, *args):
+    """target(*args) at the lowest scheduling priority: an analysis may fall behind, the
+    loop may not."""
+    os.nice(NICE)
+    target(*args)
 
 
 def merged(items):

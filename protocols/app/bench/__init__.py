@@ -70,7 +70,7 @@ def loop(args):
              f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
              f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us"]
     if args.diagnose:
-        lines.append(f"live diagnosis alongside, on the other core: {stats['live_diagnoses']} diagnoses of a 4 Hz "
+        lines.append(f"live diagnosis alongside, beside the controller: {stats['live_diagnoses']} diagnoses of a 4 Hz "
                      f"segment, median {stats['live_diagnosis_s.median']:.2f} s, worst "
                      f"{stats['live_diagnosis_s.max']:.2f} s each" if stats["live_diagnoses"]
                      else "live diagnosis alongside: none finished")

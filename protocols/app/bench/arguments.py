@@ -58,4 +58,4 @@ def add(sub):
     bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
     bl.add_argument("--diagnose", action="store_true",
-                    help="with the live diagnosis's worker diagnosing sine segments on the other core all along")
+                    help="with the live diagnosis's worker diagnosing sine segments all along, beside the controller")

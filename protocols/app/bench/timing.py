@@ -23,7 +23,7 @@ GOALS = {1000: {"p99_us": 250.0, "overrun_fraction": 0.001}, 500: {"overruns": 0
 
 def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni", diagnose=False):
     """Loop timing stats; diagnose: with the live diagnosis's worker diagnosing a sine
-    segment after another on the other core all along (its load on the machine), and the
+    segment after another all along (its load on the machine, where _pin puts it), and the
     time each of its diagnoses took."""
     from sim_backend.virtual_rig import sim_rig_config
     folder = tempfile.mkdtemp(prefix="dyno-bench-")
@@ -33,7 +33,7 @@ def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni", diagnose=False):
     proc = subprocess.Popen([dyno, "sim-rig", "--config", str(cfg_path), "--damper", damper,
                              "--seconds", str(seconds + 60)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)
-    pinned = _pin(proc.pid, *([load[0].pid] if load else []))
+    pinned = _pin(proc.pid, load[0].pid if load else None)
     try:
         t0 = time.monotonic()
         while True:
@@ -69,15 +69,18 @@ def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni", diagnose=False):
 
 
 def _diagnosis_load(folder, dyno, damper):
-    """(process, queue of seconds per diagnosis): the live diagnosis's worker function on a
-    recorded 4 Hz sine segment of the embedded rig, over and over until stopped."""
+    """(process, queue of seconds per diagnosis, stop): the live diagnosis's worker function
+    on a recorded 4 Hz sine segment of the embedded rig, over and over until stopped, at the
+    worker's priority."""
     import multiprocessing as mp
+
+    from protocols.segment_feed import niced
     rec = folder / "segment.mcap"
     subprocess.run([dyno, "run", "sine-matrix", "amplitudes_mm=12.7", "freqs_hz=4", "--plain", "--damper", damper,
                     "--out", str(rec)], capture_output=True, check=True)
     ctx = mp.get_context("spawn")
     took, stop = ctx.Queue(), ctx.Event()
-    p = ctx.Process(target=_diagnose_again, args=(str(rec), took, stop), daemon=True)
+    p = ctx.Process(target=niced, args=(_diagnose_again, str(rec), took, stop), daemon=True)
     p.start()
     return p, took, stop
 
@@ -108,17 +111,20 @@ def _stop_load(load):
     return out
 
 
-def _pin(sim_pid, *others):
-    """Controller on one core, sim-rig (and any other process given) on the other, as two
-    machines would be; returns whether it could."""
+def _pin(sim_pid, worker_pid=None):
+    """Controller on one core, sim-rig on the other, as two machines would be; the live
+    diagnosis's worker, if any, beside the controller, whose FIFO loop preempts it at once
+    (beside sim-rig it delays the simulator's replies, which a real cell does not have);
+    returns whether it could."""
     import os
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
     if len(cores) < 2:
         return False
     try:
-        for pid in (sim_pid, *others):
-            os.sched_setaffinity(pid, {cores[-1]})
+        os.sched_setaffinity(sim_pid, {cores[-1]})
         os.sched_setaffinity(0, set(cores[:-1]))
+        if worker_pid is not None:
+            os.sched_setaffinity(worker_pid, set(cores[:-1]))
     except OSError:
         return False
     return True

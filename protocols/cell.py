@@ -30,6 +30,11 @@ class Cell:
     _close: list = field(default_factory=list, repr=False)
 
     @property
+    def paced(self):
+        """Does the run keep the wall clock's time (a real cell, or --realtime)?"""
+        return self.realtime or self.plant is None
+
+    @property
     def info(self):
         """RigInfo of this cell and damper for the plans."""
         return rig_info(self.config, self.damper)
@@ -37,7 +42,7 @@ class Cell:
     def pacer(self):
         """A new pacer for one run (a real-time pacer keeps its deadlines from its first tick)."""
         rate = self.config.rate_hz
-        if self.realtime or self.plant is None:
+        if self.paced:
             return RealTimePacer(rate, virtual_rig=self.plant)
         return SimulatedPacer(self.plant, rate)
 

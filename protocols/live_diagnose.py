@@ -20,8 +20,8 @@ MAX_EFFECTS = 2  # effects one segment's diagnosis accepts at most: a segment is
 
 
 class LiveDiagnose:
-    def __init__(self, description: dict, recorder, live=None, stream=None):
-        self.feed = SegmentFeed(_worker, (description,), self._show)
+    def __init__(self, description: dict, recorder, live=None, stream=None, real_time=True):
+        self.feed = SegmentFeed(_worker, (description,), self._show, real_time)
         self.recorder, self.live, self.stream = recorder, live, stream or sys.stderr
         self.t_now = 0.0
         self.sine = False  # the running segment is a sine

@@ -20,8 +20,8 @@ SHOWN = ("P0", "V0", "K_voil", "friction.C_ifT", "gas_spring.gamma", "friction.x
 
 
 class LiveIdentify:
-    def __init__(self, description: dict, model_path, live=None, stream=None):
-        self.feed = SegmentFeed(_worker, (description, str(model_path)), self._show)
+    def __init__(self, description: dict, model_path, live=None, stream=None, real_time=True):
+        self.feed = SegmentFeed(_worker, (description, str(model_path)), self._show, real_time)
         self.live, self.stream = live, stream or sys.stderr
         self.latest = None
         self.model_path = model_path

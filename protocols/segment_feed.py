@@ -16,14 +16,16 @@ NICE = 19  # the worker yields the cores to the control loop, the recorder and (
 
 
 class SegmentFeed:
-    def __init__(self, target, args, show):
+    def __init__(self, target, args, show, real_time=True):
         """target(inbox, outbox, ending, *args) runs in a spawned process (no fork of a
-        process holding buses and threads) at the lowest priority; show((kind, body)) gets
-        what it sends back."""
+        process holding buses and threads), at the lowest priority when the run is in real
+        time (a simulation faster than real time has no deadline to protect); show((kind,
+        body)) gets what it sends back."""
         ctx = mp.get_context("spawn")
         self.inbox, self.outbox = ctx.Queue(maxsize=4), ctx.Queue()
         self.ending = ctx.Event()  # the run is over: the worker finishes what it has
-        self.proc = ctx.Process(target=niced, args=(target, self.inbox, self.outbox, self.ending, *args), daemon=True)
+        self.proc = ctx.Process(target=niced, args=(NICE if real_time else 0, target, self.inbox, self.outbox,
+                                                    self.ending, *args), daemon=True)
         self.proc.start()
         self.show = show
         self.buf, self.events, self.backlog = {}, [], []
@@ -74,10 +76,10 @@ class SegmentFeed:
             self.proc.terminate()
 
 
-def niced(target, *args):
-    """target(*args) at the lowest scheduling priority: an analysis may fall behind, the
-    loop may not."""
-    os.nice(NICE)
+def niced(nice, target, *args):
+    """target(*args) at a lower scheduling priority: an analysis may fall behind, the loop
+    may not."""
+    os.nice(nice)
     target(*args)
 
 

@@ -5,6 +5,7 @@ ticks, and the gaps leave too few whole cycles to judge): "during" is then harde
 not easier."""
 import subprocess
 import sys
+from html import unescape
 from pathlib import Path
 
 from models.recording import segments
@@ -32,3 +33,10 @@ def test_a_live_diagnosis_event_is_written_during_a_run_on_the_embedded_rig(tmp_
     assert p["source"] == "live" and p["baseline"] == "koni-plain" and p["findings"] and p["latency_s"] > 0
     assert p["named"] == [] and p["within_noise"], p["findings"]  # the plain cell: nothing left out of its own damper
     assert f"diagnose: {sines[0][0]} (" in r.stderr
+    # the report says them per segment, not as discover's rounds
+    rep = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
+                         timeout=300)
+    assert rep.returncode == 0, rep.stderr
+    html = unescape((tmp_path / "rep" / "index.html").read_text())
+    assert "Diagnosed while the run went on" in html and "next tests" not in html
+    assert p["findings"][0][:40] in html

@@ -55,10 +55,11 @@ def _run(args):
         operator_stop.raise_if_stopped()
         if identifying:
             from protocols.live_identify import LiveIdentify
-            ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live)
+            ident = LiveIdentify(to_dict(damper), claim.target.with_suffix(".model.json"), live,
+                                 real_time=c.paced)
         if getattr(args, "diagnose", False):
             from protocols.live_diagnose import LiveDiagnose
-            diag = LiveDiagnose(to_dict(damper), recorder, live)
+            diag = LiveDiagnose(to_dict(damper), recorder, live, real_time=c.paced)
         if args.protocol == DISCOVER:
             found = discover(Plan(module, params), c, [recorder, live, ident, diag], args.budget,
                              say=lambda line: print(f"discover: {line}", file=sys.stderr, flush=True))
@@ -155,7 +156,7 @@ def _finish_run(module, name, c, claim, recorder, result, errors, ident):
     else:
         print(f"nothing recorded: the run stopped before its first segment; {claim.target} "
               f"{'kept as it was' if claim.target.exists() else 'not written'}", file=sys.stderr)
-    if (c.realtime or c.plant is None) and result.ticks:
+    if c.paced and result.ticks:
         late = sum(1 for x in result.lateness_s if x > 1.0 / c.config.rate_hz)
         print(f"real time: {late} of {result.ticks} ticks late by more than a period "
               f"(worst {1e3 * max(result.lateness_s):.1f} ms, {result.missed} skipped)", file=sys.stderr)

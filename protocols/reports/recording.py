@@ -148,7 +148,11 @@ def _header(page, meta, events, model):
     moved = {prm["adapted_from"] for _, prm, _, _ in segments(events) if "adapted_from" in prm}
     page.items(("adapted" if e["kind"] == "skipped" and e["segment"] in moved else e["kind"],
                 f"{e['segment']} {e.get('message', '')}") for e in ends)
-    rounds = [e for e in events if e["kind"] in ("diagnosis", "next_test", "verdict")]
+    live = [e for e in events if e["kind"] == "diagnosis" and e.get("params", {}).get("source") == "live"]
+    if live:  # dyno run --diagnose (protocols/live_diagnose.py)
+        page.paragraph("Diagnosed while the run went on, each sine segment against the damper's model refitted:")
+        page.items((e["segment"], " ".join(e["params"].get("findings", []))) for e in live)
+    rounds = [e for e in events if e["kind"] in ("diagnosis", "next_test", "verdict") and e not in live]
     if rounds:  # dyno run discover (protocols/discover.py)
         page.paragraph("The dyno's own next tests: after each diagnosis, what it named and was unsure of, what "
                        "the following data settled, and each sine it ran next with why.")

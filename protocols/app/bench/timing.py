@@ -74,13 +74,13 @@ def _diagnosis_load(folder, dyno, damper):
     worker's priority."""
     import multiprocessing as mp
 
-    from protocols.segment_feed import niced
+    from protocols.segment_feed import NICE, niced
     rec = folder / "segment.mcap"
     subprocess.run([dyno, "run", "sine-matrix", "amplitudes_mm=12.7", "freqs_hz=4", "--plain", "--damper", damper,
                     "--out", str(rec)], capture_output=True, check=True)
     ctx = mp.get_context("spawn")
     took, stop = ctx.Queue(), ctx.Event()
-    p = ctx.Process(target=niced, args=(_diagnose_again, str(rec), took, stop), daemon=True)
+    p = ctx.Process(target=niced, args=(NICE, _diagnose_again, str(rec), took, stop), daemon=True)
     p.start()
     return p, took, stop
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import datetime
 import math
-import re
 
 from models.damper import load as load_damper
 from models.physics.gas_spring import static_force
@@ -36,20 +35,22 @@ def looks_loaded(force_n, damper, x_m) -> float | None:
 
 def set_offset(text, channel, value, note):
     """The cell file's text with [channels.CHANNEL]'s offset set to value and a comment
-    line after it; RigError if the section or its offset line is missing."""
-    head = re.search(rf"^\[channels\.{re.escape(channel)}\]\s*$", text, re.M)
-    if head is None:
+    line after it, every other line as it was (tomlkit keeps comments and layout);
+    UsageError if the section or its offset is missing."""
+    import tomlkit
+    from tomlkit.exceptions import TOMLKitError
+    try:
+        doc = tomlkit.parse(text)
+    except TOMLKitError as e:
+        raise UsageError(f"the cell file is not TOML: {e}") from None
+    table = doc.get("channels", {}).get(channel)
+    if table is None:
         raise UsageError(f"no [channels.{channel}] section to write the offset into")
-    end = re.search(r"^\[", text[head.end():], re.M)
-    body_end = head.end() + (end.start() if end else len(text) - head.end())
-    body = text[head.end():body_end]
-    line = re.search(r"^offset\s*=\s*[^#\n]*(#[^\n]*)?$", body, re.M)
-    if line is None:
+    if "offset" not in table:
         raise UsageError(f"[channels.{channel}] has no offset line to change")
-    comment = f"  {line.group(1)}" if line.group(1) else ""
-    new = f"offset = {value:.9g}{comment}\n# {note}"
-    body = body[:line.start()] + new + body[line.end():]
-    return text[:head.end()] + body + text[body_end:]
+    table["offset"] = float(f"{value:.9g}")  # its comment and place kept
+    table["offset"].trivia.trail += f"# {note}\n"  # the dated line right below it
+    return tomlkit.dumps(doc)
 
 
 def as_shown(units, quantity, si):

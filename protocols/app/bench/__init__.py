@@ -122,6 +122,16 @@ def diagnose(args):
     return emit(args, "Diagnosis time (dyno bench diagnose)", r, text)
 
 
+def discover(args):
+    from protocols.app.bench.timing import bench_discover
+    r = bench_discover(args.budget)
+    text = (f"dyno run discover --budget {r['budget_s']:g} on the embedded plain cell: {r['wall_s']:.0f} s of wall "
+            f"time for {r['rig_s']:.0f} s of rig time recorded ({r['added_rig_s']:.0f} s of its own tests): "
+            f"{r['wall_over_budget']:.2f} x the budget (goal <= {r['goal_wall_over_budget']:g}: "
+            f"{'met' if r['goal_met'] else 'NOT met'}), {r['wall_over_rig']:.2f} x the rig time\n{r['verdict']}")
+    return emit(args, "The closed loop's wall time (dyno bench discover)", r, text)
+
+
 def hil(args):
     from protocols.app.bench.hil import GOALS, bench, pct
     r = bench(args.damper)

@@ -161,3 +161,27 @@ def goals_met(stats):
     if "p99_us" in g:
         return stats["jitter_us"]["p99"] < g["p99_us"] and stats["overruns"] < g["overrun_fraction"] * stats["ticks"]
     return stats["overruns"] <= g["overruns"]
+
+
+def bench_discover(budget_s=60.0):
+    """`dyno run discover --budget` on the embedded plain cell: its wall time against the
+    rig time it recorded (the opening and its own tests) and against its budget; the goal
+    (issue 47): the wall time at most 1.5 times the budget."""
+    from protocols.io.reader import load_recording
+    dyno = str(Path(sys.executable).parent / "dyno")
+    with tempfile.TemporaryDirectory(prefix="dyno-bench-") as d:
+        out = Path(d) / "discover.mcap"
+        t0 = time.monotonic()
+        p = subprocess.run([dyno, "run", "discover", "--plain", "--budget", f"{budget_s:g}", "--out", str(out)],
+                           capture_output=True, text=True, cwd=d)
+        wall = time.monotonic() - t0
+        if p.returncode != 0:
+            raise RigError(f"bench discover: the run failed: {p.stderr.strip().splitlines()[-1]}")
+        channels, events, _ = load_recording(out)
+    ends = [e for e in events if e["kind"] == "run_end" and e["segment"] == "discover"]
+    added = float(ends[-1]["params"].get("added_s", 0.0)) if ends else 0.0
+    rig = float(channels["force"][0][-1] - channels["force"][0][0])
+    return {"budget_s": budget_s, "wall_s": wall, "rig_s": rig, "added_rig_s": added,
+            "wall_over_budget": wall / budget_s, "wall_over_rig": wall / rig, "goal_wall_over_budget": 1.5,
+            "goal_met": wall <= 1.5 * budget_s,
+            "verdict": next((e["message"] for e in events if e["kind"] == "verdict"), "")}

@@ -268,5 +268,11 @@ def test_a_recording_being_written_is_read_on_from_where_the_last_look_ended(tmp
         assert live.done == 1 and live.segment == "b"
         live.read_on(rec.claim.target)  # nothing new: nothing read twice
         assert len(live.events) == 4
+        # dyno run discover's rounds and verdict are shown with the live diagnosis's findings
+        rec.event(1.5, "diagnosis", "", {"round": 1, "unsure": ["friction or a lag"]}, "named nothing")
+        rec.event(2.0, "verdict", "discover", {}, "Found: nothing. Stopped: the budget is spent.")
+        live.read_on(rec.claim.target)
+        assert live.findings == [("verdict", ["Found: nothing. Stopped: the budget is spent."]),
+                                 ("round 1", ["named nothing", "Unsure: friction or a lag"])]
     finally:
         rec.close()

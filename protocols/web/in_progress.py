@@ -106,10 +106,19 @@ class Live:
 
     @property
     def findings(self):
-        """[(segment, [sentences])] of the live diagnosis so far (protocols/live_diagnose.py),
-        the latest first."""
-        got = [e for e in self.events if e.get("kind") == "diagnosis" and e.get("params", {}).get("source") == "live"]
-        return [(e["segment"], e["params"].get("findings", [])) for e in reversed(got)]
+        """[(label, [sentences])], the latest first: the live diagnosis's per segment
+        (protocols/live_diagnose.py), and dyno run discover's rounds and verdict."""
+        out = []
+        for e in self.events:
+            p = e.get("params", {})
+            if e.get("kind") == "diagnosis" and p.get("source") == "live":
+                out.append((e["segment"], p.get("findings", [])))
+            elif e.get("kind") == "diagnosis":
+                out.append((f"round {p.get('round', '?')}", [e.get("message", ""), *(f"Unsure: {u}" for u in
+                                                                                   p.get("unsure", []))]))
+            elif e.get("kind") == "verdict":
+                out.append(("verdict", [e.get("message", "")]))
+        return out[::-1]
 
     @property
     def progress(self):

@@ -35,8 +35,9 @@ class Effect:
     apply: callable  # (model, d, values, Forces, effect id): its force, in place
     acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
     needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel; "tone": a
-    # tone; "referee": never a candidate, the stand-in a mechanism must beat (loop_surface); "baseline": never a
-    # candidate, fitted with the baseline from the start (the cell's timing)
+    # tone; "frequencies": sine segments of two frequencies or more; "referee": never a candidate, the stand-in a
+    # mechanism must beat (loop_surface); "baseline": never a candidate, fitted with the baseline from the start
+    # (the cell's timing)
     depends_on: tuple = ()  # of VARIABLES
     nature: str = "physics"  # of NATURES
     say: tuple = ()  # (sentence, parameter shown, factor, unit): see models/diagnose/words.py

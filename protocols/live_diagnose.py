@@ -27,7 +27,6 @@ class LiveDiagnose:
         self.sine = False  # the running segment is a sine
         self.cut_after = None  # [s] a sine segment's end: its samples go to the worker once they reach it
         self.ended = {}  # sine segments handed over and not yet answered: name -> wall clock at their end [s]
-        self.written = []  # the diagnosis events written, as their params
 
     # runner observer -----------------------------------------------------------------
     def samples(self, drained):
@@ -57,7 +56,6 @@ class LiveDiagnose:
             self.recorder.event(t, "diagnosis", body["segment"], body, message)
             if self.live is not None:
                 self.live.event(t, "diagnosis", body["segment"], body, message)
-            self.written.append(body)
             self.stream.write(f"\ndiagnose: {body['segment']} ({body['latency_s']:.1f} s after its end): "
                               + " ".join(body["findings"]) + "\n")
         elif kind == "skipped":

@@ -16,6 +16,7 @@ from models.recording import segment_kind
 from protocols.segment_feed import SegmentFeed
 
 FINISH_S = 60.0  # s the run's end waits for the last segments' findings
+MARGIN_S = 0.1  # s of samples kept beyond a segment's ends
 MAX_EFFECTS = 2  # effects one segment's diagnosis accepts at most: a segment is short evidence
 
 
@@ -101,7 +102,9 @@ def _worker(inbox, outbox, ending, description):
         final = kind == "end"
         for n, (t, v) in (chunk or {}).items():
             T, V = channels.get(n, (np.empty(0), np.empty(0)))
-            channels[n] = (np.concatenate([T, t]), np.concatenate([V, v]))
+            T, V = np.concatenate([T, t]), np.concatenate([V, v])
+            order = np.argsort(T, kind="stable")  # a device's batch may come after a later one of another
+            channels[n] = (T[order], V[order])
         events += evs or []
         t_in = float(channels["force"][0][-1]) if len(channels.get("force", ((),))[0]) else -np.inf
         waiting = [(n, t0, t1) for n, _, t0, t1 in segments(events, kinds=("sine",)) if (n, t0) not in done]
@@ -112,7 +115,7 @@ def _worker(inbox, outbox, ending, description):
         if final:
             return
         running = [e["t"] for e in events if e["kind"] == "segment_start"][-1:]  # it may be a sine still to come
-        keep_from = min([t0 for n, t0, _ in waiting if (n, t0) not in done] + running, default=t_in)
+        keep_from = min([t0 for n, t0, _ in waiting if (n, t0) not in done] + running, default=t_in) - MARGIN_S
         channels = {n: (t[t >= keep_from], v[t >= keep_from]) for n, (t, v) in channels.items()}
 
 
@@ -122,7 +125,10 @@ def diagnosed(damper, channels, events, name, t0, t1):
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     from models.diagnose.words import findings, said
-    ch = {n: (t[(t >= t0) & (t <= t1)], v[(t >= t0) & (t <= t1)]) for n, (t, v) in channels.items()}
+    # a margin beyond the segment's ends: the diagnosis cuts it by its events, and needs a
+    # sample at or before its start to interpolate from
+    k = {n: (t >= t0 - MARGIN_S) & (t <= t1 + MARGIN_S) for n, (t, _) in channels.items()}
+    ch = {n: (t[k[n]], v[k[n]]) for n, (t, v) in channels.items()}
     evs = [e for e in events if e["segment"] == name and t0 <= e["t"] <= t1]
     start = time.perf_counter()
     try:

@@ -122,6 +122,26 @@ def test_gaps_missing_temperature_and_too_short(recordings):
 
 
 @ONE_WORKER
+def test_a_one_sample_spike_costs_its_samples_not_the_cycle(recordings):
+    """A wired cell's actuator jerks at a late setpoint: a one-sample inertial spike in the
+    force every 0.7 s. Each costs the samples around it; the 1 Hz cycles all stay whole."""
+    ch, ev, _ = load_recording(recordings["null"])
+    clean = prepare(ch, ev)
+    t, F = ch["force"]
+    F = F.copy()
+    at = np.searchsorted(t, np.arange(t[0] + 0.35, t[-1], 0.7))
+    F[at] -= 1000.0
+    ch["force"] = (t, F)
+    d = prepare(ch, ev)
+    one_hz = [k for k, (_, f) in enumerate(d.segments) if f == 1.0]
+    assert one_hz and len(d.t) < len(clean.t)
+    for k in one_hz:
+        assert len(np.unique(d.cycle[d.segment == k])) == len(np.unique(clean.cycle[clean.segment == k]))
+    for i in at:  # no sample within 10 ms of a spike is judged
+        assert not np.any(np.abs(d.t - t[i]) < 0.01)
+
+
+@ONE_WORKER
 def test_a_damper_model_as_baseline(recordings):
     """--baseline PRESET: the plain cell's own damper model, simulated along the motion and
     refitted, leaves nothing on the null and finds the hidden inertia first."""

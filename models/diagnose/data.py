@@ -5,7 +5,7 @@ either fitted (train) or only judged (held out).
 Channels may come at different rates, with gaps and dropouts: samples the data-quality
 check flags (models/diagnose/quality.py) are left out first, everything is put on the
 force channel's clock (block-averaged to at most MAX_RATE_HZ), a cycle touched by a gap
-or a flagged span is left out, and what could not be assessed is said in `notes`.
+or a flagged span is left out (a short glitch: only its samples), and what could not be assessed is said in `notes`.
 """
 from __future__ import annotations
 
@@ -20,6 +20,12 @@ MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz 
 MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
 MIN_WHOLE = 2  # fewer whole cycles than this cannot be split into train and held-out
 BLOCK_S = 0.5  # s: the unit of motion that does not repeat (random, road replay), as a cycle is of a sine
+# a gap or flagged span at most this share of a cycle (or block) is a glitch: its samples are
+# left out, not the cycle. A wired cell's actuator jerks at a late setpoint and puts a
+# one-sample inertial spike in the force every second or so (flagged with quality.MARGIN_S
+# either side: 40 ms), which would cost every cycle of a 1 Hz segment; a cycle's judgement
+# does not miss a tenth of it.
+GLITCH = 0.1
 REGULAR = 0.2  # strokes whose rates vary by more than this share do not repeat: judged in blocks
 
 
@@ -191,9 +197,9 @@ def prepare(channels, events, drives=None) -> Data:
         per = 1.0 / BLOCK_S if random else f
         cyc = np.floor((t - t0) * per + 1e-9).astype(int)
         whole = cyc < (int(np.floor((t1 - t0) * per + 1e-6)) if random else int(round((t1 - t0) * f - 1e-6)))
-        for g0, g1 in gaps:  # a cycle touched by a gap is left out
-            hit = np.unique(cyc[(t >= g0 - 2 * h) & (t <= g1 + 2 * h)])
-            whole &= ~np.isin(cyc, hit)
+        for g0, g1 in gaps:  # a cycle touched by a gap is left out; a glitch, only its samples
+            near = (t >= g0 - 2 * h) & (t <= g1 + 2 * h)
+            whole &= ~near if (g1 - g0) * per <= GLITCH else ~np.isin(cyc, np.unique(cyc[near]))
         cyc = np.where(whole, cyc + n_cycles, -1)
         n_cycles = max(n_cycles, cyc.max() + 1)
         parts.append((t, xs, v, a, Fi, cyc, np.full(len(t), len(seg_names)), np.full(len(t), h)))

@@ -26,7 +26,7 @@ W_FORCE = 0.5
 FRICTION_KNOTS = 8  # basis functions of position_friction over the stroke
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _magnitude(v, c1, c2, C, Fcr):
     """Force magnitude [N] at speed v >= 0 [m/s] of low (c1 v + c2 v^2) and mid
     ((F - Fcr)/C) paths in parallel, eq 3.30; closed form of the quadratic."""
@@ -42,7 +42,7 @@ def _magnitude(v, c1, c2, C, Fcr):
     return max(2 * qc / max(-qb + disc, 1e-30), Fcr)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _direction(v, c1, c2, C, Fcr):
     """_magnitude along speeds v [m/s]."""
     out = np.empty(len(v))
@@ -54,7 +54,7 @@ def _direction(v, c1, c2, C, Fcr):
 VALVES = ("c1_c", "c2_c", "C_c", "Fcr_c", "c1_r", "c2_r", "C_r", "Fcr_r")  # damping's parameters, in order
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _damping(v, c1_c, c2_c, C_c, Fcr_c, c1_r, c2_r, C_r, Fcr_r):
     out = np.empty(len(v))
     for i in range(len(v)):

@@ -35,7 +35,7 @@ def recent(fn, size=8):
     return wrapped
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def lag(F, tau, h):
     """F through a first-order lag of time constant tau[i] [s] (implicit Euler)."""
     out = np.empty_like(F)
@@ -46,7 +46,7 @@ def lag(F, tau, h):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def integral(F, t, lo, hi):
     """Integral over [lo, hi] of F linear between samples t (lo >= t[0])."""
     j = max(np.searchsorted(t, lo) - 1, 0)
@@ -60,7 +60,7 @@ def integral(F, t, lo, hi):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def plateau(F, S, t, c, W):
     """Free play: the load cell reads zero while the mount crosses a clearance c [m].
     When the force F [N] changes sign (at t_z, between samples) the rod leaves its contact
@@ -116,13 +116,13 @@ def plateau(F, S, t, c, W):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def reset(t, h, i):
     """Whether sample i starts a new stretch (the data jump over left-out cycles)."""
     return i == 0 or t[i] - t[i - 1] > 1.5 * h[i]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def dahl(x, t, h, x_stick):
     """Pre-sliding state z [-] of a Dahl friction along displacement x [m]:
     dz/dx = (1 - z sgn(dx)) / x_stick, exact over each sample (z -> sgn(dx) exponentially
@@ -141,7 +141,7 @@ def dahl(x, t, h, x_stick):
     return z
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bw_up(z, s, x_y, gamma):
     """Bouc-Wen state after travel s >= 0 [m] from z (dz/dx = (1 - c z^2) / x_y, c = 1
     loading (z >= 0), c = 1 - 2 gamma unloading (z < 0)), in closed form."""
@@ -166,7 +166,7 @@ def bw_up(z, s, x_y, gamma):
     return np.tanh(np.arctanh(min(z, 1.0 - 1e-15)) + s / x_y)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bouc_wen(x, t, h, x_y, gamma):
     """Hysteretic state z [-] (|z| < 1) of a Bouc-Wen element with n = 2 (Spencer et al.
     1997) along displacement x [m], normalised so that z -> 1 on loading:

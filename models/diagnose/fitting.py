@@ -3,15 +3,13 @@ parameter (grid starts for piecewise ones), two-fold cross-fitting, and one Gaus
 step for an open term (terms.py)."""
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 from scipy.optimize import least_squares
 
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.data import Data
 from models.recording import covariance
+from models.threads import each
 
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 # steps (each a finite-difference Jacobian, a model evaluation per parameter) after which a
@@ -70,22 +68,6 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
     return values, {**{n: float("nan") for n in held}, **sd}
 
 
-_pool = (None, None)  # (process id, ThreadPoolExecutor): made in the process that uses it
-
-
-def _each(fn, items):
-    """[fn(*item)] in order; on two threads when the process has two cores: each fold's fit
-    is independent of the other's, and most of its time is numpy and numba, which release
-    the GIL. The results are those of one fit after the other."""
-    global _pool
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    if len(items) < 2 or cores < 2:
-        return [fn(*x) for x in items]
-    if _pool[0] != os.getpid():  # a forked child does not inherit its parent's threads
-        _pool = (os.getpid(), ThreadPoolExecutor(2, thread_name_prefix="fold-fit"))
-    return list(_pool[1].map(lambda x: fn(*x), items))
-
-
 def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False):
     """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
     sd per fold, residual [N] where every judged sample comes from a fit that never saw it).
@@ -94,7 +76,7 @@ def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=
     a local minimum the other did not (on a null with designed sines added, the odd
     cycles' valve lost its quadratic term: 19 N RMS against 2.3 N), and the difference
     between the folds is then read as physics."""
-    got = _each(lambda train, start: fit(model, d, train, start, hold, effort),
+    got = each(lambda train, start: fit(model, d, train, start, hold, effort),
                 [(train, start) for (train, _), start in zip(folds, starts)])
     vals, sds = [v for v, _ in got], [sd for _, sd in got]
     if restart:

@@ -18,6 +18,7 @@ from models.identify.result import Result
 from models.identify.segments import Segment
 from models.identify.static import Estimate
 from models.physics.simulate import simulate
+from models.threads import each
 from models.recording import covariance, nrmse
 
 G_START = 1.40  # adiabatic nitrogen: where the gamma fit starts (the thesis found 1.38)
@@ -195,7 +196,7 @@ def _fit(d: Damper, structures, form: str, fit_K: bool, fixed: set, segs, extras
     def resid(z):
         apply(z)
         try:
-            out = np.concatenate([_residual(d, s, cycles) for s in segs])
+            out = np.concatenate(each(lambda s: _residual(d, s, cycles), [(s,) for s in segs]))
         except DamperError:  # a trial parameter set outside the model's range
             return np.full(size[0], 1.0)
         # a high-speed line must stay one the model accepts (it crosses the mid line at a

@@ -16,6 +16,7 @@ from scipy.optimize import least_squares
 
 from models.physics import valves
 from models.damper import Branch, Direction, Line
+from models.threads import each
 
 # structure name -> its parameters: a [N s^2/m^2], b [N s/m] (low branch, eq 4.14),
 # m [N s/m], c [N] (mid line slope and cracking force, eq 4.13), m2, c2 (high line)
@@ -45,7 +46,7 @@ def row(p: dict) -> np.ndarray:
     return r
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _forces(u, vp):
     out = np.empty(u.shape[0])
     for i in range(u.shape[0]):
@@ -217,19 +218,23 @@ def select(u, G, T, T_ref, groups, fit_K=True, structures=None):
     structures = structures or list(STRUCTURES)
     groups = np.asarray(groups)
     keys = np.unique(groups)
+    tried = [s for s in structures if len(u) >= 3 * len(STRUCTURES[s]) + 2]
+
+    def left_out(k):
+        """{structure: relative errors on group k} from fits without it (the fits of one
+        group share their smaller structures' results as starts)."""
+        train, test = groups != k, groups == k
+        done, out = {}, {}
+        for s in tried:
+            if train.sum() >= len(STRUCTURES[s]) + 2:
+                p, K, _ = fit(s, u[train], G[train], T[train], T_ref, fit_K, done=done)
+                out[s] = (force(p, u[test], T[test], T_ref, K) - G[test]) / np.maximum(G[test], 0.05 * G.max())
+        return out
+
+    per_group = each(left_out, [(k,) for k in keys])  # the groups are independent: on the cores
     scores = {}
-    done = {k: {} for k in keys}  # fits per held-out group, shared by the structures
-    for s in structures:
-        if len(u) < 3 * len(STRUCTURES[s]) + 2:
-            continue
-        errs = []
-        for k in keys:
-            train, test = groups != k, groups == k
-            if train.sum() < len(STRUCTURES[s]) + 2:
-                continue
-            p, K, _ = fit(s, u[train], G[train], T[train], T_ref, fit_K, done=done[k])
-            e = (force(p, u[test], T[test], T_ref, K) - G[test]) / np.maximum(G[test], 0.05 * G.max())
-            errs.append(e)
+    for s in tried:
+        errs = [g[s] for g in per_group if s in g]
         if errs:
             scores[s] = float(np.sqrt(np.mean(np.concatenate(errs) ** 2)))
     if not scores:

@@ -27,7 +27,7 @@ def outputs(layout, y, x, xd, prm, vp, vh, out):
         remote_reservoir.outputs(y, x, xd, prm, vp, vh, out)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def incompressible(layout, x, v, prm, vp, vh, out):
     if layout == 0:
         monotube.incompressible(x, v, prm, vp, vh, out)

@@ -61,7 +61,7 @@ def dahl_step(F, dx, F_c, x_stick):
     return target + (F - target) * math.exp(-abs(dx) / x_stick)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def dahl_series(x, F_c, x_stick, F0):
     """dahl_step along a displacement record x [m] with friction magnitudes F_c [N] per
     sample, from F0 [N]: the friction force [N] at each sample."""

@@ -59,7 +59,7 @@ def new_history(n):
     return np.zeros((3 + n, n))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def integrate(layout, y, x, xd, nsub, h, prm, vp, vh, atol, out, hist):
     """March y of the assembly `layout` (assemblies.CODE) from sample 0 to the last
     sample of x, xd (spacing h seconds, nsub implicit steps per sample), writing its

@@ -1,0 +1,32 @@
+"""Independent fits on the process's cores, as threads: the model evaluations they spend
+their time in are numpy and numba kernels compiled `nogil`, which release the GIL.
+Results come back in the items' order, so a caller gets what one item after the other
+would have given."""
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+PREFIX = "model-fit"
+_pool = (None, None)  # (process id, executor): a forked child does not inherit its parent's threads
+_lock = threading.Lock()
+
+
+def cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def each(fn, items) -> list:
+    """[fn(*item) for item in items], on up to `cores()` threads. One after the other on a
+    single core, for a single item, or when called from one of the threads itself (a fit
+    that waited on the pool it runs in would wait for ever)."""
+    items = list(items)
+    n = cores()
+    if len(items) < 2 or n < 2 or threading.current_thread().name.startswith(PREFIX):
+        return [fn(*x) for x in items]
+    global _pool
+    with _lock:
+        if _pool[0] != os.getpid():
+            _pool = (os.getpid(), ThreadPoolExecutor(n, thread_name_prefix=PREFIX))
+    return list(_pool[1].map(lambda x: fn(*x), items))

@@ -5,7 +5,8 @@ either fitted (train) or only judged (held out).
 Channels may come at different rates, with gaps and dropouts: samples the data-quality
 check flags (models/diagnose/quality.py) are left out first, everything is put on the
 force channel's clock (block-averaged to at most MAX_RATE_HZ), a cycle touched by a gap
-or a flagged span is left out (a short glitch: only its samples), and what could not be assessed is said in `notes`.
+or a flagged span is left out (a short glitch: only its samples), and what could not be
+assessed is said in `notes`.
 """
 from __future__ import annotations
 

@@ -38,6 +38,14 @@ def warm():
     run(load_car("race-car"), d, t, x - x[0], v)
 
 
+def worker_start(processes):
+    """A pool worker's start, one of `processes`: its share of the cores for its fits (models/threads.py), its
+    kernels warm."""
+    from models import threads
+    threads.share(processes)
+    warm()
+
+
 class Progress:
     """A one-line progress bar with an ETA on a text stream (stderr by default); into a log
     (a stream that is not a terminal) a whole line per finished task, never redrawn."""
@@ -119,7 +127,8 @@ def _run(fn, jobs, names, executor, workers, bar):
                 bar.advance()
         return out
     own = executor is None
-    ex = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=warm) if own else executor
+    n = min(workers, len(jobs))
+    ex = ProcessPoolExecutor(max_workers=n, initializer=worker_start, initargs=(n,)) if own else executor
     try:
         futures = [ex.submit(fn, job) for job in jobs]
         out = []

@@ -12,7 +12,8 @@ from __future__ import annotations
 import contextlib
 import re
 
-from models.parallel import warm
+from models import threads
+from models.parallel import worker_start
 from protocols.errors import UsageError
 
 INSTALL = "pip install 'dyno[cluster]' (Dask distributed)"
@@ -40,20 +41,21 @@ def pool(spec, jobs):
             yield out
         return
     from concurrent.futures import ProcessPoolExecutor
-    with ProcessPoolExecutor(max_workers=max(1, jobs), initializer=warm) as local:
+    with ProcessPoolExecutor(max_workers=max(1, jobs), initializer=worker_start, initargs=(max(1, jobs),)) as local:
         yield local, max(1, jobs)
 
 
 def _warm_plugin():
     """A Dask worker plugin (Dask wants the subclass): models.parallel.warm() once in each
-    worker as it starts."""
+    worker as it starts, and one thread for its fits (a worker is one of a machine's
+    processes, each with its one thread: models/threads.py)."""
     from distributed.diagnostics.plugin import WorkerPlugin
 
     class Warm(WorkerPlugin):
         name = "dyno-warm"
 
         def setup(self, worker):
-            warm()
+            worker_start(threads.cores())
     return Warm()
 
 

@@ -13,6 +13,11 @@ os.environ["DYNO_STRICT_FIGURES"] = "1"
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
+# pytest-xdist's workers share the cores: each (and every dyno command it starts) fits on its share
+if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit():
+    from models import threads
+    threads.share(int(os.environ["PYTEST_XDIST_WORKER_COUNT"]))
+
 
 @pytest.fixture(scope="session")
 def koni_run(tmp_path_factory):

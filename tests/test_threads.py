@@ -6,7 +6,8 @@ import numpy as np
 from models import threads
 
 
-def test_each_keeps_the_items_order_and_runs_nested_calls_in_place():
+def test_each_keeps_the_items_order_and_runs_nested_calls_in_place(monkeypatch):
+    monkeypatch.delenv(threads.ENV, raising=False)  # the suite's workers have one thread each
     def slow_sum(k):
         names.add(threading.current_thread().name)
         return float(np.sum(np.sin(np.arange(200_000) * (k + 1))))
@@ -32,3 +33,12 @@ def test_an_error_in_one_item_reaches_the_caller():
         assert str(e) == "two"
     else:
         raise AssertionError("the error was lost")
+
+
+def test_processes_sharing_the_cores_each_fit_on_their_share(monkeypatch):
+    monkeypatch.delenv(threads.ENV, raising=False)
+    n = threads.cores()
+    threads.share(2)  # one of two processes: half the cores, at least one
+    assert threads.cores() == max(1, n // 2)
+    monkeypatch.setenv(threads.ENV, "64")  # never more than the process may run on
+    assert threads.cores() == n

@@ -41,8 +41,9 @@ def pool(spec, jobs):
             yield out
         return
     from concurrent.futures import ProcessPoolExecutor
-    with ProcessPoolExecutor(max_workers=max(1, jobs), initializer=worker_start, initargs=(max(1, jobs),)) as local:
-        yield local, max(1, jobs)
+    n = max(1, jobs)
+    with ProcessPoolExecutor(max_workers=n, initializer=worker_start, initargs=(n,)) as local:
+        yield local, n
 
 
 def _warm_plugin():
@@ -55,7 +56,7 @@ def _warm_plugin():
         name = "dyno-warm"
 
         def setup(self, worker):
-            worker_start(threads.cores())
+            worker_start(threads.cores())  # one process per core: one fit thread each
     return Warm()
 
 

@@ -45,12 +45,14 @@ class Rig:
         self.by_signal = {(c.device, c.signal): c for c in config.channels.values()}
         self.latest: dict[str, Reading] = {}
         self._buf = {name: ([], []) for name in config.channels}
+        self.failed: set[str] = set()  # devices whose transport failed: not polled again until open()
         self.is_open = False
 
     def open(self):
         """Connect every device; RigError "CONFIG:LINE: ..." naming the first that fails."""
         self._t0 = time.monotonic()
         self.wall_start = time.time() - self.clock()
+        self.failed.clear()
         opened = []
         for name, d in self.drivers.items():
             try:
@@ -64,13 +66,17 @@ class Rig:
 
     def poll(self):
         """Take in everything the devices sent since the last poll. RigError names a
-        device whose transport failed."""
+        device whose transport failed; it is not polled again (a silent module would cost
+        each later poll its timeout while the rig moves to the safe position)."""
         now = self.clock()
         for name, drv in self.drivers.items():
+            if name in self.failed:
+                continue
             try:
                 polled = drv.poll(now)
             except RigError as e:
                 e.device = name  # the loop may still trust the other devices' readings
+                self.failed.add(name)
                 raise
             for signal, raw, fault, *age in polled:
                 ch = self.by_signal.get((name, signal))

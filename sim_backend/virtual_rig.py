@@ -34,6 +34,7 @@ FAULTS = {
     "serial_garbage": "garbage bytes between load-cell frames",
     "modbus_exception": "Modbus modules answer with exception responses",
     "modbus_timeout": "Modbus modules stop answering in time",
+    "modbus_late": "Modbus modules answer 150 ms late (a busy machine)",
     "open_thermocouple": "thermocouples read open",
     "loadcell_stuck": "load cell output frozen",
     "loadcell_saturated": "load cell amplifier saturated",

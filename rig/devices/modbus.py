@@ -15,6 +15,9 @@ from rig.devices.transport import Transport
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # we report errors ourselves
 
 IDENTIFY_TRIES = 3  # identity reads at open before a module counts as silent
+TIMEOUT_S = 0.1  # s: a module on a real-time rig answers in milliseconds
+SIMULATED_TIMEOUT_S = 1.0  # s: on the simulated clock the rig's time stands still while it
+# waits, so a machine busy with other work must not make a module look silent
 MISSED_REPLIES = 2  # requests in a row without a reply before the device counts as failed (one is a busy machine)
 
 
@@ -41,8 +44,8 @@ class ModbusModule:
     def open(self):
         from pymodbus.client import ModbusTcpClient
         p = self.params
-        self.client = ModbusTcpClient(p["host"], port=int(p["port"]), timeout=float(p.get("timeout_s", 0.1)),
-                                      retries=0)
+        timeout = float(p.get("timeout_s", TIMEOUT_S if self.threaded else SIMULATED_TIMEOUT_S))
+        self.client = ModbusTcpClient(p["host"], port=int(p["port"]), timeout=timeout, retries=0)
         if not self.client.connect():
             raise RigError(f"device {self.name!r}: no Modbus server at {p['host']}:{p['port']}")
         self._identify()
@@ -109,6 +112,9 @@ class ModbusModule:
             r = read(m.start, count=m.count, device_id=int(self.params["device_id"]))
         except (ModbusException, OSError) as e:
             self.missed += 1
+            # a new connection for the next request: on the old one the late reply to this
+            # request would be taken as the answer to the next (pymodbus 3.16 accepts it)
+            self.client.close()
             if self.missed < MISSED_REPLIES:  # a reply lost on a busy machine: its channels age, the
                 return []                     # stale-channel watchdog trips if the device stays silent
             raise RigError(f"device {self.name!r}: Modbus request failed {self.missed} times in a row "

@@ -17,6 +17,8 @@ from sim_backend.emulators.ports import free_port
 
 logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
 
+LATE_S = 0.15  # s: a late answer, as from a machine busy with other work
+
 
 class ModbusModules:
     def __init__(self, config, devices, port, faults):
@@ -25,7 +27,7 @@ class ModbusModules:
         self.maps = {name: modbus_map.load(config.devices[name].params["map"]) for name in devices}
         self.ids = {name: int(config.devices[name].params["device_id"]) for name in devices}
         self.readings = {}  # the plant's latest; encoded only when a client reads
-        self.faults = faults  # modbus_exception, modbus_timeout, open_thermocouple
+        self.faults = faults  # modbus_exception, modbus_timeout, modbus_late, open_thermocouple
         self.loop = asyncio.new_event_loop()
         self.server = None
         self.ready = threading.Event()
@@ -37,6 +39,8 @@ class ModbusModules:
                 return ExcCodes.DEVICE_FAILURE
             if "modbus_timeout" in self.faults:
                 await asyncio.sleep(2.0)
+            if "modbus_late" in self.faults:
+                await asyncio.sleep(LATE_S)
             m = self.maps[name]
             if address >= m.start + m.count or address + count <= m.start:
                 return None  # not the value block (the identity register holds its type code)

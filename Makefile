@@ -35,7 +35,7 @@ test: lint $(CHROMIUM)
 
 # the inner loop: the layers and sizes, wire formats, configs, damper files, the physics
 # components and effects, tables and metrics; no run, no diagnosis, no browser (about a minute)
-QUICK := architecture threads wire_formats rig_config damper_json components output_rule report_tables metrics design effects plant
+QUICK := architecture events threads wire_formats rig_config damper_json components output_rule report_tables metrics design effects plant
 # the linter's rules and why: pyproject.toml [tool.ruff.lint]
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -1,7 +1,7 @@
 """A recording as plain data, and the helpers every analysis of one shares.
 
-channels: {name: (t [s], values [SI])}; events: the recording's event dicts
-(docs/recording.md). A segment's kind is written into its params by the runner
+channels: {name: (t [s], values [SI])}; events: the recording's events
+(models/events.py, docs/recording.md). A segment's kind is written into its params by the runner
 (`protocols/plan.py`); recordings made before that are read by inferring it from the
 params' keys (`segment_kind`), in this one place.
 """
@@ -9,8 +9,11 @@ from __future__ import annotations
 
 import json
 import re
+from typing import NamedTuple
 
 import numpy as np
+
+from models.events import SegmentEnd, SegmentStart
 
 # what a segment of motion is; the analyses choose segments by these
 # road: motion a virtual car or a replayed history asks for (hardware-in-the-loop, replay)
@@ -35,29 +38,41 @@ def segment_kind(params: dict) -> str:
     return "transition"
 
 
-def segments(events, measured=True, kinds=None):
-    """[(name, params, t0, t1)] of a recording's segments: measured ones only by default
-    (measured=False: all), of the given kinds if any. params carry their "kind"."""
-    out, open_ = [], {}
+class Span(NamedTuple):
+    """A segment of a recording: its name, parameters (with its kind) and time span [s]."""
+    name: str
+    params: dict
+    t0: float
+    t1: float
+
+    @property
+    def kind(self) -> str:
+        return self.params["kind"]
+
+
+def segments(events, measured=True, kinds=None) -> list[Span]:
+    """The recording's segments: measured ones only by default (measured=False: all), of
+    the given kinds if any. params carry their "kind"."""
+    out, open_ = [], None
     for e in events:
-        if e["kind"] == "segment_start":
-            open_ = {"name": e["segment"], "params": e["params"], "t0": e["t"]}
-        elif e["kind"] == "segment_end" and open_ and open_["name"] == e["segment"]:
-            params = {**open_["params"], "kind": segment_kind(open_["params"])}
-            if (not measured or params.get("measured", True)) and (kinds is None or params["kind"] in kinds):
-                out.append((open_["name"], params, open_["t0"], e["t"]))
-            open_ = {}
+        if isinstance(e, SegmentStart):
+            open_ = e
+        elif isinstance(e, SegmentEnd) and open_ is not None and open_.segment == e.segment:
+            span = Span(open_.segment, {**open_.params, "kind": segment_kind(open_.params)}, open_.t, e.t)
+            if (not measured or open_.measured) and (kinds is None or span.kind in kinds):
+                out.append(span)
+            open_ = None
     return out
 
 
 def only(events, names):
     """The events with only the named segments' starts and ends kept (ValueError names an
     unknown segment and the recording's own)."""
-    known = [n for n, _, _, _ in segments(events, measured=False)]
+    known = [s.name for s in segments(events, measured=False)]
     unknown = [n for n in names if n not in known]
     if unknown:
         raise ValueError(f"no segment {unknown[0]!r} in the recording (its segments: {', '.join(known) or 'none'})")
-    return [e for e in events if e["kind"] not in ("segment_start", "segment_end") or e["segment"] in names]
+    return [e for e in events if not isinstance(e, (SegmentStart, SegmentEnd)) or e.segment in names]
 
 
 REPEATS_DIFFER = 0.15  # repeats of one test whose force ranges differ by more were not one damper
@@ -117,7 +132,7 @@ def smooth(y, h, freq):
 
 
 def cycle_blocks(channels, cycles=3):
-    """[(name, params, t0, t1)]: a recording without segment events cut into blocks of
+    """[Span]: a recording without segment events cut into blocks of
     `cycles` whole strokes (displacement rising through its median)."""
     t, x = channels["x"]
     up = np.nonzero((x[:-1] < np.median(x)) & (x[1:] >= np.median(x)))[0]
@@ -130,7 +145,7 @@ def cycle_blocks(channels, cycles=3):
     for k in range(0, len(starts) - cycles, cycles):
         t0, t1 = float(t[starts[k]]), float(t[starts[k + cycles]])
         params = {"freq_hz": cycles / (t1 - t0), "cycles": cycles, "kind": "sine"}
-        out.append((f"cycles {k + 1}-{k + cycles}", params, t0, t1))
+        out.append(Span(f"cycles {k + 1}-{k + cycles}", params, t0, t1))
     return out
 
 

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from models.events import Event, SegmentEnd, SegmentStart
+
 MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise about a hold)
 REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back
 SAME_PERIOD = 0.05  # cycles within 5 % of each other's period ...
@@ -155,10 +157,9 @@ def holds(t, x, taken=()):
     return out
 
 
-def events(segments) -> list[dict]:
+def events(segments) -> list[Event]:
     """The segment_start and segment_end events a run writes, for these segments."""
     out = []
     for s in segments:
-        out.append({"t": s.t0, "kind": "segment_start", "segment": s.name, "params": s.params})
-        out.append({"t": s.t1, "kind": "segment_end", "segment": s.name, "params": {}})
+        out += [SegmentStart(s.t0, s.name, s.params), SegmentEnd(s.t1, s.name)]
     return out

@@ -17,6 +17,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from models.events import Fault, OperatorStop
 from models.recording import segments
 from protocols.io.files import writer
 from protocols.io.reader import load_recording
@@ -48,7 +49,7 @@ CREATE INDEX IF NOT EXISTS runs_serial ON runs(serial);
 """
 COLUMNS = ("serial", "operator", "note", "setup", "damper", "rig", "protocol", "params", "started", "duration_s",
            "outcome", "reason", "error")  # what describe() fills; a re-index sets every one
-ENDINGS = {"fault": "tripped", "operator_stop": "stopped"}
+ENDINGS = {Fault: "tripped", OperatorStop: "stopped"}
 
 
 class CatalogueError(UsageError, ValueError):
@@ -181,15 +182,14 @@ def describe(path):
     ch, events, meta = load_recording(path, peak_rows.READS)
     run = meta.get("run", {})
     t = ch["force"][0] if "force" in ch else next(iter(ch.values()))[0]
-    ends = [e for e in events if e["kind"] in ENDINGS]
+    end = next((e for e in events if type(e) in ENDINGS), None)
     row = {"serial": run.get("damper_serial"), "operator": run.get("operator"), "note": run.get("note"),
            "setup": json.dumps({k.removeprefix("setup."): v for k, v in run.items() if k.startswith("setup.")}),
            "damper": json.loads(meta.get("damper", {}).get("model", "{}") or "{}").get("name"),
            "rig": meta.get("rig", {}).get("name"), "protocol": meta.get("protocol", {}).get("name"),
            "params": meta.get("protocol", {}).get("params"), "started": run.get("wall_start"),
            "duration_s": float(t[-1] - t[0]) if len(t) else 0.0,
-           "outcome": ENDINGS[ends[0]["kind"]] if ends else "completed",
-           "reason": ends[0].get("message") if ends else None, "error": None}
+           "outcome": ENDINGS[type(end)] if end else "completed", "reason": end.message if end else None, "error": None}
     rows = peak_rows.peaks(ch, segments(events))
     return row, [(p.segment, p.amplitude_mm, p.freq_hz, p.target_c, p.v_comp, p.F_comp, p.v_reb, p.F_reb)
                  for p in rows]

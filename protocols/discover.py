@@ -18,6 +18,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 
+from models.events import Diagnosis, NextTest, RunEnd, Verdict
 from models.diagnose import design, diagnose
 from models.diagnose.words import said
 from rig.loop import describe
@@ -79,11 +80,11 @@ def next_plan(proposals) -> Plan:
         record_s=design.MIN_S, paired=True))
 
 
-def _tell(observers, t, kind, segment, params, message):
+def _tell(observers, e):
     """An event to every observer between runs (no run's observer thread is going)."""
     for o in observers:
         try:
-            getattr(o, "event", lambda *a: None)(t, kind, segment, params, message)
+            getattr(o, "event", lambda *a: None)(e)
         except Exception as e:  # noqa: BLE001 - a failing observer is reported, the others still told
             print(f"dyno: {type(o).__name__.lower()}: {e}", file=sys.stderr)
 
@@ -116,7 +117,7 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
             proposals = [] if last else design.propose(diag, lim, budget_s - spent, tried)
         except Exception as e:  # noqa: BLE001 - what is recorded stays; the dyno stops asking
             why = f"round {len(rounds) + 1}: diagnosis failed: {describe(e)}"
-            _tell(observers, cell.rig.clock(), "diagnosis", "", {"round": len(rounds) + 1}, why)
+            _tell(observers, Diagnosis(cell.rig.clock(), "", {"round": len(rounds) + 1}, why))
             say(f"{why}; no further tests")
             stopped = f"the diagnosis failed ({describe(e)})"
             break
@@ -124,10 +125,11 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
                     settled=[r.said for k, r in before.items() if k not in rv])
         rounds.append(now)
         t = cell.rig.clock()
-        _tell(observers, t, "diagnosis", "", {"round": len(rounds), "accepted": now.accepted, "unsure": now.unsure,
-                                              "settled": now.settled},
-              f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}; "
-              f"unsure of {len(now.unsure)}" + (f"; settled {len(now.settled)}" if now.settled else ""))
+        _tell(observers, Diagnosis(t, "", {"round": len(rounds), "accepted": now.accepted, "unsure": now.unsure,
+                                           "settled": now.settled},
+                                   f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}; "
+                                   f"unsure of {len(now.unsure)}"
+                                   + (f"; settled {len(now.settled)}" if now.settled else "")))
         say(f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}"
             + "".join(f"\n  unsure: {u}" for u in now.unsure) + "".join(f"\n  settled: {s}" for s in now.settled))
         if not proposals:
@@ -141,22 +143,23 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
             s = p.sine
             now.ran.append({"amplitude_mm": 1e3 * s.amplitude_m, "freq_hz": s.frequency_hz, "rig_s": s.rig_s,
                             "why": p.why})
-            _tell(observers, t, "next_test", f"sine {1e3 * s.amplitude_m:g} mm {s.frequency_hz:g} Hz",
-                  {"round": len(rounds), "amplitude_mm": 1e3 * s.amplitude_m, "freq_hz": s.frequency_hz,
-                   "rig_s": s.rig_s, "chosen": list(p.rival.chosen), "other": list(p.rival.other),
-                   "ratio_to_noise": p.ratio}, p.why)
+            _tell(observers, NextTest(t, f"sine {1e3 * s.amplitude_m:g} mm {s.frequency_hz:g} Hz",
+                                      {"round": len(rounds), "amplitude_mm": 1e3 * s.amplitude_m,
+                                       "freq_hz": s.frequency_hz, "rig_s": s.rig_s, "chosen": list(p.rival.chosen),
+                                       "other": list(p.rival.other), "ratio_to_noise": p.ratio}, p.why))
             say(f"  next: {p.why}")
         spent += sum(p.sine.rig_s for p in proposals)
         tried |= {(design.key(p.rival), p.sine) for p in proposals}
         before = rv
         runs.append(run_plan(next_plan(proposals), cell, observers))
     said = verdict(rounds, stopped, spent, budget_s)
-    _tell(observers, cell.rig.clock(), "verdict", "discover",
-          {"found": rounds[-1].accepted if rounds else [], "unresolved": rounds[-1].unsure if rounds else [],
-           "stopped": stopped, "spent_s": spent, "budget_s": budget_s}, said)
+    _tell(observers, Verdict(cell.rig.clock(), "discover",
+                             {"found": rounds[-1].accepted if rounds else [],
+                              "unresolved": rounds[-1].unsure if rounds else [],
+                              "stopped": stopped, "spent_s": spent, "budget_s": budget_s}, said))
     say(f"verdict: {said}")
     # the recording ends as every recording does: with the run's end and how it ended
     fault = runs[-1].fault
-    _tell(observers, cell.rig.clock(), "run_end", "discover", {"rounds": len(rounds), "added_s": spent},
-          fault or "completed")
+    _tell(observers, RunEnd(cell.rig.clock(), "discover", {"rounds": len(rounds), "added_s": spent},
+                            fault or "completed"))
     return Discovery(rounds, diag, spent, runs, said)

@@ -22,6 +22,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from models.events import STOPS, Diagnosis, SegmentStart
 from protocols.errors import UsageError
 
 from protocols.display import shown
@@ -150,16 +151,16 @@ class LiveView:
     def _frame(self, entity, label):
         self.rec.log(f"{entity}/scale", rr.Boxes2D(mins=[-100, -100], sizes=[200, 200], labels=[label]))
 
-    def event(self, t, kind, segment, params, message):
-        self.rec.set_time(TIMELINE, duration=t)
-        if kind == "segment_start":
+    def event(self, e):
+        self.rec.set_time(TIMELINE, duration=e.t)
+        if isinstance(e, SegmentStart):
             for k in self.loop:
                 self.loop[k].clear()
-        level = rr.TextLogLevel.ERROR if kind in ("fault", "operator_stop") else rr.TextLogLevel.INFO
-        self.rec.log("events", rr.TextLog(f"{kind}: {segment} {message}".strip(), level=level))
+        level = rr.TextLogLevel.ERROR if isinstance(e, STOPS) else rr.TextLogLevel.INFO
+        self.rec.log("events", rr.TextLog(f"{e.kind}: {e.segment} {e.message}".strip(), level=level))
         # dyno run discover's rounds; the live diagnosis's findings (protocols/live_diagnose.py)
-        for key in ("unsure", "settled", "findings") if kind == "diagnosis" else ():
-            for said in params.get(key, []):
+        for key in ("unsure", "settled", "findings") if isinstance(e, Diagnosis) else ():
+            for said in e.params.get(key, []):
                 self.rec.log("events", rr.TextLog(f"  {key}: {said}", level=rr.TextLogLevel.INFO))
 
     def estimates(self, t, estimates):

@@ -11,7 +11,9 @@ from __future__ import annotations
 import queue
 import sys
 import time
+from dataclasses import replace
 
+from models.events import Diagnosis, SegmentEnd, SegmentStart, Skipped
 from models.recording import segment_kind
 from protocols.segment_feed import SegmentFeed
 
@@ -39,28 +41,26 @@ class LiveDiagnose:
             self.cut_after = None
         self.feed.pump()  # an answer is written as soon as it is back, not at the next event
 
-    def event(self, t, kind, segment, params, message):
-        if kind == "segment_start":
-            self.sine = segment_kind(params or {}) == "sine" and (params or {}).get("measured", True)
-        if kind == "segment_end" and self.sine:
-            self.ended[segment] = time.monotonic()
-            self.cut_after = t
-        self.feed.event(t, kind, segment, params, message)
+    def event(self, e):
+        if isinstance(e, SegmentStart):
+            self.sine = segment_kind(e.params) == "sine" and e.measured
+        if isinstance(e, SegmentEnd) and self.sine:
+            self.ended[e.segment] = time.monotonic()
+            self.cut_after = e.t
+        self.feed.event(e)
 
-    def _show(self, msg):
-        kind, body = msg
-        if kind in ("diagnosis", "skipped"):
-            body["latency_s"] = time.monotonic() - self.ended.pop(body["segment"], time.monotonic())
-        if kind == "diagnosis":
-            t = max(self.t_now, body["segment_end_s"])
-            message = f"{body['segment']}: " + ("; ".join(body["named"]) if body["named"] else "nothing named")
-            self.recorder.event(t, "diagnosis", body["segment"], body, message)
+    def _show(self, e):
+        """A segment's Diagnosis event (t: its end) or Skipped, from the worker."""
+        latency = time.monotonic() - self.ended.pop(e.segment, time.monotonic())
+        if isinstance(e, Diagnosis):
+            e = replace(e, t=max(self.t_now, e.t), params={**e.params, "segment_end_s": e.t, "latency_s": latency})
+            self.recorder.event(e)
             if self.live is not None:
-                self.live.event(t, "diagnosis", body["segment"], body, message)
-            self.stream.write(f"\ndiagnose: {body['segment']} ({body['latency_s']:.1f} s after its end): "
-                              + " ".join(body["findings"]) + "\n")
-        elif kind == "skipped":
-            self.stream.write(f"\ndiagnose: {body['segment']}: not diagnosed: {body['why']}\n")
+                self.live.event(e)
+            self.stream.write(f"\ndiagnose: {e.segment} ({latency:.1f} s after its end): "
+                              + " ".join(e.params.get("findings", [])) + "\n")
+        else:
+            self.stream.write(f"\ndiagnose: {e.segment}: not diagnosed: {e.message}\n")
         self.stream.flush()
 
     # after the run -------------------------------------------------------------------
@@ -114,13 +114,14 @@ def _worker(inbox, outbox, ending, description):
                 outbox.put(diagnosed(damper, channels, events, name, t0, t1))
         if final:
             return
-        running = [e["t"] for e in events if e["kind"] == "segment_start"][-1:]  # it may be a sine still to come
+        running = [e.t for e in events if isinstance(e, SegmentStart)][-1:]  # it may be a sine still to come
         keep_from = min([t0 for n, t0, _ in waiting if (n, t0) not in done] + running, default=t_in) - MARGIN_S
         channels = {n: (t[t >= keep_from], v[t >= keep_from]) for n, (t, v) in channels.items()}
 
 
 def diagnosed(damper, channels, events, name, t0, t1):
-    """("diagnosis", what one sine segment shows against the damper model) or ("skipped", why)."""
+    """A Diagnosis event: what one sine segment shows against the damper model (t: the
+    segment's end); or Skipped, why not."""
     from models.damper import DamperError
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
@@ -129,20 +130,20 @@ def diagnosed(damper, channels, events, name, t0, t1):
     # sample at or before its start to interpolate from
     k = {n: (t >= t0 - MARGIN_S) & (t <= t1 + MARGIN_S) for n, (t, _) in channels.items()}
     ch = {n: (t[k[n]], v[k[n]]) for n, (t, v) in channels.items()}
-    evs = [e for e in events if e["segment"] == name and t0 <= e["t"] <= t1]
+    evs = [e for e in events if e.segment == name and t0 <= e.t <= t1]
     start = time.perf_counter()
     try:
         res = diagnose({n: c for n, c in ch.items() if len(c[0])}, evs, baseline=(damper.name, damper),
                        max_effects=MAX_EFFECTS)
     except (DiagnoseError, DamperError) as e:
-        return "skipped", {"segment": name, "why": str(e)}
+        return Skipped(t1, name, message=str(e))
     except Exception as e:  # noqa: BLE001 - a live analysis says what failed and goes on to the next segment
-        return "skipped", {"segment": name, "why": f"{type(e).__name__}: {e}"}
+        return Skipped(t1, name, message=f"{type(e).__name__}: {e}")
     steps = [{"effect": s.effect, "said": said(s.effect), "size_rms_n": float(s.size_rms_n),
               "rivals": [r[0] for r in s.rivals], "stand_in": bool(s.stand_in), "small": bool(s.small)}
              for s in res.steps]
-    return "diagnosis", {"source": "live", "segment": name, "segment_end_s": float(t1),
-                         "baseline": res.baseline.name, "named": [said(e) for e in res.named()],
-                         "effects": steps, "findings": findings(res),
-                         "within_noise": bool(res.left_over.within_noise),
-                         "diagnosis_s": time.perf_counter() - start}
+    named = [said(e) for e in res.named()]
+    return Diagnosis(float(t1), name, {"baseline": res.baseline.name, "named": named, "effects": steps,
+                                       "findings": findings(res), "within_noise": bool(res.left_over.within_noise),
+                                       "diagnosis_s": time.perf_counter() - start},
+                     f"{name}: " + ("; ".join(named) or "nothing named"), source="live")

@@ -30,8 +30,8 @@ class LiveIdentify:
     def samples(self, drained):
         self.feed.samples(drained)
 
-    def event(self, t, kind, segment, params, message):
-        self.feed.event(t, kind, segment, params, message)
+    def event(self, e):
+        self.feed.event(e)
 
     def _show(self, msg):
         kind, body = msg
@@ -60,7 +60,7 @@ class LiveIdentify:
         feed = self.feed
         feed.ending.set()
         if feed.buf:
-            feed.event(feed.events[-1]["t"] if feed.events else 0.0, "segment_end", "", {}, "")
+            feed.cut()
         # what the worker has not had yet goes as one batch: one piece at a time, it would
         # re-identify after each (the queue is short) before it got to the final fit
         if feed.backlog:
@@ -103,7 +103,7 @@ def predicted_force(damper, channels, events, points=2000):
     there, at most `points` samples; None without such a segment or if the model fails."""
     from models.physics.simulate import simulate
     from models.recording import segments
-    segs = [s for s in segments(events) if s[1].get("kind") in ("sine", "low-speed")]
+    segs = [s for s in segments(events) if s.kind in ("sine", "low-speed")]
     if not segs or not {"force", "x", "v"} <= set(channels):
         return None
     _, _, t0, t1 = segs[-1]

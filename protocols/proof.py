@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from models.events import RunEnd
 from models.diagnose.candidates import EFFECTS as SPECS
 from models.parallel import run_all
 from models.recording import segments
@@ -180,7 +181,7 @@ def _recorded(task: ProveTask, folder):
     t, F = ch["force"]
     # the prove plan's segments: the contribution is measured there, against the null of the
     # same seed (the next tests differ from run to run)
-    opening_end = next(e["t"] for e in ev if e["kind"] == "run_end")
+    opening_end = next(e.t for e in ev if isinstance(e, RunEnd))
     measured = np.zeros(len(t), bool)
     for _, _, t0, t1 in segments(ev):
         if t1 <= opening_end:

@@ -1,6 +1,6 @@
 """Runs a protocol's segments through the control loop, streaming to observers (the
 recorder, the live view, later the identification hook: anything with `samples(drained)`,
-`event(t, kind, segment, params, message)` and optionally `setpoints(t, x)`), with events
+`event(e)` with an Event of models/events.py and optionally `setpoints(t, x)`), with events
 at every segment boundary and a progress line with an ETA.
 
 An observer that raises (a full disk under the recorder) is not called again, and the run
@@ -18,6 +18,8 @@ from typing import Protocol
 
 import numpy as np
 
+from models.events import (Event, Fault, OperatorStop, Result, RunEnd, RunStart, SegmentEnd, SegmentStart,
+                           Skipped)
 from rig.errors import RigError
 from rig.loop import ControlLoop, LoopResult, describe
 
@@ -108,7 +110,7 @@ class Observer(Protocol):
     identification); an observer implements those it needs."""
 
     def samples(self, drained: dict) -> None: ...  # {channel: (t [s], values [SI])} since the last call
-    def event(self, t: float, kind: str, segment: str, params: dict, message: str) -> None: ...
+    def event(self, e: Event) -> None: ...  # models/events.py
     def setpoints(self, t: list, x: list) -> None: ...  # every setpoint sent [s], [m]
     def units(self, units: dict) -> None: ...  # {channel: unit} of channels a closed loop adds
 
@@ -160,8 +162,8 @@ class Kept:
             ts.append(t)
             vs.append(v)
 
-    def event(self, t, kind, segment, params, message):
-        self.events.append({"t": t, "kind": kind, "segment": segment, "params": params, "message": message})
+    def event(self, e):
+        self.events.append(e)
 
     def arrays(self):
         """{name: (t, values)} of everything kept."""
@@ -174,6 +176,15 @@ def _shown(name, value, units):
         return f"{value:.4g}"
     v, unit = shown(value, "K", units)
     return f"{v:.1f} {unit}"
+
+
+def _params(seg):
+    """A segment's parameters as its events carry them."""
+    return {**seg.params, "kind": seg.kind, "measured": seg.record}
+
+
+def _started(t, seg):
+    return SegmentStart(t, seg.name, _params(seg))
 
 
 class Sequence:
@@ -198,15 +209,14 @@ class Sequence:
         if self.t0 is None:
             longest = sum(s.duration for s in self.segments)
             # the plan's size as fields beside the protocol's parameters: a reader takes them, not the sentence
-            self.event(t, "run_start", name=self.module.NAME,
-                       params={**as_dict(self.params), "segment_count": len(self.segments), "duration_max_s": longest},
-                       message=f"{len(self.segments)} segments, {longest:.0f} s at most")
+            self.event(RunStart(t, self.module.NAME, as_dict(self.params), f"{len(self.segments)} segments, "
+                                f"{longest:.0f} s at most", segment_count=len(self.segments), duration_max_s=longest))
             for name, why in self.skipped:
-                self.event(t, "skipped", name=name, params={}, message=why)
+                self.event(Skipped(t, name, message=why))
             self.t0 = t
             if not self.segments:
                 return None
-            self.event(t, "segment_start", self.segments[0])
+            self.event(_started(t, self.segments[0]))
         ts = self._advance(t, readings)
         if ts is None:
             return None
@@ -244,7 +254,7 @@ class Sequence:
             # one starts there, so the motion runs on without a repeated setpoint
             t_end = self.t0 + end if ts >= end else t
             self.until = math.inf
-            self.event(t_end, "segment_end", seg)
+            self.event(SegmentEnd(t_end, seg.name))
             self.t_plan += t_end - self.t0
             self.i += 1
             seg = self.current
@@ -252,7 +262,7 @@ class Sequence:
                 return None
             self.t0 = t_end
             ts = t - t_end
-            self.event(t_end, "segment_start", seg)
+            self.event(_started(t_end, seg))
 
     def drain_setpoints(self):
         out = (list(self.set_t), list(self.set_x))
@@ -286,7 +296,8 @@ def _measure(sequence, observed, event):
             if channels:
                 observed.call("samples", channels)
             if found:
-                event(sequence.t, "result", seg, params={**seg.params, "kind": seg.kind, **found})
+                event(Result(sequence.t, seg.name, {**seg.params, "kind": seg.kind, **found},
+                             protocol=sequence.module.NAME))
                 out.append((seg.name, found))
     except Exception as e:  # noqa: BLE001 - the recording is kept whatever the measures do
         print(f"dyno: measures not made: {describe(e)}", file=sys.stderr)
@@ -309,10 +320,8 @@ def run_plan(plan: Plan, cell, observers=(), sinks=(), progress=False, units=Uni
     bar = ProgressLine(segments, module.NAME, units=units) if progress else None
     observed = Observers(observers)
 
-    def event(t, kind, seg=None, message="", name=None, params=None):
-        if params is None:
-            params = {**seg.params, "kind": seg.kind, "measured": seg.record} if seg else {}
-        observed.call("event", t, kind, name if name is not None else (seg.name if seg else ""), params, message)
+    def event(e):
+        observed.call("event", e)
 
     sequence = Sequence(module, params, segments, skipped, event, observed.failed, bar, units)
 
@@ -335,9 +344,10 @@ def run_plan(plan: Plan, cell, observers=(), sinks=(), progress=False, units=Uni
     if bar:
         bar.show(sequence.i, 0.0, sequence.t_plan, final="stopped" if result.fault else "done")
     if result.fault:
-        kind = "operator_stop" if result.fault == "operator stop" else "fault"
-        event(sequence.t, kind, sequence.current, result.fault)
+        stop = OperatorStop if result.fault == "operator stop" else Fault
+        seg = sequence.current
+        event(stop(sequence.t, seg.name, _params(seg), result.fault) if seg else stop(sequence.t, message=result.fault))
     result.measures = _measure(sequence, observed, event)
-    event(sequence.t, "run_end", name=module.NAME, params={}, message=result.fault or "completed")
+    event(RunEnd(sequence.t, module.NAME, message=result.fault or "completed"))
     observed.close()
     return result

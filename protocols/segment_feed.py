@@ -12,6 +12,8 @@ import queue
 
 import numpy as np
 
+from models.events import SegmentEnd
+
 NICE = 19  # the worker yields the cores to the control loop, the recorder and (on a bench) the simulator
 
 
@@ -35,9 +37,9 @@ class SegmentFeed:
             if len(t):
                 self.buf.setdefault(name, []).append((np.array(t), np.array(v)))
 
-    def event(self, t, kind, segment, params, message):
-        self.events.append({"t": t, "kind": kind, "segment": segment, "params": params, "message": message})
-        if kind == "segment_end":
+    def event(self, e):
+        self.events.append(e)
+        if isinstance(e, SegmentEnd):
             self.cut()
         self.pump()
 

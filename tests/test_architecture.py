@@ -149,6 +149,32 @@ def test_no_application_code_opens_a_simulator_file():
     assert not bad
 
 
+# an event's kind and message are its class and field (models/events.py); only the wire
+# (the events' own module, the MCAP reader) and the inference of an old segment's kind
+# (models/recording.py) read them as keys
+EVENT_KEYS = ("kind", "message")
+EVENT_WIRE = ("models/events.py", "models/recording.py", "protocols/io/reader.py")
+
+
+def keyed_reads(tree, keys):
+    """Lines where a literal key of `keys` is read: x["kind"] or x.get("kind")."""
+    out = []
+    for n in ast.walk(tree):
+        key = (n.slice if isinstance(n, ast.Subscript) and isinstance(n.ctx, ast.Load) else
+               n.args[0] if isinstance(n, ast.Call) and isinstance(n.func, ast.Attribute) and n.func.attr == "get"
+               and n.args else None)
+        if isinstance(key, ast.Constant) and key.value in keys:
+            out.append(n.lineno)
+    return out
+
+
+def test_no_reader_of_an_event_uses_a_string_key():
+    bad = [f"{p.relative_to(ROOT)}:{line}" for p in sources() if str(p.relative_to(ROOT)) not in EVENT_WIRE
+           for line in keyed_reads(ast.parse(p.read_text()), EVENT_KEYS)]
+    assert not bad
+    assert keyed_reads(ast.parse('a = e["kind"]\nb = e.get("message", "")\ne["kind"] = 1'), EVENT_KEYS) == [1, 2]
+
+
 def test_only_the_catalogue_speaks_sql():
     """The run catalogue owns its schema: every reader (the CLI, the web view) goes through
     protocols/catalogue.py."""

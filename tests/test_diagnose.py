@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 
+from models.events import SegmentEnd, SegmentStart
 from models.diagnose.candidates import EFFECTS
 
 from models.diagnose.candidates import _direction
@@ -118,7 +119,7 @@ def test_gaps_missing_temperature_and_too_short(recordings):
     assert not {"gas_temperature", "damping_temperature"} & {c.effect for c in res.candidates}
     short = {n: (t[t < 1.5], v[t < 1.5]) for n, (t, v) in ch.items()}
     with pytest.raises(DiagnoseError, match="to judge"):
-        prepare(short, [e for e in ev if e["t"] < 1.5])
+        prepare(short, [e for e in ev if e.t < 1.5])
 
 
 @ONE_WORKER
@@ -204,8 +205,7 @@ def test_force_is_taken_at_its_own_stamps_when_a_segment_starts_between_them():
     F = 3000.0 * v + 700.0 * np.tanh(v / 0.02) + np.random.default_rng(0).normal(0.0, 1.5, len(t))
     t0 = 0.50037  # between two samples
     t1 = t0 + 24 / 12
-    ev = [{"t": t0, "kind": "segment_start", "segment": "sine 10 mm 12 Hz", "params": {"kind": "sine", "freq_hz": 12.0}},
-          {"t": t1, "kind": "segment_end", "segment": "sine 10 mm 12 Hz", "params": {}}]
+    ev = [SegmentStart(t0, "sine 10 mm 12 Hz", {"kind": "sine", "freq_hz": 12.0}), SegmentEnd(t1, "sine 10 mm 12 Hz")]
     d = prepare({"force": (t, F), "x": (t, x)}, ev)
     i = np.round(d.t / 1e-3).astype(int)
     assert np.allclose(d.t, t[i], atol=1e-9) and np.allclose(d.F, F[i], rtol=0, atol=1e-6)
@@ -301,8 +301,7 @@ def _crank_run(extra, seconds=40.0, rate=300.0, hz=1.05, seed=0):
     F = 150 + 800 * x + np.where(v > 0, 2500 * v, 4200 * v) + 30 * np.tanh(v / 0.01)
     F = extra(t, x, v, F) + np.random.default_rng(seed).normal(0.0, 3.0, len(t))
     return {"force": (t, F), "x": (t, x)}, [
-        {"t": 0.0, "kind": "segment_start", "segment": "crank", "params": {"kind": "sine", "freq_hz": hz}},
-        {"t": t[-1] + 1e-9, "kind": "segment_end", "segment": "crank", "params": {}}]
+        SegmentStart(0.0, "crank", {"kind": "sine", "freq_hz": hz}), SegmentEnd(t[-1] + 1e-9, "crank")]
 
 
 def test_one_stroke_cannot_tell_a_mechanism_of_the_loop_from_a_flexible_stand_in():
@@ -330,9 +329,8 @@ def _sines_run(extra, freqs=(1.0, 3.0, 9.0), v_peak=0.3, cycles=8, rate=1000.0, 
         xs.append(0.04 + A * np.sin(2 * np.pi * f * (t - t0)))
         vs.append(v_peak * np.cos(2 * np.pi * f * (t - t0)))
         ts.append(t), fs.append(np.full(len(t), f))
-        events += [{"t": t0, "kind": "segment_start", "segment": f"sine {f:g} Hz",
-                    "params": {"kind": "sine", "freq_hz": f}},
-                   {"t": t[-1] + 1e-9, "kind": "segment_end", "segment": f"sine {f:g} Hz", "params": {}}]
+        events += [SegmentStart(t0, f"sine {f:g} Hz", {"kind": "sine", "freq_hz": f}),
+                   SegmentEnd(t[-1] + 1e-9, f"sine {f:g} Hz")]
         t0 = t[-1] + 1.0 / rate
     t, x, v, f = (np.concatenate(a) for a in (ts, xs, vs, fs))
     T = 300.0 + t

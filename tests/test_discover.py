@@ -43,20 +43,20 @@ def test_discovery_runs_the_designed_sines_with_their_reasons_and_diagnoses_agai
     assert asked and found.spent_s == sum(a["rig_s"] for a in asked) <= 3.0
     assert all(a["why"] and "differ by" in a["why"] for a in asked)
     ev = kept.events
-    kinds = [e["kind"] for e in ev]
+    kinds = [e.kind for e in ev]
     assert kinds.count("run_start") == 2 and kinds.count("diagnosis") == 2
-    assert ev[-1]["kind"] == "run_end" and ev[-1]["segment"] == "discover" and ev[-1]["message"] == "completed"
+    assert ev[-1].kind == "run_end" and ev[-1].segment == "discover" and ev[-1].message == "completed"
     # it ends with a verdict a test engineer reads: found, unresolved, why it stopped
-    assert ev[-2]["kind"] == "verdict" and ev[-2]["message"] == found.verdict
+    assert ev[-2].kind == "verdict" and ev[-2].message == found.verdict
     assert found.verdict.startswith("Found: a timing offset of the cell") and "Stopped: the round limit of its own tests (1)" in found.verdict
-    assert ev[-2]["params"]["stopped"].startswith("the round limit") and ev[-2]["params"]["spent_s"] == found.spent_s
+    assert ev[-2].params["stopped"].startswith("the round limit") and ev[-2].params["spent_s"] == found.spent_s
     # each reason is told before its sine runs, and the sine is recorded after it
     second = kinds.index("run_start", 1)
-    told = [e for e in ev if e["kind"] == "next_test"]
-    assert [e["message"] for e in told] == [a["why"] for a in asked]
+    told = [e for e in ev if e.kind == "next_test"]
+    assert [e.message for e in told] == [a["why"] for a in asked]
     assert all(ev.index(e) < second for e in told)
-    after = [n for n, _, t0, _ in segments(ev) if t0 >= ev[second]["t"]]
-    assert after == [e["segment"] for e in told]
+    after = [n for n, _, t0, _ in segments(ev) if t0 >= ev[second].t]
+    assert after == [e.segment for e in told]
     # the first diagnosis names the hidden lag, and the last one still does with more data
     assert "sensor_delay" in found.rounds[0].accepted and "sensor_delay" in found.diagnosis.accepted
 

@@ -43,8 +43,8 @@ def test_events_are_foxglove_log_lines_at_their_absolute_time(recording):
         ts = d["timestamp"]
         assert isinstance(ts["sec"], int) and 0 <= ts["nsec"] < 10**9
         assert ts["sec"] * 10**9 + ts["nsec"] == m.log_time
-        assert abs(m.log_time / 1e9 - (wall + e["t"])) < 1e-6 and d["level"] in (2, 3, 4)
-        assert d["message"].startswith(e["kind"])
+        assert abs(m.log_time / 1e9 - (wall + e.t)) < 1e-6 and d["level"] in (2, 3, 4)
+        assert d["message"].startswith(e.kind)
 
 
 def test_every_sample_is_a_plottable_message(recording):

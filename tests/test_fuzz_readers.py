@@ -250,7 +250,7 @@ def test_any_mcap_reads_or_gives_one_line(tmp_path_factory, data):
     if error is None:
         channels, events, meta = result
         assert channels and all(len(t) == len(v) and np.all(np.isfinite(t)) for t, v in channels.values())
-        assert all(isinstance(e["t"], (int, float)) and isinstance(e["kind"], str) for e in events)
+        assert all(isinstance(e.t, (int, float)) and isinstance(e.kind, str) for e in events)
 
 
 # issue 42: the catalogue, its --where parser, the web view's query strings, roads and targets

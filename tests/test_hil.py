@@ -106,7 +106,7 @@ def _run(tmp_path, *args):
 
 def _result(path):
     _, events, _ = load_recording(path)
-    return next(e["params"] for e in events if e["kind"] == "result")
+    return next(e.params for e in events if e.kind == "result")
 
 
 def test_the_loop_reproduces_the_reference_with_a_known_damper_model(tmp_path):
@@ -146,7 +146,7 @@ def test_an_unstable_loop_trips_the_guard_and_stops_safely(tmp_path):
     p, out = _run(tmp_path, "--road", "sine:3:10", "--effect", "sensor_delay=0.02")
     assert p.returncode == 1 and "hil guard" in p.stderr and "Traceback" not in p.stderr, p.stderr[-2000:]
     _, events, _ = load_recording(out)
-    kinds = [e["kind"] for e in events]
+    kinds = [e.kind for e in events]
     assert "fault" in kinds and kinds[-1] == "run_end"
     r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
     assert r.returncode == 0 and (tmp_path / "rep" / "hil-tracking.png").exists(), r.stderr  # where it diverged
@@ -194,7 +194,7 @@ def test_replay_converges_on_the_target(tmp_path):
                         "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr[-2000:]
     _, events, _ = load_recording(out)
-    errors = [e["params"]["nrmse"] for e in events if e["kind"] == "result"]
+    errors = [e.params["nrmse"] for e in events if e.kind == "result"]
     assert len(errors) == 3 and errors[0] > 0.05 and errors[-1] < 0.01 and errors[-1] < errors[0] / 5, errors
     ch, _, _ = load_recording(out)
     assert {"replay.drive", "replay.target", "replay.error"} <= set(ch)

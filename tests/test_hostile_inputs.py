@@ -752,7 +752,7 @@ def test_ctrl_c_at_a_hundred_points_of_the_start_up_is_never_swallowed(tmp_path,
             if out.read_bytes() == b"the run before":
                 kept += 1
             else:  # the stop came once the motion had begun: the run is in the file, ended by the stop
-                kinds = [e["kind"] for e in load_recording(out)[1]]
+                kinds = [e.kind for e in load_recording(out)[1]]
                 assert "segment_start" in kinds and "operator_stop" in kinds, f"try {i}: {kinds}"
                 assert kinds.index("segment_start") < kinds.index("operator_stop")
             assert not [p.name for p in tmp_path.iterdir() if p.name.endswith((".partial", ".lock"))]

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from models.events import SegmentEnd, SegmentStart
 import pytest
 
 from models.identify import gas as identify_gas, low_speed as identify_low_speed, valves as identify_valves
@@ -277,9 +278,8 @@ def test_a_sine_segment_with_a_hole_in_its_force_record_is_left_out_and_named():
     t = np.arange(0.0, 6.0, 1e-3)
     x = 0.038 + 0.0064 * np.sin(2 * np.pi * 2.0 * t)
     F = 400.0 + 2000.0 * np.gradient(x, t)
-    events = [{"t": a, "kind": k, "segment": n, "params": {"kind": "sine", "freq_hz": 2.0, "amplitude_mm": 6.4}}
-              for n, t0, t1 in (("sine A", 0.5, 2.5), ("sine B", 3.0, 5.5)) for a, k in ((t0, "segment_start"),
-                                                                                          (t1, "segment_end"))]
+    events = [e for n, t0, t1 in (("sine A", 0.5, 2.5), ("sine B", 3.0, 5.5))
+              for e in (SegmentStart(t0, n, {"kind": "sine", "freq_hz": 2.0, "amplitude_mm": 6.4}), SegmentEnd(t1, n))]
     keep = (t < 4.00) | (t > 4.03)  # 30 ms of force lost inside B: 6 % of its 2 Hz cycle
     ch = {"force": (t[keep], F[keep]), "x": (t, x)}
     left_out = []

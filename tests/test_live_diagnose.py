@@ -8,6 +8,7 @@ import sys
 from html import unescape
 from pathlib import Path
 
+from models.events import Diagnosis
 from models.recording import segments
 from protocols.io.reader import load_recording
 
@@ -23,14 +24,14 @@ def test_a_live_diagnosis_event_is_written_during_a_run_on_the_embedded_rig(tmp_
     assert r.returncode == 0, r.stderr
     _, events, _ = load_recording(out)
     sines = segments(events, kinds=("sine",))
-    found = [e for e in events if e["kind"] == "diagnosis"]
-    assert sorted(e["segment"] for e in found) == sorted(name for name, *_ in sines), r.stderr
+    found = [e for e in events if isinstance(e, Diagnosis)]
+    assert sorted(e.segment for e in found) == sorted(name for name, *_ in sines), r.stderr
     first = found[0]
-    assert first["segment"] == sines[0][0] and sines[0][3] <= first["t"] < sines[-1][3], (first["t"], sines)
-    assert events.index(first) < events.index(next(e for e in events if e["kind"] == "segment_end"
-                                                   and e["segment"] == sines[-1][0]))
-    p = first["params"]
-    assert p["source"] == "live" and p["baseline"] == "koni-plain" and p["findings"] and p["latency_s"] > 0
+    assert first.segment == sines[0][0] and sines[0][3] <= first.t < sines[-1][3], (first.t, sines)
+    assert events.index(first) < events.index(next(e for e in events if e.kind == "segment_end"
+                                                   and e.segment == sines[-1][0]))
+    p = first.params
+    assert first.live and p["baseline"] == "koni-plain" and p["findings"] and p["latency_s"] > 0
     assert p["named"] == [] and p["within_noise"], p["findings"]  # the plain cell: nothing left out of its own damper
     assert f"diagnose: {sines[0][0]} (" in r.stderr
     # the report says them per segment, not as discover's rounds

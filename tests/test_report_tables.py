@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from models.recording import Span
 from protocols.reports import peaks
 from protocols.reports.recording import force_temperature_figure
 
@@ -166,8 +167,8 @@ def _sine_run(amp_m, f, noise_v, rate=1000.0, seconds=8.0, c=3000.0, offset=100.
     v_true = 2 * np.pi * f * amp_m * np.cos(2 * np.pi * f * t)
     ch = {"force": (t, c * v_true + offset + rng.normal(0.0, 5.0, len(t))), "x": (t, x),
           "v": (t, v_true + rng.normal(0.0, noise_v, len(t)))}
-    return ch, [(f"sine {1e3 * amp_m:g} mm {f:g} Hz", {"kind": "sine", "amplitude_mm": 1e3 * amp_m, "freq_hz": f},
-                 0.0, seconds)]
+    return ch, [Span(f"sine {1e3 * amp_m:g} mm {f:g} Hz", {"kind": "sine", "amplitude_mm": 1e3 * amp_m, "freq_hz": f},
+                     0.0, seconds)]
 
 
 def test_peak_speed_comes_from_the_motion_not_from_a_noisy_velocity_sample():
@@ -199,7 +200,7 @@ def test_a_crank_stroke_is_fitted_with_its_overtones_and_no_sine_falls_back_to_s
     x = r * (1 - np.cos(th)) + rod - np.sqrt(rod ** 2 - (r * np.sin(th)) ** 2)
     v = np.gradient(x, t)
     ch = {"force": (t, 2000 * v), "x": (t, x), "v": (t, v)}
-    segs = [("crank", {"kind": "sine", "amplitude_mm": 20.0, "freq_hz": f}, 0.0, 6.0)]
+    segs = [Span("crank", {"kind": "sine", "amplitude_mm": 20.0, "freq_hz": f}, 0.0, 6.0)]
     p = peaks.peaks(ch, segs)[0]
     assert p.cycles > 0 and p.v_comp == pytest.approx(np.max(v), rel=0.01)
     assert p.v_reb == pytest.approx(np.min(v), rel=0.01)  # a crank's rebound peak differs from compression

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
+from models.events import Diagnosis, SegmentStart
 from protocols import cell, runner
 from protocols.library import sine_matrix
 from protocols.plan import Plan, parse, rig_info
@@ -238,8 +239,8 @@ def test_live_view_logs_the_documented_entities():
         from protocols.live_identify import predicted_force
         p = predicted_force(vr.plant.damper, kept.arrays(), kept.events)
         live.prediction(3.0, p["v"], p["F"], p["F_model"])
-        live.event(4.0, "diagnosis", "", {"unsure": ["qz7 over kx9"], "settled": []},
-                   "round 1: named sensor_delay")  # dyno run discover's round
+        live.event(Diagnosis(4.0, "", {"unsure": ["qz7 over kx9"], "settled": []},
+                             "round 1: named sensor_delay"))  # dyno run discover's round
     finally:
         live.close()
         c.close()
@@ -521,8 +522,8 @@ def test_no_repeated_setpoint_at_segment_boundaries():
             self.t += list(t)
             self.x += list(x)
 
-        def event(self, t, kind, segment, params, message):
-            self.events.append((t, kind, segment))
+        def event(self, e):
+            self.events.append(e)
 
     obs = Setpoints()
     params = parse(sine_matrix.Params, ["amplitudes_mm=12.7", "freqs_hz=8", "record_cycles=3"])
@@ -531,7 +532,7 @@ def test_no_repeated_setpoint_at_segment_boundaries():
     assert result.fault is None
     x = np.array(obs.x)
     assert np.all(np.diff(x) != 0)  # a sine never stands still for a tick
-    starts = [t for t, kind, _ in obs.events if kind == "segment_start"][1:]
+    starts = [e.t for e in obs.events if isinstance(e, SegmentStart)][1:]
     assert len(starts) == 3
     t = np.array(obs.t)
     for b in starts:  # the step across each boundary is like its neighbours'

@@ -11,6 +11,7 @@ from contextlib import closing
 import numpy as np
 import pytest
 
+from models.events import Diagnosis, Fault, RunStart, SegmentEnd, SegmentStart, Verdict
 from protocols.app.cli import main as dyno
 from tests import mcap_files
 from protocols.units import Units
@@ -155,8 +156,8 @@ def test_a_run_in_progress_shows_its_progress_readings_and_trip(page, server, ru
     rec = Recorder(runs_folder / "now.mcap", rig_config.load("virtual"), json.dumps({"name": "koni"}), "sine-matrix",
                    {}, run_info={"damper_serial": "K-99"})
     try:
-        rec.event(0.0, "run_start", "sine-matrix", {}, "3 segments, 30 s at most")
-        rec.event(0.0, "segment_start", "sine 12.7 mm 1 Hz")
+        rec.event(RunStart(0.0, "sine-matrix", message="3 segments, 30 s at most", segment_count=3))
+        rec.event(SegmentStart(0.0, "sine 12.7 mm 1 Hz"))
         t = np.arange(0.0, 2.0, 0.001)
         rec.samples({"force": (t, 400.0 + 0 * t), "T_body": (t, 293.15 + 0 * t)})
         rec.flush()
@@ -164,7 +165,7 @@ def test_a_run_in_progress_shows_its_progress_readings_and_trip(page, server, ru
         text = page.locator("section.live").inner_text()
         assert "koni · K-99" in text and "segment 1 of 3: sine 12.7 mm 1 Hz" in text and "2.0 s" in text, text
         assert "20 | C" in text.replace("\t", " | ") and "Live (1 recording)" in page.locator("#live-link").inner_text()
-        rec.event(2.0, "fault", "sine 12.7 mm 1 Hz", {}, "force 9000 N beyond the load cell's 8000 N")
+        rec.event(Fault(2.0, "sine 12.7 mm 1 Hz", message="force 9000 N beyond the load cell's 8000 N"))
         page.goto(server + "/live")
         assert "Tripped: force 9000 N" in page.locator(".trip").inner_text()
         page.goto(server + "/")
@@ -198,8 +199,8 @@ def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, ser
         rec.samples({"force": (t, F), "x": (t, x), "v": (t, v)})
         rec.flush()
     try:
-        rec.event(0.0, "run_start", "sine-matrix", {}, "1 segments, 30 s at most")
-        rec.event(0.0, "segment_start", "sine 12.7 mm 1 Hz")
+        rec.event(RunStart(0.0, "sine-matrix", message="1 segments, 30 s at most", segment_count=1))
+        rec.event(SegmentStart(0.0, "sine 12.7 mm 1 Hz"))
         motion(0.0, 2.0)
         page.goto(server + "/live")
         trace, fv, fx = (page.locator(f"section.live[data-key='plots.mcap'] canvas.{c}") for c in ("trace", "fv", "fx"))
@@ -213,8 +214,9 @@ def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, ser
                                ".dataset.xmax > 2.9", timeout=5_000)
         assert "3.0 s" in page.locator("section.live[data-key='plots.mcap'] .progress-text").inner_text()
         # the live diagnosis's findings (protocols/live_diagnose.py) appear as they are written
-        rec.event(3.0, "diagnosis", "sine 12.7 mm 1 Hz", {"source": "live", "findings": [
-            "Nothing significant was left out: the held-out residual is within the force noise."]}, "nothing named")
+        rec.event(Diagnosis(3.0, "sine 12.7 mm 1 Hz", {"findings": [
+            "Nothing significant was left out: the held-out residual is within the force noise."]}, "nothing named",
+            source="live"))
         rec.flush()
         findings = page.locator("section.live[data-key='plots.mcap'] .findings")
         findings.get_by_text("Nothing significant was left out").wait_for(timeout=5_000)
@@ -255,22 +257,22 @@ def test_a_recording_being_written_is_read_on_from_where_the_last_look_ended(tmp
     rec = Recorder(tmp_path / "r.mcap", rig_config.load("virtual"), "{}", "sine-matrix", {})
     try:
         live = Live(tmp_path / "r.mcap", 1)
-        rec.event(0.0, "run_start", "sine-matrix", {}, "2 segments, 4 s at most")
-        rec.event(0.0, "segment_start", "a")
+        rec.event(RunStart(0.0, "sine-matrix", message="2 segments, 4 s at most", segment_count=2))
+        rec.event(SegmentStart(0.0, "a"))
         live.read_on(rec.claim.target)
         first = live.offset
-        assert 0 < first <= (tmp_path / "r.mcap").stat().st_size and [e["kind"] for e in live.events] == \
+        assert 0 < first <= (tmp_path / "r.mcap").stat().st_size and [e.kind for e in live.events] == \
             ["run_start", "segment_start"] and live.planned == 2
-        rec.event(1.0, "segment_end", "a")
-        rec.event(1.0, "segment_start", "b")
+        rec.event(SegmentEnd(1.0, "a"))
+        rec.event(SegmentStart(1.0, "b"))
         live.read_on(rec.claim.target)
-        assert live.offset > first and [e["segment"] for e in live.events] == ["sine-matrix", "a", "a", "b"]
+        assert live.offset > first and [e.segment for e in live.events] == ["sine-matrix", "a", "a", "b"]
         assert live.done == 1 and live.segment == "b"
         live.read_on(rec.claim.target)  # nothing new: nothing read twice
         assert len(live.events) == 4
         # dyno run discover's rounds and verdict are shown with the live diagnosis's findings
-        rec.event(1.5, "diagnosis", "", {"round": 1, "unsure": ["friction or a lag"]}, "named nothing")
-        rec.event(2.0, "verdict", "discover", {}, "Found: nothing. Stopped: the budget is spent.")
+        rec.event(Diagnosis(1.5, "", {"round": 1, "unsure": ["friction or a lag"]}, "named nothing"))
+        rec.event(Verdict(2.0, "discover", message="Found: nothing. Stopped: the budget is spent."))
         live.read_on(rec.claim.target)
         assert live.findings == [("verdict", ["Found: nothing. Stopped: the budget is spent."]),
                                  ("round 1", ["named nothing", "Unsure: friction or a lag"])]

@@ -59,9 +59,9 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
     t = t[keep]
     seg = np.full(len(t), "", dtype=object)
     kind = np.full(len(t), "", dtype=object)
-    for name, params, t0, t1 in segments(events, measured=False):
-        k = (t >= t0) & (t <= t1)
-        seg[k], kind[k] = name, params["kind"]
+    for s in segments(events, measured=False):
+        k = (t >= s.t0) & (t <= s.t1)
+        seg[k], kind[k] = s.name, s.kind
     cols, data, dec = ["t [s]"], [t], [6]
     if wall_start:
         start = np.datetime64(datetime.fromisoformat(wall_start).astimezone(timezone.utc).replace(tzinfo=None), "us")

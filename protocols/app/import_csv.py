@@ -128,7 +128,7 @@ def _import(args, mapping, gains, offsets, claim):
             for i in range(0, len(tt), BATCH):
                 rec.samples({n: (tt[i:i + BATCH], v[i:i + BATCH])})
         for e in segmentation.events(found):  # as a run of ours marks its segments
-            rec.event(e["t"], e["kind"], e["segment"], e["params"])
+            rec.event(e)
         rec.commit()
     finally:
         rec.close()

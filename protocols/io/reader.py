@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import fields
 
 import numpy as np
 import orjson
@@ -23,6 +24,7 @@ from mcap.reader import make_reader
 from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import get_chunk_data_stream
 
+from models.events import from_wire
 from protocols.io.files import input_file, not_being_written
 from protocols.errors import UsageError
 
@@ -34,7 +36,7 @@ JSON_METADATA = {"damper": ("model",), "protocol": ("params",), "calibration": N
 
 
 def load_recording(path, channels=None):
-    """(channels {name: (t, values)}, events [dict], metadata {name: dict}); metadata
+    """(channels {name: (t, values)}, events [Event] (models/events.py), metadata {name: dict}); metadata
     "units" is {channel: unit} as recorded. Only the named channels when given (those the
     recording has): the others' batches are most of a 1 kHz recording's reading time.
     Whatever the file holds is checked here: RigError naming the topic or metadata record
@@ -59,7 +61,7 @@ def load_recording(path, channels=None):
                     vs.extend(v)
                     units.setdefault(name, unit)
                 elif topic == "/events":
-                    events.append(_event(json.loads(data)))
+                    events.append(read_event(json.loads(data)))
         _check_metadata(meta)
     except UsageError as e:
         raise UsageError(f"{path}: {e}") from None
@@ -100,7 +102,7 @@ def merged(paths):
             T, V = channels.get(name, (np.empty(0), np.empty(0)))
             channels[name] = (np.concatenate([T, t + offset]), np.concatenate([V, v]))
             end = max(end, float(t[-1]) + offset) if len(t) else end
-        events += [{**e, "t": e["t"] + offset} for e in ev]
+        events += [e.shifted(offset) for e in ev]
         offset = end + 10.0
     return channels, events, meta or {}
 
@@ -155,11 +157,13 @@ def _batch(d, topic):
     return d["t"], d["value"], unit if isinstance(unit, str) else str(unit)
 
 
-def _event(d):
-    """An event with its fields: t [s] a finite number, kind and segment texts, params an object."""
+def read_event(d):
+    """The event a message holds: t [s] a finite number, kind and segment texts, params an
+    object, and a kind's own fields of their types."""
     ok = isinstance(d, dict) and isinstance(d.get("kind"), str) and isinstance(d.get("t"), (int, float)) \
         and not isinstance(d.get("t"), bool) and np.isfinite(d["t"]) \
-        and isinstance(d.setdefault("segment", ""), str) and isinstance(d.setdefault("params", {}), dict)
+        and isinstance(d.setdefault("segment", ""), str) and isinstance(d.setdefault("params", {}), dict) \
+        and isinstance(d.setdefault("message", ""), str)
     if not ok or (d["kind"].startswith("segment_") and not d["segment"]):
         raise UsageError(f"/events: an event without its fields (t, kind, segment, params): {str(d)[:80]}")
     for k, v in d["params"].items():
@@ -167,7 +171,14 @@ def _event(d):
                 math.isfinite(v) and abs(v) <= MAX_VALUE and (v > 0 or k not in POSITIVE)):
             raise UsageError(f"/events: segment {d['segment']!r}: {k} = {v!r} (a finite number"
                            f"{' above 0' if k in POSITIVE else ''})")
-    return d
+    e = from_wire(d)
+    for f in fields(e):
+        if f.type in _TYPES and not isinstance(getattr(e, f.name), _TYPES[f.type]):
+            raise UsageError(f"/events: a {e.kind} event whose {f.name} is {getattr(e, f.name)!r}, not of type {f.type}")
+    return e
+
+
+_TYPES = {"float": (int, float), "int": int, "str": str}  # the event fields' declared types
 
 
 def _check_metadata(meta):

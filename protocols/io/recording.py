@@ -25,6 +25,7 @@ from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
 from mcap.stream_reader import breakup_chunk
 from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
+from models.events import KINDS, Event, Fault, OperatorStop, SegmentStart, Skipped
 from protocols.errors import UsageError
 from rig.errors import RigError
 
@@ -57,9 +58,10 @@ SCHEMAS = {
         "required": ["seq", "t", "x"]},
     "dyno.Event": {
         "type": "object", "title": "dyno.Event",
-        "description": "Protocol and safety events: run_start, segment_start, segment_end, skipped, "
-                       "fault, operator_stop, run_end.",
-        "properties": {"seq": {"type": "integer"}, "t": {"type": "number"}, "kind": {"type": "string"},
+        "description": "Protocol, safety and analysis events (models/events.py); a kind's own fields ride "
+                       "in params (run_start: segment_count, duration_max_s; diagnosis: source).",
+        "properties": {"seq": {"type": "integer"}, "t": {"type": "number"},
+                       "kind": {"type": "string", "examples": list(KINDS)},
                        "segment": {"type": "string"}, "params": {"type": "object"},
                        "message": {"type": "string"}},
         "required": ["seq", "t", "kind"]},
@@ -79,7 +81,7 @@ SCHEMAS = {
                        "line": {"type": "integer", "minimum": 0}},
         "required": ["timestamp", "level", "message", "name", "file", "line"]},
 }
-LOG_LEVEL = {"fault": 4, "operator_stop": 3, "skipped": 3}  # foxglove.Log levels; other events: 2 (info)
+LOG_LEVEL = {Fault: 4, OperatorStop: 3, Skipped: 3}  # foxglove.Log levels; other events: 2 (info)
 VERSION = metadata.version("dyno")  # pyproject.toml's, as installed
 
 
@@ -183,15 +185,14 @@ class Recorder:
         if len(t):
             self._write("/actuator/setpoint", float(t[0]), {"t": list(t), "x": list(x)})
 
-    def event(self, t, kind, segment="", params=None, message=""):
-        self._write("/events", t, {"t": t, "kind": kind, "segment": segment, "params": params or {},
-                                   "message": message})
-        ns = self.t0_ns + int(round(max(t, 0.0) * 1e9))
-        self._write("/log", t, {"timestamp": {"sec": ns // 10**9, "nsec": ns % 10**9},
-                                "level": LOG_LEVEL.get(kind, 2), "name": "dyno", "file": "", "line": 0,
-                                "message": " ".join(p for p in (kind, segment, message) if p)})
+    def event(self, e: Event):
+        self._write("/events", e.t, e.wire())
+        ns = self.t0_ns + int(round(max(e.t, 0.0) * 1e9))
+        self._write("/log", e.t, {"timestamp": {"sec": ns // 10**9, "nsec": ns % 10**9},
+                                  "level": LOG_LEVEL.get(type(e), 2), "name": "dyno", "file": "", "line": 0,
+                                  "message": " ".join(p for p in (e.kind, e.segment, e.message) if p)})
         self.flush()  # events are rare and matter: never leave one in an open chunk
-        if kind == "segment_start":
+        if isinstance(e, SegmentStart):
             self.commit()
 
     def commit(self):

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from models.events import Result, SegmentStart
+from models.recording import segment_kind
 from models.quarter_car.hil import transmissibility
 from protocols.library import roads
 from protocols.reports.page import save
@@ -19,7 +21,7 @@ HEADER = ("segment", "compensator", "J2 [%]", "delay [ms]", "probe delay [ms]", 
 
 def results(events):
     """[(segment, measures)] of the recording's road segments."""
-    return [(e["segment"], e["params"]) for e in events if e["kind"] == "result" and "j2" in e["params"]]
+    return [(e.segment, e.params) for e in events if isinstance(e, Result) and e.of == "hil"]
 
 
 # what the table's measures are, said on the page under it (docs/hil.md)
@@ -34,8 +36,7 @@ REPLAY_MEANING = ("NRMS error: RMS(measured - target) over RMS(target about its 
 
 def replay_errors(events):
     """[(iteration, NRMS error [-])] of a replay's iterations."""
-    return [(e["params"]["iteration"], e["params"]["nrmse"]) for e in events
-            if e["kind"] == "result" and "nrmse" in e["params"]]
+    return [(e.params["iteration"], e.params["nrmse"]) for e in events if isinstance(e, Result) and e.of == "replay"]
 
 
 def replay_table(events):
@@ -144,14 +145,14 @@ def _replay(ch, events, out, units):
     """The NRMS error by iteration, and the last iteration's target, measured motion and
     drive."""
     errors = replay_errors(events)
-    last = [e for e in events if e["kind"] == "segment_start" and e["params"].get("kind") == "road"]
+    last = [e for e in events if isinstance(e, SegmentStart) and segment_kind(e.params) == "road"]
     if not errors or not last:
         return []
     fig, ax = plt.subplots(2, 1, figsize=(11, 7), gridspec_kw={"height_ratios": [1, 2]})
     ax[0].semilogy([i for i, _ in errors], [100 * v for _, v in errors], "o-")
     ax[0].set(xlabel="iteration", ylabel="NRMS error [%]", title="Drive correction by iteration",
               xticks=[i for i, _ in errors])
-    t0 = last[-1]["t"]
+    t0 = last[-1].t
     for name, label, style in (("replay.target", "target", "-"), ("replay.drive", "drive sent", "--")):
         t, v = ch[name]
         k = t >= t0
@@ -159,7 +160,7 @@ def _replay(ch, events, out, units):
     t, e = ch["replay.error"]
     k = t >= t0
     ax[1].plot(t[k], units.show("length", ch["replay.target"][1][k] + e[k]), ":", lw=0.8, label="measured")
-    ax[1].set(xlabel="time [s]", ylabel=units.label("damper x", "length"), title=f"The last iteration ({last[-1]['segment']})")
+    ax[1].set(xlabel="time [s]", ylabel=units.label("damper x", "length"), title=f"The last iteration ({last[-1].segment})")
     for a in ax:
         a.grid(alpha=0.3, which="both")
     ax[1].legend(fontsize=8)

@@ -79,7 +79,7 @@ def window(ch, names, t0, t1):
 
 
 def sines(segs):
-    return [s for s in segs if s[1]["kind"] == "sine" and "amplitude_mm" in s[1]]
+    return [s for s in segs if s.kind == "sine" and "amplitude_mm" in s[1]]
 
 
 def simulate_segment(damper, t, x, v, T):
@@ -280,7 +280,7 @@ def scattered(ch, segs, model=None) -> list:
     """[scatter()] of a recording that holds only motion that does not repeat (no segment
     but road input); [] when it holds tests of ours or cut from periodic motion, whose
     table is read from them."""
-    if any(prm.get("kind") != "road" for _, prm, _, _ in segs):
+    if any(s.kind != "road" for s in segs):
         return []
     return [p for p in (scatter(ch, model),) if p is not None]
 

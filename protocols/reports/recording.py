@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from models.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
 from models.recording import segments
 from protocols.io.reader import load_recording
 from models.identify.static import static_holds
@@ -75,7 +76,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         page.heading("Replay: the error of each iteration (docs/hil.md)")
         page.table(("iteration", "NRMS error [%]"), replayed)
         page.paragraph(hil.REPLAY_MEANING)
-    stopped = [e for e in events if e["kind"] in ("fault", "operator_stop")]
+    stopped = [e for e in events if isinstance(e, STOPS)]
     if (stopped or not figures) and {"force", "x"} <= set(ch) and len(ch["force"][0]):
         figures.append(_trace_figure(ch, stopped, out, units))  # what happened up to the trip
     if scattered:
@@ -120,9 +121,9 @@ def _trace_figure(ch, stopped, out, units):
         a.set(ylabel=units.label("displacement" if name == "x" else "force", q))
         a.grid(alpha=0.3)
         for e in stopped:
-            a.axvline(e["t"], color="C3", lw=1.0)
+            a.axvline(e.t, color="C3", lw=1.0)
     for e in stopped:
-        ax[0].annotate(f"{e['kind'].replace('_', ' ')}: {e.get('message', '')}"[:70], (e["t"], 1.0),
+        ax[0].annotate(f"{e.kind.replace('_', ' ')}: {e.message}"[:70], (e.t, 1.0),
                        xycoords=("data", "axes fraction"), ha="right", va="bottom", fontsize=7, color="C3")
     ax[1].set(xlabel="time [s]")
     return ("The whole run against time" + (", to where it was stopped" if stopped else ""),
@@ -144,15 +145,15 @@ def _header(page, meta, events, model):
     page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {_params(proto.get('params', ''))}; damper "
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}."
                    + (f" Model overlaid: {model.name}." if model is not None else ""))
-    ends = [e for e in events if e["kind"] in ("fault", "operator_stop", "run_end", "skipped")]
+    ends = [e for e in events if isinstance(e, (*STOPS, RunEnd, Skipped))]
     moved = {prm["adapted_from"] for _, prm, _, _ in segments(events) if "adapted_from" in prm}
-    page.items(("adapted" if e["kind"] == "skipped" and e["segment"] in moved else e["kind"],
-                f"{e['segment']} {e.get('message', '')}") for e in ends)
-    live = [e for e in events if e["kind"] == "diagnosis" and e.get("params", {}).get("source") == "live"]
+    page.items(("adapted" if isinstance(e, Skipped) and e.segment in moved else e.kind,
+                f"{e.segment} {e.message}") for e in ends)
+    live = [e for e in events if isinstance(e, Diagnosis) and e.live]
     if live:  # dyno run --diagnose (protocols/live_diagnose.py)
         page.paragraph("Diagnosed while the run went on, each sine segment against the damper's model refitted:")
-        page.items((e["segment"], " ".join(e["params"].get("findings", []))) for e in live)
-    rounds = [e for e in events if e["kind"] in ("diagnosis", "next_test", "verdict") and e not in live]
+        page.items((e.segment, " ".join(e.params.get("findings", []))) for e in live)
+    rounds = [e for e in events if isinstance(e, (Diagnosis, NextTest, Verdict)) and e not in live]
     if rounds:  # dyno run discover (protocols/discover.py)
         page.paragraph("The dyno's own next tests: after each diagnosis, what it named and was unsure of, what "
                        "the following data settled, and each sine it ran next with why.")
@@ -194,13 +195,13 @@ def _stroke_figure(rows, out, model, units):
 
 def _round_item(e):
     """(label, text) of a discovery event."""
-    p = e.get("params", {})
-    if e["kind"] == "next_test":
-        return f"round {p.get('round', '?')}: ran {e['segment']}", e.get("message", "")
-    if e["kind"] == "verdict":
-        return "verdict", e.get("message", "")
+    p = e.params
+    if isinstance(e, NextTest):
+        return f"round {p.get('round', '?')}: ran {e.segment}", e.message
+    if isinstance(e, Verdict):
+        return "verdict", e.message
     said = [*(f"unsure: {u}" for u in p.get("unsure", [])), *(f"settled: {s}" for s in p.get("settled", []))]
-    return f"round {p.get('round', '?')}: diagnosis", "; ".join([e.get("message", ""), *said])
+    return f"round {p.get('round', '?')}: diagnosis", "; ".join([e.message, *said])
 
 
 def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
@@ -318,8 +319,9 @@ def step_measures(ch, segs):
     """[(segment, step [mm], rise 10-90 % [ms], overshoot [%], settling [ms], peak force [N])]
     of the measured step segments: the damper's displacement against its target."""
     rows = []
-    for name, prm, t0, t1 in segs:
-        if prm["kind"] != "step" or "step_mm" not in prm or not {"x", "force"} <= set(ch):
+    for seg in segs:
+        name, prm, t0, t1 = seg
+        if seg.kind != "step" or "step_mm" not in prm or not {"x", "force"} <= set(ch):
             continue
         t, x = ch["x"]
         k = (t >= t0) & (t <= t1)
@@ -344,7 +346,7 @@ def step_measures(ch, segs):
 
 def _step_figures(ch, segs, out, units=Units()):
     """Displacement and force against time from each step's start."""
-    steps = [s for s in segs if s[1]["kind"] == "step" and "step_mm" in s[1]]
+    steps = [s for s in segs if s.kind == "step" and "step_mm" in s[1]]
     if not steps or not {"x", "force"} <= set(ch):
         return []
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
@@ -370,7 +372,7 @@ def _step_figures(ch, segs, out, units=Units()):
 def _static_figures(ch, events, segs, out, units=Units()):
     """Force at rest after each stroke direction, and the friction, of the static holds."""
     figures = []
-    holds = [s for s in segs if s[1]["kind"] == "hold"]
+    holds = [s for s in segs if s.kind == "hold"]
     if holds and "force" in ch:
         x_at, up, down = static_holds(ch, events)
         xs, up, down = units.show("length", x_at), units.show("force", up), units.show("force", down)
@@ -393,7 +395,7 @@ def _static_figures(ch, events, segs, out, units=Units()):
 def _low_speed_figures(ch, segs, out, units=Units()):
     """The low-speed loops."""
     figures = []
-    slow = [s for s in segs if s[1]["kind"] == "low-speed"]
+    slow = [s for s in segs if s.kind == "low-speed"]
     if slow and "force" in ch:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         for name, _prm, t0, t1 in slow:

@@ -5,7 +5,6 @@ recent force, displacement and velocity the live page plots (plots())."""
 from __future__ import annotations
 
 import json
-import re
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,12 +12,14 @@ from pathlib import Path
 import numpy as np
 from mcap.records import Attachment, Channel, Message, Metadata
 
+from models.events import STOPS, Diagnosis, RunStart, SegmentEnd, SegmentStart, Verdict
+from protocols.errors import UsageError
 from protocols.io.files import writer
+from protocols.io.reader import read_event
 from protocols.io.recording import intact_from
 from protocols.reports.comparison import run_name
 from protocols.units import Units, quantity_of
 
-PLANNED = re.compile(r"^(\d+) segments")  # an older recording's run_start has the count in its message only
 PLOTTED = ("force", "x", "v")  # the channels the live page plots, kept for KEEP_S
 KEEP_S = 20.0  # s of them kept: the force trace's TRACE_S and the running segment's loops
 TRACE_S = 10.0  # s of force against time shown
@@ -60,7 +61,10 @@ class Live:
 
     def _message(self, topic, data):
         if topic == "/events":
-            self.events.append(json.loads(data))
+            try:
+                self.events.append(read_event(json.loads(data)))
+            except UsageError:  # a foreign writer's event: the live page shows ours
+                pass
         elif topic.startswith("/channels/"):
             d = json.loads(data)
             name = topic.removeprefix("/channels/")
@@ -79,30 +83,22 @@ class Live:
 
     @property
     def segment(self):
-        starts = [e["segment"] for e in self.events if e.get("kind") == "segment_start"]
+        starts = [e.segment for e in self.events if isinstance(e, SegmentStart)]
         return starts[-1] if starts else "-"
 
     @property
     def done(self):
-        return sum(e.get("kind") == "segment_end" for e in self.events)
+        return sum(isinstance(e, SegmentEnd) for e in self.events)
 
     @property
     def planned(self):
-        for e in self.events:
-            if e.get("kind") != "run_start":
-                continue
-            if "segment_count" in e.get("params", {}):  # protocols/runner.py
-                return int(e["params"]["segment_count"])
-            m = PLANNED.match(e.get("message", ""))
-            if m:
-                return int(m.group(1))
-        return None
+        return next((e.segment_count for e in self.events if isinstance(e, RunStart) and e.segment_count), None)
 
     @property
     def tripped(self):
         """The reason of a fault or an operator's stop, once recorded; else None."""
-        ends = [e for e in self.events if e.get("kind") in ("fault", "operator_stop")]
-        return ends[0].get("message") or ends[0]["kind"] if ends else None
+        ends = [e for e in self.events if isinstance(e, STOPS)]
+        return ends[0].message or ends[0].kind if ends else None
 
     @property
     def findings(self):
@@ -110,14 +106,13 @@ class Live:
         (protocols/live_diagnose.py), and dyno run discover's rounds and verdict."""
         out = []
         for e in self.events:
-            p = e.get("params", {})
-            if e.get("kind") == "diagnosis" and p.get("source") == "live":
-                out.append((e["segment"], p.get("findings", [])))
-            elif e.get("kind") == "diagnosis":
-                out.append((f"round {p.get('round', '?')}", [e.get("message", ""), *(f"Unsure: {u}" for u in
-                                                                                   p.get("unsure", []))]))
-            elif e.get("kind") == "verdict":
-                out.append(("verdict", [e.get("message", "")]))
+            p = e.params
+            if isinstance(e, Diagnosis) and e.live:
+                out.append((e.segment, p.get("findings", [])))
+            elif isinstance(e, Diagnosis):
+                out.append((f"round {p.get('round', '?')}", [e.message, *(f"Unsure: {u}" for u in p.get("unsure", []))]))
+            elif isinstance(e, Verdict):
+                out.append(("verdict", [e.message]))
         return out[::-1]
 
     @property
@@ -153,7 +148,7 @@ class Live:
         trace = tF >= tF[-1] - TRACE_S
         out = {"units": {q: units.unit(q) for q in ("force", "length", "velocity")},
                "trace": {"t": _thin(tF[trace]), "force": _thin(units.show("force", F[trace]))}}
-        starts = [e["t"] for e in self.events if e.get("kind") == "segment_start"]
+        starts = [e.t for e in self.events if isinstance(e, SegmentStart)]
         seg = tF >= (starts[-1] if starts else tF[0])
         if {"x", "v"} <= set(self.recent) and seg.sum() > 2:
             t = tF[seg]

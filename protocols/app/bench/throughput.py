@@ -111,7 +111,7 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     t_end = ch["force"][0][-1]
     if t_end > seconds:  # cut to `seconds` of recording
         ch = {n: (t[t <= seconds], v[t <= seconds]) for n, (t, v) in ch.items()}
-        events = [e for e in events if e["t"] <= seconds]
+        events = [e for e in events if e.t <= seconds]
     t0 = time.perf_counter()
     res = diagnose(ch, events)
     wall = time.perf_counter() - t0

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from models.events import RunEnd, Verdict
 from rig import config
 from rig.errors import RigError
 from rig.loop import ControlLoop
@@ -178,10 +179,10 @@ def bench_discover(budget_s=60.0):
         if p.returncode != 0:
             raise RigError(f"bench discover: the run failed: {p.stderr.strip().splitlines()[-1]}")
         channels, events, _ = load_recording(out)
-    ends = [e for e in events if e["kind"] == "run_end" and e["segment"] == "discover"]
-    added = float(ends[-1]["params"].get("added_s", 0.0)) if ends else 0.0
+    ends = [e for e in events if isinstance(e, RunEnd) and e.segment == "discover"]
+    added = float(ends[-1].params.get("added_s", 0.0)) if ends else 0.0
     rig = float(channels["force"][0][-1] - channels["force"][0][0])
     return {"budget_s": budget_s, "wall_s": wall, "rig_s": rig, "added_rig_s": added,
             "wall_over_budget": wall / budget_s, "wall_over_rig": wall / rig, "goal_wall_over_budget": 1.5,
             "goal_met": wall <= 1.5 * budget_s,
-            "verdict": next((e["message"] for e in events if e["kind"] == "verdict"), "")}
+            "verdict": next((e.message for e in events if isinstance(e, Verdict)), "")}

@@ -1,11 +1,11 @@
 """The one HTML page builder the report, identify and diagnose pages use: a title,
-paragraphs, lists, tables and figures, escaped, in one style."""
+paragraphs, lists, tables and figures, escaped, in one style (templates/page.html)."""
 from __future__ import annotations
 
-import html
 import math
 import os
 import warnings
+from functools import cache
 from pathlib import Path
 
 STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto}img{max-width:100%}"
@@ -67,50 +67,48 @@ def save(fig, path: Path, dpi=100, fmt=None):
     return Path(path).name
 
 
+TEMPLATES = Path(__file__).parent / "templates"  # page.html and the blocks the web view shares
+
+
+@cache
+def templates():
+    """The Jinja2 environment of TEMPLATES, escaping every value."""
+    import jinja2
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True)
+
+
 class Page:
-    """Parts appended in order, written as index.html. Text is escaped; `raw` is not.
-    `blocks` keeps the same content as data ((kind, payload)) for the printable PDF
+    """Parts appended in order as data ((kind, payload) blocks), written as index.html
+    through templates/page.html; the printable PDF reads the same blocks
     (protocols/reports/pdf.py)."""
 
     def __init__(self, title: str):
         self.title = title
         self.blocks = []
-        self.parts = [f"<!doctype html><meta charset='utf-8'><title>{html.escape(title)}</title>",
-                      f"<style>{STYLE}</style>", f"<h1>{html.escape(title)}</h1>"]
 
     def heading(self, text):
         self.blocks.append(("heading", text))
-        self.parts.append(f"<h2>{html.escape(text)}</h2>")
 
     def paragraph(self, text):
         self.blocks.append(("paragraph", text))
-        self.parts.append(f"<p>{html.escape(text)}</p>")
-
-    def raw(self, markup):
-        self.parts.append(markup)
 
     def items(self, pairs):
         """A list of (bold label, text)."""
-        pairs = list(pairs)
-        self.blocks.append(("items", pairs))
-        self.parts.append("<ul>" + "".join(f"<li><b>{html.escape(str(k))}</b>: {html.escape(str(v))}</li>"
-                                           for k, v in pairs) + "</ul>")
+        self.blocks.append(("items", [(str(k), str(v)) for k, v in pairs]))
 
     def table(self, header, rows):
-        rows = [list(r) for r in rows]
-        self.blocks.append(("table", (list(header), rows)))
-        cells = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-        body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
-        # printed (protocols/reports/pdf.py): the header repeats on each page; a short table is kept whole
-        short = " class='short'" if len(rows) <= SHORT_TABLE else ""
-        self.parts.append(f"<table{short}><thead><tr>{cells}</tr></thead><tbody>{body}</tbody></table>")
+        self.blocks.append(("table", (list(header), [list(r) for r in rows])))
 
     def figure(self, title, png):
         self.heading(title)
-        self.blocks.append(("figure", png))
-        self.parts.append(f"<img src='{html.escape(png)}' alt='{html.escape(title)}'>")
+        self.blocks.append(("figure", (png, title)))
+
+    def html(self) -> str:
+        # printed (protocols/reports/pdf.py): the header repeats on each page; a short table is kept whole
+        return templates().get_template("page.html").render(title=self.title, style=STYLE, blocks=self.blocks,
+                                                            short_table=SHORT_TABLE)
 
     def write(self, out_dir: Path) -> Path:
         index = Path(out_dir) / "index.html"
-        index.write_text("\n".join(self.parts))
+        index.write_text(self.html())
         return index

@@ -106,7 +106,7 @@ def write_pdf(page, out_dir, name="report.pdf", paper="a4") -> Path:
     out = Path(out_dir) / name
     wp = _weasyprint()
     if wp is not None:
-        wp.HTML(string="\n".join(page.parts), base_url=str(Path(out_dir).resolve())).write_pdf(
+        wp.HTML(string=page.html(), base_url=str(Path(out_dir).resolve())).write_pdf(
             out, stylesheets=[wp.CSS(string=PRINT_CSS.format(paper=paper.upper() if paper == "a4" else paper))])
         return out
     with PdfPages(out, metadata={"Title": page.title, "Creator": "dyno"}) as pdf:
@@ -123,6 +123,6 @@ def write_pdf(page, out_dir, name="report.pdf", paper="a4") -> Path:
             elif kind == "table":
                 sheet.lines("table", _table(*payload), family="monospace", fit=True)
             elif kind == "figure":
-                sheet.image(Path(out_dir) / payload)
+                sheet.image(Path(out_dir) / payload[0])
         sheet.close()
     return out

@@ -18,12 +18,14 @@ from pathlib import Path
 from urllib.parse import urlencode
 
 from flask import Flask, abort, current_app, render_template, request, send_from_directory, url_for
+from jinja2 import ChoiceLoader, FileSystemLoader
 
 from models.damper import DamperError
 from models.damper import load as load_damper
 from protocols import catalogue
 from protocols.reports import trend as trend_report
 from protocols.reports.comparison import compare
+from protocols.reports.page import TEMPLATES
 from protocols.reports.recording import report
 from protocols.units import Units, fmt
 from protocols.web.in_progress import being_written, in_progress
@@ -78,6 +80,8 @@ def create_app(folder, units=Units(), cache=None, reindex_s=REINDEX_S) -> Flask:
     """The view of `folder`'s recordings; made pages and figures go to `cache` (a new
     temporary folder by default); new recordings are indexed at most every reindex_s."""
     app = Flask(__name__)
+    # the reports' page parts (protocols/reports/templates/blocks.html) are the web view's too
+    app.jinja_loader = ChoiceLoader([app.jinja_loader, FileSystemLoader(TEMPLATES)])
     app.config["VIEW"] = View(Path(folder).resolve(), units, Path(cache or tempfile.mkdtemp(prefix="dyno-serve-")),
                               reindex_s)
     for rule, endpoint, fn in (("/", "runs", runs), ("/run/<int:run_id>", "run", run), ("/compare", "comparison",

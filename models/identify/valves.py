@@ -166,6 +166,14 @@ def _start(structure, u, G):
     return {"a": a, "b": b}
 
 
+# 1/K: the damping temperature coefficient of eq 4.17 is 0.27e-3 to 4.0e-3 for the thesis's
+# dampers (Table 4.10); bounded at five times the largest, as K_MAX tanh(z / K_Z): near
+# zero z is K in 1e-3/K. Unbounded, a structure that does not fit slid along a valley
+# (K to -600, the coefficients to e^20) for hundreds of evaluations.
+K_MAX = 0.02
+K_Z = K_MAX * 1e3
+
+
 def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None):
     """(params, K, result) for one direction: least squares in log-coefficients, relative
     residuals (the force spans two decades). A structure that contains smaller ones also
@@ -190,7 +198,7 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None)
     def unpack(z):
         # clipped: a coefficient the data drives to zero or infinity must stay a number
         p = dict(zip(names, np.exp(np.clip(z[: len(names)], -7.0, 23.0))))
-        return p, (z[len(names)] * 1e-3 if fit_K else 0.0)
+        return p, (K_MAX * np.tanh(z[len(names)] / K_Z) if fit_K else 0.0)
 
     weight = 10.0 * np.sqrt(len(u))
 
@@ -202,7 +210,7 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None)
     for p0, K_start in starts:
         z0 = np.log(np.maximum([p0[k] for k in names], 1e-300))
         if fit_K:
-            z0 = np.append(z0, K_start * 1e3)
+            z0 = np.append(z0, K_Z * np.arctanh(np.clip(K_start / K_MAX, -0.999, 0.999)))
         res = least_squares(resid, z0, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
         if best is None or res.cost < best.cost:
             best = res

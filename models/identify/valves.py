@@ -54,6 +54,52 @@ def _forces(u, vp):
     return out
 
 
+GRAD = ("a", "b", "m", "c", "m2", "c2")  # the columns of _forces_grad's derivatives
+
+
+@njit(cache=True, nogil=True)
+def _branch_grad(G, a, b, c):
+    """(v, dv/dG, dv/da, dv/db, dv/dc) of one branch at force magnitude G (branch_velocity)."""
+    d = G - c
+    if d * G <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    S = np.sqrt(b * b + 4.0 * a * d)
+    q = b + S
+    v = 2.0 * d / q
+    dv_dd = 2.0 / q - 2.0 * d * (2.0 * a / S) / q**2 if S > 0.0 else 2.0 / q
+    dv_da = -2.0 * d * (2.0 * d / S) / q**2 if S > 0.0 else 0.0
+    dv_db = -2.0 * d * (1.0 + b / S) / q**2 if S > 0.0 else 0.0
+    return v, dv_dd, dv_da, dv_db, -dv_dd
+
+
+@njit(cache=True, nogil=True)
+def _forces_grad(u, vp):
+    """(G, dG/d GRAD) at speeds u of a compression row (magnitudes, f_T = 1): the force by
+    the path's root, its derivatives by the implicit function theorem on eq 3.30 read as
+    v(G): dG/dθ = -(dv/dθ) / (dv/dG). The high line's switch is taken as it falls."""
+    n = u.shape[0]
+    G = np.empty(n)
+    J = np.zeros((n, 6))
+    for i in range(n):
+        g = valves.path_force(u[i], vp, 0.0, False)
+        G[i] = g
+        _, dG, da, db, _ = _branch_grad(g, vp[0, valves.A], vp[0, valves.B], 0.0)
+        dth = np.zeros(6)
+        dth[0], dth[1] = da, db
+        if vp[0, valves.MB] > 0.0:
+            vm, dm_G, _, dm_m, dm_c = _branch_grad(g, 0.0, vp[0, valves.MB], vp[0, valves.MC])
+            if vp[0, valves.HB] > 0.0 and abs(vm) > abs(vp[0, valves.VX]):
+                _, dm_G, _, dh_m, dh_c = _branch_grad(g, 0.0, vp[0, valves.HB], vp[0, valves.HC])
+                dth[4], dth[5] = dh_m, dh_c
+            else:
+                dth[2], dth[3] = dm_m, dm_c
+            dG += dm_G
+        if dG > 0.0:
+            for k in range(6):
+                J[i, k] = -dth[k] / dG
+    return G, J
+
+
 def force(p: dict, u, T=None, T_ref=None, K=0.0):
     """Damping force magnitude [N] at speed u [m/s] (eq 3.30) and temperature T [K]
     (eq 4.17 with C_fd = 0: the scale of the coefficients absorbs it)."""
@@ -206,12 +252,30 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None)
         p, K = unpack(z)
         return np.concatenate([w * (force(p, u, T, T_ref, K) - G) / scale, crossover_penalty(p, weight)])
 
+    def jac(z):
+        """Analytic in the force (one root per sample instead of one per parameter and
+        sample), by differences in the penalty, which costs no force."""
+        p, K = unpack(z)
+        Gm, dG = _forces_grad(np.asarray(u, float), row(p))
+        f = 1.0 / (1.0 + K * (T - T_ref))
+        wrow = (w * f / scale)[:, None]
+        cols = [dG[:, GRAD.index(k)] * (p[k] if -7.0 < z[j] < 23.0 else 0.0) for j, k in enumerate(names)]
+        if fit_K:
+            cols.append(-Gm * (T - T_ref) * f * (K_MAX / K_Z) * (1.0 - np.tanh(z[len(names)] / K_Z) ** 2))
+        out = np.column_stack(cols) * wrow
+        pen = crossover_penalty(p, weight)
+        if len(pen):
+            h = 1e-7
+            dpen = [(crossover_penalty(unpack(z + h * np.eye(len(z))[j])[0], weight) - pen) / h for j in range(len(z))]
+            out = np.vstack([out, np.column_stack(dpen)])
+        return out
+
     best = None
     for p0, K_start in starts:
         z0 = np.log(np.maximum([p0[k] for k in names], 1e-300))
         if fit_K:
             z0 = np.append(z0, K_Z * np.arctanh(np.clip(K_start / K_MAX, -0.999, 0.999)))
-        res = least_squares(resid, z0, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
+        res = least_squares(resid, z0, jac=jac, method="lm" if len(u) > len(z0) else "trf", max_nfev=400 * len(z0))
         if best is None or res.cost < best.cost:
             best = res
     p, K = unpack(best.x)

@@ -83,20 +83,16 @@ def _forces_grad(u, vp):
     for i in range(n):
         g = valves.path_force(u[i], vp, 0.0, False)
         G[i] = g
-        _, dG, da, db, _ = _branch_grad(g, vp[0, valves.A], vp[0, valves.B], 0.0)
-        dth = np.zeros(6)
-        dth[0], dth[1] = da, db
+        _, dG, J[i, 0], J[i, 1], _ = _branch_grad(g, vp[0, valves.A], vp[0, valves.B], 0.0)
         if vp[0, valves.MB] > 0.0:
-            vm, dm_G, _, dm_m, dm_c = _branch_grad(g, 0.0, vp[0, valves.MB], vp[0, valves.MC])
+            vm, dm_G, _, J[i, 2], J[i, 3] = _branch_grad(g, 0.0, vp[0, valves.MB], vp[0, valves.MC])
             if vp[0, valves.HB] > 0.0 and abs(vm) > abs(vp[0, valves.VX]):
-                _, dm_G, _, dh_m, dh_c = _branch_grad(g, 0.0, vp[0, valves.HB], vp[0, valves.HC])
-                dth[4], dth[5] = dh_m, dh_c
-            else:
-                dth[2], dth[3] = dm_m, dm_c
+                _, dm_G, _, J[i, 4], J[i, 5] = _branch_grad(g, 0.0, vp[0, valves.HB], vp[0, valves.HC])
+                J[i, 2] = J[i, 3] = 0.0
             dG += dm_G
-        if dG > 0.0:
-            for k in range(6):
-                J[i, k] = -dth[k] / dG
+        # dv/dθ in J's row so far: dG/dθ = -(dv/dθ) / (dv/dG)
+        for k in range(6):
+            J[i, k] = -J[i, k] / dG if dG > 0.0 else 0.0
     return G, J
 
 
@@ -266,7 +262,7 @@ def fit(structure, u, G, T, T_ref, fit_K=True, K0=5e-4, weights=None, done=None)
         pen = crossover_penalty(p, weight)
         if len(pen):
             h = 1e-7
-            dpen = [(crossover_penalty(unpack(z + h * np.eye(len(z))[j])[0], weight) - pen) / h for j in range(len(z))]
+            dpen = [(crossover_penalty(unpack(z + h * e)[0], weight) - pen) / h for e in np.eye(len(z))]
             out = np.vstack([out, np.column_stack(dpen)])
         return out
 

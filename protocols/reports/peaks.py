@@ -79,7 +79,7 @@ def window(ch, names, t0, t1):
 
 
 def sines(segs):
-    return [s for s in segs if s.kind == "sine" and "amplitude_mm" in s[1]]
+    return [s for s in segs if s.kind == "sine" and "amplitude_mm" in s.params]
 
 
 def simulate_segment(damper, t, x, v, T):

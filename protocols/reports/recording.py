@@ -346,7 +346,7 @@ def step_measures(ch, segs):
 
 def _step_figures(ch, segs, out, units=Units()):
     """Displacement and force against time from each step's start."""
-    steps = [s for s in segs if s.kind == "step" and "step_mm" in s[1]]
+    steps = [s for s in segs if s.kind == "step" and "step_mm" in s.params]
     if not steps or not {"x", "force"} <= set(ch):
         return []
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))

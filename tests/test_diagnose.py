@@ -253,7 +253,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     worse = cand("compressibility", r_best * 1.5)
     own_form = cand("bouc_wen:aux.current", r_best)
     best = Candidate("bouc_wen", 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 60.0, 2.4)
-    found = rivals(best, r_best, [alike, worse, own_form], block, judged, ids, np.random.default_rng(1))
+    found = rivals(best, r_best, [alike, worse, own_form], block, judged, ids, 1)
     assert [e for e, _, _ in found] == ["presliding_friction"] and found[0][2] >= 0.01
     step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=found,
                 depends_on=["displacement", "direction"], character="elastic", region="both directions",

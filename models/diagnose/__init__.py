@@ -152,7 +152,6 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     else:
         progress(f"simulating {baseline[0]} along the recorded motion")
         base = FromModel(baseline[1], d, baseline[0])
-    rng = np.random.default_rng(seed)
     folds, judged, shown = holdout_masks(d, holdout)
     block = blocks(d)
     judged_blocks = np.unique(block[judged])
@@ -168,20 +167,22 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     # each fold's prediction [N] on every sample after each round: what an effect changed
     preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
     _, not_assessed = available(d, accepted)
+    last = {}  # each candidate's values per fold in the round before: its warm start
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
         sse_cur = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, block, judged, judged_blocks,
-                        shown, sse_cur, sigma, alpha, rng, progress)
+                        shown, sse_cur, sigma, alpha, seed, last, progress)
         candidates += [c for c, *_ in round_]
+        last = {c.effect: f_vals for c, _, f_vals, _ in round_}
         mse = float(np.mean(r_cur[judged] ** 2))
         ok = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE
               and x[0].gain >= SHARE * mse and resolved(d, x[0].effect, x[0].parameters, x[0].ci)]
         if not ok:
             break
-        best, b_vals, b_folds, b_r = chosen(ok, block, judged, judged_blocks, alpha, rng)
-        rivals, stand_in = referees(d, base, cell + accepted, len(steps), best, b_folds, b_r, round_, folds, block,
+        best, b_vals, b_folds, b_r = chosen(ok, block, judged, judged_blocks, alpha, seed)
+        rivals, stand_in = referees(d, base, cell + accepted, best, b_folds, b_r, round_, folds, block,
                                      judged, judged_blocks, alpha, seed)
         m_best = Model(d, cell + accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
@@ -201,7 +202,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
-    accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judged, block, judged_blocks,
+    accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judged, block, judged_blocks, seed,
                                                            accepted, values, current, r_cur, progress)
     final_model = Model(d, cell + accepted, base)
     held = judged | shown
@@ -213,7 +214,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     _sized(steps, float(np.mean(r0[judged] ** 2)) - sigma ** 2, sigma)
     return Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
                      locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
-                     left_over(r_cur, judged, block, judged_blocks, sigma, rng),
+                     left_over(r_cur, judged, block, judged_blocks, sigma, seed),
                      Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
                      noise_from(d))
 
@@ -257,7 +258,7 @@ def _sized(steps, excess, sigma):
 
 
 def _round(d, base, names, fitted, number, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma,
-           alpha, rng, progress):
+           alpha, seed, last, progress):
     """Each candidate fitted beside the effects fitted so far (the cell's and those
     accepted) and judged on the held-out blocks: [(Candidate, pooled values, values per
     fold, residual [N])] of round `number`."""
@@ -268,7 +269,7 @@ def _round(d, base, names, fitted, number, folds, current, block, judged, judged
         if EFFECTS[e.split(":")[0]].linear:
             f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))
         else:  # the open terms' coefficients held: they are refitted with the rest once accepted
-            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted))
+            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted), warm=last.get(e))
         vals, sds = pooled(f_vals, f_sds)
         d_c = sse_cur - block_sse(np.where(judged, r, 0.0), block, judged_blocks)
         gain = float(d_c.sum() / n_judged)  # held-out mean-square improvement [N^2]
@@ -277,14 +278,14 @@ def _round(d, base, names, fitted, number, folds, current, block, judged, judged
         rel = np.log(np.maximum(sse_cur, 1e-30) / np.maximum(sse_cur - d_c, 1e-30))
         own = {p.name: vals[p.name] for p in EFFECTS[e.split(":")[0]].params(d, e)}
         c = Candidate(e, number, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                      **scores(d.F, r, shown), p_value=p_value(rel, rng, alpha), gain=gain, relevance=gain / sigma ** 2)
+                      **scores(d.F, r, shown), p_value=p_value(rel, seed, alpha), gain=gain, relevance=gain / sigma ** 2)
         out.append((c, vals, f_vals, r))
         progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
                  f"  gain {c.relevance:+.3f} noise variances")
     return out
 
 
-def _replaced(d, base, cell, folds, judged, block, judged_blocks, accepted, values, current, r_cur, progress):
+def _replaced(d, base, cell, folds, judged, block, judged_blocks, seed, accepted, values, current, r_cur, progress):
     """A term outside the catalogue replaces catalogue names whose sum it explains better:
     each catalogue effect accepted before an open term is dropped again when the model
     without it, refitted, does as well on the held-out cycles (its gain no longer
@@ -294,7 +295,6 @@ def _replaced(d, base, cell, folds, judged, block, judged_blocks, accepted, valu
     open_ = [e for e in accepted if term(e)]
     if not open_:
         return accepted, values, current, r_cur, replaced
-    rng = np.random.default_rng(1)
     for e in [e for e in accepted if not term(e) and accepted.index(e) < accepted.index(open_[0])]:
         rest = [a for a in accepted if a != e]
         m = Model(d, cell + rest, base)
@@ -302,7 +302,7 @@ def _replaced(d, base, cell, folds, judged, block, judged_blocks, accepted, valu
         sse_with = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         sse_without = block_sse(np.where(judged, r, 0.0), block, judged_blocks)
         rel = np.log(np.maximum(sse_without, 1e-30) / np.maximum(sse_with, 1e-30))
-        if p_value(rel, rng, ALPHA) >= ALPHA:
+        if p_value(rel, seed, ALPHA) >= ALPHA:
             replaced[e] = open_[0]
             progress(f"{e} dropped: {open_[0]} explains it as well without it")
             accepted, current, r_cur = rest, f_vals, r
@@ -327,7 +327,7 @@ def resolved(d: Data, effect, params, ci):
     return True
 
 
-def left_over(r, judged, block, judged_blocks, sigma, rng):
+def left_over(r, judged, block, judged_blocks, sigma, seed):
     """Is the final held-out residual within the noise? The excess over the noise variance
     per block, log(SSE_b / (n_b sigma^2 (1 + RELEVANCE))), tested against zero by the
     catalogue's bootstrap; with the RMS above the noise [N]."""
@@ -336,7 +336,7 @@ def left_over(r, judged, block, judged_blocks, sigma, rng):
     ok = n > 0
     rel = np.log(np.maximum(sse[ok], 1e-30) / (n[ok] * sigma ** 2 * (1 + RELEVANCE)))
     mse = float(np.mean(r[judged] ** 2))
-    p = p_value(rel, rng)
+    p = p_value(rel, seed)
     return LeftOver(p, float(np.sqrt(max(mse - sigma ** 2, 0.0))), bool(p >= ALPHA))
 
 

@@ -17,18 +17,26 @@ SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 # took 900 steps (13,000 evaluations, a third of the diagnosis) for a candidate refused;
 # every other fit of the benchmarks and the shared recordings converges within 80
 MAX_STEPS = 100
+# a fit stops when a step changes the cost or the parameters by less than this fraction.
+# The cost is the training SSE of some 10^4 samples, so 1e-5 of it is 10^-5 of a noise
+# variance a sample, ten thousand times below the least gain an effect must show
+# (referees.RELEVANCE) and far inside every estimate's interval; scipy's default of 1e-8
+# spent half of a crank recording's diagnosis on steps that change neither
+TOL = 1e-5
 
 
-def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
+def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None):
     """Least squares over the training samples; returns (values, sd per parameter).
     Parameters named in `hold` stay at their start (sd nan); at most `effort` function
-    evaluations per free parameter."""
+    evaluations per free parameter. warm: values of parameters not in `start` from an
+    earlier fit (the same candidate last round), tried against the grid starts."""
     params = [p for p in model.params if p.name not in hold]
     names = [p.name for p in params]
     held = {p.name: start.get(p.name, p.x0) for p in model.params if p.name in hold}
     lo = np.array([p.lo for p in params])
     hi = np.array([p.hi for p in params])
-    z0 = np.clip([start.get(p.name, p.x0) for p in params], lo, hi)
+    warm = warm or {}
+    z0 = np.clip([start.get(p.name, warm.get(p.name, p.x0)) for p in params], lo, hi)
     scale = np.maximum(np.abs(hi - lo) * 1e-3, np.abs(z0) * 0.1)
     Fs = max(float(np.std(d.F)), 1e-9)
 
@@ -37,13 +45,15 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
 
     # parameters whose effect is piecewise or far from linear start from a grid over their
     # whole range: at each grid value the new effect's other parameters are fitted briefly
-    # (a size is zero until its shape is right), and the best start is kept
+    # (a size is zero until its shape is right), and the best start is kept. A warm start
+    # (last round's fit of the same candidate) competes with the grid: it is usually near the
+    # optimum, and the grid guards against a shape the accepted effect has since taken over
     new = [i for i, p in enumerate(params) if p.name not in start]
     for i, p in enumerate(params):
         if not p.grid or p.name in start:
             continue
         free = [j for j in new if j != i and not params[j].grid]
-        best = (np.inf, z0)
+        best = (float(np.sum(resid(z0) ** 2)), z0) if p.name in warm else (np.inf, z0)
         for val in (min(max(g, p.lo), p.hi) for g in p.grid):
             z = z0.copy()
             z[i] = val
@@ -59,7 +69,7 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
                 best = (cost, z)
         z0 = best[1]
     r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=min(effort * len(z0), MAX_STEPS),
-                      method="trf")
+                      method="trf", ftol=TOL, xtol=TOL)
     values = {**held, **dict(zip(names, r.x))}
     try:
         sd = dict(zip(names, covariance(r.jac, r.fun)[0]))
@@ -68,16 +78,16 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60):
     return values, {**{n: float("nan") for n in held}, **sd}
 
 
-def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False):
+def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False, warm=None):
     """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
     sd per fold, residual [N] where every judged sample comes from a fit that never saw it).
     restart: each fold is fitted again from every other fold's values, and keeps whichever
     fits its own training cycles better. From the data's rough starts one fold can stop in
     a local minimum the other did not (on a null with designed sines added, the odd
     cycles' valve lost its quadratic term: 19 N RMS against 2.3 N), and the difference
-    between the folds is then read as physics."""
-    got = each(lambda train, start: fit(model, d, train, start, hold, effort),
-                [(train, start) for (train, _), start in zip(folds, starts)])
+    between the folds is then read as physics. warm: per fold, fit()'s warm."""
+    got = each(lambda train, start, w: fit(model, d, train, start, hold, effort, w),
+                [(train, start, w) for (train, _), start, w in zip(folds, starts, warm or [None] * len(folds))])
     vals, sds = [v for v, _ in got], [sd for _, sd in got]
     if restart:
         cost = lambda v, train: float(np.sum((model.force(d, v) - d.F)[train] ** 2))

@@ -3,6 +3,7 @@ samples that numpy cannot vectorise. Arrays in, arrays out; SI units."""
 from __future__ import annotations
 
 import functools
+import math
 import threading
 
 import numpy as np
@@ -122,11 +123,21 @@ def reset(t, h, i):
     return i == 0 or t[i] - t[i - 1] > 1.5 * h[i]
 
 
-@njit(cache=True, nogil=True)
+# The state kernels below take each sample's transcendental (an exp or tanh of its travel,
+# which does not depend on the state) from numpy beforehand: numpy's vectorised ones cost a
+# tenth of numba's scalar calls, which were the kernels' whole cost. The loops that carry
+# the state are then rational.
+
 def dahl(x, t, h, x_stick):
     """Pre-sliding state z [-] of a Dahl friction along displacement x [m]:
     dz/dx = (1 - z sgn(dx)) / x_stick, exact over each sample (z -> sgn(dx) exponentially
     over x_stick of travel); z starts sliding (sign of the first motion) in each stretch."""
+    dx = np.diff(x, prepend=x[:1])
+    return _dahl(x, t, h, np.exp(-np.abs(dx) / x_stick))
+
+
+@njit(cache=True, nogil=True)
+def _dahl(x, t, h, decay):
     z = np.empty_like(x)
     zi = 0.0
     for i in range(len(x)):
@@ -134,51 +145,66 @@ def dahl(x, t, h, x_stick):
             dx = x[i + 1] - x[i] if i + 1 < len(x) else 0.0
             zi = 1.0 if dx > 0 else -1.0
         else:
-            dx = x[i] - x[i - 1]
-            s = 1.0 if dx > 0 else -1.0
-            zi = s + (zi - s) * np.exp(-abs(dx) / x_stick)
+            s = 1.0 if x[i] > x[i - 1] else -1.0
+            zi = s + (zi - s) * decay[i]
         z[i] = zi
     return z
 
 
-@njit(cache=True, nogil=True)
-def bw_up(z, s, x_y, gamma):
-    """Bouc-Wen state after travel s >= 0 [m] from z (dz/dx = (1 - c z^2) / x_y, c = 1
-    loading (z >= 0), c = 1 - 2 gamma unloading (z < 0)), in closed form."""
-    if z < 0.0:
-        c = 1.0 - 2.0 * gamma
-        r = np.sqrt(abs(c))
-        if c > 1e-9:
-            s0 = -np.arctanh(max(r * z, -1.0 + 1e-15)) / r * x_y
-        elif c < -1e-9:
-            s0 = -np.arctan(r * z) / r * x_y
-        else:
-            s0 = -z * x_y
-        if s < s0:
-            u = s / x_y
-            if c > 1e-9:
-                return np.tanh(np.arctanh(max(r * z, -1.0 + 1e-15)) + r * u) / r
-            if c < -1e-9:
-                return np.tan(np.arctan(r * z) + r * u) / r
-            return z + u
-        s -= s0
-        z = 0.0
-    return np.tanh(np.arctanh(min(z, 1.0 - 1e-15)) + s / x_y)
-
-
-@njit(cache=True, nogil=True)
 def bouc_wen(x, t, h, x_y, gamma):
     """Hysteretic state z [-] (|z| < 1) of a Bouc-Wen element with n = 2 (Spencer et al.
     1997) along displacement x [m], normalised so that z -> 1 on loading:
     dz/dt = (v - beta v z^2 - gamma |v| z |z|) / x_y, beta = 1 - gamma; x_y [m] is the
-    travel over which it yields. Exact for displacement linear between samples."""
+    travel over which it yields. Exact for displacement linear between samples: along the
+    travel u = |dx| / x_y, dz/du = 1 - c z^2 with c = 1 loading (z >= 0) and c = 1 - 2 gamma
+    unloading (z < 0), whose closed forms tanh(atanh z + u) and tanh(atanh(r z) + r u) / r
+    (r^2 = c; tan for c < 0) are taken by the addition formula from tanh u and tanh r u."""
+    u = np.abs(np.diff(x, prepend=x[:1])) / x_y
+    c = 1.0 - 2.0 * gamma
+    r = np.sqrt(abs(c))
+    if c > 1e-9:
+        down = np.tanh(r * u)
+    elif c < -1e-9:  # past a quarter turn the state has surely reached 0: inf says so
+        ru = r * u
+        down = np.where(ru < 0.5 * np.pi, np.tan(np.where(ru < 0.5 * np.pi, ru, 0.0)), np.inf)
+    else:
+        down = u
+    return _bouc_wen(x, t, h, u, np.tanh(u), down, c, r)
+
+
+@njit(cache=True, nogil=True)
+def _bouc_wen(x, t, h, u, up, down, c, r):
     z = np.empty_like(x)
     zi = 0.0
     for i in range(len(x)):
         if reset(t, h, i):
             zi = 0.0
         else:
-            dx = x[i] - x[i - 1]
-            zi = bw_up(zi, dx, x_y, gamma) if dx >= 0 else -bw_up(-zi, -dx, x_y, gamma)
+            s = 1.0 if x[i] >= x[i - 1] else -1.0
+            zi = s * _bw_step(s * zi, u[i], up[i], down[i], c, r)
         z[i] = zi
     return z
+
+
+@njit(cache=True, nogil=True)
+def _bw_step(z, u, up, down, c, r):
+    """The state after travel u [yield lengths] from z, in the direction of travel; up and
+    down are tanh u and tanh r u (tan r u for c < 0, u for c = 0)."""
+    if z < 0.0:  # unloading until z reaches 0, then loading over the rest of the travel
+        w = r * z
+        if c > 1e-9:
+            w = max(w, -1.0 + 1e-15)
+            if w + down < 0.0:
+                return (w + down) / (1.0 + w * down) / r
+            u -= math.atanh(-w) / r
+        elif c < -1e-9:
+            if w + down < 0.0:
+                return (w + down) / (1.0 - w * down) / r
+            u -= math.atan(-w) / r
+        else:
+            if z + u < 0.0:
+                return z + u
+            u += z
+        return math.tanh(max(u, 0.0))
+    z = min(z, 1.0 - 1e-15)
+    return (z + up) / (1.0 + z * up)

@@ -3,6 +3,8 @@ round's winner, the candidates it cannot be told from (its rivals) and the flexi
 with no mechanism in it that it must beat before it is named (its referee)."""
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from models.diagnose.candidates import EFFECTS, Model
@@ -21,25 +23,48 @@ def block_sse(r, block, ids):
     return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
 
 
-def p_value(d_c, rng, alpha=ALPHA):
+# the resamples kept in memory, by (blocks, seed, chunk): every test of a diagnosis draws
+# the same ones, so a round's dozen candidates cost one draw, not a dozen
+_KEPT, _KEPT_BYTES, _kept_lock = {}, 256e6, threading.Lock()
+
+
+def resamples(n, seed, i):
+    """Chunk i of the block bootstrap's resamples of n blocks: BOOT rows, each how often
+    each block is drawn (blocks drawn with replacement), from its own seed, so a test gives
+    the same p whether the chunk was kept or is drawn again."""
+    key = (n, seed, i)
+    w = _KEPT.get(key)
+    if w is None:
+        idx = np.random.default_rng([seed, n, i]).integers(0, n, (BOOT, n)) + n * np.arange(BOOT)[:, None]
+        w = np.bincount(idx.ravel(), minlength=BOOT * n).reshape(BOOT, n).astype(np.float32)
+        with _kept_lock:
+            while _KEPT and (len(_KEPT) + 1) * w.nbytes > _KEPT_BYTES:
+                del _KEPT[next(iter(_KEPT))]
+            if w.nbytes <= _KEPT_BYTES:
+                _KEPT[key] = w
+    return w
+
+
+def p_value(d_c, seed, alpha=ALPHA):
     """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
     (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha.
     It stops early once p is surely above alpha (SURE_HITS hits, and alpha under p's
-    lower bound at 3.3 sd), as for most candidates tried: p is then known to about 15 %."""
+    lower bound at 3.3 sd), as for most candidates tried: p is then known to about 15 %.
+    Every test with the same seed and number of blocks resamples the same blocks (common
+    random numbers: two candidates' p differ by their data, not by their draws)."""
     n = len(d_c)
     if n < 3:
         return 1.0
     m = d_c.mean()
+    x = (d_c / n).astype(np.float32)
     total = max(BOOT, int(np.ceil(20 / alpha)))
     hits = done = 0
-    while done < total:  # in chunks: a (resamples x blocks) index array each
-        k = min(BOOT, total - done)
-        boot = d_c[rng.integers(0, n, (k, n))].mean(axis=1)
-        hits, done = hits + int(np.sum(boot - m >= m)), done + k
+    for i in range(-(-total // BOOT)):
+        boot = resamples(n, seed, i) @ x
+        hits, done = hits + int(np.sum(boot - m >= m)), done + BOOT
         if hits >= SURE_HITS and hits - 3.3 * np.sqrt(hits) > alpha * done:
             break
     return float((hits + 1) / (done + 1))
-
 
 
 def term(e):
@@ -48,7 +73,7 @@ def term(e):
 
 
 
-def chosen(ok, block, judged, judged_blocks, alpha, rng):
+def chosen(ok, block, judged, judged_blocks, alpha, seed):
     """The accepted round's winner: the largest gain, except that a term outside the
     catalogue must beat the best catalogue effect by the bar any effect must pass: by
     RELEVANCE noise variances more, significantly (the catalogue's test, block by block on
@@ -61,18 +86,16 @@ def chosen(ok, block, judged, judged_blocks, alpha, rng):
     cat = max(named, key=lambda x: x[0].gain)
     sse = [block_sse(np.where(judged, x[3], 0.0), block, judged_blocks) for x in (cat, best)]
     rel = np.log(np.maximum(sse[0], 1e-30) / np.maximum(sse[1], 1e-30))
-    better = best[0].relevance - cat[0].relevance >= RELEVANCE and p_value(rel, rng, alpha) < alpha
+    better = best[0].relevance - cat[0].relevance >= RELEVANCE and p_value(rel, seed, alpha) < alpha
     return best if better else cat
 
 
-def referees(d, base, fitted, k, best, b_folds, r_best, round_, folds, block, judged, judged_blocks, alpha, seed):
-    """(rivals, stand-in) of a round's winner, each on resamples of its own (the main
-    sequence, and so every other verdict, stays as it was): the candidates the held-out
-    blocks cannot tell from it, and the flexible stand-in when it explains as much."""
+def referees(d, base, fitted, best, b_folds, r_best, round_, folds, block, judged, judged_blocks, alpha, seed):
+    """(rivals, stand-in) of a round's winner: the candidates the held-out blocks cannot
+    tell from it, and the flexible stand-in when it explains as much."""
     significant = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE]
-    found = rivals(best, r_best, significant, block, judged, judged_blocks, np.random.default_rng([seed, 1, k]))
-    return found, stood_in(d, base, fitted, best, b_folds, r_best, folds, block, judged, judged_blocks,
-                           np.random.default_rng([seed, 2, k]))
+    found = rivals(best, r_best, significant, block, judged, judged_blocks, seed)
+    return found, stood_in(d, base, fitted, best, b_folds, r_best, folds, block, judged, judged_blocks, seed)
 
 
 def referee(spec):
@@ -86,7 +109,7 @@ def referee(spec):
     return STAND_IN if set(spec.depends_on) <= LOOP_VARIABLES else None
 
 
-def stood_in(d, base, fitted, best, b_folds, r_best, folds, block, judged, judged_blocks, rng):
+def stood_in(d, base, fitted, best, b_folds, r_best, folds, block, judged, judged_blocks, seed):
     """(stand-in, paired p) when a mechanism does not beat, on the same held-out blocks at
     p < ALPHA, its referee (above) fitted beside the same accepted effects; else None.
     Catalogue physics and terms outside it alike, so that the answer cannot slide from one
@@ -101,11 +124,11 @@ def stood_in(d, base, fitted, best, b_folds, r_best, folds, block, judged, judge
     r = linear_fit(m, d, folds, b_folds, hold=open_params(d, fitted))[2]
     rel = np.log(np.maximum(block_sse(np.where(judged, r, 0.0), block, judged_blocks), 1e-30)
                  / np.maximum(block_sse(np.where(judged, r_best, 0.0), block, judged_blocks), 1e-30))
-    p = p_value(rel, rng, ALPHA)
+    p = p_value(rel, seed, ALPHA)
     return None if p < ALPHA else (judge, p)
 
 
-def rivals(best, r_best, significant, block, judged, judged_blocks, rng):
+def rivals(best, r_best, significant, block, judged, judged_blocks, seed):
     """[(effect, gain in noise variances, paired p)] of the round's significant candidates
     the recording cannot tell from the winner: on the same held-out blocks, the log ratio of
     the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner is not
@@ -118,7 +141,7 @@ def rivals(best, r_best, significant, block, judged, judged_blocks, rng):
             continue
         rel = np.log(np.maximum(block_sse(np.where(judged, r, 0.0), block, judged_blocks), 1e-30)
                      / np.maximum(sse_best, 1e-30))
-        p = p_value(rel, rng, ALPHA)
+        p = p_value(rel, seed, ALPHA)
         if p >= ALPHA:
             out.append((c.effect, c.relevance, p))
     return sorted(out, key=lambda x: -x[1])

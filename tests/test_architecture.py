@@ -10,6 +10,7 @@ registry), and so are the hidden effects."""
 import ast
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -122,16 +123,38 @@ def test_no_modules_import_each_other_in_a_circle():
     assert not circles(graph())
 
 
+def _command_modules():
+    from protocols.app.cli import COMMANDS
+    names = [m for c in COMMANDS for m in (c[2] if isinstance(c, tuple) else [c])]
+    return {f"protocols.app.{n}" for n in names if not n.startswith("bench")} | {
+        f"protocols.app.bench.{p.stem}" for p in (ROOT / "protocols/app/bench").glob("*.py")
+        if p.stem not in ("__init__", "arguments")}
+
+
 def test_no_command_imports_another_command():
     """A command parses, calls the library and prints: what two commands share lives below them."""
-    cli = (ROOT / "protocols/app/cli.py").read_text()
-    names = {m.split(":")[0] for m in re.findall(r'command=f?"([a-z_:{}]+)"', cli)} - {"bench"}
-    commands = {f"protocols.app.{n}" for n in names if (ROOT / f"protocols/app/{n}.py").exists()}
-    commands |= {f"protocols.app.bench.{p.stem}" for p in (ROOT / "protocols/app/bench").glob("*.py")
-                 if p.stem not in ("__init__", "arguments")}
+    commands = _command_modules()
     assert len(commands) > 15
     g = graph()
     assert not sorted(f"{c} imports {t}" for c in commands for t in g[c] & commands)
+
+
+HEAVY = ("scipy", "numba", "matplotlib", "mcap", "rerun", "flask", "werkzeug", "jinja2", "can", "serial", "pymodbus",
+         "models.diagnose", "models.identify", "sim_backend", "protocols.runner", "protocols.reports.recording")
+
+
+def test_each_command_declares_its_arguments_and_building_the_parser_stays_light():
+    """Every command module declares its own arguments (add) beside its run, and imports what
+    it runs only when it runs: building `dyno`'s parser (every call, --help included) loads
+    none of the analysis, the rig's transports or the plots."""
+    code = ("import sys; from protocols.app.cli import parser; parser(); "
+            f"print(sorted(m for m in sys.modules if m.startswith({HEAVY!r})))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
+    assert out.strip() == "[]", out
+    cli = (ROOT / "protocols/app/cli.py").read_text()
+    assert "set_defaults(command" not in cli  # no command declared in the table itself
+    for m in _command_modules() - {c for c in _command_modules() if ".bench." in c}:
+        assert "def add(sub)" in (ROOT / (m.replace(".", "/") + ".py")).read_text(), m
 
 
 def test_no_application_code_opens_a_simulator_file():

@@ -489,7 +489,7 @@ PATHISH = re.compile(r"\b(writes?|written|saves?|output|plot it to|folder for)\b
 
 
 def test_every_option_that_writes_a_file_goes_through_the_rule():
-    """Walks the CLI: an option that names a file it writes is declared as writing (cli._writes),
+    """Walks the CLI: an option that names a file it writes is declared as writing (arguments.writes),
     so main() checks it by the one rule before the command starts; each such command takes
     --overwrite. A new command's output cannot be forgotten."""
     found = []
@@ -503,7 +503,7 @@ def test_every_option_that_writes_a_file_goes_through_the_rule():
                 found.append(key)
                 assert any("--overwrite" in b.option_strings for b in p._actions), f"{key}: no --overwrite"
             elif PATHISH.search(text) and a.dest not in ("json", "markdown"):
-                assert key in NOT_OUTPUTS, f"{' '.join(key)} looks like an output but is not declared (cli._writes)"
+                assert key in NOT_OUTPUTS, f"{' '.join(key)} looks like an output but is not declared (arguments.writes)"
     assert len(found) >= 19 and ("runs", "trend", "--out") in found
 
 

@@ -1,1 +1,1 @@
-"""The `dyno` application: the parser table (cli.py) and one module per command."""
+"""The `dyno` application: the commands' table (cli.py) and one module per command, which declares its own arguments."""

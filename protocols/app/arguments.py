@@ -1,5 +1,7 @@
 """The `dyno` parser's pieces: its error style, the argument types (numbers within their
-ranges, lists, the hold-out split, --setup items) and the budgets' bounds."""
+ranges, lists, the hold-out split, --setup items), the budgets' bounds and the options
+several commands declare alike. Each command declares its own options beside it (its
+module's add())."""
 from __future__ import annotations
 
 import argparse
@@ -104,3 +106,47 @@ def unit_system(text):
     if text not in SYSTEMS:
         raise argparse.ArgumentTypeError(f"{text!r}: give one of {', '.join(SYSTEMS)}")
     return Units(text)
+
+
+# --- the options several commands declare alike ---
+
+FILE, FOLDER = "file", "folder"  # what an output option names (protocols/app/output.py checks it)
+
+
+def writes(p, flag, kind, **kw):
+    """An option naming a file or folder the command writes: main() checks it by the one
+    rule (protocols/io/files.py) before the command starts, whatever the command does."""
+    action = p.add_argument(flag, **kw)
+    action.writes = kind
+    return action
+
+
+def overwrite(p, what="the output"):
+    p.add_argument("--overwrite", action="store_true",
+                   help=f"replace {what} if it exists (never an input; a folder's other files are kept)")
+
+
+def units(p):
+    p.add_argument("--units", type=unit_system, default="metric", metavar="{si,metric,us}",
+                   help="the unit system shown: si (m, m/s, N, Pa, K), metric (mm, mm/s, N, bar gauge, C; the "
+                        "default) or us (in, in/s, lbf, psi gauge, F)")
+
+
+def hidden_physics(p):
+    # not listed here: their catalogue's import would cost every dyno command a second
+    p.add_argument("--effect", action="append", metavar="NAME=VALUE",
+                   help="hide physics in the virtual rig, e.g. compressibility=0.5 (docs/diagnosis.md; an unknown "
+                        "NAME lists the effects)")
+    p.add_argument("--plain", action="store_true",
+                   help="the plain cell dyno prove uses (sim_backend/plain.toml): nothing the minimal model leaves out")
+    p.add_argument("--seed", type=number(0, 2**32 - 1, integer=True), default=0,
+                   help="the virtual rig's noise seed (default 0)")
+
+
+def batch_options(p, what, beside):
+    p.add_argument("--batch", nargs="+", metavar="FILE",
+                   help=f"many recordings, one task each: {beside} beside each and a summary table")
+    writes(p, "--summary", FILE, default=None, help=f"--batch's summary CSV (default {what}-summary.csv)")
+    cluster_option(p)
+    p.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
+                   help="--batch without --cluster: recordings analysed in parallel (default 2)")

@@ -7,14 +7,30 @@ from __future__ import annotations
 from pathlib import Path
 
 from models.damper import DamperError
-from protocols import catalogue
-from protocols.io.files import existing_files, input_file, output_folder, filled
-from protocols.reports import qa
-from protocols.units import fmt
 from protocols.errors import UsageError
+from protocols.app.arguments import FOLDER, overwrite, units, writes
+
+
+def add(sub):
+    """The `dyno check` command's arguments."""
+    ck = sub.add_parser("check", help="QA: a run against a reference run or model, within a tolerance band")
+    ck.add_argument("recording")
+    ck.add_argument("--against", required=True, metavar="REF.mcap|MODEL",
+                    help="the reference: another run, or a damper model (preset or FILE.json) simulated along "
+                         "this run's motion")
+    ck.add_argument("--tolerance", default="5%",
+                    help="the band, with its unit: 5%% of the reference, 50N, 11lbf, or 5%%,50N (the larger)")
+    writes(ck, "--out", FOLDER, default=None, help="folder for check.png, the band and the run's points")
+    units(ck)
+    overwrite(ck)
+    ck.set_defaults(command="check")
 
 
 def run(args):
+    from protocols import catalogue
+    from protocols.io.files import existing_files, input_file, output_folder, filled
+    from protocols.reports import qa
+    from protocols.units import fmt
     try:
         tol = qa.parse_tolerance(args.tolerance)
     except ValueError as e:

@@ -8,18 +8,40 @@ from pathlib import Path
 
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
-from models.diagnose import design, diagnose
-from models.diagnose.data import DiagnoseError
-from models.diagnose.words import summary
-from models.recording import drives
-from protocols.app.arguments import BUDGET_S
+from protocols.app.arguments import BUDGET_S, FOLDER, MAX_BUDGET_S, batch_options, holdout, number, overwrite, writes
 from protocols.errors import UsageError
-from protocols.io.files import existing_files, filled, output_folder
-from protocols.io.reader import load_recording
-from protocols.reports.diagnosis import described, own_baseline, report, to_json
+
+
+def add(sub):
+    """The `dyno diagnose` command's arguments."""
+    dg = sub.add_parser("diagnose", help="where the model misses a recording and what physics was left out")
+    dg.add_argument("recording", nargs="?")
+    batch_options(dg, "diagnosis", "FILE.diagnosis.json")
+    dg.add_argument("--baseline", default=None,
+                    help="minimal (the thesis's minimal model, fitted whole), or a damper preset or model JSON, "
+                         "refitted (default: the damper the recording names, else minimal)")
+    dg.add_argument("--json", action="store_true", help="machine-readable result")
+    writes(dg, "--report", FOLDER, metavar="DIR", help="HTML report with residual maps and loops")
+    overwrite(dg, "--report's files and --batch's outputs")
+    dg.add_argument("--holdout", type=holdout, default="interleaved",
+                    help="interleaved (default: alternate cycles or blocks) or tail:FRACTION (a time split: fit on "
+                         "the first 1-2F, choose on the next F, report on the last F)")
+    dg.add_argument("--next", action="store_true",
+                    help="also propose the sines that would best tell apart what it could not (minimal baseline)")
+    dg.add_argument("--budget", type=number(0, MAX_BUDGET_S, above=0), default=None, metavar="SECONDS",
+                    help="--next: rig time the proposals may take (default 120)")
+    dg.add_argument("--rig", default=None, help="--next: rig config whose limits the proposals keep (default virtual)")
+    dg.set_defaults(command="diagnose")
 
 
 def run(args):
+    from models.diagnose import design, diagnose
+    from models.diagnose.data import DiagnoseError
+    from models.diagnose.words import summary
+    from models.recording import drives
+    from protocols.io.files import existing_files, filled, output_folder
+    from protocols.io.reader import load_recording
+    from protocols.reports.diagnosis import described, own_baseline, report, to_json
     baseline = None
     if args.baseline not in (None, "minimal"):
         try:

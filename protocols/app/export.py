@@ -14,21 +14,32 @@ import json
 from datetime import datetime, timezone
 from pathlib import Path
 
-import numpy as np
-
-from models.recording import segments
-from protocols.io.files import output_file, written
-from protocols.io.reader import load_recording
-from protocols.reports.peaks import recorded_damper
-from protocols.units import Units
 from protocols.errors import UsageError
+from protocols.app.arguments import FILE, overwrite, units, writes
+from protocols.units import Units
 
 SIGNIFICANT = 7  # digits of a channel's range kept where its samples sit on no coarser grid
+
+
+def add(sub):
+    """The `dyno export` command's arguments."""
+    ex = sub.add_parser("export", help="a recording as one wide table (CSV or Parquet) on the force clock")
+    ex.add_argument("recording")
+    writes(ex, "--csv", FILE, metavar="FILE", help="write CSV")
+    writes(ex, "--parquet", FILE, metavar="FILE", help="write Parquet (needs pyarrow)")
+    writes(ex, "--target", FILE, metavar="FILE", help="write a replay target: time [s] and displacement [mm] about "
+                                                     "mid-stroke (dyno run replay --target FILE)")
+    ex.add_argument("--segment", help="--target: only this segment (its name, e.g. 'road iso8608:C:50')")
+    ex.add_argument("--channels", help="comma-separated channels (default: all, force first)")
+    units(ex)
+    overwrite(ex)
+    ex.set_defaults(command="export")
 
 
 def decimals(values) -> int:
     """Decimals that resolve a channel: its quantum when the samples sit on a grid (a
     16-bit load cell, a 1 C thermocouple), else SIGNIFICANT digits of its range."""
+    import numpy as np
     v = np.unique(np.asarray(values, float)[np.isfinite(values)])
     if len(v) < 2:
         return 6
@@ -46,6 +57,8 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
     """(columns [str], column arrays, decimals per column or None): the wide table on the
     force clock, channels in the unit system `shown` (units: each channel's SI unit, as
     recorded); wall_start (ISO 8601) adds the UTC time of every row."""
+    import numpy as np
+    from models.recording import segments
     if "force" not in channels:
         raise UsageError("the recording has no force channel to put the table on")
     names = names or sorted(channels, key=lambda n: (n != "force", n))
@@ -84,6 +97,9 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
 
 
 def run(args):
+    import numpy as np
+    from protocols.io.files import output_file, written
+    from protocols.io.reader import load_recording
     if sum(bool(getattr(args, k, None)) for k in ("csv", "parquet", "target")) != 1:
         raise UsageError("give one of --csv FILE, --parquet FILE or --target FILE")
     if args.target:
@@ -116,6 +132,11 @@ def _target(args):
     """A replay target from the recording's position (protocols/library/replay.py reads it):
     time [s] from 0 and displacement [mm] about the recorded damper's mid-stroke (the
     recording's mean position without a model), at the position's own samples."""
+    import numpy as np
+    from models.recording import segments
+    from protocols.io.files import output_file, written
+    from protocols.io.reader import load_recording
+    from protocols.reports.peaks import recorded_damper
     out = output_file(args.target, [args.recording], args.overwrite, "--target")
     channels, events, meta = load_recording(args.recording)
     if "x" not in channels or len(channels["x"][0]) < 2:
@@ -144,6 +165,7 @@ def _json_safe(meta):
 
 
 def _write(args, cols, data, dec, out, info):
+    import numpy as np
     if args.parquet:
         try:
             import pyarrow as pa

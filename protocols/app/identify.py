@@ -9,21 +9,31 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from models import damper as dm
-from models.identify import IdentifyError, identify
-from models.identify.parameters import at_bounds, bound_sentence
-from models.recording import differing_repeats, drives, only
-from protocols.io.files import existing_files, filled, output_file, output_folder, written
-from protocols.io.reader import load_recording, merged
-from protocols.reports.page import number
 from protocols.errors import UsageError
 from rig.errors import RigError
+from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
+
+
+def add(sub):
+    """The `dyno identify` command's arguments."""
+    idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
+    idf.add_argument("recordings", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
+    idf.add_argument("--damper", default=None,
+                     help="description giving layout and geometry (default: the damper the recording names)")
+    writes(idf, "--out", FILE, default=None, help="model JSON (default: RECORDING.model.json)")
+    idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
+    idf.add_argument("--segment", action="append", metavar="NAME", help="fit these segments only (repeatable), "
+                     "e.g. one of a file's repeats at another coil current or clicker")
+    idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
+    writes(idf, "--report", FOLDER, default=None, metavar="DIR", help="HTML report with loops and held-out errors")
+    overwrite(idf, "--out, --report's files and --batch's outputs")
+    batch_options(idf, "identify", "FILE.model.json")
+    idf.set_defaults(command="identify")
 
 
 def description(arg, meta):
     """The damper description: --damper, else the one the recording names."""
+    from models import damper as dm
     if arg:
         return dm.load(arg)
     text = meta.get("damper", {}).get("model")
@@ -36,6 +46,9 @@ def description(arg, meta):
 def model_of(channels, events, desc, names, say):
     """The identification (models/identify) of a recording's data into the layout and
     geometry of desc; RigError when nothing can be identified."""
+    import numpy as np
+    from models import damper as dm
+    from models.identify import IdentifyError, identify
     if desc.layout == "simplified":
         raise dm.DamperError(f"{desc.name}: a simplified model has no layout or geometry to identify into")
     say(f"identify: {desc.layout} with the geometry of '{desc.name}' (layout, geometry, T0 and T_ref are taken "
@@ -57,6 +70,8 @@ def model_of(channels, events, desc, names, say):
 def _one(task):
     """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one
     recording's bytes; desc: the --damper description as a dict, or None."""
+    from models import damper as dm
+    from protocols.io.reader import load_recording
     name, data, desc = task
     from protocols.app import batch
     with batch.unpacked(name, data) as path:
@@ -78,6 +93,11 @@ def _row(name, doc, error):
 
 
 def run(args):
+    import numpy as np
+    from models import damper as dm
+    from models.recording import drives, only
+    from protocols.io.files import existing_files, filled, output_file, output_folder, written
+    from protocols.io.reader import merged
     if getattr(args, "batch", None):
         from protocols.app import batch
         if args.recordings or args.out or args.report or args.truth:
@@ -140,6 +160,8 @@ def _minimal(args, channels, events, inputs, driving):
     description (the diagnosis's baseline `minimal`) with the effects the diagnosis accepts on
     it, judged on held-out cycles, with what the recording could not determine; written as
     JSON (models/minimal.py reads it)."""
+    from models import damper as dm
+    from protocols.io.files import output_file, written
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     if args.report or args.truth:
@@ -184,6 +206,8 @@ def _minimal(args, channels, events, inputs, driving):
 def _minimal_doc(args, out, base, found, channels, events):
     """The minimal model's JSON: the baseline's values, or the diagnosis's final model when it
     accepted effects (their forms built on this recording: `source`)."""
+    import numpy as np
+    from models.recording import differing_repeats
     from models.diagnose import undetermined
     from models.diagnose.candidates import Model
     d = found.data
@@ -223,6 +247,7 @@ def _finite(x):
 
 
 def summary(res):
+    from models.identify.parameters import at_bounds
     return {"steps": res.steps,
             "estimates": [{"name": e.name, "value": e.value, "ci_low": e.ci_low, "ci_high": e.ci_high,
                            "unit": e.unit, "identifiable": e.identifiable, "note": e.note} for e in res.estimates],
@@ -236,6 +261,7 @@ def summary(res):
 
 def _clean(o):
     """JSON has no NaN or infinity: null instead."""
+    import numpy as np
     if isinstance(o, float):
         return o if math.isfinite(o) else None
     if isinstance(o, dict):
@@ -248,6 +274,8 @@ def _clean(o):
 
 
 def text(doc):
+    from models.identify.parameters import bound_sentence
+    from protocols.reports.page import number
     lines = ["steps:"] + [f"  {k:10s} {v}" for k, v in doc["steps"].items()]
     if "parameters" in doc:
         lines.append("parameter                               identified        truth   error   95 % interval")

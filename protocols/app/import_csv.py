@@ -11,21 +11,40 @@ import os
 from pathlib import Path
 from types import SimpleNamespace
 
-import numpy as np
-
-from models import segmentation
-from models.recording import other_sign
-from protocols import catalogue
-from protocols.io import table
-from protocols.io.csv_import import CHANNELS, SI, UNITS, derived_velocity, parse_map, read, source
-from protocols.io.files import Claim
-from protocols.io.recording import Recorder
 from protocols.errors import UsageError
+from protocols.app.arguments import FILE, number, overwrite, writes
 
 FLIPS = ("force", "displacement")
 SAMPLES = 3  # values shown per column by --inspect
 PLOT_POINTS = 10_000  # /plot messages per channel at most: over two per pixel of a 4k display; /channels keeps every sample
 BATCH = 5000  # samples per /channels message
+
+
+def add(sub):
+    """The `dyno import_csv` command's arguments."""
+    im = sub.add_parser("import", help="a recording from another dyno or a DAQ (CSV, text export, Parquet, MATLAB) "
+                                       "as an MCAP recording")
+    im.add_argument("file", metavar="FILE", help="CSV or any delimited text (a preamble, a decimal comma, no header: "
+                                                 "found), .parquet, or .mat")
+    im.add_argument("--inspect", action="store_true", help="show what would be read (layout, columns, sample values, "
+                                                           "rate, a guessed map); write nothing")
+    writes(im, "--out", FILE, metavar="FILE.mcap", help="the recording to write")
+    overwrite(im, "--out")
+    im.add_argument("--map", action="append", metavar="NAME=COLUMN[:UNIT]",
+                    help="time, displacement, velocity, force, temperature, pressure or aux.NAME from a column by "
+                         "its header or 1-based position (a MATLAB matrix's: VAR[N]); units e.g. ms, mm, mm/s, kN, C, "
+                         "bar (default SI); time may be date-time stamps")
+    for flag, meta, what in (("--gain", "NAME=NUMBER", "a raw channel's gain into its mapped unit, e.g. force=980.665"),
+                             ("--offset", "NAME=NUMBER", "added after the gain, in the mapped unit, e.g. displacement=29.9"),
+                             ("--drive", "aux.NAME=KIND", "an aux channel that drives the damper: coil current, coil "
+                                                          "voltage, valve current or valve command (else a reading)")):
+        im.add_argument(flag, action="append", metavar=meta, help=what)
+    im.add_argument("--flip", action="append", choices=("force", "displacement"),
+                    help="the file counts it the other way: force positive in tension, or displacement from the "
+                         "other end (dyno: both positive in compression)")
+    im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
+                    help="the sampling rate, when no time column is mapped and the file does not say it")
+    im.set_defaults(command="import_csv")
 
 
 def _scales(items, what):
@@ -58,6 +77,8 @@ def _drives(items, mapping):
 
 
 def run(args):
+    from protocols.io.csv_import import parse_map
+    from protocols.io.files import Claim
     for option in ("inspect", "gain", "offset", "flip", "rate", "drive"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
@@ -85,6 +106,13 @@ def run(args):
 
 
 def _import(args, mapping, gains, offsets, claim):
+    import numpy as np
+    from models import segmentation
+    from models.recording import other_sign
+    from protocols import catalogue
+    from protocols.io import table
+    from protocols.io.csv_import import CHANNELS, SI, derived_velocity, read
+    from protocols.io.recording import Recorder
     got = read(args.file, mapping, gains, offsets, args.rate)
     data, units = got.data, got.units
     for name in args.flip or ():
@@ -151,6 +179,9 @@ def _import(args, mapping, gains, offsets, claim):
 def _guess(name: str, cells) -> str | None:
     """A standard channel a column's name (or first value) suggests, with its unit: the
     map a user would likely write."""
+    import numpy as np
+    from protocols.io import table
+    from protocols.io.csv_import import UNITS
     n = name.lower()
     unit = None
     for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
@@ -172,6 +203,8 @@ def _guess(name: str, cells) -> str | None:
 def inspect(args):
     """What import would read from the file: layout, columns with sample values, the rate,
     and a guessed map. Writes nothing."""
+    from protocols.io import table
+    from protocols.io.csv_import import source
     cols, layout = source(args.file)
     print(f"{args.file}: {layout.describe() if layout else Path(args.file).suffix[1:] + ' columns'}")
     if layout and layout.preamble:
@@ -202,5 +235,6 @@ def inspect(args):
 
 def _numeric(cells) -> bool:
     """A column whose first values are numbers (a DAQ's channels, not a sample counter's name)."""
+    from protocols.io import table
     first = [str(c) for c in list(cells[:SAMPLES]) if str(c)]
     return bool(first) and all(table.NUMBER.match(c) for c in first)

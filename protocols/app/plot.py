@@ -8,13 +8,49 @@ from pathlib import Path
 
 from models.damper import DamperError, load
 
-from protocols import cluster
-from protocols.io.files import existing_files, filled, output_folder
+from protocols.app.arguments import FOLDER, cluster_option, number, overwrite, writes
+
+
+def add(sub):
+    """The `dyno plot` command's arguments."""
+    pl = sub.add_parser("plot", help="write plots as PNG")
+    plsub = pl.add_subparsers(dest="what", required=True)
+    pd = plsub.add_parser("damper", help="loops, composite curve, temperature and pressure plots")
+    pd.add_argument("damper", help="preset name (koni, mechformance, fox-light, fox-heavy) or FILE.json")
+    writes(pd, "--out", FOLDER, required=True, help="output directory")
+    pd.add_argument("--amplitude-mm", type=number(), default=12.7, help="sine amplitude (default 12.7)")
+    pd.add_argument("--freq", type=number(), nargs="+", default=[1, 2, 4, 8, 16], help="frequencies in Hz")
+    pd.add_argument("--temp", type=number(), default=94.0, help="damper temperature in C (default 94)")
+    overwrite(pd, "the figures in --out")
+    pd.set_defaults(command="plot:damper")
+    for name, helptext, command in (
+            ("quarter-car", "frequency and step responses of a quarter car (6.2)", "plot:quarter_car"),
+            ("parametric", "parametric study of one damper (6.3)", "plot:parametric"),
+            ("simplified", "simplified models I and II against the comprehensive model (6.4)",
+             "plot:simplified")):
+        q = plsub.add_parser(name, help=helptext)
+        q.add_argument("--damper", default="koni", help="preset name or FILE.json (default koni)")
+        q.add_argument("--car", default="race-car" if name == "parametric" else "simulator",
+                       help="quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json")
+        writes(q, "--out", FOLDER, required=True, help="output directory")
+        overwrite(q, "the figures in --out")
+        q.add_argument("--freq", type=number(), nargs="+", default=None,
+                       help="excitation frequencies in Hz (default 1.25-20 in 0.25 Hz steps)")
+        if name != "simplified":
+            q.add_argument("--amplitude-mm", type=number(), nargs="+", default=[3.2, 12.7],
+                           help="road amplitudes in mm (default 3.2 12.7)")
+        if name == "quarter-car":
+            q.add_argument("--temp", type=number(), default=90.0, help="damper temperature in C (default 90)")
+        q.add_argument("--workers", type=number(1, 256, integer=True), default=None,
+                       help="processes (default: all cores)")
+        cluster_option(q)
+        q.set_defaults(command=command)
 
 
 def _figures(fn):
     """fn(args, folder) -> [PNG paths] drawn into --out: the folder is checked before the work
     and filled once every figure is drawn (protocols/io/files.py)."""
+    from protocols.io.files import existing_files, filled, output_folder
     @functools.wraps(fn)
     def run(args):
         out = output_folder(args.out, existing_files(args.damper, getattr(args, "car", None)), args.overwrite)
@@ -46,6 +82,7 @@ def _freqs(args):
 
 @_figures
 def quarter_car(args, out):
+    from protocols import cluster
     from models import quarter_car as qcm
     from protocols.reports import quarter_car as qp
     from models.quarter_car import sweeps
@@ -70,6 +107,7 @@ def quarter_car(args, out):
 
 @_figures
 def parametric(args, folder):
+    from protocols import cluster
     from models import quarter_car as qcm
     from protocols.reports import quarter_car as qp
     from models.quarter_car import sweeps
@@ -82,6 +120,7 @@ def parametric(args, folder):
 
 @_figures
 def simplified(args, folder):
+    from protocols import cluster
     from models import quarter_car as qcm
     from protocols.reports import quarter_car as qp
     from models.quarter_car import sweeps

@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import tomllib
 
-from protocols.library import DESCRIPTIONS, DISCOVER, PROTOCOLS, describe
+
+def add(sub):
+    """The `dyno protocols_list` command's arguments."""
+    sub.add_parser("protocols", help="the test protocols, each in a line").set_defaults(command="protocols_list")
 
 
 def _discover():
     """(summary, rows) of `dyno run discover`: the sine matrix's parameters with the
     opening's defaults (the matrix the diagnosis is proven on)."""
+    from protocols.library import DESCRIPTIONS, DISCOVER, describe
     from protocols.proven import opening as proven
     opening = proven()[1]
     rows = [(p, ",".join(f"{v:g}" for v in opening[p]) if isinstance(opening.get(p), list)
@@ -19,6 +23,7 @@ def _discover():
 
 def protocol_help(name):
     """Print a protocol's parameters; False when there is no such protocol."""
+    from protocols.library import DISCOVER, PROTOCOLS, describe
     if name not in PROTOCOLS and name != DISCOVER:
         return False
     summary, rows = _discover() if name == DISCOVER else describe(name)
@@ -34,6 +39,7 @@ def protocol_help(name):
 
 
 def run(args):
+    from protocols.library import DESCRIPTIONS, DISCOVER, PROTOCOLS, describe
     w = max(map(len, PROTOCOLS))
     for name in PROTOCOLS:
         print(f"{name:{w}s}  {describe(name)[0]}")

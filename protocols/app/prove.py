@@ -15,17 +15,50 @@ from __future__ import annotations
 import json
 import sys
 
-from models.parallel import run_all
 from protocols.errors import UsageError
-from sim_backend.effects import EFFECTS, scaled
-from sim_backend.options import plain_cell
 
-from protocols import cluster
-from protocols.discover import MAX_ROUNDS
-from protocols.proof import ProveTask, calibrate, key, measured_rms_diff, run_task
-from protocols.proof import table as proof_table
+from protocols.app.arguments import cluster_option, number, sizes
+
+def add(sub):
+    """The `dyno prove` command's arguments."""
+    pv = sub.add_parser("prove", help="hide each effect in the virtual rig at the noise level and diagnose it")
+    pv.add_argument("--seeds", type=number(1, 10000, integer=True), default=10,
+                    help="recordings per effect (default 10)")
+    pv.add_argument("--effects", help="comma-separated subset of effects, A+B for two hidden together, "
+                                      "EFFECT:FORM for one of its other forms, ALL for every effect (default: all, plus nulls)")
+    pv.add_argument("--forms", choices=("default", "all"), default="default",
+                    help="all: each effect also in the plant's other forms (default: its calibrated form only)")
+    pv.add_argument("--sizes", type=sizes, default=[1.0],
+                    help="comma-separated strengths: multiples of each concealed effect (default 1), e.g. 1,3,10")
+    pv.add_argument("--noise", type=sizes, default=[1.0],
+                    help="comma-separated multiples of the cell's sensor noise (default 1), e.g. 1,3,10; sizes "
+                         "scale with it (x1 is the noise floor at each level)")
+    pv.add_argument("--rates", type=sizes, default=[1000.0],
+                    help="comma-separated loop and sampling rates [Hz] (default 1000), e.g. 1000,5000")
+    pv.add_argument("--open", metavar="EXPR",
+                    help="hide your own physics: a force [N] in x [m], v [m/s], t [s], T [K], e.g. "
+                         "'2e6*maximum(x-0.05,0)**2' (sim_backend/extra.py), against a null per seed")
+    pv.add_argument("--adaptive", action="store_true",
+                    help="after the prove plan, the dyno's own next tests (as dyno run discover) on the same "
+                         "recording; the table gives detection by the plan alone beside it")
+    pv.add_argument("--budget", type=number(0, 3600), default=120.0, metavar="SECONDS",
+                    help="--adaptive: rig time the next tests may add (default 120)")
+    pv.add_argument("--json", action="store_true")
+    pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
+    pv.add_argument("--calibrate", action="store_true",
+                    help="find each effect's concealed value (contribution = force noise) and print it")
+    pv.add_argument("--jobs", type=number(1, 256, integer=True), default=2,
+                    help="recordings made and diagnosed in parallel (default 2)")
+    cluster_option(pv)
+    pv.set_defaults(command="prove")
+
 
 def run(args):
+    from models.parallel import run_all
+    from sim_backend.effects import EFFECTS, scaled
+    from sim_backend.options import plain_cell
+    from protocols import cluster
+    from protocols.proof import ProveTask, calibrate, key, measured_rms_diff, run_task, table as proof_table
     _, params, prove = plain_cell()
     say = (lambda s: print(s, file=sys.stderr, flush=True))
     noise = params["sensors"]["force_noise"]
@@ -106,6 +139,9 @@ def prove_open(args, say):
     plain cell, each seed against the null of the same seed: what the diagnosis names,
     what it depends on, where it lives, and how much of the held-out error above the
     noise it explains."""
+    from models.parallel import run_all
+    from protocols import cluster
+    from protocols.proof import ProveTask, measured_rms_diff, run_task
     from sim_backend.effects import EffectError, parse
     try:
         parse([f"extra:{args.open}"])
@@ -155,6 +191,8 @@ ADAPTIVE = ("detection by the prove plan alone", "rig time added [s] (median)")
 
 
 def _print(table, args, noise):
+    from sim_backend.effects import EFFECTS
+    from protocols.discover import MAX_ROUNDS
     header, rows = HEADER, [_cells(r) for r in table]
     if getattr(args, "adaptive", False):  # beside the detection: the opening's, and what the next tests cost
         header = (*HEADER[:7], ADAPTIVE[0], HEADER[7], ADAPTIVE[1], *HEADER[8:])

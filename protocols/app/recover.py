@@ -1,11 +1,17 @@
 """`dyno recover FILE`: rebuild a recording cut short."""
 from __future__ import annotations
 
-from protocols import catalogue
-from protocols.io.recording import recover
+
+def add(sub):
+    """The `dyno recover` command's arguments."""
+    rv = sub.add_parser("recover", help="rebuild a recording cut short (the original is kept as FILE.damaged)")
+    rv.add_argument("file")
+    rv.set_defaults(command="recover")
 
 
 def run(args):
+    from protocols import catalogue
+    from protocols.io.recording import recover
     r = recover(args.file)
     if r["intact"]:
         print(f"{args.file}: intact, nothing to recover")

@@ -6,15 +6,29 @@ from __future__ import annotations
 from pathlib import Path
 
 from models.damper import DamperError
-from models.minimal import load_reference as load_damper
 from protocols.errors import UsageError
 
-from protocols.io.files import existing_files, filled, output_folder
-from protocols.reports.comparison import compare
-from protocols.reports.recording import report
+from protocols.app.arguments import FOLDER, overwrite, units, writes
+
+
+def add(sub):
+    """The `dyno report` command's arguments."""
+    rp = sub.add_parser("report", help="HTML report with plots of a recording, or several compared")
+    rp.add_argument("file")
+    rp.add_argument("other", nargs="*", help="more recordings: each compared (B, C, ...) with the first (A)")
+    rp.add_argument("--model", default=None, help="damper model JSON to overlay (default: FILE.model.json if present)")
+    writes(rp, "--out", FOLDER, required=True, help="output directory")
+    rp.add_argument("--speeds", default=None, metavar="V,V,...",
+                    help="shaft speeds of the velocity table, in --units' velocity unit (default 0.025-0.5 m/s, "
+                         "1-20 in/s)")
+    rp.add_argument("--paper", choices=("a4", "letter"), default="a4", help="report.pdf's paper (default a4)")
+    units(rp)
+    overwrite(rp, "the report's files in --out")
+    rp.set_defaults(command="report")
 
 
 def _model(args):
+    from models.minimal import load_reference as load_damper
     path = args.model or Path(args.file).with_suffix(".model.json")
     if args.model is None and not Path(path).is_file():
         return None
@@ -40,6 +54,9 @@ def _speeds(text, units):
 
 
 def run(args):
+    from protocols.io.files import existing_files, filled, output_folder
+    from protocols.reports.comparison import compare
+    from protocols.reports.recording import report
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
     with filled(out) as folder:
         if args.other:

@@ -5,18 +5,25 @@ from __future__ import annotations
 import sys
 import time
 
-from rig import config as rig_config
-from rig.safety import Safety
-from rig.rig import Rig
-
-from protocols.display import shown
+from protocols.app.arguments import units
 
 
 CHECK_S = 0.5  # how long rig check listens
 
 
+def add(sub):
+    """The `dyno rig check` command's arguments."""
+    rc = sub.add_parser("check", help="connect to every device and print each channel")
+    rc.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
+    rc.add_argument("--damper", default="koni", help="damper in the embedded virtual rig (default koni)")
+    units(rc)
+    rc.set_defaults(command="rig_check")
+
+
 def open_rig(args):
     """(rig, virtual rig or None, pacer step): the embedded virtual rig unless --rig."""
+    from rig import config as rig_config
+    from rig.rig import Rig
     if args.rig is None:
         from sim_backend.virtual_rig import VirtualRig
         vr = VirtualRig(rig_config.load("virtual"), damper=args.damper)
@@ -28,6 +35,9 @@ def open_rig(args):
 
 
 def run(args):
+    from rig import config as rig_config
+    from rig.safety import Safety
+    from protocols.display import shown
     rig, vr = open_rig(args)
     try:
         rig.open()

@@ -8,14 +8,10 @@ import datetime
 import math
 
 from models.damper import load as load_damper
-from models.physics.gas_spring import static_force
-from rig import config as rig_config
 from protocols.errors import UsageError
 from rig.errors import RigError
 
-from protocols import cell, commissioning, runner
-from protocols.io.files import written
-from protocols.plan import Plan, rig_info
+from protocols.app.arguments import number, units
 from protocols.units import Units
 
 
@@ -25,9 +21,24 @@ GAS_LIKE = 0.25  # an "unloaded" reading within 25 % of the damper's gas force l
 GAS_MIN_N = 50.0  # ... when that force is large enough to be told from a load cell's zero error
 
 
+def add(sub):
+    """The `dyno rig zero` command's arguments."""
+    rz = sub.add_parser("zero", help="tare the load cell, reference the position, check the LVT; offsets "
+                                       "written to the cell file")
+    rz.add_argument("--rig", default=None, help="rig config to zero and write (default: the embedded virtual rig)")
+    rz.add_argument("--damper", default="koni", help="damper preset or FILE.json: its mid-stroke is held (default koni)")
+    rz.add_argument("--unloaded", action="store_true", help="the damper is disconnected: tare the load cell to zero")
+    rz.add_argument("--tare-anyway", action="store_true",
+                    help="tare with --unloaded even when the reading looks like the damper's gas force")
+    rz.add_argument("--x-mm", type=number(), default=None, help="the true position [mm] at mid-stroke, from a gauge")
+    units(rz)
+    rz.set_defaults(command="rig_zero")
+
+
 def looks_loaded(force_n, damper, x_m) -> float | None:
     """The damper's static gas force [N] at x (eq 3.16, at its charge temperature) when the
     load cell's reading is that close to it, else None."""
+    from models.physics.gas_spring import static_force
     g = damper.gas_spring
     F = float(static_force(x_m, g.T0, g.P0, g.V0, g.T0, damper.geometry.A_r, g.K_voil, g.K_voint))
     return F if F > GAS_MIN_N and abs(force_n - F) < GAS_LIKE * F else None
@@ -71,6 +82,8 @@ def write_offsets(path, cfg, changes, units=Units()):
     """Write [(channel, new offset [SI], why)] into the cell file at path, each with a dated
     comment: all or nothing, and only offsets that move a zero by less than the channel's
     span. A link is followed: its target is edited, the link kept. The file written."""
+    from rig import config as rig_config
+    from protocols.io.files import written
     for name, value, _ in changes:
         q = QUANTITY[name]
         if not abs(value - cfg.channels[name].offset) <= span(cfg, name):
@@ -90,6 +103,9 @@ def write_offsets(path, cfg, changes, units=Units()):
 
 
 def run(args):
+    from rig import config as rig_config
+    from protocols import cell, commissioning, runner
+    from protocols.plan import Plan, rig_info
     units = args.units
     F, X = (lambda si, q=q: as_shown(units, q, si) for q in ("force", "length"))
     cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")

@@ -3,36 +3,73 @@ cell (--rig), pre-flight checked, recorded to MCAP, with the live view and ident
 as observers."""
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 
 from models.damper import load as load_damper
 from models.damper import to_dict
-from rig import config as rig_config
 from protocols.errors import UsageError
 from rig.errors import RigError
-from rig import operator_stop
 
-from protocols import catalogue, cell, preflight
-from protocols.app.arguments import BUDGET_S
-from protocols.app.arguments import virtual_plant
-from protocols.io.files import Claim, existing_files, numbered, output_file
-from protocols.io.recording import Recorder
-from protocols.library import DISCOVER, PROTOCOLS
-from protocols.discover import discover
-from protocols.plan import Plan, as_dict, parse, rig_info
-from protocols.rehearsal import rehearse
-from protocols.runner import run_plan
-from protocols import proven
+from protocols.app.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, number, setup_item, units,
+                                     virtual_plant, writes)
 
+
+def add(sub):
+    """The `dyno run` command's arguments."""
+    rn = sub.add_parser("run", help="run a test protocol and record it to MCAP",
+                        epilog="dyno run PROTOCOL --help lists its parameters; dyno protocols lists the protocols")
+    rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard, hil, replay; "
+                                     "discover: a sine matrix, then the tests the diagnosis asks for")
+    rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
+    rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
+    rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
+    hidden_physics(rn)
+    writes(rn, "--out", FILE, default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap); "
+                                                "an existing file is kept unless --overwrite")
+    rn.add_argument("--overwrite", action="store_true", help="replace an existing --out file once the run starts")
+    rn.add_argument("--long", action="store_true", help="allow a run planned to move for more than 2 hours")
+    units(rn)
+    rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
+    rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
+    writes(rn, "--rrd", FILE, default=None, help="also save the live view to FILE.rrd")
+    rn.add_argument("--operator", default=None, help="who runs the test (recorded, shown on the report)")
+    rn.add_argument("--serial", default=None, help="the damper's serial number (recorded, shown on the report)")
+    rn.add_argument("--note", default=None, help="a note for the record (setup, clickers, ...)")
+    rn.add_argument("--setup", action="append", type=setup_item, default=[], metavar="KEY=VALUE",
+                    help="the damper's setup, recorded and shown on the report (repeat: --setup clicks_reb=12 "
+                         "--setup gas_bar=10)")
+    rn.add_argument("--budget", type=number(0, MAX_BUDGET_S), default=None, metavar="SECONDS",
+                    help="discover: rig time the dyno may add for its own next tests (default 120)")
+    rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
+                    help="identify the damper while the test runs and write RECORDING.model.json "
+                         "(default: on for the standard sequence)")
+    rn.add_argument("--diagnose", action="store_true",
+                    help="diagnose each sine segment as it ends, against the damper's model: the findings go into "
+                         "the recording, the live view and here")
+    for name, what in (("car", "hil: quarter-car preset (simulator, simulator-9kg, race-car) or FILE.json"),
+                       ("road", "hil: step:MM, sine:HZ:MM, sweep:F0:F1:MM, iso8608:CLASS:KMH[:SECONDS], file:CSV"),
+                       ("compensator", "hil: actuator delay compensation: none, polynomial, adaptive"),
+                       ("target", "replay: CSV of time [s], displacement [mm] about mid-stroke"),
+                       ("iterations", "replay: drive corrections to make (default 5)")):
+        rn.add_argument(f"--{name}", default=None, help=what + " (the same as " + name + "=...)")
+    rn.set_defaults(command="run")
 
 
 def run(args):
+    from rig import operator_stop
     with operator_stop.handled():  # dyno's main sets it too; a cluster worker's thread has none
         return _run(args)
 
 
 def _run(args):
+    from rig import operator_stop
+    from protocols.io.recording import Recorder
+    from protocols.library import DISCOVER
+    from protocols.discover import discover
+    from protocols.plan import Plan, as_dict
+    from protocols.runner import run_plan
     module, params, plant, damper, cfg, info = _plan_run(args)
     operator_stop.raise_if_stopped()
     identifying = args.identify if args.identify is not None else module.NAME == "standard"
@@ -97,6 +134,12 @@ def _run(args):
 def _plan_run(args):
     """What a run needs, checked before anything connects or moves: (protocol module,
     params, virtual plant options, damper, rig config, RigInfo)."""
+    from rig import config as rig_config
+    from protocols import preflight, proven
+    from protocols.io.files import output_file
+    from protocols.library import DISCOVER, PROTOCOLS
+    from protocols.plan import parse, rig_info
+    from protocols.rehearsal import rehearse
     module = PROTOCOLS.get("sine-matrix" if args.protocol == DISCOVER else args.protocol)
     if module is None:
         raise UsageError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)}, {DISCOVER})")
@@ -140,6 +183,7 @@ def _plan_run(args):
 
 def open_cell(args, cfg, damper, plant):
     """The embedded virtual rig unless --rig names a cell (protocols/cell.py), open."""
+    from protocols import cell
     if args.rig is None:
         return cell.embedded(damper, cfg, realtime=args.realtime, plant=plant)
     return cell.wired(cfg, damper)
@@ -148,6 +192,7 @@ def open_cell(args, cfg, damper, plant):
 def _finish_run(module, name, c, claim, recorder, result, errors, ident):
     """Say what was recorded and what stopped it, finish the live identification; the exit
     status."""
+    from protocols import catalogue
     if result.fault:
         errors.insert(0, result.fault)
     if recorder.kept:
@@ -179,6 +224,8 @@ def _finish_run(module, name, c, claim, recorder, result, errors, ident):
 
 def _inputs(args):
     """The files a run reads: no output may be one of them."""
+    from rig import config as rig_config
+    from protocols.io.files import existing_files
     return existing_files(args.damper, args.rig and str(rig_config.path_of(args.rig)), args.params,
                           *(getattr(args, n, None) for n in ("car", "road", "target")))
 
@@ -186,6 +233,7 @@ def _inputs(args):
 def _output(args, name, identifying):
     """The recording's Claim, taken before the rig opens (refuses an existing file without
     --overwrite, and a target another run is writing)."""
+    from protocols.io.files import Claim, numbered, output_file
     from datetime import datetime
     from pathlib import Path
 

@@ -8,11 +8,46 @@ from contextlib import closing
 from datetime import datetime, timezone
 from pathlib import Path
 
-from protocols import catalogue
-from protocols.io.files import written
-from protocols.reports import markdown as md
-from protocols.units import fmt
 from protocols.errors import UsageError
+from protocols.app.arguments import FILE, overwrite, setup_item, units, writes
+
+
+def add(sub):
+    """The `dyno runs` command's arguments."""
+    rs = sub.add_parser("runs", help="find and trend runs: a catalogue of a folder of recordings")
+    rsub = rs.add_subparsers(dest="what", required=True)
+    ri = rsub.add_parser("index", help="index the folder's recordings (incremental; unreadable files kept as errors)")
+    ri.add_argument("dir", nargs="?", default="recordings")
+    ri.set_defaults(command="runs:index")
+    rl = rsub.add_parser("list", help="the runs, oldest first")
+    rl.add_argument("dir", nargs="?", default="recordings")
+    rl.add_argument("--serial", help="one damper serial")
+    rl.add_argument("--since", help="started on or after this UTC date or time (ISO 8601, e.g. 2026-03-01)")
+    rl.add_argument("--protocol", help="one protocol (sine-matrix, standard, ...)")
+    rl.add_argument("--where", metavar="EXPR", help='conditions FIELD OP VALUE joined by "and": OP = != < <= > >= ~ '
+                    '(contains); FIELD serial, operator, note, damper, protocol, started, duration_s, outcome, ... or '
+                    'setup.KEY, e.g. "setup.clicks >= 10 and outcome = completed"')
+    rl.add_argument("--json", action="store_true")
+    rl.set_defaults(command="runs:list_runs")
+    rw = rsub.add_parser("show", help="one run: identity, setup, outcome and its peaks")
+    rw.add_argument("id", type=int)
+    rw.add_argument("dir", nargs="?", default="recordings")
+    rw.add_argument("--json", action="store_true", help="everything in SI, as the catalogue holds it")
+    units(rw)
+    rw.set_defaults(command="runs:show")
+    re_ = rsub.add_parser("edit", help="correct a run's serial, operator, note or setup KEY=VALUE ('' removes one)")
+    for a, kw in (("id", {"type": int}), ("dir", {"nargs": "?", "default": "recordings"}), ("--serial", {}),
+                  ("--operator", {}), ("--note", {}), ("--setup", {"action": "append", "type": setup_item, "default": []})):
+        re_.add_argument(a, **kw)
+    re_.set_defaults(command="runs:edit")
+    rt = rsub.add_parser("trend", help="a serial's force at one speed over its runs")
+    rt.add_argument("dir", nargs="?", default="recordings")
+    rt.add_argument("--serial", required=True)
+    rt.add_argument("--quantity", required=True, help="DIRECTION@SPEED, e.g. rebound@0.5m/s or compression@10in/s")
+    writes(rt, "--out", FILE, help="also plot it to this PNG (or .svg, .pdf)")
+    overwrite(rt, "--out")
+    units(rt)
+    rt.set_defaults(command="runs:trend")
 
 
 def _folder(args):
@@ -24,10 +59,12 @@ def _folder(args):
 
 def _connect(args):
     """The folder's catalogue, read-only: listing never changes it."""
+    from protocols import catalogue
     return catalogue.reading(_folder(args))
 
 
 def index(args):
+    from protocols import catalogue
     n = catalogue.index(_folder(args))
     print(f"{args.dir}: {n.added} added, {n.updated} updated, {n.unchanged} unchanged, {n.failed} unreadable "
           f"(kept with their error)" + (f", {n.writing} being recorded (indexed once finished)" if n.writing else "")
@@ -50,6 +87,8 @@ def _cell(row, k):
 
 
 def list_runs(args):
+    from protocols import catalogue
+    from protocols.reports import markdown as md
     with _connect(args) as c:
         rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol,
                               where=getattr(args, "where", None))
@@ -75,6 +114,9 @@ def _shown(key, value):
 
 
 def show(args):
+    from protocols import catalogue
+    from protocols.reports import markdown as md
+    from protocols.units import fmt
     with _connect(args) as c:
         row, peaks = catalogue.run(c, args.id)
         checks, models, diagnoses = (catalogue.attached(c, t, args.id) for t in ("checks", "models", "diagnoses"))
@@ -110,6 +152,10 @@ def show(args):
 
 
 def trend(args):
+    from protocols import catalogue
+    from protocols.io.files import written
+    from protocols.reports import markdown as md
+    from protocols.units import fmt
     from protocols.reports import trend as trend_report
     kind = Path(args.out).suffix.lower().lstrip(".") if args.out else None
     if args.out and kind not in trend_report.FORMATS:
@@ -131,6 +177,7 @@ def trend(args):
 def edit(args):
     """`dyno runs edit ID --serial/--operator/--note/--setup KEY=VALUE`: what was typed wrong
     or left out at the run, in the recording's metadata and its catalogue row both."""
+    from protocols import catalogue
     from protocols.io.recording import edit_run_info
     changes = {k: v for k, v in (("damper_serial", args.serial), ("operator", args.operator), ("note", args.note))
                if v is not None}

@@ -9,11 +9,18 @@ import tempfile
 from contextlib import closing
 from pathlib import Path
 
-from werkzeug.serving import make_server
-
-from protocols import catalogue
-from protocols.web import create_app
 from protocols.errors import UsageError
+from protocols.app.arguments import number, units
+
+
+def add(sub):
+    """The `dyno serve` command's arguments."""
+    sv = sub.add_parser("serve", help="the runs in a browser: table, reports, comparisons, trends, QA, live runs")
+    sv.add_argument("dir", nargs="?", default="recordings")
+    sv.add_argument("--port", type=number(0, 65535, integer=True), default=8050,
+                    help="port on 127.0.0.1 (default 8050; 0 picks a free one)")
+    units(sv)
+    sv.set_defaults(command="serve")
 
 
 def _free(port):
@@ -26,6 +33,9 @@ def _free(port):
 
 
 def run(args):
+    from werkzeug.serving import make_server
+    from protocols import catalogue
+    from protocols.web import create_app
     folder = Path(args.dir)
     if not folder.is_dir():
         raise UsageError(f"{folder}: no such folder of recordings")

@@ -6,11 +6,20 @@ import math
 import signal
 import threading
 
-from rig import config as rig_config
-from rig.devices import TRANSPORTS
 from protocols.errors import UsageError
 
-from protocols.app.arguments import virtual_plant
+from protocols.app.arguments import hidden_physics, number, virtual_plant
+
+
+def add(sub):
+    """The `dyno sim_rig` command's arguments."""
+    sr = sub.add_parser("sim-rig", help="serve the virtual rig as its own process (CAN socketcand, pty, Modbus TCP)")
+    sr.add_argument("--config", default="sim-rig", help="rig config to serve (default: sim-rig)")
+    sr.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
+    sr.add_argument("--fault", action="append", metavar="NAME[@TIME]", help="inject a fault, at TIME s")
+    hidden_physics(sr)
+    sr.add_argument("--seconds", type=number(above=0), default=None, help="stop after this long")
+    sr.set_defaults(command="sim_rig")
 
 
 def parse_faults(specs):
@@ -32,6 +41,8 @@ def parse_faults(specs):
 
 
 def run(args):
+    from rig import config as rig_config
+    from rig.devices import TRANSPORTS
     from sim_backend.virtual_rig import VirtualRig
     faults = parse_faults(args.fault)
     cfg = rig_config.load(args.config)

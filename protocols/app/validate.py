@@ -7,12 +7,21 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from models.validation import format_table, quarter_car, readings, rows
-from protocols.app.output import emit
-from protocols.io.files import filled, output_folder
-from protocols.reports import markdown as md
+from protocols.app.arguments import FOLDER, overwrite, writes
 
 SEED = "../shared/seed/000_79c7770b026c394b.txt"
+
+
+def add(sub):
+    """The `dyno validate` command's arguments."""
+    v = sub.add_parser("validate", help="reproduce the thesis validation table")
+    v.add_argument("--json", action="store_true", help="machine-readable {\"rows\": [...]}")
+    v.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
+    v.add_argument("--sensitivity", action="store_true",
+                   help="for each missed step row, the install position that would reconcile it (slower)")
+    writes(v, "--report", FOLDER, metavar="DIR", help="also write the step and ride-height figures there")
+    overwrite(v, "--report's figures")
+    v.set_defaults(command="validate")
 
 
 def _err(x, key):
@@ -45,12 +54,16 @@ HEADER = ("source", "case", "unit", "thesis model", "ours", "error", "tolerance"
 
 
 def _readings_table():
+    from models.validation import readings
+    from protocols.reports import markdown as md
     return md.table(("reading", "how the test is read", "seed line", "where the text is silent or contradicts"),
                     [(k, v["reading"], v["line"], v.get("ambiguity", "-")) for k, v in readings().items()])
 
 
 def _report(path, kept):
     """The figures, written into a temporary folder that becomes `path` once all are done."""
+    from models.validation import quarter_car
+    from protocols.io.files import filled
     from protocols.reports import validation as figures
     with filled(path, "--report") as folder:
         figures.plot_steps(kept["steps"], quarter_car.STEPS, folder / "steps.png", quarter_car.SETTLE_S)
@@ -59,6 +72,10 @@ def _report(path, kept):
 
 
 def run(args):
+    from models.validation import format_table, rows
+    from protocols.app.output import emit
+    from protocols.io.files import output_folder
+    from protocols.reports import markdown as md
     if args.report:  # checked before the minute of simulation, not after
         output_folder(args.report, overwrite=args.overwrite, what="--report")
     kept = {} if args.report else None

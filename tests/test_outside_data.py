@@ -122,6 +122,22 @@ def test_a_time_split_fits_the_past_chooses_on_the_next_and_reports_the_last():
     assert len(folds) == 2 and np.array_equal(judged, shown)
 
 
+def test_a_function_of_time_holds_its_last_fitted_level_on_a_time_split():
+    """On a time split the drifts' time basis spans only what the fit saw: the held-out
+    tail is forecast at the last fitted level, not by spline pieces the training barely
+    touched. Interleaved folds span the whole recording."""
+    from models.diagnose.terms import _t_basis
+    d = _data(n_cycles=400, f=4.0)  # 100 s: a basis of 8
+    whole = _t_basis(d, d)
+    d.fitted_until = 70.0
+    B = _t_basis(d, d)
+    after = d.t > 70.0
+    assert whole.shape == (len(d.t), 8) and B.shape == (len(d.t), 7)  # one a 10 s: over what the fit saw
+    assert np.allclose(B[after], B[after][0]) and B[after][0, -1] == 1.0  # the last level, held
+    assert not np.allclose(whole[after], whole[after][0])  # the whole span moves there
+    assert np.allclose(B.sum(axis=1), 1.0) and np.allclose(whole.sum(axis=1), 1.0)
+
+
 def test_an_effect_that_trades_against_an_earlier_one_is_said_so():
     """A sensor lag and compressibility both delay the force: accepted after compressibility,
     a lag's parameter trades against it; cavitation (a cap far above the force) does not."""

@@ -153,6 +153,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         progress(f"simulating {baseline[0]} along the recorded motion")
         base = FromModel(baseline[1], d, baseline[0])
     folds, judged, shown = holdout_masks(d, holdout)
+    if holdout != "interleaved":
+        d.fitted_until = float(np.max(d.t[folds[0][0]]))
     block = blocks(d)
     judged_blocks = np.unique(block[judged])
     cell = list(WITH_BASELINE)

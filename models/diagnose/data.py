@@ -51,12 +51,16 @@ class Data:
     flags: list = field(default_factory=list)  # [quality.Flag]: samples excluded before fitting
     periodic: bool = True  # False: motion that does not repeat, judged in blocks of BLOCK_S
     tone_hz: float | None = None  # a line in the residual unrelated to the motion (terms.tone)
+    # s: the last time any fit sees on a time split (None: the fits span the recording). A
+    # function of time is not extrapolated past it: beyond, it holds its last value
+    fitted_until: float | None = None
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
-                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.tone_hz)
+                    {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.tone_hz,
+                    self.fitted_until)
 
 
 def _clean(t, v):

@@ -108,12 +108,22 @@ def _stroke_damping(m, d, p, f, e):
     f.Fd = f.Fd * (1.0 + np.where(f.v > 0, gc, gr))
 
 
+def _t_span(ref):
+    """(first, last) time [s] a function of time is fitted over: on a time split, up to the
+    last sample the fits see, so that the held-out tail is a forecast at the last fitted
+    level, not an extrapolation of the last spline pieces, which the training barely
+    touches and the bounds alone hold."""
+    hi = float(ref.t[-1]) if ref.fitted_until is None else min(float(ref.fitted_until), float(ref.t[-1]))
+    return float(ref.t[0]), hi
+
+
 def _drift_n(d):
-    return int(np.clip(round(np.ptp(d.t) / DRIFT_S), DEGREE + 1, 8))
+    lo, hi = _t_span(d)
+    return int(np.clip(round((hi - lo) / DRIFT_S), DEGREE + 1, 8))
 
 
 def _t_basis(ref, d):
-    return bspline(d.t, float(ref.t[0]), float(ref.t[-1]), _drift_n(ref))
+    return bspline(d.t, *_t_span(ref), _drift_n(ref))
 
 
 def _drift(m, d, p, f, e):

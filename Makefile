@@ -3,14 +3,20 @@
 PY ?= python3
 VENV := .venv
 STAMP := $(VENV)/.installed
+TEST_STAMP := $(VENV)/.installed-test
 
 .PHONY: run test lint quick fuzz results report-examples clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --upgrade pip
-	$(VENV)/bin/pip install --quiet -e '.[test]'
+	$(VENV)/bin/pip install --quiet -e .
 	touch $(STAMP)
+
+# the test tools on top (pytest, hypothesis, Playwright, Dask, ruff...): `make run` does not wait for them
+$(TEST_STAMP): $(STAMP)
+	$(VENV)/bin/pip install --quiet -e '.[test]'
+	touch $(TEST_STAMP)
 
 DAMPER ?= koni
 
@@ -37,15 +43,15 @@ test: lint $(CHROMIUM)
 # components and effects, tables and metrics; no run, no diagnosis, no browser (about a minute)
 QUICK := architecture events threads wire_formats rig_config damper_json components output_rule report_tables metrics design effects plant
 # the linter's rules and why: pyproject.toml [tool.ruff.lint]
-lint: $(STAMP)
+lint: $(TEST_STAMP)
 	$(VENV)/bin/ruff check .
 
-quick: $(STAMP)
+quick: $(TEST_STAMP)
 	$(VENV)/bin/python -m pytest -q -x -n 2 -m "not slow and not realtime" $(QUICK:%=tests/test_%.py)
 
 # the readers' fuzzers at length (the suite runs 30 examples each): 10,000 examples per reader
 FUZZ_EXAMPLES ?= 10000
-fuzz: $(STAMP)
+fuzz: $(TEST_STAMP)
 	DYNO_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(VENV)/bin/python -m pytest -q -p no:cacheprovider -n 2 tests/test_fuzz_readers.py
 
 clean:

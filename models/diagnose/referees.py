@@ -17,6 +17,7 @@ STAND_IN = "loop_surface"
 LOOP_VARIABLES = {"displacement", "velocity", "direction", "acceleration", "frequency"}
 BOOT = 2000
 SURE_HITS = 50
+MORE = 4  # the most resamples a p-value at the bar draws, in multiples of its usual number
 
 
 def block_sse(r, block, ids):
@@ -50,19 +51,23 @@ def p_value(d_c, seed, alpha=ALPHA):
     (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha.
     It stops early once p is surely above alpha (SURE_HITS hits, and alpha under p's
     lower bound at 3.3 sd), as for most candidates tried: p is then known to about 15 %.
-    Every test with the same seed and number of blocks resamples the same blocks (common
-    random numbers: two candidates' p differ by their data, not by their draws)."""
+    Where p is still within 3.3 sd of alpha it draws on, up to MORE times as many
+    resamples: a verdict at the bar is the data's, not the draw's. Every test with the
+    same seed and number of blocks resamples the same blocks (common random numbers: two
+    candidates' p differ by their data, not by their draws)."""
     n = len(d_c)
     if n < 3:
         return 1.0
     m = d_c.mean()
     x = (d_c / n).astype(np.float32)
     total = max(BOOT, int(np.ceil(20 / alpha)))
-    hits = done = 0
-    for i in range(-(-total // BOOT)):
+    hits = done = i = 0
+    while done < MORE * total:
         boot = resamples(n, seed, i) @ x
-        hits, done = hits + int(np.sum(boot - m >= m)), done + BOOT
+        hits, done, i = hits + int(np.sum(boot - m >= m)), done + BOOT, i + 1
         if hits >= SURE_HITS and hits - 3.3 * np.sqrt(hits) > alpha * done:
+            break
+        if done >= total and abs(hits - alpha * done) >= 3.3 * np.sqrt(alpha * done):
             break
     return float((hits + 1) / (done + 1))
 

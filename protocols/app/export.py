@@ -14,8 +14,10 @@ import json
 from datetime import datetime, timezone
 from pathlib import Path
 
-from protocols.errors import UsageError
+import numpy as np
+
 from protocols.app.arguments import FILE, overwrite, units, writes
+from protocols.errors import UsageError
 from protocols.units import Units
 
 SIGNIFICANT = 7  # digits of a channel's range kept where its samples sit on no coarser grid
@@ -39,7 +41,6 @@ def add(sub):
 def decimals(values) -> int:
     """Decimals that resolve a channel: its quantum when the samples sit on a grid (a
     16-bit load cell, a 1 C thermocouple), else SIGNIFICANT digits of its range."""
-    import numpy as np
     v = np.unique(np.asarray(values, float)[np.isfinite(values)])
     if len(v) < 2:
         return 6
@@ -57,7 +58,6 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
     """(columns [str], column arrays, decimals per column or None): the wide table on the
     force clock, channels in the unit system `shown` (units: each channel's SI unit, as
     recorded); wall_start (ISO 8601) adds the UTC time of every row."""
-    import numpy as np
     from models.recording import segments
     if "force" not in channels:
         raise UsageError("the recording has no force channel to put the table on")
@@ -97,7 +97,6 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
 
 
 def run(args):
-    import numpy as np
     from protocols.io.files import output_file, written
     from protocols.io.reader import load_recording
     if sum(bool(getattr(args, k, None)) for k in ("csv", "parquet", "target")) != 1:
@@ -132,7 +131,6 @@ def _target(args):
     """A replay target from the recording's position (protocols/library/replay.py reads it):
     time [s] from 0 and displacement [mm] about the recorded damper's mid-stroke (the
     recording's mean position without a model), at the position's own samples."""
-    import numpy as np
     from models.recording import segments
     from protocols.io.files import output_file, written
     from protocols.io.reader import load_recording
@@ -165,7 +163,6 @@ def _json_safe(meta):
 
 
 def _write(args, cols, data, dec, out, info):
-    import numpy as np
     if args.parquet:
         try:
             import pyarrow as pa

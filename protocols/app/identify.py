@@ -9,9 +9,12 @@ import os
 import sys
 from pathlib import Path
 
+import numpy as np
+
+from models import damper as dm
+from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
 from protocols.errors import UsageError
 from rig.errors import RigError
-from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
 
 
 def add(sub):
@@ -33,7 +36,6 @@ def add(sub):
 
 def description(arg, meta):
     """The damper description: --damper, else the one the recording names."""
-    from models import damper as dm
     if arg:
         return dm.load(arg)
     text = meta.get("damper", {}).get("model")
@@ -46,8 +48,6 @@ def description(arg, meta):
 def model_of(channels, events, desc, names, say):
     """The identification (models/identify) of a recording's data into the layout and
     geometry of desc; RigError when nothing can be identified."""
-    import numpy as np
-    from models import damper as dm
     from models.identify import IdentifyError, identify
     if desc.layout == "simplified":
         raise dm.DamperError(f"{desc.name}: a simplified model has no layout or geometry to identify into")
@@ -70,7 +70,6 @@ def model_of(channels, events, desc, names, say):
 def _one(task):
     """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one
     recording's bytes; desc: the --damper description as a dict, or None."""
-    from models import damper as dm
     from protocols.io.reader import load_recording
     name, data, desc = task
     from protocols.app import batch
@@ -93,8 +92,6 @@ def _row(name, doc, error):
 
 
 def run(args):
-    import numpy as np
-    from models import damper as dm
     from models.recording import drives, only
     from protocols.io.files import existing_files, filled, output_file, output_folder, written
     from protocols.io.reader import merged
@@ -160,10 +157,9 @@ def _minimal(args, channels, events, inputs, driving):
     description (the diagnosis's baseline `minimal`) with the effects the diagnosis accepts on
     it, judged on held-out cycles, with what the recording could not determine; written as
     JSON (models/minimal.py reads it)."""
-    from models import damper as dm
-    from protocols.io.files import output_file, written
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
+    from protocols.io.files import output_file, written
     if args.report or args.truth:
         raise UsageError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
@@ -206,10 +202,9 @@ def _minimal(args, channels, events, inputs, driving):
 def _minimal_doc(args, out, base, found, channels, events):
     """The minimal model's JSON: the baseline's values, or the diagnosis's final model when it
     accepted effects (their forms built on this recording: `source`)."""
-    import numpy as np
-    from models.recording import differing_repeats
     from models.diagnose import undetermined
     from models.diagnose.candidates import Model
+    from models.recording import differing_repeats
     d = found.data
     # the channels' alignment, fitted with the baseline, goes with the model where the
     # recording resolves it (and no accepted lag took its place): the model is then evaluated
@@ -261,7 +256,6 @@ def summary(res):
 
 def _clean(o):
     """JSON has no NaN or infinity: null instead."""
-    import numpy as np
     if isinstance(o, float):
         return o if math.isfinite(o) else None
     if isinstance(o, dict):

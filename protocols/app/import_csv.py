@@ -11,8 +11,10 @@ import os
 from pathlib import Path
 from types import SimpleNamespace
 
-from protocols.errors import UsageError
+import numpy as np
+
 from protocols.app.arguments import FILE, number, overwrite, writes
+from protocols.errors import UsageError
 
 FLIPS = ("force", "displacement")
 SAMPLES = 3  # values shown per column by --inspect
@@ -106,7 +108,6 @@ def run(args):
 
 
 def _import(args, mapping, gains, offsets, claim):
-    import numpy as np
     from models import segmentation
     from models.recording import other_sign
     from protocols import catalogue
@@ -179,7 +180,6 @@ def _import(args, mapping, gains, offsets, claim):
 def _guess(name: str, cells) -> str | None:
     """A standard channel a column's name (or first value) suggests, with its unit: the
     map a user would likely write."""
-    import numpy as np
     from protocols.io import table
     from protocols.io.csv_import import UNITS
     n = name.lower()

@@ -39,7 +39,7 @@ def resamples(n, seed, i):
         idx = np.random.default_rng([seed, n, i]).integers(0, n, (BOOT, n)) + n * np.arange(BOOT)[:, None]
         w = np.bincount(idx.ravel(), minlength=BOOT * n).reshape(BOOT, n).astype(np.float32)
         with _kept_lock:
-            while _KEPT and (len(_KEPT) + 1) * w.nbytes > _KEPT_BYTES:
+            while _KEPT and sum(v.nbytes for v in _KEPT.values()) + w.nbytes > _KEPT_BYTES:  # chunks differ by n
                 del _KEPT[next(iter(_KEPT))]
             if w.nbytes <= _KEPT_BYTES:
                 _KEPT[key] = w

@@ -272,11 +272,13 @@ class Sequence:
 
     def drain_channels(self):
         """{name: (t, values)} the closed-loop controls logged since the last call."""
-        out = {}
+        parts = {}
         for c in self.controls:
             if hasattr(c, "channels"):
-                out.update(c.channels())
-        return out
+                for n, tv in c.channels().items():
+                    parts.setdefault(n, []).append(tv)
+        # controls may log the same channel (one per replay iteration): joined, none overwrites another's
+        return {n: tuple(np.concatenate(a) for a in zip(*tvs)) for n, tvs in parts.items()}
 
     def after(self):
         """(segment, channels, measures) of each started segment whose control measures

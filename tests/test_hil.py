@@ -198,6 +198,12 @@ def test_replay_converges_on_the_target(tmp_path):
     assert len(errors) == 3 and errors[0] > 0.05 and errors[-1] < 0.01 and errors[-1] < errors[0] / 5, errors
     ch, _, _ = load_recording(out)
     assert {"replay.drive", "replay.target", "replay.error"} <= set(ch)
+    # every iteration's ticks are kept, not only the last one's
+    t = ch["replay.error"][0]
+    spans = [(e.t, e.segment) for e in events if e.kind in ("segment_start", "segment_end")]
+    for i in range(3):
+        a, b = (t_ for t_, name in spans if name == f"replay iteration {i}")
+        assert np.sum((t >= a) & (t < b)) > 0.99 * (b - a) * 1000, i
     r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
     page = (tmp_path / "rep" / "index.html").read_text()
     assert r.returncode == 0 and "replay.png" in page, r.stderr

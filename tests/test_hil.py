@@ -222,3 +222,19 @@ def test_replay_refuses_bad_input_in_one_line(tmp_path, args, message):
     p = subprocess.run([DYNO, "run", "replay", *args, "--out", str(out)], capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and message in p.stderr and len(p.stderr.strip().splitlines()) <= 2, p.stderr
     assert not out.exists()
+
+
+def test_a_replay_iteration_says_when_the_loop_stalled_through_it():
+    """Ticks within 10 ms after a gap of the loop are counted as stalled; a share over the
+    bound is said beside the error, and an iteration too sparse to learn from says so."""
+    from protocols.library import replay
+    h = 1e-3
+    ts = np.arange(1000) * h
+    assert replay._stalled(ts, h) == 0.0
+    gapped = np.r_[ts[:500], ts[505:]]  # one stall of 5 ticks: the 10 ticks after it are disturbed
+    assert replay._stalled(gapped, h) == pytest.approx(10 / len(gapped))
+    calm = {"nrmse": 0.012, "samples": 3990, "stalled": 0.13, "learned_from": True}
+    assert replay.summary(calm) == "NRMS error 1.20 % of the target's motion"
+    rough = {**calm, "stalled": 0.31, "learned_from": False}
+    assert "31 % of its ticks just after a stall" in replay.summary(rough)
+    assert "not learned from" in replay.summary(rough)

@@ -78,7 +78,9 @@ class VirtualRig:
     def start(self):
         """Start an emulator per transport; returns the config with "auto" addresses filled in."""
         cfg = self.config
-        for transport, names in by_transport(cfg).items():
+        # the pty's frames first: the kernel moves them on a work queue while the others
+        # publish, so settle() rarely has to wait for them
+        for transport, names in sorted(by_transport(cfg).items(), key=lambda tn: tn[0] != "serial"):
             self.emulators.append(EMULATORS[transport](cfg, names, self.plant))
         self.plant.advance(self.plant.h)  # compiles the damper model before anyone listens
         self.publish()

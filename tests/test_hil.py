@@ -224,17 +224,24 @@ def test_replay_refuses_bad_input_in_one_line(tmp_path, args, message):
     assert not out.exists()
 
 
-def test_a_replay_iteration_says_when_the_loop_stalled_through_it():
+def test_a_closed_loop_says_when_the_control_loop_stalled_through_it():
     """Ticks within 10 ms after a gap of the loop are counted as stalled; a share over the
-    bound is said beside the error, and an iteration too sparse to learn from says so."""
-    from protocols.library import replay
+    bound is said beside a replay's or a car's measures, and a replay iteration too sparse
+    to learn from says so."""
+    from protocols import plan
+    from protocols.library import hil, replay
     h = 1e-3
     ts = np.arange(1000) * h
-    assert replay._stalled(ts, h) == 0.0
+    assert plan.stalled(ts, h) == 0.0 and plan.stalled([], h) == 0.0
     gapped = np.r_[ts[:500], ts[505:]]  # one stall of 5 ticks: the 10 ticks after it are disturbed
-    assert replay._stalled(gapped, h) == pytest.approx(10 / len(gapped))
+    assert plan.stalled(gapped, h) == pytest.approx(10 / len(gapped))
     calm = {"nrmse": 0.012, "samples": 3990, "stalled": 0.13, "learned_from": True}
     assert replay.summary(calm) == "NRMS error 1.20 % of the target's motion"
     rough = {**calm, "stalled": 0.31, "learned_from": False}
     assert "31 % of its ticks just after a stall" in replay.summary(rough)
     assert "not learned from" in replay.summary(rough)
+    car = {"j2": 0.02, "delay_ms": 3.0, "probe_delay_ms": 3.1, "residual_delay_ms": 0.1, "T_c": 25.0,
+           "body_acc_nrmse": 0.05, "travel_nrmse": 0.04, "tire_load_nrmse": 0.03}
+    assert "stall" not in hil.summary({**car, "stalled": 0.13})
+    assert hil.summary({**car, "stalled": 0.25}).endswith("25 % of its ticks just after a stall of the control "
+                                                         "loop: this host did not keep real time)")

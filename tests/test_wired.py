@@ -14,7 +14,7 @@ import pytest
 from mcap.reader import make_reader
 
 from models.events import from_wire
-from protocols.library import replay
+from protocols.plan import STALLED_SHARE
 from sim_backend.virtual_rig import sim_rig_config
 
 # against a process on real time: run apart from the parallel part of the suite (Makefile)
@@ -185,6 +185,9 @@ def test_hardware_in_the_loop_over_the_wires(tmp_path, sim_rig):
     # the goal is 3 % (measured 1.2-3.1 % here: late ticks of a VM count); 5 % still tells a
     # loop that tracks from one that does not (none: 14-16 %)
     # it ran the whole road (a tick or two may fall to a late wake-up on a loaded VM)
+    if m["j2"] >= 0.05 and m["stalled"] > STALLED_SHARE:  # as the replay's test below
+        pytest.skip(f"this host did not keep real time: {100 * m['stalled']:.0f} % of the ticks after stalls, "
+                    f"J2 {100 * m['j2']:.2f} %")
     assert m["j2"] < 0.05 and m["steps"] >= 3950, m
     t = ch["hil.x_target"][0]
     assert np.all(np.diff(t) > 0) and t[-1] - t[0] > 3.9  # one car step per tick, on the run clock
@@ -203,7 +206,7 @@ def test_replay_over_the_wires_converges(tmp_path, sim_rig):
     results = [e.params for e in events if e.kind == "result"]
     errors = [r["nrmse"] for r in results]
     stalled = [r["stalled"] for r in results]
-    if len(errors) == 3 and errors[-1] >= 0.03 and max(stalled) > replay.STALLED_SHARE:
+    if len(errors) == 3 and errors[-1] >= 0.03 and max(stalled) > STALLED_SHARE:
         # the iteration's own stalls are not the rig's to learn: over the wires here, iterations
         # with 11-17 % of their ticks just after a stall reached 1-2 %; 23-31 % gave 3.7 %
         pytest.skip(f"this host did not keep real time: {stalled} of the ticks after stalls, errors {errors}")

@@ -31,7 +31,7 @@ from rig.compensation import COMPENSATORS, fit, make
 from rig.errors import RigError
 
 from protocols.library import roads
-from protocols.plan import ParamError, RigInfo, Segment, drain
+from protocols.plan import ParamError, RigInfo, Segment, drain, said_stalled, stalled
 
 NAME = "hil"
 REHEARSE = True  # pre-flight: the whole run against the virtual plant first (protocols/rehearsal.py)
@@ -102,7 +102,7 @@ def summary(m):
     return (f"J2 {100 * m['j2']:.2f} %, delay {m['delay_ms']:.2f} ms (probe {m['probe_delay_ms']:.2f}, residual "
             f"{m['residual_delay_ms']:+.2f}); against the reference (damper model at {m['T_c']:.0f} C): body "
             f"acceleration {100 * m['body_acc_nrmse']:.1f} %, travel {100 * m['travel_nrmse']:.1f} %, tire load "
-            f"{100 * m['tire_load_nrmse']:.1f} % NRMS")
+            f"{100 * m['tire_load_nrmse']:.1f} % NRMS" + said_stalled(m))
 
 
 def _approach(x_mid, offset, duration):
@@ -155,6 +155,7 @@ class CarLoop:
         self.delay_probe = float("nan")
         self.log = {n: ([], []) for n in UNITS if not n.startswith("hil.ref")}
         self.x_meas, self.x_tgt, self.times, self.temps = [], [], [], []
+        self.ticks = []  # each road tick's time [s]
         self.next = None  # (x, v, a) the car asked for at the last tick
         self.over_since = None  # time the tracking error went over guard_mm
 
@@ -187,6 +188,7 @@ class CarLoop:
             F, x_m = readings["force"].value, readings["x"].value
         except KeyError as e:
             raise RigError(f"hil: no {e.args[0]} reading: the car cannot be stepped") from None
+        self.ticks.append(ts)
         if "T_body" in readings:
             self.temps.append(readings["T_body"].value)
         # the car keeps the rig's time: after ticks the loop skipped (a stall in real time)
@@ -244,6 +246,6 @@ class CarLoop:
                "delay_ms": 1e3 * self.comp.delay_s, "probe_delay_ms": 1e3 * self.delay_probe,
                "residual_delay_ms": 1e3 * measures.delay(self.x_tgt[:n], self.x_meas, self.h),
                **measures.compare(hil, ref), "T_c": T - 273.15, "steps": int(self.car.k),
-               "compensator": self.comp.name}
+               "compensator": self.comp.name, "stalled": stalled(self.ticks, self.h)}
         times = np.asarray(self.times, float)
         return {f"hil.ref.{k}": (times, v) for k, v in measures.responses(ref).items()}, out

@@ -23,7 +23,7 @@ from scipy.signal import csd, welch  # imported here: never for the first time i
 from rig.errors import RigError
 
 from protocols.library import roads
-from protocols.plan import ParamError, RigInfo, Segment, drain
+from protocols.plan import ParamError, RigInfo, Segment, drain, said_stalled, stalled
 
 NAME = "replay"
 # the correction's band: a road-driven damper history has content past the road's 20 Hz (the
@@ -32,13 +32,6 @@ BAND_HZ = 60.0
 EPS = 0.01  # regularisation of the inverse, relative to max |H|^2
 TAPER_S = 0.05
 MOVE_S = 1.0  # to the target's start from mid-stroke, and back
-# a real-time loop's stall: ticks skipped (a gap over STALL_PERIODS periods) held the setpoint,
-# and what the rig measures for SETTLE_S after does not repeat in the next iteration (over
-# the wires, errors 2-3 times those elsewhere). An iteration with more than STALLED_SHARE of
-# its ticks there (a clean host: 11-17 %) tells more of the host than of the rig
-STALL_PERIODS = 1.5
-SETTLE_S = 0.01
-STALLED_SHARE = 0.2
 UNITS = {"replay.drive": "m", "replay.target": "m", "replay.error": "m"}
 
 
@@ -193,23 +186,12 @@ class _Iteration:
             return {}, {}
         ref = self.l.target[seen]
         nrms = float(np.sqrt(np.mean((m[seen] - ref) ** 2)) / max(np.std(ref), 1e-12))
-        return {}, {"nrmse": nrms, "samples": int(seen.sum()), "stalled": _stalled(self.ts, self.l.h),
+        return {}, {"nrmse": nrms, "samples": int(seen.sum()), "stalled": stalled(self.ts, self.l.h),
                     "learned_from": self.i not in self.l.unlearned}
 
 
-def _stalled(ts, h):
-    """The share of ticks within SETTLE_S after a stall of the loop (ts [s], each tick's time)."""
-    ts = np.asarray(ts)
-    stall = np.r_[False, np.diff(ts) > STALL_PERIODS * h]
-    since = ts - np.maximum.accumulate(np.where(stall, ts, -np.inf))
-    return float(np.mean(since < SETTLE_S)) if len(ts) else 0.0
-
-
 def summary(m):
-    out = f"NRMS error {100 * m['nrmse']:.2f} % of the target's motion"
-    if m.get("stalled", 0.0) > STALLED_SHARE:
-        out += (f" ({100 * m['stalled']:.0f} % of its ticks just after a stall of the control loop: "
-                f"this host did not keep real time)")
+    out = f"NRMS error {100 * m['nrmse']:.2f} % of the target's motion" + said_stalled(m)
     if not m.get("learned_from", True):
         out += f"; not learned from: {m['samples']} ticks had a reading, too few"
     return out

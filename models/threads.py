@@ -44,3 +44,31 @@ def each(fn, items) -> list:
         if _pool[0] != os.getpid():
             _pool = (os.getpid(), ThreadPoolExecutor(n, thread_name_prefix=PREFIX))
     return list(_pool[1].map(lambda x: fn(*x), items))
+
+
+_JOB = None  # (fn, items) of the forked map running: what its children inherit
+
+
+def _forked_call(i):
+    fn, items = _JOB
+    return fn(*items[i])
+
+
+def forked(fn, items, processes) -> list:
+    """[fn(*item) for item in items], in up to `processes` forked children. For fits whose
+    Python holds the GIL, so that threads cannot share them out: the children inherit fn,
+    the items and everything compiled, and send back only the results (which must pickle).
+    Results in the items' order; in this process when one process or item is asked for."""
+    global _JOB
+    items = list(items)
+    n = min(processes, len(items))
+    if n < 2:
+        return [fn(*x) for x in items]
+    import multiprocessing
+    _JOB = (fn, items)
+    try:
+        # each child one core's share: its own fits run one after the other
+        with multiprocessing.get_context("fork").Pool(n, initializer=share, initargs=(n,)) as pool:
+            return pool.map(_forked_call, range(len(items)), chunksize=1)
+    finally:
+        _JOB = None

@@ -304,18 +304,38 @@ def _crank_run(extra, seconds=40.0, rate=300.0, hz=1.05, seed=0):
         SegmentStart(0.0, "crank", {"kind": "sine", "freq_hz": hz}), SegmentEnd(t[-1] + 1e-9, "crank")]
 
 
-def test_one_stroke_cannot_tell_a_mechanism_of_the_loop_from_a_flexible_stand_in():
+def _spot(t, x, v, F):
+    """Friction in a band of the bore."""
+    return F + 30.0 * np.exp(-((x - 0.045) / 0.012) ** 2) * np.tanh(v / 0.01)
+
+
+@pytest.fixture(scope="module")
+def spot_diagnosis():
+    return diagnose(*_crank_run(_spot))
+
+
+@pytest.mark.xdist_group("spot")  # one worker computes the fixture
+def test_one_stroke_cannot_tell_a_mechanism_of_the_loop_from_a_flexible_stand_in(spot_diagnosis):
     """Friction in a band of the bore, on one crank stroke: position friction is accepted,
     but a smooth surface in displacement, speed and direction with no mechanism in it
     explains as much, so the dependence and its size are said and no mechanism named."""
-    spot = (lambda t, x, v, F: F + 30.0 * np.exp(-((x - 0.045) / 0.012) ** 2) * np.tanh(v / 0.01))
-    res = diagnose(*_crank_run(spot))
+    res = spot_diagnosis
     step = res.steps[0]
     assert step.effect == "position_friction" and step.stand_in and step.stand_in[0] == "loop_surface"
     assert res.named() == [] and res.final.nrmse_heldout < 0.7 * res.baseline.nrmse_heldout
     text = summary(res)
     assert "Not named: the force depends on displacement, direction beyond the baseline" in text
     assert "Left out" not in text
+
+
+@pytest.mark.xdist_group("spot")
+def test_a_round_fitted_in_two_processes_gives_what_one_gives(spot_diagnosis):
+    """diagnose(jobs=2): each round's candidates are fitted in forked children, the costliest
+    first; the verdicts and values are those of one process."""
+    one, two = spot_diagnosis, diagnose(*_crank_run(_spot), jobs=2)
+    assert [(c.effect, c.p_value, c.gain) for c in one.candidates] == [(c.effect, c.p_value, c.gain)
+                                                                       for c in two.candidates]
+    assert one.accepted == two.accepted and one.final.parameters == two.final.parameters
 
 
 def _sines_run(extra, freqs=(1.0, 3.0, 9.0), v_peak=0.3, cycles=8, rate=1000.0, seed=0):

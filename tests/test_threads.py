@@ -42,3 +42,34 @@ def test_processes_sharing_the_cores_each_fit_on_their_share(monkeypatch):
     assert threads.cores() == max(1, n // 2)
     monkeypatch.setenv(threads.ENV, "64")  # never more than the process may run on
     assert threads.cores() == n
+
+
+def test_forked_children_give_in_order_what_this_process_gives_and_say_its_errors(monkeypatch):
+    """A closure over this process's arrays runs in forked children (nothing of it pickled
+    but its results); one process, or one item, runs here."""
+    import os
+    monkeypatch.delenv(threads.ENV, raising=False)
+    data = np.arange(100_000.0)
+    seen = {}
+
+    def work(k):
+        return os.getpid(), float(np.sum(np.sin(data * (k + 1)))), threads.cores()
+
+    got = threads.forked(work, [(k,) for k in range(5)], 2)
+    assert [g[1] for g in got] == [work(k)[1] for k in range(5)]
+    assert all(pid != os.getpid() for pid, _, _ in got)
+    assert all(n == max(1, threads.cores() // 2) for _, _, n in got)  # each child its share of the cores
+    assert threads.forked(work, [(0,)], 2)[0][0] == os.getpid() == threads.forked(work, [(0,), (1,)], 1)[1][0]
+
+    def fail_on_two(k):
+        seen[k] = True
+        if k == 2:
+            raise ValueError("two")
+        return k
+    try:
+        threads.forked(fail_on_two, [(k,) for k in range(4)], 2)
+    except ValueError as e:
+        assert str(e) == "two"
+    else:
+        raise AssertionError("the error was lost")
+    assert not seen  # the children's, not this process's

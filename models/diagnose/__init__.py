@@ -21,8 +21,11 @@ from, so that far above the noise an effect must still matter.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
+from models import threads
 from models.diagnose.candidates import EFFECTS, WITH_BASELINE, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
 from models.diagnose.data import Data, DiagnoseError, prepare
@@ -141,11 +144,12 @@ def undetermined(params, values, sd) -> dict:
 
 
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
-             holdout="interleaved", drives=None) -> Diagnosis:
+             holdout="interleaved", drives=None, jobs=1) -> Diagnosis:
     """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for
     `minimal`, or (name, damper model) to start from that model, refitted. holdout:
     "interleaved" or the tail's fraction (holdout_masks). drives: the aux channels that drive
-    the damper (models.recording.drives), the only ones an effect may be scaled by; None: all."""
+    the damper (models.recording.drives), the only ones an effect may be scaled by; None: all.
+    jobs: processes fitting a round's candidates (threads.forked); 1: this one (a rig's)."""
     d = prepare(channels, events, drives)
     if baseline is None:
         base = Minimal(d)
@@ -169,13 +173,13 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     # each fold's prediction [N] on every sample after each round: what an effect changed
     preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
     _, not_assessed = available(d, accepted)
-    last = {}  # each candidate's values per fold in the round before: its warm start
+    last, cost = {}, {}  # each candidate's values per fold in the round before (its warm start), its time [s]
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
         sse_cur = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, block, judged, judged_blocks,
-                        shown, sse_cur, sigma, alpha, seed, last, progress)
+                        shown, sse_cur, sigma, alpha, seed, last, cost, progress, jobs)
         candidates += [c for c, *_ in round_]
         last = {c.effect: f_vals for c, _, f_vals, _ in round_}
         mse = float(np.mean(r_cur[judged] ** 2))
@@ -260,18 +264,28 @@ def _sized(steps, excess, sigma):
 
 
 def _round(d, base, names, fitted, number, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma,
-           alpha, seed, last, progress):
+           alpha, seed, last, cost, progress, jobs):
     """Each candidate fitted beside the effects fitted so far (the cell's and those
     accepted) and judged on the held-out blocks: [(Candidate, pooled values, values per
     fold, residual [N])] of round `number`."""
     n_judged = int(np.sum(judged))
-    out = []
-    for e in names:
+
+    def fit(e):
+        t0 = time.perf_counter()
         m = Model(d, fitted + [e], base)
         if EFFECTS[e.split(":")[0]].linear:
-            f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))
-        else:  # the open terms' coefficients held: they are refitted with the rest once accepted
-            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted), warm=last.get(e))
+            return linear_fit(m, d, folds, current, hold=open_params(d, fitted)), time.perf_counter() - t0
+        # the open terms' coefficients held: they are refitted with the rest once accepted
+        return (cross_fit(m, d, folds, current, hold=open_params(d, fitted), warm=last.get(e)),
+                time.perf_counter() - t0)
+
+    # the costliest first (by the last round's time; before that, the nonlinear fits), so
+    # that no process is left with a Bouc-Wen fit while the other waits
+    order = sorted(names, key=lambda e: -cost.get(e, 0.0 if EFFECTS[e.split(":")[0]].linear else 1.0))
+    done = dict(zip(order, threads.forked(fit, [(e,) for e in order], jobs)))
+    cost.update({e: seconds for e, (_, seconds) in done.items()})
+    out = []
+    for e, ((f_vals, f_sds, r), _) in ((e, done[e]) for e in names):
         vals, sds = pooled(f_vals, f_sds)
         d_c = sse_cur - block_sse(np.where(judged, r, 0.0), block, judged_blocks)
         gain = float(d_c.sum() / n_judged)  # held-out mean-square improvement [N^2]

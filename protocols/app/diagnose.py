@@ -35,6 +35,7 @@ def add(sub):
 
 
 def run(args):
+    from models import threads
     from models.diagnose import design, diagnose
     from models.diagnose.data import DiagnoseError
     from models.diagnose.words import summary
@@ -76,7 +77,8 @@ def run(args):
             say(f"baseline: {baseline[0]}, the damper the recording names, refitted (--baseline minimal for "
                 f"the thesis's minimal model)")
     try:
-        res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout, drives=drives(meta))
+        res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout, drives=drives(meta),
+                       jobs=threads.cores())
     except (DiagnoseError, DamperError) as e:
         raise UsageError(f"{args.recording}: {e}") from None
     if baseline is None:

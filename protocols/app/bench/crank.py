@@ -59,12 +59,13 @@ def recording(seconds=100.0, rate_hz=300.0, seed=0):
 
 
 def bench(seconds=100.0, rate_hz=300.0):
+    from models import threads
     from models.diagnose import diagnose
     t0 = time.perf_counter()
     ch, events = recording(seconds, rate_hz)
     t_rec = time.perf_counter() - t0
     t0 = time.perf_counter()
-    res = diagnose(ch, events)
+    res = diagnose(ch, events, jobs=threads.cores())
     wall = time.perf_counter() - t0
     return {"recording": "slider-crank", "recording_s": float(ch["force"][0][-1] - ch["force"][0][0]),
             "rate_hz": rate_hz, "samples": int(len(ch["force"][0])), "hidden": sorted(HIDDEN),

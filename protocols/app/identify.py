@@ -157,6 +157,7 @@ def _minimal(args, channels, events, inputs, driving):
     description (the diagnosis's baseline `minimal`) with the effects the diagnosis accepts on
     it, judged on held-out cycles, with what the recording could not determine; written as
     JSON (models/minimal.py reads it)."""
+    from models import threads
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     from protocols.io.files import output_file, written
@@ -164,7 +165,7 @@ def _minimal(args, channels, events, inputs, driving):
         raise UsageError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
     try:
-        found = diagnose(channels, events, drives=driving)
+        found = diagnose(channels, events, drives=driving, jobs=threads.cores())
     except (DiagnoseError, dm.DamperError) as e:
         raise UsageError(f"{', '.join(map(str, args.recordings))}: {e}") from None
     base = found.baseline  # the model without effects, fitted and judged on the same cycles

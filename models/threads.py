@@ -65,10 +65,13 @@ def forked(fn, items, processes) -> list:
     if n < 2:
         return [fn(*x) for x in items]
     import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
     _JOB = (fn, items)
     try:
-        # each child one core's share: its own fits run one after the other
-        with multiprocessing.get_context("fork").Pool(n, initializer=share, initargs=(n,)) as pool:
-            return pool.map(_forked_call, range(len(items)), chunksize=1)
+        # each child one core's share: its own fits run one after the other. (An executor, not
+        # multiprocessing's Pool: a child that dies raises BrokenProcessPool, where Pool waits for ever)
+        with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork"), initializer=share,
+                                 initargs=(n,)) as pool:
+            return list(pool.map(_forked_call, range(len(items))))
     finally:
         _JOB = None

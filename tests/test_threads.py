@@ -1,6 +1,8 @@
 """models/threads.py: independent fits on the cores give what one after the other gives."""
 import threading
 
+import pytest
+
 import numpy as np
 
 from models import threads
@@ -73,3 +75,10 @@ def test_forked_children_give_in_order_what_this_process_gives_and_say_its_error
     else:
         raise AssertionError("the error was lost")
     assert not seen  # the children's, not this process's
+
+
+def test_a_forked_child_that_dies_is_an_error_not_a_wait():
+    import os
+    from concurrent.futures.process import BrokenProcessPool
+    with pytest.raises(BrokenProcessPool):
+        threads.forked(lambda k: os._exit(1) if k == 1 else k, [(k,) for k in range(3)], 2)

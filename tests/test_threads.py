@@ -1,9 +1,8 @@
 """models/threads.py: independent fits on the cores give what one after the other gives."""
 import threading
 
-import pytest
-
 import numpy as np
+import pytest
 
 from models import threads
 

@@ -46,8 +46,10 @@ def raise_if_stopped():
 @contextlib.contextmanager
 def handled():
     """on_signal for SIGINT and SIGTERM for the block, on the main thread, the flag cleared
-    first; a no-op where it is set already (a stop since is kept) or off the main thread
-    (only the main thread may set handlers)."""
+    first and when the block ends (a stop belongs to the command it stopped: left set, it
+    stopped every later run in the same process at its first tick); a no-op where it is set
+    already (a stop since is kept) or off the main thread (only the main thread may set
+    handlers)."""
     if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is on_signal:
         yield
         return
@@ -58,3 +60,4 @@ def handled():
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
+        OPERATOR_STOP.clear()

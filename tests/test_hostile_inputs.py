@@ -703,6 +703,9 @@ def test_a_ctrl_c_lost_in_a_finaliser_still_stops_the_run_before_it_moves(tmp_pa
     assert r.returncode in (2, 130) and "operator stop" in r.stderr + "operator stop" * (r.returncode == 130)
     assert out.read_bytes() == b"the run before"
     assert not [p for p in tmp_path.iterdir() if p.name != "x.mcap"]
+    # the stop was that command's: a later run in the same process is not stopped by it
+    from rig.operator_stop import OPERATOR_STOP
+    assert not OPERATOR_STOP.is_set()
 
 
 def test_ctrl_c_at_a_hundred_points_of_the_start_up_is_never_swallowed(tmp_path, monkeypatch):

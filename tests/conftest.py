@@ -78,5 +78,15 @@ def sim_rig():
 LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_finds")
 
 
+# session fixtures made once per worker: every test using one goes to the same worker (a
+# test left out of the group made the 50 s standard run again on the other worker)
+SHARED = ("koni_run",)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items):
+    for item in items:
+        for name in SHARED:
+            if name in getattr(item, "fixturenames", ()) and not item.get_closest_marker("xdist_group"):
+                item.add_marker(pytest.mark.xdist_group(name))
     items.sort(key=lambda item: not item.nodeid.split("/")[-1].startswith(LONGEST))

@@ -186,7 +186,6 @@ def test_live_identification_writes_the_model_next_to_the_recording(tmp_path):
     assert heldout < 3.0, p.stderr[-2000:]
 
 
-@pytest.mark.xdist_group("koni_run")
 def test_identify_against_the_truth(koni_run, tmp_path):
     out, _ = koni_run
     p = subprocess.run([DYNO, "identify", str(out), "--truth", "koni", "--json", "--out", str(tmp_path / "m.json"),
@@ -214,7 +213,6 @@ def _csv(path, cols, rows, trailing=""):
             f.write(",".join("" if v is None else f"{v:.9g}" for v in r) + trailing + "\n")
 
 
-@pytest.mark.xdist_group("koni_run")
 def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     """A CSV with only time, displacement (mm) and force (kN): velocity derived, an empty
     column and a trailing separator ignored; identify skips the steps whose channels are

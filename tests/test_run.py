@@ -259,7 +259,6 @@ def test_live_view_logs_the_documented_entities():
     assert b"qz7 over kx9" in data  # a round's unsure rivals, each a line
 
 
-@pytest.mark.xdist_group("koni_run")
 def test_report_of_a_standard_run(koni_run, tmp_path):
     out, _ = koni_run  # static holds, low-speed, sine matrix, temperature sweep (conftest.py)
     r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
@@ -566,7 +565,6 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
     assert all(5 < r[2] < 30 and r[3] < 5 and 0 < r[4] < 100 for r in rows), rows
 
 
-@pytest.mark.xdist_group("koni_run")  # the run is made once, on the worker of this group
 def test_every_figure_of_a_report_speaks_its_unit_system(koni_run, tmp_path, monkeypatch):
     import re
 

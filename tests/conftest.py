@@ -19,11 +19,11 @@ if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit():
     threads.share(int(os.environ["PYTEST_XDIST_WORKER_COUNT"]))
 
 
-@pytest.fixture(scope="session")
-def koni_run(tmp_path_factory):
-    """(recording, the run's result) of the standard protocol on the Koni, shortened, on the
-    direct cell through the run API: the identification and the report read it, not the
-    wires (the same run through the embedded rig's wires took 285 s, this 43 s)."""
+def recorded(out, protocol, params, damper="koni", effects=(), plain=False):
+    """(out, the run's result): `protocol` with `params` {name: value} recorded on the direct
+    cell through the run API, for tests that read a recording, not the wires (the standard
+    run below through the embedded rig's wires took 285 s, this way 43 s); effects, plain:
+    as `dyno run --effect --plain`."""
     from contextlib import closing
 
     from protocols import cell, runner
@@ -31,14 +31,22 @@ def koni_run(tmp_path_factory):
     from protocols.library import PROTOCOLS
     from protocols.plan import Plan
     from rig import config as rig_config
-    out = tmp_path_factory.mktemp("id") / "std.mcap"
-    module = PROTOCOLS["standard"]
-    plan = Plan(module, module.Params(static_points=5, amplitudes_mm=[12.7, 6.4, 3.2, 1.6], freqs_hz=[1.0, 4.0, 16.0],
-                                      targets_c=[45.0]))
-    with cell.direct(rig_config.load("virtual"), "koni") as c, closing(for_run(out, c, plan)) as rec:
+    from sim_backend.options import plant_options
+    module = PROTOCOLS[protocol]
+    plan = Plan(module, module.Params(**params))
+    plant = plant_options(damper, list(effects), plain=plain)
+    with cell.direct(rig_config.load("virtual"), plant.damper, plant) as c, closing(for_run(out, c, plan)) as rec:
         result = runner.run_plan(plan, c, [rec])
     assert result.fault is None, result.fault
     return out, result
+
+
+@pytest.fixture(scope="session")
+def koni_run(tmp_path_factory):
+    """(recording, the run's result) of the standard protocol on the Koni, shortened."""
+    return recorded(tmp_path_factory.mktemp("id") / "std.mcap", "standard",
+                    {"static_points": 5, "amplitudes_mm": [12.7, 6.4, 3.2, 1.6], "freqs_hz": [1.0, 4.0, 16.0],
+                     "targets_c": [45.0]})
 
 
 @pytest.fixture()

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from protocols.reports import peaks, qa
+from tests.conftest import recorded
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -48,10 +49,8 @@ def test_each_speed_and_direction_passes_or_fails_with_its_margin():
 
 
 def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_damper(tmp_path):
-    rec = tmp_path / "k.mcap"
-    p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(rec), "amplitudes_mm=12.7", "freqs_hz=2,8",
-                        "record_cycles=2"], capture_output=True, text=True, timeout=300)
-    assert p.returncode == 0, p.stderr
+    rec, _ = recorded(tmp_path / "k.mcap", "sine-matrix", {"amplitudes_mm": [12.7], "freqs_hz": [2.0, 8.0],
+                                                          "record_cycles": 2})
     p = subprocess.run([DYNO, "check", str(rec), "--against", str(rec), "--out", str(tmp_path / "qa")],
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr

@@ -14,6 +14,7 @@ from models.damper import load as load_damper
 from models.physics.simulate import simulate, sine
 from protocols import cluster
 from protocols.errors import UsageError
+from tests.conftest import recorded
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -64,9 +65,8 @@ def archive(tmp_path_factory):
     """(good, bad): a short sine-matrix recording and a file that is not one."""
     folder = tmp_path_factory.mktemp("archive")
     good, bad = folder / "good.mcap", folder / "bad.mcap"
-    p = subprocess.run([DYNO, "run", "sine-matrix", "amplitudes_mm=6.4,3.2", "freqs_hz=2,8", "record_cycles=4",
-                        "--plain", "--out", str(good)], capture_output=True, text=True, timeout=300)
-    assert p.returncode == 0, p.stderr[-2000:]
+    recorded(good, "sine-matrix", {"amplitudes_mm": [6.4, 3.2], "freqs_hz": [2.0, 8.0], "record_cycles": 4},
+             plain=True)
     bad.write_text("not a recording\n")
     return good, bad
 

@@ -15,17 +15,9 @@ from models.diagnose import diagnose
 from models.diagnose.data import DiagnoseError, prepare
 from models.diagnose.words import summary
 from protocols.io.reader import load_recording
+from tests.conftest import recorded
 
 DYNO = [sys.executable, "-m", "protocols.app.cli"]
-MATRIX = ["amplitudes_mm=12.7,3.2", "freqs_hz=1,4,16", "settle_cycles=1"]
-
-
-def record(tmp_path, name, *extra):
-    out = tmp_path / f"{name}.mcap"
-    r = subprocess.run([*DYNO, "run", "sine-matrix", *MATRIX, "--plain", "--out", str(out), *extra],
-                       capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    return out
 
 
 # one worker makes the three recordings once for every test that reads them
@@ -34,9 +26,12 @@ ONE_WORKER = pytest.mark.xdist_group("diagnose_recordings")
 
 @pytest.fixture(scope="module")
 def recordings(tmp_path_factory):
+    """The matrix on the plain cell, through the run API (the diagnosis reads a recording, not the wires)."""
     tmp = tmp_path_factory.mktemp("diag")
-    return {"null": record(tmp, "null"), "lag": record(tmp, "lag", "--effect", "sensor_delay=0.001"),
-            "inertia": record(tmp, "inertia", "--effect", "fluid_inertia=2", "--effect", "sensor_delay=0.0002")}
+    matrix = {"amplitudes_mm": [12.7, 3.2], "freqs_hz": [1.0, 4.0, 16.0], "settle_cycles": 1}
+    return {name: recorded(tmp / f"{name}.mcap", "sine-matrix", matrix, effects=fx, plain=True)[0]
+            for name, fx in [("null", ()), ("lag", ["sensor_delay=0.001"]),
+                             ("inertia", ["fluid_inertia=2", "sensor_delay=0.0002"])]}
 
 
 def test_two_stage_valve_curve_solves_eq_3_30():
@@ -411,10 +406,8 @@ def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_pa
     damper the recording names, refitted: its compressibility is in the model from the
     start. The minimal baseline leaves it out, and the diagnosis says it is the damper's own
     physics, with no repair advice."""
-    out = tmp_path / "koni.mcap"
-    r = subprocess.run([*DYNO, "run", "sine-matrix", "amplitudes_mm=12.7", "freqs_hz=1,4", "record_cycles=3",
-                        "--out", str(out)], capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
+    out, _ = recorded(tmp_path / "koni.mcap", "sine-matrix",
+                      {"amplitudes_mm": [12.7], "freqs_hz": [1.0, 4.0], "record_cycles": 3})
     r = subprocess.run([*DYNO, "diagnose", str(out), "--json"], capture_output=True, text=True, timeout=600)
     doc = json.loads(r.stdout)
     assert doc["baseline"]["name"] == "koni" and "compressibility" not in doc["accepted"], doc["accepted"]

@@ -18,6 +18,7 @@ from models.identify.dynamic import direction_ranges
 from models.identify.parameters import z_bounds
 from models.identify.static import settled
 from models.physics.simulate import simulate, sine
+from tests.conftest import recorded
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -337,3 +338,15 @@ def test_live_estimates_are_shown_in_engineering_units():
         == "0.09912 mm (0.095..0.103)"
     assert _fmt({"value": 5e-5, "ci_low": 0, "ci_high": 0, "unit": "m^3", "identifiable": False}) == \
         "50 cm^3 (not identifiable)"
+
+
+def test_gamma_from_pressures_sampled_at_the_forces_rate(tmp_path):
+    """Pressure transducers read at 1 kHz (the direct cell; over Modbus they come at 100 Hz):
+    a trial step of the bulk modulus's fit underflowed its slope to 0 and identify died
+    dividing by it. Now gamma comes out as the plain cell's."""
+    out, _ = recorded(tmp_path / "fast.mcap", "sine-matrix", {"amplitudes_mm": [6.4, 3.2], "freqs_hz": [2.0, 8.0],
+                                                              "record_cycles": 4}, plain=True)
+    p = subprocess.run([DYNO, "identify", str(out), "--json"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    gamma = next(e for e in json.loads(p.stdout)["estimates"] if e["name"] == "gas_spring.gamma")
+    assert gamma["value"] == pytest.approx(load("koni-plain").gas_spring.gamma, rel=0.02)

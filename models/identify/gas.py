@@ -44,7 +44,9 @@ def fit_gamma(layout, geo, gas, parts):
            for *_, T, x_e in parts]
 
     def resid(z):
-        gamma, (a, b, K_max) = z[0], np.exp(z[1:4])
+        # a trial step far off can underflow the slope b to 0 (and divide by it in eq 3.32):
+        # the moduli stay within e^+-40 of 1 Pa, far outside any oil's
+        gamma, (a, b, K_max) = z[0], np.exp(np.clip(z[1:4], -40.0, 40.0))
         out = []
         with np.errstate(all="ignore"):  # a trial modulus far off: penalised below, not warned about
             for (x, P1, P2, Pg, _, x_e), Ve, lnP in zip(parts, V_e, z[4:]):

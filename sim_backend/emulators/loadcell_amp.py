@@ -3,9 +3,7 @@ Frames as rig/codecs/loadcell.py; an output beyond +/-10 V saturates and says so
 from __future__ import annotations
 
 import fcntl
-import math
 import os
-import select
 import struct
 import termios
 import time
@@ -27,8 +25,6 @@ class LoadCellAmp:
         tty.setraw(self.slave)  # binary: no line discipline between us and the driver
         os.set_blocking(self.master, False)
         self.path = os.ttyname(self.slave)
-        self.arrival = select.poll()  # the reader's side holds bytes
-        self.arrival.register(self.slave, select.POLLIN)
         self.seq = 0
         self.faults = faults  # serial_corrupt, serial_truncate, serial_garbage, loadcell_saturated
         self.rng = np.random.default_rng(7)
@@ -77,11 +73,8 @@ class LoadCellAmp:
         if not 0 < self.expect < 2048:
             return
         end = time.perf_counter() + timeout_s
-        while (queued := self._queued()) < self.expect and (left := end - time.perf_counter()) > 0:
-            if queued:  # part of it there: the rest follows within microseconds
-                time.sleep(0)
-            else:  # nothing yet: sleep until the kernel delivers (a spin took a core from the other work)
-                self.arrival.poll(max(1, math.ceil(left * 1e3)))
+        while self._queued() < self.expect and time.perf_counter() < end:
+            time.sleep(0)
 
     def close(self):
         if getattr(self, "link_path", None) and os.path.islink(self.link_path):

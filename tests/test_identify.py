@@ -172,11 +172,12 @@ def test_a_fitted_parameter_lands_in_the_damper(name):
 
 def test_live_identification_writes_the_model_next_to_the_recording(tmp_path):
     """`dyno run --identify`: estimates shown while the test runs, the whole model fitted
-    once the rig is safe and written beside the recording."""
+    once the rig is safe and written beside the recording (on the direct cell: the
+    identification is the point here, not the wires)."""
     import re
     out = tmp_path / "sines.mcap"
     p = subprocess.run([DYNO, "run", "sine-matrix", "amplitudes_mm=12.7,6.4,3.2", "freqs_hz=1,4,16", "--identify",
-                        "--out", str(out)], capture_output=True, text=True, timeout=600)
+                        "--rig", "direct", "--out", str(out)], capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-2000:]
     assert "identify: gas_spring.gamma " in p.stderr  # estimates while it ran
     shown = [ln for ln in p.stderr.splitlines() if ln.startswith("identify: ") and "(" in ln]

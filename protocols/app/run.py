@@ -1,5 +1,5 @@
-"""`dyno run PROTOCOL [name=value ...]`: a protocol on the embedded virtual rig or a wired
-cell (--rig), pre-flight checked, recorded to MCAP, with the live view and identification
+"""`dyno run PROTOCOL [name=value ...]`: a protocol on the embedded virtual rig, a wired
+cell (--rig) or the direct one (--rig direct), pre-flight checked, recorded to MCAP, with the live view and identification
 as observers."""
 from __future__ import annotations
 
@@ -15,6 +15,8 @@ from rig.errors import RigError
 from protocols.app.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, number, setup_item, units,
                                      virtual_plant, writes)
 
+DIRECT = "direct"  # --rig: the virtual plant without its wires (protocols/cell.py direct)
+
 
 def add(sub):
     """The `dyno run` command's arguments."""
@@ -23,7 +25,9 @@ def add(sub):
     rn.add_argument("protocol", help="static, low-speed, sine-matrix, temperature-sweep, step, standard, hil, replay; "
                                      "discover: a sine matrix, then the tests the diagnosis asks for")
     rn.add_argument("params", nargs="*", metavar="name=value", help="protocol parameters (lists comma-separated)")
-    rn.add_argument("--rig", default=None, help="rig config (default: the embedded virtual rig)")
+    rn.add_argument("--rig", default=None, help=f"rig config (default: the embedded virtual rig); {DIRECT}: the virtual "
+                                                "plant without its wires, on its simulated clock (several times "
+                                                "faster, no transport's timing: a study, not a cell)")
     rn.add_argument("--damper", default="koni", help="damper preset or FILE.json (default koni)")
     hidden_physics(rn)
     writes(rn, "--out", FILE, default=None, help="recording FILE.mcap (default recordings/PROTOCOL-TIME.mcap); "
@@ -154,8 +158,12 @@ def _plan_run(args):
         given = [f"{k}={','.join(f'{x:g}' for x in v) if isinstance(v, list) else v}"
                  for k, v in proven.opening()[1].items() if not any(p.startswith(f"{k}=") for p in pairs)]
     params = parse(module.Params, [*pairs, *given])
-    if args.rig is not None and (args.effect or args.plain):
+    virtual = args.rig in (None, DIRECT)
+    if not virtual and (args.effect or args.plain):
         raise UsageError("--effect and --plain hide physics in the virtual rig: not with --rig")
+    if args.rig == DIRECT and args.realtime:
+        raise UsageError(f"--realtime: the {DIRECT} cell runs on its simulated clock (the embedded rig keeps real "
+                         f"time)")
     plant = virtual_plant(args)
     damper = load_damper(plant.damper)
     if damper.layout == "simplified":
@@ -163,10 +171,10 @@ def _plan_run(args):
                        f"rig; give a full damper (a preset or JSON)")
     if args.rrd:
         output_file(args.rrd, _inputs(args), args.overwrite, "--rrd")
-    cfg = rig_config.load(args.rig) if args.rig else rig_config.load("virtual")
+    cfg = rig_config.load("virtual" if virtual else args.rig)
     if getattr(args, "rate_hz", None):  # `dyno prove --rates`: the virtual cell at another loop rate
         cfg = rig_config.at_rate(cfg, args.rate_hz)
-    if args.rig is None and plant.effects.get("aux_channel") and "aux.valve_current" in cfg.channels:
+    if virtual and plant.effects.get("aux_channel") and "aux.valve_current" in cfg.channels:
         # the plant's adjuster follows its valve current: the recording says the channel drives the damper
         cfg = rig_config.driven(cfg, "aux.valve_current", "valve current")
     info = rig_info(cfg, damper)
@@ -182,10 +190,12 @@ def _plan_run(args):
 
 
 def open_cell(args, cfg, damper, plant):
-    """The embedded virtual rig unless --rig names a cell (protocols/cell.py), open."""
+    """The embedded virtual rig unless --rig names a cell or the direct one (protocols/cell.py), open."""
     from protocols import cell
     if args.rig is None:
         return cell.embedded(damper, cfg, realtime=args.realtime, plant=plant)
+    if args.rig == DIRECT:
+        return cell.direct(cfg, damper, plant)
     return cell.wired(cfg, damper)
 
 
@@ -226,7 +236,7 @@ def _inputs(args):
     """The files a run reads: no output may be one of them."""
     from rig import config as rig_config
     from protocols.io.files import existing_files
-    return existing_files(args.damper, args.rig and str(rig_config.path_of(args.rig)), args.params,
+    return existing_files(args.damper, args.rig not in (None, DIRECT) and str(rig_config.path_of(args.rig)), args.params,
                           *(getattr(args, n, None) for n in ("car", "road", "target")))
 
 

@@ -36,7 +36,7 @@ $(CHROMIUM):
 # alone (a loaded machine would delay their processes past the 50 ms watchdog); each part
 # names its ten slowest tests (the suite's budget is 8 minutes on 2 cores)
 test: lint $(CHROMIUM)
-	DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup -m "not slow and not realtime" --durations=10
+	DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup --no-loadscope-reorder -m "not slow and not realtime" --durations=10
 	$(VENV)/bin/python -m pytest -q -m "realtime and not slow" --durations=10
 
 # the inner loop: the layers and sizes, wire formats, configs, damper files, the physics

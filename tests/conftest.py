@@ -86,10 +86,14 @@ def stop(p):
             p.kill()
 
 
-# The longest tests (a prove run each: several recordings through the wires and their
-# diagnoses) start first, so that the two workers end together instead of one of them
-# running a long test alone at the end.
-LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_finds")
+# The longest tests (prove runs: recordings through the wires and their diagnoses; the
+# real MR recording's diagnosis) start first, in this order, so that the two workers end
+# together instead of one of them running a long test alone at the end. The Makefile gives
+# --no-loadscope-reorder: pytest-xdist would otherwise start the groups with the most tests
+# first, and the prove runs then met a hundred short tests that each start a `dyno` process,
+# which more than doubled them (the wired prove pair: 151-167 s against 82 s).
+LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open", "test_diagnose.py::test_prove_finds",
+           "test_outside_data.py::test_the_mr_recording")
 
 
 # session fixtures made once per worker: every test using one goes to the same worker (a
@@ -103,4 +107,5 @@ def pytest_collection_modifyitems(items):
         for name in SHARED:
             if name in getattr(item, "fixturenames", ()) and not item.get_closest_marker("xdist_group"):
                 item.add_marker(pytest.mark.xdist_group(name))
-    items.sort(key=lambda item: not item.nodeid.split("/")[-1].startswith(LONGEST))
+    items.sort(key=lambda item: next((i for i, n in enumerate(LONGEST) if item.nodeid.split("/")[-1].startswith(n)),
+                                     len(LONGEST)))

@@ -16,6 +16,7 @@ from rig.pacing import RealTimePacer
 from rig.rig import Rig
 from rig.safety import Safety
 from sim_backend.virtual_rig import sim_rig_config
+from tests.conftest import stop
 
 # against a process on real time: run apart from the parallel part of the suite (Makefile)
 pytestmark = pytest.mark.realtime
@@ -44,15 +45,6 @@ def start_sim_rig(cfg, *extra):
             return p
     p.kill()
     raise AssertionError("sim-rig did not start:\n" + "".join(lines))
-
-
-def stop(p):
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)
-        try:
-            p.wait(10)
-        except subprocess.TimeoutExpired:
-            p.kill()
 
 
 def test_rig_check_and_a_sine_against_a_separate_sim_rig(tmp_path):

@@ -1,6 +1,6 @@
 """`dyno run PROTOCOL [name=value ...]`: a protocol on the embedded virtual rig, a wired
-cell (--rig) or the direct one (--rig direct), pre-flight checked, recorded to MCAP, with the live view and identification
-as observers."""
+cell (--rig) or the direct one (--rig direct), pre-flight checked, recorded to MCAP, with
+the live view and identification as observers."""
 from __future__ import annotations
 
 import argparse
@@ -236,8 +236,8 @@ def _inputs(args):
     """The files a run reads: no output may be one of them."""
     from rig import config as rig_config
     from protocols.io.files import existing_files
-    return existing_files(args.damper, args.rig not in (None, DIRECT) and str(rig_config.path_of(args.rig)), args.params,
-                          *(getattr(args, n, None) for n in ("car", "road", "target")))
+    rig = args.rig not in (None, DIRECT) and str(rig_config.path_of(args.rig))
+    return existing_files(args.damper, rig, args.params, *(getattr(args, n, None) for n in ("car", "road", "target")))
 
 
 def _output(args, name, identifying):

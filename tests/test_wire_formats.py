@@ -168,3 +168,37 @@ def test_the_wiring_page_examples_are_what_we_send():
     cmd = can_codec.encode("ACT_CMD", {"setpoint": 0.0381, "mode": 2, "counter": 9}).hex(" ").upper()
     assert f"`{cmd}`" in page
     assert f"`{serial_frame.encode(7, 1, 1.25).hex(' ').upper()}`" in page
+
+
+def _mcap(batches, chunk_size, batched):
+    """An MCAP file of `batches` [(channel, [(log time, data)])], by add_messages or by
+    add_message one message at a time."""
+    from io import BytesIO
+
+    from mcap.writer import CompressionType, Writer
+
+    from protocols.io.mcap_batch import add_messages
+    out = BytesIO()
+    w = Writer(out, chunk_size=chunk_size, compression=CompressionType.NONE)
+    w.start(profile="", library="test")
+    schema = w.register_schema("s", "jsonschema", b"{}")
+    ids = [w.register_channel(f"/c{i}", "json", schema) for i in range(3)]
+    seq = [0, 0, 0]
+    for c, msgs in batches:
+        if batched:
+            add_messages(w, ids[c], [t for t, _ in msgs], [d for _, d in msgs], seq[c])
+        else:
+            for i, (t, d) in enumerate(msgs):
+                w.add_message(ids[c], t, d, t, sequence=seq[c] + i)
+        seq[c] += len(msgs)
+    w.finish()
+    return out.getvalue()
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 2), st.lists(st.tuples(st.integers(0, 2**40), st.binary(max_size=40)),
+                                                          max_size=30)), max_size=12),
+       st.integers(1, 600))
+def test_plot_messages_written_in_batches_are_the_bytes_add_message_writes(batches, chunk_size):
+    # chunks of a few messages: every way a batch can meet a chunk's end
+    assert _mcap(batches, chunk_size, True) == _mcap(batches, chunk_size, False)

@@ -30,6 +30,7 @@ from protocols.errors import UsageError
 from rig.errors import RigError
 
 from protocols.io.files import Claim, input_file, not_being_written, output_file, written
+from protocols.io.mcap_batch import add_messages
 
 FLUSH_S = 0.5
 
@@ -145,13 +146,12 @@ class Recorder:
     def _plot(self, name, t, v):
         """One message per sample on /plot/NAME at its own log time."""
         topic = f"/plot/{name}"
-        cid, n, add = self.topics[topic], self.seq[topic], self.w.add_message
         t, v = t[::self.plot_every], v[::self.plot_every]
-        for i, (ti, vi) in enumerate(zip(t.tolist(), v.tolist())):
-            ns = self.t0_ns + int(max(ti, 0.0) * 1e9 + 0.5)
-            add(cid, ns, f'{{"value":{vi:.7g}}}'.encode() if -1e308 < vi < 1e308 else b'{"value":null}', ns,
-                sequence=n + i)  # 7 digits plot (the batches keep all); JSON has no nan or inf
-        self.seq[topic] = n + len(t)
+        ns = (self.t0_ns + (np.maximum(t, 0.0) * 1e9 + 0.5).astype(np.int64)).tolist()
+        # 7 digits plot (the batches keep all); JSON has no nan or inf
+        data = [f'{{"value":{vi:.7g}}}'.encode() if -1e308 < vi < 1e308 else b'{"value":null}' for vi in v.tolist()]
+        add_messages(self.w, self.topics[topic], ns, data, self.seq[topic])
+        self.seq[topic] += len(ns)
 
     def _write(self, topic, t, payload, encode=None):
         payload = {"seq": self.seq[topic], **payload}

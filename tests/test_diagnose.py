@@ -419,3 +419,39 @@ def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_pa
     assert own and own[0]["in_own_description"] == "koni", doc["accepted"]
     assert "In koni's own description, not a fault: compressibility" in doc["summary"]
     assert "Bleed the damper" not in doc["summary"]
+
+
+def test_a_terms_exact_columns_are_the_forces_derivatives_beside_every_other_effect():
+    """Model.columns gives a term's basis as the force's derivative in its coefficients
+    (the fits use it instead of a model evaluation per coefficient) only where nothing
+    after the term alters the part it adds to: checked against a finite difference beside
+    each effect of the catalogue, so an effect that alters a part and does not say so
+    (Effect.alters) fails here."""
+    from models.diagnose.candidates import ORDER, WITH_BASELINE, Model
+    t = np.arange(0.0, 4.0, 1e-3)
+    f = np.where(t < 2.0, 3.0, 7.0)
+    x = 0.04 + 0.01 * np.sin(2 * np.pi * f * t)
+    v = 0.01 * 2 * np.pi * f * np.cos(2 * np.pi * f * t)
+    F = 3000.0 * v + 700.0 * np.tanh(v / 0.02) + 200.0 + np.random.default_rng(0).normal(0.0, 1.5, len(t))
+    ev = [SegmentStart(0.0, "sine 3 Hz", {"kind": "sine", "freq_hz": 3.0}), SegmentEnd(2.0, "sine 3 Hz"),
+          SegmentStart(2.0, "sine 7 Hz", {"kind": "sine", "freq_hz": 7.0}), SegmentEnd(3.999, "sine 7 Hz")]
+    d = prepare({"force": (t, F), "x": (t, x), "T_body": (t, 300.0 + 5.0 * t),
+                 "aux.valve_current": (t, 0.5 + 0.1 * np.sin(0.7 * t))}, ev)
+    d.tone_hz = 50.0
+    rng = np.random.default_rng(1)
+    terms = ("valve_form", "elastic_stroke", "drift", "interference", "temperature_force", "loop_surface")
+    for term in terms:
+        for other in [None, *[e for e in EFFECTS if e != term and e not in WITH_BASELINE]]:
+            effects = sorted({term, *(["aux_channel:aux.valve_current"] if other == "aux_channel" else
+                                      [other] if other else [])}, key=lambda e: ORDER.index(e.split(":")[0]))
+            m = Model(d, WITH_BASELINE + effects)
+            p = {q.name: q.x0 + (rng.uniform(0.05, 0.3) * (q.hi - q.lo) if q.x0 == 0.0 else 0.0) for q in m.params}
+            f0 = m.forces(d, p)
+            cols = m.columns(f0)
+            alters = [EFFECTS[e.split(":")[0]].alters for e in effects if e != term
+                      and ORDER.index(e.split(":")[0]) > ORDER.index(term)]
+            told = {"valve_form": "Fd", "elastic_stroke": "Fg"}.get(term, "F")
+            assert bool(cols) == (not any(told in a or "F" in a for a in alters)), (term, other)
+            for name, col in cols.items():
+                fd = m.force(d, {**p, name: p[name] + 1.0}) - f0.F  # linear: the step's size is free
+                assert np.max(np.abs(fd - col)) <= 1e-6 * max(1.0, np.max(np.abs(fd))), (term, other, name)

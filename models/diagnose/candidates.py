@@ -150,8 +150,11 @@ class Model:
         gone = {EFFECTS[e.split(":")[0]].supersedes for e in effects}
         self.effects = [e for e in effects if e not in gone]
         self.cache = {}  # bases the open terms build once (terms.py)
+        self.own = {}  # each effect's parameter names, in order
         for e in self.effects:
-            self.params += EFFECTS[e.split(":")[0]].params(d, e)
+            own = EFFECTS[e.split(":")[0]].params(d, e)
+            self.own[e] = [q.name for q in own]
+            self.params += own
         # means the effects refer to (fixed from the data, not fitted)
         self.T_m = float(np.mean(d.T)) if d.T is not None else 0.0
         self.aux_m = {n: float(np.mean(a)) for n, a in d.aux.items()}
@@ -162,6 +165,24 @@ class Model:
     def force(self, d, p, parts=False):
         """The baseline with the effects, each applied in its place: on the motion, on the
         baseline's damping, gas or friction, or on the total (Effect.acts_on, in ORDER)."""
+        f = self.forces(d, p)
+        return (f.F, f.Fd, f.Fg, f.Ff) if parts else f.F
+
+    def columns(self, f):
+        """{parameter: the force's derivative in it [N per unit]} from one evaluation's
+        Forces, for the coefficients of terms that add a basis to a part of the force
+        which no later effect alters (Effect.alters): exact, where a finite difference
+        costs a model evaluation each."""
+        out = {}
+        for e, (part, B) in f.bases.items():
+            after = [EFFECTS[x.split(":")[0]] for x in self.effects
+                     if ORDER.index(x.split(":")[0]) > ORDER.index(e.split(":")[0])]
+            if not any(part in c.alters or "F" in c.alters for c in after):
+                out.update(zip(self.own[e], B.T))
+        return out
+
+    def forces(self, d, p):
+        """Model.force's Forces, every stage's result in it."""
         f = Forces(d)
         staged = sorted(((EFFECTS[e.split(":")[0]], e) for e in self.effects), key=lambda ce: ORDER.index(ce[0].name))
         for c, e in staged:
@@ -175,7 +196,7 @@ class Model:
         for c, e in staged:
             if c.acts_on == "total":
                 c.apply(self, d, p, f, e)
-        return (f.F, f.Fd, f.Fg, f.Ff) if parts else f.F
+        return f
 
 
 class Forces:
@@ -185,6 +206,7 @@ class Forces:
     def __init__(self, d):
         self.x, self.v, self.a, self.t, self.tau = d.x, d.v, d.a, d.t, 0.0
         self.Fd = self.Fg = self.Ff = self.F = self.slope = None
+        self.bases = {}  # {term: (the part it adds to, its basis)} (terms.add)
 
 
 _bouc_wen, _dahl = kernels.recent(kernels.bouc_wen), kernels.recent(kernels.dahl)
@@ -327,7 +349,7 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("free_play", "clearance (free play) in the damper's mounts",
            _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
-           estimate="c_play", apply=_free_play, acts_on="total", depends_on=("velocity", "direction"),
+           estimate="c_play", alters=("F",), apply=_free_play, acts_on="total", depends_on=("velocity", "direction"),
            say=("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
                 "meanwhile where the damper's own force on it is zero) each time it changes sign: "
                 "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
@@ -336,6 +358,7 @@ CATALOGUE = {e.name: e for e in (
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
            estimate="inv_k_oil", apply=_compressibility, acts_on="parts", depends_on=("velocity", "frequency"),
+           alters=("Fd",),
            described=lambda dm: (dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12  # eq 3.32
                                  or dm.compressibility.air_fraction > 0),
            say=("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
@@ -347,6 +370,7 @@ CATALOGUE = {e.name: e for e in (
               P("v_break", 5e-3, 2e-4, 0.1, "m/s", tuple(np.geomspace(5e-4, 5e-2, 7))),
               P("d_break", 1.0, 0.5, 3.0, "-", (1.0, 2.0))),
            estimate="r_break", apply=_breakaway_friction, acts_on="parts", depends_on=("velocity", "direction"),
+           alters=("Ff",),
            say=("Friction is higher just after each velocity reversal, static/dynamic ratio {v}: "
                 "seal breakaway. It sets the force near zero velocity; check seal and rod finish.",
                 "r_break", 1.0, ""),
@@ -360,7 +384,7 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("gas_temperature", "gas-spring force rising with temperature",
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
-           estimate="k_gT", apply=_gas_temperature, acts_on="parts", needs="T",
+           estimate="k_gT", alters=("Fg",), apply=_gas_temperature, acts_on="parts", needs="T",
            described=lambda dm: True,  # every damper's gas follows its temperature (eq 3.19)
            depends_on=("temperature", "displacement"), referee="drift",
            say=("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
@@ -368,7 +392,7 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("damping_temperature", "damping changing with oil temperature",
            _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
-           estimate="k_dT", apply=_damping_temperature, acts_on="parts", needs="T",
+           estimate="k_dT", alters=("Fd",), apply=_damping_temperature, acts_on="parts", needs="T",
            depends_on=("temperature", "velocity", "direction"), referee="damping_drift",
            say=("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
                 "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
@@ -382,12 +406,14 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
            estimate="Fcav_c", apply=_cavitation, acts_on="total", depends_on=("velocity", "direction", "displacement"),
+           alters=("F", "Fg"),
            say=("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
                 "charge or check for air.", None, 1.0, "N"),
     ),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
            _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
            estimate="x_stick", apply=_presliding_friction, acts_on="parts", depends_on=("displacement", "direction"),
+           alters=("Ff",),
            say=("Friction builds over {v} {u} of travel after each reversal before the seal slides "
                 "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
                 "corners of small-amplitude loops; keep it in the model when tuning low-speed valving.",
@@ -403,6 +429,7 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
            estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux", depends_on=("aux",),
+           alters=("Fd",),
            say=("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
                 "Hold it constant or include it in the model.", "lag", 1e3, "ms"),
     ),

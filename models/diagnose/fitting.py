@@ -17,6 +17,7 @@ SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 # took 900 steps (13,000 evaluations, a third of the diagnosis) for a candidate refused;
 # every other fit of the benchmarks and the shared recordings converges within 80
 MAX_STEPS = 100
+EPS = np.finfo(float).eps ** 0.5  # scipy's relative step of a forward difference
 
 
 def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None):
@@ -34,8 +35,11 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None
     scale = np.maximum(np.abs(hi - lo) * 1e-3, np.abs(z0) * 0.1)
     Fs = max(float(np.std(d.F)), 1e-9)
 
+    last = {}  # the last evaluation, which the Jacobian at the same point starts from
+
     def resid(z):
-        return (model.force(d, {**held, **dict(zip(names, z))})[train] - d.F[train]) / Fs
+        last["z"], last["f"] = z.copy(), model.forces(d, {**held, **dict(zip(names, z))})
+        return (last["f"].F[train] - d.F[train]) / Fs
 
     # parameters whose effect is piecewise or far from linear start from a grid over their
     # whole range: at each grid value the new effect's other parameters are fitted briefly
@@ -65,13 +69,37 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None
     # scipy's tolerances (1e-8): looser ones stop fits on plateaus (at 1e-5, a real MR
     # recording's compressibility fit stopped at a quarter of its gain, and another effect won)
     r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=min(effort * len(z0), MAX_STEPS),
-                      method="trf")
+                      method="trf", jac=jacobian(model, d, train, held, names, lo, hi, Fs, last))
     values = {**held, **dict(zip(names, r.x))}
     try:
         sd = dict(zip(names, covariance(r.jac, r.fun)[0]))
     except np.linalg.LinAlgError:
         sd = {n: float("nan") for n in names}
     return values, {**{n: float("nan") for n in held}, **sd}
+
+
+def jacobian(model: Model, d: Data, train, held, names, lo, hi, Fs, last):
+    """fit()'s residual's Jacobian: scipy's forward differences (its step, away from a bound),
+    except for the coefficients whose derivative the model knows exactly (Model.columns):
+    on a model with a valve form, each of its 14 coefficients cost an evaluation. last:
+    the residual's last evaluation {"z", "f"}."""
+    def jac(z):
+        f = last["f"] if np.array_equal(last.get("z"), z) else model.forces(d, {**held, **dict(zip(names, z))})
+        exact = model.columns(f)
+        r0 = (f.F[train] - d.F[train]) / Fs  # as scipy differences the residual (the same rounding)
+        J = np.empty((len(z), len(r0))).T  # column-major as scipy's (its SVD rounds by the layout)
+        for i, name in enumerate(names):
+            if name in exact:
+                J[:, i] = exact[name][train] / Fs
+                continue
+            h = EPS * np.copysign(max(1.0, abs(z[i])), z[i])
+            if not lo[i] <= z[i] + h <= hi[i] and lo[i] <= z[i] - h <= hi[i]:
+                h = -h
+            zz = z.copy()
+            zz[i] += h
+            J[:, i] = ((model.force(d, {**held, **dict(zip(names, zz))})[train] - d.F[train]) / Fs - r0) / (zz[i] - z[i])
+        return J
+    return jac
 
 
 def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False, warm=None):
@@ -113,8 +141,9 @@ def linear_fit(model: Model, d: Data, folds, starts, hold=()):
     vals, sds = [], []
     for (train, test), start in zip(folds, starts):
         z = {**{p.name: p.x0 for p in model.params}, **start, **{p.name: 0.0 for p in own}}
-        F0 = model.force(d, z)
-        cols = [model.force(d, {**z, p.name: 1.0}) - F0 for p in own]
+        f0 = model.forces(d, z)
+        F0, exact = f0.F, model.columns(f0)
+        cols = [exact[p.name] if p.name in exact else model.force(d, {**z, p.name: 1.0}) - F0 for p in own]
         steps_ = [max(abs(z[p.name]) * 1e-4, (p.hi - p.lo) * 1e-7) for p in rest]
         cols += [(model.force(d, {**z, p.name: z[p.name] + dz}) - F0) / dz for p, dz in zip(rest, steps_)]
         A = np.column_stack(cols)

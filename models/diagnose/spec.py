@@ -50,3 +50,7 @@ class Effect:
     # "": the loop's surface when the loop shows all it depends on, else none
     # (models/diagnose/__init__.py referee)
     referee: str = ""
+    # the parts of the force ("Fd", "Fg", "Ff" or the total "F") it changes otherwise than by
+    # adding to them, or reads: a term's basis added to such a part before it does not reach
+    # the total as it is, so its coefficients' derivatives are not their basis (fitting.py)
+    alters: tuple = ()

@@ -67,6 +67,13 @@ def force_bound(d):
     return 3.0 * max(float(np.percentile(np.abs(d.F), 99)), 10.0)
 
 
+def add(f, part, e, B, c):
+    """Adds basis B [N per unit] times coefficients c to the Forces' part ("Fd", "Fg" or
+    the total "F"), and keeps B there: the force's exact derivative in c (fitting.py)."""
+    f.bases[e] = (part, B)
+    setattr(f, part, getattr(f, part) + B @ np.asarray(c))
+
+
 def coefficients(prefix, n, bound):
     return [P(f"{prefix}{i}", 0.0, -bound, bound, "N") for i in range(n)]
 
@@ -87,7 +94,7 @@ def _valve_basis_at(v, vmax):
 
 def _valve_form(m, d, p, f, e):
     B = cached(m, d, e, lambda ref, dd: _valve_basis(ref, dd.v)) if f.v is d.v else _valve_basis(m.data, f.v)
-    f.Fd = f.Fd + B @ np.array([p[f"vf{i}"] for i in range(B.shape[1])])
+    add(f, "Fd", e, B, [p[f"vf{i}"] for i in range(B.shape[1])])
 
 
 def x_basis(ref, d, n):
@@ -97,7 +104,7 @@ def x_basis(ref, d, n):
 
 def _elastic_stroke(m, d, p, f, e):
     B = cached(m, d, e, lambda ref, dd: _centred(lambda r, u: x_basis(r, u, KNOTS[e]), ref, dd))
-    f.Fg = f.Fg + B @ np.array([p[f"es{i}"] for i in range(B.shape[1])])
+    add(f, "Fg", e, B, [p[f"es{i}"] for i in range(B.shape[1])])
 
 
 def _stroke_damping(m, d, p, f, e):
@@ -128,7 +135,7 @@ def _t_basis(ref, d):
 
 def _drift(m, d, p, f, e):
     B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
-    f.F = f.F + B @ np.array([p[f"dr{i}"] for i in range(B.shape[1])])
+    add(f, "F", e, B, [p[f"dr{i}"] for i in range(B.shape[1])])
 
 
 def _damping_drift(m, d, p, f, e):
@@ -165,15 +172,16 @@ def _frequency_damping(m, d, p, f, e):
 
 
 def _interference(m, d, p, f, e):
-    w = 2 * np.pi * d.tone_hz
-    f.F = f.F + p["hum_c"] * np.cos(w * d.t) + p["hum_s"] * np.sin(w * d.t)
+    B = cached(m, d, e, lambda ref, dd: np.column_stack([np.cos(2 * np.pi * dd.tone_hz * dd.t),
+                                                         np.sin(2 * np.pi * dd.tone_hz * dd.t)]))
+    add(f, "F", e, B, [p["hum_c"], p["hum_s"]])
 
 
 def _temperature_force(m, d, p, f, e):
     def T_basis(ref, dd):
         return bspline(dd.T, float(np.min(ref.T)), float(np.max(ref.T)), KNOTS[e])
     B = cached(m, d, e, lambda ref, dd: _centred(T_basis, ref, dd))
-    f.F = f.F + B @ np.array([p[f"tf{i}"] for i in range(B.shape[1])])
+    add(f, "F", e, B, [p[f"tf{i}"] for i in range(B.shape[1])])
 
 
 def _surface_raw(ref, d):
@@ -198,7 +206,7 @@ def _surface_basis(ref, d):
 
 def _loop_surface(m, d, p, f, e):
     B = cached(m, d, e, _surface_basis)
-    f.F = f.F + B @ np.array([p[f"ls{i}"] for i in range(B.shape[1])])
+    add(f, "F", e, B, [p[f"ls{i}"] for i in range(B.shape[1])])
 
 
 def _damping_params(d, e):
@@ -259,6 +267,7 @@ TERMS = {e.name: e for e in (
                 None, 1.0, "N")),
     Effect("stroke_damping", "damping changing along the stroke, per direction", _damping_params, "sdc0",
            _stroke_damping, "parts", depends_on=("displacement", "velocity", "direction"), linear=True, nature="open",
+           alters=("Fd",),
            say=("Not in the catalogue: damping that changes along the stroke ({region}; {size}): bypass grooves "
                 "or position-sensitive valving?", None, 1.0, "N")),
     Effect("drift", "a slow offset in time, independent of the motion",
@@ -269,13 +278,13 @@ TERMS = {e.name: e for e in (
                 None, 1.0, "N")),
     Effect("damping_drift", "damping changing in time, independent of the motion",
            lambda d, e: [P(f"dd{i}", 0.0, -0.9, 0.9, "-") for i in range(_drift_n(d))], "dd0", _damping_drift,
-           "parts", depends_on=("time", "velocity", "direction"), linear=True, nature="open",
+           "parts", depends_on=("time", "velocity", "direction"), linear=True, alters=("Fd",), nature="open",
            say=("Not in the catalogue: damping that changes in time ({region}; {size}): the oil warming without "
                 "a thermocouple to show it, or a valve settling in? Log the oil temperature.", None, 1.0, "N")),
     Effect("frequency_damping", "damping changing with the test frequency at the same velocity",
            lambda d, e: [P(f"fd{s}{i}", 0.0, -0.9, 0.9, "-") for s in "cr" for i in range(_frequency_n(d))], "fdc0",
            _frequency_damping, "parts", needs="frequencies", depends_on=("frequency", "velocity", "direction"),
-           linear=True, nature="open",
+           linear=True, alters=("Fd",), nature="open",
            say=("Not in the catalogue: damping that changes with the test frequency at the same velocity "
                 "({region}; {size}): the valves' own dynamics (shim stack inertia, a pressure-lagged bleed) or "
                 "oil compressibility beyond the model's?", None, 1.0, "N")),

@@ -455,3 +455,20 @@ def test_a_terms_exact_columns_are_the_forces_derivatives_beside_every_other_eff
             for name, col in cols.items():
                 fd = m.force(d, {**p, name: p[name] + 1.0}) - f0.F  # linear: the step's size is free
                 assert np.max(np.abs(fd - col)) <= 1e-6 * max(1.0, np.max(np.abs(fd))), (term, other, name)
+
+
+def test_the_spline_basis_is_scipys_to_the_last_bit():
+    """terms.bspline's compiled de Boor recursion gives scipy's design matrix exactly, knots
+    and ends included: a basis that differed in its last digits would move fits that
+    stop in flat valleys, and so the diagnosis's answers."""
+    from scipy.interpolate import BSpline
+
+    from models.diagnose.terms import DEGREE, bspline
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        n = int(rng.integers(DEGREE + 1, 12))
+        lo = float(rng.normal())
+        hi = lo + float(rng.uniform(1e-3, 5.0))
+        u = np.r_[rng.uniform(lo - 1.0, hi + 1.0, int(rng.integers(1, 500))), lo, hi, np.linspace(lo, hi, n - DEGREE + 1)]
+        knots = np.r_[[lo] * DEGREE, np.linspace(lo, hi, n - DEGREE + 1), [hi] * DEGREE]
+        assert np.array_equal(bspline(u, lo, hi, n), BSpline.design_matrix(np.clip(u, lo, hi), knots, DEGREE).toarray())

@@ -48,6 +48,36 @@ def lag(F, tau, h):
 
 
 @njit(cache=True, nogil=True)
+def bspline_basis(x, t, k, n):
+    """(len(x), n) B-spline basis of degree k on knots t at x (inside [t[k], t[n]]): de
+    Boor's recursion as scipy's BSpline.design_matrix runs it, operation for operation, so
+    the same numbers to the last bit, without its sparse matrix (a third of the time)."""
+    B = np.zeros((len(x), n))
+    h = np.empty(k + 1)
+    hh = np.empty(k + 1)
+    for i in range(len(x)):
+        xi = x[i]
+        # the knot interval [t[ell], t[ell + 1]) holding xi; the last one closed
+        ell = min(max(np.searchsorted(t, xi, side="right") - 1, k), n - 1)
+        h[0] = 1.0
+        for j in range(1, k + 1):
+            for m in range(j):
+                hh[m] = h[m]
+            h[0] = 0.0
+            for m in range(1, j + 1):
+                xb, xa = t[ell + m], t[ell + m - j]
+                if xb == xa:
+                    h[m] = 0.0
+                    continue
+                w = hh[m - 1] / (xb - xa)
+                h[m - 1] += w * (xb - xi)
+                h[m] = w * (xi - xa)
+        for m in range(k + 1):
+            B[i, ell - k + m] = h[m]
+    return B
+
+
+@njit(cache=True, nogil=True)
 def integral(F, t, lo, hi):
     """Integral over [lo, hi] of F linear between samples t (lo >= t[0])."""
     j = max(np.searchsorted(t, lo) - 1, 0)

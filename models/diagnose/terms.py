@@ -27,7 +27,6 @@ range (KNOTS functions). SI units: x [m], v [m/s], t [s], T [K]; forces [N].
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import BSpline
 
 from models.diagnose import kernels
 from models.diagnose.spec import Effect, P
@@ -43,7 +42,7 @@ def bspline(u, lo, hi, n):
     """(len(u), n) cubic B-spline basis over [lo, hi], knots evenly spread; u clipped to it."""
     inner = np.linspace(lo, hi, n - DEGREE + 1)
     knots = np.r_[[lo] * DEGREE, inner, [hi] * DEGREE]
-    return BSpline.design_matrix(np.clip(u, lo, hi), knots, DEGREE).toarray()
+    return kernels.bspline_basis(np.clip(np.asarray(u, float), lo, hi), knots, DEGREE, n)
 
 
 def _centred(basis, ref, d):
@@ -81,7 +80,12 @@ def coefficients(prefix, n, bound):
 def _valve_basis(d, v):
     """Per direction, over the square root of the speed: a valve's curve bends most at low
     speed (the bleed giving way to the shims), where the knots are closest."""
-    return _valve_basis_at(v, max(float(np.percentile(np.abs(d.v), 99)), 1e-3))
+    return _valve_basis_at(v, _speed_scale(d))
+
+
+def _speed_scale(d):
+    """[m/s] the 99th percentile of d's speed (at least 1 mm/s)."""
+    return max(float(np.percentile(np.abs(d.v), 99)), 1e-3)
 
 
 @kernels.recent
@@ -93,7 +97,10 @@ def _valve_basis_at(v, vmax):
 
 
 def _valve_form(m, d, p, f, e):
-    B = cached(m, d, e, lambda ref, dd: _valve_basis(ref, dd.v)) if f.v is d.v else _valve_basis(m.data, f.v)
+    if f.v is d.v:
+        B = cached(m, d, e, lambda ref, dd: _valve_basis(ref, dd.v))
+    else:  # the motion shifted by a timing offset: a basis per offset (remembered), on the model's speed scale
+        B = _valve_basis_at(f.v, cached(m, m.data, f"{e}:speed", lambda ref, dd: _speed_scale(ref)))
     add(f, "Fd", e, B, [p[f"vf{i}"] for i in range(B.shape[1])])
 
 

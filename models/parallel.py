@@ -77,14 +77,15 @@ class Progress:
             self.stream.flush()
 
 
-def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", names=None):
+def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", names=None, done=None):
     """[fn(job) for job in jobs], in parallel.
 
     executor: an Executor to submit to (left open); by default a process pool of
     `workers` processes (the machine's cores, each warmed once) is made for the call.
     workers=1 without an executor runs in this process. progress: a stream for the
     progress bar, True for stderr, None for none. names: each job's name in messages
-    (default: its number).
+    (default: its number). done(i, result): called in this process as each job's result
+    comes in, in the jobs' order (to keep it before the rest are done).
     """
     jobs = list(jobs)
     names = [f"{label or 'job'} {i + 1}" for i in range(len(jobs))] if names is None else list(names)
@@ -92,7 +93,7 @@ def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", name
     if progress and jobs:
         bar = Progress(len(jobs), label, None if progress is True else progress)
     try:
-        return _run(fn, jobs, names, executor, workers or os.cpu_count() or 1, bar)
+        return _run(fn, jobs, names, executor, workers or os.cpu_count() or 1, bar, done or (lambda i, r: None))
     except BaseException:
         if bar and bar.done < bar.total:
             bar.stream.write("\n")  # an error message after us starts on its own line
@@ -118,11 +119,12 @@ def _once_more(name, result, again, bar):
         raise TaskFailed(f"{name} failed twice: {e}") from e
 
 
-def _run(fn, jobs, names, executor, workers, bar):
+def _run(fn, jobs, names, executor, workers, bar, done):
     if executor is None and (workers == 1 or len(jobs) == 1):
         out = []
         for job, name in zip(jobs, names):
             out.append(_once_more(name, lambda: fn(job), lambda: fn(job), bar))
+            done(len(out) - 1, out[-1])
             if bar:
                 bar.advance()
         return out
@@ -134,6 +136,7 @@ def _run(fn, jobs, names, executor, workers, bar):
         out = []
         for f, job, name in zip(futures, jobs, names):
             out.append(_once_more(name, f.result, lambda: ex.submit(fn, job).result(), bar))
+            done(len(out) - 1, out[-1])
             if bar:
                 bar.advance()
         return out

@@ -137,6 +137,22 @@ class ProveTask:
         return f"{what} noise x{self.noise:g} {self.rate:g} Hz seed {self.seed}"
 
 
+def run_tasks(tasks, pool, label, keep=None, say=lambda s: None):
+    """[run_task(t) for t in tasks] on the pool. keep: a folder (protocols/keep.py) where
+    each result is kept as it comes in, and from which a task already run is taken."""
+    from protocols import keep as kept
+    got = [kept.load(keep, t) if keep else None for t in tasks]
+    todo = [i for i, r in enumerate(got) if r is None]
+    if len(todo) < len(tasks):
+        say(f"{label}: {len(tasks) - len(todo)} of {len(tasks)} runs kept in {keep}, not run again")
+    new = run_all(run_task, [tasks[i] for i in todo], pool, progress=True, label=label,
+                  names=[tasks[i].name for i in todo], done=(lambda j, r: kept.save(keep, tasks[todo[j]], r)) if keep
+                  else None)
+    for i, r in zip(todo, new):
+        got[i] = r
+    return got
+
+
 def run_task(task: ProveTask):
     """Record one prove run through the wire protocols (and, given a budget, the next tests
     it asks for: protocols/discover.py), diagnose it."""

@@ -49,6 +49,13 @@ def koni_run(tmp_path_factory):
                      "targets_c": [45.0]})
 
 
+@pytest.fixture(scope="session")
+def prove_keep(tmp_path_factory):
+    """A `dyno prove --keep` folder the prove tests share: the null of seed 0, which each
+    measures its rows against, is recorded and diagnosed once (the tests share a worker)."""
+    return tmp_path_factory.mktemp("prove-keep")
+
+
 @pytest.fixture()
 def sim_rig():
     """start(config, *extra args) -> the `dyno sim-rig` process, serving once it returns;
@@ -98,7 +105,7 @@ LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open"
 
 # session fixtures made once per worker: every test using one goes to the same worker (a
 # test left out of the group made the 50 s standard run again on the other worker)
-SHARED = ("koni_run",)
+SHARED = ("koni_run", "prove_keep")
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups

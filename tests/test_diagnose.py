@@ -165,11 +165,11 @@ def test_cli_refuses_a_recording_without_force(tmp_path):
     assert r.returncode != 0 and "no such file" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_prove_finds_a_concealed_effect_and_nothing_on_a_null():
+def test_prove_finds_a_concealed_effect_and_nothing_on_a_null(prove_keep):
     """dyno prove in CI with one seed and two rows (the full proof: docs/results/prove.md)."""
     # free play: the effect hardest to see (one process: the suite's other worker has the other core)
-    r = subprocess.run([*DYNO, "prove", "--seeds", "1", "--effects", "free_play,null", "--jobs", "1", "--json"],
-                       capture_output=True, text=True, timeout=900)
+    r = subprocess.run([*DYNO, "prove", "--seeds", "1", "--effects", "free_play,null", "--jobs", "1",
+                        "--keep", prove_keep, "--json"], capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     rows = {row["effect"]: row for row in json.loads(r.stdout)["effects"]}
     assert rows["null"]["false_positive"] == 0.0
@@ -178,12 +178,12 @@ def test_prove_finds_a_concealed_effect_and_nothing_on_a_null():
     assert rows["free_play"]["contribution_rms"] <= 1.6
 
 
-def test_prove_open_hides_a_users_force_law_and_names_it():
+def test_prove_open_hides_a_users_force_law_and_names_it(prove_keep):
     """dyno prove --open: 3 N of 50 Hz written by the user, hidden in the plain cell through
     the wires, is named as the cell's interference, and the null of the same seed claims
     no physics."""
-    r = subprocess.run([*DYNO, "prove", "--open", "3*sin(2*pi*50*t)", "--seeds", "1", "--jobs", "1", "--json"],
-                       capture_output=True, text=True, timeout=600)
+    r = subprocess.run([*DYNO, "prove", "--open", "3*sin(2*pi*50*t)", "--seeds", "1", "--jobs", "1",
+                        "--keep", prove_keep, "--json"], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     run = json.loads(r.stdout)["runs"][0]
     assert 1.8 < run["contribution_rms"] < 2.4 and run["null_claims"] == []

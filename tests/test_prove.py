@@ -6,10 +6,11 @@ import subprocess
 import sys
 
 
-def test_prove_runs_another_form_and_a_pair():
+def test_prove_runs_another_form_and_a_pair(prove_keep):
     r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects",
                         "free_play:hertz,fluid_inertia+sensor_delay,null", "--sizes", "10",
-                        "--seeds", "1", "--jobs", "1", "--json"], capture_output=True, text=True, timeout=900)
+                        "--seeds", "1", "--jobs", "1", "--keep", prove_keep, "--json"], capture_output=True, text=True,
+                       timeout=900)
     assert r.returncode == 0, r.stderr
     rows = {(row["effect"], row["form"]): row for row in json.loads(r.stdout)["effects"]}
     assert set(rows) == {("free_play", "hertz"), ("fluid_inertia+sensor_delay", "default"), ("null", None)}
@@ -25,3 +26,32 @@ def test_an_unknown_form_is_named():
     r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "free_play:rubber"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "free_play:rubber: no such form" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_a_kept_run_is_taken_not_run_again_and_only_by_the_same_code(tmp_path, monkeypatch):
+    """`dyno prove --keep`: each result is kept as it comes in; a task kept is taken from the
+    folder, the others run (and kept); a cut-short file is run again; other code reuses nothing."""
+    from protocols import keep, proof
+    ran = []
+    monkeypatch.setattr(proof, "run_task", lambda t: ran.append(t.seed) or {"seed": t.seed, "run": len(ran)})
+    tasks = [proof.ProveTask(None, None, 1.0, None, seed, 1.0, 1000.0) for seed in (0, 1)]
+    where = keep.folder(tmp_path / "kept")
+    keep.save(where, tasks[0], {"seed": 0, "run": "before"})
+    said = []
+    got = proof.run_tasks(tasks, None, "prove", where, said.append)
+    assert ran == [1] and got == [{"seed": 0, "run": "before"}, {"seed": 1, "run": 1}]
+    assert said == [f"prove: 1 of 2 runs kept in {where}, not run again"]
+    assert keep.load(where, tasks[1]) == {"seed": 1, "run": 1}
+    for f in where.glob("*.pkl"):
+        f.write_bytes(b"\x80")  # writes cut short: run again
+    assert keep.load(where, tasks[0]) is None and keep.load(where, tasks[1]) is None
+    keep.save(where, tasks[0], {"seed": 0})
+    monkeypatch.setattr(keep, "code", lambda: "other code")
+    assert keep.load(where, tasks[0]) is None
+
+
+def test_a_keep_folder_that_is_a_file_is_one_line(tmp_path):
+    (tmp_path / "f").write_text("")
+    r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "null", "--seeds", "1",
+                        "--keep", str(tmp_path / "f")], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "--keep" in r.stderr and "is a file" in r.stderr and "Traceback" not in r.stderr

@@ -43,6 +43,9 @@ def add(sub):
                          "recording; the table gives detection by the plan alone beside it")
     pv.add_argument("--budget", type=number(0, 3600), default=120.0, metavar="SECONDS",
                     help="--adaptive: rig time the next tests may add (default 120)")
+    pv.add_argument("--keep", metavar="DIR",
+                    help="keep each run's result in DIR and take from it those already there: a proof stopped "
+                         "part-way goes on where it stopped, and proofs sharing a run (a seed's null) make it once")
     pv.add_argument("--json", action="store_true")
     pv.add_argument("--markdown", action="store_true", help="stamped Markdown for docs/results")
     pv.add_argument("--calibrate", action="store_true",
@@ -54,11 +57,10 @@ def add(sub):
 
 
 def run(args):
-    from models.parallel import run_all
     from sim_backend.effects import EFFECTS, scaled
     from sim_backend.options import plain_cell
     from protocols import cluster
-    from protocols.proof import ProveTask, calibrate, key, measured_rms_diff, run_task, table as proof_table
+    from protocols.proof import ProveTask, calibrate, key, measured_rms_diff, run_tasks, table as proof_table
     _, params, prove = plain_cell()
     say = (lambda s: print(s, file=sys.stderr, flush=True))
     noise = params["sensors"]["force_noise"]
@@ -115,11 +117,10 @@ def run(args):
             parse([f"{e}{':' + t.form if t.form else ''}={v}" for e, v in (t.values or {}).items()])
         except EffectError as err:
             raise UsageError(f"--sizes {t.size:g}: {err}") from None
-    names = [t.name for t in tasks]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-        results = run_all(run_task, tasks, pool, progress=True, label="prove", names=names)
-    for name, r in zip(names, results):
-        say(f"{name}: accepted {r['accepted'] or 'nothing'}")
+        results = run_tasks(tasks, pool, "prove", _keep(args), say)
+    for t, r in zip(tasks, results):
+        say(f"{t.name}: accepted {r['accepted'] or 'nothing'}")
     nulls = {(r["seed"], r["noise"], r["rate"]): r for r in results if r["effect"] is None}
     for r in results:
         if r["effect"]:
@@ -139,9 +140,8 @@ def prove_open(args, say):
     plain cell, each seed against the null of the same seed: what the diagnosis names,
     what it depends on, where it lives, and how much of the held-out error above the
     noise it explains."""
-    from models.parallel import run_all
     from protocols import cluster
-    from protocols.proof import ProveTask, measured_rms_diff, run_task
+    from protocols.proof import ProveTask, measured_rms_diff, run_tasks
     from sim_backend.effects import EffectError, parse
     try:
         parse([f"extra:{args.open}"])
@@ -151,7 +151,7 @@ def prove_open(args, say):
     tasks = [t for seed in range(args.seeds) for t in (ProveTask(None, None, 1.0, None, seed, level, rate),
                                                         ProveTask(None, None, 1.0, None, seed, level, rate, args.open))]
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-        results = run_all(run_task, tasks, pool, progress=True, label="prove --open", names=[t.name for t in tasks])
+        results = run_tasks(tasks, pool, "prove --open", _keep(args), say)
     rows = []
     for null, r in zip(results[::2], results[1::2]):
         size = measured_rms_diff(r, null)
@@ -171,6 +171,12 @@ def prove_open(args, say):
               f"{'' if row['within_noise'] else '; some left unexplained'}"
               f"{'; the null claimed ' + ', '.join(row['null_claims']) if row['null_claims'] else ''}")
     return 0
+
+
+def _keep(args):
+    """--keep's folder, created now (a bad one is refused before any run), or None."""
+    from protocols import keep
+    return keep.folder(args.keep) if getattr(args, "keep", None) else None
 
 
 HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",

@@ -107,7 +107,9 @@ def _name_fits(path: Path, what):
                        f"at most {limit - TEMP_ROOM})")
 
 
-def _make_folder(folder: Path, what, label):
+def make_folder(folder: Path, what, label):
+    """folder, created if need be; a one-line UsageError naming `what` and `label` if it
+    is a file, cannot be created or is not writable."""
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{what} {label}: {folder} is a file, not a folder")
     try:
@@ -131,7 +133,7 @@ def output_file(path, inputs=(), overwrite=False, what="--out") -> Path:
         raise UsageError(f"{what} {path}: is a folder, not a file")
     if path.exists() and not path.is_file():
         raise UsageError(f"{what} {path}: not a regular file")
-    _make_folder(path.parent, what, path)
+    make_folder(path.parent, what, path)
     if not overwrite and (path.exists() or path.is_symlink()):
         raise UsageError(f"{what} {path}: exists; give --overwrite to replace it, or another name "
                        f"(free: {numbered(path).name})")
@@ -149,7 +151,7 @@ def output_folder(path, inputs=(), overwrite=False, what="--out") -> Path:
     for i in inputs:
         if i is not None and here in Path(i).resolve().parents:
             raise UsageError(f"{what} {path}: holds the input {i}; give a folder of its own")
-    _make_folder(path.parent, what, path)
+    make_folder(path.parent, what, path)
     if not overwrite and path.is_dir() and any(path.iterdir()):
         raise UsageError(f"{what} {path}: folder exists and is not empty; give --overwrite to replace "
                        f"the files it writes, or another folder")

@@ -1,6 +1,9 @@
 # Two entry points (see README): `make run` and `make test`.
 # Both create the local virtual environment on first use and reuse it after.
 PY ?= python3
+# bytecode caches are written (a machine may forbid them by PYTHONDONTWRITEBYTECODE): the suite
+# starts some 500 Python processes, each of which would compile every module it imports again
+unexport PYTHONDONTWRITEBYTECODE
 VENV := .venv
 STAMP := $(VENV)/.installed
 TEST_STAMP := $(VENV)/.installed-test

@@ -22,7 +22,8 @@ from tests.conftest import stop
 pytestmark = pytest.mark.realtime
 
 DYNO = str(Path(sys.executable).parent / "dyno")
-SINE = ["sine-matrix", "amplitudes_mm=6.4,4.8,3.2", "freqs_hz=2,8", "record_cycles=4"]
+# one cycle each to ramp in and settle (2 by default): the real time this part of the suite waits on
+SINE = ["sine-matrix", "amplitudes_mm=6.4,4.8,3.2", "freqs_hz=2,8", "ramp_cycles=1", "settle_cycles=1", "record_cycles=4"]
 
 
 def read(path):

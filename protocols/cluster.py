@@ -60,6 +60,9 @@ def _warm_plugin():
     return Warm()
 
 
+CONNECT_S = 10.0  # a scheduler's time to answer: Dask tries again until then (one may be starting)
+
+
 @contextlib.contextmanager
 def executor(spec: str):
     """(concurrent.futures Executor, number of workers) on the cluster `spec`; a local one
@@ -80,7 +83,7 @@ def executor(spec: str):
                                    host="127.0.0.1", dashboard_address=None, silence_logs=50)
             client = Client(cluster)
         else:
-            client = Client(arg, timeout="10s")
+            client = Client(arg, timeout=f"{CONNECT_S}s")
     except OSError as e:
         if cluster is not None:
             cluster.close()

@@ -54,7 +54,8 @@ def test_a_bad_cluster_is_named(spec, message):
         cluster.parse(spec)
 
 
-def test_an_unreachable_scheduler_is_named():
+def test_an_unreachable_scheduler_is_named(monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_S", 0.5)  # nothing listens there: the test need not wait 10 s
     with pytest.raises(UsageError, match="cannot connect"):
         with cluster.executor("tcp://127.0.0.1:9"):
             pass

@@ -239,3 +239,21 @@ def test_without_weasyprint_the_pdf_is_still_written(tmp_path, monkeypatch):
     page = Page("Dyno report: bare.mcap")
     page.table(["segment", "F [N]"], [["sine 1", "100"]])
     assert pdf.write_pdf(page, tmp_path).read_bytes().startswith(b"%PDF")
+
+
+def test_a_saved_figure_is_checked_as_savefig_drew_it(tmp_path):
+    """save() draws a figure once: the layout check reads the text where savefig put it,
+    and a label no layout can fit still fails the command (the suite's strict figures)."""
+    import warnings
+
+    from protocols.reports.page import LayoutWarning, save
+    from protocols.reports.plots import plt
+    fig, ax = plt.subplots(figsize=(1.5, 1.0))
+    ax.set_ylabel("damping force (measured - gas - friction) [N], rebound as magnitude")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # tight_layout's own: it cannot make room either
+        with pytest.raises(LayoutWarning, match="clipped by the figure's edge"):
+            save(fig, tmp_path / "tight.png")
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.set(xlabel="velocity [m/s]", ylabel="force [N]", title="fine")
+    assert save(fig, tmp_path / "fine.png") == "fine.png" and (tmp_path / "fine.png").stat().st_size > 5000

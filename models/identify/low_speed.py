@@ -8,7 +8,6 @@ Arrays in, numbers out: x [m], F [N], T [K].
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import find_peaks
 
 from models.physics.friction import static_friction
 from models.physics.gas_spring import T_STD
@@ -24,6 +23,7 @@ def reversals(x, F):
     [(x_reversal, friction, index)]. Each side's force within SKIP_M..SKIP_M + BAND_M of
     the reversal is fitted by a line and extrapolated to the reversal; the friction is half
     the jump (the approach carries +F_f into compression, the departure -F_f)."""
+    from scipy.signal import find_peaks  # here: scipy.signal takes half a second to import
     x, F = np.asarray(x, float), np.asarray(F, float)
     out = []
     for s in (1.0, -1.0):  # compression ends (maxima of x), then rebound ends

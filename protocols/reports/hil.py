@@ -10,7 +10,6 @@ import numpy as np
 from models.events import Result, SegmentStart
 from models.recording import segment_kind
 from models.quarter_car.hil import transmissibility
-from protocols.library import roads
 from protocols.reports.page import save
 from protocols.reports.plots import plt
 from protocols.units import Units
@@ -62,6 +61,7 @@ def figures(ch, events, out, units=Units()):
     figs = [("Damper motion: where the car wants it and where it was", save(_tracking(ch, units), out / "hil-tracking.png")),
             ("The car around the damper against the car around the damper model",
              save(_responses(ch, units), out / "hil-responses.png"))]
+    from protocols.library import roads  # here: the protocols bring scipy.signal, a second to import
     for _name, m in found:
         spec = m.get("road", "")
         if spec.startswith("sweep:"):

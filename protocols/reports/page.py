@@ -37,10 +37,11 @@ def _texts(ax):
                         *_drawn_ticks(ax.xaxis), *_drawn_ticks(ax.yaxis)) if t.get_visible() and t.get_text()]
 
 
-def layout_problems(fig) -> list[str]:
+def layout_problems(fig, drawn=False) -> list[str]:
     """Text that leaves the figure, or overlaps the text of another plot in it (titles,
-    axis labels, tick labels), as drawn."""
-    fig.canvas.draw()
+    axis labels, tick labels), as drawn (drawn: it has just been, by savefig)."""
+    if not drawn:
+        fig.canvas.draw()
     r = fig.canvas.get_renderer()
     W, H = fig.bbox.width, fig.bbox.height
     boxes = [[(t.get_text(), t.get_window_extent(r)) for t in _texts(ax)] for ax in fig.axes if ax.get_visible()]
@@ -58,11 +59,12 @@ def save(fig, path: Path, dpi=100, fmt=None):
     DYNO_STRICT_FIGURES set in the environment (the test suite sets it)."""
     import matplotlib.pyplot as plt
     fig.tight_layout()
-    for problem in layout_problems(fig):
+    fig.savefig(path, dpi=dpi, format=fmt)  # drawn once: the check reads the text where savefig put it
+    for problem in layout_problems(fig, drawn=True):
         if os.environ.get("DYNO_STRICT_FIGURES"):  # the test suite's: a bad figure fails the command
+            plt.close(fig)
             raise LayoutWarning(f"{Path(path).name}: {problem}")
         warnings.warn(f"{Path(path).name}: {problem}", LayoutWarning, stacklevel=2)
-    fig.savefig(path, dpi=dpi, format=fmt)
     plt.close(fig)
     return Path(path).name
 

@@ -80,9 +80,9 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None
 
 def jacobian(model: Model, d: Data, train, held, names, lo, hi, Fs, last):
     """fit()'s residual's Jacobian: scipy's forward differences (its step, away from a bound),
-    except for the coefficients whose derivative the model knows exactly (Model.columns):
-    on a model with a valve form, each of its 14 coefficients cost an evaluation. last:
-    the residual's last evaluation {"z", "f"}."""
+    except for the coefficients whose derivative the model knows exactly (Model.columns),
+    which a difference would evaluate the model for one by one (a valve form has 14).
+    last: the residual's last evaluation {"z", "f"}."""
     def jac(z):
         f = last["f"] if np.array_equal(last.get("z"), z) else model.forces(d, {**held, **dict(zip(names, z))})
         exact = model.columns(f)
@@ -97,7 +97,8 @@ def jacobian(model: Model, d: Data, train, held, names, lo, hi, Fs, last):
                 h = -h
             zz = z.copy()
             zz[i] += h
-            J[:, i] = ((model.force(d, {**held, **dict(zip(names, zz))})[train] - d.F[train]) / Fs - r0) / (zz[i] - z[i])
+            r = (model.force(d, {**held, **dict(zip(names, zz))})[train] - d.F[train]) / Fs
+            J[:, i] = (r - r0) / (zz[i] - z[i])
         return J
     return jac
 

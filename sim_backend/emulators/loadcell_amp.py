@@ -64,12 +64,14 @@ class LoadCellAmp:
             self.overruns += 1  # nobody reads: the line overruns, as a real one would
             self.expect = 0
 
-    def settle(self, timeout_s=0.02):
+    def settle(self, timeout_s=1.0):
         """Wait until the reader's side holds our last frame: the kernel moves pty bytes on
         a work queue, so under load a frame can reach the driver a tick late. Simulated
         time stands still meanwhile, which makes the embedded rig's readings the tick's
         own; a reader that lets the line fill (the line discipline holds 4 KiB) is not
-        waited for."""
+        waited for. The wait ends as the bytes arrive; its bound is for a kernel that
+        never moves them (a stalled VM held one frame over 20 ms, and the tick read the
+        last one)."""
         if not 0 < self.expect < 2048:
             return
         end = time.perf_counter() + timeout_s

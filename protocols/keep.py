@@ -12,6 +12,7 @@ import pickle
 import tempfile
 from pathlib import Path
 
+from protocols.errors import UsageError
 from protocols.io.files import make_folder
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,6 +32,8 @@ def code() -> str:
 
 def folder(path, what="--keep") -> Path:
     """The folder results are kept in, created if need be (a one-line error if it cannot be)."""
+    if not str(path).strip():
+        raise UsageError(f"{what}: give a folder to keep the runs' results in")
     path = Path(path)
     make_folder(path, what, path)
     return path

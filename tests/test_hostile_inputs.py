@@ -200,6 +200,7 @@ CASES = [
     (["run", "sine-matrix", "--damper", "simplified-I"], ["a simplified model"]),
     (["run", "sine-matrix", "--seed", "-5"], ["run: argument --seed: must be within"]),
     (["run", "sine-matrix", "--rig", "direct", "--realtime"], ["--realtime: the direct cell runs on its simulated"]),
+    (["prove", "--effects", "null", "--seeds", "1", "--keep", ""], ["--keep: give a folder"]),
     (["run", "sine-matrix", "--rrd", "{regular}/x.rrd"], ["note.txt is a file, not a folder"]),
     (["run", "static", "points=100000"], ["points: 2 to 200"]),
     (["run", "temperature-sweep", "overshoot_c=-50"], ["overshoot_c: must not be negative"]),

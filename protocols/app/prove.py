@@ -176,7 +176,7 @@ def prove_open(args, say):
 def _keep(args):
     """--keep's folder, created now (a bad one is refused before any run), or None."""
     from protocols import keep
-    return keep.folder(args.keep) if getattr(args, "keep", None) else None
+    return None if getattr(args, "keep", None) is None else keep.folder(args.keep)
 
 
 HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",

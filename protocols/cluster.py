@@ -10,6 +10,7 @@ once when it joins (models.parallel.warm), not inside the first task.
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 
 from models import threads
@@ -74,9 +75,9 @@ def executor(spec: str):
     except ImportError:
         raise UsageError(f"--cluster needs Dask: {INSTALL}") from None
     cluster = None
+    env = dict(os.environ)  # a LocalCluster's nannies write their workers' settings into ours (below)
     try:
         if kind == "local":
-            import os
             # CRITICAL: a task's failure comes back through its future; what the workers log at
             # ERROR is shutdown noise (a heartbeat racing the scheduler's close) printed as a traceback
             cluster = LocalCluster(n_workers=arg or os.cpu_count() or 1, threads_per_worker=1, processes=True,
@@ -87,6 +88,7 @@ def executor(spec: str):
     except OSError as e:
         if cluster is not None:
             cluster.close()
+            _restore(env)
         raise UsageError(f"--cluster {spec}: cannot connect ({e})") from None
     try:
         workers = len(client.scheduler_info()["workers"])
@@ -96,3 +98,13 @@ def executor(spec: str):
         client.close()
         if cluster is not None:
             cluster.close()
+            _restore(env)
+
+
+def _restore(env):
+    """os.environ as `env` again. A nanny sets its workers' environment in its own process
+    before it starts one: MALLOC_TRIM_THRESHOLD_ among it, which would make every process
+    this one starts afterwards fault in each large array anew (models.parallel.heap_for_arrays)."""
+    for k in set(os.environ) - set(env):
+        del os.environ[k]
+    os.environ.update(env)

@@ -17,7 +17,7 @@ from models.quarter_car.sim import Stepper, simulate
 from protocols.io.reader import load_recording
 from protocols.library import roads
 from protocols.plan import ParamError
-from rig.compensation import Adaptive, NoCompensation, Polynomial, fit
+from rig.compensation import Adaptive, NoCompensation, Polynomial, fit, kernels
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 H = 1e-3
@@ -45,6 +45,15 @@ def _actuator(commands, tau=0.004, delay=1):
         x += (1 - np.exp(-H / tau)) * (c - x)
         out.append(x)
     return np.array(out)
+
+
+@pytest.mark.parametrize("rate_hz", [100.0, 333.0, 1000.0, 1234.5, 5000.0, 10000.0])
+def test_the_smoothing_kernels_are_scipys_savitzky_golay_to_the_last_bit(rate_hz):
+    from scipy.signal import savgol_coeffs
+    h = 1.0 / rate_hz
+    n = max(5, int(round(0.015 / h)) | 1)
+    for d, k in enumerate(kernels(n, h)):
+        assert np.array_equal(k, savgol_coeffs(n, 3, deriv=d, delta=h)), (n, d)
 
 
 def test_fit_finds_the_lag_of_a_first_order_servo():

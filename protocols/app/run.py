@@ -71,7 +71,6 @@ def _run(args):
     from rig import operator_stop
     from protocols.io.recording import Recorder
     from protocols.library import DISCOVER
-    from protocols.discover import discover
     from protocols.plan import Plan, as_dict
     from protocols.runner import run_plan
     module, params, plant, damper, cfg, info = _plan_run(args)
@@ -102,6 +101,7 @@ def _run(args):
             from protocols.live_diagnose import LiveDiagnose
             diag = LiveDiagnose(to_dict(damper), recorder, live, real_time=c.paced)
         if args.protocol == DISCOVER:
+            from protocols.discover import discover  # the diagnosis and scipy.optimize: only here
             found = discover(Plan(module, params), c, [recorder, live, ident, diag], args.budget,
                              say=lambda line: print(f"discover: {line}", file=sys.stderr, flush=True))
             result = found.result

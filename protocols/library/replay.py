@@ -14,11 +14,11 @@ installed position (mid-stroke), compression positive; resampled to the loop's r
 """
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import csd, welch  # imported here: never for the first time inside a control tick
 
 from rig.errors import RigError
 
@@ -90,6 +90,9 @@ class Learning:
 
     def __init__(self, p: Params, target, h):
         self.p, self.target, self.h = p, target, h
+        # scipy.signal takes half a second to load: here, as the plan is made before the run,
+        # never for the first time in learn() (a control tick); not at every dyno command's start
+        importlib.import_module("scipy.signal")
         self.drive = target.copy()
         self.H = None  # the rig's frequency response, from iteration 0
         self.measured = {}  # iteration -> measured x per tick
@@ -137,6 +140,7 @@ def _response(drive, measured, h, n):
     """The rig's frequency response measured/drive on the rfft grid of n samples: Welch's
     H1 estimate (cross spectrum over the drive's spectrum, averaged over overlapping
     segments, so the noise of one realisation does not enter the inverse), interpolated."""
+    from scipy.signal import csd, welch
     nper = min(1024, len(drive) // 4)
     f, p_dm = csd(drive, measured, fs=1.0 / h, nperseg=nper)
     _, p_dd = welch(drive, fs=1.0 / h, nperseg=nper)

@@ -26,6 +26,8 @@ range (KNOTS functions). SI units: x [m], v [m/s], t [s], T [K]; forces [N].
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from models.diagnose import kernels
@@ -70,7 +72,14 @@ def add(f, part, e, B, c):
     """Adds basis B [N per unit] times coefficients c to the Forces' part ("Fd", "Fg" or
     the total "F"), and keeps B there: the force's exact derivative in c (fitting.py)."""
     f.bases[e] = (part, B)
-    setattr(f, part, getattr(f, part) + B @ np.asarray(c))
+    setattr(f, part, getattr(f, part) + _times(B, tuple(c)))
+
+
+@functools.partial(kernels.recent, size=16)
+def _times(B, c):
+    """B @ c, remembered: a finite-difference column moves another parameter and leaves
+    B and c as they were (a sixth of a diagnosis went to these products)."""
+    return B @ np.asarray(c)
 
 
 def coefficients(prefix, n, bound):

@@ -4,6 +4,7 @@ volts, a decimal comma, tabs, whitespace without a header, Parquet, MATLAB, and 
 sign convention."""
 import json
 import math
+import warnings
 from datetime import datetime, timedelta, timezone
 
 import numpy as np
@@ -69,6 +70,14 @@ def test_date_time_stamps_give_the_time_and_the_recordings_start(tmp_path, fmt, 
     started = datetime.fromisoformat(meta["run"]["wall_start"])
     assert abs((started - START).total_seconds() - shift) < 1e-3
     assert meta["run"]["wall_start_source"] == "the file's first date-time stamp"
+
+
+def test_a_zone_after_zone_less_stamps_is_applied_not_warned_about():
+    from protocols.io.table import stamps
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's parser would warn and apply the zone itself
+        t, bad = stamps(["2026-01-01T00:00:00", "2026-01-01T02:00:01+02:00", "2026-01-01 00:00:02"])
+    assert bad is None and list(t - t[0]) == [0.0, 1.0, 2.0]
 
 
 def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_path):

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import re
+import warnings
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta, timezone
 
@@ -200,9 +201,11 @@ def stamps(cells: list[str]) -> tuple[np.ndarray, int | None]:
     out = np.full(len(cells), np.nan)
     if cells and ISO.match(cells[0]) and not ISO.match(cells[0]).group(7) and all(cells):
         try:  # the common case, zone-less ISO stamps in every row: numpy parses them at C speed
-            return np.array(cells, dtype="datetime64[us]").astype("int64") / 1e6, None
-        except ValueError:
-            pass  # one that numpy refuses: found, with its row, below
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")  # a later row with a zone: numpy would warn and shift it
+                return np.array(cells, dtype="datetime64[us]").astype("int64") / 1e6, None
+        except (ValueError, UserWarning):
+            pass  # one that numpy refuses, or a zone: each row below
     days = {}  # a recording spans a few dates: each converted once
     for i, c in enumerate(cells):
         if not c:

@@ -41,17 +41,11 @@ $(CHROMIUM):
 	$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium libpango-1.0-0 libpangoft2-1.0-0 >/dev/null
 
 # the suite in two parts: in parallel on two workers, then the tests against the wall clock
-# with, beside them at the lowest priority, analyses that ask only for CPU: what a cell's
-# computer does while a run is on (an analysis may fall behind, the loop may not). A second
-# worker as busy would delay the loop's processes past its 50 ms watchdog (the tests of the
-# wall clock use about one core of two; the analyses beside them fit on one thread). Each
-# part names its slowest tests (the suite's budget is 8 minutes on 2 cores)
-BESIDE := tests/test_outside_data.py tests/test_hil.py tests/test_cli.py tests/test_preflight.py
+# alone (a loaded machine would delay their processes past the 50 ms watchdog); each part
+# names its ten slowest tests (the suite's budget is 8 minutes on 2 cores)
 test: lint $(CHROMIUM)
-	DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup --no-loadscope-reorder -m "not slow and not realtime" --durations=10 $(BESIDE:%=--ignore=%)
-	DYNO_FIT_THREADS=1 nice -n 19 $(VENV)/bin/python -m pytest -q -p no:cacheprovider -m "not slow and not realtime" --durations=5 $(BESIDE) > $(VENV)/beside.log 2>&1 & \
-	$(VENV)/bin/python -m pytest -q -m "realtime and not slow" --durations=10; wall=$$?; \
-	wait $$!; beside=$$?; echo "beside it:"; cat $(VENV)/beside.log; [ $$wall -eq 0 ] && [ $$beside -eq 0 ]
+	DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup --no-loadscope-reorder -m "not slow and not realtime" --durations=10
+	$(VENV)/bin/python -m pytest -q -m "realtime and not slow" --durations=10
 
 # the inner loop: the layers and sizes, wire formats, configs, damper files, the physics
 # components and effects, tables and metrics; no run, no diagnosis, no browser (about a minute)

@@ -149,7 +149,7 @@ class Recorder:
         t, v = t[::self.plot_every], v[::self.plot_every]
         ns = (self.t0_ns + (np.maximum(t, 0.0) * 1e9 + 0.5).astype(np.int64)).tolist()
         # 7 digits plot (the batches keep all); JSON has no nan or inf
-        data = [f'{{"value":{vi:.7g}}}'.encode() if -1e308 < vi < 1e308 else b'{"value":null}' for vi in v.tolist()]
+        data = [b'{"value":%.7g}' % vi if -1e308 < vi < 1e308 else b'{"value":null}' for vi in v.tolist()]
         add_messages(self.w, self.topics[topic], ns, data, self.seq[topic])
         self.seq[topic] += len(ns)
 

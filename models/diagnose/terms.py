@@ -78,7 +78,7 @@ def add(f, part, e, B, c):
 @functools.partial(kernels.recent, size=16)
 def _times(B, c):
     """B @ c, remembered: a finite-difference column moves another parameter and leaves
-    B and c as they were (a sixth of a diagnosis went to these products)."""
+    B and c as they were (12 % of a diagnosis went to these products)."""
     return B @ np.asarray(c)
 
 

@@ -22,6 +22,7 @@ def realtime_priority(priority):
 
 class SimulatedPacer:
     """Simulated clock: each tick advances the virtual rig by one period."""
+    wall_clock = False
 
     def __init__(self, virtual_rig, rate_hz):
         self.vr, self.dt = virtual_rig, 1.0 / rate_hz
@@ -35,6 +36,7 @@ class RealTimePacer:
     """Wall clock: sleeps to each deadline (the last 0.1 ms spun for precision); returns
     the tick's lateness. With a virtual rig, steps it by the elapsed time. It only paces:
     the time of a tick is the rig's clock."""
+    wall_clock = True
 
     def __init__(self, rate_hz, virtual_rig=None, spin_s=1e-4, fifo_priority=None):
         """fifo_priority: run the loop thread under SCHED_FIFO at this priority (1-99)

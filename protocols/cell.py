@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from rig.pacing import RealTimePacer, SimulatedPacer
+from rig.pacing import THREADS_PRIORITY, RealTimePacer, SimulatedPacer, realtime_priority, restore_priority
 from rig.safety import Safety
 
 from protocols.plan import rig_info
@@ -43,7 +43,7 @@ class Cell:
         """A new pacer for one run (a real-time pacer keeps its deadlines from its first tick)."""
         rate = self.config.rate_hz
         if self.paced:
-            return RealTimePacer(rate, virtual_rig=self.plant)
+            return RealTimePacer(rate, virtual_rig=self.plant, fifo_priority=self.config.realtime_priority)
         return SimulatedPacer(self.plant, rate)
 
     def safety(self):
@@ -81,6 +81,17 @@ def _opened(c: Cell) -> Cell:
     return c
 
 
+def _above_normal(c: Cell, config):
+    """rig.realtime_priority asked for: this thread, and the threads it starts from now on
+    (devices' readers, emulators, the recorder), under SCHED_FIFO above every normal
+    program until the cell closes; a run's loop raises its own thread further. A busy
+    program beside a run (an analysis on the cell's computer) then waits for the run, not
+    the run for it."""
+    old = realtime_priority(THREADS_PRIORITY if config.realtime_priority else None)
+    if old is not None:
+        c._close.append(lambda: restore_priority(old))
+
+
 def embedded(damper, config=None, realtime=False, plant=None) -> Cell:
     """The embedded virtual rig: the plant behind its emulators, read through the same wire
     protocols a real cell speaks. damper: a preset name, JSON path or Damper; plant: its
@@ -92,9 +103,11 @@ def embedded(damper, config=None, realtime=False, plant=None) -> Cell:
     d = load_damper(damper)
     from sim_backend.options import PlantOptions
     p = plant or PlantOptions()
-    vr = VirtualRig(config or rig_config.load("virtual"), damper=d, seed=p.seed, T0=p.T0, effects=p.effects,
-                    params=p.params)
+    config = config or rig_config.load("virtual")
+    vr = VirtualRig(config, damper=d, seed=p.seed, T0=p.T0, effects=p.effects, params=p.params)
     c = Cell(None, None, d, vr, realtime, [vr.close])
+    if realtime:
+        _above_normal(c, config)  # before the emulators start their threads
     c.config = vr.start()
     c.rig = Rig(c.config, clock=vr.clock)
     c._close.insert(0, c.rig.close)
@@ -104,8 +117,10 @@ def embedded(damper, config=None, realtime=False, plant=None) -> Cell:
 def wired(config, damper=None) -> Cell:
     """A cell on its wires (a real one, or `dyno sim-rig` serving the virtual rig), in real time."""
     from rig.rig import Rig
-    rig = Rig(config)
-    return _opened(Cell(rig, config, damper, None, True, [rig.close]))
+    rig = Rig(config)  # its devices' threads start as it opens
+    c = Cell(rig, config, damper, None, True, [rig.close])
+    _above_normal(c, config)
+    return _opened(c)
 
 
 def direct(config, damper, plant=None) -> Cell:

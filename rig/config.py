@@ -34,7 +34,9 @@ QUANTITIES = (
 AUX_UNITS = ("1", "A", "V", "N", "m", "m/s", "m/s^2", "K", "Pa", "Hz", "W", "s", "rad", "rad/s")
 
 
-RIG = {"name": Field("string"), "rate_hz": _num(above=0.0, hi=10000.0), "safe_position": _num()}
+# realtime_priority: a wall-clock run's SCHED_FIFO priority (Linux; rig/pacing.py), if asked for
+RIG = {"name": Field("string"), "rate_hz": _num(above=0.0, hi=10000.0), "safe_position": _num(),
+       "realtime_priority": Field("integer", lo=1, hi=99)}
 # what the actuator declares it can do (on the device that takes setpoints): limits within
 ACTUATOR_RATINGS = {"stroke": _num(above=0.0, hi=2.0), "force_rating": _num(above=0.0),
                     "velocity_rating": _num(above=0.0, hi=50.0)}
@@ -98,6 +100,7 @@ class RigConfig:
     text: str = field(default="", repr=False)
     actuator: str = ""  # name of the device that takes the setpoint
     thermal: dict = field(default_factory=dict)  # ambient [K], conductance [W/K], if given
+    realtime_priority: int | None = None  # SCHED_FIFO priority of the loop in real time, if asked for
 
 
 def at_rate(config: RigConfig, hz: float) -> RigConfig:
@@ -175,7 +178,7 @@ def parse(text: str, where="<config>") -> RigConfig:
                                                  f"{limits['x_min']:g}..{limits['x_max']:g} m")
     actuator = next(n for n, d in devices.items() if TRANSPORTS[d.transport].takes_setpoints(d.params))
     return RigConfig(rig.get("name", where), float(rig.get("rate_hz", 1000)), safe, devices, channels, limits,
-                     where, text, actuator, {k: float(v) for k, v in thermal.items()})
+                     where, text, actuator, {k: float(v) for k, v in thermal.items()}, rig.get("realtime_priority"))
 
 
 def _key_line(text, key):

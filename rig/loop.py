@@ -14,7 +14,6 @@ result.fault set and every sample acquired so far passed to the sinks.
 from __future__ import annotations
 
 import gc
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -23,7 +22,7 @@ import numpy as np
 
 from rig.errors import RigError
 from rig.operator_stop import OPERATOR_STOP, quiet
-from rig.pacing import realtime_priority
+from rig.pacing import realtime_priority, restore_priority
 from rig.safe_stop import SafeStop
 
 STALLED_TICKS = 100  # failed ticks in a row, the clock standing still: the stop cannot settle
@@ -88,7 +87,7 @@ class ControlLoop:
             return result
         finally:
             if policy is not None:
-                os.sched_setscheduler(0, *policy)
+                restore_priority(policy)
             sys.setswitchinterval(switch)
             if gc_enabled:
                 gc.enable()

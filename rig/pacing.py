@@ -7,9 +7,15 @@ import os
 import time
 
 
+# SCHED_FIFO priority of the threads a wall-clock cell starts (devices' readers, emulators,
+# the recorder): above every normal program, below the loop's own (rig.realtime_priority)
+THREADS_PRIORITY = 1
+
+
 def realtime_priority(priority):
     """Switch this thread to SCHED_FIFO; returns the policy to restore, or None if not
-    asked for or not allowed."""
+    asked for or not allowed (Linux as root, or within an rtprio limit). Threads it
+    starts from then on inherit the policy."""
     if not priority or not hasattr(os, "SCHED_FIFO"):
         return None
     old = (os.sched_getscheduler(0), os.sched_getparam(0))
@@ -18,6 +24,16 @@ def realtime_priority(priority):
     except OSError:
         return None
     return old
+
+
+def restore_priority(policy):
+    """Give this thread back the policy realtime_priority returned."""
+    os.sched_setscheduler(0, *policy)
+
+
+def under_fifo():
+    """Does this thread run under SCHED_FIFO?"""
+    return hasattr(os, "SCHED_FIFO") and os.sched_getscheduler(0) == os.SCHED_FIFO
 
 
 class SimulatedPacer:

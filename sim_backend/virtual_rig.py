@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from rig.devices import TRANSPORTS, by_transport
+from rig.pacing import realtime_priority
 from rig.devices.transport import FRAME_HZ, frame_hz
 from sim_backend.emulators import EMULATORS
 from sim_backend.emulators.ports import free_port
@@ -111,6 +112,7 @@ class VirtualRig:
         reaches them."""
         dt = 1.0 / self.frame_hz
         pending = sorted(faults)
+        realtime_priority(self.config.realtime_priority)  # as a real cell's devices keep their time
         gc.disable()  # no collector pauses in the real-time plant (it makes no cycles)
         t0 = time.perf_counter()
         k = 0

@@ -75,6 +75,8 @@ def test_unknown_config_name():
     ("safe_position = 0.0381", 'safe_position = "0.0381"', "rig: safe_position: expected a number"),
     ("[channels.force]", "[channels]\nfoo = 5\n[channels.force]", "channels.foo: expected a table"),
     ("device_id = 1", "device_id = 1.5", "device 'tc': device_id: expected an integer"),
+    ("realtime_priority = 50", "realtime_priority = 100", "rig: realtime_priority: must be within 1..99"),
+    ("realtime_priority = 50", "realtime_priority = 1.5", "rig: realtime_priority: expected an integer"),
     ('transport = "serial"', 'transport = "serail"', "unknown transport 'serail'; did you mean 'serial'?"),
 ])
 def test_what_would_switch_safety_off_is_refused_with_its_line(old, new, message):

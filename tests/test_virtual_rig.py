@@ -209,3 +209,30 @@ def test_a_cell_at_5_khz_streams_and_dates_every_frame_at_5_khz():
     for name in ("force", "x", "v"):
         t = got[name][0]
         assert len(t) >= 999 and np.allclose(np.diff(t), 2e-4, atol=1e-6), name
+
+
+def _fifo_granted():
+    from rig.pacing import realtime_priority, restore_priority
+    old = realtime_priority(1)
+    if old is not None:
+        restore_priority(old)
+    return old is not None
+
+
+@pytest.mark.skipif(not _fifo_granted(), reason="this OS grants no SCHED_FIFO here (root or an rtprio limit)")
+def test_a_wall_clock_cell_runs_its_threads_above_normal_programs_then_gives_that_back():
+    """rig.realtime_priority (50 in virtual.toml): a cell in real time starts its emulators'
+    threads under SCHED_FIFO at 1 and paces its loop at 50; closed, the caller is normal
+    again. A cell on a simulated clock keeps normal priority."""
+    import os
+
+    from protocols import cell
+    before = set(os.listdir("/proc/self/task"))
+    with cell.embedded("koni", realtime=True) as c:
+        started = set(os.listdir("/proc/self/task")) - before
+        assert started and all(os.sched_getscheduler(int(t)) == os.SCHED_FIFO for t in started)
+        assert os.sched_getscheduler(0) == os.SCHED_FIFO and os.sched_getparam(0).sched_priority == 1
+        assert c.pacer().fifo_priority == 50
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER
+    with cell.embedded("koni") as c:
+        assert os.sched_getscheduler(0) == os.SCHED_OTHER and c.pacer().wall_clock is False

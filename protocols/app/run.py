@@ -215,6 +215,9 @@ def _finish_run(module, name, c, claim, recorder, result, errors, ident):
         late = sum(1 for x in result.lateness_s if x > 1.0 / c.config.rate_hz)
         print(f"real time: {late} of {result.ticks} ticks late by more than a period "
               f"(worst {1e3 * max(result.lateness_s):.1f} ms, {result.missed} skipped)", file=sys.stderr)
+        if c.config.realtime_priority and not result.sched_fifo:
+            print(f"real time: rig.realtime_priority {c.config.realtime_priority} refused by the OS (it needs root or "
+                  "an rtprio limit): the loop ran at normal priority", file=sys.stderr)
     for name, found in result.measures:
         print(f"{name}: {module.summary(found)}", file=sys.stderr)
     for later in errors[1:]:

@@ -12,6 +12,7 @@ import tty
 import numpy as np
 
 from rig.codecs import loadcell as serial_frame
+from rig.pacing import under_fifo
 
 from sim_backend.emulators.outputs import outputs
 
@@ -72,11 +73,14 @@ class LoadCellAmp:
         waited for. The wait ends as the bytes arrive; its bound is for a kernel that
         never moves them (a stalled VM held one frame over 20 ms, and the tick read the
         last one)."""
-        if not 0 < self.expect < 2048:
+        if not 0 < self.expect < 2048 or self._queued() >= self.expect:
             return
+        # a thread under SCHED_FIFO blocks for a moment rather than yield: a yield never lets
+        # the kernel's worker (a normal-priority thread) onto this core to move the bytes
+        pause = 1e-5 if under_fifo() else 0.0
         end = time.perf_counter() + timeout_s
         while self._queued() < self.expect and time.perf_counter() < end:
-            time.sleep(0)
+            time.sleep(pause)
 
     def close(self):
         if getattr(self, "link_path", None) and os.path.islink(self.link_path):

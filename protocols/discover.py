@@ -22,6 +22,7 @@ from models.events import Diagnosis, NextTest, RunEnd, Verdict
 from models.diagnose import design, diagnose
 from models.diagnose.words import said
 from rig.loop import describe
+from rig.pacing import normal_priority
 from protocols.library import sine_matrix
 from protocols.plan import Plan
 from protocols.runner import Kept, RunResult, run_plan
@@ -110,8 +111,9 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
     diag = None
     while True:
         try:
-            diag = diagnose(kept.arrays(), kept.events,
-                            drives=[n for n, c in cell.config.channels.items() if getattr(c, "drives", "")])
+            with normal_priority():  # the cell holds meanwhile: no run's deadline waits for it
+                diag = diagnose(kept.arrays(), kept.events,
+                                drives=[n for n, c in cell.config.channels.items() if getattr(c, "drives", "")])
             rv = {design.key(r): r for r in design.rivals(diag)}
             last = runs[-1].fault or len(rounds) + 1 > max_rounds
             proposals = [] if last else design.propose(diag, lim, budget_s - spent, tried)

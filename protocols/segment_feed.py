@@ -13,6 +13,7 @@ import queue
 import numpy as np
 
 from models.events import SegmentEnd
+from rig.pacing import normal_priority
 
 NICE = 19  # the worker yields the cores to the control loop, the recorder and (on a bench) the simulator
 
@@ -80,9 +81,10 @@ class SegmentFeed:
 
 def niced(nice, target, *args):
     """target(*args) at a lower scheduling priority: an analysis may fall behind, the loop
-    may not."""
-    os.nice(nice)
-    target(*args)
+    may not (started by a thread under SCHED_FIFO, it leaves that first)."""
+    with normal_priority():
+        os.nice(nice)
+        target(*args)
 
 
 def merged(items):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import time
+from contextlib import contextmanager
 
 
 # SCHED_FIFO priority of the threads a wall-clock cell starts (devices' readers, emulators,
@@ -34,6 +35,21 @@ def restore_priority(policy):
 def under_fifo():
     """Does this thread run under SCHED_FIFO?"""
     return hasattr(os, "SCHED_FIFO") and os.sched_getscheduler(0) == os.SCHED_FIFO
+
+
+@contextmanager
+def normal_priority():
+    """This thread, and the threads and processes it starts meanwhile, under the normal
+    policy: an analysis on a wall-clock cell (between its runs, or in a worker beside one)
+    keeps no other program of the computer waiting."""
+    old = (os.sched_getscheduler(0), os.sched_getparam(0)) if under_fifo() else None
+    if old is not None:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    try:
+        yield
+    finally:
+        if old is not None:
+            restore_priority(old)
 
 
 class SimulatedPacer:

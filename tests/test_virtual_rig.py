@@ -222,17 +222,27 @@ def _fifo_granted():
 @pytest.mark.skipif(not _fifo_granted(), reason="this OS grants no SCHED_FIFO here (root or an rtprio limit)")
 def test_a_wall_clock_cell_runs_its_threads_above_normal_programs_then_gives_that_back():
     """rig.realtime_priority (50 in virtual.toml): a cell in real time starts its emulators'
-    threads under SCHED_FIFO at 1 and paces its loop at 50; closed, the caller is normal
-    again. A cell on a simulated clock keeps normal priority."""
+    threads under SCHED_FIFO at 1 and paces its loop at 50, an analysis on it runs at normal
+    priority; closed, the caller is normal again. A cell on a simulated clock keeps normal
+    priority."""
     import os
+    import threading
 
     from protocols import cell
+    from rig.pacing import normal_priority
     before = set(os.listdir("/proc/self/task"))
     with cell.embedded("koni", realtime=True) as c:
         started = set(os.listdir("/proc/self/task")) - before
         assert started and all(os.sched_getscheduler(int(t)) == os.SCHED_FIFO for t in started)
         assert os.sched_getscheduler(0) == os.SCHED_FIFO and os.sched_getparam(0).sched_priority == 1
         assert c.pacer().fifo_priority == 50
+        with normal_priority():  # an analysis on the cell (discover's, a live worker's)
+            seen = []
+            t = threading.Thread(target=lambda: seen.append(os.sched_getscheduler(0)))
+            t.start()
+            t.join()
+            assert os.sched_getscheduler(0) == os.SCHED_OTHER and seen == [os.SCHED_OTHER]
+        assert os.sched_getscheduler(0) == os.SCHED_FIFO
     assert os.sched_getscheduler(0) == os.SCHED_OTHER
     with cell.embedded("koni") as c:
         assert os.sched_getscheduler(0) == os.SCHED_OTHER and c.pacer().wall_clock is False

@@ -40,20 +40,12 @@ $(CHROMIUM):
 	@command -v apt-get >/dev/null || { echo "make: the browser tests need Chromium at $(CHROMIUM) (or CHROMIUM=PATH)" >&2; exit 1; }
 	$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium libpango-1.0-0 libpangoft2-1.0-0 >/dev/null
 
-# the suite in two parts: in parallel on two workers, and the tests against the wall clock.
-# Where the OS grants real-time priority (rig.realtime_priority: root or an rtprio limit) their
-# runs and sim-rigs take it and the two parts run side by side; elsewhere the wall-clock part
-# runs after, alone (a loaded machine would delay its processes past the 50 ms watchdog).
-# Each part names its ten slowest tests (the suite's budget is 8 minutes on 2 cores)
-PARALLEL = DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup --no-loadscope-reorder -m "not slow and not realtime" --durations=10
-WALL_CLOCK = $(VENV)/bin/python -m pytest -q -p no:cacheprovider -m "realtime and not slow" --durations=10
-FIFO_GRANTED = $(VENV)/bin/python -c "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))" 2>/dev/null
+# the suite in two parts: in parallel on two workers, then the tests against the wall clock
+# alone (a loaded machine would delay their processes past the 50 ms watchdog); each part
+# names its ten slowest tests (the suite's budget is 8 minutes on 2 cores)
 test: lint $(CHROMIUM)
-	if $(FIFO_GRANTED); then \
-	  $(WALL_CLOCK) > $(VENV)/wall-clock.log 2>&1 & wall=$$!; \
-	  $(PARALLEL); par=$$?; wait $$wall; rt=$$?; echo "the wall-clock tests, beside:"; cat $(VENV)/wall-clock.log; \
-	  [ $$par -eq 0 ] && [ $$rt -eq 0 ]; \
-	else $(PARALLEL) && $(WALL_CLOCK); fi
+	DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q -n 2 --dist loadgroup --no-loadscope-reorder -m "not slow and not realtime" --durations=10
+	$(VENV)/bin/python -m pytest -q -m "realtime and not slow" --durations=10
 
 # the inner loop: the layers and sizes, wire formats, configs, damper files, the physics
 # components and effects, tables and metrics; no run, no diagnosis, no browser (about a minute)

@@ -134,7 +134,7 @@ def test_the_dyno_runs_its_own_next_tests_on_the_wires(tmp_path, sim_rig):
 ])
 def test_a_fault_on_each_transport_trips_safely_and_keeps_the_recording(tmp_path, sim_rig, fault, message, stale_s):
     cfg = sim_rig_config(tmp_path, stale_s=stale_s)  # None: the shipped 50 ms watchdog
-    sim_rig(cfg, "--fault", f"{fault}@3")
+    sim_rig(cfg, "--fault", f"{fault}@5")
     out = tmp_path / "fault.mcap"
     p = dyno("run", "sine-matrix", "amplitudes_mm=6.4", "freqs_hz=2", "record_cycles=12", "--rig", cfg,
              "--out", out, timeout=120)

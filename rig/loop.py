@@ -74,8 +74,8 @@ class ControlLoop:
         gc.disable()
         # a device thread holding the GIL would keep a wall-clock loop waiting up to the switch
         # interval (5 ms by default); on a simulated clock no deadline waits, and handing the
-        # GIL to the recorder's thread every 0.1 ms only costs (a standard run on the direct
-        # cell: 49 CPU-s so, 29 without)
+        # GIL to the recorder's thread every 0.1 ms only costs (the suite's shortened standard
+        # run on the direct cell: 39 CPU-s so, 30 without, three runs each)
         switch = sys.getswitchinterval()
         if self.pacer.wall_clock:
             sys.setswitchinterval(1e-4)

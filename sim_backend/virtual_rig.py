@@ -20,8 +20,8 @@ import time
 from pathlib import Path
 
 from rig.devices import TRANSPORTS, by_transport
-from rig.pacing import realtime_priority
 from rig.devices.transport import FRAME_HZ, frame_hz
+from rig.pacing import realtime_priority
 from sim_backend.emulators import EMULATORS
 from sim_backend.emulators.ports import free_port
 from sim_backend.plant import Plant

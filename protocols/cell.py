@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from rig.pacing import THREADS_PRIORITY, RealTimePacer, SimulatedPacer, realtime_priority, restore_priority
+from rig.pacing import RealTimePacer, SimulatedPacer, above_normal, restore_priority
 from rig.safety import Safety
 
 from protocols.plan import rig_info
@@ -82,12 +82,10 @@ def _opened(c: Cell) -> Cell:
 
 
 def _above_normal(c: Cell, config):
-    """rig.realtime_priority asked for: this thread, and the threads it starts from now on
-    (devices' readers, emulators, the recorder), under SCHED_FIFO above every normal
-    program until the cell closes; a run's loop raises its own thread further. A busy
-    program beside a run (an analysis on the cell's computer) then waits for the run, not
-    the run for it."""
-    old = realtime_priority(THREADS_PRIORITY if config.realtime_priority else None)
+    """The cell's threads above every normal program until it closes (rig.pacing.above_normal);
+    a run's loop raises its own thread further. A busy program beside a run (an analysis on
+    the cell's computer) then waits for the run, not the run for it."""
+    old = above_normal(config)
     if old is not None:
         c._close.append(lambda: restore_priority(old))
 

@@ -13,18 +13,30 @@ from contextlib import contextmanager
 THREADS_PRIORITY = 1
 
 
+def _policy():
+    """This thread's scheduling policy and its parameters, as restore_priority takes them."""
+    return os.sched_getscheduler(0), os.sched_getparam(0)
+
+
 def realtime_priority(priority):
     """Switch this thread to SCHED_FIFO; returns the policy to restore, or None if not
     asked for or not allowed (Linux as root, or within an rtprio limit). Threads it
     starts from then on inherit the policy."""
     if not priority or not hasattr(os, "SCHED_FIFO"):
         return None
-    old = (os.sched_getscheduler(0), os.sched_getparam(0))
+    old = _policy()
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(int(priority)))
     except OSError:
         return None
     return old
+
+
+def above_normal(config):
+    """A wall-clock cell's threads (devices' readers, emulators, the recorder): this thread
+    and those it starts from now on at THREADS_PRIORITY if the rig config asks for
+    real-time priority; the policy to restore, or None."""
+    return realtime_priority(THREADS_PRIORITY if config.realtime_priority else None)
 
 
 def restore_priority(policy):
@@ -42,7 +54,7 @@ def normal_priority():
     """This thread, and the threads and processes it starts meanwhile, under the normal
     policy: an analysis on a wall-clock cell (between its runs, or in a worker beside one)
     keeps no other program of the computer waiting."""
-    old = (os.sched_getscheduler(0), os.sched_getparam(0)) if under_fifo() else None
+    old = _policy() if under_fifo() else None
     if old is not None:
         os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
     try:

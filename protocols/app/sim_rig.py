@@ -43,7 +43,7 @@ def parse_faults(specs):
 def run(args):
     from rig import config as rig_config
     from rig.devices import TRANSPORTS
-    from rig.pacing import THREADS_PRIORITY, realtime_priority
+    from rig.pacing import above_normal
     from sim_backend.virtual_rig import VirtualRig
     faults = parse_faults(args.fault)
     cfg = rig_config.load(args.config)
@@ -51,7 +51,7 @@ def run(args):
     vr = VirtualRig(cfg, damper=p.damper, seed=p.seed, effects=p.effects, params=p.params)
     # the emulators' threads above every normal program, as the devices of a real cell are
     # (rig.realtime_priority); the stepping thread raises itself further
-    realtime_priority(THREADS_PRIORITY if cfg.realtime_priority else None)
+    above_normal(cfg)
     try:
         served = vr.start()
     except OSError as e:

@@ -1,10 +1,13 @@
 """Shared by several test modules: one shortened standard run on the virtual plant (made
-once; the live identification has a run of its own in test_identify.py), and `dyno sim-rig`
-processes."""
+once; the live identification has a run of its own in test_identify.py), `dyno` commands
+run in the test's process, and `dyno sim-rig` processes."""
+import contextlib
+import io
 import os
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -17,6 +20,20 @@ DYNO = str(Path(sys.executable).parent / "dyno")
 if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit():
     from models import threads
     threads.share(int(os.environ["PYTEST_XDIST_WORKER_COUNT"]))
+
+
+def dyno(*args):
+    """`dyno ARGS` run in this process (the console script's own main: a process each would
+    spend most of its time importing); (returncode, stdout, stderr) as a process gives them.
+    An exception main lets through fails the test, as a traceback would."""
+    from protocols.app import cli
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = cli.main([str(a) for a in args])
+        except SystemExit as e:  # argparse's usage errors
+            code = e.code if isinstance(e.code, int) else 1
+    return SimpleNamespace(returncode=code, stdout=out.getvalue(), stderr=err.getvalue())
 
 
 def recorded(out, protocol, params, damper="koni", effects=(), plain=False):
@@ -108,11 +125,20 @@ LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open"
 SHARED = ("koni_run", "prove_keep")
 
 
+def _order(item):
+    """The tests against the wall clock first, one after another on one worker (about one core
+    for 150 s, beside one test of the others instead of two), then the longest."""
+    if item.get_closest_marker("realtime"):
+        return -1
+    return next((i for i, n in enumerate(LONGEST) if item.nodeid.split("/")[-1].startswith(n)), len(LONGEST))
+
+
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items):
     for item in items:
+        if item.get_closest_marker("realtime"):
+            item.add_marker(pytest.mark.xdist_group("realtime"))
         for name in SHARED:
             if name in getattr(item, "fixturenames", ()) and not item.get_closest_marker("xdist_group"):
                 item.add_marker(pytest.mark.xdist_group(name))
-    items.sort(key=lambda item: next((i for i, n in enumerate(LONGEST) if item.nodeid.split("/")[-1].startswith(n)),
-                                     len(LONGEST)))
+    items.sort(key=_order)

@@ -1,16 +1,12 @@
 """`dyno check`: production QA of a run against a reference run or a damper model."""
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from protocols.reports import peaks, qa
-from tests.conftest import recorded
+from tests.conftest import dyno, recorded
 
-DYNO = str(Path(sys.executable).parent / "dyno")
 
 
 def _peak(freq, F):
@@ -51,24 +47,19 @@ def test_each_speed_and_direction_passes_or_fails_with_its_margin():
 def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_damper(tmp_path):
     rec, _ = recorded(tmp_path / "k.mcap", "sine-matrix", {"amplitudes_mm": [12.7], "freqs_hz": [2.0, 8.0],
                                                           "record_cycles": 2})
-    p = subprocess.run([DYNO, "check", str(rec), "--against", str(rec), "--out", str(tmp_path / "qa")],
-                       capture_output=True, text=True, timeout=120)
+    p = dyno("check", str(rec), "--against", str(rec), "--out", str(tmp_path / "qa"))
     assert p.returncode == 0, p.stderr
     assert "PASS" in p.stdout and (tmp_path / "qa" / "check.png").stat().st_size > 10_000
-    p = subprocess.run([DYNO, "check", str(rec), "--against", "koni", "--tolerance", "3%"], capture_output=True,
-                       text=True, timeout=120)
+    p = dyno("check", str(rec), "--against", "koni", "--tolerance", "3%")
     assert p.returncode == 0 and "PASS" in p.stdout, p.stdout + p.stderr  # the plant is the koni model
-    p = subprocess.run([DYNO, "check", str(rec), "--against", "mechformance", "--units", "us"],
-                       capture_output=True, text=True, timeout=120)
+    p = dyno("check", str(rec), "--against", "mechformance", "--units", "us")
     assert p.returncode == 1 and "FAIL" in p.stdout and " lbf, margin " in p.stdout, p.stdout + p.stderr
-    p = subprocess.run([DYNO, "check", str(rec), "--against", str(tmp_path / "none.mcap")], capture_output=True,
-                       text=True, timeout=60)
+    p = dyno("check", str(rec), "--against", str(tmp_path / "none.mcap"))
     assert p.returncode == 2 and p.stderr.strip().endswith("none.mcap: no such file")
     # each check made is a row of the catalogue beside the run: three verdicts, the last a FAIL
-    p = subprocess.run([DYNO, "runs", "list", str(tmp_path), "--json"], capture_output=True, text=True, timeout=60)
+    p = dyno("runs", "list", str(tmp_path), "--json")
     run_id = json.loads(p.stdout)[0]["id"]
-    p = subprocess.run([DYNO, "runs", "show", str(run_id), str(tmp_path), "--json"], capture_output=True,
-                       text=True, timeout=60)
+    p = dyno("runs", "show", str(run_id), str(tmp_path), "--json")
     checks = json.loads(p.stdout)["checks"]
     assert [k["failed"] > 0 for k in checks] == [False, False, True], p.stderr
     assert checks[2]["reference"].startswith("model mechformance") and checks[2]["worst_margin_n"] < 0

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from protocols.io.reader import load_recording
-from tests.test_hostile_inputs import dyno, one_line_error
+from tests.conftest import dyno
+from tests.test_hostile_inputs import one_line_error
 
 RATE = 300.0  # Hz: the student crank dyno's
 START = datetime(2025, 11, 14, 20, 14, 37, 917152, tzinfo=timezone.utc)

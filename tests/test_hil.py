@@ -18,6 +18,7 @@ from protocols.io.reader import load_recording
 from protocols.library import roads
 from protocols.plan import ParamError
 from rig.compensation import Adaptive, NoCompensation, Polynomial, fit, kernels
+from tests.conftest import dyno
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 H = 1e-3
@@ -134,7 +135,7 @@ def test_the_loop_reproduces_the_reference_with_a_known_damper_model(tmp_path):
     ch, _, _ = load_recording(out)
     assert {"hil.x_target", "hil.error", "hil.ref.body_acc", "hil.tire_load"} <= set(ch)
     assert "J2" in p.stderr and "pre-flight (the run against the virtual plant)" in p.stderr
-    r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
+    r = dyno("report", str(out), "--out", str(tmp_path / "rep"))
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "hil-tracking.png" in page and "hil-responses.png" in page and "J2 [%]" in page
@@ -157,7 +158,7 @@ def test_an_unstable_loop_trips_the_guard_and_stops_safely(tmp_path):
     _, events, _ = load_recording(out)
     kinds = [e.kind for e in events]
     assert "fault" in kinds and kinds[-1] == "run_end"
-    r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
+    r = dyno("report", str(out), "--out", str(tmp_path / "rep"))
     assert r.returncode == 0 and (tmp_path / "rep" / "hil-tracking.png").exists(), r.stderr  # where it diverged
 
 
@@ -213,7 +214,7 @@ def test_replay_converges_on_the_target(tmp_path):
     for i in range(3):
         a, b = (t_ for t_, name in spans if name == f"replay iteration {i}")
         assert np.sum((t >= a) & (t < b)) > 0.99 * (b - a) * 1000, i
-    r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True)
+    r = dyno("report", str(out), "--out", str(tmp_path / "rep"))
     page = (tmp_path / "rep" / "index.html").read_text()
     assert r.returncode == 0 and "replay.png" in page, r.stderr
     # the error of each iteration, as a table beside the figure

@@ -1,8 +1,7 @@
 """Careless and hostile input gets one line naming the problem and exit 2, never a
 traceback, and no file already written is lost (issue 17's list, rerun as tests)."""
-import contextlib
-import io
 import argparse
+import contextlib
 import json
 import os
 import re
@@ -21,24 +20,12 @@ from hypothesis import strategies as st
 
 from models import damper as dm
 from protocols.app import cli, import_csv
-from rig.config import CONFIG_DIR
 from protocols.errors import UsageError
+from rig.config import CONFIG_DIR
+from tests.conftest import dyno
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 MAP = ["--map", "time=t:s", "--map", "displacement=x:mm", "--map", "force=F:N"]
-
-
-def dyno(*args):
-    """`dyno ARGS` run in this process (the console script's own main: a process each would
-    spend most of its time importing); (returncode, stdout, stderr) as a process gives them.
-    An exception main lets through fails the test, as a traceback would."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = cli.main([str(a) for a in args])
-        except SystemExit as e:  # argparse's usage errors
-            code = e.code if isinstance(e.code, int) else 1
-    return SimpleNamespace(returncode=code, stdout=out.getvalue(), stderr=err.getvalue())
 
 
 def one_line_error(p, *words):

@@ -18,7 +18,7 @@ from models.identify.dynamic import direction_ranges
 from models.identify.parameters import z_bounds
 from models.identify.static import settled
 from models.physics.simulate import simulate, sine
-from tests.conftest import recorded
+from tests.conftest import dyno, recorded
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -190,8 +190,8 @@ def test_live_identification_writes_the_model_next_to_the_recording(tmp_path):
 
 def test_identify_against_the_truth(koni_run, tmp_path):
     out, _ = koni_run
-    p = subprocess.run([DYNO, "identify", str(out), "--truth", "koni", "--json", "--out", str(tmp_path / "m.json"),
-                        "--report", str(tmp_path / "rep")], capture_output=True, text=True, timeout=900)
+    p = dyno("identify", str(out), "--truth", "koni", "--json", "--out", str(tmp_path / "m.json"),
+             "--report", str(tmp_path / "rep"))
     assert p.returncode == 0, p.stderr[-2000:]
     doc = json.loads(p.stdout)
     rows = {r["name"]: r for r in doc["parameters"]}
@@ -231,16 +231,14 @@ def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     _csv(csv, ["Time_ms", "Pos_mm", "Load_kN", "Spare"],
          [(1e3 * a, 1e3 * b, 1e-3 * c, None) for a, b, c in zip(t[k], x, F[k])], trailing=",")
     mcap = tmp_path / "cell.mcap"
-    p = subprocess.run([DYNO, "import", str(csv), "--out", str(mcap), "--map", "time=Time_ms:ms",
-                        "--map", "displacement=Pos_mm:mm", "--map", "force=Load_kN:kN"],
-                       capture_output=True, text=True, timeout=120)
+    p = dyno("import", str(csv), "--out", str(mcap), "--map", "time=Time_ms:ms",
+             "--map", "displacement=Pos_mm:mm", "--map", "force=Load_kN:kN")
     assert p.returncode == 0, p.stderr
     assert "velocity derived from displacement" in p.stdout
-    q = subprocess.run([DYNO, "identify", str(mcap), "--json"], capture_output=True, text=True, timeout=600)
+    q = dyno("identify", str(mcap), "--json")
     assert q.returncode == 0, q.stderr  # no description in a CSV: the model that needs none (issue 43)
     assert json.loads(q.stdout)["model"] == "minimal" and (tmp_path / "cell.minimal.json").exists()
-    q = subprocess.run([DYNO, "identify", str(mcap), "--damper", "koni", "--json"], capture_output=True, text=True,
-                       timeout=900)
+    q = dyno("identify", str(mcap), "--damper", "koni", "--json")
     assert q.returncode == 0, q.stderr[-2000:]
     doc = json.loads(q.stdout)
     assert doc["steps"]["static"].startswith("skipped")
@@ -250,7 +248,7 @@ def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     assert doc["heldout_nrmse"] < 0.05
     # the recording's catalogue keeps the model made of it, and `dyno runs show` lists it
     assert "model catalogued in" in q.stderr
-    shown = subprocess.run([DYNO, "runs", "show", "1", str(tmp_path), "--json"], capture_output=True, text=True)
+    shown = dyno("runs", "show", "1", str(tmp_path), "--json")
     assert shown.returncode == 0, shown.stderr
     model = json.loads(shown.stdout)["models"][-1]
     assert model["model"].endswith("cell.model.json") and model["heldout_nrmse"] == pytest.approx(doc["heldout_nrmse"])
@@ -347,7 +345,7 @@ def test_gamma_from_pressures_sampled_at_the_forces_rate(tmp_path):
     dividing by it. Now gamma comes out as the plain cell's."""
     out, _ = recorded(tmp_path / "fast.mcap", "sine-matrix", {"amplitudes_mm": [6.4, 3.2], "freqs_hz": [2.0, 8.0],
                                                               "record_cycles": 4}, plain=True)
-    p = subprocess.run([DYNO, "identify", str(out), "--json"], capture_output=True, text=True, timeout=300)
+    p = dyno("identify", str(out), "--json")
     assert p.returncode == 0, p.stderr[-2000:]
     gamma = next(e for e in json.loads(p.stdout)["estimates"] if e["name"] == "gas_spring.gamma")
     assert gamma["value"] == pytest.approx(load("koni-plain").gas_spring.gamma, rel=0.02)

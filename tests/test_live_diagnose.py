@@ -11,6 +11,7 @@ from pathlib import Path
 from models.events import Diagnosis
 from models.recording import segments
 from protocols.io.reader import load_recording
+from tests.conftest import dyno
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -35,8 +36,7 @@ def test_a_live_diagnosis_event_is_written_during_a_run_on_the_embedded_rig(tmp_
     assert p["named"] == [] and p["within_noise"], p["findings"]  # the plain cell: nothing left out of its own damper
     assert f"diagnose: {sines[0][0]} (" in r.stderr
     # the report says them per segment, not as discover's rounds
-    rep = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
-                         timeout=300)
+    rep = dyno("report", str(out), "--out", str(tmp_path / "rep"))
     assert rep.returncode == 0, rep.stderr
     html = unescape((tmp_path / "rep" / "index.html").read_text())
     assert "Diagnosed while the run went on" in html and "next tests" not in html

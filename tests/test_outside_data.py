@@ -2,8 +2,6 @@
 (tests/data/mr-damper/, provenance in its README), data-quality flags, a time split,
 hysteresis, motion that does not repeat, and effects that trade against each other."""
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,13 +11,9 @@ from models.diagnose import form_share, holdout_masks, quality, trades
 from models.diagnose.candidates import Model
 from models.diagnose.kernels import bouc_wen, dahl
 from models.diagnose.data import Data
+from tests.conftest import dyno
 
-DYNO = [sys.executable, "-m", "protocols.app.cli"]
 MR = Path(__file__).parent / "data" / "mr-damper" / "ransim_u.csv"
-
-
-def dyno(*args, timeout=600):
-    return subprocess.run([*DYNO, *map(str, args)], capture_output=True, text=True, timeout=timeout)
 
 
 def test_the_mr_recording_names_hysteresis_and_the_voltage_on_a_time_split(tmp_path):

@@ -23,6 +23,7 @@ from rig.pacing import SimulatedPacer
 from rig.rig import Rig
 from rig.safety import Safety
 from sim_backend.virtual_rig import VirtualRig
+from tests.conftest import dyno
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 CHANNELS = ("force", "x", "v", "x_internal", "T_body", "T_reservoir", "P_gas", "P1", "P2", "aux.valve_current")
@@ -85,8 +86,7 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert n["/channels/x"] > 10000 and abs(n["/channels/force"] - n["/channels/x"]) <= 1
     # the same recording as one wide table on the force clock, for pandas or a spreadsheet
     table = tmp_path / "x.csv"
-    p = subprocess.run([DYNO, "export", str(out), "--csv", str(table), "--channels", "force,x,T_body"],
-                       capture_output=True, text=True, timeout=120)
+    p = dyno("export", str(out), "--csv", str(table), "--channels", "force,x,T_body")
     assert p.returncode == 0, p.stderr
     import csv
     rows = list(csv.reader(table.open()))
@@ -105,8 +105,7 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     import pandas as pd
     import pyarrow.parquet as pq
     parquet = tmp_path / "x.parquet"
-    p = subprocess.run([DYNO, "export", str(out), "--parquet", str(parquet), "--channels", "force,x,T_body"],
-                       capture_output=True, text=True, timeout=120)
+    p = dyno("export", str(out), "--parquet", str(parquet), "--channels", "force,x,T_body")
     assert p.returncode == 0, p.stderr
     df, csv_df = pd.read_parquet(parquet), pd.read_csv(table)
     assert list(df.columns) == list(csv_df.columns) == rows[0] and len(df) == len(csv_df)
@@ -115,8 +114,7 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     assert json.loads(pq.read_schema(parquet).metadata[b"dyno"])["run"]["setup.shims"] == "A-3"
     # a replay target from one segment: what `dyno run replay --target` reads, about mid-stroke
     target = tmp_path / "target.csv"
-    p = subprocess.run([DYNO, "export", str(out), "--target", str(target), "--segment", "sine 6.4 mm 2 Hz"],
-                       capture_output=True, text=True, timeout=120)
+    p = dyno("export", str(out), "--target", str(target), "--segment", "sine 6.4 mm 2 Hz")
     assert p.returncode == 0 and "dyno run replay --target" in p.stdout, p.stderr
     from protocols.library import replay
     from protocols.plan import ParamError
@@ -165,7 +163,7 @@ def test_sigkill_then_recover_keeps_all_but_the_last_second(tmp_path):
     with pytest.raises(Exception):  # noqa: B017 - the indexed reader refuses the torn file, by its own error
         with open(out, "rb") as f:
             list(make_reader(f).iter_messages())
-    r = subprocess.run([DYNO, "recover", str(out)], capture_output=True, text=True, timeout=60)
+    r = dyno("recover", str(out))
     assert r.returncode == 0 and "recovered" in r.stdout, r.stderr
     assert out.with_name("killed.mcap.damaged").exists()
     summary, meta, attachments, messages = read(out)
@@ -261,8 +259,7 @@ def test_live_view_logs_the_documented_entities():
 
 def test_report_of_a_standard_run(koni_run, tmp_path):
     out, _ = koni_run  # static holds, low-speed, sine matrix, temperature sweep (conftest.py)
-    r = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
-                       timeout=120)
+    r = dyno("report", str(out), "--out", str(tmp_path / "rep"))
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "Protocol standard," in page
@@ -289,8 +286,7 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     assert np.all(friction > 50) and np.all(friction < 200)  # the Koni's seal, 55-95 N static x 1.7 moving
     # the recording's own damper overlaid: the model's peaks are the plant's; damping force
     # (measured less gas and friction) is negative in rebound at every speed
-    r = subprocess.run([DYNO, "report", str(out), "--model", "koni", "--out", str(tmp_path / "model")],
-                       capture_output=True, text=True, timeout=300)
+    r = dyno("report", str(out), "--model", "koni", "--out", str(tmp_path / "model"))
     assert r.returncode == 0, r.stderr
     assert "Model overlaid: koni." in (tmp_path / "model" / "index.html").read_text()
     assert (tmp_path / "model" / "report.pdf").read_bytes().startswith(b"%PDF")
@@ -310,16 +306,14 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     assert len(done) >= 5 and all(float(r["Fd_reb_N"]) < 0 < float(r["Fd_comp_N"]) for r in done)
     assert all(float(a["F_comp_N"]) < float(b["F_comp_N"]) for a, b in zip(done, done[1:]))
     # the same report in US units: the table's round in/s and the forces in lbf
-    r = subprocess.run([DYNO, "report", str(out), "--model", "koni", "--units", "us", "--out", str(tmp_path / "us")],
-                       capture_output=True, text=True, timeout=300)
+    r = dyno("report", str(out), "--model", "koni", "--units", "us", "--out", str(tmp_path / "us"))
     assert r.returncode == 0, r.stderr
     us = list(csv.DictReader(open(tmp_path / "us" / "velocity.csv")))
     assert [float(r["v_in_s"]) for r in us][:3] == [1, 2, 3]
     peak_us = list(csv.DictReader(open(tmp_path / "us" / "peaks.csv")))
     assert float(peak_us[0]["F_comp_lbf"]) == pytest.approx(float(rows[0]["F_comp_N"]) / 4.4482216, rel=1e-4)
     assert "F comp [lbf]" in (tmp_path / "us" / "index.html").read_text()
-    r = subprocess.run([DYNO, "report", str(out), str(out), str(out), "--out", str(tmp_path / "cmp")],
-                       capture_output=True, text=True, timeout=120)
+    r = dyno("report", str(out), str(out), str(out), "--out", str(tmp_path / "cmp"))
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "cmp" / "index.html").read_text()
     # three runs, each named by its damper and serial; B and C against A, segment by segment
@@ -328,14 +322,11 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     diffs = list(csv.DictReader(open(tmp_path / "cmp" / "differences.csv")))
     assert len(diffs) == 2 * 13 and {d["run"] for d in diffs} == {"B", "C"}
     assert all(float(d["diff_comp_pct"]) == 0 for d in diffs)
-    bad = subprocess.run([DYNO, "report", str(out), "--model", str(tmp_path / "none.json"), "--out", str(tmp_path / "r")],
-                         capture_output=True, text=True, timeout=60)
+    bad = dyno("report", str(out), "--model", str(tmp_path / "none.json"), "--out", str(tmp_path / "r"))
     assert bad.returncode == 2 and "none.json: no such file" in bad.stderr
-    bad = subprocess.run([DYNO, "report", str(out), "--speeds", "0.1,fast", "--out", str(tmp_path / "r")],
-                         capture_output=True, text=True, timeout=60)
+    bad = dyno("report", str(out), "--speeds", "0.1,fast", "--out", str(tmp_path / "r"))
     assert bad.returncode == 2 and bad.stderr.strip().endswith("is not a comma-separated list of speeds in mm/s")
-    bad = subprocess.run([DYNO, "report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "r")],
-                         capture_output=True, text=True, timeout=60)
+    bad = dyno("report", str(tmp_path / "nope.mcap"), "--out", str(tmp_path / "r"))
     assert bad.returncode == 2 and "no such file" in bad.stderr
 
 
@@ -550,8 +541,7 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
     p = subprocess.run([DYNO, "run", "step", "steps_mm=5,-5", "--out", str(out)], capture_output=True, text=True,
                        timeout=300)
     assert p.returncode == 0, p.stderr
-    p = subprocess.run([DYNO, "report", str(out), "--out", str(tmp_path / "rep")], capture_output=True, text=True,
-                       timeout=300)
+    p = dyno("report", str(out), "--out", str(tmp_path / "rep"))
     assert p.returncode == 0, p.stderr
     html = (tmp_path / "rep" / "index.html").read_text()
     assert "No measured segments" not in html and "rise 10-90 % [ms]" in html and (tmp_path / "rep" / "steps.png").exists()

@@ -101,7 +101,9 @@ class ValvePath:
 @dataclass
 class Bypass:
     """Mis-seated bypass disc (eqs 4.15-4.16): open while F = dP12 A_w > dP_seat_Aw."""
-    C_seatw: float = q("N s/m", 0.0, 1e6)
+    # open, the bypass passes F / C_seatw of flow (eq 4.16): at least a valve's weakest low branch,
+    # or a vanishing coefficient passes an unbounded flow (a subnormal 2e-309 gave NaN forces)
+    C_seatw: float = q("N s/m", LOW_BRANCH_MIN, 1e6)
     dP_seat_Aw: float = q("N", -1e5, 1e5)  # seating force
 
 
@@ -422,8 +424,6 @@ def check(model) -> None:
         if p is not None:
             _check_direction(p.compression, 1.0, f"valves.{pname}.compression")
             _check_direction(p.rebound, -1.0, f"valves.{pname}.rebound")
-    if v.bypass is not None:
-        _positive(v.bypass.C_seatw, "valves.bypass.C_seatw")
     c = model.compressibility
     if not 0.0 <= c.air_fraction < 0.2:
         raise DamperError(f"compressibility.air_fraction: {c.air_fraction} is not in [0, 0.2)")

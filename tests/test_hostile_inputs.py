@@ -409,6 +409,16 @@ def test_a_zero_pressure_slope_of_the_bulk_modulus_is_named():
     with pytest.raises(dm.DamperError, match="compressibility.C_sbeta: must be positive"):
         dm.from_dict(doc)
 
+
+def test_a_vanishing_bypass_coefficient_is_named():
+    """Found by the test above: an open bypass of 2.2e-309 N s/m passed an unbounded flow
+    (eq 4.16) and the forces came out NaN."""
+    doc = dm.to_dict(dm.load("mechformance"))
+    doc["valves"]["bypass"]["C_seatw"] = 2.225073858507203e-309
+    with pytest.raises(dm.DamperError, match=r"^valves\.bypass\.C_seatw: "):
+        dm.from_dict(doc)
+
+
 @pytest.mark.realtime
 def test_two_runs_on_one_file_and_a_failed_start_lose_nothing(tmp_path, files):
     """A second writer of the same file is refused while the first runs; a run that fails

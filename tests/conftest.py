@@ -124,10 +124,14 @@ LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open"
 # test left out of the group made the 50 s standard run again on the other worker)
 SHARED = ("koni_run", "prove_keep")
 
+# One worker runs the tests against the wall clock first, one after another (about one core
+# for 150 s: beside them one other test runs, not two), then the prove runs. A prove run's
+# recording hands every tick from thread to thread through the embedded rig's emulators;
+# beside the wall-clock tests' SCHED_FIFO threads it took twice its time.
+SERIAL = "wall clock, then prove"
+
 
 def _order(item):
-    """The tests against the wall clock first, one after another on one worker (about one core
-    for 150 s, beside one test of the others instead of two), then the longest."""
     if item.get_closest_marker("realtime"):
         return -1
     return next((i for i, n in enumerate(LONGEST) if item.nodeid.split("/")[-1].startswith(n)), len(LONGEST))
@@ -136,8 +140,8 @@ def _order(item):
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items):
     for item in items:
-        if item.get_closest_marker("realtime"):
-            item.add_marker(pytest.mark.xdist_group("realtime"))
+        if item.get_closest_marker("realtime") or "prove_keep" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group(SERIAL))
         for name in SHARED:
             if name in getattr(item, "fixturenames", ()) and not item.get_closest_marker("xdist_group"):
                 item.add_marker(pytest.mark.xdist_group(name))

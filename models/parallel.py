@@ -20,6 +20,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
+from models import threads
+
 
 class TaskFailed(RuntimeError):
     """A job failed twice; the message names it."""
@@ -61,7 +63,6 @@ def heap_for_arrays():
 def worker_start(processes):
     """A pool worker's start, one of `processes`: its share of the cores for its fits (models/threads.py), its
     arrays on the heap, its kernels warm."""
-    from models import threads
     threads.share(processes)
     heap_for_arrays()
     warm()
@@ -102,7 +103,8 @@ def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", name
     """[fn(job) for job in jobs], in parallel.
 
     executor: an Executor to submit to (left open); by default a process pool of
-    `workers` processes (the machine's cores, each warmed once) is made for the call.
+    `workers` processes (each warmed once) is made for the call: by default the cores this
+    process may use, its share where processes share them (models/threads.py).
     workers=1 without an executor runs in this process. progress: a stream for the
     progress bar, True for stderr, None for none. names: each job's name in messages
     (default: its number). done(i, result): called in this process as each job's result
@@ -114,7 +116,7 @@ def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", name
     if progress and jobs:
         bar = Progress(len(jobs), label, None if progress is True else progress)
     try:
-        return _run(fn, jobs, names, executor, workers or os.cpu_count() or 1, bar, done or (lambda i, r: None))
+        return _run(fn, jobs, names, executor, workers or threads.cores(), bar, done or (lambda i, r: None))
     except BaseException:
         if bar and bar.done < bar.total:
             bar.stream.write("\n")  # an error message after us starts on its own line

@@ -80,7 +80,7 @@ def executor(spec: str):
         if kind == "local":
             # CRITICAL: a task's failure comes back through its future; what the workers log at
             # ERROR is shutdown noise (a heartbeat racing the scheduler's close) printed as a traceback
-            cluster = LocalCluster(n_workers=arg or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+            cluster = LocalCluster(n_workers=arg or threads.cores(), threads_per_worker=1, processes=True,
                                    host="127.0.0.1", dashboard_address=None, silence_logs=50)
             client = Client(cluster)
         else:

@@ -2,10 +2,10 @@
 from __future__ import annotations
 
 import functools
-import os
 import sys
 from pathlib import Path
 
+from models import threads
 from models.damper import DamperError, load
 
 from protocols.app.arguments import FOLDER, cluster_option, number, overwrite, writes
@@ -42,7 +42,7 @@ def add(sub):
         if name == "quarter-car":
             q.add_argument("--temp", type=number(), default=90.0, help="damper temperature in C (default 90)")
         q.add_argument("--workers", type=number(1, 256, integer=True), default=None,
-                       help="processes (default: all cores)")
+                       help="processes (default: the cores dyno may run on)")
         cluster_option(q)
         q.set_defaults(command=command)
 
@@ -89,7 +89,7 @@ def quarter_car(args, out):
     car = qcm.load(args.car)
     d = load(args.damper)
     T = float(args.temp) + 273.15
-    with cluster.pool(args.cluster, args.workers or os.cpu_count() or 1) as (ex, _):
+    with cluster.pool(args.cluster, args.workers or threads.cores()) as (ex, _):
         fr = sweeps.frequency_response(car, d, [a * 1e-3 for a in args.amplitude_mm], _freqs(args), T=T,
                                        executor=ex, progress=True)
     pngs = [qp.plot_frequency_response(fr, out / f"frequency-response-{d.name}.png")]
@@ -112,7 +112,7 @@ def parametric(args, folder):
     from protocols.reports import quarter_car as qp
     from models.quarter_car import sweeps
     car = qcm.load(args.car)
-    with cluster.pool(args.cluster, args.workers or os.cpu_count() or 1) as (ex, _):
+    with cluster.pool(args.cluster, args.workers or threads.cores()) as (ex, _):
         study = sweeps.parametric_study(car, args.damper, [a * 1e-3 for a in args.amplitude_mm], _freqs(args),
                                         executor=ex, progress=True)
     return qp.plot_parametric(study, folder, args.damper)
@@ -124,7 +124,7 @@ def simplified(args, folder):
     from models import quarter_car as qcm
     from protocols.reports import quarter_car as qp
     from models.quarter_car import sweeps
-    with cluster.pool(args.cluster, args.workers or os.cpu_count() or 1) as (ex, _):
+    with cluster.pool(args.cluster, args.workers or threads.cores()) as (ex, _):
         res = sweeps.simplified_comparison(qcm.load(args.car), args.damper, freqs=_freqs(args), executor=ex,
                                            progress=True)
     return [qp.plot_simplified(res, folder / "simplified-models.png")]

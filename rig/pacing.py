@@ -12,6 +12,9 @@ from contextlib import contextmanager
 # the recorder): above every normal program, below the loop's own (rig.realtime_priority)
 THREADS_PRIORITY = 1
 
+# share of a wall-clock tick an embedded virtual rig waits for its frames to reach the driver
+SETTLE_SHARE = 0.25
+
 
 def _policy():
     """This thread's scheduling policy and its parameters, as restore_priority takes them."""
@@ -111,5 +114,7 @@ class RealTimePacer:
                 time.sleep(left - self.spin)
         now = time.perf_counter()
         if self.vr is not None:
-            self.vr.step(self.dt * (1 + skip))
+            # the frames may reach the driver a tick late, as on a real cell, rather than
+            # make the loop wait for the kernel's worker (rig/stream_clock.py dates them)
+            self.vr.step(self.dt * (1 + skip), settle_s=SETTLE_SHARE * self.dt)
         return now - due  # lateness counts the stall

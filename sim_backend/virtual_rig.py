@@ -87,19 +87,21 @@ class VirtualRig:
         self.publish()
         return cfg
 
-    def step(self, dt, settle=True):
+    def step(self, dt, settle_s=1.0):
         """Apply received setpoints, advance the plant by dt [s] of simulated time, and
-        publish one frame per device. settle: return once the driver can read them
-        (simulated time does not pass while a transport moves a frame); not when a
-        driver in another process reads them in real time."""
+        publish one frame per device. settle_s: wait up to this long [s] until the driver
+        can read them (simulated time does not pass while a transport moves a frame); on
+        the wall clock a fraction of a tick at most, 0 when a driver in another process
+        reads them."""
         for e in self.emulators:
             e.service()
         self.plant.advance(dt)
         self.t += dt
         self.publish()
-        if settle:
+        if settle_s:
+            end = time.perf_counter() + settle_s
             for e in self.emulators:
-                e.settle()
+                e.settle(end)
 
     def publish(self):
         r = self.plant.readings()
@@ -120,7 +122,7 @@ class VirtualRig:
             k += 1
             while pending and pending[0][0] <= self.t:
                 self.inject(pending.pop(0)[1])
-            self.step(dt, settle=False)
+            self.step(dt, settle_s=0)
             left = t0 + k * dt - time.perf_counter()
             if left > 0:
                 time.sleep(left)

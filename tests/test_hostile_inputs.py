@@ -193,6 +193,8 @@ CASES = [
     (["run", "temperature-sweep", "overshoot_c=-50"], ["overshoot_c: must not be negative"]),
     (["bench", "diagnose", "--rate", "0"], ["bench diagnose: argument --rate: must be above 0"]),
     (["bench", "identify", "{binary}"], ["not a readable recording"]),
+    (["bench", "loop", "--embedded", "--diagnose"], ["--diagnose measures the loop against sim-rig"]),
+    (["bench", "loop", "--busy", "-1"], ["bench loop: argument --busy: must be within"]),
     (["bench", "identify", "--damper", "nosuch"], ["recording nosuch: unknown damper preset 'nosuch'"]),
     (["prove", "--effects", "gremlins"], ["unknown effect 'gremlins'"]),
     (["validate", "--json", "extra"], ["unrecognized arguments: extra"]),

@@ -38,7 +38,7 @@ class CanNodes:
             _, sig = can_codec.decode(msg.arbitration_id, msg.data)
             self.plant.command(int(sig["mode"]), sig["setpoint"])
 
-    def settle(self):
+    def settle(self, until):
         pass  # python-can's virtual bus hands a frame over at once
 
     def publish(self, readings):

@@ -65,21 +65,20 @@ class LoadCellAmp:
             self.overruns += 1  # nobody reads: the line overruns, as a real one would
             self.expect = 0
 
-    def settle(self, timeout_s=1.0):
-        """Wait until the reader's side holds our last frame: the kernel moves pty bytes on
-        a work queue, so under load a frame can reach the driver a tick late. Simulated
-        time stands still meanwhile, which makes the embedded rig's readings the tick's
-        own; a reader that lets the line fill (the line discipline holds 4 KiB) is not
-        waited for. The wait ends as the bytes arrive; its bound is for a kernel that
-        never moves them (a stalled VM held one frame over 20 ms, and the tick read the
-        last one)."""
+    def settle(self, until):
+        """Wait until the reader's side holds our last frame, or until `until` [s,
+        time.perf_counter]: the kernel moves pty bytes on a work queue, so under load a frame
+        can reach the driver a tick late. Simulated time stands still meanwhile, which makes
+        the embedded rig's readings the tick's own; a reader that lets the line fill (the
+        line discipline holds 4 KiB) is not waited for. On the wall clock the bound is a
+        fraction of a tick: the worker runs at normal priority, and beside a busy program
+        waiting for it stalled a real-time loop 70 ms."""
         if not 0 < self.expect < 2048 or self._queued() >= self.expect:
             return
         # a thread under SCHED_FIFO blocks for a moment rather than yield: a yield never lets
         # the kernel's worker (a normal-priority thread) onto this core to move the bytes
         pause = 1e-5 if under_fifo() else 0.0
-        end = time.perf_counter() + timeout_s
-        while self._queued() < self.expect and time.perf_counter() < end:
+        while self._queued() < self.expect and time.perf_counter() < until:
             time.sleep(pause)
 
     def close(self):
@@ -110,9 +109,9 @@ class LoadCellAmps:
     def service(self):
         pass
 
-    def settle(self):
+    def settle(self, until):
         for a in self.amps:
-            a.settle()
+            a.settle(until)
 
     def publish(self, readings):
         for a in self.amps:

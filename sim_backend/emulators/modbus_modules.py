@@ -110,7 +110,7 @@ class ModbusServers:
     def service(self):
         pass
 
-    def settle(self):
+    def settle(self, until):
         pass  # polled: a read's answer is this tick's registers
 
     def publish(self, readings):

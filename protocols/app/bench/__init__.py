@@ -58,14 +58,21 @@ def import_(args):
 
 
 def loop(args):
-    from protocols.app.bench.timing import baseline, bench_loop, goals_met
-    stats = bench_loop(args.rate, args.seconds, diagnose=args.diagnose)  # the parser bounds rate and seconds
-    stats["goals_met"] = goals_met(stats)
-    stats["machine_baseline"] = baseline(args.rate, args.seconds)
+    from protocols.app.bench.timing import baseline, bench_embedded, bench_loop, busy, goals_met
+    if args.embedded and args.diagnose:
+        raise UsageError("bench loop: --diagnose measures the loop against sim-rig, not --embedded")
+    with busy(args.busy):  # the parser bounds rate, seconds and busy
+        stats = (bench_embedded(args.rate, args.seconds) if args.embedded
+                 else bench_loop(args.rate, args.seconds, diagnose=args.diagnose))
+        stats["goals_met"] = goals_met(stats)
+        stats["machine_baseline"] = baseline(args.rate, args.seconds)
+    stats["busy_programs"] = args.busy
     j, b = stats["jitter_us"], stats["machine_baseline"]
-    lines = [f"loop at {stats['rate_hz_target']:g} Hz for {args.seconds:g} s against sim-rig: achieved "
+    against = "the embedded virtual rig" if args.embedded else "sim-rig"
+    beside = f", {args.busy} busy program{'s' * (args.busy != 1)} beside" if args.busy else ""
+    lines = [f"loop at {stats['rate_hz_target']:g} Hz for {args.seconds:g} s against {against}{beside}: achieved "
              f"{stats['rate_hz']:.1f} Hz, jitter p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, p99.9 {j['p999']:.0f} us, "
-             f"overruns {stats['overruns']} of {stats['ticks']} ticks"
+             f"overruns {stats['overruns']} of {stats['ticks']} ticks, {stats['missed_ticks']} skipped"
              + (f", FAULT: {stats['fault']}" if stats["fault"] else ""),
              f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
              f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us"]

@@ -60,5 +60,9 @@ def add(sub):
     bl = _bench(bsub, "loop", help="control loop timing in real time against sim-rig in a separate process")
     bl.add_argument("--rate", type=number(above=0, hi=5000), default=1000.0, help="loop rate in Hz (default 1000)")
     bl.add_argument("--seconds", type=number(above=0, hi=3600), default=30.0, help="duration (default 30)")
+    bl.add_argument("--embedded", action="store_true",
+                    help="the embedded virtual rig in real time (dyno run --realtime) instead of sim-rig")
+    bl.add_argument("--busy", type=number(0, 64, integer=True), default=0,
+                    help="programs keeping a core busy each beside the loop (default 0)")
     bl.add_argument("--diagnose", action="store_true",
                     help="with the live diagnosis's worker diagnosing sine segments all along, beside the controller")

@@ -1,5 +1,7 @@
 """`dyno bench loop`: the control loop in real time against `dyno sim-rig` in a separate
-process, over the real transports (socketcand CAN, pty serial, Modbus TCP on loopback)."""
+process, over the real transports (socketcand CAN, pty serial, Modbus TCP on loopback); or
+the embedded virtual rig in real time (`dyno run --realtime`), loop and emulators in one
+process. Either beside busy programs, if asked: a cell's computer that does other work."""
 from __future__ import annotations
 
 import signal
@@ -7,6 +9,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +70,32 @@ def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni", diagnose=False):
         out["live_diagnosis_s.median"] = float(np.median(took)) if took else None
         out["live_diagnosis_s.max"] = float(np.max(took)) if took else None
     return out
+
+
+def bench_embedded(rate_hz=1000.0, seconds=30.0, damper="koni"):
+    """Loop timing stats of the embedded virtual rig in real time, at the shipped virtual
+    cell's real-time priority."""
+    from protocols import cell
+    from rig import config as rig_config
+    with cell.embedded(damper, rig_config.at_rate(rig_config.load("virtual"), rate_hz), realtime=True) as c:
+        mid = (c.config.limits["x_min"] + c.config.limits["x_max"]) / 2
+        loop = ControlLoop(c.rig, c.pacer(), c.safety())
+        res = loop.run(lambda t, r: None if t >= seconds else mid + 0.005 * np.sin(2 * np.pi * 2 * t))
+    out = res.stats(rate_hz)
+    out["fault"] = res.fault
+    return out
+
+
+@contextmanager
+def busy(n):
+    """n programs that keep a core busy each (at normal priority) while the block runs."""
+    spin = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
+    try:
+        yield
+    finally:
+        for p in spin:
+            p.kill()
+            p.wait()
 
 
 def _diagnosis_load(folder, dyno, damper):

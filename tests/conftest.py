@@ -111,7 +111,7 @@ def stop(p):
 
 
 # The longest tests (prove runs: recordings through the wires and their diagnoses; the
-# real MR recording's diagnosis) start first, in this order, so that the two workers end
+# real MR recording's diagnosis) start first, after the tests against the wall clock, so that the two workers end
 # together instead of one of them running a long test alone at the end. The Makefile gives
 # --no-loadscope-reorder: pytest-xdist would otherwise start the groups with the most tests
 # first, and the prove runs then met a hundred short tests that each start a `dyno` process,
@@ -122,14 +122,28 @@ LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open"
 
 # session fixtures made once per worker: every test using one goes to the same worker (a
 # test left out of the group made the 50 s standard run again on the other worker)
-SHARED = ("koni_run", "prove_keep")
+SHARED = ("koni_run",)
+
+# One worker runs the tests against the wall clock first, one after another (about one core
+# for 150 s: beside them one other test runs, not two), then the prove runs. A prove run's
+# recording hands every tick from thread to thread through the embedded rig's emulators;
+# beside the wall-clock tests' SCHED_FIFO threads it took twice its time. The prove tests
+# share their null run (the prove_keep fixture), made once on this worker.
+SERIAL = "wall clock, then prove"
+
+
+def _order(item):
+    if item.get_closest_marker("realtime"):
+        return -1
+    return next((i for i, n in enumerate(LONGEST) if item.nodeid.split("/")[-1].startswith(n)), len(LONGEST))
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items):
     for item in items:
+        if item.get_closest_marker("realtime") or "prove_keep" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group(SERIAL))
         for name in SHARED:
             if name in getattr(item, "fixturenames", ()) and not item.get_closest_marker("xdist_group"):
                 item.add_marker(pytest.mark.xdist_group(name))
-    items.sort(key=lambda item: next((i for i, n in enumerate(LONGEST) if item.nodeid.split("/")[-1].startswith(n)),
-                                     len(LONGEST)))
+    items.sort(key=_order)

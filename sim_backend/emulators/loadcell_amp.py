@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import select
 import struct
 import termios
 import time
@@ -12,7 +13,6 @@ import tty
 import numpy as np
 
 from rig.codecs import loadcell as serial_frame
-from rig.pacing import under_fifo
 
 from sim_backend.emulators.outputs import outputs
 
@@ -31,6 +31,8 @@ class LoadCellAmp:
         self.rng = np.random.default_rng(7)
         self.overruns = 0
         self.expect = 0  # bytes the reader's side should hold once the kernel has moved our last frame
+        self.waiting = select.poll()
+        self.waiting.register(self.slave, select.POLLIN)
 
     def _queued(self):
         """Bytes the reader's side of the pty holds now."""
@@ -73,13 +75,13 @@ class LoadCellAmp:
         line discipline holds 4 KiB) is not waited for. On the wall clock the bound is a
         fraction of a tick: the worker runs at normal priority, and beside a busy program
         waiting for it stalled a real-time loop 70 ms."""
-        if not 0 < self.expect < 2048 or self._queued() >= self.expect:
+        if not 0 < self.expect < 2048:
             return
-        # a thread under SCHED_FIFO blocks for a moment rather than yield: a yield never lets
-        # the kernel's worker (a normal-priority thread) onto this core to move the bytes
-        pause = 1e-5 if under_fifo() else 0.0
-        while self._queued() < self.expect and time.perf_counter() < until:
-            time.sleep(pause)
+        while (queued := self._queued()) < self.expect and (left := until - time.perf_counter()) > 0:
+            if queued:  # the reader left bytes unread: no wake-up tells when ours join them
+                time.sleep(1e-5)
+            else:  # the line is empty: sleep until the kernel's worker moves our frame onto it
+                self.waiting.poll(left * 1e3)
 
     def close(self):
         if getattr(self, "link_path", None) and os.path.islink(self.link_path):

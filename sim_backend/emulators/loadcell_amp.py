@@ -78,9 +78,12 @@ class LoadCellAmp:
         if not 0 < self.expect < 2048:
             return
         while (queued := self._queued()) < self.expect and (left := until - time.perf_counter()) > 0:
-            if queued:  # the reader left bytes unread: no wake-up tells when ours join them
+            # the line empty: sleep until the kernel's worker moves our frame onto it; but no
+            # wake-up tells when ours join bytes the reader left, and poll() sleeps whole
+            # milliseconds (the wall clock's bound is a fraction of one)
+            if queued or left < 1e-3:
                 time.sleep(1e-5)
-            else:  # the line is empty: sleep until the kernel's worker moves our frame onto it
+            else:
                 self.waiting.poll(left * 1e3)
 
     def close(self):

@@ -181,6 +181,32 @@ def test_a_stalled_loop_trips_its_watchdog(cell):
     assert vr.plant.x_act == pytest.approx(MID, abs=1e-4)  # held where it was
 
 
+@pytest.mark.realtime
+def test_the_embedded_loop_bench_runs_beside_busy_programs_and_stops_them():
+    """`dyno bench loop --embedded --busy N`: the busy programs run while the loop does, and
+    none is left spinning after it."""
+    import os
+
+    from protocols.app.bench.timing import bench_embedded, busy
+
+    def spinning():
+        mine = []
+        for pid in filter(str.isdigit, os.listdir("/proc")):
+            try:
+                stat = open(f"/proc/{pid}/stat").read()
+                cmd = open(f"/proc/{pid}/cmdline", "rb").read()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == os.getpid() and b"while True: pass" in cmd:
+                mine.append(pid)
+        return mine
+    with busy(2):
+        assert len(spinning()) == 2
+        stats = bench_embedded(seconds=0.5)
+    assert spinning() == []
+    assert stats["ticks"] + stats["missed_ticks"] >= 450 and stats["rate_hz_target"] == 1000.0
+
+
 def test_unreachable_device_names_its_config_line():
     from rig.errors import RigError
     cfg = config.load("sim-rig")  # nobody serves it here

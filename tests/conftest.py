@@ -111,8 +111,8 @@ def stop(p):
 
 
 # The longest tests (prove runs: recordings through the wires and their diagnoses; the
-# real MR recording's diagnosis) start first, after the tests against the wall clock, so that the two workers end
-# together instead of one of them running a long test alone at the end. The Makefile gives
+# real MR recording's diagnosis) start first, after the tests against the wall clock, so
+# that the two workers end together instead of one of them running a long test alone at the end. The Makefile gives
 # --no-loadscope-reorder: pytest-xdist would otherwise start the groups with the most tests
 # first, and the prove runs then met a hundred short tests that each start a `dyno` process,
 # which more than doubled them (the wired prove pair: 151-167 s against 82 s).

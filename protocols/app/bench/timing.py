@@ -50,9 +50,8 @@ def bench_loop(rate_hz=1000.0, seconds=30.0, damper="koni", diagnose=False):
         rig = Rig(cfg)
         rig.open()
         try:
-            mid = (cfg.limits["x_min"] + cfg.limits["x_max"]) / 2
             loop = ControlLoop(rig, RealTimePacer(rate_hz, fifo_priority=50), Safety(cfg))
-            res = loop.run(lambda t, r: None if t >= seconds else mid + 0.005 * np.sin(2 * np.pi * 2 * t))
+            res = loop.run(_sine(cfg, seconds))
         finally:
             rig.close()
     finally:
@@ -78,12 +77,16 @@ def bench_embedded(rate_hz=1000.0, seconds=30.0, damper="koni"):
     from protocols import cell
     from rig import config as rig_config
     with cell.embedded(damper, rig_config.at_rate(rig_config.load("virtual"), rate_hz), realtime=True) as c:
-        mid = (c.config.limits["x_min"] + c.config.limits["x_max"]) / 2
-        loop = ControlLoop(c.rig, c.pacer(), c.safety())
-        res = loop.run(lambda t, r: None if t >= seconds else mid + 0.005 * np.sin(2 * np.pi * 2 * t))
+        res = ControlLoop(c.rig, c.pacer(), c.safety()).run(_sine(c.config, seconds))
     out = res.stats(rate_hz)
     out["fault"] = res.fault
     return out
+
+
+def _sine(config, seconds):
+    """The benches' plan: a 5 mm, 2 Hz sine about mid-stroke for `seconds`."""
+    mid = (config.limits["x_min"] + config.limits["x_max"]) / 2
+    return lambda t, r: None if t >= seconds else mid + 0.005 * np.sin(2 * np.pi * 2 * t)
 
 
 @contextmanager

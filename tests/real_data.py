@@ -95,9 +95,11 @@ def one(task):
             res = json.loads(p.stdout)
             out["diagnosis"] = (f"{100 * res['baseline']['nrmse_heldout']:.2f} → "
                                 f"{100 * res['final']['nrmse_heldout']:.2f} %, "
-                                f"R² {res['final']['r2_heldout']:.3f}; " + (", ".join(res["accepted"]) or "nothing accepted")
+                                f"R² {res['final']['r2_heldout']:.3f}; "
+                                + (", ".join(_said_as(e) for e in res["effects"]) or "nothing accepted")
                                 + f" ({s:.0f} s)")
             out["smoothed"] = any(q["kind"] == "smoothed" for q in res["quality"])
+            out["rivals"] = any(e.get("rivals") for e in res["effects"])
         else:
             out["diagnosis"] = _said(p, d)
         if model:
@@ -106,6 +108,17 @@ def one(task):
             out["check"] = (p.stdout.strip().splitlines() or ["-"])[-2 if "catalogued" in p.stdout else -1] \
                 if p.returncode in (0, 1) else _said(p, d)
     return out
+
+
+def _said_as(e):
+    """An accepted effect as the diagnosis said it: named, or a group the recording cannot
+    tell apart (A or B), or not named (a flexible stand-in explains as much; too small)."""
+    if e.get("replaced_by"):
+        return f"{e['effect']} (replaced by {e['replaced_by']})"
+    if e["rivals"]:
+        return " or ".join([e["effect"]] + [r["effect"] for r in e["rivals"]])
+    return e["effect"] + (" (not named: a stand-in explains as much)" if e["stand_in"] else
+                          " (small, not named)" if e["small"] else "")
 
 
 def markdown(results):
@@ -124,6 +137,7 @@ def markdown(results):
     periodic = [r for r in results if r.get("segments", "").split(" periodic")[0] not in ("0", "-")]
     met = [r for r in periodic if r.get("nrmse") is not None and max(r.get("each") or [r["nrmse"]]) < GOAL_NRMSE]
     smoothed = [r for r in results if r.get("smoothed")]
+    grouped = [r for r in results if r.get("rivals")]
     summary = [f"{len(results)} files; every command exited 0 (check: 0 pass, 1 a point outside the band) "
                f"except: {', '.join(f'{f} {k} exit {c}' for f, k, c in failed) or 'none'}.",
                f"identify, held out by cycles: under {100 * GOAL_NRMSE:g} % of the force range on {len(met)} of "
@@ -131,7 +145,9 @@ def markdown(results):
                + (f" (missed: {', '.join(r['file'] for r in periodic if r not in met)})" if len(met) < len(periodic) else "")
                + ".",
                f"force smoothed by its source, said by the diagnosis: {len(smoothed)} files "
-               f"({', '.join(r['file'] for r in smoothed) or 'none'})."]
+               f"({', '.join(r['file'] for r in smoothed) or 'none'}).",
+               f"a misfit the recording cannot tell between rivals (said as \"A or B\"): {len(grouped)} files "
+               f"({', '.join(r['file'] for r in grouped) or 'none'})."]
     return "\n\n".join(["# Real recordings from other machines", stamp, __doc__.split("\n\n")[0].replace("\n", " "),
                         "\n".join(f"- {s}" for s in summary), md.table(header, rows)]) + "\n"
 

@@ -401,6 +401,24 @@ def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
     assert "Align the channels" in said(2e-4, 1e-4)  # two samples: a real offset
 
 
+def test_a_finding_whose_rivals_depend_on_other_variables_says_either():
+    """A zero drifting in time over a matrix whose amplitudes rise with it: hysteresis, an
+    elastic force along the stroke and a drift explain it about equally. The dependence
+    said is the group's, displacement or time, never displacement alone."""
+    from models.diagnose.result import Step
+    from models.diagnose.words import rivals_sentence, stand_in_sentence
+    step = Step("bouc_wen", 0.0128, 0.012, {}, {}, 3e-5, np.zeros(3), np.zeros(3), [], [], [],
+                rivals=[("elastic_stroke", 0.27, 0.4), ("drift", 0.23, 0.3)], stand_in=("loop_surface", 1.0),
+                nature="physics", depends_on=["displacement", "direction"], size_rms_n=0.63, size_peak_n=2.0)
+    assert "the force depends on displacement, direction, or on time beyond the baseline" in \
+        stand_in_sentence(step, 1e4)
+    assert "it depends on displacement, direction, or on time;" in rivals_sentence(step)
+    alone = Step("bouc_wen", 0.0128, 0.012, {}, {}, 3e-5, np.zeros(3), np.zeros(3), [], [], [],
+                 rivals=[("presliding_friction", 0.2, 0.4)], stand_in=("loop_surface", 1.0), nature="physics",
+                 depends_on=["displacement", "direction"], size_rms_n=0.63, size_peak_n=2.0)
+    assert "depends on displacement, direction beyond the baseline" in stand_in_sentence(alone, 1e4)
+
+
 def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_path):
     """The embedded Koni has compressible oil by design. By default the baseline is the
     damper the recording names, refitted: its compressibility is in the model from the

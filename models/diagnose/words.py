@@ -19,8 +19,24 @@ OPENING = {"physics": "Left out: {name}. ", "cell": "In the cell, not the damper
 
 def _what(step):
     said_already = step.nature in ("open", "form") or step.effect == "interference"
-    return (f"depends on {', '.join(step.depends_on)}; {step.character}"
+    return (f"depends on {_on(step)}; {step.character}"
             + ("" if said_already else f"; {step.region}; {_size(step)}"))
+
+
+def alternatives(step):
+    """The variables a finding's rivals explain it by that it does not (a drift in time that
+    an elastic force along the stroke explains as well depends on displacement or on time:
+    the recording does not say which). A lag between the channels depends on the motion
+    itself, not on the time elapsed."""
+    specs = [EFFECTS[e.split(":")[0]] for e, _, _ in step.rivals]
+    return [v for v in dict.fromkeys(v for s in specs if s.acts_on != "motion" for v in s.depends_on)
+            if v not in step.depends_on]
+
+
+def _on(step):
+    """What a finding depends on: its own variables, or its rivals'."""
+    other = alternatives(step)
+    return ", ".join(step.depends_on) + (f", or on {', '.join(other)}" if other else "")
 
 
 def said(effect):
@@ -118,8 +134,8 @@ def stand_in_sentence(step, span):
     """A mechanism a flexible model with none in it explains as well: the dependence and
     its size, and no mechanism's name."""
     judge = EFFECTS[step.stand_in[0]]
-    on = ", ".join(step.depends_on) or "displacement, velocity and direction"
-    if "time" in judge.depends_on and "time" not in step.depends_on:  # a temperature that only rose
+    on = _on(step) if step.depends_on else "displacement, velocity and direction"
+    if "time" in judge.depends_on and "time" not in on:  # a temperature that only rose
         on += ", or on time alone"
     rivals = (f"; {', '.join(said(e) for e, _, _ in step.rivals)} explain it about equally too" if step.rivals else "")
     return (f"Not named: the force depends on {on} beyond the baseline, {_rms(step, span)}. "

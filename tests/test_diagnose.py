@@ -404,7 +404,8 @@ def test_a_lag_under_one_sample_is_unresolved_and_never_asks_to_realign():
 def test_a_finding_whose_rivals_depend_on_other_variables_says_either():
     """A zero drifting in time over a matrix whose amplitudes rise with it: hysteresis, an
     elastic force along the stroke and a drift explain it about equally. The dependence
-    said is the group's, displacement or time, never displacement alone."""
+    said is the group's, displacement or time, never displacement alone. A group with the
+    valve curve's form says that the form may be no physics left out at all."""
     from models.diagnose.result import Step
     from models.diagnose.words import rivals_sentence, stand_in_sentence
     step = Step("bouc_wen", 0.0128, 0.012, {}, {}, 3e-5, np.zeros(3), np.zeros(3), [], [], [],
@@ -417,6 +418,12 @@ def test_a_finding_whose_rivals_depend_on_other_variables_says_either():
                  rivals=[("presliding_friction", 0.2, 0.4)], stand_in=("loop_surface", 1.0), nature="physics",
                  depends_on=["displacement", "direction"], size_rms_n=0.63, size_peak_n=2.0)
     assert "depends on displacement, direction beyond the baseline" in stand_in_sentence(alone, 1e4)
+    assert "may be no physics" not in rivals_sentence(step)
+    stribeck = Step("breakaway_friction", 0.0212, 0.0196, {}, {}, 3e-5, np.zeros(3), np.zeros(3), [], [], [],
+                    rivals=[("valve_form", 0.5, 0.98)], nature="physics", depends_on=["velocity", "direction"],
+                    size_rms_n=0.69, size_peak_n=5.3)
+    assert "the valve curve's form is the baseline's own law reshaped, so it may be no physics left out at all" \
+        in rivals_sentence(stribeck)
 
 
 def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_path):

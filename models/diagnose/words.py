@@ -115,8 +115,12 @@ def rivals_sentence(step):
     names = [said(step.effect)] + [said(e) for e, _, _ in step.rivals]
     group = ", ".join(names[:-1]) + " and " + names[-1]
     ps = ", ".join(f"{said(e)} {p:.2g}" for e, _, p in step.rivals)
+    form = [said(e) for e in [step.effect] + [e for e, _, _ in step.rivals] if EFFECTS[e.split(":")[0]].nature == "form"]
+    maybe = (f"; {form[0]} is the baseline's own law reshaped, so it may be no physics left out at all" if form
+             else "")
     return (f"The recording cannot tell which physics was left out: {group} explain the same misfit about equally "
-            f"here (on the held-out blocks none is significantly better than {said(step.effect)}: paired p {ps}). "
+            f"here (on the held-out blocks none is significantly better than {said(step.effect)}: paired p {ps}"
+            f"{maybe}). "
             f"What they share: it {_what(step)}. The model carries {said(step.effect)}, the largest gain of the "
             f"group, as a stand-in, not as a finding; `dyno diagnose RECORDING --next` designs the test that "
             f"separates them." + _change(step))

@@ -66,12 +66,10 @@ class Safety:
         state, alarms = actuator
         if state == "alarm" or alarms:
             return f"actuator alarm: {', '.join(alarms) or 'unspecified'}"
-        for name, _, _ in RANGE_CHECKS:
+        for name, test, _ in RANGE_CHECKS:
             r = readings.get(name)
-            if r is not None:
-                beyond = self.beyond_limit(name, r.value)
-                if beyond:
-                    return "limit: " + beyond
+            if r is not None and (r.value != r.value or test(r.value, self.L)):
+                return "limit: " + self.beyond_limit(name, r.value)
         return None
 
     def beyond_limit(self, name, value):

@@ -1,4 +1,5 @@
-"""The dyno console script as a user runs it."""
+"""The dyno commands as a user runs them: in this process (conftest.dyno, the console
+script's own main), and the console script itself where the entry point is the point."""
 import json
 import subprocess
 import sys
@@ -6,10 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import dyno as run
+
 DYNO = [str(Path(sys.executable).parent / "dyno")]
 
 
-def run(*args):
+def script(*args):
     return subprocess.run(DYNO + list(args), capture_output=True, text=True, timeout=600)
 
 
@@ -132,9 +135,9 @@ def test_protocols_and_a_protocols_help_list_parameters_with_defaults_and_units(
 
 
 def test_dyno_alone_lists_the_commands_and_a_typo_gets_the_nearest():
-    p = run()
+    p = script()
     assert p.returncode == 2 and "diagnose" in p.stderr and "where the model misses a recording" in p.stderr
-    p = run("reprot", "x.mcap")
+    p = script("reprot", "x.mcap")
     assert p.returncode == 2 and p.stderr.strip() == ("dyno: error: unknown command 'reprot'; did you mean 'report'? "
                                                       "(dyno alone lists the commands)")
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from models.physics import assemblies, friction, simplified
 from models.damper import Damper, DamperError, SimplifiedDamper
@@ -182,11 +183,18 @@ class Stepper:
         self.xs[1], self.vs[1] = x, float(v)
         integrate(self.code, self.y, self.xs, self.vs, self.nsub, self.h, self.prm, self.vp, self.vh, self.atol,
                   self.out, self.hist)
-        f = self.damper.friction
         if self.x_stick > 0:
-            F_c = max(float(np.interp(x, *self._fric_table)), 0.0) * self._fric_ratio  # eqs 3.1, 3.2
-            self.F_f = Ff = friction.dahl_step(self.F_f, x - self.xs[0], F_c, self.x_stick)
+            self.F_f = Ff = _dahl(x, self.xs[0], *self._fric_table, self._fric_ratio, self.F_f, self.x_stick)
         else:
+            f = self.damper.friction
             Ff = float(friction.friction_force(x, v, self.T, f.x_table, f.F_table, f.C_sfT, f.C_ifT))
-        Fd, Fg, P1, P2, Pg = self.out[1]
+        # floats, not numpy scalars: the virtual rig's arithmetic on them runs each tick
+        Fd, Fg, P1, P2, Pg = self.out[1].tolist()
         return Fd + Fg + Ff, Fd, Fg, Ff, P1, P2, Pg
+
+
+@njit(cache=True)
+def _dahl(x, x0, fx, fF, ratio, F_f, x_stick):
+    """Dahl friction [N] after moving from x0 to x [m], from F_f [N]; its magnitude from the
+    table fx, fF [m, N] (eq 3.1, clamped at zero) times the breakaway ratio (eq 3.2)."""
+    return friction.dahl_step(F_f, x - x0, max(np.interp(x, fx, fF), 0.0) * ratio, x_stick)

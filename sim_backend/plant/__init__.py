@@ -42,7 +42,7 @@ class Plant:
         self.damper = fx_mod.damper_with(damper, {**self.fx, "forms": self.forms})
         self.h = h
         self.t = 0.0
-        self.rng = np.random.default_rng(seed)
+        self.noise = sensors.Normals(np.random.default_rng(seed), 8)  # the transducers' (sensors.readings)
         a, th = self.p["actuator"], self.p["thermal"]
         self.T = th["ambient"] if T0 is None else float(T0)
         self.T_res = self.T
@@ -84,7 +84,7 @@ class Plant:
         self.cav_loss = (0.0, 0.0)  # pressure the released air still holds per chamber [Pa]
         self.a_f = self.a_f_rate = 0.0  # acceleration through the oil column [m/s^2] and its rate
         self.z_bw, self.x_bw = 0.0, self.x_rod  # hysteretic element's state [-] and where it was [m]
-        self.aux_rng = np.random.default_rng(seed + 7919)
+        self.aux_noise = sensors.Normals(np.random.default_rng(seed + 7919))  # the adjuster current's
         self.i_valve = self.i_lag = 1.0  # adjuster current [A] and what the valve has followed
         self.F_frame = 0.0  # force the frame deflects under (low-passed)
         self.T_packed = self.T_gas_packed = self.T

@@ -183,5 +183,5 @@ def slope(v_tab, F_tab, v):
 def adjuster(pl, h):
     """The adjuster current wanders (Ornstein-Uhlenbeck, 2 s, 0.3 A about 1 A); the valve
     follows it through its solenoid's 20 ms lag (2 ms in the fast form)."""
-    pl.i_valve += h / 2.0 * (1.0 - pl.i_valve) + 0.3 * math.sqrt(2 * h / 2.0) * pl.aux_rng.standard_normal()
+    pl.i_valve += h / 2.0 * (1.0 - pl.i_valve) + 0.3 * math.sqrt(2 * h / 2.0) * pl.aux_noise()
     pl.i_lag += h / (0.002 if pl.forms.get("aux_channel") == "fast" else 0.02) * (pl.i_valve - pl.i_lag)

@@ -65,9 +65,26 @@ def transport(past, now, tau, h):
     return tuple((1 - f) * u + f * w for u, w in zip(a, b))
 
 
+class Normals:
+    """A generator's standard normal draws (width at a time, or one), taken a block at a
+    time: the same numbers in the same order as one call per draw, without a call's cost
+    at every step (the plant draws at each of its steps and each reading)."""
+    BLOCK = 4096
+
+    def __init__(self, rng, width=None):
+        self.rng, self.shape = rng, self.BLOCK if width is None else (self.BLOCK, width)
+        self.block, self.i = [], 0
+
+    def __call__(self):
+        if self.i == len(self.block):
+            self.block, self.i = self.rng.standard_normal(self.shape).tolist(), 0
+        self.i += 1
+        return self.block[self.i - 1]
+
+
 def readings(pl):
     """Sensor values in SI, as the transducers would report them, with noise."""
-    s, n = pl.p["sensors"], pl.rng.standard_normal(8)
+    s, n = pl.p["sensors"], pl.noise()
     force = pl.F_meas + s["force_noise"] * n[0]
     if "loadcell_stuck" in pl.faults:
         if pl.stuck_force is None:
@@ -80,7 +97,7 @@ def readings(pl):
         "force": force,
         "x": x + s["x_noise"] * n[1],
         "v": v + s["v_noise"] * n[2],
-        "aux.valve_current": pl.i_valve + 0.005 * pl.aux_rng.standard_normal(),
+        "aux.valve_current": pl.i_valve + 0.005 * pl.aux_noise(),
         "x_internal": pl.lag[0],
         "T_body": pl.T + s["temperature_noise"] * n[3],
         "T_reservoir": pl.T_res + s["temperature_noise"] * n[4],

@@ -39,12 +39,16 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None
     z0 = np.clip([start.get(p.name, warm.get(p.name, p.x0)) for p in params], lo, hi)
     scale = np.maximum(np.abs(hi - lo) * 1e-3, np.abs(z0) * 0.1)
     Fs = max(float(np.std(d.F)), 1e-9)
+    # the training samples as indices, and their forces, taken once: every evaluation and
+    # Jacobian column picks them (a boolean mask is read whole at each pick)
+    train = np.flatnonzero(train) if np.asarray(train).dtype == bool else train
+    F_train = d.F[train]
 
     last = {}  # the last evaluation, which the Jacobian at the same point starts from
 
     def resid(z):
         last["z"], last["f"] = z.copy(), model.forces(d, {**held, **dict(zip(names, z))})
-        return (last["f"].F[train] - d.F[train]) / Fs
+        return (last["f"].F[train] - F_train) / Fs
 
     # parameters whose effect is piecewise or far from linear start from a grid over their
     # whole range: at each grid value the new effect's other parameters are fitted briefly
@@ -74,7 +78,7 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None
     # scipy's tolerances (1e-8): looser ones stop fits on plateaus (at 1e-5, a real MR
     # recording's compressibility fit stopped at a quarter of its gain, and another effect won)
     r = least_squares(resid, z0, bounds=(lo, hi), x_scale=scale, max_nfev=min(effort * len(z0), MAX_STEPS),
-                      method="trf", jac=jacobian(model, d, train, held, names, lo, hi, Fs, last))
+                      method="trf", jac=jacobian(model, d, train, F_train, held, names, lo, hi, Fs, last))
     values = {**held, **dict(zip(names, r.x))}
     try:
         sd = dict(zip(names, covariance(r.jac, r.fun)[0]))
@@ -83,15 +87,16 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None
     return values, {**{n: float("nan") for n in held}, **sd}
 
 
-def jacobian(model: Model, d: Data, train, held, names, lo, hi, Fs, last):
+def jacobian(model: Model, d: Data, train, F_train, held, names, lo, hi, Fs, last):
     """fit()'s residual's Jacobian: scipy's forward differences (its step, away from a bound),
     except for the coefficients whose derivative the model knows exactly (Model.columns),
     which a difference would evaluate the model for one by one (a valve form has 14).
-    last: the residual's last evaluation {"z", "f"}."""
+    train: the training samples' indices, F_train their forces; last: the residual's last
+    evaluation {"z", "f"}."""
     def jac(z):
         f = last["f"] if np.array_equal(last.get("z"), z) else model.forces(d, {**held, **dict(zip(names, z))})
         exact = model.columns(f)
-        r0 = (f.F[train] - d.F[train]) / Fs  # as scipy differences the residual (the same rounding)
+        r0 = (f.F[train] - F_train) / Fs  # as scipy differences the residual (the same rounding)
         J = np.empty((len(z), len(r0))).T  # column-major as scipy's (its SVD rounds by the layout)
         for i, name in enumerate(names):
             if name in exact:
@@ -102,7 +107,7 @@ def jacobian(model: Model, d: Data, train, held, names, lo, hi, Fs, last):
                 h = -h
             zz = z.copy()
             zz[i] += h
-            r = (model.force(d, {**held, **dict(zip(names, zz))})[train] - d.F[train]) / Fs
+            r = (model.force(d, {**held, **dict(zip(names, zz))})[train] - F_train) / Fs
             J[:, i] = (r - r0) / (zz[i] - z[i])
         return J
     return jac

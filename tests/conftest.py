@@ -39,7 +39,7 @@ def dyno(*args):
 def recorded(out, protocol, params, damper="koni", effects=(), plain=False):
     """(out, the run's result): `protocol` with `params` {name: value} recorded on the direct
     cell through the run API, for tests that read a recording, not the wires (the standard
-    run below through the embedded rig's wires took 285 s, this way 43 s); effects, plain:
+    run below: some 18 s this way, many times that through the embedded rig's wires); effects, plain:
     as `dyno run --effect --plain`."""
     from contextlib import closing
 

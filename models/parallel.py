@@ -12,6 +12,8 @@ worker process died is re-run by a Dask executor itself.
 """
 from __future__ import annotations
 
+import contextlib
+import multiprocessing
 import os
 import platform
 import sys
@@ -151,10 +153,8 @@ def _run(fn, jobs, names, executor, workers, bar, done):
             if bar:
                 bar.advance()
         return out
-    own = executor is None
     n = min(workers, len(jobs))
-    ex = ProcessPoolExecutor(max_workers=n, initializer=worker_start, initargs=(n,)) if own else executor
-    try:
+    with process_pool(n) if executor is None else contextlib.nullcontext(executor) as ex:
         futures = [ex.submit(fn, job) for job in jobs]
         out = []
         for f, job, name in zip(futures, jobs, names):
@@ -163,6 +163,22 @@ def _run(fn, jobs, names, executor, workers, bar, done):
             if bar:
                 bar.advance()
         return out
+
+
+@contextlib.contextmanager
+def process_pool(n):
+    """A pool of n worker processes (worker_start). Left by a stop (Ctrl-C or SIGTERM,
+    rig/operator_stop.py), it ends its workers rather than wait for them: a SIGTERM reaches
+    this process alone, and its workers would run their jobs to the end (minutes of
+    `dyno prove`)."""
+    before = set(multiprocessing.active_children())
+    ex = ProcessPoolExecutor(max_workers=n, initializer=worker_start, initargs=(n,))
+    try:
+        yield ex
+    except KeyboardInterrupt:
+        ex.shutdown(wait=False, cancel_futures=True)
+        for p in set(multiprocessing.active_children()) - before:
+            p.kill()  # a SIGTERM would run the handler a forked worker inherited, mid-job
+        raise
     finally:
-        if own:
-            ex.shutdown(cancel_futures=True)
+        ex.shutdown(cancel_futures=True)

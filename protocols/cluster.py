@@ -14,7 +14,7 @@ import os
 import re
 
 from models import threads
-from models.parallel import worker_start
+from models.parallel import process_pool, worker_start
 from protocols.errors import UsageError
 
 INSTALL = "pip install 'dyno[cluster]' (Dask distributed)"
@@ -41,9 +41,8 @@ def pool(spec, jobs):
         with executor(spec) as out:
             yield out
         return
-    from concurrent.futures import ProcessPoolExecutor
     n = max(1, jobs)
-    with ProcessPoolExecutor(max_workers=n, initializer=worker_start, initargs=(n,)) as local:
+    with process_pool(n) as local:
         yield local, n
 
 

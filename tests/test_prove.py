@@ -55,3 +55,30 @@ def test_a_keep_folder_that_is_a_file_is_one_line(tmp_path):
     r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "null", "--seeds", "1",
                         "--keep", str(tmp_path / "f")], capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "--keep" in r.stderr and "is a file" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_a_sigterm_ends_prove_and_its_workers_at_once(tmp_path):
+    """SIGTERM reaches the parent alone: it ends its pool's workers, which would otherwise run
+    their recordings and diagnoses to the end (at 5 kHz, minutes) while it waited for them."""
+    import signal
+    import time
+    from pathlib import Path
+    p = subprocess.Popen([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "free_play,null",
+                          "--seeds", "2", "--rates", "5000", "--jobs", "2", "--keep", str(tmp_path / "kept")],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    children = Path(f"/proc/{p.pid}/task/{p.pid}/children")
+    t0 = time.monotonic()
+    while len(workers := children.read_text().split()) < 2 and time.monotonic() - t0 < 120:
+        time.sleep(0.2)
+    assert len(workers) == 2, p.stderr.read() if p.poll() is not None else "no workers"
+    p.send_signal(signal.SIGTERM)
+    try:
+        code = p.wait(timeout=60)
+    finally:
+        p.kill()
+    err = p.stderr.read()
+    assert code == 130 and "Traceback" not in err, err
+    t0 = time.monotonic()
+    while any(Path(f"/proc/{w}").exists() for w in workers) and time.monotonic() - t0 < 10:
+        time.sleep(0.1)
+    assert not any(Path(f"/proc/{w}").exists() for w in workers)

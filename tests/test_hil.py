@@ -108,8 +108,11 @@ def test_each_road_starts_and_ends_at_rest(tmp_path):
         assert np.allclose(np.diff(r.t), 1e-3)
 
 
-def _run(tmp_path, *args):
+def _run(tmp_path, *args, process=False):
+    """`dyno run hil --out hil.mcap ARGS` in this process, or (process) as its own."""
     out = tmp_path / "hil.mcap"
+    if not process:
+        return dyno("run", "hil", "--out", out, *args), out
     p = subprocess.run([DYNO, "run", "hil", "--out", str(out), *args], capture_output=True, text=True, timeout=300)
     return p, out
 
@@ -176,7 +179,7 @@ def test_the_pre_flight_refuses_before_anything_moves(tmp_path, args, message):
 def test_the_live_view_shows_the_car(tmp_path):
     """`dyno run hil --rrd`: the car's channels and the tracking error reach the view."""
     rrd = tmp_path / "hil.rrd"
-    p, out = _run(tmp_path, "--road", "sine:3:10", "--rrd", str(rrd))
+    p, out = _run(tmp_path, "--road", "sine:3:10", "--rrd", str(rrd), process=True)  # the viewer's file closed with it
     assert p.returncode == 0, p.stderr[-2000:]
     data = rrd.read_bytes()
     for entity in ("channels/hil.x_target", "channels/hil.error", "channels/hil.body_acc", "channels/hil.tire_load",
@@ -200,8 +203,7 @@ def test_replay_converges_on_the_target(tmp_path):
     """Each iteration's drive is corrected from the last one's error through the rig's
     measured response: the damper follows the history within 1 % in at most 5 iterations."""
     out = tmp_path / "replay.mcap"
-    p = subprocess.run([DYNO, "run", "replay", "--target", str(_target_csv(tmp_path)), "--iterations", "3",
-                        "--out", str(out)], capture_output=True, text=True, timeout=300)
+    p = dyno("run", "replay", "--target", _target_csv(tmp_path), "--iterations", "3", "--out", out)
     assert p.returncode == 0, p.stderr[-2000:]
     _, events, _ = load_recording(out)
     errors = [e.params["nrmse"] for e in events if e.kind == "result"]
@@ -229,7 +231,7 @@ def test_replay_converges_on_the_target(tmp_path):
 def test_replay_refuses_bad_input_in_one_line(tmp_path, args, message):
     args = [str(_target_csv(tmp_path)) if a == "TARGET" else a for a in args]
     out = tmp_path / "r.mcap"
-    p = subprocess.run([DYNO, "run", "replay", *args, "--out", str(out)], capture_output=True, text=True, timeout=120)
+    p = dyno("run", "replay", *args, "--out", out)
     assert p.returncode == 2 and message in p.stderr and len(p.stderr.strip().splitlines()) <= 2, p.stderr
     assert not out.exists()
 

@@ -41,8 +41,7 @@ def read(path):
 
 def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
     out = tmp_path / "x.mcap"
-    p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(out), "amplitudes_mm=6.4,40",
-                        "freqs_hz=2,8", "record_cycles=3"], capture_output=True, text=True, timeout=300)
+    p = dyno("run", "sine-matrix", "--out", out, "amplitudes_mm=6.4,40", "freqs_hz=2,8", "record_cycles=3")
     assert p.returncode == 2 and "amplitudes_mm: 40 mm leaves the stroke limits" in p.stderr  # refused
     assert not out.exists()
     p = subprocess.run([DYNO, "run", "sine-matrix", "--out", str(out), "amplitudes_mm=6.4,12.7",
@@ -140,7 +139,7 @@ def test_sine_matrix_recording_reads_with_the_standard_reader(tmp_path):
 ])
 def test_bad_parameters_are_refused_before_motion(tmp_path, args, message):
     out = tmp_path / "x.mcap"
-    p = subprocess.run([DYNO, "run", *args, "--out", str(out)], capture_output=True, text=True, timeout=120)
+    p = dyno("run", *args, "--out", out)
     assert p.returncode == 2 and "Traceback" not in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1 and message in p.stderr, p.stderr
     assert not out.exists()
@@ -544,8 +543,7 @@ def test_no_repeated_setpoint_at_segment_boundaries():
 
 def test_report_of_a_step_run_measures_each_step(tmp_path):
     out = tmp_path / "step.mcap"
-    p = subprocess.run([DYNO, "run", "step", "steps_mm=5,-5", "--out", str(out)], capture_output=True, text=True,
-                       timeout=300)
+    p = dyno("run", "step", "steps_mm=5,-5", "--out", out)
     assert p.returncode == 0, p.stderr
     p = dyno("report", str(out), "--out", str(tmp_path / "rep"))
     assert p.returncode == 0, p.stderr

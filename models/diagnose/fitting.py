@@ -158,30 +158,32 @@ def linear_fit(model: Model, d: Data, folds, starts, hold=()):
         steps_ = [max(abs(z[p.name]) * 1e-4, (p.hi - p.lo) * 1e-7) for p in rest]
         cols += [(model.force(d, {**z, p.name: z[p.name] + dz}) - F0) / dz for p, dz in zip(rest, steps_)]
         A = np.column_stack(cols)
-        y = (d.F - F0)[train]
+        At, y = A[train], (d.F - F0)[train]
         # the term alone, and the term with a damped step in the rest (their columns are
         # nearly collinear with a spline's); whichever the model itself fits better wins
-        c = np.linalg.lstsq(A[train][:, :len(own)], y, rcond=None)[0]
+        c = np.linalg.lstsq(At[:, :len(own)], y, rcond=None)[0]
         v = {**z, **{p.name: float(np.clip(ci, p.lo, p.hi)) for p, ci in zip(own, c)}}
         F1 = model.force(d, v)
         if rest:
-            norm = np.maximum(np.linalg.norm(A[train], axis=0), 1e-300)
-            As = A[train] / norm
+            norm = np.maximum(np.linalg.norm(At, axis=0), 1e-300)
+            As = At / norm
+            AtA, Aty = As.T @ As, As.T @ y
             big = float(np.linalg.norm(As, 2)) ** 2
+            cost = np.sum((F1 - d.F)[train] ** 2)
             for lam in STEP_DAMPING:  # whichever damping the model itself fits best (Levenberg-Marquardt's choice)
                 damp = np.r_[np.zeros(len(own)), np.full(len(rest), lam * big)]
                 try:
-                    sol = np.linalg.solve(As.T @ As + np.diag(damp), As.T @ y) / norm
+                    sol = np.linalg.solve(AtA + np.diag(damp), Aty) / norm
                 except np.linalg.LinAlgError:  # a column the data leaves at zero: least squares
-                    sol = np.linalg.lstsq(As.T @ As + np.diag(damp), As.T @ y, rcond=None)[0] / norm
+                    sol = np.linalg.lstsq(AtA + np.diag(damp), Aty, rcond=None)[0] / norm
                 w = dict(z)
                 for p, ci in zip(own + rest,
                                  sol[:len(own)].tolist() + [z[q.name] + dq for q, dq in zip(rest, sol[len(own):])]):
                     w[p.name] = float(np.clip(ci, p.lo, p.hi))
                 F2 = model.force(d, w)
-                if np.sum((F2 - d.F)[train] ** 2) < np.sum((F1 - d.F)[train] ** 2):
-                    v, F1 = w, F2
-        sd = covariance(A[train][:, :len(own)], (F1 - d.F)[train])[0]
+                if (c2 := np.sum((F2 - d.F)[train] ** 2)) < cost:
+                    v, F1, cost = w, F2, c2
+        sd = covariance(At[:, :len(own)], (F1 - d.F)[train])[0]
         r = np.where(test, F1 - d.F, r)
         vals.append(v)
         sds.append({**{k: float("nan") for k in v}, **{p.name: float(s_) for p, s_ in zip(own, sd)}})

@@ -145,9 +145,21 @@ def run_tasks(tasks, pool, label, keep=None, say=lambda s: None):
     todo = [i for i, r in enumerate(got) if r is None]
     if len(todo) < len(tasks):
         say(f"{label}: {len(tasks) - len(todo)} of {len(tasks)} runs kept in {keep}, not run again")
-    new = run_all(run_task, [tasks[i] for i in todo], pool, progress=True, label=label,
-                  names=[tasks[i].name for i in todo], done=(lambda j, r: kept.save(keep, tasks[todo[j]], r)) if keep
-                  else None)
+    finished = []
+
+    def done(j, r):
+        finished.append(j)
+        if keep:
+            kept.save(keep, tasks[todo[j]], r)
+    try:
+        new = run_all(run_task, [tasks[i] for i in todo], pool, progress=True, label=label,
+                      names=[tasks[i].name for i in todo], done=done)
+    except KeyboardInterrupt:  # an operator's stop: say what of the work survives it
+        ran = len(tasks) - len(todo) + len(finished)
+        say(f"{label}: stopped; {ran} of {len(tasks)} runs done, "
+            + (f"kept in {keep}: the same command goes on from there" if keep
+               else "none kept (--keep DIR keeps each run as it ends)"))
+        raise
     for i, r in zip(todo, new):
         got[i] = r
     return got

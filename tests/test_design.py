@@ -76,3 +76,18 @@ def test_a_sine_run_for_a_rival_is_not_asked_for_again_for_it():
     (p,) = propose(diag, CELL, budget_s=120.0)
     (q,) = propose(diag, CELL, budget_s=120.0, tried={(key(p.rival), p.sine)})
     assert q.sine != p.sine and q.rival.other == p.rival.other
+
+
+def test_no_proposal_says_whether_none_is_needed_or_none_the_cell_can_run_would_tell():
+    """The UTFSM 0.1 Hz file (mean removed by its source, so centred 0.7 mm from full
+    extension on the virtual cell) has rivals but no sine the cell's stroke holds: "none
+    needed" was wrong there."""
+    from dataclasses import replace
+    from protocols.app.next_test import text
+    diag = _diagnosis()
+    assert "none within 0.5 s of rig time would decide" in text([], diag, CELL, 0.5)
+    assert "sensor delay was taken over fluid inertia" in text([], diag, CELL, 0.5)
+    said = text([], diag, replace(CELL, x_min=0.038), 120.0)
+    assert said.startswith("Next test: none the cell can run, though explanations compete") and "38 mm" in said, said
+    diag.candidates = diag.candidates[:1]
+    assert text([], diag, CELL, 120.0).startswith("Next test: none needed")

@@ -2,6 +2,7 @@
 matrix in docs/results/prove.md (one seed, ten times the concealed size; the whole matrix is
 `dyno prove --forms all`)."""
 import json
+import re
 import subprocess
 import sys
 
@@ -78,6 +79,7 @@ def test_a_sigterm_ends_prove_and_its_workers_at_once(tmp_path):
         p.kill()
     err = p.stderr.read()
     assert code == 130 and "Traceback" not in err, err
+    assert re.search(r"prove: stopped; \d of 4 runs done, kept in .*kept: the same command goes on", err), err
     t0 = time.monotonic()
     while any(Path(f"/proc/{w}").exists() for w in workers) and time.monotonic() - t0 < 10:
         time.sleep(0.1)

@@ -33,7 +33,7 @@ from models.diagnose.from_model import FromModel
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
 from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step
 from models.diagnose.noise import noise_from, noise_sd
-from models.diagnose.referees import ALPHA, RELEVANCE, block_sse, chosen, p_value, referees, term
+from models.diagnose.referees import ALPHA, RELEVANCE, bar, block_sse, chosen, p_value, referees, term
 from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
 from models.recording import nrmse
@@ -176,7 +176,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     last, cost = {}, {}  # each candidate's values per fold in the round before (its warm start), its time [s]
     for _ in range(max_effects):
         names, _ = available(d, accepted)
-        alpha = ALPHA / max(len(names), 1)  # Bonferroni over this round's candidates
+        alpha = bar(len(names))
         sse_cur = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
         round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, block, judged, judged_blocks,
                         shown, sse_cur, sigma, alpha, seed, last, cost, progress, jobs)

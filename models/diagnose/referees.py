@@ -20,6 +20,11 @@ SURE_HITS = 50
 MORE = 4  # the most resamples a p-value at the bar draws, in multiples of its usual number
 
 
+def bar(tried):
+    """The p-value each of a round's `tried` candidates must beat: ALPHA, Bonferroni-corrected."""
+    return ALPHA / max(tried, 1)
+
+
 def block_sse(r, block, ids):
     return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
 

@@ -8,6 +8,7 @@ import numpy as np
 
 from models.diagnose import quality
 from models.diagnose.candidates import EFFECTS
+from models.diagnose.referees import ALPHA, RELEVANCE, bar
 
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
          "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form",
@@ -242,7 +243,31 @@ def findings(res):
                      f"(p = {lo.p_value:.2g} that it is above it).")
     else:
         left = [loc for loc in res.remaining if loc["concentration"] > 1.5][:2]
-        where = ("; it lives " + "; ".join(_where(loc) for loc in left)) if left else ", spread over the whole recording"
+        where = ("it lives " + "; ".join(_where(loc) for loc in left)) if left else "spread over the whole recording"
+        near = short_of_the_bar(res)
         lines.append(f"Still unexplained: {lo.above_noise_rms_n:.3g} N RMS above the force noise on the held-out "
-                     f"cycles (p = {lo.p_value:.2g}); no effect or term tried takes it further{where}.")
+                     f"cycles (p = {lo.p_value:.2g}); {'' if near else 'no effect or term tried takes it further; '}"
+                     f"{where}.")
+        lines += [near] if near else []
     return lines
+
+
+def short_of_the_bar(res):
+    """The last round's candidates that lower the held-out error and pass one paired test
+    (p < ALPHA) but not the bar for all those tried in the round (ALPHA over their number):
+    too few cycles for the recording to tell whether any of them is real. "" if none."""
+    if not res.candidates:
+        return ""
+    last = [c for c in res.candidates if c.round == max(c.round for c in res.candidates)]
+    tried = len(last)
+    near = sorted((c for c in last if bar(tried) <= c.p_value < ALPHA and c.relevance >= RELEVANCE),
+                  key=lambda c: c.nrmse_heldout)
+    if not near:
+        return ""
+    named = ", ".join(f"{said(c.effect)} to {100 * c.nrmse_heldout:.2f} %" for c in near[:4])
+    more = f" and {len(near) - 4} more" if len(near) > 4 else ""
+    before = res.steps[-1].after if res.steps else res.baseline.nrmse_heldout
+    return (f"Not proven: {len(near)} of the {tried} effects tried lower the held-out error from "
+            f"{100 * before:.2f} % ({named}{more}), p = {min(c.p_value for c in near):.2g} at best, "
+            f"short of the bar for {tried} tried (p < {bar(tried):.2g}). The recording cannot tell whether any of them "
+            f"is real; a longer recording of the same test (more cycles) can.")

@@ -100,7 +100,7 @@ def run(args):
     else:
         print(summary(res))
         if props is not None:
-            print("\n" + next_test.text(props))
+            print("\n" + next_test.text(props, res, limits, budget))
         print("\nCandidates (held-out error, p, gain in noise variances):")
         for c in res.candidates:
             print(f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"

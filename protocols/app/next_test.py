@@ -23,14 +23,30 @@ def command(p: design.Proposal, damper=None) -> str:
             f"record_s={q.record_s:g}" + (f" --damper {damper}" if damper else ""))
 
 
-def text(props) -> str:
+def text(props, diag, limits: design.Limits, budget_s) -> str:
     if not props:
-        return "Next test: none needed: no two explanations compete and nothing is hinted at under the noise."
+        return "Next test: " + none_why(diag, limits, budget_s)
     total = sum(p.sine.rig_s for p in props)
     lines = [f"Next test ({total:.0f} s of rig time), best first:"]
     for p in props:
         lines += [f"  - {p.why}", f"    {command(p)}"]
     return "\n".join(lines)
+
+
+def none_why(diag, limits: design.Limits, budget_s) -> str:
+    """Why no test is proposed: none is needed, or none the cell can run would tell."""
+    rivals = design.rivals(diag)
+    if not rivals:
+        return "none needed: no two explanations compete and nothing is hinted at under the noise."
+    what = "; ".join(r.said for r in rivals)
+    if not design.feasible(limits, diag.data):
+        return (f"none the cell can run, though explanations compete ({what}): no sine of the design's "
+                f"(amplitudes {', '.join(f'{1e3 * a:g}' for a in design.AMPLITUDES_M)} mm) about the recording's "
+                f"mean position, {1e3 * float(diag.data.x.mean()):.3g} mm from full extension, keeps within the "
+                f"cell's stroke ({1e3 * limits.x_min:g} to {1e3 * limits.x_max:g} mm), its speed and the proven "
+                f"envelope (--rig names your cell's limits).")
+    return (f"none within {budget_s:g} s of rig time would decide between the explanations that compete ({what}); "
+            f"a larger --budget may.")
 
 
 def to_json(props):

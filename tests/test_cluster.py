@@ -106,6 +106,8 @@ def test_a_batch_on_the_cluster_equals_the_local_one_and_a_bad_file_fails_alone(
         docs.append(json.loads(good.with_suffix(suffix).read_text()))
     for key in compare:
         assert docs[0][key] == docs[1][key]
+    if command == "diagnose":
+        assert rows["good.mcap"]["named"] == ";".join(docs[0]["named"])
     if command == "identify":  # the damper model beside the recording; its parameters in the summary
         from models.damper import from_dict
         assert from_dict(docs[0]).layout == "monotube"
@@ -122,3 +124,19 @@ def test_a_sweep_on_the_cluster_equals_the_serial_one():
         remote = frequency_response(car, "koni", [0.0032], freqs, executor=pool)
     for k, v in serial.values.items():
         assert np.array_equal(v, remote.values[k]), k
+
+
+def test_the_diagnosis_summary_says_what_the_recording_cannot_tell_apart():
+    """The UTFSM 10 mm 1 Hz files: the model carries hysteresis for the MR fluid, but a
+    flexible surface explains as much; a pandas reader of the summary sees that, not a name."""
+    from protocols.app.diagnose_batch import _row
+    held = {"nrmse_heldout": 0.005, "rmse_heldout": 9.3, "r2_heldout": 0.9998}
+    doc = {"baseline": held, "final": held, "accepted": ["bouc_wen", "position_friction"], "named": [],
+           "may_compensate": {}, "left_over": {"within_noise": True},
+           "effects": [{"effect": "bouc_wen", "rivals": [{"effect": "sensor_delay"}],
+                        "stand_in": {"term": "loop_surface", "paired_p": 0.4}},
+                       {"effect": "position_friction", "rivals": [], "stand_in": None},
+                       {"effect": "drift", "replaced_by": "elastic_stroke"}]}
+    row = _row("a.mcap", doc, None)
+    assert row["accepted"] == "bouc_wen;position_friction" and row["named"] == ""
+    assert row["cannot_tell_from"] == "bouc_wen~sensor_delay/loop_surface" and row["left_over_within_noise"] is True

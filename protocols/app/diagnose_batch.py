@@ -37,7 +37,19 @@ def _row(name, doc, error):
     return {"recording": name, "error": "", "baseline_nrmse_heldout": held("baseline", "nrmse_heldout"),
             "final_nrmse_heldout": held("final", "nrmse_heldout"), "final_rmse_heldout_N": held("final", "rmse_heldout"),
             "final_r2_heldout": held("final", "r2_heldout"), "accepted": ";".join(doc["accepted"]),
-            "may_compensate": ";".join(f"{k}~{'/'.join(v)}" for k, v in doc["may_compensate"].items())}
+            # what the summary says by name; and what it carries but cannot tell from others
+            "named": ";".join(doc["named"]), "cannot_tell_from": ";".join(_untold(doc)),
+            "may_compensate": ";".join(f"{k}~{'/'.join(v)}" for k, v in doc["may_compensate"].items()),
+            "left_over_within_noise": doc["left_over"]["within_noise"]}
+
+
+def _untold(doc):
+    """effect~other/other for each accepted effect the recording cannot tell from its rivals
+    or from a flexible stand-in with no mechanism in it."""
+    for e in doc["effects"]:
+        others = [r["effect"] for r in e.get("rivals", [])] + ([e["stand_in"]["term"]] if e.get("stand_in") else [])
+        if others:
+            yield f"{e['effect']}~{'/'.join(others)}"
 
 
 def run(args, baseline):

@@ -4,7 +4,7 @@ import pytest
 
 from models.recording import Span
 from protocols.reports import peaks
-from protocols.reports.recording import force_temperature_figure
+from protocols.reports.sines import force_temperature_figure
 
 
 def _peak(amp, freq, T, F, target=np.nan):
@@ -257,3 +257,16 @@ def test_a_saved_figure_is_checked_as_savefig_drew_it(tmp_path):
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.set(xlabel="velocity [m/s]", ylabel="force [N]", title="fine")
     assert save(fig, tmp_path / "fine.png") == "fine.png" and (tmp_path / "fine.png").stat().st_size > 5000
+
+
+def test_many_amplitudes_share_panels_among_neighbours():
+    """The UTFSM chirp: 32 segments, each its own amplitude as the actuator falls behind
+    (1.88 to 0.68 mm), drew 32 panels side by side, 14,000 pixels wide. A sine matrix's
+    amplitudes keep a panel each."""
+    from protocols.reports.sines import MOST_PANELS, panels, title
+    from protocols.units import Units
+    assert panels([12.7, 3.2, 6.35, 3.2, 25.4]) == [[25.4], [12.7], [6.35], [3.2]]
+    chirp = list(np.linspace(1.88, 0.675, 32))
+    groups = panels(chirp[::-1])
+    assert len(groups) == MOST_PANELS and sum(groups, []) == chirp and all(len(g) == 4 for g in groups)
+    assert title(Units(), groups[-1]) == "0.675-0.792 mm" and title(Units(), [12.7]) == "12.7 mm"

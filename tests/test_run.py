@@ -562,7 +562,7 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
 def test_every_figure_of_a_report_speaks_its_unit_system(koni_run, tmp_path, monkeypatch):
     import re
 
-    from protocols.reports import recording as page
+    from protocols.reports import recording as page, sines
     from protocols.units import Units
     labels, save = {}, page.save
 
@@ -570,6 +570,7 @@ def test_every_figure_of_a_report_speaks_its_unit_system(koni_run, tmp_path, mon
         labels[path.name] = [s for ax in fig.axes for s in (ax.get_xlabel(), ax.get_ylabel()) if s]
         return save(fig, path, *a, **kw)
     monkeypatch.setattr(page, "save", kept)
+    monkeypatch.setattr(sines, "save", kept)
     page.report(koni_run[0], tmp_path, units=Units("us"))
     assert {"static.png", "low_speed.png", "temperature.png", "loops.png", "composite.png"} <= set(labels), labels
     shown = {m for ls in labels.values() for s in ls for m in re.findall(r"\[(.*?)\]", s)}

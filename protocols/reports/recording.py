@@ -15,11 +15,11 @@ from models.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
 from models.recording import segments
 from protocols.io.reader import load_recording
 from models.identify.static import static_holds
-from protocols.reports import hil, peaks, velocity_table as vt
+from protocols.reports import hil, peaks, sines, velocity_table as vt
 from protocols.reports.page import Page, save
 from protocols.reports.pdf import write_pdf
 from protocols.reports.plots import plt
-from protocols.units import Units, amplitude
+from protocols.units import Units
 
 
 def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
@@ -34,7 +34,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     model = peaks.along(model, ch, events)
     full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
     rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
-    figures = (_sine_figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out, units)
+    figures = (sines.figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out, units)
                + _low_speed_figures(ch, segs, out, units) + _temperature_figures(ch, segs, out, units)
                + _step_figures(ch, segs, out, units) + hil.figures(ch, events, out, units))
     page = Page(f"Dyno report: {Path(path).name}")
@@ -80,7 +80,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     if (stopped or not figures) and {"force", "x"} <= set(ch) and len(ch["force"][0]):
         figures.append(_trace_figure(ch, stopped, out, units))  # what happened up to the trip
     if scattered:
-        figures.append(_stroke_figure(scattered, out, model, units))
+        figures.append(sines.stroke_figure(scattered, out, model, units))
     for title, png in figures:
         page.figure(title, png)
     if not figures:
@@ -171,28 +171,6 @@ def _params(text):
     return "; ".join(f"{k} {', '.join(map(str, v)) if isinstance(v, list) else v}" for k, v in params.items())
 
 
-def _stroke_figure(rows, out, model, units):
-    """A one-speed run's curve: the force read along its stroke against shaft speed, per
-    direction (rebound as magnitude), the model's along the same motion dashed."""
-    V, F_ = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
-    fig, ax = plt.subplots(figsize=(7, 5))
-    for i, p in enumerate(rows):
-        c, r = p.stroke_v > 0, p.stroke_v < 0
-        line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}", label=f"{units.segment(p.segment)} compression")[0]
-        ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color(), label=f"{units.segment(p.segment)} rebound")
-        if model is not None and len(p.model_stroke_F):
-            ax.plot(V(p.stroke_v[c]), F_(p.model_stroke_F[c]), ":", color="k", lw=1)
-            ax.plot(V(-p.stroke_v[r]), -F_(p.model_stroke_F[r]), ":", color="k", lw=1)
-    what = ("Force against shaft speed\n(a random input: the mean force at each speed" if rows[0].segment == peaks.SCATTER
-            else "Force along the stroke\n(one speed tested: the loop's mid-line")
-    ax.set(title=what + ("; dotted: model)" if model is not None else ")"),
-           xlabel=units.label("shaft speed", "velocity"), ylabel=f"{units.label('force', 'force')}, rebound as magnitude")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    return ("Force against shaft speed" + ("" if rows[0].segment == peaks.SCATTER else " along the stroke"),
-            save(fig, out / "composite.png"))
-
-
 def _round_item(e):
     """(label, text) of a discovery event."""
     p = e.params
@@ -202,103 +180,6 @@ def _round_item(e):
         return "verdict", e.message
     said = [*(f"unsure: {u}" for u in p.get("unsure", [])), *(f"settled: {s}" for s in p.get("settled", []))]
     return f"round {p.get('round', '?')}: diagnosis", "; ".join([e.message, *said])
-
-
-def _sine_figures(ch, segs, out, rows, model=None, units=Units()):
-    """Loops per amplitude (with the model's force along the same motion, dashed) and the
-    composite curve: per amplitude and temperature, peak damping force (measured less gas
-    and friction, when a full damper model is known) against peak velocity."""
-    sine = peaks.sines(segs)
-    if not sine or not rows:
-        return []
-    amps = sorted({s[1]["amplitude_mm"] for s in sine}, reverse=True)
-    V, F_, X = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force", "length"))
-    fig, axes = plt.subplots(2, len(amps), figsize=(4.5 * len(amps), 8), squeeze=False)
-    for j, a in enumerate(amps):
-        panel = [s for s in sine if s[1]["amplitude_mm"] == a]
-        labels = [f"{prm['freq_hz']:g} Hz" + (f", {prm['target_c']:g} C" if "target_c" in prm else "")
-                  for _, prm, _, _ in panel]
-        for i, (name, prm, t0, t1) in enumerate(panel):
-            t, (F, x, v) = peaks.window(ch, ("force", "x", "v"), t0, t1)
-            if len(F) < 10:
-                continue
-            label = labels[i] if labels.count(labels[i]) == 1 else name  # a repeated test: its own name
-            c = f"C{i % 10}"
-            axes[0, j].plot(V(v), F_(F), lw=0.8, color=c, label=label)
-            axes[1, j].plot(X(x), F_(F), lw=0.8, color=c, label=label)
-            if model is not None:
-                Fm = peaks.simulate_segment(model, t, x, v, peaks.segment_temperature(ch, t0, t1)).force
-                k = t >= t[0] + peaks.settled_after(prm)
-                axes[0, j].plot(V(v[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)
-                axes[1, j].plot(X(x[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)
-        axes[0, j].set(title=f"{amplitude(units, a)}: force vs velocity", xlabel=units.label("velocity", "velocity"),
-                       ylabel=units.label("force", "force"))
-        axes[1, j].set(title=f"{amplitude(units, a)}: force vs displacement", xlabel=units.label("displacement", "length"),
-                       ylabel=units.label("force", "force"))
-        for ax in axes[:, j]:
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=7, title="dashed: model" if model is not None else None, title_fontsize=7)
-    figures = [("Force-velocity and force-displacement loops (compression positive)", save(fig, out / "loops.png"))]
-    if vt.method(rows) == "stroke":  # one speed: a composite would be two points
-        return figures + [_stroke_figure(rows, out, model, units)] + force_temperature_figure(rows, out, units)
-    damping = all(np.isfinite(p.Fd_comp) for p in rows)
-    fig, ax = plt.subplots(figsize=(7, 5))
-    groups = {}
-    for p in rows:
-        groups.setdefault((p.amplitude_mm, p.target_c), []).append(p)
-    for (a, T), ps in sorted(groups.items(), key=lambda kv: (-kv[0][0], np.nan_to_num(kv[0][1]))):
-        ps = sorted(ps, key=lambda p: p.v_comp)
-        vc, vr = V(np.array([p.v_comp for p in ps])), -V(np.array([p.v_reb for p in ps]))
-        Fc = F_(np.array([p.Fd_comp if damping else p.F_comp for p in ps]))
-        Fr = -F_(np.array([p.Fd_reb if damping else p.F_reb for p in ps]))
-        label = amplitude(units, a) + ("" if np.isnan(T) else f", {units.show('temperature', T + 273.15):.3g} "
-                                                            f"{units.unit('temperature')}")
-        line = ax.plot(vc, Fc, "o-", label=label)[0]  # one entry per amplitude: the markers say the direction
-        ax.plot(vr, Fr, "s--", color=line.get_color())
-        if model is not None:
-            gas = np.array([(p.F_comp - p.Fd_comp) if damping else 0.0 for p in ps])
-            gas_r = np.array([(p.F_reb - p.Fd_reb) if damping else 0.0 for p in ps])
-            ax.plot(vc, F_(np.array([p.model_comp for p in ps]) - gas), "x", color=line.get_color(), ms=8)
-            ax.plot(vr, -F_(np.array([p.model_reb for p in ps]) - gas_r), "x", color=line.get_color(), ms=8)
-    what = "damping force" if damping else "peak force"
-    ax.set(title=f"Composite: {what} vs peak velocity" + ("\n(measured - gas - friction)" if damping else "")
-           + (", x: model" if model is not None else ""),
-           xlabel=units.label("peak velocity", "velocity"),
-           ylabel=f"{units.label(what, 'force')} (o comp., s reb. size)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the data, not over it
-    figures.append(("Composite peak force vs peak velocity", save(fig, out / "composite.png")))
-    return figures + force_temperature_figure(rows, out, units)
-
-
-def force_temperature_figure(rows, out, units=Units()):
-    """Peak forces against the measured temperature, per amplitude and frequency run at
-    temperatures at least 5 C apart (a temperature sweep, or a sweep and the sine matrix)."""
-    groups = {}
-    for p in rows:
-        groups.setdefault((p.amplitude_mm, p.freq_hz), []).append(p)
-    groups = {k: sorted(ps, key=lambda p: p.T_c) for k, ps in groups.items()
-              if max(p.T_c for p in ps) - min(p.T_c for p in ps) >= 5.0}
-    if not groups:
-        return []
-    T, F = (lambda si, q=q: units.show(q, si) for q in ("temperature", "force"))
-    # the damping force where the gas and friction are known: the total's compression peak
-    # rises as the gas warms while the damping falls, which reads the wrong way round
-    damping = all(np.isfinite(p.Fd_comp) and np.isfinite(p.Fd_reb) for ps in groups.values() for p in ps)
-    comp, reb = ("Fd_comp", "Fd_reb") if damping else ("F_comp", "F_reb")
-    what = "damping force" if damping else "peak force"
-    fig, ax = plt.subplots(figsize=(7, 5))
-    for i, (key, ps) in enumerate(sorted(groups.items())):
-        c = f"C{i % 10}"
-        Ts = T(np.array([p.T_c for p in ps]) + 273.15)
-        ax.plot(Ts, F(np.array([getattr(p, comp) for p in ps])), "o-", color=c,
-                label=f"{amplitude(units, key[0])} {key[1]:g} Hz")
-        ax.plot(Ts, F(-np.array([getattr(p, reb) for p in ps])), "s--", color=c)
-    ax.set(title=f"{what.capitalize()}{'' if damping else ', gas included'} vs temperature (o comp., s reb. size)",
-           xlabel=units.label("body temperature", "temperature"), ylabel=units.label(what, "force"))
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the data, not over it
-    return [(f"{what.capitalize()} against temperature", save(fig, out / "force_temperature.png"))]
 
 
 STEP_BAND = 0.02  # settled: within 2 % of the step of its target, to stay

@@ -29,6 +29,7 @@ REPEATING = 0.5
 CHANCE_CYCLES = 4
 HOLD_S = 0.5  # s: a hold lasts at least this long ...
 HOLD_TRAVEL = 5e-5  # m: ... within this band
+LEFT_S = 1.0  # s: strokes outside every segment worth saying they are left out
 
 
 @dataclass
@@ -141,6 +142,35 @@ def find(t, x) -> list[Segment]:
         if seen[s.name] > 1:
             s.name = f"{s.name} ({seen[s.name]})"
     return out
+
+
+def unsegmented(t, x, spans, least_s=LEFT_S):
+    """[(t0, t1, seconds of strokes)] of the motion outside `spans` [(t0, t1)]: strokes
+    that repeat no test (a sweep whose period changes by more than SAME_PERIOD a cycle), in
+    stretches holding at least least_s of them."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    edges = sorted((a, b) for a, b in spans)
+    # a hole in the file (its acquisition paused) is no stroke, however far x moved across it
+    pieces = np.split(np.arange(len(t)), np.flatnonzero(np.diff(t) > 5 * np.median(np.diff(t))) + 1)
+    out = []
+    for a, b in zip([-np.inf] + [e[1] for e in edges], [e[0] for e in edges] + [np.inf]):
+        strokes = [c for i in pieces for k in [i[(t[i] >= a) & (t[i] <= b)]] for c in cycles(t[k], x[k])
+                   if c[2] >= MIN_TRAVEL]
+        moving = sum(c[1] - c[0] for c in strokes)
+        if moving >= least_s:
+            out.append((strokes[0][0], strokes[-1][1], moving))
+    return out
+
+
+def left_out(t, x, spans) -> str:
+    """The motion outside spans in words (what the import and the diagnosis say), or ""."""
+    rest = unsegmented(t, x, spans)
+    if not rest:
+        return ""
+    where = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b, _ in rest)
+    return (f"{sum(m for _, _, m in rest):.1f} s of strokes outside the sine segments ({where}) repeat no test "
+            f"(a sweep's period changes by more than {100 * SAME_PERIOD:g} % a cycle): the loops, peaks and "
+            f"diagnosis read the segments alone")
 
 
 def holds(t, x, taken=()):

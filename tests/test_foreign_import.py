@@ -469,3 +469,29 @@ def test_a_path_that_does_not_close_is_not_read_as_the_other_sign():
     assert other_sign(x, F) is None
     assert "import it again with --flip displacement" in other_sign(0.08 - x, F)
     assert "import it again with --flip force" in other_sign(x, -F)
+
+
+def test_strokes_outside_every_segment_are_said_left_out(tmp_path):
+    """The UTFSM chirp: its sweep from 0.5 to 3 Hz changes period by more than 5 % a cycle,
+    so only its faster part made segments, and 9.6 s of strokes were read by nothing
+    without a word. A hole in the file (the ME file's acquisition paused between currents)
+    is no stroke, however far x moved across it."""
+    from models.segmentation import find, unsegmented
+    rate = 200.0
+    t = np.arange(int(8 * rate)) / rate
+    sweep = 0.004 * np.sin(2 * np.pi * (0.5 * t + 0.125 * t ** 2))  # 0.5 to 2.5 Hz in 8 s
+    ts = 8 + np.arange(int(4 * rate)) / rate
+    t, x = np.r_[t, ts], 0.04 + np.r_[sweep, 0.004 * np.sin(2 * np.pi * 3.0 * (ts - 8))]
+    F = 2500 * np.gradient(x, t) + np.random.default_rng(4).normal(0, 3.0, len(t))
+    src = _written(tmp_path, "sweep.csv", "t,x,F\n" + "".join(f"{a:.4f},{1e3 * b:.4f},{c:.3f}\n"
+                                                              for a, b, c in zip(t, x, F)))
+    _, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    said = r.stdout.split("not in a segment: ")[1].split("\n")[0]
+    seconds, span = float(said.split(" s of strokes")[0]), said.split("(")[1].split(")")[0]
+    assert 4.0 < seconds < 7.5 and float(span.split("-")[0]) < 3.0 and float(span.split("-")[1][:-2]) <= 8.5, said
+    r = dyno("diagnose", tmp_path / "x.mcap")
+    assert r.returncode == 0 and f"Not assessed: {said}" in r.stdout, r.stdout + r.stderr
+    tt = np.arange(400) / rate  # a 3 Hz sine, a 20 s hole, the sine again: nothing outside the segments
+    t2, x2 = np.r_[tt, tt + 22.0], np.r_[0.004 * np.sin(6 * np.pi * tt)] * np.ones(2)[:, None]
+    x2 = x2.ravel()
+    assert unsegmented(t2, x2, [(s.t0, s.t1) for s in find(t2, x2)]) == []

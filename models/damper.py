@@ -22,6 +22,7 @@ T_MAX_RATED = 423.15  # K (150 C): top of the thesis's racing-damper temperature
 
 T_MIN_RATED = 233.15  # K (-40 C): the coldest a damper is stored or tested at
 LOW_BRANCH_MIN = 1.0  # N at 1 m/s: the always-open restriction of the weakest valve (Fox head: 150)
+X_TABLE_STEP = 1e-6  # m: the friction table's closest entries (a 2e-309 step made its end slope overflow)
 GAS_TO_OIL_MAX = 2.0  # gas volume V0 over oil volume V_total: the presets span 0.34-1.04
 
 
@@ -339,7 +340,8 @@ def _check_direction(d: Direction, sign: float, path: str):
     for tag in ("mid", "high"):
         line = getattr(d, tag)
         if line is not None:
-            _positive(line.C_linw, f"{path}.{tag}.C_linw")
+            if not line.C_linw >= LOW_BRANCH_MIN:  # a vanishing slope passes an unbounded flow (2e-309: NaN forces)
+                raise DamperError(f"{path}.{tag}.C_linw: must be at least {LOW_BRANCH_MIN:g} N s/m, got {line.C_linw}")
             if line.C_ilinw * sign < 0:
                 raise DamperError(f"{path}.{tag}.C_ilinw: wrong sign for this direction")
     if d.high is not None:
@@ -410,8 +412,8 @@ def check(model) -> None:
     f = model.friction
     if len(f.x_table) != len(f.F_table) or not f.x_table:
         raise DamperError("friction.F_table: must have one value per x_table entry")
-    if any(b <= a for a, b in zip(f.x_table, f.x_table[1:])):
-        raise DamperError("friction.x_table: must be strictly increasing")
+    if any(b - a < X_TABLE_STEP for a, b in zip(f.x_table, f.x_table[1:])):  # eq 3.1 extrapolates the end slopes
+        raise DamperError(f"friction.x_table: must increase by at least {1e6 * X_TABLE_STEP:g} um an entry")
     if any(F < 0 for F in f.F_table):
         raise DamperError("friction.F_table: friction magnitudes must be >= 0")
     if f.x_stick < 0:

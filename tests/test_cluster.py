@@ -132,6 +132,7 @@ def test_the_diagnosis_summary_says_what_the_recording_cannot_tell_apart():
     from protocols.app.diagnose_batch import _row
     held = {"nrmse_heldout": 0.005, "rmse_heldout": 9.3, "r2_heldout": 0.9998}
     doc = {"baseline": held, "final": held, "accepted": ["bouc_wen", "position_friction"], "named": [],
+           "not_proven": ["stroke_damping", "presliding_friction"],
            "may_compensate": {}, "left_over": {"within_noise": True},
            "effects": [{"effect": "bouc_wen", "rivals": [{"effect": "sensor_delay"}],
                         "stand_in": {"term": "loop_surface", "paired_p": 0.4}},
@@ -140,3 +141,4 @@ def test_the_diagnosis_summary_says_what_the_recording_cannot_tell_apart():
     row = _row("a.mcap", doc, None)
     assert row["accepted"] == "bouc_wen;position_friction" and row["named"] == ""
     assert row["cannot_tell_from"] == "bouc_wen~sensor_delay/loop_surface" and row["left_over_within_noise"] is True
+    assert row["not_proven"] == "stroke_damping;presliding_friction"

@@ -25,6 +25,17 @@ def bar(tried):
     return ALPHA / max(tried, 1)
 
 
+def not_proven(candidates):
+    """(tried, [Candidate]): the last round's candidates that lower the held-out error and
+    pass one paired test (p < ALPHA) but not the bar for the `tried` of the round: the
+    recording cannot tell whether any of them is real. Lowest held-out error first."""
+    if not candidates:
+        return 0, []
+    last = [c for c in candidates if c.round == max(c.round for c in candidates)]
+    near = [c for c in last if bar(len(last)) <= c.p_value < ALPHA and c.relevance >= RELEVANCE]
+    return len(last), sorted(near, key=lambda c: c.nrmse_heldout)
+
+
 def block_sse(r, block, ids):
     return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
 

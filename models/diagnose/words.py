@@ -8,7 +8,7 @@ import numpy as np
 
 from models.diagnose import quality
 from models.diagnose.candidates import EFFECTS
-from models.diagnose.referees import ALPHA, RELEVANCE, bar
+from models.diagnose.referees import bar, not_proven
 
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
          "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form",
@@ -253,15 +253,8 @@ def findings(res):
 
 
 def short_of_the_bar(res):
-    """The last round's candidates that lower the held-out error and pass one paired test
-    (p < ALPHA) but not the bar for all those tried in the round (ALPHA over their number):
-    too few cycles for the recording to tell whether any of them is real. "" if none."""
-    if not res.candidates:
-        return ""
-    last = [c for c in res.candidates if c.round == max(c.round for c in res.candidates)]
-    tried = len(last)
-    near = sorted((c for c in last if bar(tried) <= c.p_value < ALPHA and c.relevance >= RELEVANCE),
-                  key=lambda c: c.nrmse_heldout)
+    """The "Not proven" sentence of referees.not_proven, or "" if none."""
+    tried, near = not_proven(res.candidates)
     if not near:
         return ""
     named = ", ".join(f"{said(c.effect)} to {100 * c.nrmse_heldout:.2f} %" for c in near[:4])

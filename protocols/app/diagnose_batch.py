@@ -39,6 +39,7 @@ def _row(name, doc, error):
             "final_r2_heldout": held("final", "r2_heldout"), "accepted": ";".join(doc["accepted"]),
             # what the summary says by name; and what it carries but cannot tell from others
             "named": ";".join(doc["named"]), "cannot_tell_from": ";".join(_untold(doc)),
+            "not_proven": ";".join(doc.get("not_proven", [])),
             "may_compensate": ";".join(f"{k}~{'/'.join(v)}" for k, v in doc["may_compensate"].items()),
             "left_over_within_noise": doc["left_over"]["within_noise"]}
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from models.diagnose.referees import not_proven
 from models.diagnose.words import summary
 
 
@@ -53,6 +54,8 @@ def to_json(res):
                         "gain_noise_variances": c.relevance} for c in res.candidates],
         "accepted": res.accepted,
         "named": res.named(),
+        # lower the held-out error but short of the round's bar: the recording cannot tell
+        "not_proven": [c.effect for c in not_proven(res.candidates)[1]],
         "may_compensate": {s.effect: s.compensates for s in res.steps if s.compensates},
         # each accepted effect or term: what it depends on, where it lives, what kind and how big
         "effects": [{"effect": s.effect, "replaced_by": s.replaced_by} if s.replaced_by else

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from models.events import Event, SegmentEnd, SegmentStart
+from models.recording import segments
 
 MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise about a hold)
 REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back
@@ -171,6 +172,15 @@ def left_out(t, x, spans) -> str:
     return (f"{sum(m for _, _, m in rest):.1f} s of strokes outside the sine segments ({where}) repeat no test "
             f"(a sweep's period changes by more than {100 * SAME_PERIOD:g} % a cycle): the loops, peaks and "
             f"diagnosis read the segments alone")
+
+
+def imported_left_out(events, t, x) -> str:
+    """left_out() of an imported recording (its segments found here), or "": a run of ours
+    has its settling and ramps between its segments by design."""
+    found = [s for s in segments(events) if s.params.get("found") == "import"]
+    if not any(s.kind == "sine" for s in found):
+        return ""
+    return left_out(t, x, [(s.t0, s.t1) for s in found])
 
 
 def holds(t, x, taken=()):

@@ -491,6 +491,8 @@ def test_strokes_outside_every_segment_are_said_left_out(tmp_path):
     assert 4.0 < seconds < 7.5 and float(span.split("-")[0]) < 3.0 and float(span.split("-")[1][:-2]) <= 8.5, said
     r = dyno("diagnose", tmp_path / "x.mcap")
     assert r.returncode == 0 and f"Not assessed: {said}" in r.stdout, r.stdout + r.stderr
+    assert dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "rep").returncode == 0
+    assert f"Not in a segment: {said}".replace("'", "&#39;") in (tmp_path / "rep" / "index.html").read_text()
     tt = np.arange(400) / rate  # a 3 Hz sine, a 20 s hole, the sine again: nothing outside the segments
     t2, x2 = np.r_[tt, tt + 22.0], np.r_[0.004 * np.sin(6 * np.pi * tt)] * np.ones(2)[:, None]
     x2 = x2.ravel()

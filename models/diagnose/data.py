@@ -16,7 +16,7 @@ import numpy as np
 
 from models.diagnose import quality
 from models.recording import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
-from models.segmentation import left_out
+from models.segmentation import imported_left_out
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
@@ -133,17 +133,6 @@ def _spans(events, tx, x):
     return [("random", None, float(tx[0]), float(tx[-1]))]
 
 
-def _left_out(events, tx, x):
-    """[a note] of the strokes an imported recording holds outside its sine segments (a
-    sweep's), which the diagnosis does not read; [] for a run of ours, whose settling and
-    ramps lie between its segments by design."""
-    found = [s for s in segments(events) if s.params.get("found") == "import"]
-    if not any(s.kind == "sine" for s in found):
-        return []
-    rest = left_out(tx, x, [(s.t0, s.t1) for s in found])
-    return [rest] if rest else []
-
-
 def _screened(channels, force, x, aux):
     """(flags, excluded spans, force, x, aux): the data-quality check's flags and the
     channels without the flagged spans."""
@@ -183,7 +172,7 @@ def prepare(channels, events, drives=None) -> Data:
         lost = sum(b - a for a, b in holes)
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
-    notes += _left_out(events, tx, x)  # before the screening cuts holes in x
+    notes += [n for n in [imported_left_out(events, tx, x)] if n]  # before the screening cuts holes in x
     flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
     spans = _spans(events, tx, x)

@@ -142,3 +142,33 @@ def test_the_diagnosis_summary_says_what_the_recording_cannot_tell_apart():
     assert row["accepted"] == "bouc_wen;position_friction" and row["named"] == ""
     assert row["cannot_tell_from"] == "bouc_wen~sensor_delay/loop_surface" and row["left_over_within_noise"] is True
     assert row["not_proven"] == "stroke_damping;presliding_friction"
+
+
+@pytest.mark.xdist_group("cluster")
+def test_a_stopped_batch_keeps_what_it_analysed_and_its_summary_says_the_rest(archive, tmp_path):
+    """A lab's archive is hours of work: each result is written as it comes in, and a stop
+    (SIGTERM, Ctrl-C) writes the summary with the recordings it did not reach marked."""
+    import shutil
+    import signal
+    import time
+    files = [tmp_path / f"g{i}.mcap" for i in range(4)]
+    for f in files:
+        shutil.copy(archive[0], f)
+    p = subprocess.Popen([DYNO, "diagnose", "--batch", *map(str, files), "--jobs", "1", "--summary",
+                          str(tmp_path / "s.csv")], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    while not files[0].with_suffix(".diagnosis.json").exists() and p.poll() is None and time.monotonic() - t0 < 120:
+        time.sleep(0.05)
+    time.sleep(0.1)  # past the instant g0's file is renamed into place and its row kept
+    p.send_signal(signal.SIGTERM)
+    try:
+        code = p.wait(timeout=60)
+    finally:
+        p.kill()
+    err = p.stderr.read()
+    assert code == 130 and "Traceback" not in err, err
+    rows = list(csv.DictReader(open(tmp_path / "s.csv")))
+    assert [Path(r["recording"]).name for r in rows] == [f.name for f in files]
+    assert rows[0]["error"] == "" and rows[3]["error"] == "stopped before it was analysed", rows
+    assert "diagnose: stopped; " in err and " of 4 analysed and written beside their recordings" in err, err
+    assert json.loads(files[0].with_suffix(".diagnosis.json").read_text())["accepted"] is not None

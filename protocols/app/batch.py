@@ -38,21 +38,33 @@ def run(args, task, extra, suffix, row, label, kept=lambda doc: doc):
         output_file(out, files, overwrite, "--batch:")
     summary = output_file(args.summary, [*files, *beside.values()], overwrite, "--summary")
     tasks = [(str(f), f.read_bytes(), *extra) for f in files]
-    with cluster.pool(args.cluster, args.jobs) as (pool, workers):
-        print(f"{label}: {len(tasks)} recordings on {workers} workers", file=sys.stderr, flush=True)
-        done = run_all(task, tasks, pool, progress=True, label=label, names=[str(f) for f in files])
-    rows, failed = [], 0
-    for name, doc, error in done:
+    rows = {}
+
+    def done(i, result):  # each result written as it comes in: a stop keeps what is done
+        name, doc, error = result
         if doc is not None:
             with written(beside[Path(name)]) as tmp:
                 tmp.write_text(json.dumps(kept(doc), indent=1))
-        failed += doc is None
-        rows.append(row(name, doc, error))
+        rows[i] = (doc is None, row(name, doc, error))
         print(f"{name}: " + (f"FAILED: {error}" if doc is None else "ok"), file=sys.stderr, flush=True)
+    with cluster.pool(args.cluster, args.jobs) as (pool, workers):
+        print(f"{label}: {len(tasks)} recordings on {workers} workers", file=sys.stderr, flush=True)
+        try:
+            run_all(task, tasks, pool, progress=True, label=label, names=[str(f) for f in files], done=done)
+        except KeyboardInterrupt:  # an operator's stop: the summary says which were not analysed
+            _summary(summary, [rows[i][1] if i in rows else row(str(f), None, "stopped before it was analysed")
+                               for i, f in enumerate(files)])
+            print(f"{label}: stopped; {len(rows)} of {len(tasks)} analysed and written beside their recordings; "
+                  f"{summary} marks the rest", file=sys.stderr, flush=True)
+            raise
+    _summary(summary, [rows[i][1] for i in range(len(files))])
+    print(summary)
+    return 1 if any(rows[i][0] for i in rows) else 0
+
+
+def _summary(path, rows):
     columns = list(dict.fromkeys(k for r in rows for k in r))  # every row's columns, in first-seen order
-    with written(summary, "--summary") as tmp, open(tmp, "w", newline="") as f:
+    with written(path, "--summary") as tmp, open(tmp, "w", newline="") as f:
         w = csv.DictWriter(f, columns)
         w.writeheader()
         w.writerows(rows)
-    print(summary)
-    return 1 if failed else 0

@@ -497,3 +497,26 @@ def test_strokes_outside_every_segment_are_said_left_out(tmp_path):
     t2, x2 = np.r_[tt, tt + 22.0], np.r_[0.004 * np.sin(6 * np.pi * tt)] * np.ones(2)[:, None]
     x2 = x2.ravel()
     assert unsegmented(t2, x2, [(s.t0, s.t1) for s in find(t2, x2)]) == []
+
+
+def test_a_headerless_file_is_mapped_from_its_values(tmp_path):
+    """The UTFSM sine files: four columns, no header, no names to guess from. Time rises by
+    one step a row, the third column is the rate of change of the second (velocity, so the
+    second is displacement; in mm, as no damper strokes a metre), the force is the one
+    left. A sample counter's step of 1 is no time."""
+    t, x, F = crank()
+    v = np.r_[np.diff(x) / np.diff(t), 0.0]  # the source's own difference, forward
+    src = _written(tmp_path, "sine.txt", "".join(f"   {a:.7e}  {1e3 * b:.7e}  {1e3 * c:.7e}  {d:.7e}\n"
+                                                 for a, b, c, d in zip(t, x, v, F)))
+    r = dyno("import", src, "--inspect")
+    said = r.stdout.split("guessed from the values (check the units): ")[1]
+    maps = said.split(" (")[0].replace("'", "").split()
+    assert maps == ["--map", "time=1", "--map", "displacement=2:mm", "--map", "velocity=3:mm/s", "--map", "force=4"], \
+        r.stdout
+    assert "1 rises by 0.00333 every row" in said and "not guessed" not in r.stdout, r.stdout
+    channels, _, _ = _imported(tmp_path, src, *maps)
+    _same_motion(channels, t, x, F)
+    counted = _written(tmp_path, "counted.txt", "".join(f"{i + 1}  {1e3 * b:.7e}  {c:.7e}\n"
+                                                        for i, (b, c) in enumerate(zip(x, F))))
+    r = dyno("import", counted, "--inspect")
+    assert "guessed from the values" not in r.stdout and "not guessed from their names: 1 (1), 2 (2), 3 (3)" in r.stdout

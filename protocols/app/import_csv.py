@@ -229,12 +229,53 @@ def inspect(args):
     if guesses:
         print("guessed map (check the units): " + " ".join(f"--map '{g}'" for g in guesses))
     mapped = {g.split("=", 1)[1].split(":")[0] for g in guesses}
+    found = by_values(cols, layout, mapped, {g.split("=")[0] for g in guesses})
+    if found:
+        print("guessed from the values (check the units): " + " ".join(f"--map '{g}'" for g, _ in found)
+              + f" ({'; '.join(why for _, why in found if why)})")
+        mapped |= {g.split("=", 1)[1].split(":")[0] for g, _ in found}
     unnamed = [f"{j + 1} ({name})" for j, (name, cells) in enumerate(cols.items())
                if name not in mapped and str(j + 1) not in mapped and _numeric(cells) and _guess(name, cells) is None]
     if unnamed:
         print(f"not guessed from their names: {', '.join(unnamed)}: map them yourself, raw volts with a gain "
               f"(e.g. --map force=COLUMN:N --gain force=980.665)")
     return 0
+
+
+def by_values(cols, layout, mapped, channels) -> list[tuple[str, str]]:
+    """[(NAME=COLUMN[:UNIT], why)] read from the values of the numeric columns no name
+    explained (a headerless export): time rises by one step every row (a counter's step
+    of 1 is no time); a velocity is the rate of change of another column, which is then the
+    displacement (mm when it spans more than a metre would allow a damper); force is the one
+    numeric column then left. channels: those already guessed by name."""
+    from protocols.io import table
+    vals = {}
+    for j, (name, cells) in enumerate(cols.items()):
+        key = name if layout is None or layout.header is not None else str(j + 1)
+        if key not in mapped and name not in mapped and _numeric(cells):
+            a = np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
+                list(cells), layout.decimal if layout else ".")[0]
+            if len(a) >= 16 and np.all(np.isfinite(a)):
+                vals[key] = a
+    out = []
+    step = {k: np.diff(a) for k, a in vals.items()}
+    t = next((k for k in vals if "time" not in channels and step[k].min() > 0 and np.ptp(step[k]) < 0.01
+              * step[k].mean() and not np.allclose(step[k], 1.0)), None)
+    if t is not None:
+        out.append((f"time={t}", f"{t} rises by {step[t].mean():.3g} every row"))
+        for x, v in ((x, v) for x in vals for v in vals if len({x, v, t}) == 3):
+            rate = np.gradient(vals[x], vals[t])
+            if {"displacement", "velocity"} & channels or np.std(rate) == 0 or np.corrcoef(rate, vals[v])[0, 1] < 0.99:
+                continue
+            ratio = float(np.std(vals[v]) / np.std(rate))
+            mm = np.ptp(vals[x]) > 1.0  # no damper strokes a metre
+            out += [(f"displacement={x}{':mm' if mm else ''}", f"{v} is the rate of change of {x} times {ratio:.3g}"),
+                    (f"velocity={v}{':mm/s' if mm and abs(ratio - 1) < 0.05 else ''}", "")]
+            break
+    left = [k for k in vals if k not in {g.split("=")[1].split(":")[0] for g, _ in out}]
+    if "force" not in channels and len(out) == 3 and len(left) == 1:
+        out.append((f"force={left[0]}", f"{left[0]} is the one column left"))
+    return out
 
 
 def _numeric(cells) -> bool:

@@ -93,6 +93,13 @@ def differing_repeats(channels, events) -> list[tuple[str, list[str], list[float
             if len(g) > 1 and max(r for _, r in g) > (1 + REPEATS_DIFFER) * min(r for _, r in g)]
 
 
+def repeats_sentence(test, names, ranges) -> str:
+    """A differing_repeats() entry in words (what identify and diagnose say)."""
+    return (f"{test} was run {len(names)} times and its force range went from {min(ranges):.0f} to "
+            f"{max(ranges):.0f} N: something the recording does not carry changed between them (a coil current, an "
+            f"adjuster, warm-up), and one model cannot follow them all")
+
+
 def missing(channels, names):
     """Those of `names` the recording lacks (or has fewer than 2 samples of)."""
     return [n for n in names if n not in channels or len(channels[n][0]) < 2]

@@ -288,6 +288,10 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
     assert "sine 19 mm 1.05 Hz (2)" in r.stdout, r.stdout
     r = dyno("identify", tmp_path / "x.mcap")
     assert r.returncode == 0 and "note: sine 19 mm 1.05 Hz was run 2 times" in r.stdout, r.stdout + r.stderr
+    r = dyno("diagnose", tmp_path / "x.mcap", "--json")  # the diagnosis says it too (the UTFSM ME file's currents)
+    doc = json.loads(r.stdout)
+    assert doc["repeats_differ"][0]["segments"] == ["sine 19 mm 1.05 Hz", "sine 19 mm 1.05 Hz (2)"]
+    assert "Repeats that differ: sine 19 mm 1.05 Hz was run 2 times" in doc["summary"]
     r = dyno("identify", tmp_path / "x.mcap", "--segment", "sine 19 mm 1.05 Hz (2)", "--json", "--out",
              tmp_path / "second.json")
     doc = json.loads(r.stdout)

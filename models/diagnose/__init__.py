@@ -36,7 +36,7 @@ from models.diagnose.noise import noise_from, noise_sd
 from models.diagnose.referees import ALPHA, RELEVANCE, bar, block_sse, chosen, p_value, referees, term
 from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
-from models.recording import nrmse
+from models.recording import differing_repeats, nrmse
 
 __all__ = ["diagnose", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
 
@@ -222,7 +222,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                      locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
                      left_over(r_cur, judged, block, judged_blocks, sigma, seed),
                      Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
-                     noise_from(d))
+                     noise_from(d), repeats=differing_repeats(channels, events))
 
 
 def _fit_baseline(d, base, cell, folds, shown):

@@ -118,6 +118,9 @@ class Diagnosis:
     final: Final
     noise_from: str = ""  # where the noise estimate came from, in words (noise_from())
     described: dict = field(default_factory=dict)  # {effect: damper}: physics the recording's own damper has
+    # [(test, [segment names], [force range, N])]: a test run again with something the
+    # recording does not carry changed (models.recording.differing_repeats)
+    repeats: list = field(default_factory=list)
 
     def effects(self):
         """The final model's effects: the cell's, fitted with the baseline, then those accepted."""

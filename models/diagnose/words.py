@@ -9,6 +9,7 @@ import numpy as np
 from models.diagnose import quality
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
+from models.recording import repeats_sentence
 
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
          "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form",
@@ -192,6 +193,9 @@ def summary(res):
     for c in (c for c in b.cell if c.resolved):
         said_ = lag_sentence(c.effect, c.parameters, c.ci, float(np.median(res.data.h)))
         lines.append(f"The channels' alignment, fitted with the baseline: {said_[0].lower()}{said_[1:]}")
+    for test, names, ranges in res.repeats:
+        lines.append(f"Repeats that differ: {repeats_sentence(test, names, ranges)}; a change in time found below may "
+                     f"be that (`dyno identify --segment NAME` fits each alone).")
     found = findings(res)
     if res.accepted:
         f = res.final

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from models import damper as dm
+from models.recording import repeats_sentence
 from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
 from protocols.errors import UsageError
 from rig.errors import RigError
@@ -181,10 +182,8 @@ def _minimal(args, channels, events, inputs, driving):
         print(json.dumps(_clean(doc), indent=2))
         return 0
     for r in doc["repeats_differ"]:
-        print(f"note: {r['test']} was run {len(r['segments'])} times and its force range went from "
-              f"{min(r['force_range_N']):.0f} to {max(r['force_range_N']):.0f} N: something the recording does not "
-              f"carry changed between them (a coil current, an adjuster, warm-up), and one model cannot follow them "
-              f"all; fit each alone with --segment NAME ({'; '.join(r['segments'])})")
+        print(f"note: {repeats_sentence(r['test'], r['segments'], r['force_range_N'])}; fit each alone with "
+              f"--segment NAME ({'; '.join(r['segments'])})")
     from models.diagnose.words import said
     timing = "".join(f", with {said(e)}" for e in doc["effects"] if e in found.cell_found())
     print(f"identify: the recording names no damper: the model that needs no description{timing}, held out by "

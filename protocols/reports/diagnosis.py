@@ -72,6 +72,8 @@ def to_json(res):
         "final": {**{k: getattr(res.final, k) for k in held},
                   "parameters": {k: num(v) for k, v in res.final.parameters.items()}},
         "not_assessed": res.data.notes,
+        "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
+                           for test, names, ranges in res.repeats],
         "summary": summary(res),
     }
 

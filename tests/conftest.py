@@ -110,6 +110,20 @@ def stop(p):
             p.kill()
 
 
+def operator_stopped(p):
+    """The stderr of a `dyno` process given SIGTERM, once it has ended as an operator's stop
+    must: exit 130, no traceback."""
+    import signal
+    p.send_signal(signal.SIGTERM)
+    try:
+        code = p.wait(timeout=60)
+    finally:
+        p.kill()
+    err = p.stderr.read()
+    assert code == 130 and "Traceback" not in err, err
+    return err
+
+
 # The longest tests (prove runs: recordings through the wires and their diagnoses; the
 # real MR recording's diagnosis) start first, after the tests against the wall clock, so
 # that the two workers end together instead of one of them running a long test alone at the end. The Makefile gives

@@ -14,7 +14,7 @@ from models.damper import load as load_damper
 from models.physics.simulate import simulate, sine
 from protocols import cluster
 from protocols.errors import UsageError
-from tests.conftest import recorded
+from tests.conftest import operator_stopped, recorded
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
@@ -149,7 +149,6 @@ def test_a_stopped_batch_keeps_what_it_analysed_and_its_summary_says_the_rest(ar
     """A lab's archive is hours of work: each result is written as it comes in, and a stop
     (SIGTERM, Ctrl-C) writes the summary with the recordings it did not reach marked."""
     import shutil
-    import signal
     import time
     files = [tmp_path / f"g{i}.mcap" for i in range(4)]
     for f in files:
@@ -160,13 +159,7 @@ def test_a_stopped_batch_keeps_what_it_analysed_and_its_summary_says_the_rest(ar
     while not files[0].with_suffix(".diagnosis.json").exists() and p.poll() is None and time.monotonic() - t0 < 120:
         time.sleep(0.05)
     time.sleep(0.1)  # past the instant g0's file is renamed into place and its row kept
-    p.send_signal(signal.SIGTERM)
-    try:
-        code = p.wait(timeout=60)
-    finally:
-        p.kill()
-    err = p.stderr.read()
-    assert code == 130 and "Traceback" not in err, err
+    err = operator_stopped(p)
     rows = list(csv.DictReader(open(tmp_path / "s.csv")))
     assert [Path(r["recording"]).name for r in rows] == [f.name for f in files]
     assert rows[0]["error"] == "" and rows[3]["error"] == "stopped before it was analysed", rows

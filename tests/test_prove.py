@@ -6,6 +6,8 @@ import re
 import subprocess
 import sys
 
+from tests.conftest import operator_stopped
+
 
 def test_prove_runs_another_form_and_a_pair(prove_keep):
     r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects",
@@ -61,7 +63,6 @@ def test_a_keep_folder_that_is_a_file_is_one_line(tmp_path):
 def test_a_sigterm_ends_prove_and_its_workers_at_once(tmp_path):
     """SIGTERM reaches the parent alone: it ends its pool's workers, which would otherwise run
     their recordings and diagnoses to the end (at 5 kHz, minutes) while it waited for them."""
-    import signal
     import time
     from pathlib import Path
     p = subprocess.Popen([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "free_play,null",
@@ -72,13 +73,7 @@ def test_a_sigterm_ends_prove_and_its_workers_at_once(tmp_path):
     while len(workers := children.read_text().split()) < 2 and time.monotonic() - t0 < 120:
         time.sleep(0.2)
     assert len(workers) == 2, p.stderr.read() if p.poll() is not None else "no workers"
-    p.send_signal(signal.SIGTERM)
-    try:
-        code = p.wait(timeout=60)
-    finally:
-        p.kill()
-    err = p.stderr.read()
-    assert code == 130 and "Traceback" not in err, err
+    err = operator_stopped(p)
     assert re.search(r"prove: stopped; \d of 4 runs done, kept in .*kept: the same command goes on", err), err
     t0 = time.monotonic()
     while any(Path(f"/proc/{w}").exists() for w in workers) and time.monotonic() - t0 < 10:

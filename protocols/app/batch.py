@@ -46,7 +46,6 @@ def run(args, task, extra, suffix, row, label, kept=lambda doc: doc):
             with written(beside[Path(name)]) as tmp:
                 tmp.write_text(json.dumps(kept(doc), indent=1))
         rows[i] = (doc is None, row(name, doc, error))
-        print(f"{name}: " + (f"FAILED: {error}" if doc is None else "ok"), file=sys.stderr, flush=True)
     with cluster.pool(args.cluster, args.jobs) as (pool, workers):
         print(f"{label}: {len(tasks)} recordings on {workers} workers", file=sys.stderr, flush=True)
         try:
@@ -57,6 +56,8 @@ def run(args, task, extra, suffix, row, label, kept=lambda doc: doc):
             print(f"{label}: stopped; {len(rows)} of {len(tasks)} analysed and written beside their recordings; "
                   f"{summary} marks the rest", file=sys.stderr, flush=True)
             raise
+    for failed, r in (rows[i] for i in range(len(files))):  # after the progress bar, not through it
+        print(f"{r['recording']}: " + (f"FAILED: {r['error']}" if failed else "ok"), file=sys.stderr, flush=True)
     _summary(summary, [rows[i][1] for i in range(len(files))])
     print(summary)
     return 1 if any(rows[i][0] for i in rows) else 0

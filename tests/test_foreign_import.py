@@ -520,6 +520,10 @@ def test_a_headerless_file_is_mapped_from_its_values(tmp_path):
     assert "1 rises by 0.00333 every row" in said and "not guessed" not in r.stdout, r.stdout
     channels, _, _ = _imported(tmp_path, src, *maps)
     _same_motion(channels, t, x, F)
+    viscous = _written(tmp_path, "viscous.txt", "".join(f"{a:.5f} {1e3 * b:.6f} {2500 * c:.4f} {1e3 * c:.5f}\n"
+                                                        for a, b, c in zip(t, x, v)))  # force before velocity
+    r = dyno("import", viscous, "--inspect")  # a viscous force follows the rate of change as closely as v does
+    assert "--map 'velocity=4:mm/s' --map 'force=3'" in r.stdout, r.stdout
     counted = _written(tmp_path, "counted.txt", "".join(f"{i + 1}  {1e3 * b:.7e}  {c:.7e}\n"
                                                         for i, (b, c) in enumerate(zip(x, F))))
     r = dyno("import", counted, "--inspect")

@@ -246,8 +246,9 @@ def by_values(cols, layout, mapped, channels) -> list[tuple[str, str]]:
     """[(NAME=COLUMN[:UNIT], why)] read from the values of the numeric columns no name
     explained (a headerless export): time rises by one step every row (a counter's step
     of 1 is no time); a velocity is the rate of change of another column, which is then the
-    displacement (mm when it spans more than a metre would allow a damper); force is the one
-    numeric column then left. channels: those already guessed by name."""
+    displacement (mm when it spans more than a metre would allow a damper; the two differ by
+    a power of ten, the units'); force is the one numeric column then left. channels: those
+    already guessed by name."""
     from protocols.io import table
     vals = {}
     for j, (name, cells) in enumerate(cols.items()):
@@ -263,11 +264,17 @@ def by_values(cols, layout, mapped, channels) -> list[tuple[str, str]]:
               * step[k].mean() and not np.allclose(step[k], 1.0)), None)
     if t is not None:
         out.append((f"time={t}", f"{t} rises by {step[t].mean():.3g} every row"))
-        for x, v in ((x, v) for x in vals for v in vals if len({x, v, t}) == 3):
+        pairs = [] if {"displacement", "velocity"} & channels else [(x, v) for x in vals for v in vals
+                                                                      if len({x, v, t}) == 3]
+        for x, v in pairs:
             rate = np.gradient(vals[x], vals[t])
-            if {"displacement", "velocity"} & channels or np.std(rate) == 0 or np.corrcoef(rate, vals[v])[0, 1] < 0.99:
+            if np.std(rate) == 0 or np.std(vals[v]) == 0 or not np.corrcoef(rate, vals[v])[0, 1] >= 0.99:
                 continue
             ratio = float(np.std(vals[v]) / np.std(rate))
+            # a velocity differs from the rate of change by a unit's power of ten; a viscous
+            # damper's force follows it as closely, by any factor
+            if abs(ratio / 10 ** round(np.log10(ratio)) - 1) > 0.05:
+                continue
             mm = np.ptp(vals[x]) > 1.0  # no damper strokes a metre
             out += [(f"displacement={x}{':mm' if mm else ''}", f"{v} is the rate of change of {x} times {ratio:.3g}"),
                     (f"velocity={v}{':mm/s' if mm and abs(ratio - 1) < 0.05 else ''}", "")]

@@ -146,9 +146,9 @@ def find(t, x) -> list[Segment]:
 
 
 def unsegmented(t, x, spans, least_s=LEFT_S):
-    """[(t0, t1, seconds of strokes)] of the motion outside `spans` [(t0, t1)]: strokes
-    that repeat no test (a sweep whose period changes by more than SAME_PERIOD a cycle), in
-    stretches holding at least least_s of them."""
+    """[(t0, t1, seconds of strokes, [(start, end) of each stroke])] of the motion outside
+    `spans` [(t0, t1)]: strokes that repeat no test (a sweep whose period changes by more
+    than SAME_PERIOD a cycle), in stretches holding at least least_s of them."""
     t, x = np.asarray(t, float), np.asarray(x, float)
     edges = sorted((a, b) for a, b in spans)
     # a hole in the file (its acquisition paused) is no stroke, however far x moved across it
@@ -159,28 +159,27 @@ def unsegmented(t, x, spans, least_s=LEFT_S):
                    if c[2] >= MIN_TRAVEL]
         moving = sum(c[1] - c[0] for c in strokes)
         if moving >= least_s:
-            out.append((strokes[0][0], strokes[-1][1], moving))
+            out.append((strokes[0][0], strokes[-1][1], moving, [(c[0], c[1]) for c in strokes]))
     return out
 
 
-def left_out(t, x, spans) -> str:
-    """The motion outside spans in words (what the import and the diagnosis say), or ""."""
-    rest = unsegmented(t, x, spans)
+def left_out(rest) -> str:
+    """unsegmented()'s stretches in words (what import, report and diagnosis say), or ""."""
     if not rest:
         return ""
-    where = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b, _ in rest)
-    return (f"{sum(m for _, _, m in rest):.1f} s of strokes outside the sine segments ({where}) repeat no test "
+    where = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b, *_ in rest)
+    return (f"{sum(m for _, _, m, _ in rest):.1f} s of strokes outside the sine segments ({where}) repeat no test "
             f"(a sweep's period changes by more than {100 * SAME_PERIOD:g} % a cycle): the loops, peaks and "
             f"diagnosis read the segments alone")
 
 
-def imported_left_out(events, t, x) -> str:
-    """left_out() of an imported recording (its segments found here), or "": a run of ours
-    has its settling and ramps between its segments by design."""
+def imported_unsegmented(events, t, x):
+    """unsegmented() of an imported recording (its segments found here), or []: a run of
+    ours has its settling and ramps between its segments by design."""
     found = [s for s in segments(events) if s.params.get("found") == "import"]
     if not any(s.kind == "sine" for s in found):
-        return ""
-    return left_out(t, x, [(s.t0, s.t1) for s in found])
+        return []
+    return unsegmented(t, x, [(s.t0, s.t1) for s in found])
 
 
 def holds(t, x, taken=()):

@@ -497,6 +497,7 @@ def test_strokes_outside_every_segment_are_said_left_out(tmp_path):
     assert r.returncode == 0 and f"Not assessed: {said}" in r.stdout, r.stdout + r.stderr
     assert dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "rep").returncode == 0
     assert f"Not in a segment: {said}".replace("'", "&#39;") in (tmp_path / "rep" / "index.html").read_text()
+    assert (tmp_path / "rep" / "left_out.png").stat().st_size > 10_000  # their loops, drawn apart
     tt = np.arange(400) / rate  # a 3 Hz sine, a 20 s hole, the sine again: nothing outside the segments
     t2, x2 = np.r_[tt, tt + 22.0], np.r_[0.004 * np.sin(6 * np.pi * tt)] * np.ones(2)[:, None]
     x2 = x2.ravel()

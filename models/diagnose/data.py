@@ -16,7 +16,7 @@ import numpy as np
 
 from models.diagnose import quality
 from models.recording import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
-from models.segmentation import imported_left_out
+from models.segmentation import imported_unsegmented, left_out
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
@@ -172,7 +172,8 @@ def prepare(channels, events, drives=None) -> Data:
         lost = sum(b - a for a, b in holes)
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
-    notes += [n for n in [imported_left_out(events, tx, x)] if n]  # before the screening cuts holes in x
+    rest = left_out(imported_unsegmented(events, tx, x))  # before the screening cuts holes in x
+    notes += [rest] if rest else []
     flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
     spans = _spans(events, tx, x)

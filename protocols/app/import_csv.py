@@ -171,7 +171,8 @@ def _import(args, mapping, gains, offsets, claim):
                                               if sines else " (motion that does not repeat: analysed in blocks)")
           + (f"; {len(found) - len(sines)} holds" if len(found) > len(sines) else ""))
     if sines:
-        rest = segmentation.left_out(t[ok] - t[0], data["displacement"][ok], [(f.t0, f.t1) for f in found])
+        rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
+                                                              [(f.t0, f.t1) for f in found]))
         if rest:
             print(f"not in a segment: {rest}")
     sign = other_sign(data["displacement"], data["force"])

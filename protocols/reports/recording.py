@@ -13,7 +13,7 @@ import numpy as np
 
 from models.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
 from models.recording import segments
-from models.segmentation import imported_left_out
+from models.segmentation import imported_unsegmented, left_out
 from protocols.io.reader import load_recording
 from models.identify.static import static_holds
 from protocols.reports import hil, peaks, sines, velocity_table as vt
@@ -40,9 +40,11 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
                + _step_figures(ch, segs, out, units) + hil.figures(ch, events, out, units))
     page = Page(f"Dyno report: {Path(path).name}")
     _header(page, meta, events, model)
-    rest = imported_left_out(events, *ch["x"]) if "x" in ch else ""
+    rest = imported_unsegmented(events, *ch["x"]) if "x" in ch else []
     if rest:
-        page.paragraph(f"Not in a segment: {rest}.")
+        page.paragraph(f"Not in a segment: {left_out(rest)}; their loops are drawn apart, coloured by each "
+                       f"stroke's frequency.")
+        figures.append(sines.left_out_figure(ch, rest, out, units))
     if rows:
         peaks.write_csv(rows, out / "peaks.csv", units)
         page.heading("Peak forces per sine segment (also peaks.csv)")

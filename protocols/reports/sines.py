@@ -172,3 +172,27 @@ def force_temperature_figure(rows, out, units=Units()):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the data, not over it
     return [(f"{what.capitalize()} against temperature", save(fig, out / "force_temperature.png"))]
+
+
+def left_out_figure(ch, rest, out, units=Units()):
+    """The strokes outside every segment (models.segmentation.unsegmented: a sweep's), force
+    against velocity and against displacement, each stroke coloured by its frequency."""
+    from matplotlib import cm, colors
+    V, F_, X = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force", "length"))
+    strokes = [s for *_, ss in rest for s in ss]
+    hz = [1.0 / (b - a) for a, b in strokes]
+    scale = colors.Normalize(min(hz), max(hz) * 1.0001)
+    fig, (ax_v, ax_x) = plt.subplots(1, 2, figsize=(12, 4.8))
+    for (a, b), f in zip(strokes, hz):
+        _, (F, x, v) = peaks.window(ch, ("force", "x", "v"), a, b)
+        ax_v.plot(V(v), F_(F), lw=0.7, color=cm.viridis(scale(f)))
+        ax_x.plot(X(x), F_(F), lw=0.7, color=cm.viridis(scale(f)))
+    ax_v.set(title="force vs velocity", xlabel=units.label("velocity", "velocity"), ylabel=units.label("force", "force"))
+    ax_x.set(title="force vs displacement", xlabel=units.label("displacement", "length"),
+             ylabel=units.label("force", "force"))
+    for ax in (ax_v, ax_x):
+        ax.grid(alpha=0.3)
+    fig.colorbar(cm.ScalarMappable(scale, "viridis"), ax=ax_x, label="stroke frequency [Hz]")
+    return (f"Strokes outside every segment ({len(strokes)}, {min(hz):.2g}-{max(hz):.2g} Hz)",
+            save(fig, out / "left_out.png"))
+

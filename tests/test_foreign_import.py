@@ -94,6 +94,17 @@ def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_p
     r = dyno("import", src, "--inspect")
     assert r.returncode == 0 and "header on line 7" in r.stdout and "sampling rate 1000 Hz" in r.stdout, r.stdout
     assert "--map 'time=Date/Time'" in r.stdout and not list(tmp_path.glob("*.mcap"))
+    # the volts by their values: the displacement is the smoothest, the force follows its rate of change
+    assert "guessed from the values (check the units): --map 'displacement=CHANNEL0' --map 'force=CHANNEL1'" \
+        in r.stdout and "counting the rows, no channel: 1 (Sample Number)" in r.stdout, r.stdout
+    assert "not guessed" not in r.stdout, r.stdout
+    # a second load cell beside the first: which one is the force the values cannot tell
+    head = text.split("Sample Number")[0] + "Sample Number, Date/Time, CHANNEL0, CHANNEL1, CHANNEL2, Events\r\n"
+    two = _written(tmp_path, "two.txt", head + "".join(
+        f"{i + 1:>10},   {st}, {(x[i] - 0.0495) / 0.01:.5f}, {F[i] / 980.665:.6f}, {F[i] / 490.3:.6f}\r\n"
+        for i, st in enumerate(_stamps(t, "%m/%d/%Y %I:%M:%S.%f %p"))))
+    r = dyno("import", two, "--inspect")
+    assert "the force is CHANNEL1 or CHANNEL2, which follow its rate of change alike" in r.stdout, r.stdout
     channels, meta, _ = _imported(tmp_path, src, "--map", "time=Date/Time", "--map", "displacement=CHANNEL0:mm",
                                   "--gain", "displacement=10", "--offset", "displacement=49.5",
                                   "--map", "force=CHANNEL1:N", "--gain", "force=980.665", "--offset", "force=-9.80665")
@@ -527,5 +538,6 @@ def test_a_headerless_file_is_mapped_from_its_values(tmp_path):
     assert "--map 'velocity=4:mm/s' --map 'force=3'" in r.stdout, r.stdout
     counted = _written(tmp_path, "counted.txt", "".join(f"{i + 1}  {1e3 * b:.7e}  {c:.7e}\n"
                                                         for i, (b, c) in enumerate(zip(x, F))))
-    r = dyno("import", counted, "--inspect")
-    assert "guessed from the values" not in r.stdout and "not guessed from their names: 1 (1), 2 (2), 3 (3)" in r.stdout
+    r = dyno("import", counted, "--inspect")  # no time to read a rate of change by
+    assert "guessed from the values" not in r.stdout and "counting the rows, no channel: 1 (1)" in r.stdout
+    assert "not guessed from their names or values: 2 (2), 3 (3)" in r.stdout, r.stdout

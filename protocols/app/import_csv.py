@@ -17,7 +17,6 @@ from protocols.app.arguments import FILE, number, overwrite, writes
 from protocols.errors import UsageError
 
 FLIPS = ("force", "displacement")
-SAMPLES = 3  # values shown per column by --inspect
 PLOT_POINTS = 10_000  # /plot messages per channel at most: over two per pixel of a 4k display; /channels keeps every sample
 BATCH = 5000  # samples per /channels message
 
@@ -182,33 +181,11 @@ def _import(args, mapping, gains, offsets, claim):
     return 0
 
 
-def _guess(name: str, cells) -> str | None:
-    """A standard channel a column's name (or first value) suggests, with its unit: the
-    map a user would likely write."""
-    from protocols.io import table
-    from protocols.io.csv_import import UNITS
-    n = name.lower()
-    unit = None
-    for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
-        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith(f"_{u.lower()}"):
-            unit = u
-            break
-    if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
-        return "time"
-    for channel, words in (("time", ("time", "t", "zeit", "temps", "sec")), ("force", ("force", "load", "f", "kraft")),
-                           ("displacement", ("disp", "displacement", "position", "pos", "x", "d", "travel", "stroke")),
-                           ("velocity", ("vel", "velocity", "speed", "v")),
-                           ("temperature", ("temp", "temperature", "t_body")), ("pressure", ("pressure", "p_gas"))):
-        base = n.split("[")[0].split("(")[0].strip()
-        if base in words or any(base.startswith(w) for w in words if len(w) > 2):
-            return f"{channel}" + (f":{unit}" if unit and unit in UNITS[channel] else "")
-    return None
-
-
 def inspect(args):
     """What import would read from the file: layout, columns with sample values, the rate,
     and a guessed map. Writes nothing."""
     from protocols.io import table
+    from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, numeric
     from protocols.io.csv_import import source
     cols, layout = source(args.file)
     print(f"{args.file}: {layout.describe() if layout else Path(args.file).suffix[1:] + ' columns'}")
@@ -223,71 +200,24 @@ def inspect(args):
         sample = [str(c) for c in list(cells[:SAMPLES])]
         kind = "date-time" if sample and table.is_stamp(sample[0]) else ""
         print(f"  {j + 1:>2}  {name!r:24} {', '.join(sample)}{'  (' + kind + ')' if kind else ''}")
-        g = _guess(name, cells)
+        g = by_name(name, cells)
         if g and not any(x.split("=")[0] == g.split(":")[0] for x in guesses):
             guesses.append(f"{g.split(':')[0]}={name if layout is None or layout.header is not None else j + 1}"
                            + (f":{g.split(':')[1]}" if ":" in g else ""))
     if guesses:
         print("guessed map (check the units): " + " ".join(f"--map '{g}'" for g in guesses))
     mapped = {g.split("=", 1)[1].split(":")[0] for g in guesses}
-    found = by_values(cols, layout, mapped, {g.split("=")[0] for g in guesses})
+    found = by_values(cols, layout, guesses)
     if found:
         print("guessed from the values (check the units): " + " ".join(f"--map '{g}'" for g, _ in found)
               + f" ({'; '.join(why for _, why in found if why)})")
         mapped |= {g.split("=", 1)[1].split(":")[0] for g, _ in found}
-    unnamed = [f"{j + 1} ({name})" for j, (name, cells) in enumerate(cols.items())
-               if name not in mapped and str(j + 1) not in mapped and _numeric(cells) and _guess(name, cells) is None]
+    rest = [(f"{j + 1} ({name})", counter(cells, layout)) for j, (name, cells) in enumerate(cols.items())
+            if name not in mapped and str(j + 1) not in mapped and numeric(cells) and by_name(name, cells) is None]
+    counters, unnamed = [u for u, c in rest if c], [u for u, c in rest if not c]
+    if counters:
+        print(f"counting the rows, no channel: {', '.join(counters)}")
     if unnamed:
-        print(f"not guessed from their names: {', '.join(unnamed)}: map them yourself, raw volts with a gain "
+        print(f"not guessed from their names or values: {', '.join(unnamed)}: map them yourself, raw volts with a gain "
               f"(e.g. --map force=COLUMN:N --gain force=980.665)")
     return 0
-
-
-def by_values(cols, layout, mapped, channels) -> list[tuple[str, str]]:
-    """[(NAME=COLUMN[:UNIT], why)] read from the values of the numeric columns no name
-    explained (a headerless export): time rises by one step every row (a counter's step
-    of 1 is no time); a velocity is the rate of change of another column, which is then the
-    displacement (mm when it spans more than a metre would allow a damper; the two differ by
-    a power of ten, the units'); force is the one numeric column then left. channels: those
-    already guessed by name."""
-    from protocols.io import table
-    vals = {}
-    for j, (name, cells) in enumerate(cols.items()):
-        key = name if layout is None or layout.header is not None else str(j + 1)
-        if key not in mapped and name not in mapped and _numeric(cells):
-            a = np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
-                list(cells), layout.decimal if layout else ".")[0]
-            if len(a) >= 16 and np.all(np.isfinite(a)):
-                vals[key] = a
-    out = []
-    step = {k: np.diff(a) for k, a in vals.items()}
-    t = next((k for k in vals if "time" not in channels and step[k].min() > 0 and np.ptp(step[k]) < 0.01
-              * step[k].mean() and not np.allclose(step[k], 1.0)), None)
-    if t is not None:
-        out.append((f"time={t}", f"{t} rises by {step[t].mean():.3g} every row"))
-        pairs = [] if {"displacement", "velocity"} & channels else [(x, v) for x in vals for v in vals
-                                                                      if len({x, v, t}) == 3]
-        for x, v in pairs:
-            rate = np.gradient(vals[x], vals[t])
-            if np.std(rate) == 0 or np.std(vals[v]) == 0 or not np.corrcoef(rate, vals[v])[0, 1] >= 0.99:
-                continue
-            ratio = float(np.std(vals[v]) / np.std(rate))
-            # a velocity differs from the rate of change by a unit's power of ten; a viscous
-            # damper's force follows it as closely, by any factor
-            if abs(ratio / 10 ** round(np.log10(ratio)) - 1) > 0.05:
-                continue
-            mm = np.ptp(vals[x]) > 1.0  # no damper strokes a metre
-            out += [(f"displacement={x}{':mm' if mm else ''}", f"{v} is the rate of change of {x} times {ratio:.3g}"),
-                    (f"velocity={v}{':mm/s' if mm and abs(ratio - 1) < 0.05 else ''}", "")]
-            break
-    left = [k for k in vals if k not in {g.split("=")[1].split(":")[0] for g, _ in out}]
-    if "force" not in channels and len(out) == 3 and len(left) == 1:
-        out.append((f"force={left[0]}", f"{left[0]} is the one column left"))
-    return out
-
-
-def _numeric(cells) -> bool:
-    """A column whose first values are numbers (a DAQ's channels, not a sample counter's name)."""
-    from protocols.io import table
-    first = [str(c) for c in list(cells[:SAMPLES]) if str(c)]
-    return bool(first) and all(table.NUMBER.match(c) for c in first)

@@ -1,0 +1,137 @@
+"""The map `dyno import --inspect` suggests: each column's channel guessed from its name,
+or, where no name says (a headerless export, a DAQ's CHANNEL0...), from its values."""
+from __future__ import annotations
+
+import numpy as np
+
+SAMPLES = 3  # a column's first values: --inspect shows them, and a number among them makes it numeric
+
+
+def by_name(name: str, cells) -> str | None:
+    """A standard channel a column's name (or first value) suggests, with its unit: the
+    map a user would likely write."""
+    from protocols.io import table
+    from protocols.io.csv_import import UNITS
+    n = name.lower()
+    unit = None
+    for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
+        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith(f"_{u.lower()}"):
+            unit = u
+            break
+    if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
+        return "time"
+    for channel, words in (("time", ("time", "t", "zeit", "temps", "sec")), ("force", ("force", "load", "f", "kraft")),
+                           ("displacement", ("disp", "displacement", "position", "pos", "x", "d", "travel", "stroke")),
+                           ("velocity", ("vel", "velocity", "speed", "v")),
+                           ("temperature", ("temp", "temperature", "t_body")), ("pressure", ("pressure", "p_gas"))):
+        base = n.split("[")[0].split("(")[0].strip()
+        if base in words or any(base.startswith(w) for w in words if len(w) > 2):
+            return f"{channel}" + (f":{unit}" if unit and unit in UNITS[channel] else "")
+    return None
+
+
+def _values(cols, layout, guesses):
+    """({column key: values} of the numeric columns no name explained, the time column's
+    values [s] if a name gave it, else None)."""
+    from protocols.io import table
+    named = dict(g.split(":")[0].split("=", 1) for g in guesses)  # channel -> column key
+    vals, t = {}, None
+    for j, (name, cells) in enumerate(cols.items()):
+        key = name if layout is None or layout.header is not None else str(j + 1)
+        stamps = not isinstance(cells, np.ndarray) and len(cells) and table.is_stamp(str(cells[0]))
+        if key == named.get("time"):
+            t = table.stamps(list(cells))[0] if stamps else np.asarray(cells, float) if isinstance(
+                cells, np.ndarray) else table.numbers(list(cells), layout.decimal if layout else ".")[0]
+        elif key not in named.values() and numeric(cells):
+            a = np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
+                list(cells), layout.decimal if layout else ".")[0]
+            if len(a) >= 16 and np.all(np.isfinite(a)):
+                vals[key] = a
+    return vals, t if t is not None and len(t) and np.all(np.isfinite(t)) else None
+
+
+def by_values(cols, layout, guesses) -> list[tuple[str, str]]:
+    """[(NAME=COLUMN[:UNIT], why)] read from the values of the numeric columns no name
+    explained (a headerless export, a DAQ's CHANNEL0...): time rises by one step every row
+    (a counter's step of 1 is no time); a velocity is the rate of change of another column,
+    which is then the displacement (mm when it spans more than a metre would allow a damper;
+    the two differ by a power of ten, the units'); without one, the displacement is the
+    smoothest column and the force the one that follows its rate of change (compression
+    positive: a damper's force goes with its velocity), unless two follow it alike; force
+    is the one numeric column left. guesses: the map read from the names."""
+    channels = {g.split("=")[0] for g in guesses}
+    vals, t = _values(cols, layout, guesses)
+    out = []
+    step = {k: np.diff(a) for k, a in vals.items()}
+    if t is None:
+        t = next((k for k in vals if "time" not in channels and step[k].min() > 0 and np.ptp(step[k]) < 0.01
+                  * step[k].mean() and not np.allclose(step[k], 1.0)), None)
+        if t is None:
+            return out
+        out.append((f"time={t}", f"{t} rises by {step[t].mean():.3g} every row"))
+        t = vals.pop(t)
+    rest = {k: a for k, a in vals.items() if np.std(a) > 0 and not np.allclose(step[k], 1.0)}  # no counter
+    if not {"displacement", "velocity"} & channels:
+        out += _motion_pair(rest, t) or _motion_and_force(rest, t, "force" in channels)
+    left = [k for k in rest if k not in {g.split("=")[1].split(":")[0] for g, _ in out}]
+    if "force" not in channels and {g.split("=")[0] for g, _ in out} == {"time", "displacement", "velocity"} \
+            and len(left) == 1:
+        out.append((f"force={left[0]}", f"{left[0]} is the one column left"))
+    return out
+
+
+def _motion_pair(vals, t):
+    """[displacement, velocity] guesses of a column and its rate of change (by a power of
+    ten: their units), or []."""
+    for x, v in ((x, v) for x in vals for v in vals if x != v):
+        rate = np.gradient(vals[x], t)
+        if np.std(rate) == 0 or not np.corrcoef(rate, vals[v])[0, 1] >= 0.99:
+            continue
+        ratio = float(np.std(vals[v]) / np.std(rate))
+        # a viscous damper's force follows the rate of change as closely, by any factor
+        if abs(ratio / 10 ** round(np.log10(ratio)) - 1) > 0.05:
+            continue
+        mm = np.ptp(vals[x]) > 1.0  # no damper strokes a metre
+        return [(f"displacement={x}{':mm' if mm else ''}", f"{v} is the rate of change of {x} times {ratio:.3g}"),
+                (f"velocity={v}{':mm/s' if mm and abs(ratio - 1) < 0.05 else ''}", "")]
+    return []
+
+
+FOLLOWS = 0.6  # correlation of a force with the displacement's rate of change (the UTFSM DAQ files: 0.75-0.87)
+
+
+def _motion_and_force(vals, t, force_named):
+    """[displacement, force] guesses of a DAQ's raw channels: the smoothest column, and the
+    one that follows its rate of change unless another follows it within 0.05; or []."""
+    if len(vals) < 2 or force_named:
+        return []
+    rough = {k: float(np.std(np.diff(a, 2)) / np.std(a)) for k, a in vals.items()}
+    x = min(rough, key=rough.get)
+    rate = np.gradient(vals[x], t)
+    ok = np.isfinite(rate)  # two rows with one stamp give no rate
+    if ok.sum() < 16:
+        return []
+    follow = sorted(((float(np.corrcoef(rate[ok], a[ok])[0, 1]), k) for k, a in vals.items() if k != x), reverse=True)
+    if not follow[0][0] >= FOLLOWS:
+        return []
+    why = f"{x} is the smoothest; {follow[0][1]} follows its rate of change (correlation {follow[0][0]:.2f})"
+    if len(follow) > 1 and follow[0][0] - follow[1][0] < 0.05:
+        a, b = sorted((follow[0][1], follow[1][1]), key=list(vals).index)  # in the file's order
+        return [(f"displacement={x}", f"{x} is the smoothest; the force is {a} or {b}, which follow its rate of "
+                                     f"change alike (correlation {follow[1][0]:.2f} or more): the values cannot tell")]
+    return [(f"displacement={x}", why + "; raw volts? give each a --gain"), (f"force={follow[0][1]}", "")]
+
+
+def counter(cells, layout) -> bool:
+    """A sample number: 1, 2, 3, ... (the UTFSM DAQ's first column)."""
+    from protocols.io import table
+    a = np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
+        list(cells), layout.decimal if layout else ".")[0]
+    return len(a) > 1 and bool(np.all(np.diff(a) == 1.0))
+
+
+def numeric(cells) -> bool:
+    """A column whose first values are numbers (a DAQ's channels, not a sample counter's name)."""
+    from protocols.io import table
+    first = [str(c) for c in list(cells[:SAMPLES]) if str(c)]
+    return bool(first) and all(table.NUMBER.match(c) for c in first)

@@ -160,14 +160,25 @@ SIGN_SHARE = 0.2  # net work against the work done either way: below this a reco
 
 
 def other_sign(x, F) -> str | None:
-    """The sentence saying a recording is in the other sign convention, or None. A
-    passive damper dissipates: over whole cycles the work done on it, the integral of
-    F dx [J], is positive with force and displacement both positive in compression (ours).
-    Negative work, a clear share of all the work, means the force or the displacement is
-    counted the other way (tension positive, or displacement from the other end). The
-    work of the force's part that depends on position alone (a gas spring's: a cubic in x
-    fitted to F) is left out first: on a path that does not close (a static test's moves,
-    a run so far) it is energy stored or given back, not dissipated."""
+    """The sentence saying a recording is in the other sign convention, or None (flips
+    says when and which)."""
+    said = flips(x, F)
+    return None if said is None else (
+        f"the damper would give back {-said[0]:.3g} J over this recording (the integral of F dx is negative), which "
+        f"a passive damper cannot: force or displacement is in the other sign convention (dyno's: both positive "
+        f"in compression); import it again with {said[1]}")
+
+
+def flips(x, F) -> tuple[float, str] | None:
+    """(work [J], the flips to give, likelier first) when a recording is in the other sign
+    convention, or None. A passive damper dissipates: over whole cycles the work done on
+    it, the integral of F dx [J], is positive with force and displacement both positive in
+    compression (ours). Negative work, a clear share of all the work, means the force or
+    the displacement is counted the other way (tension positive, or displacement from the
+    other end). The work of the force's part that depends on position alone (a gas
+    spring's: a cubic in x fitted to F) is left out first: on a path that does not close
+    (a static test's moves, a run so far) it is energy stored or given back, not
+    dissipated. Scale-free: raw volts with positive gains tell the sign as well."""
     ok = np.isfinite(x) & np.isfinite(F)
     x, F = np.asarray(x, float)[ok], np.asarray(F, float)[ok]
     if len(x) < 3:
@@ -177,11 +188,8 @@ def other_sign(x, F) -> str | None:
     W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
     if not (A > 0 and W < -SIGN_SHARE * A):
         return None
-    first = "--flip force" if np.median(F) < 0 else "--flip displacement"  # a gas force reads as compression
-    second = "--flip displacement" if first == "--flip force" else "--flip force"
-    return (f"the damper would give back {-W:.3g} J over this recording (the integral of F dx is negative), which "
-            f"a passive damper cannot: force or displacement is in the other sign convention (dyno's: both positive "
-            f"in compression); import it again with {first} (or {second})")
+    first, second = ("force", "displacement") if np.median(F) < 0 else ("displacement", "force")  # gas: compression
+    return W, f"--flip {first} (or --flip {second})"
 
 
 def sign_problem(channels) -> str | None:

@@ -105,6 +105,13 @@ def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_p
         for i, st in enumerate(_stamps(t, "%m/%d/%Y %I:%M:%S.%f %p"))))
     r = dyno("import", two, "--inspect")
     assert "the force is CHANNEL1 or CHANNEL2, which follow its rate of change alike" in r.stdout, r.stdout
+    # a load cell wired tension positive: still the force, and the flip is said
+    tension = _written(tmp_path, "tension.txt", head.replace(", CHANNEL2", "") + "".join(
+        f"{i + 1:>10},   {st}, {(x[i] - 0.0495) / 0.01:.5f}, {-F[i] / 980.665:.6f}\r\n"
+        for i, st in enumerate(_stamps(t, "%m/%d/%Y %I:%M:%S.%f %p"))))
+    r = dyno("import", tension, "--inspect")
+    assert "--map 'force=CHANNEL1'" in r.stdout and "(correlation -0." in r.stdout, r.stdout
+    assert "sign: with this map the damper would give energy back" in r.stdout and "add --flip force" in r.stdout
     channels, meta, _ = _imported(tmp_path, src, "--map", "time=Date/Time", "--map", "displacement=CHANNEL0:mm",
                                   "--gain", "displacement=10", "--offset", "displacement=49.5",
                                   "--map", "force=CHANNEL1:N", "--gain", "force=980.665", "--offset", "force=-9.80665")
@@ -165,8 +172,13 @@ def test_the_other_sign_convention_is_named_in_one_line_and_flipped(tmp_path):
     said = [line for line in r.stdout.splitlines() if line.startswith("sign: ")]
     assert len(said) == 1 and "--flip force" in said[0] and "other sign convention" in said[0], r.stdout
     for command in (["identify", tmp_path / "x.mcap", "--damper", "koni", "--out", tmp_path / "m.json"],
-                    ["diagnose", tmp_path / "x.mcap"]):
+                    ["diagnose", tmp_path / "x.mcap"], ["check", tmp_path / "x.mcap", "--against", "koni"]):
         one_line_error(dyno(*command), "other sign convention", "--flip force")
+    from protocols.reports.recording import report  # drawn as it is, and said so above its tables
+    index, _ = report(tmp_path / "x.mcap", tmp_path / "report")
+    assert "Sign convention: the damper would give back" in index.read_text()
+    r = dyno("import", src, "--inspect")
+    assert "sign: with this map" in r.stdout and "add --flip force (or --flip displacement)" in r.stdout, r.stdout
     channels, _, r = _imported(tmp_path, src, *args, "--flip", "force", "--overwrite")
     assert "sign: " not in r.stdout and np.allclose(channels["force"][1], F, atol=1e-6)
     # displacement measured from the other end: flipped about its most extended reading

@@ -40,6 +40,8 @@ def run(args):
         input_file(args.against, "--against")
     try:
         checked = qa.check(args.recording, args.against, tol, units)
+    except qa.OtherSign as e:
+        raise UsageError(str(e)) from None
     except (DamperError, OSError, ValueError) as e:
         raise UsageError(f"--against: {e}") from None
     results, ref_name = checked.results, checked.reference

@@ -185,7 +185,7 @@ def inspect(args):
     """What import would read from the file: layout, columns with sample values, the rate,
     and a guessed map. Writes nothing."""
     from protocols.io import table
-    from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, numeric
+    from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, numeric, sign
     from protocols.io.csv_import import source
     cols, layout = source(args.file)
     print(f"{args.file}: {layout.describe() if layout else Path(args.file).suffix[1:] + ' columns'}")
@@ -212,6 +212,9 @@ def inspect(args):
         print("guessed from the values (check the units): " + " ".join(f"--map '{g}'" for g, _ in found)
               + f" ({'; '.join(why for _, why in found if why)})")
         mapped |= {g.split("=", 1)[1].split(":")[0] for g, _ in found}
+    flip = sign(cols, layout, guesses + [g for g, _ in found])
+    if flip:
+        print(f"sign: {flip}")
     rest = [(f"{j + 1} ({name})", counter(cells, layout)) for j, (name, cells) in enumerate(cols.items())
             if name not in mapped and str(j + 1) not in mapped and numeric(cells) and by_name(name, cells) is None]
     counters, unnamed = [u for u, c in rest if c], [u for u, c in rest if not c]

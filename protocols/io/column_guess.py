@@ -40,14 +40,33 @@ def _values(cols, layout, guesses):
         key = name if layout is None or layout.header is not None else str(j + 1)
         stamps = not isinstance(cells, np.ndarray) and len(cells) and table.is_stamp(str(cells[0]))
         if key == named.get("time"):
-            t = table.stamps(list(cells))[0] if stamps else np.asarray(cells, float) if isinstance(
-                cells, np.ndarray) else table.numbers(list(cells), layout.decimal if layout else ".")[0]
+            t = table.stamps(list(cells))[0] if stamps else _numbers(cells, layout)
         elif key not in named.values() and numeric(cells):
-            a = np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
-                list(cells), layout.decimal if layout else ".")[0]
+            a = _numbers(cells, layout)
             if len(a) >= 16 and np.all(np.isfinite(a)):
                 vals[key] = a
     return vals, t if t is not None and len(t) and np.all(np.isfinite(t)) else None
+
+
+def _numbers(cells, layout):
+    """A column's cells as floats (nan where not a number)."""
+    from protocols.io import table
+    return np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
+        list(cells), layout.decimal if layout else ".")[0]
+
+
+def sign(cols, layout, mapping) -> str | None:
+    """What to flip when the guessed map's force and displacement would give energy back
+    (models.recording.flips), or None. mapping: [NAME=COLUMN[:UNIT]]."""
+    from models.recording import flips
+    named = dict(g.split(":")[0].split("=", 1) for g in mapping)
+    if not {"displacement", "force"} <= named.keys():
+        return None
+    keys = [name if layout is None or layout.header is not None else str(j + 1) for j, name in enumerate(cols)]
+    x, F = (_numbers(list(cols.values())[keys.index(named[c])], layout) for c in ("displacement", "force"))
+    said = flips(x, F)
+    return None if said is None else (f"with this map the damper would give energy back (the integral of F dx is "
+                                       f"negative): the file counts force or displacement the other way; add {said[1]}")
 
 
 def by_values(cols, layout, guesses) -> list[tuple[str, str]]:
@@ -111,14 +130,17 @@ def _motion_and_force(vals, t, force_named):
     ok = np.isfinite(rate)  # two rows with one stamp give no rate
     if ok.sum() < 16:
         return []
-    follow = sorted(((float(np.corrcoef(rate[ok], a[ok])[0, 1]), k) for k, a in vals.items() if k != x), reverse=True)
+    # by size: a force counted tension positive follows it the other way (sign() says so)
+    r = {k: float(np.corrcoef(rate[ok], a[ok])[0, 1]) for k, a in vals.items() if k != x}
+    follow = sorted(((abs(c), k) for k, c in r.items()), reverse=True)
     if not follow[0][0] >= FOLLOWS:
         return []
-    why = f"{x} is the smoothest; {follow[0][1]} follows its rate of change (correlation {follow[0][0]:.2f})"
+    why = f"{x} is the smoothest; {follow[0][1]} follows its rate of change (correlation {r[follow[0][1]]:.2f})"
     if len(follow) > 1 and follow[0][0] - follow[1][0] < 0.05:
         a, b = sorted((follow[0][1], follow[1][1]), key=list(vals).index)  # in the file's order
         return [(f"displacement={x}", f"{x} is the smoothest; the force is {a} or {b}, which follow its rate of "
-                                     f"change alike (correlation {follow[1][0]:.2f} or more): the values cannot tell")]
+                                     f"change alike (correlation {follow[1][0]:.2f} or more in size): the values "
+                                     f"cannot tell")]
     return [(f"displacement={x}", why + "; raw volts? give each a --gain"), (f"force={follow[0][1]}", "")]
 
 

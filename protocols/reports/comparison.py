@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from models.recording import segments
+from models.recording import segments, sign_problem
 from protocols.io.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
@@ -27,7 +27,7 @@ MARKERS = "os^Dv<>p"  # one per amplitude
 
 def _run(path):
     """(peaks, metadata, the fastest sine segment's loop (velocity, displacement, force)
-    keyed by segment)."""
+    keyed by segment, the sentence saying it is in the other sign convention or None)."""
     ch, events, meta = load_recording(path, peaks.READS)
     segs = segments(events)
     rows = peaks.peaks(ch, segs, damper=peaks.recorded_damper(meta))
@@ -35,7 +35,7 @@ def _run(path):
     for name, _, t0, t1 in peaks.sines(segs):
         _, (F, x, v) = peaks.window(ch, ("force", "x", "v"), t0, t1)
         loops[name] = (v, x, F)
-    return rows, meta, loops
+    return rows, meta, loops, sign_problem(ch)
 
 
 def run_name(meta, path) -> str:
@@ -75,14 +75,17 @@ def compare(paths, out_dir, units=Units()):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs = [(string.ascii_uppercase[i % 26], path, *_run(path)) for i, path in enumerate(paths)]
-    loops = {tag: loop for tag, _, _, _, loop in runs}
+    loops = {tag: loop for tag, _, _, _, loop, _ in runs}
+    signs = {tag: sign for tag, *_, sign in runs}
     runs = [r[:4] for r in runs]
     page = Page("Dyno comparison: " + ", ".join(f"{tag} {run_name(meta, path)}" for tag, path, _, meta in runs))
     for tag, path, _, meta in runs:
         run = meta.get("run", {})
         page.paragraph(f"{tag}: {run_name(meta, path)}; {Path(path).name}, protocol "
                        f"{meta.get('protocol', {}).get('name', '?')}, started {run.get('wall_start', '?')}"
-                       + (f", operator {run['operator']}" if run.get("operator") else ""))
+                       + (f", operator {run['operator']}" if run.get("operator") else "")
+                       + (f". Sign convention: {signs[tag]}; its forces below are in the file's convention"
+                          if signs[tag] else ""))
     first = runs[0]
     diffs = differences(first[2], [(tag, rows) for tag, _, rows, _ in runs[1:]])
     L, F, T = (lambda si, q=q: units.show(q, si) for q in ("length", "force", "temperature"))

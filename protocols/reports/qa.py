@@ -18,7 +18,7 @@ import numpy as np
 
 from models.damper import DamperError
 from models.minimal import load_reference as load_damper
-from models.recording import segments
+from models.recording import segments, sign_problem
 from protocols.io.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
@@ -128,10 +128,17 @@ class Check:
     compensation: str = ""  # how temperature was compensated, or why it could not be; "" when not needed
 
 
+class OtherSign(ValueError):
+    """A run or reference in the other sign convention: no band can compare it."""
+
+
 def _rows(path, model=None, at_K=None):
     """The recording's peaks; with a model, its force at the same instants (at the body
     temperature measured, or at at_K [K] for every segment when given)."""
     ch, events, meta = load_recording(path, None if getattr(model, "effects", None) else peaks.READS)
+    sign = sign_problem(ch)
+    if sign:
+        raise OtherSign(f"{Path(path).name}: {sign}")
     model = peaks.along(model, ch, events)
     if at_K is not None and "T_body" in ch:
         t = ch["T_body"][0]

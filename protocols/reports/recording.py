@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from models.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
-from models.recording import segments
+from models.recording import segments, sign_problem
 from models.segmentation import imported_unsegmented, left_out
 from protocols.io.reader import load_recording
 from models.identify.static import static_holds
@@ -40,6 +40,10 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
                + _step_figures(ch, segs, out, units) + hil.figures(ch, events, out, units))
     page = Page(f"Dyno report: {Path(path).name}")
     _header(page, meta, events, model)
+    sign = sign_problem(ch)
+    if sign:
+        page.paragraph(f"Sign convention: {sign}. The tables and figures below are in the file's convention, "
+                       f"not dyno's.")
     rest = imported_unsegmented(events, *ch["x"]) if "x" in ch else []
     if rest:
         page.paragraph(f"Not in a segment: {left_out(rest)}; their loops are drawn apart, coloured by each "

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -179,11 +180,16 @@ def flips(x, F) -> tuple[float, str] | None:
     spring's: a cubic in x fitted to F) is left out first: on a path that does not close
     (a static test's moves, a run so far) it is energy stored or given back, not
     dissipated. Scale-free: raw volts with positive gains tell the sign as well."""
+    x, F = np.asarray(x, float), np.asarray(F, float)
+    if len(x) != len(F):
+        return None
     ok = np.isfinite(x) & np.isfinite(F)
-    x, F = np.asarray(x, float)[ok], np.asarray(F, float)[ok]
+    x, F = x[ok], F[ok]
     if len(x) < 3:
         return None
-    Fd = F - np.polyval(np.polyfit(u := (x - np.mean(x)) / np.ptp(x), F, 3), u) if np.ptp(x) > 0 else F
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", np.exceptions.RankWarning)  # a few points: any cubic will do
+        Fd = F - np.polyval(np.polyfit(u := (x - np.mean(x)) / np.ptp(x), F, 3), u) if np.ptp(x) > 0 else F
     dW = 0.5 * (Fd[1:] + Fd[:-1]) * np.diff(x)
     W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
     if not (A > 0 and W < -SIGN_SHARE * A):

@@ -59,6 +59,9 @@ def _same_motion(channels, t, x, F, tol_x=1e-6, tol_F=1e-3):
     ("%Y-%m-%dT%H:%M:%S.%f", "Z", 0.0),
     ("%Y-%m-%dT%H:%M:%S.%f", "+01:00", -3600.0),
     ("%m/%d/%Y %I:%M:%S.%f %p", "", 0.0),
+    ("%d.%m.%Y %H:%M:%S.%f", "", 0.0),  # a German DAQ's
+    ("%d/%m/%Y %H:%M:%S.%f", "", 0.0),  # day first: the 14th says so
+    ("%Y/%m/%d %H:%M:%S.%f", "", 0.0),
 ])
 def test_date_time_stamps_give_the_time_and_the_recordings_start(tmp_path, fmt, zone, shift):
     t, x, F = crank()
@@ -79,6 +82,25 @@ def test_a_zone_after_zone_less_stamps_is_applied_not_warned_about():
         warnings.simplefilter("error")  # numpy's parser would warn and apply the zone itself
         t, bad = stamps(["2026-01-01T00:00:00", "2026-01-01T02:00:01+02:00", "2026-01-01 00:00:02"])
     assert bad is None and list(t - t[0]) == [0.0, 1.0, 2.0]
+
+
+def test_stamps_that_cannot_tell_the_day_from_the_month_or_give_no_date(tmp_path):
+    from protocols.io import csv_import, table
+    # past midnight, the reading whose dates lie a day apart, not a month
+    assert table.day_first(["03/05/2022 23:59:59", "04/05/2022 00:00:01"]) is True
+    assert table.day_first(["05/03/2022 23:59:59", "05/04/2022 00:00:01"]) is False
+    src = _written(tmp_path, "ambiguous.csv", "time;x;F\n" + "".join(
+        f"03/05/2022 10:00:{i:02d},5;{i % 7};{i % 5}\n" for i in range(20)))
+    got = csv_import.read(src, [("time", "time", "s"), ("displacement", "x", "mm"), ("force", "F", "N")])
+    assert "cannot tell the day from the month" in got.stamp_note and "03/05/2022 as MM/DD/YYYY" in got.stamp_note
+    assert got.start_epoch == datetime(2022, 3, 5, 10, 0, 0, 500000, tzinfo=timezone.utc).timestamp()
+    # the time of day alone: no date, and a day added past midnight
+    t, bad = table.stamps(["23:59:59.5", "11:59:59.75 PM", "00:00:00.25"])
+    assert bad is None and list(t - t[0]) == [0.0, 0.25, 0.75] and not table.dated(["23:59:59.5"])
+    clock = _written(tmp_path, "clock.csv", "time,x,F\n" + "".join(f"12:00:{i:02d}.000,{i % 7},{i % 5}\n"
+                                                                    for i in range(20)))
+    got = csv_import.read(clock, [("time", "time", "s"), ("displacement", "x", "mm"), ("force", "F", "N")])
+    assert got.start_epoch is None and got.data["time"][-1] == 19.0
 
 
 def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_path):

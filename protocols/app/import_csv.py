@@ -164,6 +164,8 @@ def _import(args, mapping, gains, offsets, claim):
     print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC{dated}, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
+    if got.stamp_note:
+        print(f"time: {got.stamp_note}")
     sines = [f for f in found if f.kind == "sine"]
     print(f"segments: {len(sines)} periodic" + (": " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)"
                                                                 for f in sines[:6]) + (", ..." if len(sines) > 6 else "")

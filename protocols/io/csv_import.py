@@ -96,6 +96,7 @@ class Imported:
     layout: table.Layout | None  # None: Parquet or MAT
     start_epoch: float | None = None  # s since 1970 UTC: the first date-time stamp; None without one
     derived_time: str = ""  # how the time was made when no column gives it
+    stamp_note: str = ""  # what the date-time stamps could not tell
 
 
 def source(path):
@@ -153,7 +154,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     cols, layout = source(path)
     gains, offsets = gains or {}, offsets or {}
     first_row = (layout.first + 1) if layout else 1  # a data row's line in the file: first_row + index
-    data, start, derived = {}, None, ""
+    data, start, derived, note = {}, None, "", ""
     names = {}
     for name, column, unit in mapping:
         key = table.column(cols, layout, column) if layout else column
@@ -173,9 +174,13 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
         elif name == "time" and any(table.is_stamp(c) for c in cells[:5]):
             a, bad = table.stamps(cells)
             if bad is None:
-                start = float(a[~np.isnan(a)][0]) if np.any(~np.isnan(a)) else None
-                a = a - start if start is not None else a
+                first = float(a[~np.isnan(a)][0]) if np.any(~np.isnan(a)) else None
+                a = a - first if first is not None else a
+                start = first if table.dated(cells) else None  # the time of day alone gives no date
                 unit = "s"
+                if table.day_first(cells) is None and any(table.DMY.match(c) for c in cells[:5] if c):
+                    note = (f"the stamps cannot tell the day from the month (both at most 12): read month first "
+                            f"({cells[0].split()[0]} as MM/DD/YYYY); the date may be wrong, the times are not")
         else:
             a, bad = table.numbers(cells, layout.decimal if layout else ".")
         if bad is not None:
@@ -219,7 +224,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
         if 0 < have < need or (have == 0 and need == 10):
             raise UsageError(f"{path}: column {column!r} ({name}) holds {have} number{'s' * (have != 1)} "
                            f"with a time (needs at least {need})")
-    return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived)
+    return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived, note)
 
 
 def _plausible(path, name, column, a, first_row=2):

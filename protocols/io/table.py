@@ -7,7 +7,7 @@ last column, and time as numbers or date-time stamps.
     layout = sniff(text)                  # what was found: Layout
     cols = split(text, layout)            # {column name: [cell text, ...]}
     values = numbers(cells, layout, ...)  # float array, NaN for an empty cell
-    epoch = stamps(cells)                 # seconds since 1970 (UTC) of date-time stamps
+    epoch = stamps(cells)                 # seconds since 1970 (UTC) of date-time stamps, or of the day
 
 Columns are named by their header, and also by their 1-based position ("1", "2", ...):
 a file without a header is mapped by position.
@@ -27,9 +27,12 @@ from protocols.errors import UsageError
 DELIMITERS = (",", ";", "\t", None)  # None: runs of whitespace
 TAIL = 40  # data lines looked at to learn the table's shape
 NUMBER = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
-ISO = re.compile(r"^(\d{4})-(\d{2})-(\d{2})[ T](\d{1,2}):(\d{2})(?::(\d{2}(?:[.,]\d+)?))?"
+ISO = re.compile(r"^(\d{4})([-/])(\d{2})\2(\d{2})[ T](\d{1,2}):(\d{2})(?::(\d{2}(?:[.,]\d+)?))?"
                  r"\s*(Z|[+-]\d{2}:?\d{2})?$")
-US = re.compile(r"^(\d{1,2})/(\d{1,2})/(\d{4})[ T]+(\d{1,2}):(\d{2})(?::(\d{2}(?:\.\d+)?))?\s*([AaPp][Mm])?$")
+# a date the other way round: MM/DD/YYYY (US) or DD/MM/YYYY, DD.MM.YYYY (European; the dots say day first)
+DMY = re.compile(r"^(\d{1,2})([/.])(\d{1,2})\2(\d{4})[ T]+(\d{1,2}):(\d{2})(?::(\d{2}(?:[.,]\d+)?))?"
+                 r"\s*([AaPp][Mm])?$")
+CLOCK = re.compile(r"^(\d{1,2}):(\d{2}):(\d{2}(?:[.,]\d+)?)\s*([AaPp][Mm])?$")  # the time of day, no date
 RATE = re.compile(r"^\s*(sampling rate|sample rate|sampling frequency|rate|fs)\s*[:=]\s*([0-9.eE+-]+)\s*(hz)?\s*$",
                   re.I)
 INTERVAL = re.compile(r"^\s*(sampling interval|sample interval|dt)\s*[:=]\s*([0-9.eE+-]+)\s*(s)?\s*$", re.I)
@@ -66,7 +69,7 @@ def _is_value(cell, decimal="."):
     """A number (with this decimal mark) or a date-time stamp."""
     if decimal == "," and "." in cell and "," not in cell:
         return bool(NUMBER.match(cell))
-    return bool(NUMBER.match(cell)) or bool(ISO.match(cell)) or bool(US.match(cell))
+    return bool(NUMBER.match(cell)) or is_stamp(cell)
 
 
 def _shape(lines, delimiter):
@@ -190,16 +193,43 @@ def numbers(cells: list[str], decimal=".") -> tuple[np.ndarray, int | None]:
 
 
 def is_stamp(cell: str) -> bool:
-    return bool(ISO.match(cell) or US.match(cell))
+    return bool(ISO.match(cell) or DMY.match(cell) or CLOCK.match(cell))
+
+
+def day_first(cells) -> bool | None:
+    """Whether a column's DD/MM/YYYY-or-MM/DD/YYYY stamps put the day first: a first field
+    over 12, or dots (DD.MM.YYYY), say so; a second over 12 says month first; otherwise
+    None: the stamps cannot tell (read month first, as the US writes them)."""
+    firsts, seconds = set(), set()
+    for c in cells:
+        m = DMY.match(c) if c else None
+        if m:
+            if m.group(2) == ".":
+                return True
+            firsts.add(m.group(1))
+            seconds.add(m.group(3))
+    if any(int(f) > 12 for f in firsts):
+        return True
+    if any(int(f) > 12 for f in seconds):
+        return False
+    dates = {(int(a), int(b), int(m.group(4))) for c in cells if c and (m := DMY.match(c)) for a, b in [m.group(1, 3)]}
+    if len(dates) > 1:  # past midnight: the reading whose dates lie closer together
+        span = [max(d) - min(d) for d in ([datetime(y, a, b) for a, b, y in dates],
+                                          [datetime(y, b, a) for a, b, y in dates])]
+        return None if span[0] == span[1] else span[1] < span[0]
+    return None
 
 
 def stamps(cells: list[str]) -> tuple[np.ndarray, int | None]:
     """(seconds since 1970-01-01 UTC of each date-time stamp, NaN for an empty cell; index
-    of the first cell that is not a stamp, or None). ISO 8601 with a space or T, with or
-    without a zone; US MM/DD/YYYY hh:mm:ss.fff with AM/PM or a 24-hour clock. A stamp
-    without a zone is taken as UTC (the recording does not say where it was made)."""
+    of the first cell that is not a stamp, or None). ISO 8601 (or YYYY/MM/DD) with a space
+    or T, with or without a zone; MM/DD/YYYY or DD/MM/YYYY (day_first), DD.MM.YYYY, with
+    AM/PM or a 24-hour clock. A stamp without a zone is taken as UTC (the recording does not
+    say where it was made). The time of day alone (hh:mm:ss.fff) counts from the first
+    day's midnight, a day added where the clock goes back past midnight; it gives no date
+    (dated says so)."""
     out = np.full(len(cells), np.nan)
-    if cells and ISO.match(cells[0]) and not ISO.match(cells[0]).group(7) and all(cells):
+    if cells and (m := ISO.match(cells[0])) and m.group(2) == "-" and not m.group(8) and all(cells):
         try:  # the common case, zone-less ISO stamps in every row: numpy parses them at C speed
             with warnings.catch_warnings():
                 warnings.simplefilter("error")  # a later row with a zone: numpy would warn and shift it
@@ -207,38 +237,48 @@ def stamps(cells: list[str]) -> tuple[np.ndarray, int | None]:
         except (ValueError, UserWarning):
             pass  # one that numpy refuses, or a zone: each row below
     days = {}  # a recording spans a few dates: each converted once
+    dmy_day = day_first(cells)
+    day, last = 0.0, None  # the time of day alone: its day, and the clock's last reading
     for i, c in enumerate(cells):
         if not c:
             continue
-        m = ISO.match(c)
-        if m:
-            y, mo, d, h, mi, s, zone = m.groups()
-            offset = 0.0
+        half, offset, key = None, 0.0, None
+        if m := ISO.match(c):
+            y, _, mo, d, h, mi, s, zone = m.groups()
             if zone and zone != "Z":
                 z = zone.replace(":", "")
                 offset = (1 if z[0] == "+" else -1) * (int(z[1:3]) * 3600 + int(z[3:5]) * 60)
+            key = (y, mo, d)
+        elif m := DMY.match(c):
+            a, _, b, y, h, mi, s, half = m.groups()
+            key = (y, a, b) if dmy_day is False or dmy_day is None else (y, b, a)
+        elif m := CLOCK.match(c):
+            h, mi, s, half = m.groups()
         else:
-            m = US.match(c)
-            if m is None:
-                return out, i
-            mo, d, y, h, mi, s, half = m.groups()
-            offset = 0.0
-            if half:
-                hh = int(h) % 12 + (12 if half.upper() == "PM" else 0)
-                h = str(hh)
-        key = (y, mo, d)
-        if key not in days:
+            return out, i
+        if half:
+            h = str(int(h) % 12 + (12 if half.upper() == "PM" else 0))
+        if key is not None and key not in days:
             try:
-                days[key] = datetime(int(y), int(mo), int(d), tzinfo=timezone.utc).timestamp()
+                days[key] = datetime(int(key[0]), int(key[1]), int(key[2]), tzinfo=timezone.utc).timestamp()
             except ValueError:
                 return out, i
         hour, minute, sec = int(h), int(mi), float((s or "0").replace(",", "."))
         if hour > 23 or minute > 59 or sec >= 61:
             return out, i
-        out[i] = days[key] + hour * 3600 + minute * 60 + sec - offset
+        clock = hour * 3600 + minute * 60 + sec
+        if key is None:
+            day += 86400.0 if last is not None and clock < last - 43200.0 else 0.0  # past midnight
+            last = clock
+        out[i] = (days[key] if key is not None else day) + clock - offset
     return out, None
+
+
+def dated(cells) -> bool:
+    """Whether a column's stamps carry a date (not the time of day alone)."""
+    return not any(CLOCK.match(c) for c in cells[:5] if c)
 
 
 def iso(epoch: float) -> str:
     """An epoch time [s] as ISO 8601 UTC."""
-    return (datetime(1970, 1, 1, tzinfo=timezone.utc) + timedelta(seconds=float(epoch))).isoformat()
+    return (datetime(1970, 1, 1, tzinfo=timezone.utc) + timedelta(seconds=float(epoch))).isoformat(timespec="milliseconds")

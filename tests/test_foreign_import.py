@@ -103,6 +103,27 @@ def test_stamps_that_cannot_tell_the_day_from_the_month_or_give_no_date(tmp_path
     assert got.start_epoch is None and got.data["time"][-1] == 19.0
 
 
+def test_a_row_of_units_under_the_names_and_a_start_in_the_preamble(tmp_path):
+    """As Dewesoft, DIAdem or imc write it: names, then their units on the next line, a
+    time of numbers counted from the preamble's `Start time`."""
+    t, x, F = crank()
+    src = _written(tmp_path, "dewe.txt", "Data export\nStart time: 14.11.2025 20:14:37,917152\n\n"
+                   "Time\tAI 1/Disp\tAI 2/Load\n[s]\t[mm]\t[kN]\n" + "".join(
+                       f"{a + 2:.6f}\t{1e3 * b:.6f}\t{c / 1e3:.7f}\n" for a, b, c in zip(t, x, F)))
+    r = dyno("import", src, "--inspect")
+    assert "header on line 4 (units on line 5), data from line 6, 2 preamble lines" in r.stdout, r.stdout
+    assert "--map 'displacement=AI 1/Disp [mm]:mm' --map 'force=AI 2/Load [kN]:kN'" in r.stdout, r.stdout
+    assert "raw volts" not in r.stdout, r.stdout
+    channels, meta, _ = _imported(tmp_path, src, "--map", "time=Time [s]:s", "--map", "displacement=AI 1/Disp [mm]:mm",
+                                  "--map", "force=AI 2/Load [kN]:kN")
+    _same_motion(channels, t, x, F, tol_F=0.1)
+    assert meta["run"]["wall_start_source"] == "the start the file's preamble gives"
+    assert abs((datetime.fromisoformat(meta["run"]["wall_start"]) - START).total_seconds() - 2.0) < 1e-3
+    # names alone, with a line above them: not a row of units
+    from protocols.io.table import sniff
+    assert sniff("a,b,c\nt,x,F\n0,1,2\n1,2,3\n").units is None
+
+
 def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_path):
     """As the UTFSM press's acquisition wrote it: 7 preamble lines, `Sample Number,
     Date/Time, CHANNEL0, CHANNEL1, Events`, US stamps, volts with their offsets."""

@@ -140,7 +140,7 @@ def _import(args, mapping, gains, offsets, claim):
              f"map = {json.dumps(args.map)}\n")
     duration = float(t[-1] - t[0])
     if got.start_epoch is not None:
-        wall_start, how = got.start_epoch, "the file's first date-time stamp"
+        wall_start, how = got.start_epoch, got.start_source
     else:  # the file's own start is unknown: its file time less its duration stands for it
         wall_start, how = os.path.getmtime(args.file) - duration, "file time less its duration"
     params = {"source": str(args.file), "map": args.map, "flip": args.flip or [],

@@ -13,11 +13,7 @@ def by_name(name: str, cells) -> str | None:
     from protocols.io import table
     from protocols.io.csv_import import UNITS
     n = name.lower()
-    unit = None
-    for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
-        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith(f"_{u.lower()}"):
-            unit = u
-            break
+    unit = unit_of(name)
     if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
         return "time"
     for channel, words in (("time", ("time", "t", "zeit", "temps", "sec")), ("force", ("force", "load", "f", "kraft")),
@@ -28,6 +24,32 @@ def by_name(name: str, cells) -> str | None:
         if base in words or any(base.startswith(w) for w in words if len(w) > 2):
             return f"{channel}" + (f":{unit}" if unit and unit in UNITS[channel] else "")
     return None
+
+
+def unit_of(name: str) -> str | None:
+    """The unit a column's name carries: `Force [kN]`, `Force (kN)`, `force_kN`."""
+    from protocols.io.csv_import import UNITS
+    n = name.lower()
+    for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
+        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith(f"_{u.lower()}"):
+            return u
+    return None
+
+
+def _with_units(found):
+    """by_values' guesses with the unit each column's name carries, where it is the
+    channel's; a DAQ's channels without one are asked for their gain."""
+    from protocols.io.csv_import import UNITS
+    out = []
+    for g, why in found:
+        channel, key = g.split("=", 1)
+        u = unit_of(key)
+        if ":" not in key and u in UNITS.get(channel, ()):
+            g = f"{g}:{u}"
+        out.append((g, why))
+    if all(":" in g for g, _ in out if not g.startswith("time=")):
+        out = [(g, why.replace("; raw volts? give each a --gain", "")) for g, why in out]
+    return out
 
 
 def _values(cols, layout, guesses):
@@ -96,7 +118,7 @@ def by_values(cols, layout, guesses) -> list[tuple[str, str]]:
     if "force" not in channels and {g.split("=")[0] for g, _ in out} == {"time", "displacement", "velocity"} \
             and len(left) == 1:
         out.append((f"force={left[0]}", f"{left[0]} is the one column left"))
-    return out
+    return _with_units(out)
 
 
 def _motion_pair(vals, t):

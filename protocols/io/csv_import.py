@@ -97,6 +97,7 @@ class Imported:
     start_epoch: float | None = None  # s since 1970 UTC: the first date-time stamp; None without one
     derived_time: str = ""  # how the time was made when no column gives it
     stamp_note: str = ""  # what the date-time stamps could not tell
+    start_source: str = "the file's first date-time stamp"  # where start_epoch came from
 
 
 def source(path):
@@ -139,7 +140,7 @@ def source(path):
     except OSError as e:
         raise UsageError(f"{path}: cannot read ({e.strerror})") from None
     try:
-        layout = table.sniff(text)
+        layout = table.sniff(text, {u.lower() for q in UNITS.values() for u in q})
         return table.split(text, layout), layout
     except UsageError as e:
         raise UsageError(f"{path}: {e}") from None
@@ -172,15 +173,8 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
                 except (TypeError, ValueError):
                     a, bad = None, 0
         elif name == "time" and any(table.is_stamp(c) for c in cells[:5]):
-            a, bad = table.stamps(cells)
-            if bad is None:
-                first = float(a[~np.isnan(a)][0]) if np.any(~np.isnan(a)) else None
-                a = a - first if first is not None else a
-                start = first if table.dated(cells) else None  # the time of day alone gives no date
-                unit = "s"
-                if table.day_first(cells) is None and any(table.DMY.match(c) for c in cells[:5] if c):
-                    note = (f"the stamps cannot tell the day from the month (both at most 12): read month first "
-                            f"({cells[0].split()[0]} as MM/DD/YYYY); the date may be wrong, the times are not")
+            a, bad, start, note = _stamped(cells)
+            unit = "s"
         else:
             a, bad = table.numbers(cells, layout.decimal if layout else ".")
         if bad is not None:
@@ -196,6 +190,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
             a = a * scale + offset
         _plausible(path, name, column, a, first_row)
         data[name] = a
+    from_preamble = start is None and layout is not None and table.preamble_start(layout.preamble) is not None
     if "time" not in data:
         rate = rate_hz or (layout.rate_hz if layout else None)
         if not rate:
@@ -224,7 +219,26 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
         if 0 < have < need or (have == 0 and need == 10):
             raise UsageError(f"{path}: column {column!r} ({name}) holds {have} number{'s' * (have != 1)} "
                            f"with a time (needs at least {need})")
-    return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived, note)
+    if from_preamble:  # the time's numbers count from the start the preamble gives
+        start = table.preamble_start(layout.preamble) + float(t[keep][0])
+    return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived, note,
+                    "the start the file's preamble gives" if from_preamble else "the file's first date-time stamp")
+
+
+def _stamped(cells):
+    """(seconds from the first stamp, index of a cell that is no stamp or None, the start
+    [s since 1970 UTC] or None without a date, what the stamps could not tell)."""
+    a, bad = table.stamps(cells)
+    if bad is not None:
+        return a, bad, None, ""
+    first = float(a[~np.isnan(a)][0]) if np.any(~np.isnan(a)) else None
+    note = ""
+    dmy = next((c for c in cells[:5] if c and table.DMY.match(c)), None)
+    if dmy and table.day_first(cells) is None:
+        note = (f"the stamps cannot tell the day from the month (both at most 12): read month first "
+                f"({dmy.split()[0]} as MM/DD/YYYY); the date may be wrong, the times are not")
+    # the time of day alone gives no date
+    return (a - first if first is not None else a), None, first if table.dated(cells) else None, note
 
 
 def _plausible(path, name, column, a, first_row=2):

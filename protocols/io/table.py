@@ -47,10 +47,12 @@ class Layout:
     names: list  # the columns' names (their positions "1", "2", ... without a header)
     rate_hz: float | None = None  # from the preamble (Sampling Rate, or 1 / Sampling Interval)
     preamble: list = field(default_factory=list)  # the lines before the header
+    units: int | None = None  # line index of a row of units under the names (joined to them: "Force [kN]")
 
     def describe(self) -> str:
         sep = {",": "comma", ";": "semicolon", "\t": "tab", None: "whitespace"}[self.delimiter]
         head = f"header on line {self.header + 1}" if self.header is not None else "no header"
+        head += f" (units on line {self.units + 1})" if self.units is not None else ""
         return (f"{sep}-separated, decimal {'comma' if self.decimal == ',' else 'point'}, {head}, data from line "
                 f"{self.first + 1}" + (f", {len(self.preamble)} preamble lines" if self.preamble else "")
                 + (f", sampling rate {self.rate_hz:g} Hz" if self.rate_hz else ""))
@@ -82,8 +84,10 @@ def _shape(lines, delimiter):
     return n, values
 
 
-def sniff(text: str) -> Layout:
-    """The table's layout; RigError when no delimiter gives at least two columns of values."""
+def sniff(text: str, units=frozenset()) -> Layout:
+    """The table's layout; UsageError when no delimiter gives at least two columns of
+    values. units: the unit names (lower case) a row of units under the names may hold,
+    besides a DAQ's own (OTHER_UNITS) and any in brackets."""
     lines = text.splitlines()
     filled = [i for i, line in enumerate(lines) if line.strip()]
     if not filled:
@@ -114,7 +118,13 @@ def sniff(text: str) -> Layout:
     names = _fields(lines[header], d) if header is not None else []
     if header is not None and (len(names) < 2 or all(_is_value(c, decimal) for c in names)):
         header, names = None, []
-    preamble = [lines[i] for i in before if i != header]
+    units_line = None
+    if header is not None and len(before) >= 2 and _units_row(names, units):  # names, then their units (a DAQ's)
+        above = _fields(lines[before[-2]], d)
+        if len(above) == len(names) and not any(_is_value(c, decimal) for c in above if c):
+            units_line, header = header, before[-2]
+            names = [f"{a} [{u.strip('[]()')}]" if u else a for a, u in zip(above, names)]
+    preamble = [lines[i] for i in before if i not in (header, units_line)]
     rate = None
     for line in preamble:
         m = RATE.match(line) or INTERVAL.match(line)
@@ -129,7 +139,19 @@ def sniff(text: str) -> Layout:
                     break
     n = max([n, *(len(_fields(lines[i], d)) for i in filled if first <= i < first + TAIL)])  # an events column
     names = [c or str(j + 1) for j, c in enumerate(names)] + [str(j + 1) for j in range(len(names), n)]
-    return Layout(d, decimal, header, first, names, rate, preamble)
+    return Layout(d, decimal, header, first, names, rate, preamble, units_line)
+
+
+# units a DAQ writes that import does not convert (volts, hertz, ...)
+OTHER_UNITS = {"v", "mv", "hz", "-", "°c", "°f", "g", "%", "deg", "rad", "m/s^2", "m/s²", "a", "ma", "sec", "kg", "lb"}
+
+
+def _units_row(cells, units) -> bool:
+    """A row of units (s, mm, [kN], (V), ...) rather than of names: every cell empty, in
+    brackets, or one of units or a DAQ's own, and one at least filled."""
+    filled = [c for c in cells if c]
+    return bool(filled) and all(c[:1] + c[-1:] in ("[]", "()") or c.lower() in units or c.lower() in OTHER_UNITS
+                                for c in filled)
 
 
 def split(text: str, layout: Layout) -> dict[str, list[str]]:
@@ -272,6 +294,23 @@ def stamps(cells: list[str]) -> tuple[np.ndarray, int | None]:
             last = clock
         out[i] = (days[key] if key is not None else day) + clock - offset
     return out, None
+
+
+PREAMBLE_STAMP = re.compile(r"^\s*\"?([A-Za-z][A-Za-z _./-]*?)\"?\s*[:=\t;,]\s*\"?(.+?)\"?[\s,;]*$")
+STARTS = ("start", "trigger", "date", "time", "recorded", "acquired", "created")
+
+
+def preamble_start(lines) -> float | None:
+    """Seconds since 1970 UTC of the start a preamble gives (`Start time: 13.05.2022
+    17:04:23`, `Trigger Date,2022-05-13 17:04:23`), or None: a time column of numbers
+    counts from it."""
+    for line in lines:
+        m = PREAMBLE_STAMP.match(line)
+        if m and any(w in m.group(1).lower() for w in STARTS) and is_stamp(m.group(2)) and dated([m.group(2)]):
+            t, bad = stamps([m.group(2)])
+            if bad is None:
+                return float(t[0])
+    return None
 
 
 def dated(cells) -> bool:

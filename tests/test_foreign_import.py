@@ -177,6 +177,13 @@ def test_tabs_and_milliseconds(tmp_path):
     channels, _, _ = _imported(tmp_path, src, "--map", "time=t_ms:ms", "--map", "displacement=x_in:in",
                                "--map", "force=F_lbf:lbf")
     _same_motion(channels, t, x, F, tol_F=1e-2)
+    # a time named without its unit, one row every 3.33: ms by its step (no dyno samples at 0.3 Hz)
+    src = _written(tmp_path, "ms.txt", "Time\tx_in\tF_lbf\n" + "".join(
+        f"{1e3 * a:.4f}\t{b / 0.0254:.8f}\t{c / 4.4482216:.6f}\n" for a, b, c in zip(t, x, F)))
+    assert "--map 'time=Time:ms'" in dyno("import", src, "--inspect").stdout
+    _, _, r = _imported(tmp_path, src, "--map", "time=Time", "--map", "displacement=x_in:in",
+                        "--map", "force=F_lbf:lbf", "--overwrite")
+    assert "time: one row every 3.33 s (0.3 Hz), read as seconds" in r.stdout, r.stdout
 
 
 def test_whitespace_without_a_header_by_position_and_time_from_the_rate(tmp_path):

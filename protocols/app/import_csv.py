@@ -166,6 +166,10 @@ def _import(args, mapping, gains, offsets, claim):
                                                                if units.get("velocity", "").startswith("derived") else ""))
     if got.stamp_note:
         print(f"time: {got.stamp_note}")
+    step = float(np.median(np.diff(t))) if len(t) > 2 else 0.0
+    if step >= 0.5 and not got.stamped and any(m.startswith("time=") and ":" not in m for m in args.map):
+        print(f"time: one row every {step:.3g} s ({1 / step:.3g} Hz), read as seconds: a dyno samples faster; "
+              f"in ms? give --map time=COLUMN:ms")
     sines = [f for f in found if f.kind == "sine"]
     print(f"segments: {len(sines)} periodic" + (": " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)"
                                                                 for f in sines[:6]) + (", ..." if len(sines) > 6 else "")

@@ -22,8 +22,22 @@ def by_name(name: str, cells) -> str | None:
                            ("temperature", ("temp", "temperature", "t_body")), ("pressure", ("pressure", "p_gas"))):
         base = n.split("[")[0].split("(")[0].strip()
         if base in words or any(base.startswith(w) for w in words if len(w) > 2):
+            if channel == "time" and unit is None:
+                unit = time_unit(cells)
             return f"{channel}" + (f":{unit}" if unit and unit in UNITS[channel] else "")
     return None
+
+
+def time_unit(cells) -> str | None:
+    """ms or us for a time column whose name gives no unit and whose step is 0.5 or more
+    (no dyno samples slower than 2 Hz: 1 a row is 1 kHz in ms; over 50, us), else None."""
+    from protocols.io import table
+    if cells is None or not len(cells):
+        return None
+    head = np.asarray(cells[:200], float) if isinstance(cells, np.ndarray) else next(
+        (a for a, bad in (table.numbers([str(c) for c in cells[:200]], d) for d in ".,") if bad is None), None)
+    step = np.nanmedian(np.diff(head)) if head is not None and len(head) > 2 else np.nan
+    return None if not step >= 0.5 else "ms" if step <= 50 else "us"
 
 
 def unit_of(name: str) -> str | None:

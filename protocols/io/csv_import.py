@@ -98,6 +98,7 @@ class Imported:
     derived_time: str = ""  # how the time was made when no column gives it
     stamp_note: str = ""  # what the date-time stamps could not tell
     start_source: str = "the file's first date-time stamp"  # where start_epoch came from
+    stamped: bool = False  # the time column is date-time stamps, not numbers in a unit
 
 
 def source(path):
@@ -155,7 +156,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     cols, layout = source(path)
     gains, offsets = gains or {}, offsets or {}
     first_row = (layout.first + 1) if layout else 1  # a data row's line in the file: first_row + index
-    data, start, derived, note = {}, None, "", ""
+    data, start, derived, note, stamped = {}, None, "", "", False
     names = {}
     for name, column, unit in mapping:
         key = table.column(cols, layout, column) if layout else column
@@ -174,7 +175,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
                     a, bad = None, 0
         elif name == "time" and any(table.is_stamp(c) for c in cells[:5]):
             a, bad, start, note = _stamped(cells)
-            unit = "s"
+            unit, stamped = "s", True
         else:
             a, bad = table.numbers(cells, layout.decimal if layout else ".")
         if bad is not None:
@@ -222,7 +223,8 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     if from_preamble:  # the time's numbers count from the start the preamble gives
         start = table.preamble_start(layout.preamble) + float(t[keep][0])
     return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived, note,
-                    "the start the file's preamble gives" if from_preamble else "the file's first date-time stamp")
+                    "the start the file's preamble gives" if from_preamble else "the file's first date-time stamp",
+                    stamped)
 
 
 def _stamped(cells):

@@ -214,6 +214,31 @@ def test_parquet_and_matlab(tmp_path):
     _same_motion(channels, t, x, F)
 
 
+def test_an_excel_workbook_its_fullest_sheet_with_a_preamble_units_and_stamps(tmp_path):
+    import openpyxl
+    t, x, F = crank(rate=1000.0, n=3000)  # Excel's stamps keep the millisecond
+    book = openpyxl.Workbook()
+    book.active.append(["Test sheet: shock 12, clicker 4"])
+    data = book.create_sheet("Data")
+    for row in (["Damper test"], ["Start time", START.replace(tzinfo=None)], [], ["Date/Time", "Position", "Load"],
+                [None, "mm", "kN"]):
+        data.append(row)
+    for a, b, c in zip(t, x, F):
+        data.append([(START + timedelta(seconds=float(a))).replace(tzinfo=None), 1e3 * b, c / 1e3])
+    book.save(tmp_path / "run.xlsx")
+    r = dyno("import", tmp_path / "run.xlsx", "--inspect")
+    assert "run.xlsx: sheet 'Data', header on line 4 (units on line 5), data from line 6" in r.stdout, r.stdout
+    assert "--map 'time=Date/Time' --map 'displacement=Position [mm]:mm' --map 'force=Load [kN]:kN'" in r.stdout
+    channels, meta, _ = _imported(tmp_path, tmp_path / "run.xlsx", "--map", "time=Date/Time", "--map",
+                                  "displacement=Position [mm]:mm", "--map", "force=Load [kN]:kN")
+    _same_motion(channels, t, x, F)
+    assert abs((datetime.fromisoformat(meta["run"]["wall_start"]) - START).total_seconds()) < 1e-3
+    (tmp_path / "old.xls").write_bytes(b"\xd0\xcf\x11\xe0")
+    one_line_error(dyno("import", tmp_path / "old.xls", "--inspect"), "Excel 97-2003", "save it as .xlsx")
+    (tmp_path / "bad.xlsx").write_text("not a zip")
+    one_line_error(dyno("import", tmp_path / "bad.xlsx", "--inspect"), "not a readable Excel workbook")
+
+
 def test_the_other_sign_convention_is_named_in_one_line_and_flipped(tmp_path):
     t, x, F = crank()
     src = _written(tmp_path, "tension.csv", "t,x,F\n" + "".join(f"{a},{1e3 * b},{-c}\n" for a, b, c in zip(t, x, F)))

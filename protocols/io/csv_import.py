@@ -10,6 +10,7 @@ at 2 kHz): smoother than a plain difference and without its half-sample lag.
 """
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,7 +104,8 @@ class Imported:
 
 def source(path):
     """({column name: cells (text) or values (array)}, Layout or None) of a text table,
-    a Parquet file or a MATLAB file (columns VAR, or VAR[N] for a matrix's N-th)."""
+    an Excel workbook, a Parquet file or a MATLAB file (columns VAR, or VAR[N] for a
+    matrix's N-th)."""
     path = input_file(path)
     suffix = path.suffix.lower()
     if suffix == ".parquet":
@@ -134,6 +136,8 @@ def source(path):
         if not cols:
             raise UsageError(f"{path}: no numeric matrix in this MATLAB file")
         return cols, None
+    if suffix in (".xlsx", ".xlsm", ".xls"):
+        return _workbook(path)
     try:
         text = decode(path.read_bytes())
     except UnicodeDecodeError:
@@ -145,6 +149,41 @@ def source(path):
         return table.split(text, layout), layout
     except UsageError as e:
         raise UsageError(f"{path}: {e}") from None
+
+
+def _workbook(path):
+    """(columns, Layout) of an Excel workbook's fullest sheet, its rows read as a text
+    table's lines (a preamble, a row of units, stamps: as in a CSV export)."""
+    import openpyxl
+    from openpyxl.utils.exceptions import InvalidFileException
+    if path.suffix.lower() == ".xls":
+        raise UsageError(f"{path}: an Excel 97-2003 workbook: save it as .xlsx or CSV")
+    try:
+        book = openpyxl.load_workbook(path, read_only=True, data_only=True)
+    except (InvalidFileException, zipfile.BadZipFile, OSError, KeyError, ValueError) as e:
+        raise UsageError(f"{path}: not a readable Excel workbook ({str(e).splitlines()[0] if str(e) else e})") \
+            from None
+    try:
+        sheet = max(book.worksheets, key=lambda ws: ws.max_row or 0)
+        lines = ["\t".join(_cell(c) for c in row) for row in sheet.iter_rows(values_only=True)]
+    finally:
+        book.close()
+    text = "\n".join(lines)
+    try:
+        layout = table.sniff(text, {u.lower() for q in UNITS.values() for u in q})
+    except UsageError as e:
+        raise UsageError(f"{path}: sheet {sheet.title!r}: {e}") from None
+    layout.sheet = sheet.title
+    return table.split(text, layout), layout
+
+
+def _cell(v) -> str:
+    """An Excel cell as a text export writes it: numbers in full, date-times as ISO."""
+    if v is None:
+        return ""
+    if hasattr(v, "isoformat"):
+        return v.isoformat(sep=" ") if hasattr(v, "date") else v.isoformat()
+    return repr(v) if isinstance(v, float) else str(v).replace("\t", " ").replace("\n", " ").strip()
 
 
 def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:

@@ -48,12 +48,15 @@ class Layout:
     rate_hz: float | None = None  # from the preamble (Sampling Rate, or 1 / Sampling Interval)
     preamble: list = field(default_factory=list)  # the lines before the header
     units: int | None = None  # line index of a row of units under the names (joined to them: "Force [kN]")
+    sheet: str | None = None  # an Excel workbook's sheet the rows come from (lines are its rows)
 
     def describe(self) -> str:
         sep = {",": "comma", ";": "semicolon", "\t": "tab", None: "whitespace"}[self.delimiter]
         head = f"header on line {self.header + 1}" if self.header is not None else "no header"
         head += f" (units on line {self.units + 1})" if self.units is not None else ""
-        return (f"{sep}-separated, decimal {'comma' if self.decimal == ',' else 'point'}, {head}, data from line "
+        kind = f"sheet {self.sheet!r}" if self.sheet else \
+            f"{sep}-separated, decimal {'comma' if self.decimal == ',' else 'point'}"
+        return (f"{kind}, {head}, data from line "
                 f"{self.first + 1}" + (f", {len(self.preamble)} preamble lines" if self.preamble else "")
                 + (f", sampling rate {self.rate_hz:g} Hz" if self.rate_hz else ""))
 
@@ -99,7 +102,8 @@ def sniff(text: str, units=frozenset()) -> Layout:
             n, values = _shape(tail, d)
         except csv.Error:
             continue
-        if n >= 2 and (best is None or values > best[2] or values == best[2] and n > best[1]):
+        # a tie: whitespace splits a stamp's date from its clock (both values), so it never wins one
+        if n >= 2 and (best is None or values > best[2] or values == best[2] and n > best[1] and d is not None):
             best = (d, n, values)
     if best is None or best[2] == 0:
         raise UsageError("not a table: no delimiter (comma, semicolon, tab, spaces) gives two columns of numbers")

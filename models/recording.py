@@ -101,6 +101,27 @@ def repeats_sentence(test, names, ranges) -> str:
             f"adjuster, warm-up), and one model cannot follow them all")
 
 
+LOW_SHARE = 0.1  # of the force range: a gas force fitted further below zero is the force's zero, not the fit's bias
+
+
+def reads_low(parameters, sd, force_range) -> str | None:
+    """The sentence saying the force reads low, or None: a gas spring pushes the rod out
+    (positive here, eq 3.19), so a gas force fitted below zero at the motion's mean
+    position (G0 [N]) is the force's zero moved: a load cell's offset the file kept (a raw
+    channel's zero not removed), or its mean removed by the source. Said beyond LOW_SHARE
+    of the force range [N] (the UTFSM sine files, their means removed, fit G0 within 8 %
+    of theirs either way) and twice its deviation where it has one. The recording cannot
+    tell the rest of an offset from a gas force."""
+    G0 = float(parameters.get("G0", np.nan))
+    s = (sd or {}).get("G0")
+    if not -G0 > LOW_SHARE * force_range or (s is not None and not (np.isfinite(s) and G0 + 2 * s < 0)):
+        return None
+    return (f"the gas force fitted is {G0:.0f} N, below zero, which no gas spring gives (it pushes the rod out): the "
+            f"force reads at least {-G0:.0f} N low: a load cell's offset the file kept (raw volts whose zero was not "
+            f"removed?) or its mean removed by the source; import it again with --offset force={-G0:.0f} (in N; as much in another mapped unit) to remove "
+            f"that much (the recording cannot tell the rest of an offset from a gas force)")
+
+
 def missing(channels, names):
     """Those of `names` the recording lacks (or has fewer than 2 samples of)."""
     return [n for n in names if n not in channels or len(channels[n][0]) < 2]

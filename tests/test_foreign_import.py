@@ -312,6 +312,23 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
     assert r.returncode == 0 and "Baseline (minimal): held-out error" in r.stdout, r.stdout + r.stderr
 
 
+def test_a_load_cell_offset_the_file_kept_is_said_with_its_tare(tmp_path):
+    """Raw volts whose zero was not removed: 600 N low, so the force at the compression peaks
+    is below zero and the gas force fitted too, which no gas spring gives."""
+    t, x, F = crank(n=int(12 / 1.05 * RATE))
+    src = _written(tmp_path, "offset.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c - 600:.3f}\n"
+                                                                for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("identify", tmp_path / "x.mcap")
+    said = [line for line in r.stdout.splitlines() if line.startswith("note: the gas force fitted is")]
+    assert r.returncode == 0 and len(said) == 1 and "a load cell's offset the file kept" in said[0], r.stdout
+    low = float(said[0].split("reads at least ")[1].split(" N low")[0])
+    assert abs(low - (600 - np.mean(150 + 800 * x))) < 30 and f"--offset force={low:.0f}" in said[0]
+    from protocols.reports.recording import report
+    index, _ = report(tmp_path / "x.mcap", tmp_path / "report")
+    assert "compression peak (127 mm/s) the force reads -65" in index.read_text()
+
+
 def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_out_cycles(tmp_path):
     """A crank dyno's file names no damper: identify fits the model that needs none, says
     its held-out error and which parameters the recording could not determine."""
@@ -327,11 +344,13 @@ def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_o
     assert abs(doc["parameters"]["G0"]["value"] - np.mean(150 + 800 * x)) < 20  # the gas force at mid-stroke
     assert all(("undetermined" in p) or np.isfinite(p["sd"]) for p in doc["parameters"].values())
     assert "held out by cycles" in r.stdout and "model: " in r.stdout
+    assert doc["force_reads_low"] is None and "reads at least" not in r.stdout
     # the model is a reference for QA and the report's overlay, along the run's own motion
     r = dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "x.minimal.json")
     assert r.returncode == 0 and "PASS: 8 of 8" in r.stdout, r.stdout + r.stderr
     r = dyno("report", tmp_path / "x.mcap", "--model", tmp_path / "x.minimal.json", "--out", tmp_path / "overlaid")
-    assert r.returncode == 0 and "Model overlaid: x.minimal.json" in (tmp_path / "overlaid" / "index.html").read_text()
+    page = (tmp_path / "overlaid" / "index.html").read_text()
+    assert r.returncode == 0 and "Model overlaid: x.minimal.json" in page and "compression peak" not in page
     one_line_error(dyno("check", tmp_path / "x.mcap", "--against", src.with_suffix(".json")), "no such file")
     # with a description for layout and geometry: its gas charge is another damper's, refitted
     r = dyno("identify", tmp_path / "x.mcap", "--damper", "koni", "--out", tmp_path / "koni-like.json")

@@ -9,7 +9,7 @@ import numpy as np
 from models.diagnose import quality
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
-from models.recording import repeats_sentence
+from models.recording import reads_low, repeats_sentence
 
 NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
          "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form",
@@ -190,6 +190,9 @@ def summary(res):
         lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
                      f"mean position (the model: {b.model_gas_force:.0f} N) and its slope with stroke "
                      f"x{p['k_gas']:.3f}, friction x{p['k_friction']:.3f}.")
+    low = reads_low(b.parameters, b.sd, float(np.ptp(res.data.F)))
+    if low:
+        lines.append(f"Offset: {low}.")
     for c in (c for c in b.cell if c.resolved):
         said_ = lag_sentence(c.effect, c.parameters, c.ci, float(np.median(res.data.h)))
         lines.append(f"The channels' alignment, fitted with the baseline: {said_[0].lower()}{said_[1:]}")

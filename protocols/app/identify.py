@@ -181,6 +181,8 @@ def _minimal(args, channels, events, inputs, driving):
     if args.json:
         print(json.dumps(_clean(doc), indent=2))
         return 0
+    if doc["force_reads_low"]:
+        print(f"note: {doc['force_reads_low']}")
     for r in doc["repeats_differ"]:
         print(f"note: {repeats_sentence(r['test'], r['segments'], r['force_range_N'])}; fit each alone with "
               f"--segment NAME ({'; '.join(r['segments'])})")
@@ -204,7 +206,7 @@ def _minimal_doc(args, out, base, found, channels, events):
     accepted effects (their forms built on this recording: `source`)."""
     from models.diagnose import undetermined
     from models.diagnose.candidates import Model
-    from models.recording import differing_repeats
+    from models.recording import differing_repeats, reads_low
     d = found.data
     # the channels' alignment, fitted with the baseline, goes with the model where the
     # recording resolves it (and no accepted lag took its place): the model is then evaluated
@@ -234,7 +236,8 @@ def _minimal_doc(args, out, base, found, channels, events):
             "x_mid_m": float(np.mean(d.x)),  # the gas force's reference position [m] (Minimal.x_m)
             **({"segments": args.segment} if args.segment else {}),
             "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
-                               for test, names, ranges in differing_repeats(channels, events)]}
+                               for test, names, ranges in differing_repeats(channels, events)],
+            "force_reads_low": reads_low(values, sd, float(np.ptp(d.F)))}
 
 
 def _finite(x):

@@ -9,6 +9,7 @@ import numpy as np
 
 from models.diagnose.referees import not_proven
 from models.diagnose.words import summary
+from models.recording import reads_low
 
 
 def own_baseline(meta):
@@ -74,6 +75,7 @@ def to_json(res):
         "not_assessed": res.data.notes,
         "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
                            for test, names, ranges in res.repeats],
+        "force_reads_low": reads_low(res.baseline.parameters, res.baseline.sd, float(np.ptp(res.data.F))),
         "summary": summary(res),
     }
 

@@ -20,7 +20,7 @@ from protocols.reports import hil, peaks, sines, velocity_table as vt
 from protocols.reports.page import Page, save
 from protocols.reports.pdf import write_pdf
 from protocols.reports.plots import plt
-from protocols.units import Units
+from protocols.units import Units, fmt
 
 
 def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
@@ -53,21 +53,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         peaks.write_csv(rows, out / "peaks.csv", units)
         page.heading("Peak forces per sine segment (also peaks.csv)")
         page.table(*peaks.table(rows, units))
-        averaged = sorted({p.cycles for p in rows if p.cycles})
-        if averaged:
-            page.paragraph(f"Peak speeds are those of a sine and its overtones fitted to the measured displacement; "
-                           f"forces are read at those instants from the averaged cycle of the settled cycles "
-                           f"({averaged[0]}{'' if len(averaged) == 1 else f' to {averaged[-1]}'} per segment).")
-        short = [units.segment(p.segment) for p in rows if p.short_pct > peaks.SHORT_PCT]
-        if short:
-            page.paragraph(f"Short of the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: "
-                           f"{', '.join(short)}. Their peaks are at the speed reached (the actuator's flow "
-                           "or force limit, or the pre-flight's adaptation).")
-        over = [units.segment(p.segment) for p in rows if p.short_pct < -peaks.SHORT_PCT]
-        if over:
-            page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {', '.join(over)}. "
-                           "The rod moved faster than asked (an overshooting actuator, or a run imported with "
-                           "another amplitude than it ran).")
+        _peak_notes(page, rows, units)
     scattered = [] if rows else peaks.scattered(ch, segs, model)
     if rows or scattered:
         _velocity_section(page, rows or scattered, speeds, units, out)
@@ -98,6 +84,35 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     index = page.write(out)
     write_pdf(page, out, paper=paper)
     return index, [out / png for _, png in figures]
+
+
+def _peak_notes(page, rows, units):
+    """What the peak table's reader needs said: the cycles averaged, peaks short of or over
+    the target speed, and a compression peak's force below zero (the force's zero moved)."""
+    averaged = sorted({p.cycles for p in rows if p.cycles})
+    if averaged:
+        page.paragraph(f"Peak speeds are those of a sine and its overtones fitted to the measured displacement; "
+                       f"forces are read at those instants from the averaged cycle of the settled cycles "
+                       f"({averaged[0]}{'' if len(averaged) == 1 else f' to {averaged[-1]}'} per segment).")
+    short = [units.segment(p.segment) for p in rows if p.short_pct > peaks.SHORT_PCT]
+    if short:
+        page.paragraph(f"Short of the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: "
+                       f"{', '.join(short)}. Their peaks are at the speed reached (the actuator's flow "
+                       "or force limit, or the pre-flight's adaptation).")
+    low = [p for p in rows if p.v_comp > 0 and p.F_comp < 0]
+    if low:  # compressed, a damper pushes back: its damping, gas force and friction are all positive then
+        p = min(low, key=lambda p: p.F_comp)
+        page.paragraph(f"At {units.segment(p.segment)}'s compression peak ({fmt(units.show('velocity', p.v_comp), 3)} "
+                       f"{units.unit('velocity')}) the force reads {fmt(units.show('force', p.F_comp), 3)} "
+                       f"{units.unit('force')}: a damper compressed pushes back, so the force reads low by at "
+                       f"least as much: a load cell's offset the file kept (raw volts whose zero was not removed?) "
+                       f"or its mean removed by the source. `dyno identify` measures it (a gas force below zero) "
+                       f"and gives the --offset to import it with.")
+    over = [units.segment(p.segment) for p in rows if p.short_pct < -peaks.SHORT_PCT]
+    if over:
+        page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {', '.join(over)}. "
+                       "The rod moved faster than asked (an overshooting actuator, or a run imported with "
+                       "another amplitude than it ran).")
 
 
 def _velocity_section(page, rows, speeds, units, out):

@@ -83,6 +83,8 @@ def one(task):
             out["identify"] = _said(p, d)
         out["nrmse"] = model.get("heldout_nrmse")
         out["undetermined"] = sum("undetermined" in v for v in model.get("parameters", {}).values())
+        low = model.get("force_reads_low") or ""
+        out["reads_low"] = low.split("reads at least ")[1].split(" low")[0] if "reads at least " in low else ""
         each = [n for r in model.get("repeats_differ", []) for n in r["segments"]]
         for i, name in enumerate(each):  # as identify advises: each repeat alone
             p, _ = _dyno(d, "identify", rec, "--segment", name, "--json", "--out", Path(d) / f"s{i}.json")
@@ -138,6 +140,8 @@ def markdown(results):
     met = [r for r in periodic if r.get("nrmse") is not None and max(r.get("each") or [r["nrmse"]]) < GOAL_NRMSE]
     smoothed = [r for r in results if r.get("smoothed")]
     grouped = [r for r in results if r.get("rivals")]
+    moved = ", ".join(f"{r['file']} at least {r['reads_low']} low" for r in results if r.get("reads_low"))
+    low = [r for r in results if r.get("reads_low")]
     summary = [f"{len(results)} files; every command exited 0 (check: 0 pass, 1 a point outside the band) "
                f"except: {', '.join(f'{f} {k} exit {c}' for f, k, c in failed) or 'none'}.",
                f"identify, held out by cycles: under {100 * GOAL_NRMSE:g} % of the force range on {len(met)} of "
@@ -147,7 +151,9 @@ def markdown(results):
                f"force smoothed by its source, said by the diagnosis: {len(smoothed)} files "
                f"({', '.join(r['file'] for r in smoothed) or 'none'}).",
                f"a misfit the recording cannot tell between rivals (said as \"A or B\"): {len(grouped)} files "
-               f"({', '.join(r['file'] for r in grouped) or 'none'})."]
+               f"({', '.join(r['file'] for r in grouped) or 'none'}).",
+               f"a force whose zero moved (a gas force fitted below zero: an offset kept or a mean removed), said by "
+               f"identify: {len(low)} files ({moved or 'none'})."]
     return "\n\n".join(["# Real recordings from other machines", stamp, __doc__.split("\n\n")[0].replace("\n", " "),
                         "\n".join(f"- {s}" for s in summary), md.table(header, rows)]) + "\n"
 

@@ -118,8 +118,9 @@ def reads_low(parameters, sd, force_range) -> str | None:
         return None
     return (f"the gas force fitted is {G0:.0f} N, below zero, which no gas spring gives (it pushes the rod out): the "
             f"force reads at least {-G0:.0f} N low: a load cell's offset the file kept (raw volts whose zero was not "
-            f"removed?) or its mean removed by the source; import it again with --offset force={-G0:.0f} (in N; as much in another mapped unit) to remove "
-            f"that much (the recording cannot tell the rest of an offset from a gas force)")
+            f"removed?) or its mean removed by the source; import it again with --offset force={-G0:.0f} (in N; as "
+            f"much in another mapped unit) to remove that much (the recording cannot tell the rest of an offset from "
+            f"a gas force)")
 
 
 def missing(channels, names):

@@ -33,6 +33,7 @@ UNITS = {
     "pressure": {"Pa": (1, 0), "kPa": (1e3, 0), "MPa": (1e6, 0), "bar": (1e5, 0), "psi": (6894.757, 0),
                  "kPag": (1e3, P_ATM), "barg": (1e5, P_ATM), "psig": (6894.757, P_ATM)},
 }
+UNIT_NAMES = {u.lower() for q in UNITS.values() for u in q}  # what a row of units under the names may hold
 SI = {"time": "s", "displacement": "m", "velocity": "m/s", "force": "N", "temperature": "K", "pressure": "Pa"}
 
 
@@ -145,7 +146,7 @@ def source(path):
     except OSError as e:
         raise UsageError(f"{path}: cannot read ({e.strerror})") from None
     try:
-        layout = table.sniff(text, {u.lower() for q in UNITS.values() for u in q})
+        layout = table.sniff(text, UNIT_NAMES)
         return table.split(text, layout), layout
     except UsageError as e:
         raise UsageError(f"{path}: {e}") from None
@@ -170,7 +171,7 @@ def _workbook(path):
         book.close()
     text = "\n".join(lines)
     try:
-        layout = table.sniff(text, {u.lower() for q in UNITS.values() for u in q})
+        layout = table.sniff(text, UNIT_NAMES)
     except UsageError as e:
         raise UsageError(f"{path}: sheet {sheet.title!r}: {e}") from None
     layout.sheet = sheet.title
@@ -230,7 +231,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
             a = a * scale + offset
         _plausible(path, name, column, a, first_row)
         data[name] = a
-    from_preamble = start is None and layout is not None and table.preamble_start(layout.preamble) is not None
+    preamble_start = table.preamble_start(layout.preamble) if start is None and layout is not None else None
     if "time" not in data:
         rate = rate_hz or (layout.rate_hz if layout else None)
         if not rate:
@@ -259,10 +260,10 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
         if 0 < have < need or (have == 0 and need == 10):
             raise UsageError(f"{path}: column {column!r} ({name}) holds {have} number{'s' * (have != 1)} "
                            f"with a time (needs at least {need})")
-    if from_preamble:  # the time's numbers count from the start the preamble gives
-        start = table.preamble_start(layout.preamble) + float(t[keep][0])
+    if preamble_start is not None:  # the time's numbers count from the start the preamble gives
+        start = preamble_start + float(t[keep][0])
     return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived, note,
-                    "the start the file's preamble gives" if from_preamble else "the file's first date-time stamp",
+                    "the start the file's preamble gives" if preamble_start is not None else "the file's first date-time stamp",
                     stamped)
 
 

@@ -240,8 +240,11 @@ def day_first(cells) -> bool | None:
         return False
     dates = {(int(a), int(b), int(m.group(4))) for c in cells if c and (m := DMY.match(c)) for a, b in [m.group(1, 3)]}
     if len(dates) > 1:  # past midnight: the reading whose dates lie closer together
-        span = [max(d) - min(d) for d in ([datetime(y, a, b) for a, b, y in dates],
-                                          [datetime(y, b, a) for a, b, y in dates])]
+        try:
+            span = [max(d) - min(d) for d in ([datetime(y, a, b) for a, b, y in dates],
+                                              [datetime(y, b, a) for a, b, y in dates])]
+        except ValueError:  # a day or month 0: stamps() names the cell
+            return None
         return None if span[0] == span[1] else span[1] < span[0]
     return None
 

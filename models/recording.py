@@ -220,6 +220,23 @@ def flips(x, F) -> tuple[float, str] | None:
     return W, f"--flip {first} (or --flip {second})"
 
 
+BELOW_EXTENSION_M = 5e-4  # m: a displacement further below zero is not noise about full extension
+
+
+def below_extension(x, unit="mm", scale=1e-3) -> str | None:
+    """The sentence saying a displacement [m] reads below zero, which measured from full
+    extension it cannot, or None: its zero is elsewhere. The --offset it gives is in the
+    column's mapped unit (scale: that unit in m)."""
+    lo, hi = float(np.nanmin(x)), float(np.nanmax(x))
+    if not lo < -BELOW_EXTENSION_M:
+        return None
+    return (f"it reads {1e3 * lo:.3g} to {1e3 * hi:.3g} mm, below zero, which measured from full extension it cannot: "
+            f"its zero is elsewhere (an LVDT zeroed mid-stroke, or the mean removed); --offset displacement="
+            f"{-lo / scale:.4g} (in {unit}) puts the most extended reading at zero (full extension may lie further "
+            f"out: the recording cannot tell); what reads a position along the damper's stroke (identify --damper) "
+            f"needs it")
+
+
 def sign_problem(channels) -> str | None:
     """other_sign of a recording's channels {name: (t, values)}: the force on the
     displacement's clock."""

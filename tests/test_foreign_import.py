@@ -155,7 +155,14 @@ def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_p
     r = dyno("import", tension, "--inspect")
     assert "--map 'force=CHANNEL1'" in r.stdout and "(correlation -0." in r.stdout, r.stdout
     assert "sign: with this map the damper would give energy back" in r.stdout and "add --flip force" in r.stdout
+    # volts about the LVDT's zero: below zero, which from full extension a displacement cannot be
+    _, _, r = _imported(tmp_path, src, "--map", "time=Date/Time", "--map", "displacement=CHANNEL0:mm",
+                        "--gain", "displacement=10", "--map", "force=CHANNEL1:N", "--gain", "force=980.665")
+    said = [line for line in r.stdout.splitlines() if line.startswith("displacement: it reads")]
+    low = float(said[0].split("--offset displacement=")[1].split()[0]) if said else None
+    assert low is not None and abs(low - 1e3 * (0.0495 - x.min())) < 1e-3, r.stdout
     channels, meta, _ = _imported(tmp_path, src, "--map", "time=Date/Time", "--map", "displacement=CHANNEL0:mm",
+                                  "--overwrite",
                                   "--gain", "displacement=10", "--offset", "displacement=49.5",
                                   "--map", "force=CHANNEL1:N", "--gain", "force=980.665", "--offset", "force=-9.80665")
     _same_motion(channels, t, x, F, tol_x=1e-7, tol_F=1e-2)

@@ -108,10 +108,10 @@ def run(args):
 
 def _import(args, mapping, gains, offsets, claim):
     from models import segmentation
-    from models.recording import other_sign
+    from models.recording import below_extension, other_sign
     from protocols import catalogue
     from protocols.io import table
-    from protocols.io.csv_import import CHANNELS, SI, derived_velocity, read
+    from protocols.io.csv_import import CHANNELS, SI, UNITS, derived_velocity, read
     from protocols.io.recording import Recorder
     got = read(args.file, mapping, gains, offsets, args.rate)
     data, units = got.data, got.units
@@ -180,6 +180,10 @@ def _import(args, mapping, gains, offsets, claim):
                                                               [(f.t0, f.t1) for f in found]))
         if rest:
             print(f"not in a segment: {rest}")
+    unit = units.get("displacement", "m")
+    below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
+    if below:
+        print(f"displacement: {below}")
     sign = other_sign(data["displacement"], data["force"])
     if sign:
         print(f"sign: {sign}")

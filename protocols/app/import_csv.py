@@ -108,10 +108,9 @@ def run(args):
 
 def _import(args, mapping, gains, offsets, claim):
     from models import segmentation
-    from models.recording import below_extension, other_sign
     from protocols import catalogue
     from protocols.io import table
-    from protocols.io.csv_import import CHANNELS, SI, UNITS, derived_velocity, read
+    from protocols.io.csv_import import CHANNELS, SI, derived_velocity, read
     from protocols.io.recording import Recorder
     got = read(args.file, mapping, gains, offsets, args.rate)
     data, units = got.data, got.units
@@ -164,12 +163,7 @@ def _import(args, mapping, gains, offsets, claim):
     print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC{dated}, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
-    if got.stamp_note:
-        print(f"time: {got.stamp_note}")
-    step = float(np.median(np.diff(t))) if len(t) > 2 else 0.0
-    if step >= 0.5 and not got.stamped and any(m.startswith("time=") and ":" not in m for m in args.map):
-        print(f"time: one row every {step:.3g} s ({1 / step:.3g} Hz), read as seconds: a dyno samples faster; "
-              f"in ms? give --map time=COLUMN:ms")
+    _time_notes(got, t, args.map)
     sines = [f for f in found if f.kind == "sine"]
     print(f"segments: {len(sines)} periodic" + (": " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)"
                                                                 for f in sines[:6]) + (", ..." if len(sines) > 6 else "")
@@ -180,6 +174,25 @@ def _import(args, mapping, gains, offsets, claim):
                                                               [(f.t0, f.t1) for f in found]))
         if rest:
             print(f"not in a segment: {rest}")
+    _zero_and_sign_notes(data, units)
+    print(catalogue.add(rec.path))
+    return 0
+
+
+def _time_notes(got, t, maps):
+    """Print what the time column could not tell: the day from the month, or its unit."""
+    if got.stamp_note:
+        print(f"time: {got.stamp_note}")
+    step = float(np.median(np.diff(t))) if len(t) > 2 else 0.0
+    if step >= 0.5 and not got.stamped and any(m.startswith("time=") and ":" not in m for m in maps):
+        print(f"time: one row every {step:.3g} s ({1 / step:.3g} Hz), read as seconds: a dyno samples faster; "
+              f"in ms? give --map time=COLUMN:ms")
+
+
+def _zero_and_sign_notes(data, units):
+    """Print a displacement below zero and the other sign convention, each with its fix."""
+    from models.recording import below_extension, other_sign
+    from protocols.io.csv_import import UNITS
     unit = units.get("displacement", "m")
     below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
     if below:
@@ -187,8 +200,6 @@ def _import(args, mapping, gains, offsets, claim):
     sign = other_sign(data["displacement"], data["force"])
     if sign:
         print(f"sign: {sign}")
-    print(catalogue.add(rec.path))
-    return 0
 
 
 def inspect(args):

@@ -175,6 +175,21 @@ def test_a_semicolon_file_with_decimal_commas_in_windows_encoding(tmp_path):
     channels, _, _ = _imported(tmp_path, src, "--map", "time=Zeit [s]", "--map", "displacement=Weg [mm]:mm",
                                "--map", "force=Kraft [N]")
     _same_motion(channels, np.round(t, 4), np.round(x, 8), np.round(F, 3), tol_x=1e-8)
+    r = dyno("import", src, "--inspect")
+    assert "--map 'time=Zeit [s]:s' --map 'displacement=Weg [mm]:mm' --map 'force=Kraft [N]:N'" in r.stdout, r.stdout
+
+
+@pytest.mark.parametrize("names, expected", [
+    (("Tiempo [s]", "Desplazamiento [mm]", "Velocidad [mm/s]", "Fuerza [kN]"), ("time:s", "displacement:mm",
+                                                                             "velocity:mm/s", "force:kN")),
+    (("Temps (s)", "Déplacement (mm)", "Vitesse (m/s)", "Effort (N)", "Température (C)"),
+     ("time:s", "displacement:mm", "velocity:m/s", "force:N", "temperature:C")),
+    (("Zeit", "Hub [mm]", "Geschw. [mm/s]", "Kraft [kN]", "Druck [bar]"),
+     ("time", "displacement:mm", "velocity:mm/s", "force:kN", "pressure:bar")),
+])
+def test_column_names_in_the_languages_dyno_software_writes(names, expected):
+    from protocols.io.column_guess import by_name
+    assert tuple(by_name(n, None) for n in names) == expected
 
 
 def test_tabs_and_milliseconds(tmp_path):

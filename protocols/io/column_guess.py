@@ -7,6 +7,19 @@ import numpy as np
 SAMPLES = 3  # a column's first values: --inspect shows them, and a number among them makes it numeric
 
 
+# what a column is called, in English and in the languages dyno software is written in (German,
+# French, Spanish, Italian); a name that starts with one of the longer words counts too
+NAMES = (("time", ("time", "t", "zeit", "temps", "tiempo", "tempo", "sec")),
+         ("force", ("force", "load", "f", "kraft", "effort", "fuerza", "carga", "forza")),
+         ("displacement", ("disp", "displacement", "position", "pos", "x", "d", "travel", "stroke", "weg", "hub",
+                           "deplacement", "déplacement", "course", "desplazamiento", "posicion", "posición",
+                           "spostamento", "corsa")),
+         ("velocity", ("vel", "velocity", "speed", "v", "geschw", "geschwindigkeit", "vitesse", "velocidad",
+                       "velocità")),
+         ("temperature", ("temp", "temperature", "t_body", "temperatur", "température", "temperatura")),
+         ("pressure", ("pressure", "p_gas", "druck", "pression", "presion", "presión", "pressione")))
+
+
 def by_name(name: str, cells) -> str | None:
     """A standard channel a column's name (or first value) suggests, with its unit: the
     map a user would likely write."""
@@ -16,10 +29,7 @@ def by_name(name: str, cells) -> str | None:
     unit = unit_of(name)
     if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
         return "time"
-    for channel, words in (("time", ("time", "t", "zeit", "temps", "sec")), ("force", ("force", "load", "f", "kraft")),
-                           ("displacement", ("disp", "displacement", "position", "pos", "x", "d", "travel", "stroke")),
-                           ("velocity", ("vel", "velocity", "speed", "v")),
-                           ("temperature", ("temp", "temperature", "t_body")), ("pressure", ("pressure", "p_gas"))):
+    for channel, words in NAMES:
         base = n.split("[")[0].split("(")[0].strip()
         if base in words or any(base.startswith(w) for w in words if len(w) > 2):
             if channel == "time" and unit is None:

@@ -92,7 +92,7 @@ def test_stamps_that_cannot_tell_the_day_from_the_month_or_give_no_date(tmp_path
     src = _written(tmp_path, "ambiguous.csv", "time;x;F\n" + "".join(
         f"03/05/2022 10:00:{i:02d},5;{i % 7};{i % 5}\n" for i in range(20)))
     got = csv_import.read(src, [("time", "time", "s"), ("displacement", "x", "mm"), ("force", "F", "N")])
-    assert "cannot tell the day from the month" in got.stamp_note and "03/05/2022 as MM/DD/YYYY" in got.stamp_note
+    assert "cannot tell the day from the month" in got.time_note and "03/05/2022 as MM/DD/YYYY" in got.time_note
     assert got.start_epoch == datetime(2022, 3, 5, 10, 0, 0, 500000, tzinfo=timezone.utc).timestamp()
     # the time of day alone: no date, and a day added past midnight
     t, bad = table.stamps(["23:59:59.5", "11:59:59.75 PM", "00:00:00.25"])
@@ -190,6 +190,25 @@ def test_a_semicolon_file_with_decimal_commas_in_windows_encoding(tmp_path):
 def test_column_names_in_the_languages_dyno_software_writes(names, expected):
     from protocols.io.column_guess import by_name
     assert tuple(by_name(n, None) for n in names) == expected
+
+
+def test_tests_exported_one_after_another_each_from_time_zero(tmp_path):
+    """A crank dyno's speeds, each test's time from 0: read as following on, each its segment;
+    a time that goes back anywhere else is still refused."""
+    parts = [crank(n=int(4 / hz * RATE), hz=hz) for hz in (0.5, 1.05, 2.1)]
+    src = _written(tmp_path, "speeds.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                               for t, x, F in parts for a, b, c in zip(t, x, F)))
+    channels, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    assert "time: it restarts 2 times from its first value (lines 2402, 3544)" in r.stdout, r.stdout
+    assert "segments: 3 periodic: sine 19 mm 0.5 Hz (2 cycles), sine 19 mm 1.05 Hz (3 cycles), sine 19 mm 2.1 Hz" \
+        in r.stdout, r.stdout
+    t = channels["x"][0]
+    assert np.all(np.diff(t) > 0) and abs(t[-1] - (sum(len(p[0]) for p in parts) - 1) / RATE) < 1e-3
+    t, x, F = crank()
+    t[600:] -= 1.0  # back to the middle: no restart
+    bad = _written(tmp_path, "bad.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n" for a, b, c in zip(t, x, F)))
+    one_line_error(dyno("import", bad, "--out", tmp_path / "bad.mcap", "--map", "time=t", "--map",
+                        "displacement=x:mm", "--map", "force=F"), "bad.csv:602: time goes backwards")
 
 
 def test_tabs_and_milliseconds(tmp_path):

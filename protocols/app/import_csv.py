@@ -181,8 +181,8 @@ def _import(args, mapping, gains, offsets, claim):
 
 def _time_notes(got, t, maps):
     """Print what the time column could not tell: the day from the month, or its unit."""
-    if got.stamp_note:
-        print(f"time: {got.stamp_note}")
+    if got.time_note:
+        print(f"time: {got.time_note}")
     step = float(np.median(np.diff(t))) if len(t) > 2 else 0.0
     if step >= 0.5 and not got.stamped and any(m.startswith("time=") and ":" not in m for m in maps):
         print(f"time: one row every {step:.3g} s ({1 / step:.3g} Hz), read as seconds: a dyno samples faster; "

@@ -98,7 +98,7 @@ class Imported:
     layout: table.Layout | None  # None: Parquet or MAT
     start_epoch: float | None = None  # s since 1970 UTC: the first date-time stamp; None without one
     derived_time: str = ""  # how the time was made when no column gives it
-    stamp_note: str = ""  # what the date-time stamps could not tell
+    time_note: str = ""  # what the time column could not tell, or how it was read
     start_source: str = "the file's first date-time stamp"  # where start_epoch came from
     stamped: bool = False  # the time column is date-time stamps, not numbers in a unit
 
@@ -240,20 +240,11 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
         n = len(next(iter(data.values())))
         data["time"] = np.arange(n) / rate
         derived = f"time from the sampling rate, {rate:g} Hz"
+    keep = ~np.isnan(data["time"])
+    if not stamped:
+        note = _follow_on(data["time"], keep, first_row) or note
     t = data["time"]
-    keep = ~np.isnan(t)
-    bad = np.nonzero(np.diff(t[keep]) < 0)[0]  # repeated stamps happen in logged data; going back does not
-    if len(bad):
-        row = first_row + np.nonzero(keep)[0][bad[0] + 1]
-        raise UsageError(f"{path}:{row}: time goes backwards ({t[keep][bad[0]]:.9g} then {t[keep][bad[0] + 1]:.9g} s)")
-    if keep.sum() < 10:
-        raise UsageError(f"{path}: {keep.sum()} rows with a time (need at least 10)")
-    if not t[keep][-1] - t[keep][0] <= MAX_SPAN_S:
-        raise UsageError(f"{path}: the time column spans {t[keep][-1] - t[keep][0]:.3g} s; a recording spans at most "
-                       f"{MAX_SPAN_S / 86400:g} days: check its unit")
-    if not t[keep][-1] > t[keep][0]:
-        column = next((c for n, c, _ in mapping if n == "time"), "time")
-        raise UsageError(f"{path}: the time column {column!r} does not advance (all {t[keep][0]:g} s)")
+    _time_advances(path, t[keep], np.nonzero(keep)[0], first_row, mapping)
     for name, column, _ in mapping:  # an empty optional column is left out; one number is no channel
         have = int(np.sum(~np.isnan(data[name][keep])))
         need = 10 if name in ("time", "displacement", "force") else 2
@@ -265,6 +256,58 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived, note,
                     "the start the file's preamble gives" if preamble_start is not None else "the file's first date-time stamp",
                     stamped)
+
+
+def _follow_on(t, keep, first_row) -> str:
+    """Make a time column of tests exported one after another follow on, in place (_restarts);
+    what was done, or ""."""
+    restarted = _restarts(t[keep])
+    if restarted is None:
+        return ""
+    t[keep], rows = restarted
+    lines = [str(first_row + np.nonzero(keep)[0][i]) for i in rows]
+    return (f"it restarts {len(rows)} time{'s' * (len(rows) > 1)} from its first value (line{'s' * (len(rows) > 1)} "
+            f"{', '.join(lines[:5])}{', ...' if len(lines) > 5 else ''}): tests exported one after another, read as "
+            f"following on")
+
+
+def _time_advances(path, t, rows, first_row, mapping):
+    """UsageError unless the kept times t [s] (at row indices rows) never go back, number
+    10 or more, span at most MAX_SPAN_S and advance."""
+    bad = np.nonzero(np.diff(t) < 0)[0]  # repeated stamps happen in logged data; going back does not
+    if len(bad):
+        raise UsageError(f"{path}:{first_row + rows[bad[0] + 1]}: time goes backwards ({t[bad[0]]:.9g} then "
+                         f"{t[bad[0] + 1]:.9g} s)")
+    if len(t) < 10:
+        raise UsageError(f"{path}: {len(t)} rows with a time (need at least 10)")
+    if not t[-1] - t[0] <= MAX_SPAN_S:
+        raise UsageError(f"{path}: the time column spans {t[-1] - t[0]:.3g} s; a recording spans at most "
+                         f"{MAX_SPAN_S / 86400:g} days: check its unit")
+    if not t[-1] > t[0]:
+        column = next((c for n, c, _ in mapping if n == "time"), "time")
+        raise UsageError(f"{path}: the time column {column!r} does not advance (all {t[0]:g} s)")
+
+
+RESTART_ROWS = 10  # a section counting from the first's start holds at least this many rows
+
+
+def _restarts(t):
+    """(t made to follow on, [index of each restart]) of a time column whose sections each
+    count from the first section's start (tests exported one after another: each section
+    back to within one sample step of the first value, RESTART_ROWS rows or more), or None
+    when time never goes back or goes back otherwise (a corrupt file: refused)."""
+    back = np.nonzero(np.diff(t) < 0)[0]
+    steps = np.diff(t)[np.diff(t) > 0]
+    if not len(back) or not len(steps):
+        return None
+    step = float(np.median(steps))
+    edges = np.r_[-1, back, len(t) - 1]
+    if np.any(np.diff(edges) < RESTART_ROWS) or np.any(np.abs(t[back + 1] - t[0]) > step):
+        return None
+    out = t.copy()
+    for i in back:
+        out[i + 1:] += out[i] + step - out[i + 1]
+    return out, [int(i) + 1 for i in back]
 
 
 def _stamped(cells):

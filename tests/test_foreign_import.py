@@ -204,6 +204,9 @@ def test_tests_exported_one_after_another_each_from_time_zero(tmp_path):
         in r.stdout, r.stdout
     t = channels["x"][0]
     assert np.all(np.diff(t) > 0) and abs(t[-1] - (sum(len(p[0]) for p in parts) - 1) / RATE) < 1e-3
+    from protocols.reports.recording import report  # said again to whoever reads the report later
+    index, _ = report(tmp_path / "x.mcap", tmp_path / "report")
+    assert "What the import said of the file:" in index.read_text() and "it restarts 2 times" in index.read_text()
     t, x, F = crank()
     t[600:] -= 1.0  # back to the middle: no restart
     bad = _written(tmp_path, "bad.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n" for a, b, c in zip(t, x, F)))

@@ -108,6 +108,7 @@ def run(args):
 
 def _import(args, mapping, gains, offsets, claim):
     from models import segmentation
+    from models.recording import other_sign
     from protocols import catalogue
     from protocols.io import table
     from protocols.io.csv_import import CHANNELS, SI, derived_velocity, read
@@ -145,11 +146,20 @@ def _import(args, mapping, gains, offsets, claim):
     params = {"source": str(args.file), "map": args.map, "flip": args.flip or [],
               "gain": args.gain or [], "offset": args.offset or [], "drive": args.drive or []}
     every = -(-len(t) // PLOT_POINTS)
-    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
-                   run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
-                             **({"plot_every": every} if every > 1 else {})})
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
+    kept = _time_notes(got, t, args.map) + _zero_note(data, units)  # the report says the rest itself
+    notes = list(kept)
+    if any(f.kind == "sine" for f in found):
+        rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
+                                                              [(f.t0, f.t1) for f in found]))
+        notes += [f"not in a segment: {rest}"] if rest else []
+    sign = other_sign(data["displacement"], data["force"])
+    notes += [f"sign: {sign}"] if sign else []
+    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
+                   run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
+                             **({"plot_every": every} if every > 1 else {}),
+                             **({"import_notes": "\n".join(kept)} if kept else {})})
     try:
         for n, (tt, v, _) in channels.items():
             for i in range(0, len(tt), BATCH):
@@ -163,43 +173,35 @@ def _import(args, mapping, gains, offsets, claim):
     print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC{dated}, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
-    _time_notes(got, t, args.map)
     sines = [f for f in found if f.kind == "sine"]
     print(f"segments: {len(sines)} periodic" + (": " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)"
                                                                 for f in sines[:6]) + (", ..." if len(sines) > 6 else "")
                                               if sines else " (motion that does not repeat: analysed in blocks)")
           + (f"; {len(found) - len(sines)} holds" if len(found) > len(sines) else ""))
-    if sines:
-        rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
-                                                              [(f.t0, f.t1) for f in found]))
-        if rest:
-            print(f"not in a segment: {rest}")
-    _zero_and_sign_notes(data, units)
+    for note in notes:
+        print(note)
     print(catalogue.add(rec.path))
     return 0
 
 
-def _time_notes(got, t, maps):
-    """Print what the time column could not tell: the day from the month, or its unit."""
-    if got.time_note:
-        print(f"time: {got.time_note}")
+def _time_notes(got, t, maps) -> list[str]:
+    """What the time column could not tell (the day from the month, its unit) or how it was
+    read (tests one after another)."""
+    notes = [f"time: {got.time_note}"] if got.time_note else []
     step = float(np.median(np.diff(t))) if len(t) > 2 else 0.0
     if step >= 0.5 and not got.stamped and any(m.startswith("time=") and ":" not in m for m in maps):
-        print(f"time: one row every {step:.3g} s ({1 / step:.3g} Hz), read as seconds: a dyno samples faster; "
-              f"in ms? give --map time=COLUMN:ms")
+        notes.append(f"time: one row every {step:.3g} s ({1 / step:.3g} Hz), read as seconds: a dyno samples "
+                     f"faster; in ms? give --map time=COLUMN:ms")
+    return notes
 
 
-def _zero_and_sign_notes(data, units):
-    """Print a displacement below zero and the other sign convention, each with its fix."""
-    from models.recording import below_extension, other_sign
+def _zero_note(data, units) -> list[str]:
+    """A displacement below zero, with the offset that puts its most extended reading at zero."""
+    from models.recording import below_extension
     from protocols.io.csv_import import UNITS
     unit = units.get("displacement", "m")
     below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
-    if below:
-        print(f"displacement: {below}")
-    sign = other_sign(data["displacement"], data["force"])
-    if sign:
-        print(f"sign: {sign}")
+    return [f"displacement: {below}"] if below else []
 
 
 def inspect(args):

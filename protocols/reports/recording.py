@@ -167,6 +167,9 @@ def _header(page, meta, events, model):
     setup = {k.removeprefix("setup."): v for k, v in run.items() if k.startswith("setup.")}
     if setup:
         page.paragraph("Setup: " + ", ".join(f"{k} {v}" for k, v in setup.items()))
+    if run.get("import_notes"):  # what `dyno import` said of the file, for whoever reads the report later
+        page.paragraph("What the import said of the file:")
+        page.items(tuple(n.split(": ", 1)) if ": " in n else ("import", n) for n in run["import_notes"].split("\n"))
     page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {_params(proto.get('params', ''))}; damper "
                    f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}."
                    + (f" Model overlaid: {model.name}." if model is not None else ""))

@@ -209,12 +209,12 @@ def flips(x, F) -> tuple[float, str] | None:
     x, F = x[ok], F[ok]
     if len(x) < 3:
         return None
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):  # values no sensor gives
         warnings.simplefilter("ignore", np.exceptions.RankWarning)  # a few points: any cubic will do
         Fd = F - np.polyval(np.polyfit(u := (x - np.mean(x)) / np.ptp(x), F, 3), u) if np.ptp(x) > 0 else F
-    dW = 0.5 * (Fd[1:] + Fd[:-1]) * np.diff(x)
-    W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
-    if not (A > 0 and W < -SIGN_SHARE * A):
+        dW = 0.5 * (Fd[1:] + Fd[:-1]) * np.diff(x)
+        W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
+    if not (np.isfinite(A) and A > 0 and W < -SIGN_SHARE * A):
         return None
     first, second = ("force", "displacement") if np.median(F) < 0 else ("displacement", "force")  # gas: compression
     return W, f"--flip {first} (or --flip {second})"

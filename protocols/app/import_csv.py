@@ -208,7 +208,7 @@ def inspect(args):
     """What import would read from the file: layout, columns with sample values, the rate,
     and a guessed map. Writes nothing."""
     from protocols.io import table
-    from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, numeric, sign
+    from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, key_of, numeric, sign
     from protocols.io.csv_import import source
     cols, layout = source(args.file)
     print(f"{args.file}: {layout.describe() if layout else Path(args.file).suffix[1:] + ' columns'}")
@@ -225,7 +225,7 @@ def inspect(args):
         print(f"  {j + 1:>2}  {name!r:24} {', '.join(sample)}{'  (' + kind + ')' if kind else ''}")
         g = by_name(name, cells)
         if g and not any(x.split("=")[0] == g.split(":")[0] for x in guesses):
-            guesses.append(f"{g.split(':')[0]}={name if layout is None or layout.header is not None else j + 1}"
+            guesses.append(f"{g.split(':')[0]}={key_of(j, name, layout)}"
                            + (f":{g.split(':')[1]}" if ":" in g else ""))
     if guesses:
         print("guessed map (check the units): " + " ".join(f"--map '{g}'" for g in guesses))

@@ -50,6 +50,12 @@ def time_unit(cells) -> str | None:
     return None if not step >= 0.5 else "ms" if step <= 50 else "us"
 
 
+def key_of(j: int, name: str, layout) -> str:
+    """How --map names column j: by its header, or by its 1-based position without one or
+    when the header holds a colon (which --map reads as the unit's)."""
+    return name if (layout is None or layout.header is not None) and ":" not in name else str(j + 1)
+
+
 def unit_of(name: str) -> str | None:
     """The unit a column's name carries: `Force [kN]`, `Force (kN)`, `force_kN`."""
     from protocols.io.csv_import import UNITS
@@ -83,7 +89,7 @@ def _values(cols, layout, guesses):
     named = dict(g.split(":")[0].split("=", 1) for g in guesses)  # channel -> column key
     vals, t = {}, None
     for j, (name, cells) in enumerate(cols.items()):
-        key = name if layout is None or layout.header is not None else str(j + 1)
+        key = key_of(j, name, layout)
         stamps = not isinstance(cells, np.ndarray) and len(cells) and table.is_stamp(str(cells[0]))
         if key == named.get("time"):
             t = table.stamps(list(cells))[0] if stamps else _numbers(cells, layout)
@@ -108,7 +114,7 @@ def sign(cols, layout, mapping) -> str | None:
     named = dict(g.split(":")[0].split("=", 1) for g in mapping)
     if not {"displacement", "force"} <= named.keys():
         return None
-    keys = [name if layout is None or layout.header is not None else str(j + 1) for j, name in enumerate(cols)]
+    keys = [key_of(j, name, layout) for j, name in enumerate(cols)]
     x, F = (_numbers(list(cols.values())[keys.index(named[c])], layout) for c in ("displacement", "force"))
     said = flips(x, F)
     return None if said is None else (f"with this map the damper would give energy back (the integral of F dx is "
@@ -124,6 +130,11 @@ def by_values(cols, layout, guesses) -> list[tuple[str, str]]:
     smoothest column and the force the one that follows its rate of change (compression
     positive: a damper's force goes with its velocity), unless two follow it alike; force
     is the one numeric column left. guesses: the map read from the names."""
+    with np.errstate(all="ignore"):  # extreme or repeated values guess nothing, quietly
+        return _with_units(_by_values(cols, layout, guesses))
+
+
+def _by_values(cols, layout, guesses):
     channels = {g.split("=")[0] for g in guesses}
     vals, t = _values(cols, layout, guesses)
     out = []
@@ -142,7 +153,7 @@ def by_values(cols, layout, guesses) -> list[tuple[str, str]]:
     if "force" not in channels and {g.split("=")[0] for g, _ in out} == {"time", "displacement", "velocity"} \
             and len(left) == 1:
         out.append((f"force={left[0]}", f"{left[0]} is the one column left"))
-    return _with_units(out)
+    return out
 
 
 def _motion_pair(vals, t):

@@ -122,7 +122,7 @@ def test_a_row_of_units_under_the_names_and_a_start_in_the_preamble(tmp_path):
     # a colon in a name, which --map reads as the unit's: mapped by position
     colon = _written(tmp_path, "colon.txt", "Time: s\tPosition: mm\tLoad: N\n" + "".join(
         f"{a:.5f}\t{1e3 * b:.4f}\t{c:.3f}\n" for a, b, c in zip(t, x, F)))
-    assert "--map 'time=1' --map 'displacement=2' --map 'force=3'" in dyno("import", colon, "--inspect").stdout
+    assert "--map 'time=1:s' --map 'displacement=2:mm' --map 'force=3:N'" in dyno("import", colon, "--inspect").stdout
     # names alone, with a line above them: not a row of units
     from protocols.io.table import sniff
     assert sniff("a,b,c\nt,x,F\n0,1,2\n1,2,3\n").units is None

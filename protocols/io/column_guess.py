@@ -30,7 +30,7 @@ def by_name(name: str, cells) -> str | None:
     if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
         return "time"
     for channel, words in NAMES:
-        base = n.split("[")[0].split("(")[0].strip()
+        base = n.split("[")[0].split("(")[0].split(":")[0].strip()
         if base in words or any(base.startswith(w) for w in words if len(w) > 2):
             if channel == "time" and unit is None:
                 unit = time_unit(cells)
@@ -57,11 +57,11 @@ def key_of(j: int, name: str, layout) -> str:
 
 
 def unit_of(name: str) -> str | None:
-    """The unit a column's name carries: `Force [kN]`, `Force (kN)`, `force_kN`."""
+    """The unit a column's name carries: `Force [kN]`, `Force (kN)`, `force_kN`, `Force: kN`."""
     from protocols.io.csv_import import UNITS
     n = name.lower()
     for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
-        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith(f"_{u.lower()}"):
+        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith((f"_{u.lower()}", f": {u.lower()}")):
             return u
     return None
 

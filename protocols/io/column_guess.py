@@ -68,7 +68,7 @@ def unit_of(name: str) -> str | None:
 
 def _with_units(found):
     """by_values' guesses with the unit each column's name carries, where it is the
-    channel's; a DAQ's channels without one are asked for their gain."""
+    channel's."""
     from protocols.io.csv_import import UNITS
     out = []
     for g, why in found:
@@ -77,16 +77,19 @@ def _with_units(found):
         if ":" not in key and u in UNITS.get(channel, ()):
             g = f"{g}:{u}"
         out.append((g, why))
-    if all(":" in g for g, _ in out if not g.startswith("time=")):
-        out = [(g, why.replace("; raw volts? give each a --gain", "")) for g, why in out]
     return out
+
+
+def _named(mapping) -> dict:
+    """{channel: column key} of NAME=COLUMN[:UNIT] strings (a key holds no colon: key_of)."""
+    return dict(g.split(":")[0].split("=", 1) for g in mapping)
 
 
 def _values(cols, layout, guesses):
     """({column key: values} of the numeric columns no name explained, the time column's
     values [s] if a name gave it, else None)."""
     from protocols.io import table
-    named = dict(g.split(":")[0].split("=", 1) for g in guesses)  # channel -> column key
+    named = _named(guesses)
     vals, t = {}, None
     for j, (name, cells) in enumerate(cols.items()):
         key = key_of(j, name, layout)
@@ -111,7 +114,7 @@ def sign(cols, layout, mapping) -> str | None:
     """What to flip when the guessed map's force and displacement would give energy back
     (models.recording.flips), or None. mapping: [NAME=COLUMN[:UNIT]]."""
     from models.recording import flips
-    named = dict(g.split(":")[0].split("=", 1) for g in mapping)
+    named = _named(mapping)
     if not {"displacement", "force"} <= named.keys():
         return None
     keys = [key_of(j, name, layout) for j, name in enumerate(cols)]
@@ -149,7 +152,7 @@ def _by_values(cols, layout, guesses):
     rest = {k: a for k, a in vals.items() if np.std(a) > 0 and not np.allclose(step[k], 1.0)}  # no counter
     if not {"displacement", "velocity"} & channels:
         out += _motion_pair(rest, t) or _motion_and_force(rest, t, "force" in channels)
-    left = [k for k in rest if k not in {g.split("=")[1].split(":")[0] for g, _ in out}]
+    left = [k for k in rest if k not in _named(g for g, _ in out).values()]
     if "force" not in channels and {g.split("=")[0] for g, _ in out} == {"time", "displacement", "velocity"} \
             and len(left) == 1:
         out.append((f"force={left[0]}", f"{left[0]} is the one column left"))
@@ -198,14 +201,14 @@ def _motion_and_force(vals, t, force_named):
         return [(f"displacement={x}", f"{x} is the smoothest; the force is {a} or {b}, which follow its rate of "
                                      f"change alike (correlation {follow[1][0]:.2f} or more in size): the values "
                                      f"cannot tell")]
-    return [(f"displacement={x}", why + "; raw volts? give each a --gain"), (f"force={follow[0][1]}", "")]
+    volts = unit_of(x) is None and unit_of(follow[0][1]) is None  # no unit in either name: a DAQ's volts?
+    return [(f"displacement={x}", why + ("; raw volts? give each a --gain" if volts else "")),
+            (f"force={follow[0][1]}", "")]
 
 
 def counter(cells, layout) -> bool:
     """A sample number: 1, 2, 3, ... (the UTFSM DAQ's first column)."""
-    from protocols.io import table
-    a = np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
-        list(cells), layout.decimal if layout else ".")[0]
+    a = _numbers(cells, layout)
     return len(a) > 1 and bool(np.all(np.diff(a) == 1.0))
 
 

@@ -313,13 +313,14 @@ def _restarts(t):
 def _stamped(cells):
     """(seconds from the first stamp, index of a cell that is no stamp or None, the start
     [s since 1970 UTC] or None without a date, what the stamps could not tell)."""
-    a, bad = table.stamps(cells)
+    dmy = next((c for c in cells[:5] if c and table.DMY.match(c)), None)
+    order = table.day_first(cells) if dmy else None  # ISO stamps: no day to tell from a month
+    a, bad = table.stamps(cells, order)
     if bad is not None:
         return a, bad, None, ""
     first = float(a[~np.isnan(a)][0]) if np.any(~np.isnan(a)) else None
     note = ""
-    dmy = next((c for c in cells[:5] if c and table.DMY.match(c)), None)
-    if dmy and table.day_first(cells) is None:
+    if dmy and order is None:
         note = (f"the stamps cannot tell the day from the month (both at most 12): read month first "
                 f"({dmy.split()[0]} as MM/DD/YYYY); the date may be wrong, the times are not")
     # the time of day alone gives no date

@@ -223,40 +223,33 @@ def is_stamp(cell: str) -> bool:
 
 
 def day_first(cells) -> bool | None:
-    """Whether a column's DD/MM/YYYY-or-MM/DD/YYYY stamps put the day first: a first field
-    over 12, or dots (DD.MM.YYYY), say so; a second over 12 says month first; otherwise
-    None: the stamps cannot tell (read month first, as the US writes them)."""
-    firsts, seconds = set(), set()
-    for c in cells:
-        m = DMY.match(c) if c else None
-        if m:
-            if m.group(2) == ".":
-                return True
-            firsts.add(m.group(1))
-            seconds.add(m.group(3))
-    if any(int(f) > 12 for f in firsts):
+    """Whether a column's DD/MM/YYYY-or-MM/DD/YYYY stamps put the day first: dots
+    (DD.MM.YYYY) or a first field over 12 say so; a second over 12 says month first; past
+    midnight, the reading whose dates lie closer together; otherwise None: the stamps
+    cannot tell (read month first, as the US writes them)."""
+    dates = {m.group(1, 2, 3, 4) for c in cells if c and (m := DMY.match(c))}  # a recording spans a few
+    if any(sep == "." or int(a) > 12 for a, sep, _, _ in dates):
         return True
-    if any(int(f) > 12 for f in seconds):
+    if any(int(b) > 12 for _, _, b, _ in dates):
         return False
-    dates = {(int(a), int(b), int(m.group(4))) for c in cells if c and (m := DMY.match(c)) for a, b in [m.group(1, 3)]}
-    if len(dates) > 1:  # past midnight: the reading whose dates lie closer together
+    if len(dates) > 1:
         try:
-            span = [max(d) - min(d) for d in ([datetime(y, a, b) for a, b, y in dates],
-                                              [datetime(y, b, a) for a, b, y in dates])]
+            span = [max(d) - min(d) for d in ([datetime(int(y), int(a), int(b)) for a, _, b, y in dates],
+                                              [datetime(int(y), int(b), int(a)) for a, _, b, y in dates])]
         except ValueError:  # a day or month 0: stamps() names the cell
             return None
         return None if span[0] == span[1] else span[1] < span[0]
     return None
 
 
-def stamps(cells: list[str]) -> tuple[np.ndarray, int | None]:
+def stamps(cells: list[str], order="find") -> tuple[np.ndarray, int | None]:
     """(seconds since 1970-01-01 UTC of each date-time stamp, NaN for an empty cell; index
     of the first cell that is not a stamp, or None). ISO 8601 (or YYYY/MM/DD) with a space
     or T, with or without a zone; MM/DD/YYYY or DD/MM/YYYY (day_first), DD.MM.YYYY, with
     AM/PM or a 24-hour clock. A stamp without a zone is taken as UTC (the recording does not
     say where it was made). The time of day alone (hh:mm:ss.fff) counts from the first
     day's midnight, a day added where the clock goes back past midnight; it gives no date
-    (dated says so)."""
+    (dated says so). order: day_first's answer, when the caller has it."""
     out = np.full(len(cells), np.nan)
     if cells and (m := ISO.match(cells[0])) and m.group(2) == "-" and not m.group(8) and all(cells):
         try:  # the common case, zone-less ISO stamps in every row: numpy parses them at C speed
@@ -266,7 +259,7 @@ def stamps(cells: list[str]) -> tuple[np.ndarray, int | None]:
         except (ValueError, UserWarning):
             pass  # one that numpy refuses, or a zone: each row below
     days = {}  # a recording spans a few dates: each converted once
-    dmy_day = day_first(cells)
+    dmy_day = day_first(cells) if order == "find" else order
     day, last = 0.0, None  # the time of day alone: its day, and the clock's last reading
     for i, c in enumerate(cells):
         if not c:

@@ -128,6 +128,42 @@ def test_a_row_of_units_under_the_names_and_a_start_in_the_preamble(tmp_path):
     assert sniff("a,b,c\nt,x,F\n0,1,2\n1,2,3\n").units is None
 
 
+def test_an_imperial_export_its_units_as_written_and_its_date_and_time_on_two_lines(tmp_path):
+    """As a US shock dyno writes it: inches, in/sec, lbs and F in the names, the test's date
+    and time on two preamble lines. The map needs no units: the names give them."""
+    t, x, F = crank()
+    src = _written(tmp_path, "us.csv", "Shock Dyno Export\nDate,11/14/2025\nTime,20:14:37\nStroke (in),1.5\n\n"
+                   "Time (sec),Position (in),Velocity (in/sec),Force (lbs),Temp (°F)\n" + "".join(
+                       f"{a:.6f},{b / 0.0254:.7f},{v / 0.0254:.5f},{c / 4.4482216:.5f},{77 + a:.2f}\n"
+                       for a, b, v, c in zip(t, x, np.gradient(x, t), F)), "latin-1")
+    r = dyno("import", src, "--inspect")
+    assert "--map 'time=Time (sec):s' --map 'displacement=Position (in):in' --map 'velocity=Velocity (in/sec):in/s' " \
+           "--map 'force=Force (lbs):lbf' --map 'temperature=Temp (°F):F'" in r.stdout, r.stdout
+    channels, meta, r = _imported(tmp_path, src, "--map", "time=Time (sec)", "--map", "displacement=Position (in)",
+                                  "--map", "force=Force (lbs)", "--map", "temperature=Temp (°F)")
+    assert "units from the columns' names: displacement [in], force [lbf], temperature [F]" in r.stdout, r.stdout
+    _same_motion(channels, t, x, F, tol_x=1e-8, tol_F=1e-3)
+    assert np.allclose(channels["T_body"][1], 273.15 + (77 + t - 32) * 5 / 9, atol=0.01)
+    assert meta["run"]["wall_start_source"] == "the start the file's preamble gives"
+    assert meta["run"]["wall_start"].startswith("2025-11-14T20:14:37")
+    # the units as a user spells them after the column, and one import does not know
+    channels, _, _ = _imported(tmp_path, src, "--map", "time=1:sec", "--map", "displacement=2:inch", "--map",
+                               "force=4:LBS", "--overwrite")
+    _same_motion(channels, t, x, F, tol_x=1e-8, tol_F=1e-3)
+    one_line_error(dyno("import", src, "--out", tmp_path / "y.mcap", "--map", "displacement=2", "--map", "force=4:lbz"),
+                   "--map force=4:lbz: unknown force unit 'lbz' (known: N, kN, daN, lbf, kgf)")
+    # a raw channel's volts mapped without a gain: said, and kept for the report
+    volts = _written(tmp_path, "volts.csv", src.read_text("latin-1").replace("Force (lbs)", "Load cell (V)"))
+    _, meta, r = _imported(tmp_path, volts, "--map", "displacement=Position (in)", "--map", "force=Load cell (V)",
+                           "--map", "time=1", "--overwrite")
+    said = "force: its column 'Load cell (V)' says V, read as N: give its unit (--map force=COLUMN:UNIT) or a raw " \
+           "channel's --gain"
+    assert said in r.stdout and said in meta["run"]["import_notes"], r.stdout
+    _, _, r = _imported(tmp_path, volts, "--map", "displacement=Position (in)", "--map", "force=Load cell (V)",
+                        "--map", "time=1", "--gain", "force=4.448", "--overwrite")
+    assert "force: its column" not in r.stdout
+
+
 def test_a_daq_export_with_a_preamble_us_stamps_volts_and_an_events_column(tmp_path):
     """As the UTFSM press's acquisition wrote it: 7 preamble lines, `Sample Number,
     Date/Time, CHANNEL0, CHANNEL1, Events`, US stamps, volts with their offsets."""

@@ -148,7 +148,7 @@ def _import(args, mapping, gains, offsets, claim):
     every = -(-len(t) // PLOT_POINTS)
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
-    kept = _time_notes(got, t, args.map) + _zero_note(data, units)  # the report says the rest itself
+    kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units)  # the report says the rest itself
     notes = list(kept)
     if any(f.kind == "sine" for f in found):
         rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
@@ -173,6 +173,8 @@ def _import(args, mapping, gains, offsets, claim):
     print(f"{rec.path}: {len(t)} rows from {table.iso(wall_start)[:23]} UTC{dated}, channels " + ", ".join(
         f"{n} [{u}]" for n, (_, _, u) in channels.items()) + (" (velocity derived from displacement)"
                                                                if units.get("velocity", "").startswith("derived") else ""))
+    if got.named_units:
+        print("units from the columns' names: " + ", ".join(f"{n} [{u}]" for n, u in got.named_units.items()))
     sines = [f for f in found if f.kind == "sine"]
     print(f"segments: {len(sines)} periodic" + (": " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)"
                                                                 for f in sines[:6]) + (", ..." if len(sines) > 6 else "")

@@ -24,17 +24,15 @@ def by_name(name: str, cells) -> str | None:
     """A standard channel a column's name (or first value) suggests, with its unit: the
     map a user would likely write."""
     from protocols.io import table
-    from protocols.io.csv_import import UNITS
+    from protocols.io.csv_import import unit_in_name
     n = name.lower()
-    unit = unit_of(name)
     if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
         return "time"
     for channel, words in NAMES:
         base = n.split("[")[0].split("(")[0].split(":")[0].strip()
         if base in words or any(base.startswith(w) for w in words if len(w) > 2):
-            if channel == "time" and unit is None:
-                unit = time_unit(cells)
-            return f"{channel}" + (f":{unit}" if unit and unit in UNITS[channel] else "")
+            unit = unit_in_name(name, channel) or (time_unit(cells) if channel == "time" else None)
+            return f"{channel}" + (f":{unit}" if unit else "")
     return None
 
 
@@ -56,27 +54,15 @@ def key_of(j: int, name: str, layout) -> str:
     return name if (layout is None or layout.header is not None) and ":" not in name else str(j + 1)
 
 
-def unit_of(name: str) -> str | None:
-    """The unit a column's name carries: `Force [kN]`, `Force (kN)`, `force_kN`, `Force: kN`."""
-    from protocols.io.csv_import import UNITS
-    n = name.lower()
-    for u in sorted({u for q in UNITS.values() for u in q}, key=len, reverse=True):
-        if f"[{u.lower()}]" in n or f"({u.lower()})" in n or n.endswith((f"_{u.lower()}", f": {u.lower()}")):
-            return u
-    return None
-
-
 def _with_units(found):
     """by_values' guesses with the unit each column's name carries, where it is the
     channel's."""
-    from protocols.io.csv_import import UNITS
+    from protocols.io.csv_import import unit_in_name
     out = []
     for g, why in found:
         channel, key = g.split("=", 1)
-        u = unit_of(key)
-        if ":" not in key and u in UNITS.get(channel, ()):
-            g = f"{g}:{u}"
-        out.append((g, why))
+        u = unit_in_name(key, channel) if ":" not in key else None
+        out.append((f"{g}:{u}" if u else g, why))
     return out
 
 
@@ -182,6 +168,7 @@ FOLLOWS = 0.6  # correlation of a force with the displacement's rate of change (
 def _motion_and_force(vals, t, force_named):
     """[displacement, force] guesses of a DAQ's raw channels: the smoothest column, and the
     one that follows its rate of change unless another follows it within 0.05; or []."""
+    from protocols.io.csv_import import unit_in_name
     if len(vals) < 2 or force_named:
         return []
     rough = {k: float(np.std(np.diff(a, 2)) / np.std(a)) for k, a in vals.items()}
@@ -201,7 +188,7 @@ def _motion_and_force(vals, t, force_named):
         return [(f"displacement={x}", f"{x} is the smoothest; the force is {a} or {b}, which follow its rate of "
                                      f"change alike (correlation {follow[1][0]:.2f} or more in size): the values "
                                      f"cannot tell")]
-    volts = unit_of(x) is None and unit_of(follow[0][1]) is None  # no unit in either name: a DAQ's volts?
+    volts = unit_in_name(x) is None and unit_in_name(follow[0][1]) is None  # no unit in either name: a DAQ's volts?
     return [(f"displacement={x}", why + ("; raw volts? give each a --gain" if volts else "")),
             (f"force={follow[0][1]}", "")]
 

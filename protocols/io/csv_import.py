@@ -10,8 +10,9 @@ at 2 kHz): smoother than a plain difference and without its half-sample lag.
 """
 from __future__ import annotations
 
+import re
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,12 +29,19 @@ UNITS = {
     "time": {"s": (1, 0), "ms": (1e-3, 0), "us": (1e-6, 0), "min": (60, 0)},
     "displacement": {"m": (1, 0), "mm": (1e-3, 0), "cm": (1e-2, 0), "um": (1e-6, 0), "in": (0.0254, 0)},
     "velocity": {"m/s": (1, 0), "mm/s": (1e-3, 0), "cm/s": (1e-2, 0), "in/s": (0.0254, 0)},
-    "force": {"N": (1, 0), "kN": (1e3, 0), "lbf": (4.4482216, 0), "kgf": (9.80665, 0)},
+    "force": {"N": (1, 0), "kN": (1e3, 0), "daN": (10, 0), "lbf": (4.4482216, 0), "kgf": (9.80665, 0)},
     "temperature": {"K": (1, 0), "C": (1, 273.15), "degC": (1, 273.15), "F": (5 / 9, 273.15 - 32 * 5 / 9)},
-    "pressure": {"Pa": (1, 0), "kPa": (1e3, 0), "MPa": (1e6, 0), "bar": (1e5, 0), "psi": (6894.757, 0),
+    "pressure": {"Pa": (1, 0), "kPa": (1e3, 0), "mbar": (100, 0), "MPa": (1e6, 0), "bar": (1e5, 0), "psi": (6894.757, 0),
                  "kPag": (1e3, P_ATM), "barg": (1e5, P_ATM), "psig": (6894.757, P_ATM)},
 }
-UNIT_NAMES = {u.lower() for q in UNITS.values() for u in q}  # what a row of units under the names may hold
+# a unit as dyno and DAQ software also write it (matched ignoring case); a force in kg is kgf,
+# as older dyno software labels it
+SPELLINGS = {"sec": "s", "secs": "s", "second": "s", "seconds": "s", "msec": "ms", "µs": "us", "μs": "us",
+             "usec": "us", "µm": "um", "μm": "um", "inch": "in", "inches": "in", "mm/sec": "mm/s", "m/sec": "m/s",
+             "cm/sec": "cm/s", "in/sec": "in/s", "ips": "in/s", "lb": "lbf", "lbs": "lbf", "kg": "kgf", "°c": "C",
+             "ºc": "C", "degc": "C", "deg c": "C", "°f": "F", "ºf": "F", "degf": "F", "deg f": "F", "psia": "psi"}
+UNIT_NAMES = {u.lower() for q in UNITS.values() for u in q} | set(SPELLINGS)  # a row of units under the names
+BRACKETED = re.compile(r"[\[(]\s*([^\[\]()]+?)\s*[\])]")
 SI = {"time": "s", "displacement": "m", "velocity": "m/s", "force": "N", "temperature": "K", "pressure": "Pa"}
 
 
@@ -62,22 +70,37 @@ def decode(data: bytes) -> str:
         return data.decode("latin-1")
 
 
+def unit(channel: str, text: str) -> str | None:
+    """The unit of a standard channel as text spells it (any case, or one of SPELLINGS), or None."""
+    t = SPELLINGS.get(text.strip().lower(), text.strip()).lower()
+    return next((u for u in UNITS[channel] if u.lower() == t), None)
+
+
+def unit_in_name(name: str, channel: str | None = None) -> str | None:
+    """The unit a column's name carries (`Force [kN]`, `Force (lbs)`, `force_kN`, `Force: kN`),
+    as import spells it: one of channel's, or of any standard channel's; None if it says none."""
+    said = BRACKETED.findall(name) + [name.rpartition(sep)[2] for sep in ("_", ":") if sep in name]
+    return next((u for text in said for ch in ([channel] if channel else UNITS) if (u := unit(ch, text))), None)
+
+
 def parse_map(items):
-    """[(name, column, unit)] from NAME=COLUMN[:UNIT] strings, checking names and units."""
+    """[(name, column, unit)] from NAME=COLUMN[:UNIT] strings, checking names and units (a
+    standard channel's unit "" when not given: read() takes the column name's, else SI)."""
     out = []
     for item in items:
         name, sep, rest = item.partition("=")
         if not sep or not rest:
             raise UsageError(f"--map {item}: expected NAME=COLUMN[:UNIT]")
-        column, _, unit = rest.partition(":")
+        column, _, given = rest.partition(":")
         if name not in CHANNELS and not (name.startswith("aux.") and len(name) > 4):
             raise UsageError(f"--map {item}: unknown channel name {name!r} (standard: {', '.join(CHANNELS)}, "
                            f"or aux.NAME)")
-        if name in CHANNELS:
-            unit = unit or SI[name]
-            if unit not in UNITS[name]:
-                raise UsageError(f"--map {item}: unknown {name} unit {unit!r} (known: {', '.join(UNITS[name])})")
-        out.append((name, column, unit))
+        if name in CHANNELS and given:
+            known = unit(name, given)
+            if known is None:
+                raise UsageError(f"--map {item}: unknown {name} unit {given!r} (known: {', '.join(UNITS[name])})")
+            given = known
+        out.append((name, column, given))
     names = [n for n, _, _ in out]
     for n in set(names):
         if names.count(n) > 1:
@@ -101,6 +124,8 @@ class Imported:
     time_note: str = ""  # what the time column could not tell, or how it was read
     start_source: str = "the file's first date-time stamp"  # where start_epoch came from
     stamped: bool = False  # the time column is date-time stamps, not numbers in a unit
+    named_units: dict = field(default_factory=dict)  # {channel: unit} its column's name gave, the map none
+    unit_notes: list = field(default_factory=list)  # a unit a name says that import did not read
 
 
 def source(path):
@@ -178,6 +203,21 @@ def _workbook(path):
     return table.split(text, layout), layout
 
 
+def _column_unit(name, key, given, gained):
+    """(unit, whether the column's name gave it, a note or "") of a mapped column: the map's
+    unit, else the one its name carries, else SI; the note where the name says a unit that
+    is not this channel's (raw volts without a gain, another channel's unit)."""
+    if name not in UNITS or given:
+        return given, False, ""
+    u = unit_in_name(key, name)
+    if u:
+        return u, u != SI[name], ""
+    said = next((t for t in BRACKETED.findall(key) if t.lower() in table.OTHER_UNITS or unit_in_name(f"[{t}]")), None)
+    return SI[name], False, "" if said is None or gained else (
+        f"{name}: its column {key!r} says {said}, read as {SI[name]}: give its unit (--map {name}=COLUMN:UNIT) "
+        f"or a raw channel's --gain")
+
+
 def _cell(v) -> str:
     """An Excel cell as a text export writes it: numbers in full, date-times as ISO."""
     if v is None:
@@ -197,12 +237,14 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
     gains, offsets = gains or {}, offsets or {}
     first_row = (layout.first + 1) if layout else 1  # a data row's line in the file: first_row + index
     data, start, derived, note, stamped = {}, None, "", "", False
-    names = {}
-    for name, column, unit in mapping:
+    units, named, unit_notes = {}, {}, []
+    for name, column, given in mapping:
         key = table.column(cols, layout, column) if layout else column
         if key not in cols:
             raise UsageError(f"{path}: no column {column!r} (mapped to {name}); columns: {', '.join(cols)}")
-        names[name] = key
+        u, from_name, said = _column_unit(name, str(key), given, name in gains)
+        named.update({name: u} if from_name else {})
+        unit_notes += [said] if said else []
         cells = cols[key]
         if isinstance(cells, np.ndarray):
             if cells.dtype.kind == "M":  # Parquet time stamps
@@ -215,7 +257,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
                     a, bad = None, 0
         elif name == "time" and any(table.is_stamp(c) for c in cells[:5]):
             a, bad, start, note = _stamped(cells)
-            unit, stamped = "s", True
+            u, stamped = "s", True
         else:
             a, bad = table.numbers(cells, layout.decimal if layout else ".")
         if bad is not None:
@@ -227,10 +269,10 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
             raise UsageError(f"{path}:{first_row + i}: column {column!r}: {cells[i]!r} is not a finite number")
         a = a * gains.get(name, 1.0) + offsets.get(name, 0.0)
         if name in UNITS:
-            scale, offset = UNITS[name][unit]
+            scale, offset = UNITS[name][u]
             a = a * scale + offset
         _plausible(path, name, column, a, first_row)
-        data[name] = a
+        data[name], units[name] = a, u
     preamble_start = table.preamble_start(layout.preamble) if start is None and layout is not None else None
     if "time" not in data:
         rate = rate_hz or (layout.rate_hz if layout else None)
@@ -253,9 +295,9 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
                            f"with a time (needs at least {need})")
     if preamble_start is not None:  # the time's numbers count from the start the preamble gives
         start = preamble_start + float(t[keep][0])
-    return Imported({k: v[keep] for k, v in data.items()}, {n: u for n, _, u in mapping}, layout, start, derived, note,
+    return Imported({k: v[keep] for k, v in data.items()}, units, layout, start, derived, note,
                     "the start the file's preamble gives" if preamble_start is not None else "the file's first date-time stamp",
-                    stamped)
+                    stamped, named, unit_notes)
 
 
 def _follow_on(t, keep, first_row) -> str:

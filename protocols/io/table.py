@@ -147,7 +147,7 @@ def sniff(text: str, units=frozenset()) -> Layout:
 
 
 # units a DAQ writes that import does not convert (volts, hertz, ...)
-OTHER_UNITS = {"v", "mv", "hz", "-", "°c", "°f", "g", "%", "deg", "rad", "m/s^2", "m/s²", "a", "ma", "sec", "kg", "lb"}
+OTHER_UNITS = {"v", "mv", "hz", "-", "g", "%", "deg", "rad", "m/s^2", "m/s²", "a", "ma"}
 
 
 def _units_row(cells, units) -> bool:
@@ -302,14 +302,16 @@ STARTS = ("start", "trigger", "date", "time", "recorded", "acquired", "created")
 
 def preamble_start(lines) -> float | None:
     """Seconds since 1970 UTC of the start a preamble gives (`Start time: 13.05.2022
-    17:04:23`, `Trigger Date,2022-05-13 17:04:23`), or None: a time column of numbers
-    counts from it."""
-    for line in lines:
-        m = PREAMBLE_STAMP.match(line)
-        if m and any(w in m.group(1).lower() for w in STARTS) and is_stamp(m.group(2)) and dated([m.group(2)]):
-            t, bad = stamps([m.group(2)])
-            if bad is None:
-                return float(t[0])
+    17:04:23`, `Trigger Date,2022-05-13 17:04:23`, or a `Date` line and a `Time` line),
+    or None: a time column of numbers counts from it."""
+    found = [m.group(2) for line in lines if (m := PREAMBLE_STAMP.match(line))
+             and any(w in m.group(1).lower() for w in STARTS)]
+    dates = [v for v in found if not is_stamp(v) and is_stamp(f"{v} 00:00:00")]
+    clocks = [v for v in found if CLOCK.match(v)]
+    for v in [v for v in found if is_stamp(v) and dated([v])] + [f"{d} {c}" for d in dates[:1] for c in clocks[:1]]:
+        t, bad = stamps([v])
+        if bad is None:
+            return float(t[0])
     return None
 
 

@@ -220,6 +220,38 @@ def flips(x, F) -> tuple[float, str] | None:
     return W, f"--flip {first} (or --flip {second})"
 
 
+VELOCITY_FOLLOWS = 0.9  # correlation of a velocity's integral with the displacement: below it nothing is said
+VELOCITY_SCALE = 2.0  # the velocity's integral over the displacement by more than this (or less than its inverse)
+
+
+def velocity_disagrees(t, x, v) -> str | None:
+    """The sentence saying a velocity channel [m/s] is not the rate of change of the
+    displacement [m] it was recorded with, or None: counted the other way (an LVT wired
+    rebound positive) or in another unit. Its integral is compared with the displacement
+    (integrating keeps the comparison free of the noise a derivative of the displacement
+    would add; a linear drift, an integrated offset, is allowed for)."""
+    t, x, v = (np.asarray(a, float) for a in (t, x, v))
+    ok = np.isfinite(t) & np.isfinite(x) & np.isfinite(v)
+    t, x, v = t[ok], x[ok], v[ok]
+    if len(t) < 16 or not np.ptp(x) > 0:
+        return None
+    s = np.concatenate(([0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))))  # m: the velocity integrated
+    basis = np.column_stack([s, np.ones_like(t), t - t[0]])
+    with np.errstate(all="ignore"):
+        (k, *_), *_ = np.linalg.lstsq(basis, x, rcond=None)
+        fit = basis @ np.linalg.lstsq(basis, x, rcond=None)[0]
+        r = float(np.corrcoef(fit, x)[0, 1]) * np.sign(k)
+    if not abs(r) >= VELOCITY_FOLLOWS or not np.isfinite(k):
+        return None
+    if k < 0:
+        return ("it falls as the displacement rises: the velocity is counted the other way from the displacement "
+                "(rebound positive); import it again with --flip velocity")
+    if not 1 / VELOCITY_SCALE <= k <= VELOCITY_SCALE:
+        return (f"the displacement changes {k:.3g} times as fast as the velocity says: check the velocity's and the "
+                f"displacement's units")
+    return None
+
+
 BELOW_EXTENSION_M = 5e-4  # m: a displacement further below zero is not noise about full extension
 
 

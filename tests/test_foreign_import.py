@@ -349,6 +349,30 @@ def test_the_other_sign_convention_is_named_in_one_line_and_flipped(tmp_path):
     assert np.allclose(np.diff(channels["x"][1]), np.diff(x), atol=1e-9)
 
 
+@pytest.mark.parametrize("scale, flip, said", [
+    (-1, [], "velocity: it falls as the displacement rises: the velocity is counted the other way from the "
+                 "displacement (rebound positive); import it again with --flip velocity"),
+    (-1, ["--flip", "velocity"], None),
+    (1, [], None),
+    (0.1, [], "velocity: the displacement changes 10 times as fast as the velocity says: check the velocity's "
+                     "and the displacement's units"),
+])
+def test_a_velocity_that_is_not_the_displacements_rate_of_change_is_said(tmp_path, scale, flip, said):
+    """An LVT wired rebound positive beside a displacement counted ours, or a velocity in
+    another unit: the report would draw its force against velocity mirrored or stretched."""
+    t, x, F = crank()
+    v = np.gradient(x, t)
+    src = _written(tmp_path, "v.csv", "t,x,v,F\n" + "".join(f"{a},{1e3 * b},{1e3 * scale * w},{c}\n"
+                                                            for a, b, w, c in zip(t, x, v, F)))
+    channels, meta, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm",
+                                  "--map", "velocity=v:mm/s", "--map", "force=F", *flip)
+    lines = [line for line in r.stdout.splitlines() if line.startswith("velocity:")]
+    assert lines == ([said] if said else []), r.stdout
+    assert (said or "") in meta["run"].get("import_notes", "")
+    if flip:
+        assert np.allclose(channels["v"][1], v, atol=1e-9)
+
+
 def test_import_reads_a_million_rows(tmp_path):
     """The time goal is measured by `dyno bench import`; here only that a large file imports."""
     n = 200_000

@@ -16,7 +16,7 @@ import numpy as np
 from protocols.app.arguments import FILE, number, overwrite, writes
 from protocols.errors import UsageError
 
-FLIPS = ("force", "displacement")
+FLIPS = ("force", "displacement", "velocity")
 PLOT_POINTS = 10_000  # /plot messages per channel at most: over two per pixel of a 4k display; /channels keeps every sample
 BATCH = 5000  # samples per /channels message
 
@@ -40,9 +40,10 @@ def add(sub):
                              ("--drive", "aux.NAME=KIND", "an aux channel that drives the damper: coil current, coil "
                                                           "voltage, valve current or valve command (else a reading)")):
         im.add_argument(flag, action="append", metavar=meta, help=what)
-    im.add_argument("--flip", action="append", choices=("force", "displacement"),
-                    help="the file counts it the other way: force positive in tension, or displacement from the "
-                         "other end (dyno: both positive in compression)")
+    im.add_argument("--flip", action="append", choices=FLIPS,
+                    help="the file counts it the other way: force positive in tension, displacement from the "
+                         "other end (its velocity with it), or the velocity alone rebound positive (dyno: all "
+                         "positive in compression)")
     im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
                     help="the sampling rate, when no time column is mapped and the file does not say it")
     im.set_defaults(command="import_csv")
@@ -115,7 +116,10 @@ def _import(args, mapping, gains, offsets, claim):
     from protocols.io.recording import Recorder
     got = read(args.file, mapping, gains, offsets, args.rate)
     data, units = got.data, got.units
-    for name in args.flip or ():
+    flips = set(args.flip or ())
+    if "velocity" in flips and "velocity" not in data:
+        raise UsageError("--flip velocity: no velocity is mapped (the one derived from the displacement follows it)")
+    for name in flips & {"force", "displacement"}:
         data[name] = -data[name] + (np.nanmax(data[name]) if name == "displacement" else 0.0)
     t = data.pop("time")
     if "velocity" not in data:
@@ -123,7 +127,7 @@ def _import(args, mapping, gains, offsets, claim):
         data["velocity"] = np.full_like(t, np.nan)
         data["velocity"][ok] = derived_velocity(t[ok], data["displacement"][ok])
         units["velocity"] = "derived from displacement"
-    elif "displacement" in (args.flip or ()):
+    elif ("displacement" in flips) != ("velocity" in flips):
         data["velocity"] = -data["velocity"]
     channels = {}
     for name, a in data.items():
@@ -148,7 +152,7 @@ def _import(args, mapping, gains, offsets, claim):
     every = -(-len(t) // PLOT_POINTS)
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
-    kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units)  # the report says the rest itself
+    kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units) + _velocity_note(t, data, units)  # the report says the rest itself
     notes = list(kept)
     if any(f.kind == "sine" for f in found):
         rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
@@ -204,6 +208,16 @@ def _zero_note(data, units) -> list[str]:
     unit = units.get("displacement", "m")
     below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
     return [f"displacement: {below}"] if below else []
+
+
+def _velocity_note(t, data, units) -> list[str]:
+    """A mapped velocity that is not the displacement's rate of change (the other way, or in
+    another unit)."""
+    from models.recording import velocity_disagrees
+    if units.get("velocity", "").startswith("derived"):
+        return []
+    said = velocity_disagrees(t, data["displacement"], data["velocity"])
+    return [f"velocity: {said}"] if said else []
 
 
 def inspect(args):

@@ -252,6 +252,17 @@ def test_tests_exported_one_after_another_each_from_time_zero(tmp_path):
     bad = _written(tmp_path, "bad.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n" for a, b, c in zip(t, x, F)))
     one_line_error(dyno("import", bad, "--out", tmp_path / "bad.mcap", "--map", "time=t", "--map",
                         "displacement=x:mm", "--map", "force=F"), "bad.csv:602: time goes backwards")
+    # exports joined into one file, each with its preamble (a blank line in it), header and units line
+    export = ["Dyno export\nShock: A-12\n\nt,x,F\ns,mm,N\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                                       for a, b, c in zip(*p)) for p in parts]
+    joined = _written(tmp_path, "joined.csv", "".join(export) + "\n\n")
+    channels, _, r = _imported(tmp_path, joined, "--map", "time=1", "--map", "displacement=2", "--map", "force=3",
+                               "--overwrite")
+    first = [6 + len(parts[0][0]) + 5, 6 + len(parts[0][0]) + 5 + len(parts[1][0]) + 5]  # each section's first row
+    assert f"time: it restarts 2 times from its first value (lines {first[0]}, {first[1]})" in r.stdout, r.stdout
+    assert len(channels["x"][0]) == sum(len(p[0]) for p in parts) and "segments: 3 periodic" in r.stdout
+    lines = joined.read_text().splitlines()
+    assert lines[first[0] - 1].startswith("0.00000,") and lines[first[0] - 2] == "s,mm,N"
 
 
 def test_tabs_and_milliseconds(tmp_path):

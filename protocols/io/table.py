@@ -160,9 +160,15 @@ def _units_row(cells, units) -> bool:
 
 def split(text: str, layout: Layout) -> dict[str, list[str]]:
     """{column name: [cell, ...]} of the data rows (a short row's missing cells empty)."""
-    lines = [line for line in text.splitlines()[layout.first:] if line.strip()]
     d = layout.delimiter
     n = len(layout.names)
+    lines = text.splitlines()[layout.first:]
+    while lines and not lines[-1].strip():
+        lines.pop()
+    empty = "" if d is None else d * (n - 1)
+    lines = [line if line.strip() else empty for line in lines]  # a row of empty cells: each row keeps its line
+    if layout.header is not None:
+        lines = _repeats_emptied(lines, text.splitlines()[layout.header:layout.first], d, n)
     if d is not None and '"' not in text and all(line.count(d) == n - 1 for line in lines):
         # every row complete (the common case): one split of the whole body, columns by slicing
         flat = d.join(lines).split(d)
@@ -183,6 +189,31 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
     rows = [r if len(r) == n else r[:n] if len(r) > n else r + [""] * (n - len(r)) for r in rows]
     return {name: [c.strip() for c in cells] for name, cells in zip(layout.names, zip(*rows))} if rows else \
         {name: [] for name in layout.names}
+
+
+def _repeats_emptied(lines, head, d, n):
+    """lines with each repeat of the header (exports joined one after another), its units
+    line and the preamble lines before it made rows of empty cells, which import drops as
+    rows without a time: the rows keep their places, and the tests follow on."""
+    names = head[0].strip()
+    at = [i for i, line in enumerate(lines) if line.strip() == names]
+    if not at:
+        return lines
+    lines = list(lines)
+    empty = "" if d is None else d * (n - 1)
+    for i in at:
+        j = i
+        while j > 0 and not _data_row(lines[j - 1], d):
+            j -= 1
+        k = i + 1 + (len(head) > 1 and i + 1 < len(lines) and lines[i + 1].strip() == head[1].strip())
+        lines[j:k] = [empty] * (k - j)
+    return lines
+
+
+def _data_row(line, d) -> bool:
+    """A line whose first cell is a number or a date-time stamp."""
+    first = (line.split(d) if d is not None else line.split() or [""])[0].strip().strip('"')
+    return bool(NUMBER.match(first) or is_stamp(first))
 
 
 def column(cols: dict, layout: Layout, key: str) -> str:

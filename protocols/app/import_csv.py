@@ -116,19 +116,13 @@ def _import(args, mapping, gains, offsets, claim):
     from protocols.io.recording import Recorder
     got = read(args.file, mapping, gains, offsets, args.rate)
     data, units = got.data, got.units
-    flips = set(args.flip or ())
-    if "velocity" in flips and "velocity" not in data:
-        raise UsageError("--flip velocity: no velocity is mapped (the one derived from the displacement follows it)")
-    for name in flips & {"force", "displacement"}:
-        data[name] = -data[name] + (np.nanmax(data[name]) if name == "displacement" else 0.0)
+    _flip(data, set(args.flip or ()))
     t = data.pop("time")
     if "velocity" not in data:
         ok = ~np.isnan(data["displacement"])
         data["velocity"] = np.full_like(t, np.nan)
         data["velocity"][ok] = derived_velocity(t[ok], data["displacement"][ok])
         units["velocity"] = "derived from displacement"
-    elif ("displacement" in flips) != ("velocity" in flips):
-        data["velocity"] = -data["velocity"]
     channels = {}
     for name, a in data.items():
         ok = ~np.isnan(a)
@@ -188,6 +182,17 @@ def _import(args, mapping, gains, offsets, claim):
         print(note)
     print(catalogue.add(rec.path))
     return 0
+
+
+def _flip(data, flips):
+    """The channels counted the other way made ours: the force negated, the displacement
+    about its most extended reading (its velocity with it), the velocity alone."""
+    if "velocity" in flips and "velocity" not in data:
+        raise UsageError("--flip velocity: no velocity is mapped (the one derived from the displacement follows it)")
+    for name in flips & {"force", "displacement"}:
+        data[name] = -data[name] + (np.nanmax(data[name]) if name == "displacement" else 0.0)
+    if "velocity" in data and ("displacement" in flips) != ("velocity" in flips):
+        data["velocity"] = -data["velocity"]
 
 
 def _time_notes(got, t, maps) -> list[str]:

@@ -65,6 +65,38 @@ def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_dam
     assert checks[2]["reference"].startswith("model mechformance") and checks[2]["worst_margin_n"] < 0
 
 
+def test_a_run_is_checked_against_a_force_velocity_table_a_spec_sheet_or_a_reports_csv(tmp_path):
+    """A customer's spec sheet or another dyno's export: the run's force at the table's own
+    speeds; the report's velocity.csv as a table gives the run back exactly."""
+    from protocols.reports.recording import report
+    rec, _ = recorded(tmp_path / "k.mcap", "sine-matrix", {"amplitudes_mm": [12.7], "freqs_hz": [1.0, 4.0],
+                                                          "record_cycles": 2})
+    report(rec, tmp_path / "report")
+    own = tmp_path / "report" / "velocity.csv"
+    p = dyno("check", rec, "--against", own, "--tolerance", "0.1%")
+    assert p.returncode == 0 and "against table velocity.csv" in p.stdout and "PASS: " in p.stdout, p.stdout + p.stderr
+    rows = [r.split(",") for r in own.read_text().splitlines()[1:] if r.split(",")[1]]
+    # in lbf and in/s, rebound as a magnitude, the rebound 10 % stronger than the run, a speed the run never reached
+    spec = tmp_path / "spec.csv"
+    spec.write_text("Customer A-12 target\n\nShaft speed (in/sec),Compression (lbs),Rebound (lbs)\n" + "".join(
+        f"{float(v) / 25.4:.6f},{float(c) / 4.4482216:.4f},{-1.1 * float(r) / 4.4482216:.4f}\n" for v, c, r, *_ in rows)
+        + "40,500,900\n")
+    p = dyno("check", rec, "--against", spec, "--tolerance", "5%")
+    assert p.returncode == 1, p.stdout + p.stderr
+    lines = p.stdout.splitlines()
+    assert all(" pass" in line for line in lines if "compression reference" in line), p.stdout
+    assert all(" FAIL" in line for line in lines if "rebound     reference" in line), p.stdout
+    assert f"FAIL: {len(rows)} of {2 * len(rows)} inside the band" in p.stdout
+    assert "not measured by this run, outside the speeds it reached: the table's 1016 mm/s" in p.stdout
+    # a table's numbers are not guessed: no unit, one line
+    bare = tmp_path / "bare.csv"
+    bare.write_text("Velocity,Compression,Rebound\n0.1,500,-600\n0.2,800,-900\n")
+    p = dyno("check", rec, "--against", bare)
+    assert p.returncode == 2 and p.stderr.strip().splitlines()[-1].endswith(
+        "column 'Velocity' gives no velocity unit: name it like 'Velocity [mm/s]' (a table's numbers are not "
+        "guessed)"), p.stderr
+
+
 def test_a_warmer_run_is_compensated_to_its_references_temperature_with_its_model(tmp_path):
     """The same damper at 20 C and at 60 C: the warm run fails against the cool one (thinner
     oil), passes once moved to 20 C with a model of it (here the plant's own, as a perfect

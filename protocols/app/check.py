@@ -15,9 +15,10 @@ def add(sub):
     """The `dyno check` command's arguments."""
     ck = sub.add_parser("check", help="QA: a run against a reference run or model, within a tolerance band")
     ck.add_argument("recording")
-    ck.add_argument("--against", required=True, metavar="REF.mcap|MODEL",
-                    help="the reference: another run, or a damper model (preset or FILE.json) simulated along "
-                         "this run's motion")
+    ck.add_argument("--against", required=True, metavar="REF.mcap|MODEL|TABLE",
+                    help="the reference: another run, a damper model (preset or FILE.json) simulated along "
+                         "this run's motion, or a force-velocity table (a spec sheet, another dyno's export, a "
+                         "report's velocity.csv; .csv/.txt/.xlsx, units in the column names)")
     ck.add_argument("--tolerance", default="5%",
                     help="the band, with its unit: 5%% of the reference, 50N, 11lbf, or 5%%,50N (the larger)")
     writes(ck, "--out", FOLDER, default=None, help="folder for check.png, the band and the run's points")
@@ -36,7 +37,7 @@ def run(args):
     except ValueError as e:
         raise UsageError(str(e)) from None
     units = args.units
-    if Path(args.against).suffix == ".mcap":
+    if Path(args.against).suffix.lower() in (".mcap", *qa.TABLES):
         input_file(args.against, "--against")
     try:
         checked = qa.check(args.recording, args.against, tol, units)
@@ -51,8 +52,9 @@ def run(args):
                        "force-velocity scatter, and these share none")
     u, f = units.unit("velocity"), units.unit("force")
     print(f"check {Path(args.recording).name} against {ref_name}, tolerance {tol}:")
-    if checked.compensation:
-        print(f"  {checked.compensation}")
+    for note in (checked.compensation, checked.unmeasured):
+        if note:
+            print(f"  {note}")
     for r in results:
         print(f"  {fmt(units.show('velocity', r.v_m_s), 3):>6} {u} {r.direction:11s} reference "
               f"{fmt(units.show('force', r.reference_N), 4):>7} {f}, measured "

@@ -81,7 +81,7 @@ def _shape(lines, delimiter):
     """(the field count most tail lines have, how many of the tail's cells are values) of
     the lines split by delimiter."""
     rows = [_fields(line, delimiter) for line in lines]
-    counts = [len(r) for r in rows]
+    counts = [len(r) for r in rows if len(r) >= 2] or [len(r) for r in rows]  # rows of one cell: the rest empty
     n = max(set(counts), key=counts.count)
     values = sum(_is_value(c) for r in rows if len(r) == n for c in r)
     return n, values
@@ -112,7 +112,9 @@ def sniff(text: str, units=frozenset()) -> Layout:
     first = None
     for i in filled:  # the first line shaped as the data, its leading cells values
         f = _fields(lines[i], d)
-        if len(f) >= max(n - 1, 2) and _is_value(f[0], decimal) and _is_value(f[1], decimal):
+        shaped = len(f) >= max(n - 1, 2) and _is_value(f[1], decimal) or (  # or a value, then empty cells
+            d is not None and len(f) == 1 and lines[i].count(d) >= max(n - 1, 2))
+        if f and _is_value(f[0], decimal) and shaped:
             first = i
             break
     if first is None:

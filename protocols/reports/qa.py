@@ -19,6 +19,7 @@ import numpy as np
 from models.damper import DamperError
 from models.minimal import load_reference as load_damper
 from models.recording import segments, sign_problem
+from protocols.io import spec_table
 from protocols.io.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
@@ -109,7 +110,12 @@ def verdicts(run_rows, ref_rows, tol: Tolerance, speeds=None, units=Units()) -> 
 
 def _verdicts(run_rows, ref_rows, tol, speeds, units, how):
     run = vt.velocity_table(run_rows, speeds, units, how)
-    ref = vt.velocity_table(ref_rows, [r.v_m_s for r in run], how=how)
+    return compared(run, vt.velocity_table(ref_rows, [r.v_m_s for r in run], how=how), tol)
+
+
+def compared(run, ref, tol: Tolerance) -> list[Verdict]:
+    """Verdicts of two velocity tables at the same speeds, per speed and direction where
+    both have a force."""
     out = []
     for a, b in zip(run, ref):
         for direction, m, r in (("compression", a.F_comp_N, b.F_comp_N), ("rebound", a.F_reb_N, b.F_reb_N)):
@@ -126,6 +132,10 @@ class Check:
     results: list  # [Verdict]
     reference: str  # what the run was checked against, in words
     compensation: str = ""  # how temperature was compensated, or why it could not be; "" when not needed
+    unmeasured: str = ""  # a table's points the run did not reach, in words; "" when it reached them all
+
+
+TABLES = (".csv", ".txt", ".tsv", ".xlsx")  # --against: a force-velocity table (spec_table), not a run or model
 
 
 class OtherSign(ValueError):
@@ -158,6 +168,8 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
     """A run (path) against a reference: another run (a .mcap path) or a damper model (a
     preset's name or FILE.json) along the run's own motion. RigError, DamperError or
     ValueError name what cannot be read."""
+    if Path(against).suffix.lower() in TABLES:
+        return against_table(path, against, tol, units)
     if Path(against).suffix != ".mcap":
         model = load_damper(str(against))
         run = _rows(path, model)
@@ -183,6 +195,21 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
             note = (f"compensated for temperature: the run's forces moved from its {T_run:.0f} C to the "
                     f"reference's {T_ref:.0f} C with its identified model {identified.name}")
     return Check(verdicts(run, ref, tol, units=units), Path(against).name, note)
+
+
+def against_table(path, against, tol: Tolerance, units=Units()) -> Check:
+    """A run against a force-velocity table (a spec sheet, another dyno's export): the
+    run's force at the table's own speeds, read as its velocity table reads them."""
+    spec = spec_table.read(against)
+    run = _rows(path)
+    got = vt.velocity_table(run, spec.v_m_s, units, vt.method(run))
+    ref = [vt.VelocityRow(float(v), float(c), float(r)) for v, c, r in zip(spec.v_m_s, spec.F_comp_N, spec.F_reb_N)]
+    missed = sorted({g.v_m_s for g, r in zip(got, ref) for m, f in ((g.F_comp_N, r.F_comp_N), (g.F_reb_N, r.F_reb_N))
+                     if np.isfinite(f) and not np.isfinite(m)})
+    said = ", ".join(fmt(units.show("velocity", v), 3) for v in missed)
+    return Check(compared(got, ref, tol), f"table {Path(against).name}",
+                 unmeasured=f"not measured by this run, outside the speeds it reached: the table's "
+                            f"{said} {units.unit('velocity')}" if missed else "")
 
 
 def model_rows(rows):

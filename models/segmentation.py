@@ -109,7 +109,7 @@ def _alike(c, run):
     shape as the one before (a random input's strokes can match in period and size by
     chance, seldom in shape as well)."""
     ref = run[0]
-    return (abs((c[1] - c[0]) / (ref[1] - ref[0]) - 1) <= SAME_PERIOD
+    return (ref[1] > ref[0] and abs((c[1] - c[0]) / (ref[1] - ref[0]) - 1) <= SAME_PERIOD
             and abs(c[2] / ref[2] - 1) <= SAME_AMPLITUDE and abs(c[3] - ref[3]) <= SAME_AMPLITUDE * ref[2]
             and float(np.sqrt(np.mean((c[4] - run[-1][4]) ** 2))) <= SAME_SHAPE)
 

@@ -76,6 +76,28 @@ def test_date_time_stamps_give_the_time_and_the_recordings_start(tmp_path, fmt, 
     assert meta["run"]["wall_start_source"] == "the file's first date-time stamp"
 
 
+def test_stamps_of_whole_seconds_take_the_time_from_the_rate(tmp_path):
+    """A logger that stamps whole seconds, its rate in the preamble: the time from the rate,
+    the start from the first stamp; without a rate, or with one the stamps contradict, one
+    line (a time that stood still broke the segmentation with a traceback)."""
+    t, x, F = crank()
+    whole = [(START.replace(microsecond=0) + timedelta(seconds=int(s))).strftime("%Y-%m-%d %H:%M:%S") for s in t]
+    body = "Stamp,x [mm],F [N]\n" + "".join(f"{s},{1e3 * a:.6f},{b:.4f}\n" for s, a, b in zip(whole, x, F))
+    args = ["--map", "time=Stamp", "--map", "displacement=x [mm]", "--map", "force=F [N]"]
+    channels, meta, r = _imported(tmp_path, _written(tmp_path, "rate.csv", f"Sample rate: {RATE:g} Hz\n" + body), *args)
+    _same_motion(channels, t, x, F)
+    assert meta["run"]["wall_start"].startswith("2025-11-14T20:14:37.000")
+    assert "time: the stamps advance only every 1 s (300 rows share each): the time is from the sampling rate, " \
+           "300 Hz, the start from the first stamp" in r.stdout, r.stdout
+    bare = _written(tmp_path, "bare.csv", body)
+    one_line_error(dyno("import", bare, "--out", tmp_path / "b.mcap", *args),
+                   "its date-time stamps repeat (300 rows share each, a stamp every 1 s): give the sampling rate")
+    one_line_error(dyno("import", bare, "--out", tmp_path / "b.mcap", *args, "--rate", "100"),
+                   "900 rows at 100 Hz span 8.99 s, the stamps 2 s: check the sampling rate")
+    from models import segmentation
+    assert segmentation.find(np.zeros(len(t)), x) == []
+
+
 def test_a_zone_after_zone_less_stamps_is_applied_not_warned_about():
     from protocols.io.table import stamps
     with warnings.catch_warnings():

@@ -282,6 +282,8 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
         n = len(next(iter(data.values())))
         data["time"] = np.arange(n) / rate
         derived = f"time from the sampling rate, {rate:g} Hz"
+    if stamped:
+        data["time"], note = _coarse_stamps(path, data["time"], rate_hz or (layout.rate_hz if layout else None), note)
     keep = ~np.isnan(data["time"])
     if not stamped:
         note = _follow_on(data["time"], keep, first_row) or note
@@ -367,6 +369,30 @@ def _stamped(cells):
                 f"({dmy.split()[0]} as MM/DD/YYYY); the date may be wrong, the times are not")
     # the time of day alone gives no date
     return (a - first if first is not None else a), None, first if table.dated(cells) else None, note
+
+
+def _coarse_stamps(path, a, rate, note):
+    """(time [s], note) of stamps that many rows share (a logger stamping whole seconds):
+    the time from the sampling rate, its start the first stamp's; the stamps and the rate
+    must agree on the span to within two stamps. Stamps that mostly advance: as they are."""
+    ok = np.nonzero(~np.isnan(a))[0]
+    step = np.diff(a[ok])
+    if len(step) < 2 or np.median(step) > 0:
+        return a, note
+    per = float(np.median(np.unique(a[ok], return_counts=True)[1]))
+    tick = float(np.median(step[step > 0])) if np.any(step > 0) else 0.0
+    if not rate:
+        raise UsageError(f"{path}: its date-time stamps repeat ({per:.0f} rows share each, a stamp every {tick:g} s): "
+                         f"give the sampling rate, --rate HZ")
+    span, counted = float(a[ok[-1]] - a[ok[0]]), (len(ok) - 1) / rate
+    if abs(counted - span) > 2 * tick + 0.01 * span:
+        raise UsageError(f"{path}: {len(ok)} rows at {rate:g} Hz span {counted:.4g} s, the stamps {span:.4g} s: "
+                         f"check the sampling rate")
+    t = np.full(len(a), np.nan)
+    t[ok] = a[ok[0]] + np.arange(len(ok)) / rate
+    said = (f"the stamps advance only every {tick:g} s ({per:.0f} rows share each): the time is from the sampling "
+            f"rate, {rate:g} Hz, the start from the first stamp")
+    return t, f"{note}; {said}" if note else said
 
 
 def _plausible(path, name, column, a, first_row=2):

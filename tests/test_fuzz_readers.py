@@ -202,6 +202,23 @@ def test_any_csv_imports_or_gives_one_line(tmp_path_factory, data):
     assert {"x", "force"} <= set(channels) and all(len(t) == len(v) for t, v in channels.values())
 
 
+@FUZZ
+@given(st.data())
+def test_any_force_velocity_table_reads_or_gives_one_line(tmp_path_factory, data):
+    """What `check --against TABLE` reads: speeds above zero, compression positive, rebound negative."""
+    from protocols.io import spec_table
+    src = tmp_path_factory.mktemp("spec") / "spec.csv"
+    names = data.draw(st.lists(st.sampled_from(["Velocity [mm/s]", "v_m_s", "Speed", "Comp (lbs)", "F_comp_N",
+                                                "Rebound [N]", "Zug [daN]", "", "x"]), min_size=1, max_size=5))
+    rows = data.draw(st.lists(st.lists(CELLS, min_size=len(names), max_size=len(names)), max_size=12))
+    sep = data.draw(st.sampled_from([",", ";", "\t"]))
+    src.write_text(sep.join(names) + "\n" + "\n".join(sep.join(r) for r in rows) + "\n")
+    got, error = read(src, spec_table.read)
+    if error is None:
+        assert np.all(got.v_m_s > 0) and np.all(np.diff(got.v_m_s) >= 0)
+        assert not np.any(got.F_comp_N < 0) and not np.any(got.F_reb_N > 0)
+
+
 def _spoil(path, data, how, flips):
     """The file cut short ("cut"), or up to `flips` of its bytes changed ("flip")."""
     raw = bytearray(path.read_bytes())

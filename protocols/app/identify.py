@@ -188,7 +188,8 @@ def _minimal(args, channels, events, inputs, driving):
               f"--segment NAME ({'; '.join(r['segments'])})")
     from models.diagnose.words import said
     timing = "".join(f", with {said(e)}" for e in doc["effects"] if e in found.cell_found())
-    print(f"identify: the recording names no damper: the model that needs no description{timing}, held out by "
+    names = "the recordings name" if len(args.recordings) > 1 else "the recording names"
+    print(f"identify: {names} no damper: the model that needs no description{timing}, held out by "
           f"cycles: {100 * base.nrmse_heldout:.2f} % of the force range (R^2 {base.r2_heldout:.3f})")
     if found.accepted:
         print(f"  with the effects the diagnosis accepts ({', '.join(found.accepted)}): "

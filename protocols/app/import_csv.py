@@ -1,7 +1,7 @@
 """`dyno import FILE --out FILE.mcap --map NAME=COLUMN[:UNIT] ...`: a recording another dyno
 or acquisition system made (CSV, a DAQ's text export, Parquet, MATLAB) as a dyno recording;
 `--inspect` shows what would be read and writes nothing. The table's layout:
-protocols/io/table.py; the columns' units: protocols/io/csv_import.py."""
+protocols/io/table.py; the columns' units: protocols/io/column_units.py."""
 from __future__ import annotations
 
 import gc
@@ -112,7 +112,8 @@ def _import(args, mapping, gains, offsets, claim):
     from models.recording import other_sign
     from protocols import catalogue
     from protocols.io import table
-    from protocols.io.csv_import import CHANNELS, SI, derived_velocity, read
+    from protocols.io.column_units import SI
+    from protocols.io.csv_import import CHANNELS, derived_velocity, read
     from protocols.io.recording import Recorder
     got = read(args.file, mapping, gains, offsets, args.rate)
     data, units = got.data, got.units
@@ -209,7 +210,7 @@ def _time_notes(got, t, maps) -> list[str]:
 def _zero_note(data, units) -> list[str]:
     """A displacement below zero, with the offset that puts its most extended reading at zero."""
     from models.recording import below_extension
-    from protocols.io.csv_import import UNITS
+    from protocols.io.column_units import UNITS
     unit = units.get("displacement", "m")
     below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
     return [f"displacement: {below}"] if below else []

@@ -24,7 +24,7 @@ def by_name(name: str, cells) -> str | None:
     """A standard channel a column's name (or first value) suggests, with its unit: the
     map a user would likely write."""
     from protocols.io import table
-    from protocols.io.csv_import import unit_in_name
+    from protocols.io.column_units import unit_in_name
     n = name.lower()
     if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
         return "time"
@@ -57,7 +57,7 @@ def key_of(j: int, name: str, layout) -> str:
 def _with_units(found):
     """by_values' guesses with the unit each column's name carries, where it is the
     channel's."""
-    from protocols.io.csv_import import unit_in_name
+    from protocols.io.column_units import unit_in_name
     out = []
     for g, why in found:
         channel, key = g.split("=", 1)
@@ -168,7 +168,7 @@ FOLLOWS = 0.6  # correlation of a force with the displacement's rate of change (
 def _motion_and_force(vals, t, force_named):
     """[displacement, force] guesses of a DAQ's raw channels: the smoothest column, and the
     one that follows its rate of change unless another follows it within 0.05; or []."""
-    from protocols.io.csv_import import unit_in_name
+    from protocols.io.column_units import unit_in_name
     if len(vals) < 2 or force_named:
         return []
     rough = {k: float(np.std(np.diff(a, 2)) / np.std(a)) for k, a in vals.items()}

@@ -13,7 +13,8 @@ import numpy as np
 
 from protocols.errors import UsageError
 from protocols.io import table
-from protocols.io.csv_import import source, unit, unit_in_name, UNITS
+from protocols.io.column_units import UNITS, unit, unit_in_name
+from protocols.io.csv_import import source
 
 # what each column is called; a name holding one of these words (or a longer word starting
 # with one of the longer ones) is that column, the first such column counts

@@ -32,6 +32,7 @@ class MinimalModel:
     x_mid_m: float | None = None  # the gas force's reference position [m]; None: the motion's mean
     effects: list = field(default_factory=list)  # the diagnosis's effect ids (candidates.EFFECTS), in order
     source: list = field(default_factory=list)  # the recordings the effects were fitted on (paths)
+    identified_on: dict = field(default_factory=dict)  # envelope(): the motion it was fitted on ({}: not said)
 
     def force(self, x, v):
         """Force [N] along displacement x [m] and velocity v [m/s] (compression positive):
@@ -79,7 +80,40 @@ def load(path) -> MinimalModel:
     except (TypeError, ValueError, KeyError) as e:
         raise DamperError(f"{Path(path).name}: an effect's parameter is not a number ({e})") from None
     return MinimalModel(Path(path).name, values, None if x_mid is None else float(x_mid), effects,
-                        [str(Path(path).parent / s) for s in doc.get("source", [])] if effects else [])
+                        [str(Path(path).parent / s) for s in doc.get("source", [])] if effects else [],
+                        doc.get("identified_on") if isinstance(doc.get("identified_on"), dict) else {})
+
+
+REACH = 0.05  # a run this share beyond the envelope a model was identified on is outside it
+
+
+def envelope(d) -> dict:
+    """The motion a model was fitted on (a diagnosis's Data): its sine segments' frequencies
+    [Hz] and amplitudes [m] (lowest, highest; None without a periodic segment) and its top
+    speed [m/s]: where its force was measured, not extrapolated."""
+    seg = [(f, 0.5 * float(np.ptp(d.x[d.segment == i]))) for i, (_, f) in enumerate(d.segments)
+           if f is not None and np.any(d.segment == i)]
+    span = (lambda a: [float(min(a)), float(max(a))] if a else None)
+    return {"freq_hz": span([f for f, _ in seg]), "amplitude_m": span([a for _, a in seg]),
+            "speed_m_s": float(np.max(np.abs(d.v))) if len(d.v) else 0.0}
+
+
+def outside(identified_on: dict, freqs_hz, amplitudes_m, speed_m_s) -> str:
+    """The sentence saying where a run's motion lies outside what a model was identified on
+    (envelope), or "": there its force is the model's extrapolation, not a measurement."""
+    out = []
+    for key, values, unit, k in (("freq_hz", freqs_hz, "Hz", 1.0), ("amplitude_m", amplitudes_m, "mm", 1e3)):
+        lo, hi = identified_on.get(key) or (None, None)
+        far = sorted({round(k * v, 3) for v in values if lo is not None and np.isfinite(v) and not
+                      lo * (1 - REACH) <= v <= hi * (1 + REACH)})
+        if far:
+            on = f"{k * lo:.3g}" if f"{k * lo:.3g}" == f"{k * hi:.3g}" else f"{k * lo:.3g}-{k * hi:.3g}"
+            out.append(f"{', '.join(f'{v:g}' for v in far)} {unit} (it was identified on {on} {unit})")
+    top = identified_on.get("speed_m_s")
+    if top and np.isfinite(speed_m_s) and speed_m_s > top * (1 + REACH):
+        out.append(f"speeds to {1e3 * speed_m_s:.3g} mm/s (it reached {1e3 * top:.3g} mm/s)")
+    return "" if not out else ("outside what the model was identified on, its force is extrapolated there: this "
+                               "run's " + "; ".join(out))
 
 
 def is_minimal(path) -> bool:

@@ -675,7 +675,18 @@ def test_identify_keeps_the_effects_the_diagnosis_accepts_and_check_reads_them(t
     assert doc["heldout_nrmse"] < doc["baseline_heldout_nrmse"]
     assert abs(abs(doc["parameters"]["tau"]["value"]) - 0.004) < 0.001  # (its sign: the diagnosis's convention)
     r = dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "x.minimal.json", "--tolerance", "2%")
-    assert r.returncode == 0 and "PASS" in r.stdout, r.stdout + r.stderr
+    assert r.returncode == 0 and "PASS" in r.stdout and "outside what" not in r.stdout, r.stdout + r.stderr
+    # where it was measured, and a run beyond it: its force there is the model's extrapolation
+    on = doc["identified_on"]
+    assert on["freq_hz"] == pytest.approx([1.05, 1.05], rel=0.01) and on["amplitude_m"][0] == pytest.approx(0.019, rel=0.02)
+    t2, x2, F2 = crank(n=int(6 / 2.1 * RATE), hz=2.1)
+    fast = _written(tmp_path, "fast.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                              for a, b, c in zip(t2, x2, F2)))
+    assert dyno("import", fast, "--out", tmp_path / "fast.mcap", "--map", "time=t", "--map", "displacement=x:mm",
+                "--map", "force=F").returncode == 0
+    r = dyno("check", tmp_path / "fast.mcap", "--against", tmp_path / "x.minimal.json")
+    assert "outside what the model was identified on, its force is extrapolated there: this run's 2.1 Hz (it was " \
+           "identified on 1.05 Hz); speeds to " in r.stdout, r.stdout + r.stderr
     r = dyno("report", tmp_path / "x.mcap", "--model", tmp_path / "x.minimal.json", "--out", tmp_path / "rep")
     assert r.returncode == 0, r.stderr
     (tmp_path / "moved").mkdir()

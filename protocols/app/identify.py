@@ -207,6 +207,7 @@ def _minimal_doc(args, out, base, found, channels, events):
     accepted effects (their forms built on this recording: `source`)."""
     from models.diagnose import undetermined
     from models.diagnose.candidates import Model
+    from models.minimal import envelope
     from models.recording import differing_repeats, reads_low
     d = found.data
     # the channels' alignment, fitted with the baseline, goes with the model where the
@@ -235,6 +236,7 @@ def _minimal_doc(args, out, base, found, channels, events):
             "baseline_heldout_nrmse": base.nrmse_heldout,
             "held_out": "every other cycle (or block), fitted on the rest",
             "x_mid_m": float(np.mean(d.x)),  # the gas force's reference position [m] (Minimal.x_m)
+            "identified_on": envelope(d),
             **({"segments": args.segment} if args.segment else {}),
             "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
                                for test, names, ranges in differing_repeats(channels, events)],

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from models.damper import DamperError
-from models.minimal import load_reference as load_damper
+from models.minimal import load_reference as load_damper, outside
 from models.recording import segments, sign_problem
 from protocols.io import spec_table
 from protocols.io.reader import load_recording
@@ -132,7 +132,7 @@ class Check:
     results: list  # [Verdict]
     reference: str  # what the run was checked against, in words
     compensation: str = ""  # how temperature was compensated, or why it could not be; "" when not needed
-    unmeasured: str = ""  # a table's points the run did not reach, in words; "" when it reached them all
+    unmeasured: str = ""  # a table's points the run did not reach, or its motion a model was not identified on
 
 
 TABLES = (".csv", ".txt", ".tsv", ".xlsx")  # --against: a force-velocity table (spec_table), not a run or model
@@ -173,7 +173,11 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
     if Path(against).suffix != ".mcap":
         model = load_damper(str(against))
         run = _rows(path, model)
-        return Check(verdicts(run, model_rows(run), tol, units=units), f"model {model.name} along this run's motion")
+        far = outside(getattr(model, "identified_on", None) or {}, [p.freq_hz for p in run],
+                      [1e-3 * p.amplitude_mm for p in run],
+                      float(np.nanmax([abs(v) for p in run for v in (p.v_comp, p.v_reb)] or [0.0])))
+        return Check(verdicts(run, model_rows(run), tol, units=units), f"model {model.name} along this run's motion",
+                     unmeasured=far)
     run, ref = _rows(path), _rows(against)
     T_run, T_ref = (_table_temperature(rows) for rows in (run, ref))
     note = ""

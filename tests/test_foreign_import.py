@@ -331,6 +331,35 @@ def test_parquet_and_matlab(tmp_path):
     _same_motion(channels, t, x, F)
 
 
+def test_a_tdms_file_its_units_its_waveform_time_and_start(tmp_path):
+    """As a LabVIEW or DIAdem cell writes it: channels with a unit_string and a waveform's
+    timing; the names guess the whole map, the start is the waveform's."""
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+    t, x, F = crank()
+    wave = {"wf_increment": 1 / RATE, "wf_start_offset": 0.0,
+            "wf_start_time": np.datetime64(START.replace(tzinfo=None), "us")}
+    with TdmsWriter(tmp_path / "run.tdms") as w:
+        w.write_segment([RootObject({"name": "A-12"}), GroupObject("Dyno"),
+                         ChannelObject("Dyno", "LVDT", 1e3 * x, properties={"unit_string": "mm", **wave}),
+                         ChannelObject("Dyno", "Load cell", F / 1e3, properties={"unit_string": "kN", **wave}),
+                         ChannelObject("Dyno", "Oil temp", np.full(len(t), 41.0), properties={"unit_string": "°C",
+                                                                                              **wave})])
+    r = dyno("import", tmp_path / "run.tdms", "--inspect")
+    assert "guessed map (check the units): --map 'time=Time' --map 'displacement=LVDT [mm]:mm' --map " \
+           "'force=Load cell [kN]:kN' --map 'temperature=Oil temp [°C]:C'" in r.stdout, r.stdout
+    channels, meta, _ = _imported(tmp_path, tmp_path / "run.tdms", "--map", "time=Time", "--map",
+                                  "displacement=LVDT [mm]", "--map", "force=Load cell [kN]", "--map",
+                                  "temperature=Oil temp [°C]")
+    _same_motion(channels, t, x, F)
+    assert np.allclose(channels["T_body"][1], 314.15)
+    assert abs((datetime.fromisoformat(meta["run"]["wall_start"]) - START).total_seconds()) < 1e-5
+    with TdmsWriter(tmp_path / "rates.tdms") as w:
+        w.write_segment([ChannelObject("Fast", "x", x), ChannelObject("Slow", "T", np.full(10, 41.0))])
+    one_line_error(dyno("import", tmp_path / "rates.tdms", "--inspect"), "its channels differ in length")
+    (tmp_path / "text.tdms").write_text("t,x,F\n")
+    one_line_error(dyno("import", tmp_path / "text.tdms", "--inspect"), "text.tdms: ")
+
+
 def test_an_excel_workbook_its_fullest_sheet_with_a_preamble_units_and_stamps(tmp_path):
     import openpyxl
     t, x, F = crank(rate=1000.0, n=3000)  # Excel's stamps keep the millisecond

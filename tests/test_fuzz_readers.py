@@ -238,6 +238,23 @@ def _good_mcap(folder):
                  {"protocol": {"name": "x", "params": "{}"}, "damper": {"model": ""}})
 
 
+@FUZZ
+@given(st.data())
+def test_any_tdms_file_reads_or_gives_one_line(tmp_path_factory, data):
+    """A LabVIEW file cut short or with bytes changed: columns of one length, or one line."""
+    from nptdms import ChannelObject, TdmsWriter
+    from protocols.io import tdms
+    path = tmp_path_factory.mktemp("tdms") / "run.tdms"
+    wave = {"wf_increment": 1e-3, "wf_start_time": np.datetime64("2025-11-14T20:14:37")}
+    with TdmsWriter(path) as w:
+        w.write_segment([ChannelObject("Dyno", "LVDT", np.arange(50.0), properties={"unit_string": "mm", **wave}),
+                         ChannelObject("Dyno", "Load", np.arange(50.0), properties={"unit_string": "N", **wave})])
+    _spoil(path, data, data.draw(st.sampled_from(["flip", "cut"])), 8)
+    cols, error = read(path, tdms.columns)
+    if error is None:
+        assert cols and len({len(a) for a in cols.values()}) == 1
+
+
 JSONISH = st.recursive(st.one_of(st.none(), st.booleans(), NUMBERS.filter(lambda v: not isinstance(v, int) or
                                                                            abs(v) < 10**300), st.text(max_size=5)),
                        lambda inner: st.one_of(st.lists(inner, max_size=4),

@@ -11,7 +11,7 @@ SAMPLES = 3  # a column's first values: --inspect shows them, and a number among
 # French, Spanish, Italian); a name that starts with one of the longer words counts too
 NAMES = (("time", ("time", "t", "zeit", "temps", "tiempo", "tempo", "sec")),
          ("force", ("force", "load", "f", "kraft", "effort", "fuerza", "carga", "forza")),
-         ("displacement", ("disp", "displacement", "position", "pos", "x", "d", "travel", "stroke", "weg", "hub",
+         ("displacement", ("disp", "displacement", "position", "pos", "x", "d", "travel", "stroke", "lvdt", "weg", "hub",
                            "deplacement", "déplacement", "course", "desplazamiento", "posicion", "posición",
                            "spostamento", "corsa")),
          ("velocity", ("vel", "velocity", "speed", "v", "geschw", "geschwindigkeit", "vitesse", "velocidad",
@@ -26,13 +26,15 @@ def by_name(name: str, cells) -> str | None:
     from protocols.io import table
     from protocols.io.column_units import unit_in_name
     n = name.lower()
-    if cells is not None and len(cells) and not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0])):
+    if cells is not None and len(cells) and (getattr(cells, "dtype", None) is not None and cells.dtype.kind == "M" or
+                                             not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0]))):
         return "time"
-    for channel, words in NAMES:
-        base = n.split("[")[0].split("(")[0].split(":")[0].strip()
-        if base in words or any(base.startswith(w) for w in words if len(w) > 2):
-            unit = unit_in_name(name, channel) or (time_unit(cells) if channel == "time" else None)
-            return f"{channel}" + (f":{unit}" if unit else "")
+    base = n.split("[")[0].split("(")[0].split(":")[0].strip()
+    for part in [base, *base.split()[1:]]:  # the whole name, else a later word of it (`Oil temp`, `Rod position`)
+        for channel, words in NAMES:
+            if part in words or any(part.startswith(w) for w in words if len(w) > 2):
+                unit = unit_in_name(name, channel) or (time_unit(cells) if channel == "time" else None)
+                return f"{channel}" + (f":{unit}" if unit else "")
     return None
 
 

@@ -95,8 +95,8 @@ class Imported:
 
 def source(path):
     """({column name: cells (text) or values (array)}, Layout or None) of a text table,
-    an Excel workbook, a Parquet file or a MATLAB file (columns VAR, or VAR[N] for a
-    matrix's N-th)."""
+    an Excel workbook, a Parquet file, a TDMS file (protocols/io/tdms.py) or a MATLAB file
+    (columns VAR, or VAR[N] for a matrix's N-th)."""
     path = input_file(path)
     suffix = path.suffix.lower()
     if suffix == ".parquet":
@@ -109,6 +109,9 @@ def source(path):
         except Exception as e:  # noqa: BLE001 - whatever pyarrow refuses
             raise UsageError(f"{path}: not a readable Parquet file ({str(e).splitlines()[0]})") from None
         return {n: np.asarray(t.column(n).to_numpy(zero_copy_only=False)) for n in t.column_names}, None
+    if suffix == ".tdms":
+        from protocols.io import tdms
+        return tdms.columns(path), None
     if suffix == ".mat":
         from scipy.io import loadmat
         try:
@@ -212,9 +215,13 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
         unit_notes += [said] if said else []
         cells = cols[key]
         if isinstance(cells, np.ndarray):
-            if cells.dtype.kind == "M":  # Parquet time stamps
-                a = cells.astype("datetime64[ns]").astype("int64") / 1e9
+            if cells.dtype.kind == "M":  # Parquet's or TDMS's time stamps: the recording's start
+                ns = cells.astype("datetime64[ns]")
+                a = np.where(np.isnat(ns), np.nan, ns.astype("int64") / 1e9)
                 a, bad = (a, None) if name == "time" else (None, 0)
+                if a is not None and np.any(np.isfinite(a)):
+                    start, u, stamped = float(a[np.isfinite(a)][0]), "s", True
+                    a = a - start
             else:
                 try:
                     a, bad = cells.astype(float), None

@@ -9,7 +9,6 @@ identified on. Beside it, the held-aside file's own model held out by cycles.
 
     .venv/bin/python -m tests.held_conditions [--data ../shared/data] [--markdown] > docs/results/held-conditions.md
 """
-import argparse
 import json
 import re
 import subprocess
@@ -20,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tests.real_data import DYNO, files
+from tests.real_data import DYNO, files, options
 
 NAME = re.compile(r"^(.+Hz)(.+A)\.txt$")  # <amplitude>mm<frequency>Hz<current>A.txt
 
@@ -103,11 +102,7 @@ def markdown(rows):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m tests.held_conditions")
-    ap.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared" / "data"))
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--markdown", action="store_true")
-    args = ap.parse_args(argv)
+    args = options("python -m tests.held_conditions", argv)
     work = tasks(Path(args.data))
     if not work:
         sys.exit(f"python -m tests.held_conditions: no UTFSM sine files under {args.data}")

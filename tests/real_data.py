@@ -158,12 +158,17 @@ def markdown(results):
                         "\n".join(f"- {s}" for s in summary), md.table(header, rows)]) + "\n"
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m tests.real_data")
+def options(prog, argv):
+    """A generator's options: where the shared data is, how many jobs, Markdown or JSON lines."""
+    ap = argparse.ArgumentParser(prog=prog)
     ap.add_argument("--data", default=str(HERE.parent.parent / "shared" / "data"))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown", action="store_true")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
+
+
+def main(argv=None):
+    args = options("python -m tests.real_data", argv)
     tasks = files(Path(args.data))
     if not tasks:
         sys.exit(f"python -m tests.real_data: no recordings under {args.data}")

@@ -157,13 +157,16 @@ def test_an_imperial_export_its_units_as_written_and_its_date_and_time_on_two_li
     src = _written(tmp_path, "us.csv", "Shock Dyno Export\nDate,11/14/2025\nTime,20:14:37\nStroke (in),1.5\n\n"
                    "Time (sec),Position (in),Velocity (in/sec),Force (lbs),Temp (°F)\n" + "".join(
                        f"{a:.6f},{b / 0.0254:.7f},{v / 0.0254:.5f},{c / 4.4482216:.5f},{77 + a:.2f}\n"
-                       for a, b, v, c in zip(t, x, np.gradient(x, t), F)), "latin-1")
+                       for a, b, v, c in zip(t, x, np.gradient(x, t), F))
+                   + "\nSummary\nMax Force (lbs),345.2\nMin Force (lbs),-330.1\n", "latin-1")
     r = dyno("import", src, "--inspect")
     assert "--map 'time=Time (sec):s' --map 'displacement=Position (in):in' --map 'velocity=Velocity (in/sec):in/s' " \
            "--map 'force=Force (lbs):lbf' --map 'temperature=Temp (°F):F'" in r.stdout, r.stdout
     channels, meta, r = _imported(tmp_path, src, "--map", "time=Time (sec)", "--map", "displacement=Position (in)",
                                   "--map", "force=Force (lbs)", "--map", "temperature=Temp (°F)")
     assert "units from the columns' names: displacement [in], force [lbf], temperature [F]" in r.stdout, r.stdout
+    assert "after the data, left out: 3 lines that are no row of it ('Summary'; 'Max Force (lbs),345.2'; " \
+           "'Min Force (lbs),-330.1')" in r.stdout, r.stdout
     _same_motion(channels, t, x, F, tol_x=1e-8, tol_F=1e-3)
     assert np.allclose(channels["T_body"][1], 273.15 + (77 + t - 32) * 5 / 9, atol=0.01)
     assert meta["run"]["wall_start_source"] == "the start the file's preamble gives"

@@ -155,6 +155,7 @@ def _import(args, mapping, gains, offsets, claim):
         notes += [f"not in a segment: {rest}"] if rest else []
     sign = other_sign(data["displacement"], data["force"])
     notes += [f"sign: {sign}"] if sign else []
+    notes += [postamble(got.layout)] if got.layout and got.layout.postamble else []
     rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
                    run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
                              **({"plot_every": every} if every > 1 else {}),
@@ -183,6 +184,13 @@ def _import(args, mapping, gains, offsets, claim):
         print(note)
     print(catalogue.add(rec.path))
     return 0
+
+
+def postamble(layout) -> str:
+    """What import leaves out after the data: an export's summary block."""
+    lines = layout.postamble
+    return (f"after the data, left out: {len(lines)} line{'s' * (len(lines) > 1)} that are no row of it ("
+            + "; ".join(repr(line.strip()) for line in lines[:3]) + (", ..." if len(lines) > 3 else "") + ")")
 
 
 def _flip(data, flips):
@@ -238,6 +246,8 @@ def inspect(args):
         print("preamble:")
         for line in layout.preamble[:12]:
             print(f"  {line.strip()}")
+    if layout and layout.postamble:
+        print(postamble(layout))
     rows = len(next(iter(cols.values()))) if cols else 0
     print(f"{rows} rows; columns:")
     guesses = []

@@ -49,6 +49,7 @@ class Layout:
     preamble: list = field(default_factory=list)  # the lines before the header
     units: int | None = None  # line index of a row of units under the names (joined to them: "Force [kN]")
     sheet: str | None = None  # an Excel workbook's sheet the rows come from (lines are its rows)
+    postamble: list = field(default_factory=list)  # lines after the data (a summary), left out by split
 
     def describe(self) -> str:
         sep = {",": "comma", ";": "semicolon", "\t": "tab", None: "whitespace"}[self.delimiter]
@@ -167,6 +168,7 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
     lines = text.splitlines()[layout.first:]
     while lines and not lines[-1].strip():
         lines.pop()
+    lines, layout.postamble = _postamble(lines, d)
     empty = "" if d is None else d * (n - 1)
     lines = [line if line.strip() else empty for line in lines]  # a row of empty cells: each row keeps its line
     if layout.header is not None:
@@ -210,6 +212,21 @@ def _repeats_emptied(lines, head, d, n):
         k = i + 1 + (len(head) > 1 and i + 1 < len(lines) and lines[i + 1].strip() == head[1].strip())
         lines[j:k] = [empty] * (k - j)
     return lines
+
+
+POSTAMBLE = 100  # lines at most after the last row of data that are no data (a summary block)
+
+
+def _postamble(lines, d):
+    """(the data lines, the lines after the last row of data): an export's summary block
+    (`Max Force,345.2`) closing a table whose rows start with a value."""
+    if not lines or not _data_row(lines[0], d):
+        return lines, []
+    last = next((i for i in range(len(lines) - 1, max(len(lines) - POSTAMBLE - 2, -1), -1)
+                 if _data_row(lines[i], d)), None)
+    if last is None or last == len(lines) - 1:
+        return lines, []
+    return lines[:last + 1], [line for line in lines[last + 1:] if line.strip()]
 
 
 def _data_row(line, d) -> bool:

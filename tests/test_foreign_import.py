@@ -244,6 +244,23 @@ def test_a_semicolon_file_with_decimal_commas_in_windows_encoding(tmp_path):
     assert "--map 'time=Zeit [s]:s' --map 'displacement=Weg [mm]:mm' --map 'force=Kraft [N]:N'" in r.stdout, r.stdout
 
 
+def test_quoted_decimal_commas_and_a_time_counted_in_minutes_and_seconds(tmp_path):
+    """An Excel CSV that quotes each cell, the comma both delimiter and decimal mark; a
+    logger's elapsed time as mm:ss.fff."""
+    t, x, F = crank()
+    quoted = _written(tmp_path, "q.csv", '"Zeit [s]","Weg [mm]","Kraft [N]"\n' + "".join(
+        f'"{a:.7f}","{1e3 * b:.6f}","{c:.4f}"\n'.replace(".", ",") for a, b, c in zip(t, x, F)))
+    assert "comma-separated, decimal comma, header on line 1" in dyno("import", quoted, "--inspect").stdout
+    channels, _, _ = _imported(tmp_path, quoted, "--map", "time=1", "--map", "displacement=2", "--map", "force=3")
+    _same_motion(channels, t, x, F)
+    minutes = _written(tmp_path, "m.csv", "Elapsed,x [mm],F [N]\n" + "".join(
+        f"{int((a + 59) // 60):02d}:{(a + 59) % 60:09.6f},{1e3 * b:.6f},{c:.4f}\n" for a, b, c in zip(t, x, F)))
+    channels, meta, _ = _imported(tmp_path, minutes, "--map", "time=Elapsed", "--map", "displacement=2", "--map",
+                                  "force=3", "--overwrite")
+    _same_motion(channels, t, x, F)
+    assert meta["run"]["wall_start_source"] == "file time less its duration"
+
+
 @pytest.mark.parametrize("names, expected", [
     (("Tiempo [s]", "Desplazamiento [mm]", "Velocidad [mm/s]", "Fuerza [kN]"), ("time:s", "displacement:mm",
                                                                              "velocity:mm/s", "force:kN")),

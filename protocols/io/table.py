@@ -33,6 +33,7 @@ ISO = re.compile(r"^(\d{4})([-/])(\d{2})\2(\d{2})[ T](\d{1,2}):(\d{2})(?::(\d{2}
 DMY = re.compile(r"^(\d{1,2})([/.])(\d{1,2})\2(\d{4})[ T]+(\d{1,2}):(\d{2})(?::(\d{2}(?:[.,]\d+)?))?"
                  r"\s*([AaPp][Mm])?$")
 CLOCK = re.compile(r"^(\d{1,2}):(\d{2}):(\d{2}(?:[.,]\d+)?)\s*([AaPp][Mm])?$")  # the time of day, no date
+ELAPSED = re.compile(r"^(\d{1,4}):([0-5]\d[.,]\d+)$")  # minutes:seconds.fff a logger counts from its start
 RATE = re.compile(r"^\s*(sampling rate|sample rate|sampling frequency|rate|fs)\s*[:=]\s*([0-9.eE+-]+)\s*(hz)?\s*$",
                   re.I)
 INTERVAL = re.compile(r"^\s*(sampling interval|sample interval|dt)\s*[:=]\s*([0-9.eE+-]+)\s*(s)?\s*$", re.I)
@@ -109,7 +110,9 @@ def sniff(text: str, units=frozenset()) -> Layout:
     if best is None or best[2] == 0:
         raise UsageError("not a table: no delimiter (comma, semicolon, tab, spaces) gives two columns of numbers")
     d, n, _ = best
-    decimal = "," if d != "," and any("," in c for line in tail for c in _fields(line, d)) else "."
+    # a comma in a number with no point (quoted, where the comma delimits): 1,5 is one and a half
+    decimal = "," if any("," in c and "." not in c and NUMBER.match(c) for line in tail for c in _fields(line, d)) \
+        else "."
     first = None
     for i in filled:  # the first line shaped as the data, its leading cells values
         f = _fields(lines[i], d)
@@ -269,7 +272,7 @@ def numbers(cells: list[str], decimal=".") -> tuple[np.ndarray, int | None]:
 
 
 def is_stamp(cell: str) -> bool:
-    return bool(ISO.match(cell) or DMY.match(cell) or CLOCK.match(cell))
+    return bool(ISO.match(cell) or DMY.match(cell) or CLOCK.match(cell) or ELAPSED.match(cell))
 
 
 def day_first(cells) -> bool | None:
@@ -326,6 +329,9 @@ def stamps(cells: list[str], order="find") -> tuple[np.ndarray, int | None]:
             key = (y, a, b) if dmy_day is False or dmy_day is None else (y, b, a)
         elif m := CLOCK.match(c):
             h, mi, s, half = m.groups()
+        elif m := ELAPSED.match(c):
+            minutes, s = m.groups()
+            h, mi, half = str(int(minutes) // 60), str(int(minutes) % 60), None
         else:
             return out, i
         if half:
@@ -367,7 +373,7 @@ def preamble_start(lines) -> float | None:
 
 def dated(cells) -> bool:
     """Whether a column's stamps carry a date (not the time of day alone)."""
-    return not any(CLOCK.match(c) for c in cells[:5] if c)
+    return not any(CLOCK.match(c) or ELAPSED.match(c) for c in cells[:5] if c)
 
 
 def iso(epoch: float) -> str:

@@ -238,9 +238,8 @@ def velocity_disagrees(t, x, v) -> str | None:
     s = np.concatenate(([0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))))  # m: the velocity integrated
     basis = np.column_stack([s, np.ones_like(t), t - t[0]])
     with np.errstate(all="ignore"):
-        (k, *_), *_ = np.linalg.lstsq(basis, x, rcond=None)
-        fit = basis @ np.linalg.lstsq(basis, x, rcond=None)[0]
-        r = float(np.corrcoef(fit, x)[0, 1]) * np.sign(k)
+        coef = np.linalg.lstsq(basis, x, rcond=None)[0]
+        k, r = float(coef[0]), float(np.corrcoef(basis @ coef, x)[0, 1])
     if not abs(r) >= VELOCITY_FOLLOWS or not np.isfinite(k):
         return None
     if k < 0:

@@ -147,7 +147,8 @@ def _import(args, mapping, gains, offsets, claim):
     every = -(-len(t) // PLOT_POINTS)
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
-    kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units) + _velocity_note(t, data, units)  # the report says the rest itself
+    # what the report says again; it says the rest itself
+    kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units) + _velocity_note(t, data, units)
     notes = list(kept)
     if any(f.kind == "sine" for f in found):
         rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],

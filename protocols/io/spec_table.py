@@ -31,7 +31,6 @@ class ForceVelocity:
     v_m_s: np.ndarray  # shaft speeds [m/s], rising
     F_comp_N: np.ndarray  # compression force at each [N] (positive; nan where the table gives none)
     F_reb_N: np.ndarray  # rebound force [N] (negative; nan where none)
-    columns: dict  # {speed, compression, rebound: the column's name}
 
 
 def _which(name: str, what: str) -> bool:
@@ -76,5 +75,4 @@ def read(path) -> ForceVelocity:
     order = np.argsort(v[keep])
     nan = np.full(len(v), np.nan)
     comp, reb = np.abs(values.get("compression", nan)), -np.abs(values.get("rebound", nan))
-    return ForceVelocity(v[keep][order], comp[keep][order], reb[keep][order],
-                         {k: n for k, n in found.items() if n is not None})
+    return ForceVelocity(v[keep][order], comp[keep][order], reb[keep][order])

@@ -98,6 +98,18 @@ def envelope(d) -> dict:
             "speed_m_s": float(np.max(np.abs(d.v))) if len(d.v) else 0.0}
 
 
+def _span(lo, hi, k=1.0) -> str:
+    return f"{k * lo:.3g}" if f"{k * lo:.3g}" == f"{k * hi:.3g}" else f"{k * lo:.3g}-{k * hi:.3g}"
+
+
+def identified_on_sentence(identified_on: dict) -> str:
+    """Where a model was measured (envelope), in words."""
+    f, a, top = (identified_on.get(k) for k in ("freq_hz", "amplitude_m", "speed_m_s"))
+    parts = ([f"{_span(*f)} Hz"] if f else []) + ([f"amplitudes {_span(*a, 1e3)} mm"] if a else []) \
+        + ([f"speeds to {1e3 * top:.3g} mm/s"] if top else [])
+    return f"identified on {', '.join(parts)}: beyond, its force is extrapolated" if parts else ""
+
+
 def outside(identified_on: dict, freqs_hz, amplitudes_m, speed_m_s) -> str:
     """The sentence saying where a run's motion lies outside what a model was identified on
     (envelope), or "": there its force is the model's extrapolation, not a measurement."""
@@ -107,8 +119,7 @@ def outside(identified_on: dict, freqs_hz, amplitudes_m, speed_m_s) -> str:
         far = sorted({round(k * v, 3) for v in values if lo is not None and np.isfinite(v) and not
                       lo * (1 - REACH) <= v <= hi * (1 + REACH)})
         if far:
-            on = f"{k * lo:.3g}" if f"{k * lo:.3g}" == f"{k * hi:.3g}" else f"{k * lo:.3g}-{k * hi:.3g}"
-            out.append(f"{', '.join(f'{v:g}' for v in far)} {unit} (it was identified on {on} {unit})")
+            out.append(f"{', '.join(f'{v:g}' for v in far)} {unit} (it was identified on {_span(lo, hi, k)} {unit})")
     top = identified_on.get("speed_m_s")
     if top and np.isfinite(speed_m_s) and speed_m_s > top * (1 + REACH):
         out.append(f"speeds to {1e3 * speed_m_s:.3g} mm/s (it reached {1e3 * top:.3g} mm/s)")

@@ -719,6 +719,7 @@ def test_identify_keeps_the_effects_the_diagnosis_accepts_and_check_reads_them(t
     _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
     r = dyno("identify", tmp_path / "x.mcap")
     assert r.returncode == 0 and "with the effects the diagnosis accepts (sensor_delay)" in r.stdout, r.stdout + r.stderr
+    assert "identified on 1.05 Hz, amplitudes 19 mm, speeds to " in r.stdout, r.stdout
     doc = json.loads((tmp_path / "x.minimal.json").read_text())
     assert doc["effects"] == ["sensor_delay"] and doc["source"] == ["x.mcap"]
     assert doc["heldout_nrmse"] < doc["baseline_heldout_nrmse"]

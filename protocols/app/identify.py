@@ -187,6 +187,7 @@ def _minimal(args, channels, events, inputs, driving):
         print(f"note: {repeats_sentence(r['test'], r['segments'], r['force_range_N'])}; fit each alone with "
               f"--segment NAME ({'; '.join(r['segments'])})")
     from models.diagnose.words import said
+    from models.minimal import identified_on_sentence
     timing = "".join(f", with {said(e)}" for e in doc["effects"] if e in found.cell_found())
     names = "the recordings name" if len(args.recordings) > 1 else "the recording names"
     print(f"identify: {names} no damper: the model that needs no description{timing}, held out by "
@@ -198,6 +199,7 @@ def _minimal(args, channels, events, inputs, driving):
         print(f"  {k:14s} {p['value']:12.5g} {p['unit']:10s}" + (f"  undetermined: {p['undetermined']}"
                                                                   if "undetermined" in p else
                                                                   f"  +- {p['sd']:.3g}" if p["sd"] is not None else ""))
+    print(f"  {identified_on_sentence(doc['identified_on'])}")
     print(f"model: {out}")
     return 0
 

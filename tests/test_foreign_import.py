@@ -399,6 +399,20 @@ def test_an_excel_workbook_its_fullest_sheet_with_a_preamble_units_and_stamps(tm
                                   "displacement=Position [mm]:mm", "--map", "force=Load [kN]:kN")
     _same_motion(channels, t, x, F)
     assert abs((datetime.fromisoformat(meta["run"]["wall_start"]) - START).total_seconds()) < 1e-3
+    assert "sheets: 'Sheet', 'Data' (--sheet NAME reads another)" in r.stdout, r.stdout
+    # another test on a sheet of its own, read by name
+    fast = book.create_sheet("2.1 Hz")
+    t2, x2, F2 = crank(n=400, hz=2.1)
+    fast.append(["t [s]", "x [mm]", "F [N]"])
+    for a, b, c in zip(t2, x2, F2):
+        fast.append([float(a), 1e3 * b, c])
+    book.save(tmp_path / "run.xlsx")
+    channels, meta, _ = _imported(tmp_path, tmp_path / "run.xlsx", "--sheet", "2.1 Hz", "--map", "time=1", "--map",
+                                  "displacement=2", "--map", "force=3", "--overwrite")
+    _same_motion(channels, t2, x2, F2)
+    assert json.loads(meta["protocol"]["params"])["sheet"] == "2.1 Hz"
+    one_line_error(dyno("import", tmp_path / "run.xlsx", "--inspect", "--sheet", "3 Hz"),
+                   "--sheet 3 Hz: no such sheet in run.xlsx; its sheets: 'Sheet', 'Data', '2.1 Hz'")
     (tmp_path / "old.xls").write_bytes(b"\xd0\xcf\x11\xe0")
     one_line_error(dyno("import", tmp_path / "old.xls", "--inspect"), "Excel 97-2003", "save it as .xlsx")
     (tmp_path / "bad.xlsx").write_text("not a zip")

@@ -44,6 +44,7 @@ def add(sub):
                     help="the file counts it the other way: force positive in tension, displacement from the "
                          "other end (its velocity with it), or the velocity alone rebound positive (dyno: all "
                          "positive in compression)")
+    im.add_argument("--sheet", metavar="NAME", help="an Excel workbook's sheet to read (default: its fullest)")
     im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
                     help="the sampling rate, when no time column is mapped and the file does not say it")
     im.set_defaults(command="import_csv")
@@ -81,7 +82,7 @@ def _drives(items, mapping):
 def run(args):
     from protocols.io.csv_import import parse_map
     from protocols.io.files import Claim
-    for option in ("inspect", "gain", "offset", "flip", "rate", "drive"):  # a caller's namespace may have only the map
+    for option in ("inspect", "gain", "offset", "flip", "rate", "drive", "sheet"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
         return inspect(args)
@@ -115,7 +116,7 @@ def _import(args, mapping, gains, offsets, claim):
     from protocols.io.column_units import SI
     from protocols.io.csv_import import CHANNELS, derived_velocity, read
     from protocols.io.recording import Recorder
-    got = read(args.file, mapping, gains, offsets, args.rate)
+    got = read(args.file, mapping, gains, offsets, args.rate, args.sheet)
     data, units = got.data, got.units
     _flip(data, set(args.flip or ()))
     t = data.pop("time")
@@ -143,7 +144,8 @@ def _import(args, mapping, gains, offsets, claim):
     else:  # the file's own start is unknown: its file time less its duration stands for it
         wall_start, how = os.path.getmtime(args.file) - duration, "file time less its duration"
     params = {"source": str(args.file), "map": args.map, "flip": args.flip or [],
-              "gain": args.gain or [], "offset": args.offset or [], "drive": args.drive or []}
+              "gain": args.gain or [], "offset": args.offset or [], "drive": args.drive or [],
+              **({"sheet": got.layout.sheet} if got.layout and got.layout.sheet else {})}
     every = -(-len(t) // PLOT_POINTS)
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
@@ -241,12 +243,14 @@ def inspect(args):
     from protocols.io import table
     from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, key_of, numeric, sign
     from protocols.io.csv_import import source
-    cols, layout = source(args.file)
+    cols, layout = source(args.file, args.sheet)
     print(f"{args.file}: {layout.describe() if layout else Path(args.file).suffix[1:] + ' columns'}")
     if layout and layout.preamble:
         print("preamble:")
         for line in layout.preamble[:12]:
             print(f"  {line.strip()}")
+    if layout and len(layout.sheets) > 1:
+        print(f"sheets: {', '.join(repr(s) for s in layout.sheets)} (--sheet NAME reads another)")
     if layout and layout.postamble:
         print(postamble(layout))
     rows = len(next(iter(cols.values()))) if cols else 0

@@ -93,11 +93,13 @@ class Imported:
     unit_notes: list = field(default_factory=list)  # a unit a name says that import did not read
 
 
-def source(path):
+def source(path, sheet=None):
     """({column name: cells (text) or values (array)}, Layout or None) of a text table,
-    an Excel workbook, a Parquet file, a TDMS file (protocols/io/tdms.py) or a MATLAB file
-    (columns VAR, or VAR[N] for a matrix's N-th)."""
+    an Excel workbook (its sheet named so, else its fullest), a Parquet file, a TDMS file
+    (protocols/io/tdms.py) or a MATLAB file (columns VAR, or VAR[N] for a matrix's N-th)."""
     path = input_file(path)
+    if sheet is not None and path.suffix.lower() not in (".xlsx", ".xlsm"):
+        raise UsageError(f"--sheet {sheet}: {path} is not an Excel workbook")
     suffix = path.suffix.lower()
     if suffix == ".parquet":
         try:
@@ -131,7 +133,7 @@ def source(path):
             raise UsageError(f"{path}: no numeric matrix in this MATLAB file")
         return cols, None
     if suffix in (".xlsx", ".xlsm", ".xls"):
-        return _workbook(path)
+        return _workbook(path, sheet)
     try:
         text = decode(path.read_bytes())
     except UnicodeDecodeError:
@@ -145,9 +147,10 @@ def source(path):
         raise UsageError(f"{path}: {e}") from None
 
 
-def _workbook(path):
-    """(columns, Layout) of an Excel workbook's fullest sheet, its rows read as a text
-    table's lines (a preamble, a row of units, stamps: as in a CSV export)."""
+def _workbook(path, name=None):
+    """(columns, Layout) of an Excel workbook's sheet of that name, else its fullest, its
+    rows read as a text table's lines (a preamble, a row of units, stamps: as in a CSV
+    export)."""
     import openpyxl
     from openpyxl.utils.exceptions import InvalidFileException
     if path.suffix.lower() == ".xls":
@@ -158,7 +161,11 @@ def _workbook(path):
         raise UsageError(f"{path}: not a readable Excel workbook ({str(e).splitlines()[0] if str(e) else e})") \
             from None
     try:
-        sheet = max(book.worksheets, key=lambda ws: ws.max_row or 0)
+        titles = [ws.title for ws in book.worksheets]
+        if name is not None and name not in titles:
+            raise UsageError(f"--sheet {name}: no such sheet in {path.name}; its sheets: "
+                             + ", ".join(repr(t) for t in titles))
+        sheet = book[name] if name is not None else max(book.worksheets, key=lambda ws: ws.max_row or 0)
         lines = ["\t".join(_cell(c) for c in row) for row in sheet.iter_rows(values_only=True)]
     finally:
         book.close()
@@ -167,7 +174,7 @@ def _workbook(path):
         layout = table.sniff(text, UNIT_NAMES)
     except UsageError as e:
         raise UsageError(f"{path}: sheet {sheet.title!r}: {e}") from None
-    layout.sheet = sheet.title
+    layout.sheet, layout.sheets = sheet.title, titles
     return table.split(text, layout), layout
 
 
@@ -195,13 +202,13 @@ def _cell(v) -> str:
     return repr(v) if isinstance(v, float) else str(v).replace("\t", " ").replace("\n", " ").strip()
 
 
-def read(path, mapping, gains=None, offsets=None, rate_hz=None) -> Imported:
+def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> Imported:
     """The mapped columns in SI. A time column of date-time stamps gives the recording's
     start; without a time column, the rate (given, or the preamble's) makes one. Values
     are raw x gain + offset in the mapped unit, then SI. Unmapped and empty columns are
     ignored; unknown mapped columns, non-numbers and time that goes backwards are refused,
-    naming the row."""
-    cols, layout = source(path)
+    naming the row. sheet: a workbook's sheet by name (else its fullest)."""
+    cols, layout = source(path, sheet)
     gains, offsets = gains or {}, offsets or {}
     first_row = (layout.first + 1) if layout else 1  # a data row's line in the file: first_row + index
     data, start, derived, note, stamped = {}, None, "", "", False

@@ -50,6 +50,7 @@ class Layout:
     preamble: list = field(default_factory=list)  # the lines before the header
     units: int | None = None  # line index of a row of units under the names (joined to them: "Force [kN]")
     sheet: str | None = None  # an Excel workbook's sheet the rows come from (lines are its rows)
+    sheets: list = field(default_factory=list)  # the workbook's sheets, by name
     postamble: list = field(default_factory=list)  # lines after the data (a summary), left out by split
 
     def describe(self) -> str:

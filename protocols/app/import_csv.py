@@ -1,5 +1,5 @@
 """`dyno import FILE --out FILE.mcap --map NAME=COLUMN[:UNIT] ...`: a recording another dyno
-or acquisition system made (CSV, a DAQ's text export, Parquet, MATLAB) as a dyno recording;
+or acquisition system made (CSV, a DAQ's text export, Excel, TDMS, Parquet, MATLAB) as a dyno recording;
 `--inspect` shows what would be read and writes nothing. The table's layout:
 protocols/io/table.py; the columns' units: protocols/io/column_units.py."""
 from __future__ import annotations
@@ -23,10 +23,10 @@ BATCH = 5000  # samples per /channels message
 
 def add(sub):
     """The `dyno import_csv` command's arguments."""
-    im = sub.add_parser("import", help="a recording from another dyno or a DAQ (CSV, text export, Parquet, MATLAB) "
-                                       "as an MCAP recording")
+    im = sub.add_parser("import", help="a recording from another dyno or a DAQ (CSV, text export, Excel, TDMS, "
+                                       "Parquet, MATLAB) as an MCAP recording")
     im.add_argument("file", metavar="FILE", help="CSV or any delimited text (a preamble, a decimal comma, no header: "
-                                                 "found), .parquet, or .mat")
+                                                 "found), .xlsx, .tdms, .parquet or .mat")
     im.add_argument("--inspect", action="store_true", help="show what would be read (layout, columns, sample values, "
                                                            "rate, a guessed map); write nothing")
     writes(im, "--out", FILE, metavar="FILE.mcap", help="the recording to write")

@@ -261,6 +261,20 @@ def test_quoted_decimal_commas_and_a_time_counted_in_minutes_and_seconds(tmp_pat
     assert meta["run"]["wall_start_source"] == "file time less its duration"
 
 
+def test_a_name_the_header_repeats_hides_no_column(tmp_path):
+    """Two load cells both headed `Force`: each keeps its column (before, the second replaced
+    the first, and a map by position read the wrong one)."""
+    t, x, F = crank()
+    src = _written(tmp_path, "two.csv", "Time,Force,Force,Position\n" + "".join(
+        f"{a:.6f},{c:.4f},{2 * c:.4f},{1e3 * b:.6f}\n" for a, b, c in zip(t, x, F)))
+    assert "   3  'Force #3'" in dyno("import", src, "--inspect").stdout
+    channels, _, _ = _imported(tmp_path, src, "--map", "time=Time", "--map", "displacement=4:mm", "--map", "force=3")
+    _same_motion(channels, t, x, 2 * F, tol_F=2e-3)
+    channels, _, _ = _imported(tmp_path, src, "--map", "time=Time", "--map", "displacement=Position:mm",
+                               "--map", "force=Force", "--overwrite")
+    _same_motion(channels, t, x, F)
+
+
 @pytest.mark.parametrize("names, expected", [
     (("Tiempo [s]", "Desplazamiento [mm]", "Velocidad [mm/s]", "Fuerza [kN]"), ("time:s", "displacement:mm",
                                                                              "velocity:mm/s", "force:kN")),

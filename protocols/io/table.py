@@ -149,8 +149,14 @@ def sniff(text: str, units=frozenset()) -> Layout:
                 if m.re is RATE:
                     break
     n = max([n, *(len(_fields(lines[i], d)) for i in filled if first <= i < first + TAIL)])  # an events column
-    names = [c or str(j + 1) for j, c in enumerate(names)] + [str(j + 1) for j in range(len(names), n)]
+    names = _distinct([c or str(j + 1) for j, c in enumerate(names)] + [str(j + 1) for j in range(len(names), n)])
     return Layout(d, decimal, header, first, names, rate, preamble, units_line)
+
+
+def _distinct(names):
+    """Column names made distinct: a name the header repeats (two load cells both `Force`)
+    gets its column's position, `Force #3`, so that no column hides another."""
+    return [f"{c} #{j + 1}" if names.count(c) > 1 and names.index(c) != j else c for j, c in enumerate(names)]
 
 
 # units a DAQ writes that import does not convert (volts, hertz, ...)

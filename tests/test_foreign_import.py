@@ -261,6 +261,19 @@ def test_quoted_decimal_commas_and_a_time_counted_in_minutes_and_seconds(tmp_pat
     assert meta["run"]["wall_start_source"] == "file time less its duration"
 
 
+def test_cells_a_spreadsheet_marks_missing_are_read_as_empty(tmp_path):
+    t, x, F = crank()
+    rows = [f"{a:.6f},{'#N/A' if i == 100 else f'{c:.4f}'},{'-' if i == 200 else f'{1e3 * b:.6f}'}\n"
+            for i, (a, b, c) in enumerate(zip(t, x, F))]
+    channels, _, _ = _imported(tmp_path, _written(tmp_path, "na.csv", "t,F,x\n" + "".join(rows)), "--map", "time=t",
+                               "--map", "displacement=x:mm", "--map", "force=F")
+    assert len(channels["force"][0]) == len(t) - 1 and len(channels["x"][0]) == len(t) - 1
+    assert np.allclose(channels["force"][1], np.delete(F, 100), atol=1e-3)
+    one_line_error(dyno("import", _written(tmp_path, "bad.csv", "t,F,x\n" + "".join(rows).replace("#N/A", "#REF?")),
+                        "--out", tmp_path / "b.mcap", "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F"),
+                   "bad.csv:102: column 'F': '#REF?' is not a number")
+
+
 def test_a_name_the_header_repeats_hides_no_column(tmp_path):
     """Two load cells both headed `Force`: each keeps its column (before, the second replaced
     the first, and a map by position read the wrong one)."""

@@ -255,9 +255,14 @@ def column(cols: dict, layout: Layout, key: str) -> str:
         f"{j + 1}={c}" if c != str(j + 1) else c for j, c in enumerate(layout.names)))
 
 
+# what spreadsheets and loggers write where a value is missing: read as an empty cell
+MISSING = ("#n/a", "n/a", "#na", "na", "null", "none", "<na>", "-", "--", "#value!", "#div/0!", "#num!", "1.#ind",
+           "1.#qnan")
+
+
 def numbers(cells: list[str], decimal=".") -> tuple[np.ndarray, int | None]:
-    """(float array with NaN for an empty cell, index of the first cell that is not a
-    number or None)."""
+    """(float array with NaN for an empty cell or one marked missing, index of the first
+    cell that is not a number or None)."""
     if decimal == ".":
         try:  # every cell a number (the common case): no string array
             return np.fromiter(map(float, cells), float, len(cells)), None
@@ -266,7 +271,7 @@ def numbers(cells: list[str], decimal=".") -> tuple[np.ndarray, int | None]:
     a = np.array(cells, dtype=str)
     if decimal == ",":
         a = np.char.replace(a, ",", ".")
-    a = np.where(a == "", "nan", a)
+    a = np.where((a == "") | np.isin(np.char.lower(a), MISSING), "nan", a)
     try:
         return a.astype(float), None
     except ValueError:

@@ -281,6 +281,9 @@ def test_a_name_the_header_repeats_hides_no_column(tmp_path):
     src = _written(tmp_path, "two.csv", "Time,Force,Force,Position\n" + "".join(
         f"{a:.6f},{c:.4f},{2 * c:.4f},{1e3 * b:.6f}\n" for a, b, c in zip(t, x, F)))
     assert "   3  'Force #3'" in dyno("import", src, "--inspect").stdout
+    # a header written as a comment: the mark is no part of the first name
+    hashed = _written(tmp_path, "hash.csv", "# exported by RigLog\n" + src.read_text().replace("Time,", "# Time,", 1))
+    assert "--map 'time=Time' --map 'force=Force'" in dyno("import", hashed, "--inspect").stdout
     channels, _, _ = _imported(tmp_path, src, "--map", "time=Time", "--map", "displacement=4:mm", "--map", "force=3")
     _same_motion(channels, t, x, 2 * F, tol_F=2e-3)
     channels, _, _ = _imported(tmp_path, src, "--map", "time=Time", "--map", "displacement=Position:mm",

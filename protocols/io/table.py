@@ -127,6 +127,8 @@ def sniff(text: str, units=frozenset()) -> Layout:
     before = [i for i in filled if i < first]
     header = before[-1] if before else None
     names = _fields(lines[header], d) if header is not None else []
+    if names:  # a header written as a comment (`# time [s], ...`, `%time`): the mark is no part of the name
+        names[0] = names[0].lstrip("#% ").strip() or names[0]
     if header is not None and (len(names) < 2 or all(_is_value(c, decimal) for c in names)):
         header, names = None, []
     units_line = None

@@ -123,6 +123,13 @@ def test_stamps_that_cannot_tell_the_day_from_the_month_or_give_no_date(tmp_path
                                                                     for i in range(20)))
     got = csv_import.read(clock, [("time", "time", "s"), ("displacement", "x", "mm"), ("force", "F", "N")])
     assert got.start_epoch is None and got.data["time"][-1] == 19.0
+    # the date in a column of its own beside the time of day (a logger's Date, Time): the start, past midnight too
+    both = _written(tmp_path, "both.csv", "Date,Time,x,F\n" + "".join(
+        (f"14/11/2025,23:59:{50 + i}.5" if i < 10 else f"15/11/2025,00:00:{i - 10:02d}.5") + f",{i % 7},{i % 5}\n"
+        for i in range(20)))
+    got = csv_import.read(both, [("time", "Time", "s"), ("displacement", "x", "mm"), ("force", "F", "N")])
+    assert got.start_epoch == datetime(2025, 11, 14, 23, 59, 50, 500000, tzinfo=timezone.utc).timestamp()
+    assert got.data["time"][-1] == 19.0
 
 
 def test_a_row_of_units_under_the_names_and_a_start_in_the_preamble(tmp_path):

@@ -235,7 +235,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> I
                 except (TypeError, ValueError):
                     a, bad = None, 0
         elif name == "time" and any(table.is_stamp(c) for c in cells[:5]):
-            a, bad, start, note = _stamped(cells)
+            a, bad, start, note = _stamped(table.with_date(cols, cells))
             u, stamped = "s", True
         else:
             a, bad = table.numbers(cells, layout.decimal if layout else ".")

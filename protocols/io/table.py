@@ -33,6 +33,7 @@ ISO = re.compile(r"^(\d{4})([-/])(\d{2})\2(\d{2})[ T](\d{1,2}):(\d{2})(?::(\d{2}
 DMY = re.compile(r"^(\d{1,2})([/.])(\d{1,2})\2(\d{4})[ T]+(\d{1,2}):(\d{2})(?::(\d{2}(?:[.,]\d+)?))?"
                  r"\s*([AaPp][Mm])?$")
 CLOCK = re.compile(r"^(\d{1,2}):(\d{2}):(\d{2}(?:[.,]\d+)?)\s*([AaPp][Mm])?$")  # the time of day, no date
+DATE = re.compile(r"^(\d{4}[-/]\d{2}[-/]\d{2}|\d{1,2}[/.]\d{1,2}[/.]\d{4})$")  # a date alone, its clock elsewhere
 ELAPSED = re.compile(r"^(\d{1,4}):([0-5]\d[.,]\d+)$")  # minutes:seconds.fff a logger counts from its start
 RATE = re.compile(r"^\s*(sampling rate|sample rate|sampling frequency|rate|fs)\s*[:=]\s*([0-9.eE+-]+)\s*(hz)?\s*$",
                   re.I)
@@ -119,7 +120,7 @@ def sniff(text: str, units=frozenset()) -> Layout:
         f = _fields(lines[i], d)
         shaped = len(f) >= max(n - 1, 2) and _is_value(f[1], decimal) or (  # or a value, then empty cells
             d is not None and len(f) == 1 and lines[i].count(d) >= max(n - 1, 2))
-        if f and _is_value(f[0], decimal) and shaped:
+        if f and (_is_value(f[0], decimal) or DATE.match(f[0])) and shaped:  # a date alone: its clock beside it
             first = i
             break
     if first is None:
@@ -244,7 +245,7 @@ def _postamble(lines, d):
 def _data_row(line, d) -> bool:
     """A line whose first cell is a number or a date-time stamp."""
     first = (line.split(d) if d is not None else line.split() or [""])[0].strip().strip('"')
-    return bool(NUMBER.match(first) or is_stamp(first))
+    return bool(NUMBER.match(first) or is_stamp(first) or DATE.match(first))
 
 
 def column(cols: dict, layout: Layout, key: str) -> str:
@@ -383,6 +384,16 @@ def preamble_start(lines) -> float | None:
         if bad is None:
             return float(t[0])
     return None
+
+
+def with_date(cols: dict, clock: list) -> list:
+    """A time-of-day column's cells with the date a column of dates alone gives each row
+    (`Date` beside `Time`), else as they are."""
+    if dated(clock):
+        return clock
+    dates = next((c for c in cols.values() if not isinstance(c, np.ndarray) and c is not clock
+                  and (first := next((x for x in c[:5] if x), None)) and DATE.match(first)), None)
+    return clock if dates is None else [f"{d} {c}" if d and c else "" for d, c in zip(dates, clock)]
 
 
 def dated(cells) -> bool:

@@ -178,6 +178,11 @@ def test_an_imperial_export_its_units_as_written_and_its_date_and_time_on_two_li
     assert np.allclose(channels["T_body"][1], 273.15 + (77 + t - 32) * 5 / 9, atol=0.01)
     assert meta["run"]["wall_start_source"] == "the start the file's preamble gives"
     assert meta["run"]["wall_start"].startswith("2025-11-14T20:14:37")
+    # a map copied from another file: its unit is read, and the name's is said beside it
+    _, meta, r = _imported(tmp_path, src, "--map", "time=1", "--map", "displacement=2:mm", "--map", "force=4:lbf",
+                           "--overwrite")
+    said = "displacement: its column 'Position (in)' says in, read as mm as the map says"
+    assert said in r.stdout and said in meta["run"]["import_notes"] and "force: its column" not in r.stdout, r.stdout
     # the units as a user spells them after the column, and one import does not know
     channels, _, _ = _imported(tmp_path, src, "--map", "time=1:sec", "--map", "displacement=2:inch", "--map",
                                "force=4:LBS", "--overwrite")

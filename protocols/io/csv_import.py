@@ -181,10 +181,14 @@ def _workbook(path, name=None):
 def _column_unit(name, key, given, gained):
     """(unit, whether the column's name gave it, a note or "") of a mapped column: the map's
     unit, else the one its name carries, else SI; the note where the name says a unit that
-    is not this channel's (raw volts without a gain, another channel's unit)."""
-    if name not in UNITS or given:
+    is not this channel's (raw volts without a gain, another channel's unit) or not the
+    map's (a map copied from another file)."""
+    if name not in UNITS:
         return given, False, ""
     u = unit_in_name(key, name)
+    if given:
+        return given, False, "" if u in (None, given) or gained else (
+            f"{name}: its column {key!r} says {u}, read as {given} as the map says")
     if u:
         return u, u != SI[name], ""
     said = next((t for t in BRACKETED.findall(key) if t.lower() in table.OTHER_UNITS or unit_in_name(f"[{t}]")), None)

@@ -12,14 +12,12 @@ identified on. Beside it, the held-aside file's own model held out by cycles.
 import json
 import re
 import subprocess
-import sys
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from tests.real_data import DYNO, files, options
+from tests.real_data import DYNO, files, generate
 
 NAME = re.compile(r"^(.+Hz)(.+A)\.txt$")  # <amplitude>mm<frequency>Hz<current>A.txt
 
@@ -102,13 +100,8 @@ def markdown(rows):
 
 
 def main(argv=None):
-    args = options("python -m tests.held_conditions", argv)
-    work = tasks(Path(args.data))
-    if not work:
-        sys.exit(f"python -m tests.held_conditions: no UTFSM sine files under {args.data}")
-    with ProcessPoolExecutor(args.jobs) as pool:
-        rows = [r for part in pool.map(one, work) for r in part]
-    print(markdown(rows) if args.markdown else "\n".join(json.dumps(r) for r in rows))
+    generate("python -m tests.held_conditions", argv, tasks, one, lambda parts: markdown(sum(parts, [])),
+             "UTFSM sine files")
 
 
 if __name__ == "__main__":

@@ -158,27 +158,24 @@ def markdown(results):
                         "\n".join(f"- {s}" for s in summary), md.table(header, rows)]) + "\n"
 
 
-def options(prog, argv):
-    """A generator's options: where the shared data is, how many jobs, Markdown or JSON lines."""
+def generate(prog, argv, tasks_of, measure, markdown, what):
+    """A results generator's run: the tasks tasks_of finds under --data, each measured in a
+    pool of --jobs processes, printed as Markdown (--markdown) or a JSON line each."""
     ap = argparse.ArgumentParser(prog=prog)
     ap.add_argument("--data", default=str(HERE.parent.parent / "shared" / "data"))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown", action="store_true")
-    return ap.parse_args(argv)
+    args = ap.parse_args(argv)
+    tasks = tasks_of(Path(args.data))
+    if not tasks:
+        sys.exit(f"{prog}: no {what} under {args.data}")
+    with ProcessPoolExecutor(args.jobs) as pool:
+        results = list(pool.map(measure, tasks))
+    print(markdown(results) if args.markdown else "\n".join(json.dumps(r) for r in results))
 
 
 def main(argv=None):
-    args = options("python -m tests.real_data", argv)
-    tasks = files(Path(args.data))
-    if not tasks:
-        sys.exit(f"python -m tests.real_data: no recordings under {args.data}")
-    with ProcessPoolExecutor(args.jobs) as pool:
-        results = list(pool.map(one, tasks))
-    if args.markdown:
-        print(markdown(results))
-    else:
-        for r in results:
-            print(json.dumps(r))
+    generate("python -m tests.real_data", argv, files, one, markdown, "recordings")
 
 
 if __name__ == "__main__":

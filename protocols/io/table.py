@@ -178,14 +178,15 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
     """{column name: [cell, ...]} of the data rows (a short row's missing cells empty)."""
     d = layout.delimiter
     n = len(layout.names)
-    lines = text.splitlines()[layout.first:]
+    every = text.splitlines()
+    lines = every[layout.first:]
     while lines and not lines[-1].strip():
         lines.pop()
     lines, layout.postamble = _postamble(lines, d)
     empty = "" if d is None else d * (n - 1)
     lines = [line if line.strip() else empty for line in lines]  # a row of empty cells: each row keeps its line
-    if layout.header is not None:
-        lines = _repeats_emptied(lines, text.splitlines()[layout.header:layout.first], d, n)
+    if layout.header is not None and text.count(every[layout.header].strip()) > 1:  # the header again: joined exports
+        lines = _repeats_emptied(lines, every[layout.header:layout.first], d, n)
     if d is not None and '"' not in text and all(line.count(d) == n - 1 for line in lines):
         # every row complete (the common case): one split of the whole body, columns by slicing
         flat = d.join(lines).split(d)

@@ -286,6 +286,23 @@ def test_a_fitted_parameter_is_bounded_by_the_range_the_damper_declares():
     assert (lo, hi) == (-1e3, 1e3)  # fitted in units of 1e-3 /K
 
 
+def test_a_valve_lines_slope_is_fitted_inside_what_the_damper_check_accepts():
+    """A wired run's high-speed line, above the speeds the run reached, was fitted flat
+    (1.7e-5 N s/m) and the damper check refused the whole identification: the fit's
+    bound is now the check's, and moving the line into place keeps it there."""
+    from models.damper import LOW_BRANCH_MIN, check
+    from models.identify.valves import make_valid
+    d = load("fox-heavy")
+    for tag in ("mid", "high"):
+        lo, _ = z_bounds(d, f"valves.piston.rebound.{'m' if tag == 'mid' else 'm2'}")
+        line = getattr(d.valves.piston.rebound, tag)
+        line.C_linw = float(np.exp(lo))
+        assert line.C_linw == pytest.approx(LOW_BRANCH_MIN)
+    d.valves.piston.rebound.mid.C_linw = 10.0
+    check(d)
+    p = make_valid({"a": 1e3, "b": 0.0, "m": 1.0, "c": 50.0, "m2": 1e-5, "c2": 60.0})
+    assert p["m2"] >= LOW_BRANCH_MIN and p["m2"] < p["m"]
+
 def test_a_sine_segment_with_a_hole_in_its_force_record_is_left_out_and_named():
     """A stalled loop or lost frames leave a gap in the stamps: resampled across it, the
     segment would be force never measured, so identification leaves it out and says so."""
@@ -326,7 +343,7 @@ def test_a_parameter_on_its_bound_is_flagged_not_shown_as_measured():
     doc = {"steps": {}, "estimates": [], "correlated": [], "heldout": [], "heldout_nrmse": None,
            "at_bound": [{"parameter": n, "value": v, "range": list(r), "unit": u, "bound": e} for n, v, r, u, e in got]}
     assert ("at its upper bound, held there, not measured: valves.piston.compression.mid.C_linw = 1e+06 N s/m "
-            "(range 0 .. 1e+06)") in text(doc)
+            "(range 1 .. 1e+06)") in text(doc)
 
 
 def test_live_estimates_are_shown_in_engineering_units():

@@ -15,7 +15,7 @@ from numba import njit
 from scipy.optimize import least_squares
 
 from models.physics import valves
-from models.damper import Branch, Direction, Line
+from models.damper import LOW_BRANCH_MIN, Branch, Direction, Line
 from models.threads import each
 
 # structure name -> its parameters: a [N s^2/m^2], b [N s/m] (low branch, eq 4.14),
@@ -148,7 +148,9 @@ def make_valid(p: dict) -> dict:
     """p with its high line moved inside the bounds `crossover_penalty` holds it to (what
     a penalised fit can leave outside them is a fraction of the margin)."""
     if "m2" in p:
-        p["m2"] = min(p["m2"], p["m"] * np.exp(-CROSSOVER_MARGIN))
+        # the slopes stay in their declared range (damper.Line): m2 at least its lower end, m above it
+        p["m"] = max(p["m"], LOW_BRANCH_MIN * np.exp(CROSSOVER_MARGIN))
+        p["m2"] = max(min(p["m2"], p["m"] * np.exp(-CROSSOVER_MARGIN)), LOW_BRANCH_MIN)
         p["c2"] = max(p["c2"], p["c"] * np.exp(CROSSOVER_MARGIN))
     return p
 

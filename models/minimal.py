@@ -45,12 +45,15 @@ class MinimalModel:
         """The force along measured motion, shaped as a full model's simulation (.force)."""
         return SimpleNamespace(force=self.force(x, v))
 
-    def along(self, fitted_on, recording):
+    def along(self, fitted_on, recording, smoothing=None):
         """(t [s], force [N]) along a recording's prepared motion (models/diagnose/data.py),
-        the effects included; fitted_on and recording: (channels, events) of the source and
-        of the recording. DamperError when the recording lacks what an effect reads."""
+        the effects included, through the moving average its source applied (smoothing:
+        models/source_filter.py); fitted_on and recording: (channels, events) of the source
+        (None without effects) and of the recording. DamperError when the recording lacks
+        what an effect reads."""
         try:
-            ref, d = prepare(*fitted_on), prepare(*recording)
+            d = prepare(*recording, smoothing=smoothing)
+            ref = d if fitted_on is None else prepare(*fitted_on)
             model = Model(ref, self.effects, base=Minimal(ref, self.x_mid_m))
             return d.t, model.force(d, self.parameters)
         except DiagnoseError as e:

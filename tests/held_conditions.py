@@ -28,13 +28,15 @@ def _dyno(cwd, *args):
 
 def _error(model_path, recording):
     """RMS of the model's force less the measured along the recording, % of its force range."""
+    from models import source_filter
     from models.diagnose.data import prepare
     from models.minimal import load
     from protocols.io.reader import load_recording, merged
     model = load(model_path)
-    target = load_recording(recording)[:2]
-    t, F = model.along(merged(model.source)[:2], target)
-    d = prepare(*target)
+    *target, meta = load_recording(recording)
+    smoothing = source_filter.of(meta)
+    t, F = model.along(merged(model.source)[:2] if model.effects else None, target, smoothing)
+    d = prepare(*target, smoothing=smoothing)
     measured = np.interp(t, d.t, d.F)
     return float(100 * np.sqrt(np.mean((F - measured) ** 2)) / np.ptp(measured))
 

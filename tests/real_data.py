@@ -27,6 +27,7 @@ def files(data: Path):
     out = []
     for entry in spec["file"]:
         args = [a for k in ("map", "gain", "drive") for v in entry.get(k, []) for a in (f"--{k}", v)]
+        args += ["--smoothed", entry["smoothed"]] if "smoothed" in entry else []
         out += [(p, args) for p in sorted(data.glob(entry["path"]))]
     return out
 

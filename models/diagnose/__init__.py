@@ -144,13 +144,13 @@ def undetermined(params, values, sd) -> dict:
 
 
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
-             holdout="interleaved", drives=None, jobs=1) -> Diagnosis:
-    """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for
-    `minimal`, or (name, damper model) to start from that model, refitted. holdout:
-    "interleaved" or the tail's fraction (holdout_masks). drives: the aux channels that drive
-    the damper (models.recording.drives), the only ones an effect may be scaled by; None: all.
-    jobs: processes fitting a round's candidates (threads.forked); 1: this one (a rig's)."""
-    d = prepare(channels, events, drives)
+             holdout="interleaved", drives=None, jobs=1, smoothing=None) -> Diagnosis:
+    """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for `minimal`, or (name,
+    damper model) to start from that model, refitted. holdout: "interleaved" or the tail's fraction
+    (holdout_masks). drives: the aux channels that drive the damper (models.recording.drives), the only ones
+    an effect may be scaled by; None: all. jobs: processes fitting a round's candidates (threads.forked); 1:
+    this one (a rig's). smoothing: the source's moving average every model goes through (source_filter)."""
+    d = prepare(channels, events, drives, smoothing)
     if baseline is None:
         base = Minimal(d)
     else:

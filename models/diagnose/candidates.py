@@ -178,7 +178,8 @@ class Model:
             after = [EFFECTS[x.split(":")[0]] for x in self.effects
                      if ORDER.index(x.split(":")[0]) > ORDER.index(e.split(":")[0])]
             if not any(part in c.alters or "F" in c.alters for c in after):
-                out.update(zip(self.own[e], B.T))
+                # the source's moving average is linear: a column through it is exact
+                out.update(zip(self.own[e], (f.data.through_source(b) for b in B.T)))
         return out
 
     def forces(self, d, p):
@@ -196,6 +197,7 @@ class Model:
         for c, e in staged:
             if c.acts_on == "total":
                 c.apply(self, d, p, f, e)
+        f.F = d.through_source(f.F)  # as the file's force was written (models/source_filter.py)
         return f
 
 
@@ -204,6 +206,7 @@ class Forces:
     baseline's parts (damping, gas, friction, the damping slope) and the total [N]."""
 
     def __init__(self, d):
+        self.data = d
         self.x, self.v, self.a, self.t, self.tau = d.x, d.v, d.a, d.t, 0.0
         self.Fd = self.Fg = self.Ff = self.F = self.slope = None
         self.bases = {}  # {term: (the part it adds to, its basis)} (terms.add)

@@ -17,6 +17,7 @@ import numpy as np
 from models.diagnose import quality
 from models.recording import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
 from models.segmentation import imported_unsegmented, left_out
+from models.source_filter import Smoothing
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
@@ -55,13 +56,27 @@ class Data:
     # s: the last time any fit sees on a time split (None: the fits span the recording). A
     # function of time is not extrapolated past it: beyond, it holds its last value
     fitted_until: float | None = None
+    smoothing: Smoothing | None = None  # the source's moving average, declared at import (models/source_filter.py)
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
                     {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.tone_hz,
-                    self.fitted_until)
+                    self.fitted_until, self.smoothing)
+
+    def through_source(self, y):
+        """y along these samples [any unit] through the moving average the source passed
+        the force through (segment by segment), or y itself when none was declared."""
+        if self.smoothing is None:
+            return y
+        out = np.array(y, float)
+        for s, (_, f) in enumerate(self.segments):
+            j = np.nonzero(self.segment == s)[0]
+            if len(j):
+                out[j] = self.smoothing.apply(out[j], self.t[j], float(np.median(self.h[j])),
+                                              f if self.periodic else None)
+        return out
 
 
 def _clean(t, v):
@@ -158,8 +173,9 @@ def _usable(channels):
         raise DiagnoseError(sign)
 
 
-def prepare(channels, events, drives=None) -> Data:
-    """Data from a recording's channels {name: (t, values)} and events."""
+def prepare(channels, events, drives=None, smoothing=None) -> Data:
+    """Data from a recording's channels {name: (t, values)} and events; smoothing: the
+    moving average its source applied (models/source_filter.py), or None."""
     _usable(channels)
     notes = []
     tF, F = _clean(*channels["force"])
@@ -177,7 +193,7 @@ def prepare(channels, events, drives=None) -> Data:
     flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
     spans = _spans(events, tx, x)
-    flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1 in spans if f is not None])
+    flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1 in spans if f is not None], smoothing)
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))
     h = period * step
     T_ch = next((n for n in ("T_body", "temperature", "T_reservoir") if n in channels and len(channels[n][0]) > 1), None)
@@ -216,7 +232,8 @@ def prepare(channels, events, drives=None) -> Data:
         raise DiagnoseError("the recording has no motion to judge (no segment and no stretch of at least "
                             "50 samples without a gap)")
     cols = [np.concatenate(c) for c in zip(*parts)]
-    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans))
+    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans),
+             smoothing=smoothing)
     keep = d.cycle >= 0
     d = d.take(keep)
     if not len(d.t):  # every cycle touched by a gap: nothing to interpolate the other channels onto

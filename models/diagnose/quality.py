@@ -139,9 +139,10 @@ def _cycle_to_cycle(t, y, f, k):
     return e
 
 
-def smoothed(name, t, y, cycles):
+def smoothed(name, t, y, cycles, declared=None):
     """A channel-wide flag when the channel y(t) was smoothed by its source. cycles: [(f [Hz],
-    t0, t1 [s])] of periodic stretches. From one cycle to the next the repeating force
+    t0, t1 [s])] of periodic stretches; declared: the source's moving average as import was
+    told it (models/source_filter.py), which every model then goes through. From one cycle to the next the repeating force
     cancels and the noise is left: white noise changes from sample to sample with no
     correlation, smoothed noise keeps it. A source smooths the whole channel, so every
     stretch must show it (a damper's own slow change from cycle to cycle can in one)."""
@@ -160,7 +161,9 @@ def smoothed(name, t, y, cycles):
                  f"{name} was smoothed by its source (a moving average or a low-pass before the file was "
                  f"written): its change from one cycle to the next keeps a sample-to-sample correlation of "
                  f"{min(rho):.2f} or more (white noise: 0), so its noise is the filter's, not the load cell's, "
-                 f"and a model compared with it needs the same filter")]
+                 + (f"and every model is compared with it through the moving average of {declared.text()} its import "
+                    f"declared" if declared else "and a model compared with it needs the same filter: import the "
+                    "file again with the filter its source used (dyno import --smoothed, e.g. 0.1period)"))]
 
 
 def check(channels):

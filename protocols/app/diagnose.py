@@ -39,6 +39,7 @@ def run(args):
     from models.diagnose import design, diagnose
     from models.diagnose.data import DiagnoseError
     from models.diagnose.words import summary
+    from models import source_filter
     from models.recording import drives
     from protocols.io.files import existing_files, filled, output_folder
     from protocols.io.reader import load_recording
@@ -78,7 +79,7 @@ def run(args):
                 f"the thesis's minimal model)")
     try:
         res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout, drives=drives(meta),
-                       jobs=threads.cores())
+                       jobs=threads.cores(), smoothing=source_filter.of(meta))
     except (DiagnoseError, DamperError) as e:
         raise UsageError(f"{args.recording}: {e}") from None
     if baseline is None:

@@ -15,6 +15,7 @@ def _one(task):
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     from protocols.reports.diagnosis import own_baseline, to_json
+    from models import source_filter
     from models.recording import drives
     from protocols.io.reader import load_recording
     with batch.unpacked(name, data) as path:
@@ -24,7 +25,8 @@ def _one(task):
                 base = own_baseline(meta)
             else:
                 base = None if baseline == "minimal" else (baseline[0], from_dict(baseline[1]))
-            res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta))
+            res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta),
+                           smoothing=source_filter.of(meta))
         except (UsageError, RigError, DiagnoseError, DamperError) as e:
             return name, None, str(e).replace(str(path), name)
     return name, to_json(res), None

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from models import damper as dm
+from models import damper as dm, source_filter
 from models.recording import repeats_sentence
 from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
 from protocols.errors import UsageError
@@ -118,7 +118,7 @@ def run(args):
         except ValueError as e:
             raise UsageError(f"--segment: {e}") from None
     if not args.damper and not meta.get("damper", {}).get("model"):
-        return _minimal(args, channels, events, inputs, drives(meta))
+        return _minimal(args, channels, events, inputs, drives(meta), source_filter.of(meta))
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(".model.json"), inputs, args.overwrite)
     if args.report:
         output_folder(args.report, inputs, args.overwrite, "--report")
@@ -153,7 +153,7 @@ def run(args):
 MINIMAL_SUFFIX = ".minimal.json"  # not .model.json: report overlays that as a full damper model
 
 
-def _minimal(args, channels, events, inputs, driving):
+def _minimal(args, channels, events, inputs, driving, smoothing):
     """A recording that names no damper, and no --damper: the model that needs no
     description (the diagnosis's baseline `minimal`) with the effects the diagnosis accepts on
     it, judged on held-out cycles, with what the recording could not determine; written as
@@ -166,7 +166,7 @@ def _minimal(args, channels, events, inputs, driving):
         raise UsageError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)
     try:
-        found = diagnose(channels, events, drives=driving, jobs=threads.cores())
+        found = diagnose(channels, events, drives=driving, jobs=threads.cores(), smoothing=smoothing)
     except (DiagnoseError, dm.DamperError) as e:
         raise UsageError(f"{', '.join(map(str, args.recordings))}: {e}") from None
     base = found.baseline  # the model without effects, fitted and judged on the same cycles

@@ -44,6 +44,10 @@ def add(sub):
                     help="the file counts it the other way: force positive in tension, displacement from the "
                          "other end (its velocity with it), or the velocity alone rebound positive (dyno: all "
                          "positive in compression)")
+    im.add_argument("--smoothed", metavar="WIDTH",
+                    help="the file's source passed force and displacement through a centred moving average this "
+                         "wide: a share of the test period (0.1period) or a time (20ms); the analyses compare every "
+                         "model with the recording through the same filter")
     im.add_argument("--sheet", metavar="NAME", help="an Excel workbook's sheet to read (default: its fullest)")
     im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
                     help="the sampling rate, when no time column is mapped and the file does not say it")
@@ -80,9 +84,10 @@ def _drives(items, mapping):
 
 
 def run(args):
+    from models import source_filter
     from protocols.io.csv_import import parse_map
     from protocols.io.files import Claim
-    for option in ("inspect", "gain", "offset", "flip", "rate", "drive", "sheet"):  # a caller's namespace may have only the map
+    for option in ("inspect", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
         return inspect(args)
@@ -94,6 +99,10 @@ def run(args):
     for name in {*gains, *offsets} - {n for n, _, _ in mapping}:
         raise UsageError(f"--gain/--offset {name}: not a mapped channel")
     args.drives = _drives(args.drive, mapping)
+    try:
+        args.smoothing = None if args.smoothed is None else source_filter.parse(args.smoothed)
+    except ValueError as e:
+        raise UsageError(f"--smoothed {e}") from None
     if args.out is None:
         raise UsageError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
@@ -151,6 +160,8 @@ def _import(args, mapping, gains, offsets, claim):
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
     # what the report says again; it says the rest itself
     kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units) + _velocity_note(t, data, units)
+    kept += [f"smoothed by its source: a centred moving average of {args.smoothing.text()}; the analyses compare "
+             f"every model with it through the same filter"] if args.smoothing else []
     notes = list(kept)
     if any(f.kind == "sine" for f in found):
         rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
@@ -160,9 +171,7 @@ def _import(args, mapping, gains, offsets, claim):
     notes += [f"sign: {sign}"] if sign else []
     notes += [postamble(got.layout)] if got.layout and got.layout.postamble else []
     rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
-                   run_info={"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
-                             **({"plot_every": every} if every > 1 else {}),
-                             **({"import_notes": "\n".join(kept)} if kept else {})})
+                   run_info=_run_info(got, how, every, args.smoothing, kept))
     try:
         for n, (tt, v, _) in channels.items():
             for i in range(0, len(tt), BATCH):
@@ -187,6 +196,16 @@ def _import(args, mapping, gains, offsets, claim):
         print(note)
     print(catalogue.add(rec.path))
     return 0
+
+
+def _run_info(got, how, every, smoothing, kept) -> dict:
+    """The recording's run metadata: where its start and time came from, the source's
+    smoothing (models/source_filter.py) and what import said of the file, for the report."""
+    from models.source_filter import RUN_KEY
+    return {"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
+            **({"plot_every": every} if every > 1 else {}),
+            **({RUN_KEY: smoothing.text()} if smoothing else {}),
+            **({"import_notes": "\n".join(kept)} if kept else {})}
 
 
 def postamble(layout) -> str:

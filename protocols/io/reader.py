@@ -25,6 +25,7 @@ from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import get_chunk_data_stream
 
 from models.events import from_wire
+from models import source_filter
 from protocols.io.files import input_file, not_being_written
 from protocols.errors import UsageError
 
@@ -97,6 +98,9 @@ def merged(paths):
     for p in paths:
         ch, ev, m = load_recording(p)
         meta = meta if meta is not None else m
+        if source_filter.of(m) != source_filter.of(meta):  # one filter is put on every recording's model
+            raise UsageError(f"{p}: its source smoothed it as {_said(m)}, the first as {_said(meta)}: "
+                             f"give recordings smoothed alike")
         end = offset
         for name, (t, v) in ch.items():
             T, V = channels.get(name, (np.empty(0), np.empty(0)))
@@ -105,6 +109,11 @@ def merged(paths):
         events += [e.shifted(offset) for e in ev]
         offset = end + 10.0
     return channels, events, meta or {}
+
+
+def _said(meta):
+    s = source_filter.of(meta)
+    return "not at all" if s is None else f"a moving average of {s.text()}"
 
 
 def _messages(f, reader, summary, topics):
@@ -182,6 +191,10 @@ _TYPES = {"float": (int, float), "int": int, "str": str}  # the event fields' de
 
 
 def _check_metadata(meta):
+    try:
+        source_filter.of(meta)
+    except ValueError as e:
+        raise UsageError(f"metadata run.{source_filter.RUN_KEY}: {e}") from None
     for name, keys in JSON_METADATA.items():
         record = meta.get(name, {})
         for key in (record if keys is None else keys):

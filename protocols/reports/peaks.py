@@ -107,14 +107,19 @@ class Sampled:
         return SimpleNamespace(force=np.interp(t, self.t, self.force))
 
 
-def along(model, ch, events):
+def along(model, ch, events, meta=None):
     """The model to read along this recording: a minimal model with the diagnosis's effects
     (which read time, history and auxiliary channels, and are built on the recording they
-    were fitted on) computed once along all of it (Sampled; between the samples the
-    diagnosis keeps, interpolated); any other model as it is. DamperError when its source
-    recording or a channel its effects read is missing."""
-    if not getattr(model, "effects", None):
+    were fitted on), or along a recording its source smoothed (meta: load_recording's; the
+    model goes through the same filter), computed once along all of it (Sampled; between
+    the samples the diagnosis keeps, interpolated); any other model as it is. DamperError
+    when its source recording or a channel its effects read is missing."""
+    from models import source_filter
+    smoothing = source_filter.of(meta or {})
+    if not getattr(model, "effects", None) and not (smoothing and hasattr(model, "along")):
         return model
+    if not model.effects:
+        return Sampled(model.name, *model.along(None, (ch, events), smoothing))
     from models.damper import DamperError
     from protocols.io.reader import merged
     from protocols.errors import UsageError
@@ -122,7 +127,7 @@ def along(model, ch, events):
         source = merged(model.source)[:2]
     except (UsageError, OSError) as e:
         raise DamperError(f"{model.name}: its effects are built on the recording it was fitted on: {e}") from None
-    return Sampled(model.name, *model.along(source, (ch, events)))
+    return Sampled(model.name, *model.along(source, (ch, events), smoothing))
 
 
 def settled_after(prm):

@@ -149,7 +149,7 @@ def _rows(path, model=None, at_K=None):
     sign = sign_problem(ch)
     if sign:
         raise OtherSign(f"{Path(path).name}: {sign}")
-    model = peaks.along(model, ch, events)
+    model = peaks.along(model, ch, events, meta)
     if at_K is not None and "T_body" in ch:
         t = ch["T_body"][0]
         ch = {**ch, "T_body": (t, np.full(len(t), at_K))}

@@ -32,7 +32,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
-    model = peaks.along(model, ch, events)
+    model = peaks.along(model, ch, events, meta)
     full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
     rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
     figures = (sines.figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out, units)

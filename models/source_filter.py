@@ -1,0 +1,75 @@
+"""The moving average a recording's source passed its force and displacement through before
+writing the file, as declared at import (`dyno import --smoothed 0.1period`): a model compared
+with such a recording is passed through the same filter, or the filter's rounding of the
+force at each reversal is fitted as physics (a hysteresis, a lag) whose size then changes
+with the test's period, where the filter's does (docs/import.md).
+
+A centred moving average (MATLAB's movmean): a causal one delays force and displacement
+alike, so the model driven by the recorded displacement sees the same delay. The recorded
+displacement drives the model as it is: a sine's amplitude is 1.6 % low behind a tenth of a
+period's average, which the valve coefficients take up. Its window is a share of each sine
+segment's period, or a time [s]."""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+RUN_KEY = "smoothed"  # the recording's run metadata: Smoothing.text()
+_FORM = re.compile(r"^\s*([0-9.eE+-]+)\s*(period|periods|s|ms)\s*$")
+
+
+@dataclass(frozen=True)
+class Smoothing:
+    width: float  # a share of the test period (per_period), else seconds
+    per_period: bool
+
+    def text(self) -> str:
+        return f"{self.width:g} period" if self.per_period else f"{self.width:g} s"
+
+    def samples(self, h: float, freq_hz: float | None) -> int:
+        """The window in samples at spacing h [s] on a segment of freq_hz (None: motion that
+        does not repeat, where a share of a period is no window: 1, no filter)."""
+        if self.per_period:
+            return 1 if not freq_hz else max(1, int(round(self.width / (freq_hz * h))))
+        return max(1, int(round(self.width / h)))
+
+    def apply(self, y, t, h: float, freq_hz: float | None):
+        """y [any unit] on times t [s] through the window, stretch by stretch: a gap longer
+        than 1.5 samples starts a new one (the filter never averages across a hole)."""
+        from scipy.ndimage import uniform_filter1d  # not at import: the CLI's parser reads this module
+        n = self.samples(h, freq_hz)
+        y = np.asarray(y, float)
+        if n < 2 or len(y) < 2:
+            return y
+        cuts = np.r_[0, np.nonzero(np.diff(t) > 1.5 * h)[0] + 1, len(y)]
+        out = np.empty_like(y)
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            out[a:b] = uniform_filter1d(y[a:b], min(n, b - a), mode="nearest")
+        return out
+
+
+def parse(text: str) -> Smoothing:
+    """'0.1period' / '0.1 period' (a share of each sine's period), '20ms' or '0.02s';
+    ValueError saying the form."""
+    m = _FORM.match(str(text))
+    try:
+        width = float(m.group(1)) if m else np.nan
+    except ValueError:
+        width = np.nan
+    if not m or not np.isfinite(width) or width <= 0:
+        raise ValueError(f"{text!r}: expected the moving average's width, as a share of the test period "
+                         f"(0.1period) or a time (20ms, 0.02s)")
+    unit = m.group(2)
+    if unit.startswith("period"):
+        if width > 1:
+            raise ValueError(f"{text!r}: a moving average longer than the test period leaves no cycle")
+        return Smoothing(width, True)
+    return Smoothing(width * (1e-3 if unit == "ms" else 1.0), False)
+
+
+def of(meta) -> Smoothing | None:
+    """The smoothing a recording's metadata (load_recording's) declares, or None."""
+    text = meta.get("run", {}).get(RUN_KEY)
+    return parse(text) if text else None

@@ -2,7 +2,7 @@
 writing the file, as declared at import (`dyno import --smoothed 0.1period`): a model compared
 with such a recording is passed through the same filter, or the filter's rounding of the
 force at each reversal is fitted as physics (a hysteresis, a lag) whose size then changes
-with the test's period, where the filter's does (docs/import.md).
+with the test's period, where the filter's does (docs/cli.md, importing).
 
 A centred moving average (MATLAB's movmean): a causal one delays force and displacement
 alike, so the model driven by the recorded displacement sees the same delay. The recorded

@@ -125,6 +125,9 @@ def run(args):
     desc = description(args.damper, meta)
     truth = dm.load(args.truth) if args.truth else None
     say = (lambda m: print(m, file=sys.stderr)) if args.json else print
+    if source_filter.of(meta):  # (the minimal model, without --damper, goes through it)
+        say(f"identify: the recording's source smoothed it ({source_filter.of(meta).text()}): the full model is "
+            f"fitted to it unfiltered, and the filter's rounding at each reversal is in its fit")
     res = model_of(channels, events, desc, args.recordings, say)
     with written(out) as tmp:
         dm.save(res.damper, tmp)

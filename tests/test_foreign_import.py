@@ -607,6 +607,7 @@ def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_o
 
 
 def test_a_force_smoothed_by_its_source_is_said_as_such_and_white_noise_is_not():
+    from models import source_filter
     from models.diagnose import quality
     rng = np.random.default_rng(1)
     t = np.arange(20_000) / 1000.0  # 20 s at 1 kHz of a 1.3 Hz sine, as the UTFSM files
@@ -616,6 +617,13 @@ def test_a_force_smoothed_by_its_source_is_said_as_such_and_white_noise_is_not()
     averaged = np.convolve(F, np.ones(77) / 77, "same")  # a tenth of a period
     flag = quality.smoothed("force", t[100:-100], averaged[100:-100], cycles)
     assert len(flag) == 1 and "smoothed by its source" in flag[0].message
+    # how wide, read from the noise's correlation (a triangle 77 samples wide), to import it with:
+    # short, as the flag says (each cycle's trend removed takes the long lags)
+    width = int(flag[0].message.split("a moving average of about ")[1].split(" samples")[0])
+    assert 0.6 * 77 <= width <= 1.1 * 77 and f"--smoothed, e.g. {round(width * 1.3e-3, 2):g}period or {width}ms" \
+        in flag[0].message and "runs up to a third short" in flag[0].message, flag[0].message
+    declared = quality.smoothed("force", t[100:-100], averaged[100:-100], cycles, source_filter.parse("77ms"))
+    assert "through the moving average of 0.077 s its import declared" in declared[0].message
     # a second stretch, not smoothed: the source would have smoothed both
     assert quality.smoothed("force", t, np.where(t < 10, np.convolve(F, np.ones(77) / 77, "same"), F),
                             [(1.3, 0.5, 9.5), (1.3, 10.5, 19.5)]) == []

@@ -142,28 +142,52 @@ def _cycle_to_cycle(t, y, f, k):
 def smoothed(name, t, y, cycles, declared=None):
     """A channel-wide flag when the channel y(t) was smoothed by its source. cycles: [(f [Hz],
     t0, t1 [s])] of periodic stretches; declared: the source's moving average as import was
-    told it (models/source_filter.py), which every model then goes through. From one cycle to the next the repeating force
-    cancels and the noise is left: white noise changes from sample to sample with no
-    correlation, smoothed noise keeps it. A source smooths the whole channel, so every
-    stretch must show it (a damper's own slow change from cycle to cycle can in one)."""
-    rho = []
+    told it (models/source_filter.py), which every model then goes through. From one cycle
+    to the next the repeating force cancels and the noise is left: white noise changes from
+    sample to sample with no correlation, smoothed noise keeps it. A source smooths the whole
+    channel, so every stretch must show it (a damper's own slow change from cycle to cycle
+    can in one). Undeclared, the flag says how wide a moving average the correlation reads
+    (_window)."""
+    rho, widths = [], []
     for f, t0, t1 in cycles:
         k = np.nonzero((t >= t0 + 1.01 / f) & (t <= t1))[0]
-        if len(k) < 4 * MIN_CYCLE or 1.0 / (f * np.median(np.diff(t))) < MIN_CYCLE:
+        h = float(np.median(np.diff(t)))
+        if len(k) < 4 * MIN_CYCLE or 1.0 / (f * h) < MIN_CYCLE:
             continue
         e = _cycle_to_cycle(t, y, f, k)
         ss = float(e @ e)
         if np.sqrt(ss / len(e)) > 1e-5 * np.ptp(y):  # a noiseless recording has nothing to tell
             rho.append(float(e[:-1] @ e[1:]) / ss)
+            widths.append((_window(e, int(0.5 / (f * h))), h, f))
     if not rho or min(rho) <= SMOOTHED_RHO:
         return []
+    n, h, f = sorted(widths)[len(widths) // 2]
     return [Flag(name, "smoothed", np.nan, np.nan, 0,
                  f"{name} was smoothed by its source (a moving average or a low-pass before the file was "
                  f"written): its change from one cycle to the next keeps a sample-to-sample correlation of "
                  f"{min(rho):.2f} or more (white noise: 0), so its noise is the filter's, not the load cell's, "
                  + (f"and every model is compared with it through the moving average of {declared.text()} its import "
-                    f"declared" if declared else "and a model compared with it needs the same filter: import the "
-                    "file again with the filter its source used (dyno import --smoothed, e.g. 0.1period)"))]
+                    f"declared" if declared else f"and a model compared with it needs the same filter: the correlation "
+                    f"reads a moving average of about {n} samples ({1e3 * n * h:.3g} ms, {n * h * f:.2g} of the "
+                    f"period; this reading runs up to a third short, the source's own figure is better); import the "
+                    f"file again with the filter its source used (dyno import --smoothed, e.g. "
+                    f"{float(f'{n * h * f:.1g}'):g}period or {float(f'{1e3 * n * h:.2g}'):g}ms)"))]
+
+
+def _window(e, most):
+    """The width in samples of the moving average white noise went through to become e:
+    its autocorrelation is then a triangle falling to zero at that width. Fitted by least
+    squares over widths 2..most. Removing each cycle's trend (_cycle_to_cycle) pulls the
+    long lags below zero, so a wide window reads short: the UTFSM sine files, whose source
+    averaged 0.1 of the period, read 0.074-0.098; 77 samples of white noise at 1.3 Hz and
+    1 kHz read 55. Without that removal a damper's slow change from cycle to cycle reads
+    them 0.15-0.25."""
+    L = max(3, min(most, len(e) // 4))
+    e = e - e.mean()
+    ac = np.array([e[:len(e) - j] @ e[j:] for j in range(L)]) / float(e @ e)
+    lags = np.arange(L)
+    err = [float(np.sum((ac - np.maximum(0.0, 1.0 - lags / m)) ** 2)) for m in range(2, L)]
+    return 2 + int(np.argmin(err)) if err else 1
 
 
 def check(channels):

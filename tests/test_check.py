@@ -28,7 +28,10 @@ def test_the_tolerance_is_a_percentage_newtons_or_the_larger_of_both():
 
 def test_one_qa_sentence_with_the_count_inside_and_where_it_is_outside():
     out = qa.Verdict(0.5, "rebound", -1000.0, -959.0, 20.0)
-    assert qa.verdict(18, 1, [out]) == "FAIL: 17 of 18 inside the band; 1 outside: rebound at 500 mm/s, -4.1 %"
+    assert qa.verdict(18, 1, [out]) == "FAIL: 17 of 18 inside the band; 1 outside: rebound at 500 mm/s, -4.1 % (-41 N)"
+    # a reference near zero: the percentage explodes, the force beside it says how much
+    near = qa.Verdict(0.05, "compression", -38.0, 250.0, 5.0)
+    assert qa.verdict(4, 1, [near]).endswith("compression at 50.0 mm/s, +557.9 % (+212 N)")
     assert qa.verdict(18, 1) == "FAIL: 17 of 18 inside the band; 1 outside"
     assert qa.verdict(8, 0) == "PASS: 8 of 8 inside the band"
 

@@ -68,13 +68,16 @@ def parse_tolerance(text: str) -> Tolerance:
 
 def verdict(points: int, failed: int, outside=(), units=Units()) -> str:
     """The one QA sentence (CLI, web, catalogue): "FAIL: 17 of 18 inside the band; 1 outside:
-    rebound at 500 mm/s, -4.1 %" (the force's size against the reference's: -4.1 % is weak).
+    rebound at 500 mm/s, -4.1 % (-41 N)" (the force's size against the reference's: -4.1 %
+    is weak; the force beside it, since a percentage of a reference near zero says little).
     outside: the failing Verdicts, when known."""
     head = f"{'FAIL' if failed else 'PASS'}: {points - failed} of {points} inside the band"
     if not failed:
         return head
     where = "; ".join(f"{v.direction} at {fmt(units.show('velocity', v.v_m_s), 3)} {units.unit('velocity')}, "
-                      f"{100 * (abs(v.measured_N) / max(abs(v.reference_N), 1e-9) - 1):+.1f} %"
+                      f"{100 * (abs(v.measured_N) / max(abs(v.reference_N), 1e-9) - 1):+.1f} % "
+                      f"({'+' if abs(v.measured_N) >= abs(v.reference_N) else '-'}"
+                      f"{fmt(units.show('force', abs(abs(v.measured_N) - abs(v.reference_N))), 2)} {units.unit('force')})"
                       for v in outside)
     return f"{head}; {failed} outside" + (f": {where}" if where else "")
 

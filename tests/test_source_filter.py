@@ -86,8 +86,17 @@ def test_a_model_identified_through_the_declared_filter_is_the_damper_and_carrie
                    "give recordings smoothed alike")
 
 
-def test_a_width_import_cannot_read_is_one_line(tmp_path):
+def test_a_width_import_cannot_read_or_apply_is_one_line(tmp_path):
     src = _smoothed_file(tmp_path / "s.csv", 5, 3.0, cycles=4)
     one_line_error(dyno("import", src, *MAP, "--smoothed", "10", "--out", tmp_path / "s.mcap"),
                    "--smoothed '10'", "0.1period")
     assert not (tmp_path / "s.mcap").exists()
+    # motion that does not repeat has no period to take a share of; a time applies
+    t = np.arange(0, 20.0, 1e-3)
+    x = np.cumsum(np.random.default_rng(2).normal(0, 1e-5, len(t)))
+    np.savetxt(tmp_path / "r.csv", np.c_[t, 1e3 * x, 3e3 * np.gradient(x, t)], fmt="%.6f", delimiter=",",
+               header="time [s],displacement [mm],force [N]", comments="")
+    one_line_error(dyno("import", tmp_path / "r.csv", *MAP, "--smoothed", "0.1period", "--out", tmp_path / "r.mcap"),
+                   "no stroke of this file repeats", "as a time")
+    assert not (tmp_path / "r.mcap").exists()
+    assert dyno("import", tmp_path / "r.csv", *MAP, "--smoothed", "20ms", "--out", tmp_path / "r.mcap").returncode == 0

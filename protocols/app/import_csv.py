@@ -160,8 +160,7 @@ def _import(args, mapping, gains, offsets, claim):
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
     # what the report says again; it says the rest itself
     kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units) + _velocity_note(t, data, units)
-    kept += [f"smoothed by its source: a centred moving average of {args.smoothing.text()}; the analyses compare "
-             f"every model with it through the same filter"] if args.smoothing else []
+    kept += _smoothing_note(args.smoothing, found)
     notes = list(kept)
     if any(f.kind == "sine" for f in found):
         rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
@@ -196,6 +195,17 @@ def _import(args, mapping, gains, offsets, claim):
         print(note)
     print(catalogue.add(rec.path))
     return 0
+
+
+def _smoothing_note(smoothing, found) -> list[str]:
+    """What import says of --smoothed; a share of a period where nothing repeats is refused."""
+    if smoothing is None:
+        return []
+    if smoothing.per_period and not any(f.kind == "sine" for f in found):
+        raise UsageError(f"--smoothed {smoothing.text()}: no stroke of this file repeats, so it has no period to "
+                         f"take a share of: give the moving average's width as a time (e.g. 20ms)")
+    return [f"smoothed by its source: a centred moving average of {smoothing.text()}; the analyses compare every "
+            f"model with it through the same filter"]
 
 
 def _run_info(got, how, every, smoothing, kept) -> dict:

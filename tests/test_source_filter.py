@@ -86,6 +86,34 @@ def test_a_model_identified_through_the_declared_filter_is_the_damper_and_carrie
                    "give recordings smoothed alike")
 
 
+def test_a_full_model_identified_through_the_declared_filter_fits_its_held_out_sine_better(tmp_path):
+    """identify --damper: the compressible fit and its held-out segment simulate the
+    described damper, and the simulated force goes through the source's filter too. The
+    Koni's loops, written through a tenth-of-a-period average: held out 3.19 % unfiltered,
+    1.62 % through the filter."""
+    from models.damper import load
+    from models.physics.simulate import simulate
+    d, h, rng = load("koni"), 1e-3, np.random.default_rng(3)
+    rows, t0 = [], 0.0
+    for amp, f in ((0.010, 1.0), (0.005, 3.0), (0.008, 2.0)):
+        t = np.arange(0, 8 / f, h)
+        x = d.mid_stroke + amp * np.sin(2 * np.pi * f * t)
+        F = simulate(d, t, x, np.gradient(x, t), T=293.15, compressible=True, x_e=d.mid_stroke).force
+        n = int(round(0.1 / (f * h)))
+        rows.append(np.c_[t + t0, 1e3 * uniform_filter1d(x, n, mode="nearest"),
+                          uniform_filter1d(F + rng.normal(0, 3.0, len(t)), n, mode="nearest")])
+        t0 += t[-1] + h
+    np.savetxt(tmp_path / "k.csv", np.concatenate(rows), fmt="%.6f", delimiter=",",
+               header="time [s],displacement [mm],force [N]", comments="")
+    held = {}
+    for name, extra in (("plain", []), ("smoothed", ["--smoothed", "0.1period"])):
+        assert dyno("import", tmp_path / "k.csv", *MAP, *extra, "--out", tmp_path / f"{name}.mcap").returncode == 0
+        r = dyno("identify", tmp_path / f"{name}.mcap", "--damper", "koni", "--json", "--out", tmp_path / f"{name}.json")
+        assert r.returncode == 0, r.stderr
+        held[name] = json.loads(r.stdout)["heldout_nrmse"]
+    assert held["smoothed"] < 0.6 * held["plain"], held
+
+
 def test_a_width_import_cannot_read_or_apply_is_one_line(tmp_path):
     src = _smoothed_file(tmp_path / "s.csv", 5, 3.0, cycles=4)
     one_line_error(dyno("import", src, *MAP, "--smoothed", "10", "--out", tmp_path / "s.mcap"),

@@ -46,9 +46,11 @@ __all__ = ["IdentifyError", "Result", "canonical", "dynamic_segments", "identify
 HELDOUT_EVERY = 3  # every third dynamic segment is held out of all fitting
 
 
-def identify(channels, events, description: Damper, progress=print, dynamic=True) -> Result:
+def identify(channels, events, description: Damper, progress=print, dynamic=True, smoothing=None) -> Result:
     """A damper model from a recording (see the module docstring). dynamic=False stops
-    after the incompressible valve step (what the live view shows while a test runs)."""
+    after the incompressible valve step (what the live view shows while a test runs).
+    smoothing: the source's moving average (models/source_filter.py), which the compressible
+    fit's and the held-out segments' simulated force go through."""
     if missing(channels, ("force", "x")):
         raise IdentifyError(f"recording has no {' or '.join(missing(channels, ('force', 'x')))} channel: "
                             "nothing can be identified")
@@ -64,7 +66,7 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
     # valves and the compressible model
     need = missing(channels, ("T_body",))
     gapped = []
-    dyn = dynamic_segments(channels, events, gapped)
+    dyn = dynamic_segments(channels, events, gapped, smoothing)
     if gapped:
         res.steps["data"] = (f"{len(gapped)} sine segment(s) left out for a gap in force or displacement longer "
                              f"than {100 * GAP_CYCLE_SHARE:g} % of a cycle (a stalled loop or lost frames): "

@@ -40,6 +40,8 @@ def simulate_segment(d: Damper, s: Segment, cycles=None, full=False):
         end = min(end, s.score_from + int(cycles / s.freq / (s.t[1] - s.t[0])))
     x = np.clip(s.x[:end], 0.0, d.geometry.stroke)
     r = simulate(d, s.t[:end], x, s.v[:end], T=s.T, compressible=True, x_e=float(s.x.mean()))
+    if s.smoothing is not None:  # as the file's force was written (models/source_filter.py)
+        r.force = s.smoothing.apply(r.force, s.t[:end], float(s.t[1] - s.t[0]), s.freq or None)
     return r if full else r.force[s.score_from:]
 
 

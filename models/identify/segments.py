@@ -49,15 +49,16 @@ class Segment:
     tP: np.ndarray | None = None  # the gas pressure as sampled (scored part) [s]
     P: np.ndarray | None = None  # [Pa]
     chambers: dict | None = None  # {"t", "x", "v", "P1", "P2", "P_gas"} at the pressure samples
+    smoothing: object = None  # the source's moving average (models/source_filter.Smoothing): a model goes through it
 
     @property
     def freq(self):
         return float(self.params.get("freq_hz", 0.0))
 
 
-def dynamic_segments(channels, events, left_out=None):
-    """The sine segments (sine matrix, temperature sweep, imported cycling) as Segments;
-    one with a gap in its force or displacement record longer than GAP_CYCLE_SHARE of its
+def dynamic_segments(channels, events, left_out=None, smoothing=None):
+    """The sine segments (sine matrix, temperature sweep, imported cycling) as Segments,
+    each with the moving average its source applied (smoothing, or None); one with a gap in its force or displacement record longer than GAP_CYCLE_SHARE of its
     cycle is left out (its name appended to left_out): resampled across it, the segment
     would be data never measured."""
     spans = segments(events, kinds=("sine",))
@@ -84,7 +85,8 @@ def dynamic_segments(channels, events, left_out=None):
         v = smooth(at(channels, "v", t) if "v" in channels else np.gradient(x, t), h, f)
         T = float(at(channels, "T_body", t).mean()) if "T_body" in channels else T_STD
         P = at(channels, "P_gas", t) if "P_gas" in channels else None
-        seg = Segment(name, params, t, x, v, at(channels, "force", t), T, P, int(np.searchsorted(t, t0)))
+        seg = Segment(name, params, t, x, v, at(channels, "force", t), T, P, int(np.searchsorted(t, t0)),
+                      smoothing=smoothing)
         if P is not None:
             tp, pv = channels["P_gas"]
             k = (tp >= t0) & (tp <= t1)

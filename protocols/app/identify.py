@@ -46,16 +46,17 @@ def description(arg, meta):
     return dm.from_dict(json.loads(text))
 
 
-def model_of(channels, events, desc, names, say):
+def model_of(channels, events, desc, names, say, smoothing=None):
     """The identification (models/identify) of a recording's data into the layout and
-    geometry of desc; RigError when nothing can be identified."""
+    geometry of desc, through its source's moving average (smoothing); RigError when
+    nothing can be identified."""
     from models.identify import IdentifyError, identify
     if desc.layout == "simplified":
         raise dm.DamperError(f"{desc.name}: a simplified model has no layout or geometry to identify into")
     say(f"identify: {desc.layout} with the geometry of '{desc.name}' (layout, geometry, T0 and T_ref are taken "
         f"from the description; everything else from the data)")
     try:
-        res = identify(channels, events, desc, progress=say)
+        res = identify(channels, events, desc, progress=say, smoothing=smoothing)
     except IdentifyError as e:
         raise UsageError(str(e)) from None
     except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:  # a fit that cannot proceed
@@ -78,7 +79,7 @@ def _one(task):
         try:
             channels, events, meta = load_recording(path)
             d = dm.from_dict(desc) if desc is not None else description(None, meta)
-            res = model_of(channels, events, d, [name], lambda m: None)
+            res = model_of(channels, events, d, [name], lambda m: None, source_filter.of(meta))
         except (UsageError, RigError, dm.DamperError) as e:
             return name, None, str(e).replace(str(path), name)
     return name, {"model": dm.to_dict(res.damper), "summary": _clean(summary(res))}, None
@@ -125,10 +126,7 @@ def run(args):
     desc = description(args.damper, meta)
     truth = dm.load(args.truth) if args.truth else None
     say = (lambda m: print(m, file=sys.stderr)) if args.json else print
-    if source_filter.of(meta):  # (the minimal model, without --damper, goes through it)
-        say(f"identify: the recording's source smoothed it ({source_filter.of(meta).text()}): the full model is "
-            f"fitted to it unfiltered, and the filter's rounding at each reversal is in its fit")
-    res = model_of(channels, events, desc, args.recordings, say)
+    res = model_of(channels, events, desc, args.recordings, say, source_filter.of(meta))
     with written(out) as tmp:
         dm.save(res.damper, tmp)
     doc = summary(res)

@@ -148,7 +148,7 @@ def smoothed(name, t, y, cycles, declared=None):
     channel, so every stretch must show it (a damper's own slow change from cycle to cycle
     can in one). Undeclared, the flag says how wide a moving average the correlation reads
     (_window)."""
-    rho, widths = [], []
+    rho, stretches = [], []
     for f, t0, t1 in cycles:
         k = np.nonzero((t >= t0 + 1.01 / f) & (t <= t1))[0]
         h = float(np.median(np.diff(t)))
@@ -158,10 +158,10 @@ def smoothed(name, t, y, cycles, declared=None):
         ss = float(e @ e)
         if np.sqrt(ss / len(e)) > 1e-5 * np.ptp(y):  # a noiseless recording has nothing to tell
             rho.append(float(e[:-1] @ e[1:]) / ss)
-            widths.append((_window(e, int(0.5 / (f * h))), h, f))
+            stretches.append((e, h, f))
     if not rho or min(rho) <= SMOOTHED_RHO:
         return []
-    n, h, f = sorted(widths)[len(widths) // 2]
+    n, h, f = sorted((_window(e, int(0.5 / (f * h))), h, f) for e, h, f in stretches)[len(stretches) // 2]
     return [Flag(name, "smoothed", np.nan, np.nan, 0,
                  f"{name} was smoothed by its source (a moving average or a low-pass before the file was "
                  f"written): its change from one cycle to the next keeps a sample-to-sample correlation of "
@@ -184,7 +184,9 @@ def _window(e, most):
     them 0.15-0.25."""
     L = max(3, min(most, len(e) // 4))
     e = e - e.mean()
-    ac = np.array([e[:len(e) - j] @ e[j:] for j in range(L)]) / float(e @ e)
+    spectrum = np.fft.rfft(e, 2 * len(e))  # zero-padded: the linear, not the circular, correlation
+    ac = np.fft.irfft(np.abs(spectrum) ** 2)[:L]
+    ac = ac / ac[0]
     lags = np.arange(L)
     err = [float(np.sum((ac - np.maximum(0.0, 1.0 - lags / m)) ** 2)) for m in range(2, L)]
     return 2 + int(np.argmin(err)) if err else 1

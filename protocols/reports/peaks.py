@@ -107,15 +107,38 @@ class Sampled:
         return SimpleNamespace(force=np.interp(t, self.t, self.force))
 
 
+@dataclass
+class ThroughSource:
+    """A full damper model read through the moving average a recording's source applied
+    (models/source_filter.py): its force along a stretch of motion, filtered at the
+    stretch's own period (its displacement's strongest frequency)."""
+    damper: object
+    smoothing: object
+
+    @property
+    def name(self):
+        return self.damper.name
+
+    def simulate(self, t, x, v, T=None):
+        r = simulate_segment(self.damper, t, x, v, T)
+        spectrum = np.abs(np.fft.rfft(x - np.mean(x), 8 * len(x)))  # padded: a few cycles still read finely
+        f = float(np.fft.rfftfreq(8 * len(x), float(np.median(np.diff(t))))[1 + np.argmax(spectrum[1:])])
+        r.force = self.smoothing.apply(r.force, t, float(np.median(np.diff(t))), f)
+        return r
+
+
 def along(model, ch, events, meta=None):
     """The model to read along this recording: a minimal model with the diagnosis's effects
     (which read time, history and auxiliary channels, and are built on the recording they
     were fitted on), or along a recording its source smoothed (meta: load_recording's; the
     model goes through the same filter), computed once along all of it (Sampled; between
-    the samples the diagnosis keeps, interpolated); any other model as it is. DamperError
+    the samples the diagnosis keeps, interpolated); a full damper model along a smoothed
+    recording through its filter (ThroughSource); any other model as it is. DamperError
     when its source recording or a channel its effects read is missing."""
     from models import source_filter
     smoothing = source_filter.of(meta or {})
+    if smoothing and hasattr(model, "geometry"):  # a full damper model, simulated stretch by stretch
+        return ThroughSource(model, smoothing)
     if not getattr(model, "effects", None) and not (smoothing and hasattr(model, "along")):
         return model
     if not model.effects:

@@ -32,8 +32,8 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     segs = segments(events)
-    model = peaks.along(model, ch, events, meta)
     full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
+    model = peaks.along(model, ch, events, meta)
     rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
     figures = (sines.figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out, units)
                + _low_speed_figures(ch, segs, out, units) + _temperature_figures(ch, segs, out, units)

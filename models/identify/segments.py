@@ -58,9 +58,10 @@ class Segment:
 
 def dynamic_segments(channels, events, left_out=None, smoothing=None):
     """The sine segments (sine matrix, temperature sweep, imported cycling) as Segments,
-    each with the moving average its source applied (smoothing, or None); one with a gap in its force or displacement record longer than GAP_CYCLE_SHARE of its
-    cycle is left out (its name appended to left_out): resampled across it, the segment
-    would be data never measured."""
+    each with the moving average its source applied (smoothing, or None); one with a gap
+    in its force or displacement record longer than GAP_CYCLE_SHARE of its cycle is left
+    out (its name appended to left_out): resampled across it, the segment would be data
+    never measured."""
     spans = segments(events, kinds=("sine",))
     if not spans and not events:  # an imported recording: blocks of whole cycles
         spans = cycle_blocks(channels)

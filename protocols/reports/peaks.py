@@ -121,9 +121,11 @@ class ThroughSource:
 
     def simulate(self, t, x, v, T=None):
         r = simulate_segment(self.damper, t, x, v, T)
-        spectrum = np.abs(np.fft.rfft(x - np.mean(x), 8 * len(x)))  # padded: a few cycles still read finely
-        f = float(np.fft.rfftfreq(8 * len(x), float(np.median(np.diff(t))))[1 + np.argmax(spectrum[1:])])
-        r.force = self.smoothing.apply(r.force, t, float(np.median(np.diff(t))), f)
+        h, f = float(np.median(np.diff(t))), None
+        if self.smoothing.per_period:  # padded: a few cycles still read finely
+            spectrum = np.abs(np.fft.rfft(x - np.mean(x), 8 * len(x)))
+            f = float(np.fft.rfftfreq(8 * len(x), h)[1 + np.argmax(spectrum[1:])])
+        r.force = self.smoothing.apply(r.force, t, h, f)
         return r
 
 

@@ -9,6 +9,7 @@ import json
 import os
 import re
 import sqlite3
+import time
 from contextlib import closing, contextmanager, suppress
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -113,6 +114,35 @@ def _ours(c: sqlite3.Connection, db):
     _refuse(db, f"{why}; it is left as it is (move it, or index another folder)")
 
 
+@contextmanager
+def _writing(c: sqlite3.Connection):
+    """One write transaction, taken at its start (BEGIN IMMEDIATE): a second writer waits
+    its turn (BUSY_MS) instead of failing when a read it began turns into a write, and what
+    the block read still holds when it writes (another process may have added the row)."""
+    c.execute("BEGIN IMMEDIATE")
+    try:
+        yield c
+    except BaseException:
+        c.rollback()
+        raise
+    c.commit()
+
+
+def _wal(c: sqlite3.Connection):
+    """The catalogue in WAL mode (readers never wait for a writer). Switching a new file to it
+    is refused at once, not after the busy wait, while another process holds it (SQLite's
+    deadlock rule): tried again until BUSY_MS."""
+    deadline = time.monotonic() + BUSY_MS / 1000
+    while True:
+        try:
+            c.execute("PRAGMA journal_mode=WAL")
+            return
+        except sqlite3.OperationalError as e:
+            if "locked" not in str(e) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.01)
+
+
 def connect(folder, write=True) -> sqlite3.Connection:
     """The catalogue of recordings in `folder`: created if missing when write, opened
     read-only otherwise (a reader never changes the file). A file that is not a catalogue
@@ -140,10 +170,12 @@ def connect(folder, write=True) -> sqlite3.Connection:
         c.text_factory = _text
         c.execute("PRAGMA foreign_keys=ON")
         if write:
-            c.execute("PRAGMA journal_mode=WAL")
-            if c.execute("PRAGMA application_id").fetchone()[0] == 0:
-                c.execute(f"PRAGMA application_id = {APPLICATION_ID}")
-            c.executescript(SCHEMA)
+            _wal(c)
+            with _writing(c):  # made whole or not at all: a second writer never sees it half made
+                if c.execute("PRAGMA application_id").fetchone()[0] == 0:
+                    c.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+                for statement in filter(str.strip, SCHEMA.split(";")):
+                    c.execute(statement)
         return c
     except (sqlite3.DatabaseError, UnicodeDecodeError) as e:  # OperationalError too: locked, read-only folder
         _refuse(db, f"cannot open it ({_first(e)})")
@@ -211,10 +243,12 @@ def index(folder) -> Indexed:
 
 def index_file(c: sqlite3.Connection, path) -> str:
     """Index one recording: "added", "updated", "unchanged" or "failed" (its error kept). A
-    changed recording keeps its row, so its checks, models and diagnoses stay with it."""
+    changed recording keeps its row, so its checks, models and diagnoses stay with it. Safe
+    beside other writers of the catalogue: the file is read outside the transaction, its row
+    looked up and written inside one (the last writer's description stands)."""
     path = Path(path).resolve()
     st = path.stat()
-    old = c.execute("SELECT id, size, mtime FROM runs WHERE path = ?", (str(path),)).fetchone()
+    old = c.execute("SELECT size, mtime FROM runs WHERE path = ?", (str(path),)).fetchone()
     if old is not None and old["size"] == st.st_size and old["mtime"] == st.st_mtime:
         return "unchanged"
     try:
@@ -222,18 +256,20 @@ def index_file(c: sqlite3.Connection, path) -> str:
     except Exception as e:  # noqa: BLE001 - a file that cannot be read is a row with its error
         row, peaks = {"error": str(e).splitlines()[0] or type(e).__name__}, []
     row = {**dict.fromkeys(COLUMNS), **row, "path": str(path), "size": st.st_size, "mtime": st.st_mtime}
-    with c:  # one transaction per run
-        if old is None:
-            run_id = c.execute(f"INSERT INTO runs ({', '.join(row)}) VALUES ({', '.join('?' * len(row))})",
-                               list(row.values())).lastrowid
-        else:
-            run_id = old["id"]
+    with _writing(c):  # one transaction per run
+        run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(path),)).fetchone()
+        existed = run_id is not None
+        if existed:
+            run_id = run_id["id"]
             c.execute(f"UPDATE runs SET {', '.join(k + ' = ?' for k in row)} WHERE id = ?", [*row.values(), run_id])
             c.execute("DELETE FROM peaks WHERE run_id = ?", (run_id,))
+        else:
+            run_id = c.execute(f"INSERT INTO runs ({', '.join(row)}) VALUES ({', '.join('?' * len(row))})",
+                               list(row.values())).lastrowid
         c.executemany("INSERT INTO peaks VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [(run_id, *p) for p in peaks])
     if row.get("error"):
         return "failed"
-    return "added" if old is None else "updated"
+    return "updated" if existed or old is not None else "added"
 
 
 @contextmanager
@@ -268,8 +304,8 @@ def _attach(path, table, values, what) -> str:
     try:
         with beside(path) as c:
             index_file(c, path)
-            run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(path),)).fetchone()["id"]
-            with c:
+            with _writing(c):
+                run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(path),)).fetchone()["id"]
                 c.execute(f"INSERT INTO {table} VALUES ({', '.join('?' * (len(values) + 2))})",
                           (run_id, datetime.now(timezone.utc).isoformat(timespec="seconds"), *values))
     except CatalogueError as e:

@@ -6,6 +6,7 @@ import subprocess
 import sys
 import threading
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -80,6 +81,47 @@ def test_two_runs_ending_at_once_are_both_indexed(folder, tmp_path):
         t.join()
     with catalogue.connect(tmp_path) as c:
         assert not errors and len(catalogue.runs(c)) == 2
+
+
+def _write_at(start, kind, folder):
+    """One catalogue writer of a recording, begun at the wall-clock `start` (so that four
+    in four processes overlap): dyno runs index, check, identify or diagnose's write."""
+    import time
+    time.sleep(max(0.0, start - time.time()))
+    rec = Path(folder) / "run.mcap"
+    try:
+        if kind == "index":
+            got = catalogue.index(folder)
+            return "" if got.failed == 0 else f"index failed {got.failed}"
+        said = {"check": lambda: catalogue.add_check(rec, "ref.mcap", "5%", [SimpleNamespace(passed=True, margin_N=3.0)]),
+                "model": lambda: catalogue.add_model(rec, Path(folder) / "m.json", 0.01, {"c1_c": 1.0}),
+                "diagnosis": lambda: catalogue.add_diagnosis(rec, "baseline", [], [], True)}[kind]()
+        return "" if " catalogued in " in said else said
+    except Exception as e:  # noqa: BLE001 - a traceback is what the test looks for
+        return f"{kind}: {type(e).__name__}: {e}"
+
+
+def test_four_writers_of_one_catalogue_at_once_lose_no_row_twenty_times(folder, tmp_path):
+    """A check, an identify, a diagnosis and an index of one recording, in four processes at
+    once, on a catalogue that does not exist yet: each row lands, none twice, no error."""
+    import multiprocessing
+    import time
+    from concurrent.futures import ProcessPoolExecutor
+    kinds = ("index", "check", "model", "diagnosis")
+    with ProcessPoolExecutor(4, mp_context=multiprocessing.get_context("fork")) as pool:
+        list(pool.map(time.sleep, [0.01] * 4))  # the workers up before the first round
+        for round_ in range(20):
+            d = tmp_path / f"r{round_}"
+            d.mkdir()
+            shutil.copy(folder / "d12-a.mcap", d / "run.mcap")
+            start = time.time() + 0.05
+            said = list(pool.map(_write_at, [start] * 4, kinds, [str(d)] * 4))
+            assert said == [""] * 4, (round_, said)
+            with catalogue.reading(d) as c:
+                (run,) = catalogue.runs(c)
+                assert run["error"] is None and run["serial"] == "D12"
+                assert [len(catalogue.attached(c, t, run["id"])) for t in ("checks", "models", "diagnoses")] == [1, 1, 1]
+                assert len(catalogue.run(c, run["id"])[1]) == 2  # its two sine segments' peaks, once
 
 
 def test_runs_are_found_by_a_where_expression_on_fields_and_setup(folder):

@@ -76,21 +76,74 @@ def only(events, names):
     return [e for e in events if not isinstance(e, (SegmentStart, SegmentEnd)) or e.segment in names]
 
 
+# Two sine segments are one test (a test repeated within a run, the same test in runs
+# compared) when their amplitudes lie within SAME_TEST_AMPLITUDE of the larger, their
+# frequencies within SAME_TEST_FREQUENCY, and their target temperatures within SAME_TEST_K
+# (or neither is a temperature test). An imported run's amplitude and frequency are estimated
+# from a few cycles (0.252 and 0.254 Hz for one 0.25 Hz test); the steps of a test matrix lie
+# far wider apart (12.7 / 6.4 mm, 1 / 4 / 12 Hz, 20 / 45 / 80 C) - a choice, docs/recording.md
+SAME_TEST_AMPLITUDE = 0.05
+SAME_TEST_FREQUENCY = 0.02
+SAME_TEST_K = 2.5
+
+
+def near(a, b, share) -> bool:
+    """a and b within `share` of the larger."""
+    return abs(a - b) <= share * max(abs(a), abs(b))
+
+
+class Test(NamedTuple):
+    """What a sine test is, as two runs or two repeats are matched by: never its name,
+    which carries an estimate's digits."""
+    amplitude_mm: float
+    freq_hz: float
+    target_c: float | None = None  # a temperature sweep's target [C]
+
+    @classmethod
+    def of(cls, params: dict) -> Test:
+        target = params.get("target_c")
+        return cls(float(params["amplitude_mm"]), float(params["freq_hz"]),
+                   None if target is None or not np.isfinite(target) else float(target))
+
+    def same(self, other: Test) -> bool:
+        if (self.target_c is None) != (other.target_c is None):
+            return False
+        return (near(self.amplitude_mm, other.amplitude_mm, SAME_TEST_AMPLITUDE)
+                and near(self.freq_hz, other.freq_hz, SAME_TEST_FREQUENCY)
+                and (self.target_c is None or abs(self.target_c - other.target_c) <= SAME_TEST_K))
+
+    def __str__(self):
+        return f"{self.amplitude_mm:g} mm {self.freq_hz:g} Hz" + ("" if self.target_c is None else
+                                                                   f" at {self.target_c:g} C")
+
+
+def same_tests(tests) -> list[int]:
+    """The group of each test in order: the index of the first earlier test it is the same
+    test as (Test.same), else its own."""
+    out = []
+    for i, t in enumerate(tests):
+        out.append(next((out[j] for j in range(i) if out[j] == j and tests[j].same(t)), i))
+    return out
+
+
 REPEATS_DIFFER = 0.15  # repeats of one test whose force ranges differ by more were not one damper
 
 
 def differing_repeats(channels, events) -> list[tuple[str, list[str], list[float]]]:
     """[(test, [segment names], [force range, N])] of the sine tests run more than once
-    (their repeats named "NAME (2)", ...) whose force ranges (1 to 99 %) differ by more than
-    REPEATS_DIFFER: something the recording does not carry changed between them (a coil
-    current, an adjuster, the oil's temperature), and one model cannot follow them all."""
-    groups = {}
+    (Test.same) whose force ranges (1 to 99 %) differ by more than REPEATS_DIFFER: something
+    the recording does not carry changed between them (a coil current, an adjuster, the
+    oil's temperature), and one model cannot follow them all."""
     t, F = channels["force"]
-    for name, _prm, t0, t1 in segments(events, kinds=("sine",)):
-        k = (t >= t0) & (t <= t1)
-        if k.sum() > 10:
-            groups.setdefault(re.sub(r" \(\d+\)$", "", name), []).append((name, float(np.ptp(np.percentile(F[k], [1, 99])))))
-    return [(test, [n for n, _ in g], [r for _, r in g]) for test, g in groups.items()
+    spans = []
+    for span in segments(events, kinds=("sine",)):
+        k = (t >= span.t0) & (t <= span.t1)
+        if k.sum() > 10 and "amplitude_mm" in span.params:
+            spans.append((span, float(np.ptp(np.percentile(F[k], [1, 99])))))
+    groups = {}
+    for (span, spread), g in zip(spans, same_tests([Test.of(s.params) for s, _ in spans])):
+        groups.setdefault(g, []).append((span.name, spread))
+    return [(re.sub(r" \(\d+\)$", "", g[0][0]), [n for n, _ in g], [r for _, r in g]) for g in groups.values()
             if len(g) > 1 and max(r for _, r in g) > (1 + REPEATS_DIFFER) * min(r for _, r in g)]
 
 

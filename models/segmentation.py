@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 from models.events import Event, SegmentEnd, SegmentStart
-from models.recording import segments
+from models.recording import Test, same_tests, segments
 
 MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise about a hold)
 REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back
@@ -137,11 +137,18 @@ def find(t, x) -> list[Segment]:
         out = [s for s in out if s.params["cycles"] >= CHANCE_CYCLES]
     out += still
     out.sort(key=lambda s: s.t0)
+    # the same test repeated (at another current, another temperature): numbered, under the
+    # first's name (a repeat's estimated frequency differs in the last digit)
+    sines = [s for s in out if s.kind == "sine"]
+    groups = same_tests([Test.of(s.params) for s in sines])
+    for i, g in enumerate(groups):
+        if g != i:
+            sines[i].name = f"{sines[g].name} ({groups[:i + 1].count(g)})"
     seen = {}
-    for s in out:  # the same test repeated (at another current, another temperature): numbered
-        seen[s.name] = seen.get(s.name, 0) + 1
-        if seen[s.name] > 1:
-            s.name = f"{s.name} ({seen[s.name]})"
+    for s in out:
+        if s.kind == "hold":
+            seen[s.name] = seen.get(s.name, 0) + 1
+            s.name += f" ({seen[s.name]})" if seen[s.name] > 1 else ""
     return out
 
 

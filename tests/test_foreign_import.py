@@ -5,6 +5,7 @@ sign convention."""
 import json
 import math
 import warnings
+from pathlib import Path
 from datetime import datetime, timedelta, timezone
 
 import numpy as np
@@ -670,6 +671,57 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
     assert doc["repeats_differ"] == []
     one_line_error(dyno("identify", tmp_path / "x.mcap", "--segment", "sine 5 mm", "--out", tmp_path / "o.json"),
                    "no segment 'sine 5 mm'", "sine 19 mm 1.05 Hz (2)")
+
+
+def test_repeats_whose_estimated_frequency_differs_in_the_last_digit_are_one_test(tmp_path):
+    """Five repeats of one test at five settings, each cycle counted from the file: their
+    estimated frequencies differ in the third digit, and they are one test run five times."""
+    parts, t0 = [], 0.0
+    for k, hz in enumerate((1.050, 1.056, 1.044, 1.061, 1.053)):
+        t, x, F = crank(n=int(10 / hz * RATE), hz=hz)
+        F = F + 1500 * k * np.gradient(x, t)  # stiffer each time (a coil current, a clicker)
+        hold = np.arange(1, int(RATE)) / RATE
+        parts.append((np.concatenate([t, t[-1] + hold]) + t0, np.concatenate([x, np.full(len(hold), x[-1])]),
+                      np.concatenate([F, np.full(len(hold), F[-1])])))
+        t0 = parts[-1][0][-1] + 1 / RATE
+    t, x, F = (np.concatenate([p[i] for p in parts]) for i in range(3))
+    F = F + np.random.default_rng(4).normal(0, 3.0, len(t))
+    src = _written(tmp_path, "five.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                              for a, b, c in zip(t, x, F)))
+    _, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    first = r.stdout.split("segments: 5 periodic: ")[1].split(" (")[0]
+    assert all(f"{first} ({k}) (" in r.stdout for k in range(2, 6)), r.stdout
+    r = dyno("identify", tmp_path / "x.mcap", "--out", tmp_path / "m.json")
+    assert f"note: {first} was run 5 times" in r.stdout, r.stdout + r.stderr
+
+
+def test_five_runs_of_one_test_at_five_currents_are_all_compared(tmp_path):
+    """The UTFSM damper's 25 mm 0.5 Hz test at five coil currents (real files, their
+    frequencies estimated 0.507 and 0.508 Hz): the comparison tables all five."""
+    src = Path(__file__).parent / "data" / "mr-damper-utfsm" / "sine"
+    recs = []
+    for current in ("0", "0x25", "0x5", "0x75", "1"):
+        recs.append(tmp_path / f"{current}.mcap")
+        r = dyno("import", src / f"25mm0x5Hz{current}A.txt", "--out", recs[-1], "--map", "time=1:s", "--map",
+                 "displacement=2:mm", "--map", "velocity=3:mm/s", "--map", "force=4:N", "--smoothed", "0.1period")
+        assert r.returncode == 0, r.stderr
+    r = dyno("report", *recs, "--out", tmp_path / "cmp")
+    assert r.returncode == 0, r.stderr
+    rows = (tmp_path / "cmp" / "differences.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in rows] == ["B", "C", "D", "E"]
+    forces = [float(row.split(",")[5]) for row in rows]
+    assert forces == sorted(forces) and forces[0] > float(rows[0].split(",")[4])  # more current, more force
+    assert (tmp_path / "cmp" / "compare_loops.png").is_file()
+    assert "is not in the table" not in (tmp_path / "cmp" / "index.html").read_text()
+    # a run of another test is left out of the table, and the page says so with why
+    t, x, F = crank(n=int(12 / 1.05 * RATE))
+    crank_csv = _written(tmp_path, "crank.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                                    for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, crank_csv, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("report", recs[0], recs[4], tmp_path / "x.mcap", "--out", tmp_path / "three")
+    page = (tmp_path / "three" / "index.html").read_text()
+    assert r.returncode == 0 and "C is not in the table of peak forces: none of its tests (19 mm 1.05 Hz)" in page
+    assert "B is not in the table" not in page
 
 
 def test_every_effect_of_the_catalogue_is_said_in_a_sentence():

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from models.recording import segments, sign_problem
+from models.recording import SAME_TEST_AMPLITUDE, SAME_TEST_FREQUENCY, SAME_TEST_K, near, segments, sign_problem
 from protocols.io.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
@@ -46,23 +46,40 @@ def run_name(meta, path) -> str:
     return " · ".join(parts) or Path(path).name
 
 
+def shared(p, rows):
+    """The row of `rows` that is the same test as Peak p (Test.same), the nearest in
+    frequency when several are; None when none is."""
+    same = [q for q in rows if p.test.same(q.test)]
+    return min(same, key=lambda q: (abs(q.freq_hz - p.freq_hz), abs(q.amplitude_mm - p.amplitude_mm)), default=None)
+
+
 def differences(ref, others):
     """[(tag, amplitude, freq, target, F comp ref, F comp, diff %, F reb ref, F reb, diff %)]
-    of every segment a run shares with the first (positive: stronger than the first)."""
-    by_key = {}
-    for p in ref:
-        by_key.setdefault(p.key, p)
+    of every test a run shares with the first (positive: stronger than the first); a test
+    the first ran several times is compared with its first run."""
     out = []
     for tag, rows in others:
-        seen = set()
-        for q in rows:
-            p = by_key.get(q.key)
-            if p is None or q.key in seen:
+        taken = set()
+        for i, p in enumerate(ref):
+            q = shared(p, [q for q in rows if id(q) not in taken])
+            if q is None or any(p.test.same(r.test) for r in ref[:i]):
                 continue
-            seen.add(q.key)
+            taken.add(id(q))
             out.append((tag, p.amplitude_mm, p.freq_hz, p.target_c, p.F_comp, q.F_comp, _pct(q.F_comp, p.F_comp),
                         p.F_reb, q.F_reb, _pct(-q.F_reb, -p.F_reb)))
     return out
+
+
+def left_out(runs, diffs) -> list[str]:
+    """A sentence for each run after the first that shares no test with it, saying why it is
+    not in the table (its tests and the first's)."""
+    first_tag, _, first_rows, _ = runs[0]
+    tests = lambda rows: ", ".join(dict.fromkeys(str(p.test) for p in rows)) or "no sine test"
+    in_table = {d[0] for d in diffs}
+    return [f"{tag} is not in the table of peak forces: none of its tests ({tests(rows)}) is one of {first_tag}'s "
+            f"({tests(first_rows)}; one test: amplitudes within {100 * SAME_TEST_AMPLITUDE:g} %, frequencies "
+            f"within {100 * SAME_TEST_FREQUENCY:g} %, target temperatures within {SAME_TEST_K:g} C)"
+            for tag, _, rows, _ in runs[1:] if tag not in in_table]
 
 
 def _pct(b, a):
@@ -93,6 +110,8 @@ def compare(paths, out_dir, units=Units()):
     diffs = [(tag, L(a * 1e-3), fr, T(Tc + 273.15), F(c0), F(c), dc, F(r0), F(r), dr)
              for tag, a, fr, Tc, c0, c, dc, r0, r, dr in diffs]
     pngs = []
+    for sentence in left_out(runs, diffs) if any(rows for _, _, rows, _ in runs) else ():
+        page.paragraph(sentence)
     if diffs:
         with open(out / "differences.csv", "w", newline="") as f:
             w = csv.writer(f)
@@ -165,13 +184,16 @@ def _composite(runs, out, units):
     """The single report's composite for every run: colour per run, solid compression,
     dashed rebound, a marker per amplitude."""
     damping = all(np.isfinite(p.Fd_comp) for _, _, rows, _ in runs for p in rows)
-    amps = sorted({p.amplitude_mm for _, _, rows, _ in runs for p in rows}, reverse=True)
+    amps = []  # one marker per amplitude: estimates of one amplitude (24.4, 24.5 mm) share it
+    for a in sorted({p.amplitude_mm for _, _, rows, _ in runs for p in rows}, reverse=True):
+        amps += [] if any(near(a, b, SAME_TEST_AMPLITUDE) for b in amps) else [a]
     V, F = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
     fig, ax = plt.subplots(figsize=(8, 5.5))
     for i, (tag, path, rows, meta) in enumerate(runs):
         c = f"C{i % 10}"
         for a in amps:
-            ps = sorted((p for p in rows if p.amplitude_mm == a and np.isnan(p.target_c)), key=lambda p: p.v_comp)
+            ps = sorted((p for p in rows if near(p.amplitude_mm, a, SAME_TEST_AMPLITUDE) and np.isnan(p.target_c)),
+                        key=lambda p: p.v_comp)
             if not ps:
                 continue
             m = MARKERS[amps.index(a) % len(MARKERS)]
@@ -201,14 +223,14 @@ def _loops(runs, loops, out, units):
     """(title, PNG) of the loops of the fastest segment every run shares with the first,
     overlaid: force against velocity and against displacement, one colour per run; None
     when no segment is in every run."""
-    shared = set.intersection(*({p.key for p in rows} for _, _, rows, _ in runs))
-    if not shared:
+    everywhere = [p for p in runs[0][2] if all(shared(p, rows) for _, _, rows, _ in runs[1:])]
+    if not everywhere:
         return None
-    first = max((p for p in runs[0][2] if p.key in shared), key=lambda p: p.v_comp)
+    first = max(everywhere, key=lambda p: p.v_comp)
     V, X, F = (lambda si, q=q: units.show(q, si) for q in ("velocity", "length", "force"))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     for i, (tag, path, rows, meta) in enumerate(runs):
-        name = next(p.segment for p in rows if p.key == first.key)
+        name = shared(first, rows).segment
         if name not in loops[tag]:
             continue
         v, x, f = loops[tag][name]

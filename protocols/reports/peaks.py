@@ -51,9 +51,10 @@ class Peak:
     model_stroke_F: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
-    def key(self):
-        """What makes two recordings' segments comparable."""
-        return (self.amplitude_mm, self.freq_hz, None if np.isnan(self.target_c) else self.target_c)
+    def test(self):
+        """What makes two recordings' segments comparable (Test.same), never the name."""
+        from models.recording import Test
+        return Test.of(vars(self))
 
 
 

@@ -724,6 +724,34 @@ def test_five_runs_of_one_test_at_five_currents_are_all_compared(tmp_path):
     assert "B is not in the table" not in page
 
 
+def test_a_report_holds_no_value_the_file_does_not(tmp_path):
+    """An MR file without a thermocouple shows no temperature (not a room's 20 C), and the
+    options import was not given are no empty fields on the page."""
+    src = Path(__file__).parent / "data" / "mr-damper-utfsm" / "sine" / "25mm0x5Hz1A.txt"
+    _imported(tmp_path, src, "--map", "time=1:s", "--map", "displacement=2:mm", "--map", "velocity=3:mm/s", "--map",
+              "force=4:N", "--smoothed", "0.1period")
+    r = dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    head, row = (line.split(",") for line in (tmp_path / "rep" / "peaks.csv").read_text().splitlines()[:2])
+    assert row[head.index("T_C")] == ""
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "no body temperature" in page and "20.00" not in page
+    assert "flip ;" not in page and "damper ?" not in page
+
+
+@pytest.mark.parametrize("rod, ratio", [(0.1, 0.30), (0.12, 0.16)])
+def test_a_slider_cranks_speed_over_2_pi_f_a_is_its_geometry_not_an_actuator(tmp_path, rod, ratio):
+    """A slider crank's peak speed lies above 2 pi f A by its rod ratio (4.4 % at r/l 0.3)."""
+    t, x, F = crank(n=int(12 / 1.05 * RATE), stroke=0.06 if rod == 0.1 else 0.038, rod=rod)
+    src = _written(tmp_path, "crank.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                              for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "rep")
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert r.returncode == 0 and f"crank-to-rod ratio r/l about {ratio:.2f}" in page
+    assert "actuator" not in page
+
+
 def test_every_effect_of_the_catalogue_is_said_in_a_sentence():
     """Each effect the diagnosis may accept has its sentence (cavitation's ended in a
     KeyError on a real MR recording)."""

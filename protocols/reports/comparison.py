@@ -55,16 +55,16 @@ def shared(p, rows):
 
 def differences(ref, others):
     """[(tag, amplitude, freq, target, F comp ref, F comp, diff %, F reb ref, F reb, diff %)]
-    of every test a run shares with the first (positive: stronger than the first); a test
-    the first ran several times is compared with its first run."""
+    of every test a run shares with the first (positive: stronger than the first), in the
+    run's order; a test run several times is compared once, its first run with the first's."""
     out = []
     for tag, rows in others:
-        taken = set()
-        for i, p in enumerate(ref):
-            q = shared(p, [q for q in rows if id(q) not in taken])
-            if q is None or any(p.test.same(r.test) for r in ref[:i]):
+        seen = []
+        for q in rows:
+            p = next((p for p in ref if p.test.same(q.test)), None)
+            if p is None or any(p is s for s in seen):
                 continue
-            taken.add(id(q))
+            seen.append(p)
             out.append((tag, p.amplitude_mm, p.freq_hz, p.target_c, p.F_comp, q.F_comp, _pct(q.F_comp, p.F_comp),
                         p.F_reb, q.F_reb, _pct(-q.F_reb, -p.F_reb)))
     return out

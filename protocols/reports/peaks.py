@@ -42,6 +42,7 @@ class Peak:
     achieved_mm: float = np.nan  # amplitude the rod reached, half its travel over the segment [mm]
     short_pct: float = np.nan  # how far the peak speed fell short of 2 pi f A [% of it]; negative: over
     cycles: int = 0  # settled cycles the peaks are averaged over (0: read off single samples)
+    crank_ratio: float = np.nan  # the source's motion a slider crank's, of this r/l (crank_ratio()); nan: a sine
     adapted: str = ""  # recorded at another frequency than asked for by the pre-flight: what and why
     # the force read along the stroke (stroke()): speeds [m/s] rising from rebound to
     # compression, the measured force and the model's there [N]; what a one-speed run's
@@ -163,11 +164,21 @@ def settled_after(prm):
 
 
 def segment_temperature(ch, t0, t1):
-    """The body's mean temperature over [t0, t1] [K]."""
+    """The body's mean temperature over [t0, t1] [K]; nan when the recording has none (it
+    is shown as "-", never as a room temperature the file does not hold)."""
     if "T_body" not in ch:
-        return T_ROOM
+        return np.nan
     _, (T,) = window(ch, ("T_body",), t0, t1)
-    return float(np.mean(T)) if len(T) else T_ROOM
+    return float(np.mean(T)) if len(T) else np.nan
+
+
+def model_temperature(T):
+    """The temperature [K] a model is evaluated at: the measured one, T_ROOM without one."""
+    return T if np.isfinite(T) else T_ROOM
+
+
+NO_TEMPERATURE = (f"The recording has no body temperature: its T is shown as \"-\", and a model read along it is "
+                  f"evaluated at {T_ROOM - 273.15:g} C.")
 
 
 def stroke(v, F):
@@ -204,6 +215,7 @@ class Cycle:
     peak_phase: tuple  # (compression, rebound) phase of the fitted peak speeds
     v_peak: tuple  # (compression, rebound) fitted peak speeds [m/s]
     cycles: int  # whole cycles averaged
+    crank_ratio: float = np.nan  # a slider crank's crank-to-rod ratio r/l the stroke shows (crank_ratio())
 
     def at_peaks(self, y):
         """The mean of y over the samples within PHASE_WINDOW of each peak's phase, all
@@ -254,7 +266,31 @@ def cycle(t, x, freq_hz):
     vg = speed(grid)
     ic, ir = int(np.argmax(vg)), int(np.argmin(vg))
     return Cycle((t * f) % 1.0, speed(t), (ic / len(grid), ir / len(grid)), (float(vg[ic]), float(vg[ir])),
-                 int(t[-1] * f))
+                 int(t[-1] * f), crank_ratio(c))
+
+
+CRANK_SECOND = 0.01  # a second harmonic of at least this share of the stroke's fundamental ...
+CRANK_ALIGNED = 0.3  # ... in phase with it as a crank's (|sin| of the phase difference below this)
+
+
+def crank_ratio(c):
+    """A slider crank's crank-to-rod ratio r/l from a stroke's harmonic fit c (constant, then
+    sin and cos of each harmonic), nan when the stroke is no crank's. A slider crank moves
+    x = r (1 - cos th) + l (1 - sqrt(1 - (r/l)^2 sin^2 th)): to second order a fundamental and
+    a second harmonic of r/l / 4 of it, their phases locked (the two peak speeds equal, both
+    above 2 pi f r); a servo's or a Scotch yoke's sine has none."""
+    a1, a2 = np.hypot(c[1], c[2]), np.hypot(c[3], c[4])
+    if a1 <= 0 or a2 < CRANK_SECOND * a1:
+        return np.nan
+    aligned = abs(np.sin(np.arctan2(c[3], c[4]) - 2 * np.arctan2(c[1], c[2]))) < CRANK_ALIGNED
+    return float(4 * a2 / a1) if aligned else np.nan
+
+
+def crank_over(ratio):
+    """How far a slider crank's peak speed lies above 2 pi f r [share], at its ratio r/l:
+    the peak of sin th + (r/l) / 2 sin 2 th."""
+    th = np.linspace(0.0, np.pi, 4001)
+    return float(np.max(np.sin(th) + 0.5 * ratio * np.sin(2 * th)) - 1.0)
 
 
 def peaks(ch, segs, damper=None, model=None):
@@ -269,7 +305,8 @@ def peaks(ch, segs, damper=None, model=None):
             continue
         late = t >= t[0] + settled_after(prm)  # a model simulated along the segment has settled
         late = late if late.sum() > 10 else np.ones(len(t), bool)
-        T = segment_temperature(ch, t0, t1)
+        T_measured = segment_temperature(ch, t0, t1)
+        T = model_temperature(T_measured)
         # peak speed from the fitted motion, force from the averaged cycle at that phase (as
         # commercial dyno software reads it): a noisy velocity channel's largest sample is not
         # the rod's speed; a segment that is no sine falls back to single samples
@@ -282,8 +319,10 @@ def peaks(ch, segs, damper=None, model=None):
             ic, ir = (int(np.flatnonzero(late)[0] + f(v[late])) for f in (np.argmax, np.argmin))
             vc, Fc, vr, Fr, xs = float(v[ic]), float(F[ic]), float(v[ir]), float(F[ir]), x[[ic, ir]]
             v_read = v[late]
-        p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T - 273.15, vc, Fc, vr, Fr)
+        p = Peak(name, prm["amplitude_mm"], prm["freq_hz"], prm.get("target_c", np.nan), T_measured - 273.15, vc, Fc, vr,
+                 Fr)
         p.cycles = cyc.cycles if cyc is not None else 0
+        p.crank_ratio = cyc.crank_ratio if cyc is not None else np.nan
         p.achieved_mm = 0.5 * float(np.ptp(x[late])) * 1e3
         p.adapted = prm.get("adapted", "")
         p.stroke_v, p.stroke_F = stroke(v_read, F[late])
@@ -326,8 +365,9 @@ def scatter(ch, model=None):
     t, (F, x, v) = window(ch, ("force", "x", "v"), -np.inf, np.inf)
     lo, hi = np.quantile(v, [SCATTER_QUANTILE, 1 - SCATTER_QUANTILE])
     k = (v >= lo) & (v <= hi)
-    T = segment_temperature(ch, t[0], t[-1])
-    p = Peak(SCATTER, np.nan, np.nan, np.nan, T - 273.15, float(hi), np.nan, float(lo), np.nan)
+    T_measured = segment_temperature(ch, t[0], t[-1])
+    T = model_temperature(T_measured)
+    p = Peak(SCATTER, np.nan, np.nan, np.nan, T_measured - 273.15, float(hi), np.nan, float(lo), np.nan)
     p.stroke_v, p.stroke_F = stroke(v[k], F[k])
     if len(p.stroke_v) == 0:
         return None

@@ -163,7 +163,7 @@ def _rows(path, model=None, at_K=None):
 def _table_temperature(rows):
     """Mean body temperature [C] of the segments the velocity table reads (a temperature
     sweep's are another curve), nan without any."""
-    T = [p.T_c for p in rows if np.isnan(p.target_c)]
+    T = [p.T_c for p in rows if np.isnan(p.target_c) and np.isfinite(p.T_c)]
     return float(np.mean(T)) if T else np.nan
 
 

@@ -53,7 +53,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         peaks.write_csv(rows, out / "peaks.csv", units)
         page.heading("Peak forces per sine segment (also peaks.csv)")
         page.table(*peaks.table(rows, units))
-        _peak_notes(page, rows, units)
+        _peak_notes(page, rows, units, meta.get("protocol", {}).get("name") != "import")
     scattered = [] if rows else peaks.scattered(ch, segs, model)
     if rows or scattered:
         _velocity_section(page, rows or scattered, speeds, units, out)
@@ -86,9 +86,11 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     return index, [out / png for _, png in figures]
 
 
-def _peak_notes(page, rows, units):
+def _peak_notes(page, rows, units, ours=True):
     """What the peak table's reader needs said: the cycles averaged, peaks short of or over
     the target speed, and a compression peak's force below zero (the force's zero moved)."""
+    if not any(np.isfinite(p.T_c) for p in rows):
+        page.paragraph(peaks.NO_TEMPERATURE)
     averaged = sorted({p.cycles for p in rows if p.cycles})
     if averaged:
         page.paragraph(f"Peak speeds are those of a sine and its overtones fitted to the measured displacement; "
@@ -108,11 +110,27 @@ def _peak_notes(page, rows, units):
                        f"least as much: a load cell's offset the file kept (raw volts whose zero was not removed?) "
                        f"or its mean removed by the source. `dyno identify` measures it (a gas force below zero) "
                        f"and gives the --offset to import it with.")
-    over = [units.segment(p.segment) for p in rows if p.short_pct < -peaks.SHORT_PCT]
+    cranks = [p.crank_ratio for p in rows if np.isfinite(p.crank_ratio)]
+    if cranks:  # the source's kinematics, read off its stroke
+        r = float(np.median(cranks))
+        page.paragraph(f"The stroke is a slider crank's: its displacement carries a second harmonic locked to the "
+                       f"first as a crank's (crank-to-rod ratio r/l about {r:.2f}), so its peak speed lies "
+                       f"{100 * peaks.crank_over(r):.1f} % above 2 pi f A by its geometry.")
+    over = [p for p in rows if p.short_pct < -peaks.SHORT_PCT]
     if over:
-        page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {', '.join(over)}. "
-                       "The rod moved faster than asked (an overshooting actuator, or a run imported with "
-                       "another amplitude than it ran).")
+        crank = [p for p in over if np.isfinite(p.crank_ratio)
+                 and -p.short_pct <= 100 * peaks.crank_over(p.crank_ratio) + peaks.SHORT_PCT]
+        names = ", ".join(units.segment(p.segment) for p in over if all(p is not q for q in crank))
+        if crank:
+            page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} % as a slider crank's "
+                           f"geometry gives: {', '.join(units.segment(p.segment) for p in crank)}.")
+        if names and ours:
+            page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {names}. The rod "
+                           "moved faster than asked: an overshooting actuator.")
+        elif names:
+            page.paragraph(f"Over the target speed 2 pi f A by more than {peaks.SHORT_PCT:g} %: {names}, a test "
+                           "imported with its amplitude and frequency estimated from the file: its source's motion "
+                           "is no pure sine (the recording does not say how it was driven).")
 
 
 def _velocity_section(page, rows, speeds, units, out):
@@ -171,7 +189,7 @@ def _header(page, meta, events, model):
         page.paragraph("What the import said of the file:")
         page.items(tuple(n.split(": ", 1)) if ": " in n else ("import", n) for n in run["import_notes"].split("\n"))
     page.paragraph(f"Protocol {proto.get('name', '?')}, parameters {_params(proto.get('params', ''))}; damper "
-                   f"{damper.get('name', '?')}; rig {meta.get('rig', {}).get('name', '?')}."
+                   f"{damper.get('name', 'not named')}; rig {meta.get('rig', {}).get('name', 'not named')}."
                    + (f" Model overlaid: {model.name}." if model is not None else ""))
     ends = [e for e in events if isinstance(e, (*STOPS, RunEnd, Skipped))]
     moved = {prm["adapted_from"] for _, prm, _, _ in segments(events) if "adapted_from" in prm}
@@ -196,7 +214,8 @@ def _params(text):
         return text
     if not isinstance(params, dict):
         return text
-    return "; ".join(f"{k} {', '.join(map(str, v)) if isinstance(v, list) else v}" for k, v in params.items())
+    return "; ".join(f"{k} {', '.join(map(str, v)) if isinstance(v, list) else v}" for k, v in params.items()
+                     if v not in ("", [], None))  # an option not given is not a field
 
 
 def _round_item(e):

@@ -70,7 +70,8 @@ def _loops(ch, sine, groups, out, model, units):
             ax_v.plot(V(v), F_(F), lw=0.8, color=c, label=label)
             ax_x.plot(X(x), F_(F), lw=0.8, color=c, label=label)
             if model is not None:
-                Fm = peaks.simulate_segment(model, t, x, v, peaks.segment_temperature(ch, t0, t1)).force
+                Fm = peaks.simulate_segment(model, t, x, v,
+                                            peaks.model_temperature(peaks.segment_temperature(ch, t0, t1))).force
                 k = t >= t[0] + peaks.settled_after(prm)
                 ax_v.plot(V(v[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)
                 ax_x.plot(X(x[k]), F_(Fm[k]), "--", lw=0.8, color=c, alpha=0.8)

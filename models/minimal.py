@@ -16,7 +16,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from models.damper import DamperError
+from models.damper import DamperError, read_text
 from models.damper import load as load_damper
 from models.diagnose.candidates import EFFECTS, VALVES, Minimal, Model
 from models.diagnose.data import DiagnoseError, prepare
@@ -65,7 +65,7 @@ class MinimalModel:
 def load(path) -> MinimalModel:
     """A minimal model's JSON; DamperError names what is wrong with it."""
     try:
-        doc = json.loads(Path(path).read_text())
+        doc = json.loads(read_text(Path(path)))
         values = {k: float(doc["parameters"][k]["value"]) for k in NEEDED}
     except KeyError as e:
         raise DamperError(f"{Path(path).name}: not a minimal model: no parameter {e}") from None
@@ -131,8 +131,8 @@ def outside(identified_on: dict, freqs_hz, amplitudes_m, speed_m_s) -> str:
 
 
 def is_minimal(path) -> bool:
-    try:
-        return json.loads(Path(path).read_text()).get("model") == KIND
+    try:  # a FIFO or device named .json is no model: never opened (it would block)
+        return Path(path).is_file() and json.loads(Path(path).read_text()).get("model") == KIND
     except (OSError, ValueError, AttributeError):
         return False
 

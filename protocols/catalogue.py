@@ -36,7 +36,8 @@ CREATE TABLE IF NOT EXISTS runs (
     protocol TEXT, params TEXT, started TEXT, duration_s REAL, outcome TEXT, reason TEXT, error TEXT);
 CREATE TABLE IF NOT EXISTS peaks (
     run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, segment TEXT,
-    amplitude_mm REAL, freq_hz REAL, target_c REAL, v_comp REAL, F_comp REAL, v_reb REAL, F_reb REAL);
+    amplitude_mm REAL, freq_hz REAL, target_c REAL, v_comp REAL, F_comp REAL, v_reb REAL, F_reb REAL,
+    stroke_v TEXT, stroke_F TEXT);
 CREATE TABLE IF NOT EXISTS checks (
     run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE, checked TEXT, reference TEXT,
     tolerance TEXT, points INTEGER, failed INTEGER, worst_margin_n REAL);
@@ -95,6 +96,9 @@ def _columns(c: sqlite3.Connection) -> dict[str, set]:
 with closing(sqlite3.connect(":memory:")) as _c:
     _c.executescript(SCHEMA)
     COLUMNS_OF = _columns(_c)  # what a catalogue of ours holds: every table with at least these columns
+# columns a catalogue made by an earlier version lacks: added when it is next written (its
+# runs then read again), read as missing until then (a one-speed run's force along the stroke)
+ADDED = {"peaks": {"stroke_v", "stroke_F"}}
 
 
 def _ours(c: sqlite3.Connection, db):
@@ -107,7 +111,8 @@ def _ours(c: sqlite3.Connection, db):
         _refuse(db, f"not a readable SQLite file ({_first(e)}); move it away and run `dyno runs index`")
     if app_id == 0 and not have:
         return  # empty: nobody's yet
-    if app_id in (0, APPLICATION_ID) and all(cols <= have.get(t, set()) for t, cols in COLUMNS_OF.items()):
+    if app_id in (0, APPLICATION_ID) and all(cols - ADDED.get(t, set()) <= have.get(t, set())
+                                             for t, cols in COLUMNS_OF.items()):
         return
     why = "a dyno run catalogue with tables or columns missing (damaged?)" if app_id == APPLICATION_ID else \
         "a SQLite file that is not a dyno run catalogue"
@@ -176,9 +181,20 @@ def connect(folder, write=True) -> sqlite3.Connection:
                     c.execute(f"PRAGMA application_id = {APPLICATION_ID}")
                 for statement in filter(str.strip, SCHEMA.split(";")):
                     c.execute(statement)
+                _add_columns(c)
         return c
     except (sqlite3.DatabaseError, UnicodeDecodeError) as e:  # OperationalError too: locked, read-only folder
         _refuse(db, f"cannot open it ({_first(e)})")
+
+
+def _add_columns(c: sqlite3.Connection):
+    """The ADDED columns an earlier version's catalogue lacks, added; its runs indexed again
+    on the next index (their size forgotten) so that the new columns fill."""
+    have = _columns(c)
+    for table, cols in ADDED.items():
+        for col in sorted(cols - have[table]):
+            c.execute(f"ALTER TABLE {table} ADD COLUMN {col} TEXT")
+            c.execute("UPDATE runs SET size = NULL")
 
 
 @contextmanager
@@ -223,8 +239,13 @@ def describe(path):
            "duration_s": float(t[-1] - t[0]) if len(t) else 0.0,
            "outcome": ENDINGS[type(end)] if end else "completed", "reason": end.message if end else None, "error": None}
     rows = peak_rows.peaks(ch, segments(events))
-    return row, [(p.segment, p.amplitude_mm, p.freq_hz, p.target_c, p.v_comp, p.F_comp, p.v_reb, p.F_reb)
-                 for p in rows]
+    return row, [(p.segment, p.amplitude_mm, p.freq_hz, p.target_c, p.v_comp, p.F_comp, p.v_reb, p.F_reb,
+                  _floats(p.stroke_v), _floats(p.stroke_F)) for p in rows]
+
+
+def _floats(a) -> str:
+    """An array as JSON, to 6 significant digits (nan as null)."""
+    return json.dumps([float(f"{x:.6g}") if np.isfinite(x) else None for x in np.asarray(a, float)])
 
 
 def index(folder) -> Indexed:
@@ -266,7 +287,7 @@ def index_file(c: sqlite3.Connection, path) -> str:
         else:
             run_id = c.execute(f"INSERT INTO runs ({', '.join(row)}) VALUES ({', '.join('?' * len(row))})",
                                list(row.values())).lastrowid
-        c.executemany("INSERT INTO peaks VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [(run_id, *p) for p in peaks])
+        c.executemany(f"INSERT INTO peaks VALUES ({', '.join('?' * 11)})", [(run_id, *p) for p in peaks])
     if row.get("error"):
         return "failed"
     return "updated" if existed or old is not None else "added"
@@ -328,10 +349,30 @@ def add_model(path, model_path, heldout_nrmse, parameters) -> str:
 
 
 def add_diagnosis(path, baseline, accepted, findings, within_noise) -> str:
-    """A `dyno diagnose` of a recording: its baseline, the effects accepted in order, each
-    finding {effect, nature, parameters}, and whether what is left is within the noise."""
+    """A `dyno diagnose` of a recording: its baseline, the effects accepted (kept in its
+    model) in order, each one's finding {effect, nature, named, parameters}, and whether
+    what is left is within the noise."""
     return _attach(path, "diagnoses", (baseline, json.dumps(accepted), json.dumps(findings), int(within_noise)),
                    "diagnosis")
+
+
+def diagnosis_words(row) -> str:
+    """A catalogued diagnosis's effects as the diagnosis says them (docs/diagnosis.md): those
+    named, then those kept in the model but not named (small, a rival group's, a stand-in's).
+    A diagnosis catalogued before findings carried `named` listed the named ones alone."""
+    accepted, findings = json.loads(row["accepted"] or "[]"), json.loads(row["findings"] or "[]")
+    named = [f["effect"] for f in findings if f.get("named", True) and f["effect"] in accepted]
+    unnamed = [e for e in accepted if e not in named]
+    return ("named: " + (", ".join(named) or "nothing")
+            + (f"; also in the model, not named: {', '.join(unnamed)}" if unnamed else ""))
+
+
+def model_quality(nrmse) -> str:
+    """A catalogued model's held-out error [%], marked poor beyond POOR_NRMSE."""
+    from models.identify.result import POOR_NRMSE
+    if nrmse is None:
+        return "-"
+    return f"{100 * nrmse:.2f}" + (f" (poor: beyond {100 * POOR_NRMSE:g} %)" if nrmse > POOR_NRMSE else "")
 
 
 def attached(c: sqlite3.Connection, table, run_id) -> list[sqlite3.Row]:
@@ -464,10 +505,13 @@ def since_time(text):
 
 def force_at(peaks, direction, speed):
     """The run's force [N] at speed [m/s] in direction from its peaks, as the velocity table
-    reads it (nan outside the measured speeds)."""
+    reads it: from the peaks, or along the stroke of a run of one speed (an imported test at
+    one amplitude and frequency); nan outside the measured speeds."""
     rows = [SimpleNamespace(**{k: p[k] for k in p.keys()}, Fd_comp=np.nan, Fd_reb=np.nan) for p in peaks]
     for r in rows:
         r.target_c = np.nan if r.target_c is None else r.target_c
+        for k in ("stroke_v", "stroke_F"):  # null in a catalogue an earlier version wrote
+            setattr(r, k, np.array(json.loads(getattr(r, k, None) or "[]"), float))
     if not rows:
         return float("nan")
     row = vt.velocity_table(rows, [speed])[0]

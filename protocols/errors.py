@@ -6,3 +6,8 @@ are RigError (rig/errors.py)."""
 
 class UsageError(Exception):
     """Bad input: one line naming it."""
+
+
+class Refused(Exception):
+    """What a command made does not meet its bar (a model that does not predict): one line
+    saying why and what would, nothing written, exit 1."""

@@ -1,6 +1,7 @@
 """The run catalogue (protocols/catalogue.py) on real recordings: indexing is incremental
 and keeps unreadable files as errors, runs are found by serial and protocol, a serial's
 force is trended at a speed, and two writers indexing at once both land."""
+import json
 import shutil
 import subprocess
 import sys
@@ -122,6 +123,42 @@ def test_four_writers_of_one_catalogue_at_once_lose_no_row_twenty_times(folder, 
                 assert run["error"] is None and run["serial"] == "D12"
                 assert [len(catalogue.attached(c, t, run["id"])) for t in ("checks", "models", "diagnoses")] == [1, 1, 1]
                 assert len(catalogue.run(c, run["id"])[1]) == 2  # its two sine segments' peaks, once
+
+
+def test_a_catalogue_an_earlier_version_wrote_is_read_and_gains_the_new_columns(folder, tmp_path):
+    """A catalogue without the peaks' stroke columns (written before them) is read as it
+    is, and on its next write gains them and reads its runs again to fill them."""
+    import sqlite3
+    from contextlib import closing
+    shutil.copy(folder / "d12-a.mcap", tmp_path / "d12-a.mcap")
+    old_schema = catalogue.SCHEMA.replace(",\n    stroke_v TEXT, stroke_F TEXT", "")
+    assert old_schema != catalogue.SCHEMA
+    with closing(sqlite3.connect(tmp_path / catalogue.DB_NAME)) as c:
+        c.executescript(old_schema)
+        c.execute(f"PRAGMA application_id = {catalogue.APPLICATION_ID}")
+        c.execute("INSERT INTO runs (path, serial, size, mtime) VALUES (?, 'D12', 1, 1.0)",
+                  (str((tmp_path / "d12-a.mcap").resolve()),))
+        c.commit()
+    with catalogue.reading(tmp_path) as c:  # read as it is: a run with no peaks yet has no force to trend
+        assert np.isnan(catalogue.trend(c, "D12", "rebound@0.1m/s")[0][1])
+    got = catalogue.index(tmp_path)
+    assert (got.added, got.updated) == (0, 1)
+    with catalogue.reading(tmp_path) as c:
+        (_, peaks), = [catalogue.run(c, r["id"]) for r in catalogue.runs(c)]
+        assert all(len(json.loads(p["stroke_v"])) > 10 for p in peaks)
+        assert catalogue.trend(c, "D12", "rebound@0.1m/s")[0][1] < 0
+
+
+def test_a_diagnosis_is_catalogued_with_what_it_named_and_what_its_model_kept():
+    """accepted: kept in the model; named: said as found. A diagnosis that kept effects it
+    did not name does not read "accepted: nothing" (docs/diagnosis.md, the words)."""
+    row = {"accepted": json.dumps(["sensor_delay", "valve_form"]),
+           "findings": json.dumps([{"effect": "sensor_delay", "named": True}, {"effect": "valve_form", "named": False}])}
+    assert catalogue.diagnosis_words(row) == "named: sensor_delay; also in the model, not named: valve_form"
+    kept = {"accepted": json.dumps(["valve_form"]), "findings": json.dumps([{"effect": "valve_form", "named": False}])}
+    assert catalogue.diagnosis_words(kept) == "named: nothing; also in the model, not named: valve_form"
+    older = {"accepted": json.dumps(["bouc_wen"]), "findings": json.dumps([{"effect": "bouc_wen"}])}  # named alone
+    assert catalogue.diagnosis_words(older) == "named: bouc_wen"
 
 
 def test_runs_are_found_by_a_where_expression_on_fields_and_setup(folder):

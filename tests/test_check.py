@@ -122,8 +122,11 @@ def test_a_warmer_run_is_compensated_to_its_references_temperature_with_its_mode
     warm, cool, tol = tmp_path / "warm.mcap", tmp_path / "cool.mcap", qa.parse_tolerance("3%")
     plain = qa.check(warm, cool, tol)
     assert plain.compensation.startswith("not compensated for temperature: the run averaged 5")  # cooling from 60 C
-    assert "the reference 20 C, and the run has no identified model (warm.model.json" in plain.compensation
+    assert "the reference 20 C, and the run has no identified damper model (warm.model.json" in plain.compensation
     assert not all(r.passed for r in plain.results)
+    (tmp_path / "warm.minimal.json").write_text('{"model": "minimal"}')  # what identify writes without --damper
+    hint = qa.check(warm, cool, tol).compensation
+    assert "its model warm.minimal.json has no temperature law" in hint and "writes warm.model.json" in hint
     (tmp_path / "warm.model.json").write_text(json.dumps(to_dict(load("koni"))))
     moved = qa.check(warm, cool, tol)
     assert moved.compensation.startswith("compensated for temperature: the run's forces moved from its 5")

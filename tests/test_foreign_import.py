@@ -703,8 +703,18 @@ def test_five_runs_of_one_test_at_five_currents_are_all_compared(tmp_path):
     for current in ("0", "0x25", "0x5", "0x75", "1"):
         recs.append(tmp_path / f"{current}.mcap")
         r = dyno("import", src / f"25mm0x5Hz{current}A.txt", "--out", recs[-1], "--map", "time=1:s", "--map",
-                 "displacement=2:mm", "--map", "velocity=3:mm/s", "--map", "force=4:N", "--smoothed", "0.1period")
+                 "displacement=2:mm", "--map", "velocity=3:mm/s", "--map", "force=4:N", "--smoothed", "0.1period",
+                 "--serial", "MR-1", "--setup", f"current_A={current.replace('x', '.')}", "--note", "UTFSM")
         assert r.returncode == 0, r.stderr
+    # each run of one speed is trended as its report's velocity table reads it (along the stroke)
+    r = dyno("runs", "trend", tmp_path, "--serial", "MR-1", "--quantity", "compression@25mm/s")
+    trended = {line.split("|")[4].strip(): float(line.split("|")[2]) for line in r.stdout.splitlines()[2:]}
+    assert r.returncode == 0 and len(trended) == 5, r.stdout + r.stderr
+    r = dyno("report", recs[-1], "--out", tmp_path / "one")
+    page = (tmp_path / "one" / "index.html").read_text()
+    assert "damper serial: MR-1" in page and "current_A 1" in page and "note: UTFSM" in page
+    row = next(line for line in (tmp_path / "one" / "velocity.csv").read_text().splitlines() if line.startswith("25,"))
+    assert trended["current_A=1"] == pytest.approx(float(row.split(",")[1]), rel=1e-3)
     r = dyno("report", *recs, "--out", tmp_path / "cmp")
     assert r.returncode == 0, r.stderr
     rows = (tmp_path / "cmp" / "differences.csv").read_text().splitlines()[1:]
@@ -750,6 +760,67 @@ def test_a_slider_cranks_speed_over_2_pi_f_a_is_its_geometry_not_an_actuator(tmp
     page = (tmp_path / "rep" / "index.html").read_text()
     assert r.returncode == 0 and f"crank-to-rod ratio r/l about {ratio:.2f}" in page
     assert "actuator" not in page
+
+
+def test_rows_with_no_number_are_counted_at_import_and_a_stopped_diagnosis_says_so(tmp_path):
+    """NaN or empty force cells are left out of the force and said with their count; an
+    operator's stop of a diagnosis ends in one line, exit 130."""
+    import subprocess
+    import sys
+
+    from tests.conftest import operator_stopped
+    t, x, F = crank(n=int(12 / 1.05 * RATE))
+    cells = ["NaN" if i % 50 == 7 else "" if i % 97 == 3 else f"{f:.3f}" for i, f in enumerate(F)]
+    src = _written(tmp_path, "nan.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c}\n"
+                                                            for a, b, c in zip(t, x, cells)))
+    channels, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    empty = sum(c in ("NaN", "") for c in cells)
+    assert f"force: {empty} of {len(t)} rows hold no number" in r.stdout and len(channels["force"][0]) == len(t) - empty
+    p = subprocess.Popen([str(Path(sys.executable).parent / "dyno"), "diagnose", str(tmp_path / "x.mcap")],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    said = p.stderr.readline()  # the diagnosis's first progress line: it is under way
+    assert said, "the diagnosis ended before it said anything"
+    assert "stopped by the operator" in operator_stopped(p)
+
+
+def test_a_negative_fitted_mass_is_not_printed_as_measured(tmp_path):
+    """A source that took a fixture's mass off twice leaves -30 kg times the acceleration in
+    the force: the diagnosis keeps an inertia term, whose mass below zero is said as no
+    measurement (and not catalogued as one)."""
+    t, x, F = crank(n=int(6 * RATE), hz=4.0)
+    F = F - 30.0 * np.gradient(np.gradient(x, t), t) + np.random.default_rng(1).normal(0, 3.0, len(t))
+    src = _written(tmp_path, "m.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                          for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("identify", tmp_path / "x.mcap", "--out", tmp_path / "m.json")
+    assert r.returncode == 0, r.stderr
+    line = next(ln for ln in r.stdout.splitlines() if ln.strip().startswith("m_oil"))
+    assert float(line.split()[1]) < 0 and "below 0 kg, where physics puts none" in line and "not measured" in line
+    assert "fluid_inertia (its m_oil not measured)" in r.stdout
+    from protocols import catalogue
+    with catalogue.reading(tmp_path) as c:
+        (model,) = catalogue.attached(c, "models", catalogue.runs(c)[0]["id"])
+    assert "m_oil" not in json.loads(model["parameters"]) and "c1_c" in json.loads(model["parameters"])
+
+
+def test_a_model_that_does_not_predict_is_refused_or_kept_marked_poor(tmp_path):
+    """A force whose noise is as large as the damper's own: the held-out error exceeds the
+    limit, so no model is written (exit 1, saying why); --keep-poor writes it marked poor,
+    and the catalogue shows it so."""
+    t, x, F = crank(n=int(12 / 1.05 * RATE))
+    F = F + np.random.default_rng(1).normal(0, 400.0, len(t))
+    src = _written(tmp_path, "n.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
+                                                          for a, b, c in zip(t, x, F)))
+    _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    r = dyno("identify", tmp_path / "x.mcap")
+    err = r.stderr.strip().splitlines()[-1]
+    assert r.returncode == 1 and "a model must stay within 10 %" in err and "noise alone" in err, r.stderr
+    assert not (tmp_path / "x.minimal.json").exists()
+    r = dyno("identify", tmp_path / "x.mcap", "--keep-poor", "--json")
+    assert r.returncode == 0 and json.loads(r.stdout)["poor"].startswith("the minimal law misses"), r.stderr
+    assert json.loads((tmp_path / "x.minimal.json").read_text())["poor"]
+    r = dyno("runs", "show", "1", tmp_path)
+    assert "(poor: beyond 10 %)" in r.stdout, r.stdout + r.stderr
 
 
 def test_every_effect_of_the_catalogue_is_said_in_a_sentence():

@@ -143,6 +143,11 @@ HOSTILE = {
                                               "x": [{"t": [0.0, 1e-3, 2e-3], "value": [0.03, 0.031, 0.032]}]}),
     "nan_force": _mcap("nanf.mcap", channels={"force": [{"t": [0.0, 1e-3], "value": [None, None]}],
                                               "x": [{"t": [0.0, 1e-3], "value": [0.03, 0.031]}]}),
+    # issue 70
+    "t1e300": _mcap("t300.mcap", channels={"force": [{"t": [0.0, 1e-3, 1e300], "value": [1.0, 2.0, 3.0]}],
+                                           "x": [{"t": [0.0, 1e-3, 2e-3], "value": [0.03, 0.031, 0.032]}]}),
+    "fat_head": lambda t, r: _write(t / "fathead.csv", 't,x,"F' + "a" * 200_000 + '"\n' + "".join(
+        f"{i / 100},{30 + i % 7},{i % 5}\n" for i in range(50))),
 }
 
 
@@ -284,6 +289,11 @@ CASES = [
      ["--rrd", "also given to --out; each output needs a path of its own"]),
     (["rig", "zero", "--rig", "{cell_copy}", "--x-mm", "1e300"], ["--x-mm 1e+300: the gauge's reading"]),
     (["rig", "zero", "--rig", "{cell_copy}", "--x-mm", "-3"], ["--x-mm -3: the gauge's reading"]),
+    # issue 70: the audit's remaining cases
+    (["report", "{t1e300}", "--out", "{folder}/r"], ["/channels/force: times reach 1e+300 s", "beyond any run's"]),
+    (["import", "{fat_head}", "--out", "{folder}/fh.mcap", *MAP], ["a cell longer than any number or name"]),
+    (["import", "{fat_head}", "--inspect"], ["a cell longer than any number or name"]),
+    (["check", "{rec}", "--against", "{fifo_json}"], ["not a regular file"]),
 ]
 
 

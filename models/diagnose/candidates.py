@@ -102,7 +102,7 @@ def baseline_params(d):
             P("C_c", c0, 0.01 * c0, 100 * c0, "N s/m"), P("Fcr_c", 0.5 * Fmax, 0.0, 3 * Fmax, "N"),
             P("c1_r", c0, 0.0, 50 * c0, "N s/m"), P("c2_r", c0 / vmax * 0.3, 0.0, 100 * c0 / vmax, "N s^2/m^2"),
             P("C_r", c0, 0.01 * c0, 100 * c0, "N s/m"), P("Fcr_r", 0.5 * Fmax, 0.0, 3 * Fmax, "N"),
-            P("G0", Fg, -Fmax, Fmax, "N"), P("L", 0.3, 0.005, 20.0, "m"),
+            P("G0", Fg, -Fmax, Fmax, "N", floor=0.0), P("L", 0.3, 0.005, 20.0, "m"),
             P("F_c", 0.03 * Fmax, 0.0, 0.5 * Fmax, "N")]
 
 
@@ -401,7 +401,7 @@ CATALOGUE = {e.name: e for e in (
                 "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
     ),
     Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
-           _p(P("m_oil", 0.0, -20.0, 200.0, "kg")),
+           _p(P("m_oil", 0.0, -20.0, 200.0, "kg", floor=0.0)),
            estimate="m_oil", apply=_fluid_inertia, acts_on="total", depends_on=("acceleration",),
            say=("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
                 "(or unsupported mass in the load path). It matters in step and high-frequency tests.",

@@ -23,6 +23,10 @@ class P:
     hi: float
     unit: str = ""
     grid: tuple = ()  # start values tried first (a parameter whose effect is piecewise)
+    # the least value physics allows (a mass, a gas force: 0) where the range reaches below it
+    # to take up what else the recording holds (a load cell's offset, a source's inertia
+    # compensation); a value fitted below it is no measurement (models/diagnose undetermined)
+    floor: float | None = None
 
 
 @dataclass(frozen=True)

@@ -41,6 +41,25 @@ def setup_item(text):
     return key, value.strip()
 
 
+def identity(p, what="test"):
+    """Who ran the test on which damper and how it was set up: recorded in the run's
+    metadata, shown on the report and kept in the catalogue (run and import alike)."""
+    p.add_argument("--operator", default=None, help=f"who ran the {what} (recorded, shown on the report)")
+    p.add_argument("--serial", default=None, help="the damper's serial number (recorded, shown on the report)")
+    p.add_argument("--note", default=None, help="a note for the record (setup, clickers, ...)")
+    p.add_argument("--setup", action="append", type=setup_item, default=[], metavar="KEY=VALUE",
+                   help="the damper's setup, recorded and shown on the report (repeat: --setup clicks_reb=12 "
+                        "--setup gas_bar=10)")
+
+
+def identity_info(args) -> dict:
+    """identity()'s options as the run metadata's fields (operator, damper_serial, note,
+    setup.KEY), those given only."""
+    who = {"operator": "operator", "damper_serial": "serial", "note": "note"}  # metadata "run" <- --option
+    return {**{k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)},
+            **{f"setup.{k}": v for k, v in getattr(args, "setup", None) or []}}
+
+
 def number(lo=None, hi=None, integer=False, above=None):
     """An argparse type: a finite number (an integer if asked) within [lo, hi], above `above`."""
     def parse(text):

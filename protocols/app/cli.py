@@ -11,7 +11,7 @@ from models.damper import DamperError
 from models.parallel import TaskFailed
 from protocols.app.arguments import Parser
 from protocols.app.output import check_outputs
-from protocols.errors import UsageError
+from protocols.errors import Refused, UsageError
 from rig.errors import RigError
 
 
@@ -38,12 +38,16 @@ def parser():
     return p
 
 
+STOPPED = "dyno: stopped by the operator; nothing half-written was left"
+
+
 def main(argv=None):
     from rig import operator_stop
     try:
         with operator_stop.handled():  # from the first line: a Ctrl-C while importing is not lost
             return _main(sys.argv[1:] if argv is None else argv)
     except KeyboardInterrupt:  # before or after a command's own handling: no traceback
+        print(STOPPED, file=sys.stderr)
         return 130
     except BrokenPipeError:  # `dyno ... | head`: the reader left; nothing more to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -70,10 +74,11 @@ def _main(argv):
     except (DamperError, RigError, UsageError) as e:
         print(f"dyno: error: {e}", file=sys.stderr)
         return 2
-    except TaskFailed as e:  # a fanned-out task failed twice (models/parallel.py)
+    except (TaskFailed, Refused) as e:  # a fanned-out task failed twice (models/parallel.py); a poor model
         print(f"dyno: error: {e}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # a run says its own stop; any other command's output is written whole or not at all
+        print(STOPPED, file=sys.stderr)
         return 130
 
 

@@ -89,9 +89,11 @@ def run(args):
             page = report(res, folder)
         say(f"report: {Path(args.report) / page.name}")
     from protocols import catalogue
-    findings = [{"effect": s.effect, "nature": s.nature, "parameters": {k: float(v) for k, v in s.parameters.items()}}
-                for s in res.steps if s.effect in res.named()]
-    say(catalogue.add_diagnosis(args.recording, res.baseline.name, res.named(), findings, res.left_over.within_noise))
+    named = res.named()
+    findings = [{"effect": s.effect, "nature": s.nature, "named": s.effect in named,
+                 "parameters": {k: float(v) for k, v in s.parameters.items()}}
+                for s in res.steps if s.effect in res.accepted]
+    say(catalogue.add_diagnosis(args.recording, res.baseline.name, res.accepted, findings, res.left_over.within_noise))
     props = None
     if getattr(args, "next", False):
         props = design.propose(res, limits, budget)

@@ -12,9 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from models import damper as dm, source_filter
+from models.identify.result import POOR_NRMSE, poor_sentence
 from models.recording import repeats_sentence
 from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
-from protocols.errors import UsageError
+from protocols.errors import Refused, UsageError
 from rig.errors import RigError
 
 
@@ -30,6 +31,9 @@ def add(sub):
                      "e.g. one of a file's repeats at another coil current or clicker")
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
     writes(idf, "--report", FOLDER, default=None, metavar="DIR", help="HTML report with loops and held-out errors")
+    idf.add_argument("--keep-poor", action="store_true",
+                     help=f"write a model whose held-out error exceeds {100 * POOR_NRMSE:g} %% of the force range "
+                          "(refused otherwise), marked poor in its name, its JSON and the catalogue")
     overwrite(idf, "--out, --report's files and --batch's outputs")
     batch_options(idf, "identify", "FILE.model.json")
     idf.set_defaults(command="identify")
@@ -127,9 +131,13 @@ def run(args):
     truth = dm.load(args.truth) if args.truth else None
     say = (lambda m: print(m, file=sys.stderr)) if args.json else print
     res = model_of(channels, events, desc, args.recordings, say, source_filter.of(meta))
+    poor = _poor(args, res.heldout_nrmse, events)
+    if poor:
+        res.damper.name += "-poor"
+        res.damper.description += f"; POOR, kept with --keep-poor: {poor}"
     with written(out) as tmp:
         dm.save(res.damper, tmp)
-    doc = summary(res)
+    doc = {**summary(res), "poor": poor or None}
     if truth is not None:
         from models.identify.compare import compare
         T = float(np.mean([s.T for s in res.train + res.test])) if res.train else 293.15
@@ -149,6 +157,18 @@ def run(args):
         print(text(doc))
         print(f"model: {out}")
     return 0
+
+
+def _poor(args, nrmse, events, minimal=False, noise=None) -> str:
+    """"" for a model that predicts what it was not fitted on (held-out error within
+    POOR_NRMSE); else the sentence saying it does not, kept with --keep-poor, Refused
+    (exit 1, nothing written) without it."""
+    if not (nrmse is not None and math.isfinite(nrmse) and nrmse > POOR_NRMSE):
+        return ""
+    said = poor_sentence(nrmse, events, minimal, noise)
+    if not args.keep_poor:
+        raise Refused(f"identify: {said}; no model written (--keep-poor writes it, marked poor)")
+    return said
 
 
 MINIMAL_SUFFIX = ".minimal.json"  # not .model.json: report overlays that as a full damper model
@@ -172,6 +192,7 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
         raise UsageError(f"{', '.join(map(str, args.recordings))}: {e}") from None
     base = found.baseline  # the model without effects, fitted and judged on the same cycles
     doc = _minimal_doc(args, out, base, found, channels, events)
+    doc["poor"] = _poor(args, doc["heldout_nrmse"], events, True, found.noise_sd / max(np.ptp(found.data.F), 1e-9)) or None
     with written(out) as tmp:
         tmp.write_text(json.dumps(_clean(doc), indent=1))
     from protocols import catalogue
@@ -182,6 +203,8 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
     if args.json:
         print(json.dumps(_clean(doc), indent=2))
         return 0
+    if doc["poor"]:
+        print(f"POOR MODEL, kept with --keep-poor: {doc['poor']}")
     if doc["force_reads_low"]:
         print(f"note: {doc['force_reads_low']}")
     for r in doc["repeats_differ"]:
@@ -194,7 +217,11 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
     print(f"identify: {names} no damper: the model that needs no description{timing}, held out by "
           f"cycles: {100 * base.nrmse_heldout:.2f} % of the force range (R^2 {base.r2_heldout:.3f})")
     if found.accepted:
-        print(f"  with the effects the diagnosis accepts ({', '.join(found.accepted)}): "
+        from models.diagnose.candidates import EFFECTS
+        sizes = {e: EFFECTS[e.split(":")[0]].estimate for e in found.accepted}
+        shown = [e + (f" (its {sizes[e]} not measured)" if "undetermined" in doc["parameters"].get(sizes[e], {})
+                      else "") for e in found.accepted]
+        print(f"  with the effects the diagnosis accepts ({', '.join(shown)}): "
               f"{100 * doc['heldout_nrmse']:.2f} % (R^2 {doc['heldout_r2']:.3f})")
     for k, p in doc["parameters"].items():
         print(f"  {k:14s} {p['value']:12.5g} {p['unit']:10s}" + (f"  undetermined: {p['undetermined']}"
@@ -208,7 +235,7 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
 def _minimal_doc(args, out, base, found, channels, events):
     """The minimal model's JSON: the baseline's values, or the diagnosis's final model when it
     accepted effects (their forms built on this recording: `source`)."""
-    from models.diagnose import undetermined
+    from models.diagnose import friction_outside_physics, undetermined
     from models.diagnose.candidates import Model
     from models.minimal import envelope
     from models.recording import differing_repeats, reads_low
@@ -220,7 +247,7 @@ def _minimal_doc(args, out, base, found, channels, events):
     effects = model.effects
     values = found.final.parameters if found.accepted else base.parameters
     sd = {} if found.accepted else base.sd  # the baseline fit's deviations: not of the final model's values
-    unknown = undetermined(model.params, values, sd)
+    unknown = {**friction_outside_physics(model, d, values), **undetermined(model.params, values, sd)}
     fit = found.final if found.accepted else base
     return {"model": "minimal",
             "what": "per-direction valve curves (c1 v + c2 v^2 blended into C v above the crack force Fcr), a "

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from protocols.app.arguments import FILE, number, overwrite, writes
+from protocols.app.arguments import FILE, identity, identity_info, number, overwrite, writes
 from protocols.errors import UsageError
 
 FLIPS = ("force", "displacement", "velocity")
@@ -51,6 +51,7 @@ def add(sub):
     im.add_argument("--sheet", metavar="NAME", help="an Excel workbook's sheet to read (default: its fullest)")
     im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
                     help="the sampling rate, when no time column is mapped and the file does not say it")
+    identity(im, "test the file holds")
     im.set_defaults(command="import_csv")
 
 
@@ -134,13 +135,16 @@ def _import(args, mapping, gains, offsets, claim):
         data["velocity"] = np.full_like(t, np.nan)
         data["velocity"][ok] = derived_velocity(t[ok], data["displacement"][ok])
         units["velocity"] = "derived from displacement"
-    channels = {}
+    channels, gaps = {}, []
     for name, a in data.items():
         ok = ~np.isnan(a)
         if not ok.any():  # an empty column
             continue
         ch = CHANNELS.get(name, name)
         channels[ch] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
+        if not ok.all() and name != "velocity":  # a derived velocity has a gap where its displacement has
+            gaps.append(f"{name}: {int((~ok).sum())} of {len(a)} rows hold no number (NaN, or an empty or missing "
+                        f"cell): left out of it, the channel read between them")
     cfg = SimpleNamespace(
         name="imported", path=Path(args.file),
         channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0,
@@ -159,7 +163,8 @@ def _import(args, mapping, gains, offsets, claim):
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
     # what the report says again; it says the rest itself
-    kept = _time_notes(got, t, args.map) + got.unit_notes + _zero_note(data, units) + _velocity_note(t, data, units)
+    kept = (_time_notes(got, t, args.map) + got.unit_notes + gaps + _zero_note(data, units)
+            + _velocity_note(t, data, units))
     kept += _smoothing_note(args.smoothing, found)
     notes = list(kept)
     if any(f.kind == "sine" for f in found):
@@ -170,7 +175,7 @@ def _import(args, mapping, gains, offsets, claim):
     notes += [f"sign: {sign}"] if sign else []
     notes += [postamble(got.layout)] if got.layout and got.layout.postamble else []
     rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
-                   run_info=_run_info(got, how, every, args.smoothing, kept))
+                   run_info=_run_info(got, how, every, args.smoothing, kept, args))
     try:
         for n, (tt, v, _) in channels.items():
             for i in range(0, len(tt), BATCH):
@@ -208,11 +213,12 @@ def _smoothing_note(smoothing, found) -> list[str]:
             f"model with it through the same filter"]
 
 
-def _run_info(got, how, every, smoothing, kept) -> dict:
-    """The recording's run metadata: where its start and time came from, the source's
-    smoothing (models/source_filter.py) and what import said of the file, for the report."""
+def _run_info(got, how, every, smoothing, kept, args) -> dict:
+    """The recording's run metadata: who tested which damper (--operator, --serial, --note,
+    --setup), where its start and time came from, the source's smoothing
+    (models/source_filter.py) and what import said of the file, for the report."""
     from models.source_filter import RUN_KEY
-    return {"wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
+    return {**identity_info(args), "wall_start_source": how, **({"time_source": got.derived_time} if got.derived_time else {}),
             **({"plot_every": every} if every > 1 else {}),
             **({RUN_KEY: smoothing.text()} if smoothing else {}),
             **({"import_notes": "\n".join(kept)} if kept else {})}

@@ -12,8 +12,8 @@ from models.damper import to_dict
 from protocols.errors import UsageError
 from rig.errors import RigError
 
-from protocols.app.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, number, setup_item, units,
-                                     virtual_plant, writes)
+from protocols.app.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, identity, identity_info, number,
+                                     units, virtual_plant, writes)
 
 DIRECT = "direct"  # --rig: the virtual plant without its wires (protocols/cell.py direct)
 
@@ -38,12 +38,7 @@ def add(sub):
     rn.add_argument("--realtime", action="store_true", help="run the virtual rig in real time")
     rn.add_argument("--live", action="store_true", help="stream to a rerun viewer")
     writes(rn, "--rrd", FILE, default=None, help="also save the live view to FILE.rrd")
-    rn.add_argument("--operator", default=None, help="who runs the test (recorded, shown on the report)")
-    rn.add_argument("--serial", default=None, help="the damper's serial number (recorded, shown on the report)")
-    rn.add_argument("--note", default=None, help="a note for the record (setup, clickers, ...)")
-    rn.add_argument("--setup", action="append", type=setup_item, default=[], metavar="KEY=VALUE",
-                    help="the damper's setup, recorded and shown on the report (repeat: --setup clicks_reb=12 "
-                         "--setup gas_bar=10)")
+    identity(rn)
     rn.add_argument("--budget", type=number(0, MAX_BUDGET_S), default=None, metavar="SECONDS",
                     help="discover: rig time the dyno may add for its own next tests (default 120)")
     rn.add_argument("--identify", action=argparse.BooleanOptionalAction, default=None,
@@ -86,11 +81,8 @@ def _run(args):
         if args.live or args.rrd:
             from protocols.live import LiveView
             live = LiveView({n: c.unit for n, c in cfg.channels.items()}, spawn=args.live, rrd=args.rrd)
-        who = {"operator": "operator", "damper_serial": "serial", "note": "note"}  # metadata "run" <- --option
         recorder = Recorder(claim, cfg, json.dumps(to_dict(damper)), args.protocol, as_dict(params),
-                            wall_start=c.rig.wall_start,
-                            run_info={**{k: getattr(args, a) for k, a in who.items() if getattr(args, a, None)},
-                                      **{f"setup.{k}": v for k, v in getattr(args, "setup", [])}})
+                            wall_start=c.rig.wall_start, run_info=identity_info(args))
         print(f"recording to {claim.target}", file=sys.stderr, flush=True)
         operator_stop.raise_if_stopped()
         if identifying:

@@ -142,11 +142,11 @@ def show(args):
                                 F(k["worst_margin_n"])) for k in checks]))
     if models:
         print("\n" + md.table(("identified (UTC)", "model", "held-out NRMSE [%]"),
-                              [(m["identified"], m["model"], "-" if m["heldout_nrmse"] is None
-                                else f"{100 * m['heldout_nrmse']:.2f}") for m in models]))
+                              [(m["identified"], m["model"], catalogue.model_quality(m["heldout_nrmse"]))
+                               for m in models]))
     if diagnoses:
-        print("\n" + md.table(("diagnosed (UTC)", "baseline", "accepted", "left over"),
-                              [(d["diagnosed"], d["baseline"], ", ".join(json.loads(d["accepted"])) or "nothing",
+        print("\n" + md.table(("diagnosed (UTC)", "baseline", "effects", "left over"),
+                              [(d["diagnosed"], d["baseline"], catalogue.diagnosis_words(d),
                                 "within the noise" if d["within_noise"] else "above the noise") for d in diagnoses]))
     return 0
 

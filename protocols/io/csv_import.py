@@ -245,6 +245,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> I
             a, bad = table.numbers(cells, layout.decimal if layout else ".")
         if bad is not None:
             cell = cells[bad] if not isinstance(cells, np.ndarray) else str(cells[bad])
+            cell = cell if len(cell) <= 60 else f"{cell[:40]}... ({len(cell):,} characters)"  # a message is one line
             raise UsageError(f"{path}:{first_row + bad}: column {column!r}: {cell!r} is not a "
                            f"{'date-time stamp' if name == 'time' and start is None and table.is_stamp(cols[key][0]) else 'number'}")
         if not np.all(np.isfinite(a[~np.isnan(a)])):

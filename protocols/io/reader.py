@@ -30,6 +30,7 @@ from protocols.io.files import input_file, not_being_written
 from protocols.errors import UsageError
 
 
+MAX_TIME_S = 1e8  # s from a run's start: three years, beyond any durability run's clock
 MAX_VALUE = 1e15  # SI: above any force, pressure or length a dyno measures; the arithmetic stays finite
 ESSENTIAL = ("force", "x")  # every analysis reads these: a channel of them with no number is refused
 POSITIVE = ("freq_hz", "cycles")  # segment parameters that are above 0 or meaningless
@@ -80,6 +81,9 @@ def load_recording(path, channels=None):
         t, v = out[name]
         if not np.all(np.isfinite(t)):
             raise UsageError(f"{path}: /channels/{name}: a time that is not a finite number")
+        if len(t) and np.max(np.abs(t)) > MAX_TIME_S:
+            raise UsageError(f"{path}: /channels/{name}: times reach {np.max(np.abs(t)):.3g} s from the run's start, "
+                             f"beyond any run's clock ({MAX_TIME_S:g} s, three years)")
         back = np.nonzero(np.diff(t) < 0)[0]
         if len(back):
             raise UsageError(f"{path}: /channels/{name}: time runs backwards ({t[back[0]]:.6g} s, then "
@@ -170,7 +174,7 @@ def read_event(d):
     """The event a message holds: t [s] a finite number, kind and segment texts, params an
     object, and a kind's own fields of their types."""
     ok = isinstance(d, dict) and isinstance(d.get("kind"), str) and isinstance(d.get("t"), (int, float)) \
-        and not isinstance(d.get("t"), bool) and np.isfinite(d["t"]) \
+        and not isinstance(d.get("t"), bool) and np.isfinite(d["t"]) and abs(d["t"]) <= MAX_TIME_S \
         and isinstance(d.setdefault("segment", ""), str) and isinstance(d.setdefault("params", {}), dict) \
         and isinstance(d.setdefault("message", ""), str)
     if not ok or (d["kind"].startswith("segment_") and not d["segment"]):

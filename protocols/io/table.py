@@ -68,7 +68,10 @@ class Layout:
 def _fields(line, delimiter):
     if delimiter is None:
         return line.split()
-    out = next(csv.reader([line], delimiter=delimiter))
+    try:
+        out = next(csv.reader([line], delimiter=delimiter))
+    except csv.Error as e:  # a quoted cell beyond the csv module's limit (131,072 characters)
+        raise UsageError(f"not a table of numbers: a line with a cell longer than any number or name ({e})") from None
     while out and out[-1].strip() == "":  # a trailing delimiter, an empty last column
         out.pop()
     return [f.strip() for f in out]

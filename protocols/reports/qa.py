@@ -191,8 +191,13 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
         except (DamperError, OSError, ValueError):
             model = None
         if model is None:
+            minimal = Path(path).with_suffix(".minimal.json")
+            why = (f"its model {minimal.name} has no temperature law to move the forces with (dyno identify "
+                   f"--damper DESCRIPTION writes {identified.name}, which has)" if minimal.is_file() else
+                   f"the run has no identified damper model ({identified.name}: dyno identify --damper "
+                   f"DESCRIPTION writes it)")
             note = (f"not compensated for temperature: the run averaged {T_run:.0f} C, the reference "
-                    f"{T_ref:.0f} C, and the run has no identified model ({identified.name}: dyno identify)")
+                    f"{T_ref:.0f} C, and {why}")
         else:
             at_run, at_ref = _rows(path, model), _rows(path, model, T_ref + 273.15)
             run = [dataclasses.replace(p, F_comp=p.F_comp + b.model_comp - a.model_comp,

@@ -135,7 +135,7 @@ def run(run_id):
             error = str(e).splitlines()[0]
     return render_template("run.html", row=row, setup=json.loads(row["setup"] or "{}"), peaks=peaks, checks=checks,
                            models=models, diagnoses=diagnoses, report=made, error=error,
-                           accepted=lambda d: ", ".join(json.loads(d["accepted"])) or "nothing")
+                           effects=catalogue.diagnosis_words, quality=catalogue.model_quality)
 
 
 def comparison():

@@ -2,12 +2,12 @@
 recording's identity, setup, protocol, duration, outcome and sine peaks, and what was made of
 it later (QA checks, models, diagnoses). Readers (the CLI, the web view) use these functions:
 no SQL elsewhere. Indexing is incremental and idempotent; an unreadable file is a row with
-its error; each run is one transaction. SI inside; times as ISO 8601 UTC."""
+its error; each run is one transaction, safe beside other writers. What a user asks of it
+and how its rows are said: protocols/catalogue_terms.py. SI inside; times as ISO 8601 UTC."""
 from __future__ import annotations
 
 import json
 import os
-import re
 import sqlite3
 import time
 from contextlib import closing, contextmanager, suppress
@@ -24,8 +24,7 @@ from protocols.io.files import writer
 from protocols.io.reader import load_recording
 from protocols.reports import peaks as peak_rows
 from protocols.reports import velocity_table as vt
-from protocols.units import parse_with_unit
-from protocols.errors import UsageError
+from protocols.catalogue_terms import CatalogueError, condition, quantity, since_time
 
 DB_NAME = "dyno-runs.sqlite"
 BUSY_MS = 10_000
@@ -52,11 +51,6 @@ CREATE INDEX IF NOT EXISTS runs_serial ON runs(serial);
 COLUMNS = ("serial", "operator", "note", "setup", "damper", "rig", "protocol", "params", "started", "duration_s",
            "outcome", "reason", "error")  # what describe() fills; a re-index sets every one
 ENDINGS = {Fault: "tripped", OperatorStop: "stopped"}
-
-
-class CatalogueError(UsageError, ValueError):
-    """A query the catalogue cannot answer, or a catalogue file it cannot use; the message
-    says why in one line."""
 
 
 @dataclass
@@ -356,25 +350,6 @@ def add_diagnosis(path, baseline, accepted, findings, within_noise) -> str:
                    "diagnosis")
 
 
-def diagnosis_words(row) -> str:
-    """A catalogued diagnosis's effects as the diagnosis says them (docs/diagnosis.md): those
-    named, then those kept in the model but not named (small, a rival group's, a stand-in's).
-    A diagnosis catalogued before findings carried `named` listed the named ones alone."""
-    accepted, findings = json.loads(row["accepted"] or "[]"), json.loads(row["findings"] or "[]")
-    named = [f["effect"] for f in findings if f.get("named", True) and f["effect"] in accepted]
-    unnamed = [e for e in accepted if e not in named]
-    return ("named: " + (", ".join(named) or "nothing")
-            + (f"; also in the model, not named: {', '.join(unnamed)}" if unnamed else ""))
-
-
-def model_quality(nrmse) -> str:
-    """A catalogued model's held-out error [%], marked poor beyond POOR_NRMSE."""
-    from models.identify.result import POOR_NRMSE
-    if nrmse is None:
-        return "-"
-    return f"{100 * nrmse:.2f}" + (f" (poor: beyond {100 * POOR_NRMSE:g} %)" if nrmse > POOR_NRMSE else "")
-
-
 def attached(c: sqlite3.Connection, table, run_id) -> list[sqlite3.Row]:
     """A run's rows of checks, models or diagnoses, oldest first."""
     if table not in ("checks", "models", "diagnoses"):
@@ -418,48 +393,6 @@ def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=No
     return c.execute(query, args).fetchall()
 
 
-FIELDS = ("serial", "operator", "note", "damper", "rig", "protocol", "started", "duration_s", "outcome", "reason",
-          "path")
-OPS = {"=": "=", "!=": "!=", "<": "<", "<=": "<=", ">": ">", ">=": ">=", "~": "LIKE"}
-MAX_TERMS, MAX_WHERE_CHARS = 32, 4000  # a filter a person writes; SQLite's own limits are far above
-TERM = re.compile(r"\s*(setup\.[\w.-]+|\w+)\s*(!=|<=|>=|=|<|>|~)\s*(\"[^\"]*\"|'[^']*'|[^\s'\"]+)\s*")
-
-
-def condition(text):
-    """(SQL, arguments) of `dyno runs list --where`: terms FIELD OP VALUE joined by `and`;
-    FIELD one of FIELDS or setup.KEY, OP one of = != < <= > >= ~ (contains), VALUE a
-    number or text (quoted if it has spaces). CatalogueError names what is wrong."""
-    sql, args = [], []
-    parts = re.split(r"\s+and\s+", text.strip(), flags=re.I)
-    if len(parts) > MAX_TERMS:
-        raise CatalogueError(f"--where: {len(parts)} conditions; at most {MAX_TERMS}")
-    if len(text) > MAX_WHERE_CHARS:
-        raise CatalogueError(f"--where: {len(text)} characters; at most {MAX_WHERE_CHARS}")
-    for part in parts:
-        m = TERM.fullmatch(part)
-        if m is None:
-            raise CatalogueError(f"--where: {part!r} is not FIELD OP VALUE (OP one of {' '.join(OPS)})")
-        field, op, value = m.groups()
-        value = value[1:-1] if value[:1] in "'\"" else value
-        if field.startswith("setup."):
-            column, args_ = "json_extract(setup, ?)", ["$." + json.dumps(field[len("setup."):])]
-        elif field in FIELDS:
-            column, args_ = field, []
-        else:
-            raise CatalogueError(f"--where: no field {field!r} (fields: {', '.join(FIELDS)}, setup.KEY)")
-        try:
-            number = float(value)
-        except ValueError:
-            number = None
-        if op == "~":
-            value = f"%{value}%"
-        elif number is not None:
-            column, value = f"CAST({column} AS REAL)", number
-        sql.append(f"{column} {OPS[op]} ?")
-        args += [*args_, value]
-    return "(" + " AND ".join(sql) + ")", args
-
-
 MAX_ID = 2**63 - 1  # SQLite's largest integer
 
 
@@ -470,37 +403,6 @@ def run(c: sqlite3.Connection, run_id) -> tuple[sqlite3.Row, list[sqlite3.Row]]:
     if row is None:
         raise CatalogueError(f"no run with id {run_id} in the catalogue")
     return row, c.execute("SELECT * FROM peaks WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
-
-
-MAX_SPEED = 20.0  # m/s: beyond any damper dyno
-
-
-def quantity(text):
-    """("compression" | "rebound", speed [m/s]) from e.g. "rebound@0.5m/s", "rebound@500mm/s"
-    or "compression@10in/s": any velocity unit units.toml names."""
-    direction, at, speed_text = text.replace(" ", "").partition("@")
-    if direction not in ("compression", "rebound") or not at:
-        raise CatalogueError(f"--quantity {text!r}: give DIRECTION@SPEED with a unit, e.g. rebound@0.5m/s "
-                             f"(DIRECTION: compression or rebound)")
-    try:
-        speed = parse_with_unit("velocity", speed_text)
-    except ValueError as e:
-        raise CatalogueError(f"--quantity {text!r}: the speed {e}") from None
-    if not 0 < speed <= MAX_SPEED:
-        raise CatalogueError(f"--quantity {text!r}: a speed above 0 and at most {MAX_SPEED:g} m/s")
-    return direction, speed
-
-
-def since_time(text):
-    """A --since filter as the catalogue stores start times (ISO, UTC): a date or a date and
-    time; CatalogueError otherwise ("yesterday" matched nothing without a word)."""
-    if text is None:
-        return None
-    try:
-        t = datetime.fromisoformat(text.strip())
-    except ValueError:
-        raise CatalogueError(f"--since {text!r}: not a date: give YYYY-MM-DD or YYYY-MM-DDTHH:MM (UTC)") from None
-    return (t.astimezone(timezone.utc) if t.tzinfo else t).isoformat()  # compared as the stored UTC text
 
 
 def force_at(peaks, direction, speed):

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from protocols import catalogue
+from protocols import catalogue, catalogue_terms
 from protocols.io.reader import load_recording
 
 DYNO = [str(Path(sys.executable).parent / "dyno")]
@@ -154,11 +154,11 @@ def test_a_diagnosis_is_catalogued_with_what_it_named_and_what_its_model_kept():
     did not name does not read "accepted: nothing" (docs/diagnosis.md, the words)."""
     row = {"accepted": json.dumps(["sensor_delay", "valve_form"]),
            "findings": json.dumps([{"effect": "sensor_delay", "named": True}, {"effect": "valve_form", "named": False}])}
-    assert catalogue.diagnosis_words(row) == "named: sensor_delay; also in the model, not named: valve_form"
+    assert catalogue_terms.diagnosis_words(row) == "named: sensor_delay; also in the model, not named: valve_form"
     kept = {"accepted": json.dumps(["valve_form"]), "findings": json.dumps([{"effect": "valve_form", "named": False}])}
-    assert catalogue.diagnosis_words(kept) == "named: nothing; also in the model, not named: valve_form"
+    assert catalogue_terms.diagnosis_words(kept) == "named: nothing; also in the model, not named: valve_form"
     older = {"accepted": json.dumps(["bouc_wen"]), "findings": json.dumps([{"effect": "bouc_wen"}])}  # named alone
-    assert catalogue.diagnosis_words(older) == "named: bouc_wen"
+    assert catalogue_terms.diagnosis_words(older) == "named: bouc_wen"
 
 
 def test_runs_are_found_by_a_where_expression_on_fields_and_setup(folder):

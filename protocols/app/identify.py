@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 
 from models import damper as dm, source_filter
-from models.identify.result import POOR_NRMSE, poor_sentence
 from models.recording import repeats_sentence
 from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
 from protocols.errors import Refused, UsageError
@@ -32,8 +31,8 @@ def add(sub):
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
     writes(idf, "--report", FOLDER, default=None, metavar="DIR", help="HTML report with loops and held-out errors")
     idf.add_argument("--keep-poor", action="store_true",
-                     help=f"write a model whose held-out error exceeds {100 * POOR_NRMSE:g} %% of the force range "
-                          "(refused otherwise), marked poor in its name, its JSON and the catalogue")
+                     help="write a model whose held-out error exceeds the limit docs/cli.md states (refused "
+                          "otherwise), marked poor in its name, its JSON and the catalogue")
     overwrite(idf, "--out, --report's files and --batch's outputs")
     batch_options(idf, "identify", "FILE.model.json")
     idf.set_defaults(command="identify")
@@ -163,8 +162,10 @@ def _poor(args, nrmse, events, minimal=False, noise=None) -> str:
     """"" for a model that predicts what it was not fitted on (held-out error within
     POOR_NRMSE); else the sentence saying it does not, kept with --keep-poor, Refused
     (exit 1, nothing written) without it."""
+    from models.identify.result import POOR_NRMSE
     if not (nrmse is not None and math.isfinite(nrmse) and nrmse > POOR_NRMSE):
         return ""
+    from models.identify.result import poor_sentence
     said = poor_sentence(nrmse, events, minimal, noise)
     if not args.keep_poor:
         raise Refused(f"identify: {said}; no model written (--keep-poor writes it, marked poor)")

@@ -123,8 +123,7 @@ def _import(args, mapping, gains, offsets, claim):
     from models.recording import other_sign
     from protocols import catalogue
     from protocols.io import table
-    from protocols.io.column_units import SI
-    from protocols.io.csv_import import CHANNELS, derived_velocity, read
+    from protocols.io.csv_import import derived_velocity, read
     from protocols.io.recording import Recorder
     got = read(args.file, mapping, gains, offsets, args.rate, args.sheet)
     data, units = got.data, got.units
@@ -135,16 +134,7 @@ def _import(args, mapping, gains, offsets, claim):
         data["velocity"] = np.full_like(t, np.nan)
         data["velocity"][ok] = derived_velocity(t[ok], data["displacement"][ok])
         units["velocity"] = "derived from displacement"
-    channels, gaps = {}, []
-    for name, a in data.items():
-        ok = ~np.isnan(a)
-        if not ok.any():  # an empty column
-            continue
-        ch = CHANNELS.get(name, name)
-        channels[ch] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
-        if not ok.all() and name != "velocity":  # a derived velocity has a gap where its displacement has
-            gaps.append(f"{name}: {int((~ok).sum())} of {len(a)} rows hold no number (NaN, or an empty or missing "
-                        f"cell): left out of it, the channel read between them")
+    channels, gaps = _channels(t, data, units)
     cfg = SimpleNamespace(
         name="imported", path=Path(args.file),
         channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0,
@@ -211,6 +201,24 @@ def _smoothing_note(smoothing, found) -> list[str]:
                          f"take a share of: give the moving average's width as a time (e.g. 20ms)")
     return [f"smoothed by its source: a centred moving average of {smoothing.text()}; the analyses compare every "
             f"model with it through the same filter"]
+
+
+def _channels(t, data, units):
+    """({channel: (t [s] from the first row, values, unit)}, notes): each mapped column's
+    rows that hold a number; a column with none is left out, and rows without one (NaN,
+    an empty or missing cell) are said with their count."""
+    from protocols.io.column_units import SI
+    from protocols.io.csv_import import CHANNELS
+    channels, gaps = {}, []
+    for name, a in data.items():
+        ok = ~np.isnan(a)
+        if not ok.any():  # an empty column
+            continue
+        channels[CHANNELS.get(name, name)] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
+        if not ok.all() and name != "velocity":  # a derived velocity has a gap where its displacement has
+            gaps.append(f"{name}: {int((~ok).sum())} of {len(a)} rows hold no number (NaN, or an empty or missing "
+                        f"cell): left out of it, the channel read between them")
+    return channels, gaps
 
 
 def _run_info(got, how, every, smoothing, kept, args) -> dict:

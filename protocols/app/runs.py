@@ -114,7 +114,7 @@ def _shown(key, value):
 
 
 def show(args):
-    from protocols import catalogue
+    from protocols import catalogue, catalogue_terms
     from protocols.reports import markdown as md
     from protocols.units import fmt
     with _connect(args) as c:
@@ -142,11 +142,11 @@ def show(args):
                                 F(k["worst_margin_n"])) for k in checks]))
     if models:
         print("\n" + md.table(("identified (UTC)", "model", "held-out NRMSE [%]"),
-                              [(m["identified"], m["model"], catalogue.model_quality(m["heldout_nrmse"]))
+                              [(m["identified"], m["model"], catalogue_terms.model_quality(m["heldout_nrmse"]))
                                for m in models]))
     if diagnoses:
         print("\n" + md.table(("diagnosed (UTC)", "baseline", "effects", "left over"),
-                              [(d["diagnosed"], d["baseline"], catalogue.diagnosis_words(d),
+                              [(d["diagnosed"], d["baseline"], catalogue_terms.diagnosis_words(d),
                                 "within the noise" if d["within_noise"] else "above the noise") for d in diagnoses]))
     return 0
 

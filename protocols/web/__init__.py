@@ -22,7 +22,7 @@ from jinja2 import ChoiceLoader, FileSystemLoader
 
 from models.damper import DamperError
 from models.damper import load as load_damper
-from protocols import catalogue
+from protocols import catalogue, catalogue_terms
 from protocols.reports import trend as trend_report
 from protocols.reports.comparison import compare
 from protocols.reports.page import TEMPLATES
@@ -135,7 +135,7 @@ def run(run_id):
             error = str(e).splitlines()[0]
     return render_template("run.html", row=row, setup=json.loads(row["setup"] or "{}"), peaks=peaks, checks=checks,
                            models=models, diagnoses=diagnoses, report=made, error=error,
-                           effects=catalogue.diagnosis_words, quality=catalogue.model_quality)
+                           effects=catalogue_terms.diagnosis_words, quality=catalogue_terms.model_quality)
 
 
 def comparison():

@@ -13,9 +13,9 @@ Baseline `minimal` (thesis chapter 3, reduced):
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from models.diagnose import kernels, terms
+from models.diagnose.valves import VALVES, damping_grad, slope, damping
 from models.diagnose.spec import V_EPS, Effect, P
 from models.diagnose.terms import TERMS
 
@@ -24,62 +24,6 @@ GAMMA = 1.38  # thesis section 4.1.2
 # averages over about 0.6 of one (a choice; the data cannot tell it from a short clearance crossing's size)
 W_FORCE = 0.5
 FRICTION_KNOTS = 8  # basis functions of position_friction over the stroke
-
-
-@njit(cache=True, nogil=True)
-def _magnitude(v, c1, c2, C, Fcr):
-    """Force magnitude [N] at speed v >= 0 [m/s] of low (c1 v + c2 v^2) and mid
-    ((F - Fcr)/C) paths in parallel, eq 3.30; closed form of the quadratic."""
-    FL = c1 * v + c2 * v * v
-    if not FL > Fcr:  # (a nan stays nan)
-        return FL
-    # above the cracking force: sqrt(c1^2 + 4 c2 F) = A - B F
-    A = 2 * c2 * v + c1 + 2 * c2 * Fcr / C
-    B = 2 * c2 / C
-    qa, qb, qc = B * B, -(2 * A * B + 4 * c2), A * A - c1 * c1
-    disc = np.sqrt(max(qb * qb - 4 * qa * qc, 0.0))
-    # the smaller root (A - B F >= 0), in the cancellation-free form
-    return max(2 * qc / max(-qb + disc, 1e-30), Fcr)
-
-
-@njit(cache=True, nogil=True)
-def _direction(v, c1, c2, C, Fcr):
-    """_magnitude along speeds v [m/s]."""
-    out = np.empty(len(v))
-    for i in range(len(v)):
-        out[i] = _magnitude(v[i], c1, c2, C, Fcr)
-    return out
-
-
-VALVES = ("c1_c", "c2_c", "C_c", "Fcr_c", "c1_r", "c2_r", "C_r", "Fcr_r")  # damping's parameters, in order
-
-
-@njit(cache=True, nogil=True)
-def _damping(v, c1_c, c2_c, C_c, Fcr_c, c1_r, c2_r, C_r, Fcr_r):
-    out = np.empty(len(v))
-    for i in range(len(v)):
-        s = v[i]
-        out[i] = _magnitude(s, c1_c, c2_c, C_c, Fcr_c) if s >= 0 else -_magnitude(-s, c1_r, c2_r, C_r, Fcr_r)
-    return out
-
-
-_damping_recent = kernels.recent(_damping)
-
-
-def damping(v, p):
-    """Damping force [N], positive in compression, from velocity v [m/s]."""
-    return _damping_recent(v, *(p[k] for k in VALVES))
-
-
-@kernels.recent
-def _slope_of(v, *valves):
-    dv = 1e-3  # m/s: the finite difference
-    return np.abs(_damping(v + dv, *valves) - _damping(v - dv, *valves)) / (2 * dv)
-
-
-def _slope(v, p):
-    """Local slope dF/dv of the damping curve [N s/m] (finite difference)."""
-    return _slope_of(v, *(p[k] for k in VALVES))
 
 
 @kernels.recent
@@ -132,10 +76,23 @@ class Minimal:
         """Sliding friction [N]."""
         return p["F_c"]
 
+    def columns(self, f):
+        """{part: {parameter: its exact derivative [N per unit]}} of the parts along the
+        Forces' (shifted) motion: the valves' in the damping (damping_grad), the gas force's
+        G0 and L (eq 3.19), the friction's F_c (eq 3.3)."""
+        p, x, v = f.p, f.x, f.v
+        dx = x - self.x_m
+        room = p["L"] - dx
+        free = room > 1e-3 * p["L"]
+        R = np.where(free, p["L"] / np.maximum(room, 1e-3 * p["L"]), 1e3)
+        return {"Fd": dict(zip(VALVES, damping_grad(v, *(p[k] for k in VALVES)))),
+                "Fg": {"G0": R ** GAMMA, "L": np.where(free, p["G0"] * GAMMA * R ** (GAMMA - 1) * -dx / room ** 2, 0.0)},
+                "Ff": {"F_c": soft_sign(v)}}
+
     def parts(self, d, p, x, v, tau):
         """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
         along motion x, v (already shifted by the sensor delay tau)."""
-        return damping(v, p), gas(x, self.x_m, p), p["F_c"] * soft_sign(v), lambda: _slope(v, p)
+        return damping(v, p), gas(x, self.x_m, p), p["F_c"] * soft_sign(v), lambda: slope(v, p)
 
 
 class Model:
@@ -171,9 +128,15 @@ class Model:
     def columns(self, f):
         """{parameter: the force's derivative in it [N per unit]} from one evaluation's
         Forces, for the coefficients of terms that add a basis to a part of the force
-        which no later effect alters (Effect.alters): exact, where a finite difference
-        costs a model evaluation each."""
+        which no later effect alters (Effect.alters), and the baseline's own parameters
+        where no effect alters their part (Minimal.columns): exact, where a finite
+        difference costs a model evaluation each."""
         out = {}
+        altered = {part for x in self.effects for part in EFFECTS[x.split(":")[0]].alters}
+        if hasattr(self.base, "columns") and "F" not in altered:
+            for part, cols in self.base.columns(f).items():
+                if part not in altered:
+                    out.update({k: f.data.through_source(c) for k, c in cols.items()})
         for e, (part, B) in f.bases.items():
             after = [EFFECTS[x.split(":")[0]] for x in self.effects
                      if ORDER.index(x.split(":")[0]) > ORDER.index(e.split(":")[0])]
@@ -185,6 +148,7 @@ class Model:
     def forces(self, d, p):
         """Model.force's Forces, every stage's result in it."""
         f = Forces(d)
+        f.p = p
         staged = sorted(((EFFECTS[e.split(":")[0]], e) for e in self.effects), key=lambda ce: ORDER.index(ce[0].name))
         for c, e in staged:
             if c.acts_on == "motion":

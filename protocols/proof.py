@@ -230,7 +230,7 @@ def _recorded(task: ProveTask, folder):
             else first,
             "accepted": r.accepted, "claims": claims, "first": first, "group": group, "noise_sd": r.noise_sd,
             "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n",
-                                                  "relevance", "excess_share")}
+                                                  "relevance", "excess_share", "held_in")}
                       for s in r.steps if not s.replaced_by],
             "within_noise": r.left_over.within_noise,
             "rmse": (r.baseline.rmse_heldout, r.final.rmse_heldout),

@@ -10,12 +10,14 @@ import pytest
 from models.events import SegmentEnd, SegmentStart
 from models.diagnose.candidates import EFFECTS
 
-from models.diagnose.candidates import _direction
+from models.diagnose.valves import _direction
 from models.diagnose import diagnose
 from models.diagnose.data import DiagnoseError, prepare
 from models.diagnose.words import summary
 from protocols.io.reader import load_recording
 from tests.conftest import recorded
+
+# their verdicts must not be one processor's last bits: run again under another kernel (Makefile)
 
 DYNO = [sys.executable, "-m", "protocols.app.cli"]
 
@@ -44,6 +46,7 @@ def test_two_stage_valve_curve_solves_eq_3_30():
     assert np.allclose(vL + vM, v, atol=1e-9)
 
 
+@pytest.mark.rounding
 @ONE_WORKER
 def test_null_recording_names_no_physics(recordings):
     res = diagnose(*load_recording(recordings["null"])[:2])
@@ -57,6 +60,7 @@ def test_null_recording_names_no_physics(recordings):
     assert res.baseline.nrmse_heldout < 0.005
 
 
+@pytest.mark.rounding
 @ONE_WORKER
 def test_a_hidden_lag_is_found_and_sized(recordings):
     res = diagnose(*load_recording(recordings["lag"])[:2])
@@ -67,6 +71,7 @@ def test_a_hidden_lag_is_found_and_sized(recordings):
     assert 0.3e-3 < res.steps[0].parameters["tau"] < 1.3e-3
 
 
+@pytest.mark.rounding
 @ONE_WORKER
 def test_two_hidden_effects_found_larger_first(recordings):
     # on this matrix the inertia adds 27.9 N RMS to the force, the 0.2 ms lag 14.7 N (offline plant)
@@ -222,7 +227,9 @@ def test_a_fold_stuck_in_a_local_minimum_restarts_from_the_other_folds_values():
     d.F = Model(d, base=Minimal(d)).force(d, truth) + np.random.default_rng(0).normal(0.0, 1.5, len(d.t))
     m = Model(d, base=Minimal(d))
     folds = holdout_masks(d)[0]
-    stuck = {**truth, "c1_r": 2.1e4, "c2_r": 0.0, "F_c": 3.0}
+    # (fitted in each parameter's own units, a low-speed path 3x too stiff is left within 11
+    # evaluations now: one 30x too stiff with a soft mid valve is not)
+    stuck = {**truth, "c1_r": 2e5, "c2_r": 0.0, "F_c": 3.0, "C_r": 200.0}
     rms = lambda v, k: float(np.sqrt(np.mean((m.force(d, v) - d.F)[k] ** 2)))
     alone, _, _ = cross_fit(m, d, folds, [truth, stuck], effort=1)
     again, _, r = cross_fit(m, d, folds, [truth, stuck], effort=1, restart=True)
@@ -236,6 +243,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     the same physics. The sentence names the group and tells no mechanism's story."""
     from models.diagnose.referees import rivals
     from models.diagnose.result import Candidate, Step
+    from models.diagnose.stability import Judge, Variant
     from models.diagnose.words import rivals_sentence
     rng = np.random.default_rng(0)
     block = np.repeat(np.arange(40), 50)
@@ -248,8 +256,9 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     worse = cand("compressibility", r_best * 1.5)
     own_form = cand("bouc_wen:aux.current", r_best)
     best = Candidate("bouc_wen", 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 60.0, 2.4)
-    found = rivals(best, r_best, [alike, worse, own_form], block, judged, ids, 1)
+    found, votes = rivals(best, r_best, [alike, worse, own_form], Judge(judged, [Variant(block, ids, 1)]))
     assert [e for e, _, _ in found] == ["presliding_friction"] and found[0][2] >= 0.01
+    assert votes["presliding_friction"].tolist() == [1.0] and votes["compressibility"].tolist() == [0.0]
     step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=found,
                 depends_on=["displacement", "direction"], character="elastic", region="both directions",
                 size_rms_n=80.0, size_peak_n=200.0)
@@ -364,6 +373,7 @@ def test_damping_that_changes_with_the_test_frequency_is_said_as_that_dependence
     assert "damping that changes with the test frequency at the same velocity" in summary(res)
 
 
+@pytest.mark.rounding
 def test_a_temperature_effect_the_time_explains_as_well_is_not_named():
     """A reservoir's gas force, flat along the stroke, growing with a temperature
     that only rises: a drift in time, with no mechanism in it, explains it as well, so the
@@ -373,11 +383,12 @@ def test_a_temperature_effect_the_time_explains_as_well_is_not_named():
     assert "gas_temperature" not in res.named() and "charge is heating" not in text, text
     gas = [s for s in res.steps if s.effect == "gas_temperature"]
     if gas:  # it took a round: the drift stood in for it
-        assert gas[0].stand_in[0] == "drift" and "or on time alone" in text, text
+        assert gas[0].stand_in[0] == "drift" and "or on time" in text, text
     else:
         assert res.steps[0].effect == "drift" and "a slow offset in time" in text, text
 
 
+@pytest.mark.rounding
 def test_a_rival_group_on_a_recording_made_for_it():
     """The force channel read 2 ms late on one crank stroke: compressibility and the cell's
     timing explain the same misfit about equally and the answer names them as a group."""
@@ -426,6 +437,7 @@ def test_a_finding_whose_rivals_depend_on_other_variables_says_either():
         in rivals_sentence(stribeck)
 
 
+@pytest.mark.rounding
 def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_path):
     """The embedded Koni has compressible oil by design. By default the baseline is the
     damper the recording names, refitted: its compressibility is in the model from the
@@ -472,7 +484,8 @@ def test_a_terms_exact_columns_are_the_forces_derivatives_beside_every_other_eff
             m = Model(d, WITH_BASELINE + effects)
             p = {q.name: q.x0 + (rng.uniform(0.05, 0.3) * (q.hi - q.lo) if q.x0 == 0.0 else 0.0) for q in m.params}
             f0 = m.forces(d, p)
-            cols = m.columns(f0)
+            # the term's own coefficients (the baseline's columns are checked in test_verdict)
+            cols = {k: c for k, c in m.columns(f0).items() if k in m.own[term]}
             alters = [EFFECTS[e.split(":")[0]].alters for e in effects if e != term
                       and ORDER.index(e.split(":")[0]) > ORDER.index(term)]
             told = {"valve_form": "Fd", "elastic_stroke": "Fg"}.get(term, "F")

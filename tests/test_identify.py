@@ -20,6 +20,8 @@ from models.identify.static import settled
 from models.physics.simulate import simulate, sine
 from tests.conftest import dyno, recorded
 
+# their verdicts must not be one processor's last bits: run again under another kernel (Makefile)
+
 DYNO = str(Path(sys.executable).parent / "dyno")
 
 
@@ -40,6 +42,7 @@ def test_canonical_form_is_the_same_damper(name):
         assert np.max(np.abs(a.force - b.force)) < 2e-4 * np.max(np.abs(a.force))
 
 
+@pytest.mark.rounding
 def test_breakaway_friction_by_extrapolation_to_the_reversals():
     t = np.arange(0, 40, 1e-3)
     x = 0.038 - 0.0127 * np.cos(2 * np.pi * 0.05 * t)
@@ -77,6 +80,7 @@ def test_the_valve_fits_jacobian_is_the_derivative_of_the_force():
         assert agree.mean() > 0.99, (name, agree.mean())
 
 
+@pytest.mark.rounding
 def test_valve_structure_chosen_on_held_out_segments():
     rng = np.random.default_rng(1)
     true = {"a": 2e5, "b": 3000.0, "m": 1700.0, "c": 770.0}
@@ -90,6 +94,7 @@ def test_valve_structure_chosen_on_held_out_segments():
     assert p["m"] == pytest.approx(1700, rel=0.05) and p["c"] == pytest.approx(770, rel=0.05)
 
 
+@pytest.mark.rounding
 @pytest.mark.parametrize("seed", range(6))
 def test_a_fitted_high_speed_line_is_one_the_model_accepts(seed):
     # a curve that turns progressive beyond 0.24 m/s: the high line, flatter by its
@@ -356,6 +361,7 @@ def test_live_estimates_are_shown_in_engineering_units():
         "50 cm^3 (not identifiable)"
 
 
+@pytest.mark.rounding
 def test_gamma_from_pressures_sampled_at_the_forces_rate(tmp_path):
     """Pressure transducers read at 1 kHz (the direct cell; over Modbus they come at 100 Hz):
     a trial step of the bulk modulus's fit underflowed its slope to 0 and identify died

@@ -6,6 +6,9 @@ from models.physics import gas_spring
 from models.damper import load
 from models.identify.static import identify_static
 
+# their verdicts must not be one processor's last bits: run again under another kernel (Makefile)
+pytestmark = pytest.mark.rounding
+
 
 def test_static_step_recovers_charge_and_friction_exactly():
     d = load("mechformance")

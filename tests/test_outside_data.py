@@ -13,6 +13,8 @@ from models.diagnose.kernels import bouc_wen, dahl
 from models.diagnose.data import Data
 from tests.conftest import dyno
 
+# their verdicts must not be one processor's last bits: run again under another kernel (Makefile)
+
 MR = Path(__file__).parent / "data" / "mr-damper" / "ransim_u.csv"
 
 
@@ -173,6 +175,7 @@ def test_an_effect_that_stands_in_for_an_earlier_ones_form_is_said_so():
         assert (share >= 0.5) == expect_form, share
 
 
+@pytest.mark.rounding
 def test_random_motion_is_judged_in_blocks_and_the_effect_found(tmp_path):
     """Band-limited random motion (a replay target, not a sine) with a hidden oil-column
     inertia, recorded through the wires on the plain cell: judged in blocks, found."""
@@ -216,9 +219,11 @@ def test_a_sharp_friction_reversal_at_5_khz_is_not_physics(tmp_path):
 
 
 def _claims(doc):
-    """Physics a diagnosis claims: catalogue effects and terms outside it, not the cell's
-    timing or interference and not the valve curve's form (models/diagnose/spec.py)."""
-    return [e["effect"] for e in doc["effects"] if e.get("nature") in ("physics", "open")]
+    """Physics a diagnosis claims: catalogue effects and terms outside it that it names or
+    says at the edge, not the cell's timing or interference and not the valve curve's form
+    (models/diagnose/spec.py). What it keeps small, as a stand-in or in a group is no claim."""
+    said = set(doc["named"]) | set(doc["at_edge"])
+    return [e["effect"] for e in doc["effects"] if e.get("nature") in ("physics", "open") and e["effect"] in said]
 
 
 def test_coloured_noise_and_a_digressive_valve_are_not_physics(tmp_path):
@@ -257,5 +262,6 @@ def test_a_bump_stop_and_mains_hum_outside_the_catalogue_are_read_by_what_they_d
     assert bump["stand_in"]["term"] == "loop_surface" and "elastic_stroke" not in doc["named"]
     assert "Not named: the force depends on displacement beyond the baseline" in doc["summary"]
     assert "A tone at 50.0" in doc["summary"] and "not the damper" in doc["summary"]
-    assert _claims(doc) == ["elastic_stroke"]
+    assert _claims(doc) == [] and [e["effect"] for e in doc["effects"] if e.get("nature") in ("physics", "open")] \
+        == ["elastic_stroke"]  # the one physics the model keeps, said by its dependence
     assert doc["final"]["rmse_heldout"] < 0.5 * doc["baseline"]["rmse_heldout"]

@@ -34,12 +34,14 @@ from models.diagnose.from_model import FromModel
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
 from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step
 from models.diagnose.noise import noise_from, noise_sd
-from models.diagnose.referees import ALPHA, RELEVANCE, bar, block_sse, chosen, p_value, referees, term
+from models.diagnose import stability
+from models.diagnose.bootstrap import ALPHA, p_value
+from models.diagnose.referees import RELEVANCE, bar, chosen, referees, term
 from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
 from models.recording import differing_repeats, nrmse
 
-__all__ = ["diagnose", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
+__all__ = ["diagnose", "repeated", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
 
 MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
 REFIT_EFFORT = 4  # function evaluations per parameter when an accepted term is refitted with the rest
@@ -53,13 +55,15 @@ SHARE = 0.01
 NAMED_SHARE = 0.2
 
 
-def blocks(d: Data, per_cycle=4):
+def blocks(d: Data, per_cycle=4, offset=0.0):
     """Block number of each sample: each cycle cut into `per_cycle` equal parts (strokes
-    and reversals apart), the units the bootstrap resamples."""
+    and reversals apart), the units the bootstrap resamples; offset [share of a block]
+    shifts the cuts (the cycle's end then closes its first block: stability.py)."""
     out = np.empty(len(d.cycle), int)
     starts = np.r_[0, np.nonzero(np.diff(d.cycle))[0] + 1, len(d.cycle)]
     for a, b in zip(starts[:-1], starts[1:]):
-        out[a:b] = d.cycle[a] * per_cycle + (np.arange(b - a) * per_cycle) // (b - a)
+        part = np.floor(np.arange(b - a) * per_cycle / (b - a) + offset).astype(int) % per_cycle
+        out[a:b] = d.cycle[a] * per_cycle + part
     return out
 
 
@@ -188,8 +192,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     folds, judged, shown = holdout_masks(d, holdout)
     if holdout != "interleaved":
         d.fitted_until = float(np.max(d.t[folds[0][0]]))
-    block = blocks(d)
-    judged_blocks = np.unique(block[judged])
+    judge = stability.judge(d, judged, seed, blocks)
     cell = list(WITH_BASELINE)
     base_res, fold_vals, values = _fit_baseline(d, base, cell, folds, shown)
     r0 = base_res.residual
@@ -206,19 +209,18 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         alpha = bar(len(names))
-        sse_cur = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
-        round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, block, judged, judged_blocks,
-                        shown, sse_cur, sigma, alpha, seed, last, cost, progress, jobs)
+        round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, judge, r_cur, shown, sigma,
+                        alpha, last, cost, progress, jobs)
         candidates += [c for c, *_ in round_]
         last = {c.effect: f_vals for c, _, f_vals, _ in round_}
-        mse = float(np.mean(r_cur[judged] ** 2))
-        ok = [x for x in round_ if x[0].p_value < alpha and x[0].relevance >= RELEVANCE
-              and x[0].gain >= SHARE * mse and resolved(d, x[0].effect, x[0].parameters, x[0].ci)]
+        ok = [x for x in round_ if x[0].accept_share >= 0.5]  # accepted in most judgements
         if not ok:
             break
-        best, b_vals, b_folds, b_r = chosen(ok, block, judged, judged_blocks, alpha, seed)
-        rivals, stand_in = referees(d, base, cell + accepted, best, b_folds, b_r, round_, folds, block,
-                                     judged, judged_blocks, alpha, seed)
+        # the effect carried may be one at the edge that the held-out blocks cannot tell from the best
+        best, b_vals, b_folds, b_r = chosen(ok, [x for x in round_ if stability.EDGE < x[0].accept_share], judge,
+                                            alpha, names)
+        rivals, rival_votes, stand_in, stand_in_votes = referees(d, base, cell + accepted, best, b_folds, b_r, round_,
+                                                                 folds, judge, alpha)
         m_best = Model(d, cell + accepted + [best.effect], base)
         if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
             # from the screening's values, close to the optimum: a few evaluations per parameter
@@ -233,12 +235,13 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
                           # the earlier effects whose form this one may be compensating, in acceptance order
                           [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals,
-                          stand_in=stand_in, relevance=best.relevance))
+                          stand_in=stand_in, relevance=best.relevance, accept_votes=best.accept_votes,
+                          rival_votes=rival_votes, stand_in_votes=stand_in_votes))
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
-    accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judged, block, judged_blocks, seed,
-                                                           accepted, values, current, r_cur, progress)
+    accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judge, accepted, values, current,
+                                                           r_cur, progress)
     final_model = Model(d, cell + accepted, base)
     held = judged | shown
     for st in steps:
@@ -249,9 +252,25 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     _sized(steps, float(np.mean(r0[judged] ** 2)) - sigma ** 2, sigma)
     return Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
                      locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
-                     left_over(r_cur, judged, block, judged_blocks, sigma, seed),
+                     left_over(r_cur, judge, sigma),
                      Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
-                     noise_from(d), repeats=differing_repeats(channels, events))
+                     noise_from(d), repeats=differing_repeats(channels, events), judge=judge)
+
+
+def repeated(first, channels, events, n, **kw) -> dict:
+    """`dyno diagnose --repeats N`: the diagnosis `first` and N - 1 more, each of a copy of
+    the recording with its force rescaled by 1 + k 1e-9 (k = -1, 1, -2, 2, ...: a millionth of
+    any load cell's resolution) and its own bootstrap draws (seed k): {"n": N, "named":
+    {effect: share of the N in which it is named}, "at_edge": {...}} of every effect named
+    or at the edge in any of them. Costs N diagnoses."""
+    t, F = channels["force"]
+    runs = [first]
+    for k in range(1, n):
+        scale = 1.0 + (-1) ** k * ((k + 1) // 2) * 1e-9
+        runs.append(diagnose({**channels, "force": (t, F * scale)}, events, seed=k, **kw))
+    effects = dict.fromkeys(e for r in runs for e in r.named() + r.at_edge())
+    return {"n": n, "named": {e: sum(e in r.named() for r in runs) / n for e in effects},
+            "at_edge": {e: sum(e in r.at_edge() for r in runs) / n for e in effects}}
 
 
 def _fit_baseline(d, base, cell, folds, shown):
@@ -259,13 +278,24 @@ def _fit_baseline(d, base, cell, folds, shown):
     channels' alignment is fitted with it, never a candidate, since every recording has one
     and as a candidate it took the first round of every null (docs/diagnosis.md)."""
     model = Model(d, cell, base=base)
-    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True)
+    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True, more=_starts(d, base))
     values, sd = pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
     fit0 = folds[0][0]
     res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
                    residual=r0, model_gas_force=getattr(base, "Fg_m", None), cell=_cell_fits(d, cell, values, sd))
     return res, fold_vals, values
+
+
+def _starts(d, base):
+    """The minimal baseline's starts besides the data's, the lowest cost kept (cross_fit's
+    more): valve curves that are lines, a seal that grips. From one start the trust region
+    settled in whichever valley the last bits sent it to (a repeats file of five currents:
+    costs 10 % apart on two machines); from these, in the same one."""
+    if not isinstance(base, Minimal):
+        return []
+    x0, Fmax = {p.name: p.x0 for p in base.params(d)}, max(np.percentile(np.abs(d.F), 99), 10.0)
+    return [{**x0, "c2_c": 0.0, "c2_r": 0.0}, {**x0, "F_c": 0.15 * Fmax}]
 
 
 def _cell_fits(d, cell, values, sd):
@@ -284,20 +314,32 @@ def _sized(steps, excess, sigma):
     mean-square error above the noise that the damper's physics has to explain: the
     baseline's excess (its alignment fitted with it) less what the cell's timing beyond it
     and interference and the valve curve's form took. Only physics and terms outside the catalogue can be small:
-    the cell's and the valve curve's form are never said as physics left out."""
+    the cell's and the valve curve's form are never said as physics left out. Then how
+    firmly each is named (held_in): the share of the judgements in which it is accepted,
+    with no rival and no stand-in, times its size against the practical size's band."""
     is_physics = [EFFECTS[s.effect.split(":")[0]].nature in ("physics", "open") for s in steps]
     left = excess - sigma ** 2 * sum(s.relevance for s, ph in zip(steps, is_physics) if not ph)
-    for s in (s for s, ph in zip(steps, is_physics) if ph):
-        s.excess_share = s.relevance * sigma ** 2 / max(left, 1e-30)
-        s.small = left > 0 and s.excess_share < NAMED_SHARE
+    for s, ph in zip(steps, is_physics):
+        sized = 1.0
+        if ph:
+            s.excess_share = s.relevance * sigma ** 2 / max(left, 1e-30)
+            s.small = left > 0 and s.excess_share < NAMED_SHARE
+            sized = stability.against(s.excess_share, NAMED_SHARE) if left > 0 else 1.0
+        alone = 1.0 - np.max([s.stand_in_votes, *s.rival_votes.values()], axis=0)  # neither rival nor stand-in
+        s.held_in = float(np.mean(s.accept_votes * alone)) * sized
 
 
-def _round(d, base, names, fitted, number, folds, current, block, judged, judged_blocks, shown, sse_cur, sigma,
-           alpha, seed, last, cost, progress, jobs):
+def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, sigma, alpha, last, cost, progress,
+           jobs):
     """Each candidate fitted beside the effects fitted so far (the cell's and those
     accepted) and judged on the held-out blocks: [(Candidate, pooled values, values per
-    fold, residual [N])] of round `number`."""
+    fold, residual [N])] of round `number`. A candidate is accepted where it is significant
+    (p < alpha), worth having (RELEVANCE noise variances, SHARE of the error it starts from)
+    and resolved: accept_share is the share of the judgements in which it is."""
+    judged = judge.judged
     n_judged = int(np.sum(judged))
+    sse_cur = judge.sse(r_cur, judge.main)
+    mse = float(np.mean(r_cur[judged] ** 2))
 
     def fit(e):
         t0 = time.perf_counter()
@@ -316,26 +358,28 @@ def _round(d, base, names, fitted, number, folds, current, block, judged, judged
     out = []
     for e, ((f_vals, f_sds, r), _) in ((e, done[e]) for e in names):
         vals, sds = pooled(f_vals, f_sds)
-        d_c = sse_cur - block_sse(np.where(judged, r, 0.0), block, judged_blocks)
-        gain = float(d_c.sum() / n_judged)  # held-out mean-square improvement [N^2]
-        # each block counts alike whatever its force, and symmetrically: a block made ten
-        # times worse weighs what one made ten times better does
-        rel = np.log(np.maximum(sse_cur, 1e-30) / np.maximum(sse_cur - d_c, 1e-30))
+        gain = float((sse_cur - judge.sse(r, judge.main)).sum() / n_judged)  # held-out mean-square improvement [N^2]
         own = {p.name: vals[p.name] for p in EFFECTS[e.split(":")[0]].params(d, e)}
         c = Candidate(e, number, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                      **scores(d.F, r, shown), p_value=p_value(rel, seed, alpha), gain=gain, relevance=gain / sigma ** 2)
+                      **scores(d.F, r, shown), p_value=judge.p(r, r_cur, alpha), gain=gain, relevance=gain / sigma ** 2)
+        # each block counts alike whatever its force, and symmetrically: a block made ten
+        # times worse weighs what one made ten times better does (Judge.log_ratio)
+        worth = stability.against(c.relevance, RELEVANCE) * stability.against(gain / max(mse, 1e-30), SHARE)
+        c.accept_votes = np.zeros(len(judge.variants))
+        if worth > 0 and resolved(d, e, c.parameters, c.ci):
+            c.accept_votes = judge.votes(r, r_cur, alpha) * worth
         out.append((c, vals, f_vals, r))
         progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
                  f"  gain {c.relevance:+.3f} noise variances")
     return out
 
 
-def _replaced(d, base, cell, folds, judged, block, judged_blocks, seed, accepted, values, current, r_cur, progress):
+def _replaced(d, base, cell, folds, judge, accepted, values, current, r_cur, progress):
     """A term outside the catalogue replaces catalogue names whose sum it explains better:
     each catalogue effect accepted before an open term is dropped again when the model
     without it, refitted, does as well on the held-out cycles (its gain no longer
-    significant, by the test that accepted it). Returns the new (accepted, values, per fold
-    values, residual, {dropped: replacing term})."""
+    significant, by the test that accepted it, in at least half of the judgements). Returns
+    the new (accepted, values, per fold values, residual, {dropped: replacing term})."""
     replaced = {}
     open_ = [e for e in accepted if term(e)]
     if not open_:
@@ -344,10 +388,7 @@ def _replaced(d, base, cell, folds, judged, block, judged_blocks, seed, accepted
         rest = [a for a in accepted if a != e]
         m = Model(d, cell + rest, base)
         f_vals, f_sds, r = cross_fit(m, d, folds, current)
-        sse_with = block_sse(np.where(judged, r_cur, 0.0), block, judged_blocks)
-        sse_without = block_sse(np.where(judged, r, 0.0), block, judged_blocks)
-        rel = np.log(np.maximum(sse_without, 1e-30) / np.maximum(sse_with, 1e-30))
-        if p_value(rel, seed, ALPHA) >= ALPHA:
+        if judge.share(r_cur, r, ALPHA) < 0.5:
             replaced[e] = open_[0]
             progress(f"{e} dropped: {open_[0]} explains it as well without it")
             accepted, current, r_cur = rest, f_vals, r
@@ -372,17 +413,19 @@ def resolved(d: Data, effect, params, ci):
     return True
 
 
-def left_over(r, judged, block, judged_blocks, sigma, seed):
+def left_over(r, judge, sigma):
     """Is the final held-out residual within the noise? The excess over the noise variance
     per block, log(SSE_b / (n_b sigma^2 (1 + RELEVANCE))), tested against zero by the
-    catalogue's bootstrap; with the RMS above the noise [N]."""
-    sse = block_sse(np.where(judged, r, 0.0), block, judged_blocks)
-    n = np.bincount(block, weights=judged.astype(float), minlength=judged_blocks.max() + 1)[judged_blocks]
-    ok = n > 0
-    rel = np.log(np.maximum(sse[ok], 1e-30) / (n[ok] * sigma ** 2 * (1 + RELEVANCE)))
-    mse = float(np.mean(r[judged] ** 2))
-    p = p_value(rel, seed)
-    return LeftOver(p, float(np.sqrt(max(mse - sigma ** 2, 0.0))), bool(p >= ALPHA))
+    catalogue's bootstrap, in every judgement (within when it is in at least half); with the
+    RMS above the noise [N]."""
+    def p(v):
+        sse = judge.sse(r, v)
+        n = np.bincount(v.block, weights=judge.judged.astype(float), minlength=v.ids.max() + 1)[v.ids]
+        ok = n > 0
+        return p_value(np.log(np.maximum(sse[ok], 1e-30) / (n[ok] * sigma ** 2 * (1 + RELEVANCE))), v.seed)
+    within = float(np.mean([p(v) >= ALPHA for v in judge.variants]))
+    mse = float(np.mean(r[judge.judged] ** 2))
+    return LeftOver(p(judge.main), float(np.sqrt(max(mse - sigma ** 2, 0.0))), within >= 0.5, within)
 
 
 # --- where the residual lives ---------------------------------------------------------

@@ -46,6 +46,14 @@ class Candidate:
     p_value: float
     gain: float  # held-out mean-square improvement [N^2]
     relevance: float  # gain in force-noise variances
+    # in each held-out judgement (models/diagnose/stability.py), whether it passes the
+    # acceptance test: significant, worth having (0.5 within the band of a fixed bar), resolved
+    accept_votes: np.ndarray = field(default_factory=lambda: np.zeros(1))
+
+    @property
+    def accept_share(self) -> float:
+        """The share of the judgements in which it is accepted; accepted at 0.5 and above."""
+        return float(np.mean(self.accept_votes))
 
 
 @dataclass
@@ -81,14 +89,35 @@ class Step:
     size_rms_n: float = float("nan")
     size_peak_n: float = float("nan")
     tone_hz: float | None = None
+    # how firmly it holds (stability.py): the share of the held-out judgements in which it is
+    # accepted, each rival's share of being one (rivals holds those at 0.5 and above), the
+    # share in which a stand-in explains as much, and in which it is named (held_in)
+    accept_votes: np.ndarray = field(default_factory=lambda: np.ones(1))
+    rival_votes: dict = field(default_factory=dict)  # {candidate: per judgement, 1.0 where it is a rival}
+    stand_in_votes: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    held_in: float = 1.0
+
+    @property
+    def accept_share(self) -> float:
+        return float(np.mean(self.accept_votes))
+
+    @property
+    def rival_shares(self) -> dict:
+        return {e: float(np.mean(v)) for e, v in self.rival_votes.items()}
+
+    @property
+    def stand_in_share(self) -> float:
+        return float(np.mean(self.stand_in_votes))
 
 
 @dataclass
 class LeftOver:
-    """Whether the final held-out residual is within the noise."""
+    """Whether the final held-out residual is within the noise (in at least half of the
+    held-out judgements; within_share of them)."""
     p_value: float
     above_noise_rms_n: float
     within_noise: bool
+    within_share: float = 1.0
 
 
 @dataclass
@@ -121,6 +150,7 @@ class Diagnosis:
     # [(test, [segment names], [force range, N])]: a test run again with something the
     # recording does not carry changed (models.recording.differing_repeats)
     repeats: list = field(default_factory=list)
+    judge: object = None  # the held-out judgements every decision was taken on (stability.Judge)
 
     def effects(self):
         """The final model's effects: the cell's, fitted with the baseline, then those accepted."""
@@ -131,6 +161,14 @@ class Diagnosis:
         return [c.effect for c in self.baseline.cell if c.resolved]
 
     def named(self):
-        """The accepted effects said by name: not dropped again, not small, not said as a
-        rival group or as what a flexible stand-in explains as well."""
-        return [s.effect for s in self.steps if not (s.replaced_by or s.small or s.stand_in or s.rivals)]
+        """The accepted effects said by name: not dropped again, and named (not small, not
+        said as a rival group or as what a flexible stand-in explains as well) in at least
+        stability.HELD of the held-out judgements."""
+        from models.diagnose.stability import holds
+        return [s.effect for s in self.steps if not s.replaced_by and holds(s.held_in)]
+
+    def at_edge(self):
+        """The accepted effects named in some of the held-out judgements but fewer than
+        stability.HELD: said as at the edge, with their share, never as a name."""
+        from models.diagnose.stability import at_edge
+        return [s.effect for s in self.steps if not s.replaced_by and at_edge(s.held_in)]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.diagnose import quality
+from models.diagnose import quality, stability
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
 from models.recording import reads_low, repeats_sentence
@@ -114,7 +114,10 @@ def lag_sentence(key, p, ci, sample_s=None):
 def rivals_sentence(step):
     """An effect the recording cannot tell from others: the group, what they share, the
     one the model carries, and no mechanism's story."""
-    names = [said(step.effect)] + [said(e) for e, _, _ in step.rivals]
+    shares = step.rival_shares
+    names = [said(step.effect)] + [said(e) + ("" if stability.holds(shares.get(e, 1.0)) else
+                                              f" (at the edge: a rival in {stability.of(shares[e], len(step.accept_votes))})")
+                                   for e, _, _ in step.rivals]
     group = ", ".join(names[:-1]) + " and " + names[-1]
     ps = ", ".join(f"{said(e)} {p:.2g}" for e, _, p in step.rivals)
     form = [said(e) for e in [step.effect] + [e for e, _, _ in step.rivals] if EFFECTS[e.split(":")[0]].nature == "form"]
@@ -220,31 +223,41 @@ def findings(res):
     if strong:
         lines.append("The residual lives " + "; ".join(_where(loc) for loc in strong) + ".")
     span = float(np.ptp(res.data.F)) if len(res.data.F) else 0.0
+    n = len(res.judge.variants) if res.judge else 1
     for s in res.steps:
         name = said(s.effect)
+        edge = stability.at_edge(s.held_in)
+        if edge:  # before what it is said as: the verdict is not the data's alone
+            lines.append(f"At the edge: {name} is named in {stability.of(s.held_in, n)} of the held-out blocks "
+                         f"(their boundaries shifted, the bootstrap drawn anew): not a finding, and what is said of "
+                         f"it next may change with the last bits of the arithmetic (docs/diagnosis.md).")
         if s.replaced_by:
             lines.append(f"Dropped again: {name}. {said(s.replaced_by)} explains its gain as well without it.")
-        elif s.small:
-            lines.append(small_sentence(s, span))
+            continue
+        if s.small:
+            line = small_sentence(s, span)
         elif s.stand_in:
-            lines.append(stand_in_sentence(s, span))
+            line = stand_in_sentence(s, span)
         elif s.compensates:
             why = [f"its parameters trade against those of {said(e)} (correlation {c:.2f})"
                    for e, c in s.trades_with]
             why += [f"changing the form of {said(e)} (its size by direction, with speed, along the stroke or with "
                     f"its own size, or a lag) brings {100 * sh:.0f} % of its gain" for e, sh in s.form_of]
-            lines.append(f"Accepted, but may be compensating the form of {', '.join(map(said, s.compensates))}: "
-                         f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
-                         f"of its own." + _change(s))
+            line = (f"Accepted, but may be compensating the form of {', '.join(map(said, s.compensates))}: "
+                    f"{name}; {'; '.join(why)}. The gain may be a different form of that effect, not physics "
+                    f"of its own." + _change(s))
         elif s.effect in res.described:
-            lines.append(f"In {res.described[s.effect]}'s own description, not a fault: {name}. The minimal baseline "
-                         f"leaves it out and the damper model has it (`--baseline {res.described[s.effect]}` starts "
-                         f"from that model)." + _change(s) + f" ({_what(s)}.)")
+            line = (f"In {res.described[s.effect]}'s own description, not a fault: {name}. The minimal baseline "
+                    f"leaves it out and the damper model has it (`--baseline {res.described[s.effect]}` starts "
+                    f"from that model)." + _change(s) + f" ({_what(s)}.)")
         elif s.rivals:
-            lines.append(rivals_sentence(s))
+            line = rivals_sentence(s)
         else:
-            lines.append(OPENING[s.nature].format(name=name) + sentence(s, sample_s) + f" ({_what(s)}.)")
+            line = OPENING[s.nature].format(name=name) + sentence(s, sample_s) + f" ({_what(s)}.)"
+        lines.append(line + (f" Named in {stability.of(s.held_in, n)}." if stability.holds(s.held_in) else ""))
     lo = res.left_over
+    if stability.at_edge(lo.within_share):
+        lines.append(f"At the edge: what is left is within the force noise in {stability.of(lo.within_share, n)}.")
     if lo.within_noise:
         lines.append(f"Nothing significant was left out: the held-out residual is within the force noise "
                      f"(p = {lo.p_value:.2g} that it is above it).")
@@ -271,3 +284,13 @@ def short_of_the_bar(res):
             f"{100 * before:.2f} % ({named}{more}), p = {min(c.p_value for c in near):.2g} at best, "
             f"short of the bar for {tried} tried (p < {bar(tried):.2g}). The recording cannot tell whether any of them "
             f"is real; a longer recording of the same test (more cycles) can.")
+
+
+def repeats_text(again) -> str:
+    """`--repeats N`'s count in words: how often each effect was named, or at the edge."""
+    n = again["n"]
+    if not again["named"]:
+        return f"Repeated on {n - 1} perturbed copies (force x 1 +- k 1e-9, other draws): nothing named or at the edge."
+    return (f"Repeated on {n - 1} perturbed copies (force x 1 +- k 1e-9, other draws): "
+            + "; ".join(f"{said(e)} named in {round(s * n)} of {n}, at the edge in {round(again['at_edge'][e] * n)}"
+                        for e, s in again["named"].items()) + ".")

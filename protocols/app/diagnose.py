@@ -31,29 +31,38 @@ def add(sub):
     dg.add_argument("--budget", type=number(0, MAX_BUDGET_S, above=0), default=None, metavar="SECONDS",
                     help="--next: rig time the proposals may take (default 120)")
     dg.add_argument("--rig", default=None, help="--next: rig config whose limits the proposals keep (default virtual)")
+    dg.add_argument("--repeats", type=number(1, 50, integer=True), default=1, metavar="N",
+                    help="check the verdict by hand: diagnose N copies of the recording, each with its force rescaled "
+                         "by 1 +- k 1e-9 and its own bootstrap draws, and say how often each effect is named (N times "
+                         "the time; docs/diagnosis.md)")
     dg.set_defaults(command="diagnose")
+
+
+def _baseline(name):
+    """(name, damper model) of --baseline, or None for the minimal model."""
+    if name in (None, "minimal"):
+        return None
+    try:
+        model = load_damper(name)
+    except (DamperError, OSError, ValueError) as e:
+        raise UsageError(f"--baseline {name}: {e}") from None
+    if isinstance(model, SimplifiedDamper):
+        raise UsageError(f"--baseline {name}: a simplified model has no gas spring or friction to refit; "
+                         f"give a full damper model")
+    return Path(name).stem, model
 
 
 def run(args):
     from models import threads
     from models.diagnose import design, diagnose
     from models.diagnose.data import DiagnoseError
-    from models.diagnose.words import summary
+    from models.diagnose.words import repeats_text, summary
     from models import source_filter
     from models.recording import drives
     from protocols.io.files import existing_files, filled, output_folder
     from protocols.io.reader import load_recording
     from protocols.reports.diagnosis import described, own_baseline, report, to_json
-    baseline = None
-    if args.baseline not in (None, "minimal"):
-        try:
-            model = load_damper(args.baseline)
-        except (DamperError, OSError, ValueError) as e:
-            raise UsageError(f"--baseline {args.baseline}: {e}") from None
-        if isinstance(model, SimplifiedDamper):
-            raise UsageError(f"--baseline {args.baseline}: a simplified model has no gas spring or friction to refit; "
-                             f"give a full damper model")
-        baseline = (Path(args.baseline).stem, model)
+    baseline = _baseline(args.baseline)
     if getattr(args, "batch", None):
         from models.damper import to_dict
         from protocols.app import diagnose_batch
@@ -77,13 +86,19 @@ def run(args):
         if baseline:
             say(f"baseline: {baseline[0]}, the damper the recording names, refitted (--baseline minimal for "
                 f"the thesis's minimal model)")
+    kw = dict(baseline=baseline, holdout=args.holdout, drives=drives(meta), jobs=threads.cores(),
+              smoothing=source_filter.of(meta))
     try:
-        res = diagnose(ch, events, progress=say, baseline=baseline, holdout=args.holdout, drives=drives(meta),
-                       jobs=threads.cores(), smoothing=source_filter.of(meta))
+        res = diagnose(ch, events, progress=say, **kw)
     except (DiagnoseError, DamperError) as e:
         raise UsageError(f"{args.recording}: {e}") from None
     if baseline is None:
         res.described = described(res, meta)
+    again = None
+    if args.repeats > 1:
+        from models.diagnose import repeated
+        say(f"repeating the diagnosis on {args.repeats - 1} perturbed copies")
+        again = repeated(res, ch, events, args.repeats, **kw)
     if args.report:
         with filled(args.report, "--report") as folder:
             page = report(res, folder)
@@ -98,10 +113,12 @@ def run(args):
     if getattr(args, "next", False):
         props = design.propose(res, limits, budget)
     if args.json:
-        print(json.dumps({**to_json(res), **({"next": next_test.to_json(props)} if props is not None else {})},
-                         indent=1))
+        print(json.dumps({**to_json(res), **({"next": next_test.to_json(props)} if props is not None else {}),
+                          **({"repeats": again} if again else {})}, indent=1))
     else:
         print(summary(res))
+        if again:
+            print(repeats_text(again))
         if props is not None:
             print("\n" + next_test.text(props, res, limits, budget))
         print("\nCandidates (held-out error, p, gain in noise variances):")

@@ -256,6 +256,8 @@ def _minimal_doc(args, out, base, found, channels, events):
                     "and the effects the diagnosis accepted; no damper description needed",
             "recordings": [str(p) for p in args.recordings],
             "effects": effects,
+            # of the effects, those the diagnosis named and those at the edge (docs/diagnosis.md, the words)
+            "named": found.named(), "at_edge": found.at_edge(),
             # an effect's form is built on the recording it was fitted on (models/minimal.py)
             "source": [os.path.relpath(Path(p).resolve(), Path(out).resolve().parent) for p in args.recordings]
             if effects else [],

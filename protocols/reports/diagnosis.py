@@ -52,9 +52,13 @@ def to_json(res):
                         "parameters": {k: num(v) for k, v in c.parameters.items()},
                         "ci": {k: [num(a), num(z)] for k, (a, z) in c.ci.items()},
                         **{k: getattr(c, k) for k in held}, "p_value": c.p_value,
-                        "gain_noise_variances": c.relevance} for c in res.candidates],
+                        "gain_noise_variances": c.relevance, "accept_share": c.accept_share}
+                       for c in res.candidates],
         "accepted": res.accepted,
         "named": res.named(),
+        # named in some held-out judgements, fewer than stability.HELD: said so, never as a name
+        "at_edge": res.at_edge(),
+        "judgements": len(res.judge.variants),
         # lower the held-out error but short of the round's bar: the recording cannot tell
         "not_proven": [c.effect for c in not_proven(res.candidates)[1]],
         "may_compensate": {s.effect: s.compensates for s in res.steps if s.compensates},
@@ -62,7 +66,11 @@ def to_json(res):
         "effects": [{"effect": s.effect, "replaced_by": s.replaced_by} if s.replaced_by else
                     {"effect": s.effect, **{k: getattr(s, k) for k in ("nature", "depends_on", "region", "character",
                                                                        "size_rms_n", "size_peak_n", "tone_hz")},
-                     "rivals": [{"effect": e, "gain_noise_variances": g, "paired_p": p} for e, g, p in s.rivals],
+                     "rivals": [{"effect": e, "gain_noise_variances": g, "paired_p": p,
+                                 "held_in": s.rival_shares.get(e)} for e, g, p in s.rivals],
+                     # how firmly (models/diagnose/stability.py): the share of the held-out
+                     # judgements in which it is named, accepted, and a stand-in explains as much
+                     "held_in": s.held_in, "accept_share": s.accept_share, "stand_in_share": s.stand_in_share,
                      "in_own_description": res.described.get(s.effect),
                      # below the practical size: kept in the model, not named (docs/diagnosis.md)
                      "small": s.small, "gain_noise_variances": s.relevance, "excess_share": s.excess_share,

@@ -71,7 +71,6 @@ def test_a_hidden_lag_is_found_and_sized(recordings):
     assert 0.3e-3 < res.steps[0].parameters["tau"] < 1.3e-3
 
 
-@pytest.mark.rounding
 @ONE_WORKER
 def test_two_hidden_effects_found_larger_first(recordings):
     # on this matrix the inertia adds 27.9 N RMS to the force, the 0.2 ms lag 14.7 N (offline plant)
@@ -373,7 +372,6 @@ def test_damping_that_changes_with_the_test_frequency_is_said_as_that_dependence
     assert "damping that changes with the test frequency at the same velocity" in summary(res)
 
 
-@pytest.mark.rounding
 def test_a_temperature_effect_the_time_explains_as_well_is_not_named():
     """A reservoir's gas force, flat along the stroke, growing with a temperature
     that only rises: a drift in time, with no mechanism in it, explains it as well, so the
@@ -437,7 +435,6 @@ def test_a_finding_whose_rivals_depend_on_other_variables_says_either():
         in rivals_sentence(stribeck)
 
 
-@pytest.mark.rounding
 def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_path):
     """The embedded Koni has compressible oil by design. By default the baseline is the
     damper the recording names, refitted: its compressibility is in the model from the

@@ -175,7 +175,6 @@ def test_an_effect_that_stands_in_for_an_earlier_ones_form_is_said_so():
         assert (share >= 0.5) == expect_form, share
 
 
-@pytest.mark.rounding
 def test_random_motion_is_judged_in_blocks_and_the_effect_found(tmp_path):
     """Band-limited random motion (a replay target, not a sine) with a hidden oil-column
     inertia, recorded through the wires on the plain cell: judged in blocks, found."""

@@ -123,3 +123,28 @@ def test_a_real_recording_gets_one_verdict_three_ways(tmp_path, current):
     assert all(0.0 <= e["held_in"] <= 1.0 for e in doc["effects"] if "held_in" in e)
     said = [e for e in doc["effects"] if e.get("held_in", 0) > stability.EDGE]
     assert all(f"{100 * e['held_in']:.0f} % of {doc['judgements']} judgements" in doc["summary"] for e in said)
+
+
+
+def test_a_fit_that_stops_at_its_step_limit_is_said_not_converged(monkeypatch):
+    """Convergence is checked: a fit cut at its step limit says so (cross_fit's stopped,
+    the baseline's sentence and the JSON), one that converges does not."""
+    from models.diagnose import diagnose, fitting
+    from models.diagnose.candidates import Minimal, Model
+    from models.diagnose.design import Sine, motion
+    from models.diagnose.words import summary
+    from protocols.reports.diagnosis import to_json
+    from tests.test_diagnose import _sines_run
+    d = motion(Sine(0.01, 2.0, 0.038), SimpleNamespace(T=None, aux={}))
+    m = Model(d, base=Minimal(d))
+    truth = {p.name: p.x0 for p in m.params} | {"c1_c": 3000.0, "c1_r": 6900.0, "G0": 430.0, "F_c": 70.0}
+    d.F = m.force(d, truth) + np.random.default_rng(0).normal(0.0, 2.0, len(d.t))
+    folds = [(d.cycle % 2 == k, d.cycle % 2 != k) for k in (0, 1)]
+    cut, done = [], []
+    fitting.cross_fit(m, d, folds, [{}, {}], stopped=done)
+    monkeypatch.setattr(fitting, "MAX_STEPS", 2)
+    fitting.cross_fit(m, d, folds, [{}, {}], stopped=cut)
+    assert cut == [True, True] and done == [False, False]
+    res = diagnose(*_sines_run(lambda t, x, v, F, f, T: F), max_effects=0)
+    assert res.baseline.stopped == 2 and to_json(res)["baseline"]["folds_not_converged"] == 2
+    assert "Not converged: the baseline's fit stopped at its limit of 2 steps on 2 folds" in summary(res)

@@ -278,12 +278,15 @@ def _fit_baseline(d, base, cell, folds, shown):
     channels' alignment is fitted with it, never a candidate, since every recording has one
     and as a candidate it took the first round of every null (docs/diagnosis.md)."""
     model = Model(d, cell, base=base)
-    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True, more=_starts(d, base))
+    stopped = []
+    fold_vals, sds, r0 = cross_fit(model, d, folds, [{}] * len(folds), restart=True, more=_starts(d, base),
+                                   stopped=stopped)
     values, sd = pooled(fold_vals, sds)
     r_train = model.force(d, fold_vals[0]) - d.F
     fit0 = folds[0][0]
     res = Baseline(base.name, values, sd, nrmse(d.F[fit0] + r_train[fit0], d.F[fit0]), **scores(d.F, r0, shown),
-                   residual=r0, model_gas_force=getattr(base, "Fg_m", None), cell=_cell_fits(d, cell, values, sd))
+                   residual=r0, model_gas_force=getattr(base, "Fg_m", None), cell=_cell_fits(d, cell, values, sd),
+                   stopped=sum(stopped))
     return res, fold_vals, values
 
 

@@ -36,7 +36,8 @@ STEP_DAMPING = (1e-6, 1e-4, 1e-3, 1e-2)
 
 
 def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None):
-    """Least squares over the training samples; returns (values, sd per parameter).
+    """Least squares over the training samples; returns (values, sd per parameter, whether
+    it stopped at its step limit before converging).
     Parameters named in `hold` stay at their start (sd nan); at most `effort` function
     evaluations per free parameter. warm: values of parameters not in `start` from an
     earlier fit (the same candidate last round), tried against the grid starts."""
@@ -93,7 +94,7 @@ def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None
         sd = dict(zip(names, covariance(r.jac, r.fun)[0]))
     except np.linalg.LinAlgError:
         sd = {n: float("nan") for n in names}
-    return values, {**{n: float("nan") for n in held}, **sd}
+    return values, {**{n: float("nan") for n in held}, **sd}, r.status == 0
 
 
 def settled(model, resid, last, z, i, names, lo, hi, scale, train, Fs):
@@ -166,7 +167,8 @@ def jacobian(model: Model, d: Data, train, F_train, held, names, lo, hi, Fs, las
     return jac
 
 
-def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False, warm=None, more=()):
+def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False, warm=None, more=(),
+              stopped=None):
     """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
     sd per fold, residual [N] where every judged sample comes from a fit that never saw it).
     restart: each fold is fitted again from every other fold's values, and keeps whichever
@@ -175,28 +177,31 @@ def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=
     cycles' valve lost its quadratic term: 19 N RMS against 2.3 N), and the difference
     between the folds is then read as physics. warm: per fold, fit()'s warm. more: other
     starts each fold is fitted from too, the lowest cost kept (a cost no lower by TIE keeps
-    the earlier: the same choice on any machine)."""
+    the earlier: the same choice on any machine). stopped: a list, given, to which each
+    fold's kept fit adds whether it stopped at its step limit before converging."""
     cost = lambda v, train: float(np.sum((model.force(d, v) - d.F)[train] ** 2))
 
     def best(train, start, w):
         out = None
         for s in [start, *more]:
-            v, sd = fit(model, d, train, s, hold, effort, w)
+            v, sd, limit = fit(model, d, train, s, hold, effort, w)
             c = cost(v, train)
             if out is None or c < out[2] * (1.0 - TIE):
-                out = (v, sd, c)
-        return out[:2]
+                out = (v, sd, c, limit)
+        return out[0], out[1], out[3]
     got = each(best, [(train, start, w) for (train, _), start, w in zip(folds, starts, warm or [None] * len(folds))])
-    vals, sds = [v for v, _ in got], [sd for _, sd in got]
+    vals, sds, limits = [g[0] for g in got], [g[1] for g in got], [g[2] for g in got]
     if restart:
         for i, (train, _) in enumerate(folds):  # one after the other: a fold restarts from the one before
             for j in [j for j in range(len(folds)) if j != i]:
-                v, sd = fit(model, d, train, vals[j], hold, effort)
+                v, sd, limit = fit(model, d, train, vals[j], hold, effort)
                 if cost(v, train) < cost(vals[i], train) * (1.0 - TIE):
-                    vals[i], sds[i] = v, sd
+                    vals[i], sds[i], limits[i] = v, sd, limit
     r = np.zeros(len(d.F))
     for (_, test), v in zip(folds, vals):
         r = np.where(test, model.force(d, v) - d.F, r)
+    if stopped is not None:
+        stopped += limits
     return vals, sds, r
 
 

@@ -31,6 +31,7 @@ class Baseline:
     residual: np.ndarray  # N, model - measured; held-out samples from a fit that never saw them
     model_gas_force: float | None  # N: a damper model's gas force at the mean position, as simulated
     cell: list = field(default_factory=list)  # [CellFit]: the cell's effects fitted with it
+    stopped: int = 0  # folds whose fit stopped at its step limit before converging (fitting.FTOL)
 
 
 @dataclass

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.diagnose import quality, stability
+from models.diagnose import fitting, quality, stability
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
 from models.recording import reads_low, repeats_sentence
@@ -193,6 +193,10 @@ def summary(res):
         lines.append(f"Refitted to this recording: damping x{p['k_damping']:.3f}, gas force {p['G0']:.0f} N at the "
                      f"mean position (the model: {b.model_gas_force:.0f} N) and its slope with stroke "
                      f"x{p['k_gas']:.3f}, friction x{p['k_friction']:.3f}.")
+    if b.stopped:
+        lines.append(f"Not converged: the baseline's fit stopped at its limit of {fitting.MAX_STEPS} steps on {b.stopped} "
+                     f"fold{'s' if b.stopped > 1 else ''} of the held-out split (a step still lowered its cost by more "
+                     f"than {fitting.FTOL:g} of it): its values are where the search stood.")
     low = reads_low(b.parameters, b.sd, float(np.ptp(res.data.F)))
     if low:
         lines.append(f"Offset: {low}.")

@@ -41,6 +41,7 @@ def to_json(res):
                      "message": f.message} for f in res.data.flags],
         "baseline": {"name": b.name, "parameters": {k: num(v) for k, v in b.parameters.items()},
                      "nrmse_train": b.nrmse_train, **{k: getattr(b, k) for k in held},
+                     "folds_not_converged": b.stopped,
                      # the cell's timing, fitted with it (never a candidate)
                      "cell": [{"effect": c.effect, "parameters": {k: num(v) for k, v in c.parameters.items()},
                                "ci": {k: [num(a), num(z)] for k, (a, z) in c.ci.items()}, "resolved": c.resolved}

@@ -58,6 +58,10 @@ def main(argv=None):
           f"diagnosis; at the edge: held in more than {stability.EDGE:.2f} but less than the bar.\n")
     print(md.table(("bar (share of judgements)", "nulls naming physics", "nulls at the edge",
                     "hidden effects named"), rows))
+    held = sorted(f["held_in"] for r in runs if r["effect"] and "+" not in r["effect"] for f in r["found"]
+                  if f["effect"].split(":")[0] == r["effect"])
+    print(f"\nThe hidden effects' own shares (held_in), {len(held)} accepted of "
+          f"{sum(bool(r['effect']) for r in runs)} runs: {', '.join(f'{h:.2f}' for h in held)}.")
 
 
 if __name__ == "__main__":

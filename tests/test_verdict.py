@@ -148,3 +148,27 @@ def test_a_fit_that_stops_at_its_step_limit_is_said_not_converged(monkeypatch):
     res = diagnose(*_sines_run(lambda t, x, v, F, f, T: F), max_effects=0)
     assert res.baseline.stopped == 2 and to_json(res)["baseline"]["folds_not_converged"] == 2
     assert "Not converged: the baseline's fit stopped at its limit of 2 steps on 2 folds" in summary(res)
+
+
+def test_repeats_diagnose_perturbed_copies_and_count_what_each_named(tmp_path):
+    """`dyno diagnose --repeats N`: N diagnoses, the recording's and N - 1 copies with the force
+    rescaled by 1 +- k 1e-9; how often each effect was named or at the edge, in the JSON and
+    in words. A count outside 1..50 is one line, exit 2."""
+    from models.diagnose import diagnose, repeated
+    from models.diagnose.words import repeats_text
+    from tests.test_diagnose import _sines_run
+    run = _sines_run(lambda t, x, v, F, f, T: F + 3.0 * np.gradient(v, t))  # 3 kg of fluid inertia, named
+    first = diagnose(*run, max_effects=1)
+    again = repeated(first, *run, 3, max_effects=1)
+    assert again["n"] == 3 and again["named"] and set(again["named"]) >= set(first.named() + first.at_edge())
+    for e in again["named"]:
+        assert 0.0 <= again["named"][e] + again["at_edge"][e] <= 1.0
+    text = repeats_text(again)
+    assert text.startswith("Diagnosed 3 times (this recording and 2 copies with the force x (1 +- k 1e-9)"), text
+    assert text.count(" of 3, at the edge in ") == len(again["named"]) and text.endswith(".")
+    assert repeats_text({"n": 2, "named": {}, "at_edge": {}}).endswith("1 copy with the force x (1 +- k 1e-9) and "
+                                                                        "other draws): nothing named or at the edge.")
+    for bad in ("0", "51", "x"):
+        p = subprocess.run([DYNO, "diagnose", str(tmp_path / "none.mcap"), "--repeats", bad], capture_output=True,
+                           text=True)
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "--repeats" in p.stderr, p.stderr

@@ -293,8 +293,8 @@ def short_of_the_bar(res):
 def repeats_text(again) -> str:
     """`--repeats N`'s count in words: how often each effect was named, or at the edge."""
     n = again["n"]
-    if not again["named"]:
-        return f"Repeated on {n - 1} perturbed copies (force x 1 +- k 1e-9, other draws): nothing named or at the edge."
-    return (f"Repeated on {n - 1} perturbed copies (force x 1 +- k 1e-9, other draws): "
-            + "; ".join(f"{said(e)} named in {round(s * n)} of {n}, at the edge in {round(again['at_edge'][e] * n)}"
-                        for e, s in again["named"].items()) + ".")
+    said_ = "; ".join(f"{said(e)} named in {round(s * n)} of {n}, at the edge in {round(again['at_edge'][e] * n)}"
+                      for e, s in again["named"].items())
+    copies = f"{n - 1} cop{'y' if n == 2 else 'ies'}"
+    return (f"Diagnosed {n} times (this recording and {copies} with the force x (1 +- k 1e-9) and other draws): "
+            f"{said_ or 'nothing named or at the edge'}.")

@@ -1,5 +1,4 @@
-"""What the held-out blocks can tell apart (issue 44): the
-round's winner, the candidates it cannot be told from (its rivals) and the flexible model
+"""What the held-out blocks can tell apart (issue 44): the round's winner, the candidates it cannot be told from (its rivals) and the flexible model
 with no mechanism in it that it must beat before it is named (its referee)."""
 from __future__ import annotations
 
@@ -52,12 +51,11 @@ def _first(ok, near, order, judge):
 
 def chosen(ok, near, judge, alpha, order):
     """The accepted round's winner: the largest gain or one it cannot be told from (_first),
-    except that a term
-    outside the catalogue must beat the best catalogue effect by the bar any effect must
-    pass: by RELEVANCE noise variances more, significantly (the catalogue's test, block by
-    block on the held-out cycles, in at least half of the judgements). Where it does not,
-    the named effect is the better account of the same residual (fewer parameters, each
-    with a physical reading)."""
+    except that a term outside the catalogue must beat the best catalogue effect by the bar
+    any effect must pass: by RELEVANCE noise variances more, significantly (the catalogue's
+    test, block by block on the held-out cycles, in at least half of the judgements). Where
+    it does not, the named effect is the better account of the same residual (fewer
+    parameters, each with a physical reading)."""
     best = _first(ok, near, order, judge)
     named = [x for x in ok if not term(x[0].effect)]
     if not term(best[0].effect) or not named:

@@ -113,5 +113,5 @@ def at_edge(share) -> bool:
 
 
 def of(share, n=SHIFTS * DRAWS) -> str:
-    """A share in words: "88 % of 8 judgements" (a fixed bar's band counts half a judgement)."""
+    """A share in words: "53 % of 15 judgements" (a fixed bar's band counts half a judgement)."""
     return f"{100 * share:.0f} % of {n} judgements"

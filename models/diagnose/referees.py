@@ -1,5 +1,6 @@
-"""What the held-out blocks can tell apart (issue 44): the round's winner, the candidates it cannot be told from (its rivals) and the flexible model
-with no mechanism in it that it must beat before it is named (its referee)."""
+"""What the held-out blocks can tell apart (issue 44): the round's winner, the candidates
+it cannot be told from (its rivals) and the flexible model with no mechanism in it that it
+must beat before it is named (its referee)."""
 from __future__ import annotations
 
 import numpy as np

@@ -94,7 +94,8 @@ def test_cli_json_and_summary(recordings, tmp_path):
     # the next test: within the budget, each proposal with why and the line that records it
     assert doc["next"] and sum(p["rig_s"] for p in doc["next"]) <= 60
     # a 1 ms lag against an oil mass (with the channels' alignment the lag took over): fast sines part them
-    assert doc["next"][0]["other"] == ["alignment", "fluid_inertia"]
+    # (against the noise read from one fold's model, 1.5 N, frequency-dependent damping is a rival too)
+    assert doc["next"][0]["other"][:2] == ["alignment", "fluid_inertia"]
     assert all(p["command"].startswith("dyno run sine-matrix ") and p["why"] for p in doc["next"])
     # the run's catalogue keeps what the diagnosis found (dyno runs show)
     from protocols import catalogue

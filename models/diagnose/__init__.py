@@ -196,14 +196,16 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     cell = list(WITH_BASELINE)
     base_res, fold_vals, values = _fit_baseline(d, base, cell, folds, shown)
     r0 = base_res.residual
-    sigma = noise_sd(r0, d, judged)
+    # each fold's prediction [N] on every sample after each round: what an effect changed
+    preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
+    # the noise against one fold's model throughout: the folds' models differ from each
+    # other, and alternate cycles are predicted by alternate folds
+    sigma = noise_sd(d.F - preds[0][0], d, judged)
     d.tone_hz = tone(d, r0, judged)
     progress(f"baseline: held-out error {100 * base_res.nrmse_heldout:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
     current, r_cur = fold_vals, r0
-    # each fold's prediction [N] on every sample after each round: what an effect changed
-    preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
     _, not_assessed = available(d, accepted)
     last, cost = {}, {}  # each candidate's values per fold in the round before (its warm start), its time [s]
     for _ in range(max_effects):
@@ -418,17 +420,22 @@ def resolved(d: Data, effect, params, ci):
 
 def left_over(r, judge, sigma):
     """Is the final held-out residual within the noise? The excess over the noise variance
-    per block, log(SSE_b / (n_b sigma^2 (1 + RELEVANCE))), tested against zero by the
+    per block, SSE_b / (n_b sigma^2 (1 + RELEVANCE)) - 1, tested against zero by the
     catalogue's bootstrap, in every judgement (within when it is in at least half); with the
-    RMS above the noise [N]."""
+    RMS above the noise [N]. The excess itself, not its logarithm: a misfit that lives in a
+    few blocks (the reversals) has a negative mean log however large it is, and a residual
+    six times the noise was said to be within it. Nor is a left-over whose RMS above the
+    noise exceeds the noise's own, where the blocks' spread leaves the test unsure."""
     def p(v):
         sse = judge.sse(r, v)
         n = np.bincount(v.block, weights=judge.judged.astype(float), minlength=v.ids.max() + 1)[v.ids]
         ok = n > 0
-        return p_value(np.log(np.maximum(sse[ok], 1e-30) / (n[ok] * sigma ** 2 * (1 + RELEVANCE))), v.seed)
+        return p_value(sse[ok] / (n[ok] * sigma ** 2 * (1 + RELEVANCE)) - 1.0, v.seed)
     within = float(np.mean([p(v) >= ALPHA for v in judge.variants]))
     mse = float(np.mean(r[judge.judged] ** 2))
-    return LeftOver(p(judge.main), float(np.sqrt(max(mse - sigma ** 2, 0.0))), within >= 0.5, within)
+    above = float(np.sqrt(max(mse - sigma ** 2, 0.0)))
+    # a misfit larger than the noise itself is not within it, however few blocks hold it
+    return LeftOver(p(judge.main), above, within >= 0.5 and above <= sigma, within)
 
 
 # --- where the residual lives ---------------------------------------------------------

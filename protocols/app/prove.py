@@ -28,13 +28,17 @@ def add(sub):
                                       "EFFECT:FORM for one of its other forms, ALL for every effect (default: all, plus nulls)")
     pv.add_argument("--forms", choices=("default", "all"), default="default",
                     help="all: each effect also in the plant's other forms (default: its calibrated form only)")
-    pv.add_argument("--sizes", type=sizes, default=[1.0],
+    pv.add_argument("--sizes", type=sizes, default=None,
                     help="comma-separated strengths: multiples of each concealed effect (default 1), e.g. 1,3,10")
     pv.add_argument("--noise", type=sizes, default=[1.0],
                     help="comma-separated multiples of the cell's sensor noise (default 1), e.g. 1,3,10; sizes "
                          "scale with it (x1 is the noise floor at each level)")
     pv.add_argument("--rates", type=sizes, default=[1000.0],
                     help="comma-separated loop and sampling rates [Hz] (default 1000), e.g. 1000,5000")
+    pv.add_argument("--on", metavar="RECORDING",
+                    help="prove on your own real recording: each effect and cell fault hidden in copies of it at "
+                         "--sizes (RMS, %% of its force range; default 1,3), every copy and the untouched one "
+                         "diagnosed: what a diagnosis of this file can and cannot see")
     pv.add_argument("--open", metavar="EXPR",
                     help="hide your own physics: a force [N] in x [m], v [m/s], t [s], T [K], e.g. "
                          "'2e6*maximum(x-0.05,0)**2' (sim_backend/extra.py), against a null per seed")
@@ -71,6 +75,9 @@ def run(args):
         for e, v in vals.items():
             print(f'"{e}" = {v:g}' if ":" in e else f"{e} = {v:g}")
         return 0
+    if getattr(args, "on", None) is not None:
+        from protocols.app import prove_on
+        return prove_on.run(args, say)
     if getattr(args, "open", None) is not None:  # an empty EXPR is refused there, not ignored
         return prove_open(args, say)
     concealed = prove.get("concealed", {})

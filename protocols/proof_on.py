@@ -1,0 +1,167 @@
+"""The proof on a real recording (`dyno prove --on RECORDING`): each catalogue effect and
+each fault of the cell hidden at stated sizes in copies of the user's own file
+(models/diagnose/hiding.py), every copy and the untouched one diagnosed, and the file's
+detection table: named, in a group, said as a dependence, or missed; the size found
+against the size hidden; the smallest size found per effect. Sizes are RMS contributions
+in % of the recording's force range (its peak to peak).
+
+A copy counts against its own untouched twin (the heat ramp's copy against the untouched
+file with the same ramp): a name the untouched file already carries is the file's own
+physics, and the row says so ("also on the untouched").
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.diagnose.hiding import Hidden, catalogue, copy, sized, with_heat
+
+SIZES = (1.0, 3.0)  # % of the force range, RMS: the default ladder
+
+
+@dataclass(frozen=True)
+class CopyTask:
+    """One copy to diagnose: the recording's channels with hidden at value (None: untouched)."""
+    label: str
+    channels: dict
+    events: list
+    options: dict  # diagnose's keywords (drives, smoothing)
+    hidden: str | None = None
+
+
+@dataclass
+class Seen:
+    """What the diagnosis of one copy said, picklable: its names, steps and timing."""
+    named: list
+    steps: list  # [(effect, rivals, depends_on, parameters, size_rms_n)], steps not dropped
+    timing_s: float  # the cell's fitted timing (the alignment, or an accepted sensor delay's) [s]
+    noise_sd: float
+    within_noise: bool
+    before: float
+    after: float
+    base: dict  # the baseline's values on this copy (with the cell's alignment)
+
+
+@dataclass
+class Row:
+    """One hidden effect at one size, and what the diagnosis of its copy said."""
+    hidden: str
+    size: float  # % of the force range, RMS
+    value: float | None  # in the effect's shown unit; None: it cannot reach this size here
+    rms_n: float  # N, RMS added
+    outcome: str  # named / in a group / as a dependence / missed / cannot hide
+    said_as: str  # the finding that counts, with its group
+    found_value: float | None  # in the shown unit (a lag: against the untouched copy's own timing)
+    also_untouched: bool  # the untouched copy names it already, or holds it in a group
+    named: list = ()  # everything the copy's diagnosis named
+    steps: list = ()  # Seen.steps of the copy
+
+
+def diagnose_copy(task: CopyTask) -> Seen:
+    """Diagnose one copy (one process: the copies themselves run in parallel)."""
+    from models.diagnose import diagnose
+    r = diagnose(task.channels, task.events, jobs=1, **task.options)
+    timing = {c.effect: c.parameters for c in r.baseline.cell}
+    steps = [(s.effect, [e for e, _, _ in s.rivals], list(s.depends_on), dict(s.parameters), s.size_rms_n)
+             for s in r.steps if not s.replaced_by]
+    # the cell's timing: a lag accepted, else the first round's lag candidate (a rival or
+    # not, it measures the loop's delay), else the channels' alignment
+    lag = next((c.parameters["tau"] for c in r.candidates if c.round == 1 and c.effect == "sensor_delay"), None)
+    tau = next((p["tau"] for e, _, _, p, _ in steps if e == "sensor_delay"),
+               lag if lag is not None else timing.get("alignment", {}).get("tau_0", 0))
+    return Seen(r.named(), steps, float(tau), r.noise_sd, r.left_over.within_noise, r.baseline.nrmse_heldout,
+                r.final.nrmse_heldout, dict(r.baseline.parameters))
+
+
+def judged(h: Hidden, seen: Seen, null: Seen, size, value, rms) -> Row:
+    """The row of h hidden at value in a copy the diagnosis saw as seen (null: its untouched twin)."""
+    found = set(h.found)
+    named = [e for e in seen.named if e.split(":")[0] in found]
+    held = {e.split(":")[0] for e in null.named}
+    out, said, est = "missed", "", None
+    steps = {e.split(":")[0]: (rv, dep, p) for e, rv, dep, p, _ in seen.steps}
+    if named:
+        key = named[0].split(":")[0]
+        out, said = "named", ", ".join([key] + [r.split(":")[0] for r in steps.get(key, ([],))[0]])
+        est = _estimate(h, key, steps[key][2], seen, null) if key in steps else None
+    else:
+        group = next(([e.split(":")[0]] + [r.split(":")[0] for r in rv] for e, rv, _, _ in
+                      ((e, rv, dep, p) for e, rv, dep, p, _ in seen.steps)
+                      if found & ({e.split(":")[0]} | {r.split(":")[0] for r in rv})), None)
+        if group:
+            out, said = "in a group", ", ".join(group)
+            est = _estimate(h, "", {}, seen, null)
+        else:
+            dep = next((e for e in seen.named if e.split(":")[0] not in held
+                        and set(steps.get(e.split(":")[0], ((), (), {}))[1]) & set(h.dependence)), None)
+            if dep:
+                out, said = "as a dependence", f"{dep} ({', '.join(h.dependence)})"
+    carried = held | {e.split(":")[0] for e, rv, _, _, _ in null.steps for e in [e, *rv]}
+    return Row(h.name, size, h.shown(value), rms, out, said, est, bool(found & carried), seen.named, seen.steps)
+
+
+def _estimate(h: Hidden, key, params, seen: Seen, null: Seen):
+    """The size the diagnosis found, in h's shown unit, where it measures h's own value: a
+    lag against the untouched copy's timing (a later force reads as a negative timing)."""
+    if h.name == "lag":
+        return h.factor * (null.timing_s - seen.timing_s)
+    if h.param in params:
+        return h.shown(params[h.param])
+    return None
+
+
+def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None):
+    """(rows, nulls {label: Seen}) of the proof on the recording at path."""
+    from models import source_filter
+    from models.diagnose.data import prepare
+    from models.parallel import run_all
+    from models.recording import drives
+    from protocols.io.reader import load_recording
+    ch, ev, meta = load_recording(path)
+    options = {"drives": drives(meta), "smoothing": source_filter.of(meta)}
+    hidden = catalogue()
+    unknown = [n for n in (names or ()) if n not in hidden]
+    if unknown:
+        raise ValueError(f"{unknown[0]!r}: not something prove --on hides (known: {', '.join(hidden)})")
+    chosen = [hidden[n] for n in (names or hidden)]
+    heat = with_heat(ch)
+    warm = heat is not ch and any(h.temperature for h in chosen)
+    say(f"{path}: diagnosing the untouched recording{' (and a copy with the heat ramp)' if warm else ''}")
+    nulls = run_all(diagnose_copy, [CopyTask("untouched", ch, ev, options)]
+                    + ([CopyTask("untouched, heat ramp", heat, ev, options)] if warm else []), pool)
+    d = prepare(ch, ev, **options)
+    base = nulls[0].base
+    span = float(np.ptp(d.F))
+    tasks, pending = [], []
+    for h in chosen:
+        src = heat if h.temperature else ch
+        dh = prepare(src, ev, **options) if h.temperature else d
+        for s in sizes:
+            value, rms = sized(h, src, dh, base, s / 100 * span)
+            if value is None:
+                pending.append((h, s, None, rms))
+                continue
+            tasks.append(CopyTask(f"{h.name} {s:g} %", copy(h, src, dh, base, value), ev, options, h.name))
+            pending.append((h, s, value, rms))
+    say(f"{len(tasks)} copies to diagnose")
+    seen = iter(run_all(diagnose_copy, tasks, pool, progress=True, label="prove --on", names=[t.label for t in tasks]))
+    rows = []
+    for h, s, value, rms in pending:
+        if value is None:
+            rows.append(Row(h.name, s, None, rms, "cannot hide", f"at most {rms:.3g} N RMS here", None, False))
+            continue
+        twin = nulls[1] if h.temperature and warm else nulls[0]
+        rows.append(judged(h, next(seen), twin, s, value, rms))
+    return rows, {"untouched": nulls[0], **({"untouched, heat ramp": nulls[1]} if warm else {})}, span
+
+
+def smallest(rows):
+    """{hidden: the smallest size [%] found (named, in a group or as a dependence), or None}."""
+    out = {}
+    for r in rows:
+        hit = r.outcome in ("named", "in a group", "as a dependence")
+        out.setdefault(r.hidden, None)
+        if hit and (out[r.hidden] is None or r.size < out[r.hidden]):
+            out[r.hidden] = r.size
+    return out

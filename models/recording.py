@@ -242,7 +242,14 @@ def other_sign(x, F) -> str | None:
     return None if said is None else (
         f"the damper would give back {-said[0]:.3g} J over this recording (the integral of F dx is negative), which "
         f"a passive damper cannot: force or displacement is in the other sign convention (dyno's: both positive "
-        f"in compression); import it again with {said[1]}")
+        f"in compression); import it again with {said[1]}: {_why(gas_level(x, F))}")
+
+
+def _why(gas) -> str:
+    """Why flips advises the flip it gives first: the force at rest, a gas force, at or above zero."""
+    return (f"the force at rest at mid-stroke reads {gas:+.3g} as recorded, and a gas spring's is at or above zero "
+            f"(compression positive), so the " + ("force is counted the other way" if gas < 0 else
+                                                   "force is right and the displacement is counted the other way"))
 
 
 def flips(x, F) -> tuple[float, str] | None:
@@ -251,7 +258,8 @@ def flips(x, F) -> tuple[float, str] | None:
     it, the integral of F dx [J], is positive with force and displacement both positive in
     compression (ours). Negative work, a clear share of all the work, means the force or
     the displacement is counted the other way (tension positive, or displacement from the
-    other end). The work of the force's part that depends on position alone (a gas
+    other end); of the two flips, the one that leaves the force at rest (gas_level) at or
+    above zero comes first. The work of the force's part that depends on position alone (a gas
     spring's: a cubic in x fitted to F) is left out first: on a path that does not close
     (a static test's moves, a run so far) it is energy stored or given back, not
     dissipated. Scale-free: raw volts with positive gains tell the sign as well."""
@@ -269,8 +277,25 @@ def flips(x, F) -> tuple[float, str] | None:
         W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
     if not (np.isfinite(A) and A > 0 and W < -SIGN_SHARE * A):
         return None
-    first, second = ("force", "displacement") if np.median(F) < 0 else ("displacement", "force")  # gas: compression
+    first, second = ("force", "displacement") if gas_level(x, F) < 0 else ("displacement", "force")
     return W, f"--flip {first} (or --flip {second})"
+
+
+def gas_level(x, F) -> float:
+    """The force at rest at mid-stroke [F's unit], as recorded: the gas force a damper's
+    gas spring gives, at or above zero in our convention (compression positive). The
+    force less its dependence on position (a quadratic), on velocity either way (linear,
+    quadratic, per direction: a valve's asymmetry) and on direction (friction), fitted by
+    least squares; its constant. The median force, used before, follows the valves: a
+    damper stiffer in rebound has a negative median whatever its gas, and the flip it
+    advised read a 150 psi charge 39 N below the same damper's 50 psi one. Velocity from
+    the displacement's sample differences (scale-free)."""
+    v = np.gradient(x)
+    u = (x - np.mean(x)) / (np.ptp(x) or 1.0)
+    w = v / (np.max(np.abs(v)) or 1.0)
+    A = np.column_stack([np.ones_like(u), u, u * u, w, w * np.abs(w), np.abs(w), np.tanh(w / 0.02)])
+    with np.errstate(all="ignore"):
+        return float(np.linalg.lstsq(A, F, rcond=None)[0][0])
 
 
 VELOCITY_FOLLOWS = 0.9  # correlation of a velocity's integral with the displacement: below it nothing is said

@@ -50,9 +50,65 @@ class Smoothing:
         return out
 
 
-def parse(text: str) -> Smoothing:
-    """'0.1period' / '0.1 period' (a share of each sine's period), '20ms' or '0.02s';
-    ValueError saying the form."""
+@dataclass(frozen=True)
+class LowPass:
+    """A DAQ's low-pass on the force alone (`dyno import --filtered force=butter:2:15Hz`):
+    Butterworth or Bessel (phase-normalised) of `order` with its cut-off [Hz], causal
+    (the force delayed against the displacement, as a DAQ's filter does: at 15 Hz a
+    2nd-order Butterworth delays a 1 Hz force by about 15 ms) or zero-phase (filtered
+    forwards and back, as offline post-processing does). The model's force goes through it;
+    the recorded displacement drives the model as it is (it was not filtered)."""
+    kind: str  # "butter" or "bessel"
+    order: int
+    cutoff_hz: float
+    zero_phase: bool = False
+    per_period = False
+
+    def text(self) -> str:
+        return f"{self.kind}:{self.order}:{self.cutoff_hz:g}Hz" + (":zero-phase" if self.zero_phase else "")
+
+    def apply(self, y, t, h: float, freq_hz: float | None = None):
+        """y [any unit] on times t [s] through the filter, stretch by stretch (a gap longer
+        than 1.5 samples starts a new one, at rest at its first value)."""
+        from scipy import signal  # not at import: the CLI's parser reads this module
+        y = np.asarray(y, float)
+        if len(y) < 2 or self.cutoff_hz >= 0.49 / h:
+            return y
+        design = signal.butter if self.kind == "butter" else signal.bessel
+        sos = design(self.order, self.cutoff_hz, fs=1.0 / h, output="sos",
+                     **({} if self.kind == "butter" else {"norm": "phase"}))
+        cuts = np.r_[0, np.nonzero(np.diff(t) > 1.5 * h)[0] + 1, len(y)]
+        out = np.empty_like(y)
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            if self.zero_phase and b - a > 3 * (2 * len(sos) + 1):
+                out[a:b] = signal.sosfiltfilt(sos, y[a:b])
+            else:
+                out[a:b] = signal.sosfilt(sos, y[a:b], zi=signal.sosfilt_zi(sos) * y[a])[0]
+        return out
+
+
+_LOWPASS = re.compile(r"^\s*(butter|bessel):(\d+):([0-9.eE+-]+)\s*hz(:zero-phase|:causal)?\s*$", re.I)
+
+
+def parse_filtered(text: str) -> LowPass:
+    """'force=butter:2:15Hz' (causal), ':zero-phase' appended for one run forwards and back,
+    bessel likewise; ValueError saying the form."""
+    channel, _, spec = str(text).partition("=")
+    m = _LOWPASS.match(spec)
+    if channel.strip() != "force" or not m:
+        raise ValueError(f"{text!r}: expected force=butter:ORDER:CUTOFFHz or force=bessel:ORDER:CUTOFFHz, "
+                         f"':zero-phase' appended for a filter run forwards and back (e.g. force=butter:2:15Hz)")
+    order, fc = int(m.group(2)), float(m.group(3))
+    if not (1 <= order <= 8 and np.isfinite(fc) and fc > 0):
+        raise ValueError(f"{text!r}: an order of 1 to 8 and a cut-off above 0 Hz")
+    return LowPass(m.group(1).lower(), order, fc, (m.group(4) or "").lower() == ":zero-phase")
+
+
+def parse(text: str) -> Smoothing | LowPass:
+    """'0.1period' / '0.1 period' (a share of each sine's period), '20ms' or '0.02s'; or a
+    low-pass as the metadata keeps it ('butter:2:15Hz'); ValueError saying the form."""
+    if _LOWPASS.match(str(text)):
+        return parse_filtered(f"force={text}")
     m = _FORM.match(str(text))
     try:
         width = float(m.group(1)) if m else np.nan
@@ -69,7 +125,7 @@ def parse(text: str) -> Smoothing:
     return Smoothing(width * (1e-3 if unit == "ms" else 1.0), False)
 
 
-def of(meta) -> Smoothing | None:
-    """The smoothing a recording's metadata (load_recording's) declares, or None."""
+def of(meta) -> Smoothing | LowPass | None:
+    """The source's filter a recording's metadata (load_recording's) declares, or None."""
     text = meta.get("run", {}).get(RUN_KEY)
     return parse(text) if text else None

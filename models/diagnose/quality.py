@@ -139,6 +139,11 @@ def _cycle_to_cycle(t, y, f, k):
     return e
 
 
+def _named(declared) -> str:
+    """A declared source filter in words (models/source_filter.py)."""
+    return f"moving average of {declared.text()}" if hasattr(declared, "width") else f"low-pass {declared.text()}"
+
+
 def smoothed(name, t, y, cycles, declared=None):
     """A channel-wide flag when the channel y(t) was smoothed by its source. cycles: [(f [Hz],
     t0, t1 [s])] of periodic stretches; declared: the source's moving average as import was
@@ -166,7 +171,7 @@ def smoothed(name, t, y, cycles, declared=None):
                  f"{name} was smoothed by its source (a moving average or a low-pass before the file was "
                  f"written): its change from one cycle to the next keeps a sample-to-sample correlation of "
                  f"{min(rho):.2f} or more (white noise: 0), so its noise is the filter's, not the load cell's, "
-                 + (f"and every model is compared with it through the moving average of {declared.text()} its import "
+                 + (f"and every model is compared with it through the {_named(declared)} its import "
                     f"declared" if declared else f"and a model compared with it needs the same filter: the correlation "
                     f"reads a moving average of about {n} samples ({1e3 * n * h:.3g} ms, {n * h * f:.2g} of the "
                     f"period; this reading runs up to a third short, the source's own figure is better); import the "

@@ -15,7 +15,7 @@ RELEVANCE = 0.1  # noise variances an accepted effect must gain at least
 STAND_IN = "loop_surface"
 LOOP_VARIABLES = {"displacement", "velocity", "direction", "acceleration", "frequency"}
 TIMING = "sensor_delay"  # the cell's timing, a rival of a loop mechanism at one frequency
-# a significant lag explaining at least this share of what a loop mechanism explains, at one
+# a lag accepted in some judgements explaining at least this share of what a loop mechanism explains, at one
 # frequency, is among its rivals whatever the blocks say: a lag F(t - tau) ~ F - tau dF/dt
 # opens the loop at one frequency as a stiffness, a compressible oil or a hysteresis does,
 # and a term along the stroke per direction takes up any loop of one amplitude and
@@ -80,25 +80,25 @@ def referees(d, base, fitted, best, b_folds, r_best, round_, folds, judge, alpha
     stand-in when it explains as much, each in at least half of the judgements."""
     significant = [x for x in round_ if x[0].accept_share >= 0.5]
     found, votes = rivals(best, r_best, significant, judge)
-    lag = timing_rival(d, best, r_best, significant, judge, found)
+    lag = timing_rival(d, best, r_best, [x for x in round_ if x[0].accept_share > EDGE], judge, found)
     if lag:
         found, votes = sorted(found + [lag], key=lambda x: -x[1]), {**votes, lag[0]: np.ones(len(judge.variants))}
     return (found, votes, *stood_in(d, base, fitted, best, b_folds, r_best, folds, judge))
 
 
-def timing_rival(d, best, r_best, significant, judge, found):
+def timing_rival(d, best, r_best, near, judge, found):
     """(the cell's timing, its gain, paired p) when it is a rival of the winner by physics,
     or None: at one test frequency a lag and a mechanism of the loop (one whose variables
     the loop shows, other than the timing itself) open the loop alike, so a lag that
     explains TIMING_SHARE of what the winner explains stays a candidate: another frequency
-    tells them apart (a lag's phase grows with it, a mechanism's does not). Significant:
-    accepted in most judgements."""
+    tells them apart (a lag's phase grows with it, a mechanism's does not). near: the
+    round's candidates accepted in more than stability.EDGE of the judgements."""
     f = [f for _, f in d.segments if f]
     spec = EFFECTS[best.effect.split(":")[0]]
     if (not f or max(f) > ONE_FREQUENCY * min(f) or spec.name == TIMING or spec.nature not in ("physics", "open")
             or not set(spec.depends_on) <= LOOP_VARIABLES or any(e == TIMING for e, _, _ in found)):
         return None
-    lag = next((x for x in significant if x[0].effect == TIMING), None)
+    lag = next((x for x in near if x[0].effect == TIMING), None)
     if lag is None or not lag[0].gain >= TIMING_SHARE * best.gain:
         return None
     return TIMING, lag[0].relevance, judge.p(r_best, lag[3], ALPHA)

@@ -48,6 +48,10 @@ def add(sub):
                     help="the file's source passed force and displacement through a centred moving average this "
                          "wide: a share of the test period (0.1period) or a time (20ms); the analyses compare every "
                          "model with the recording through the same filter")
+    im.add_argument("--filtered", metavar="force=SPEC",
+                    help="the file's source passed the force alone through a low-pass: force=butter:2:15Hz (a "
+                         "causal 2nd-order Butterworth at 15 Hz, as a DAQ's), bessel likewise, ':zero-phase' appended "
+                         "for one run forwards and back; every model is compared with the force through it")
     im.add_argument("--sheet", metavar="NAME", help="an Excel workbook's sheet to read (default: its fullest)")
     im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
                     help="the sampling rate, when no time column is mapped and the file does not say it")
@@ -88,7 +92,7 @@ def run(args):
     from models import source_filter
     from protocols.io.csv_import import parse_map
     from protocols.io.files import Claim
-    for option in ("inspect", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed"):  # a caller's namespace may have only the map
+    for option in ("inspect", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed", "filtered"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
         return inspect(args)
@@ -104,6 +108,13 @@ def run(args):
         args.smoothing = None if args.smoothed is None else source_filter.parse(args.smoothed)
     except ValueError as e:
         raise UsageError(f"--smoothed {e}") from None
+    if getattr(args, "filtered", None) is not None:
+        if args.smoothing is not None:
+            raise UsageError("--filtered and --smoothed: give the one filter the source applied")
+        try:
+            args.smoothing = source_filter.parse_filtered(args.filtered)
+        except ValueError as e:
+            raise UsageError(f"--filtered {e}") from None
     if args.out is None:
         raise UsageError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
@@ -194,8 +205,12 @@ def _import(args, mapping, gains, offsets, claim):
 
 def _smoothing_note(smoothing, found) -> list[str]:
     """What import says of --smoothed; a share of a period where nothing repeats is refused."""
+    from models import source_filter
     if smoothing is None:
         return []
+    if isinstance(smoothing, source_filter.LowPass):
+        return [f"filtered by its source: the force through a {'zero-phase' if smoothing.zero_phase else 'causal'} "
+                f"{smoothing.text()} low-pass; the analyses compare every model with it through the same filter"]
     if smoothing.per_period and not any(f.kind == "sine" for f in found):
         raise UsageError(f"--smoothed {smoothing.text()}: no stroke of this file repeats, so it has no period to "
                          f"take a share of: give the moving average's width as a time (e.g. 20ms)")

@@ -1,0 +1,112 @@
+"""The proof on real recordings (issue 72): effects hidden in a copy of a real file and found
+(`dyno prove --on`), a source's low-pass passed through every model, the sign read by physics."""
+import json
+import subprocess
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import DYNO as _DYNO
+from tests.test_foreign_import import _imported, _written
+
+DYNO = [_DYNO]
+
+UTFSM = Path(__file__).parent / "data/mr-damper-utfsm/sine/25mm0x5Hz0A.txt"
+UTFSM_MAP = ["--map", "time=1:s", "--map", "displacement=2:mm", "--map", "velocity=3:mm/s", "--map", "force=4:N"]
+
+
+@pytest.fixture(scope="module")
+def real(tmp_path_factory):
+    """The real 25 mm, 0.5 Hz, 0 A UTFSM run, imported as its README says (smoothed by its source)."""
+    d = tmp_path_factory.mktemp("real")
+    r = subprocess.run([*DYNO, "import", UTFSM, "--out", d / "real.mcap", *UTFSM_MAP, "--smoothed", "0.1period"],
+                       cwd=d, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return d / "real.mcap"
+
+
+@pytest.mark.rounding
+def test_a_lag_a_zero_drift_and_temperature_damping_hidden_in_a_real_file_are_found(real, tmp_path):
+    r = subprocess.run([*DYNO, "prove", "--on", real, "--effects", "lag,zero_drift,damping_temperature",
+                        "--sizes", "5", "--json"], cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    rows = {row["hidden"]: row for row in doc["rows"]}
+    assert set(rows) == {"lag", "zero_drift", "damping_temperature"}
+    for name, row in rows.items():  # each found: named, in its group, or its dependence said
+        assert row["outcome"] in ("named", "in a group", "as a dependence"), (name, row)
+        assert abs(row["rms_n"] - 0.05 * doc["force_range_n"]) < 1e-3 * doc["force_range_n"]
+    # the untouched file names none of them and holds neither the lag nor the drift in a group
+    # (with the heat ramp its own slow change is among what a damping drift takes up)
+    assert not rows["lag"]["also_untouched"] and not rows["zero_drift"]["also_untouched"], rows
+    for null in doc["untouched"].values():
+        assert not {"sensor_delay", "drift", "damping_temperature", "damping_drift"} & set(null["named"])
+    lag = rows["lag"]  # its size, against the untouched file's own timing: within 30 %
+    assert abs(lag["found_value"] - lag["value"]) <= 0.3 * lag["value"], lag
+    assert doc["smallest_found"] == {"lag": 5.0, "zero_drift": 5.0, "damping_temperature": 5.0}
+
+
+def test_prove_on_refuses_what_it_cannot_hide_in_one_line(real, tmp_path):
+    r = subprocess.run([*DYNO, "prove", "--on", real, "--effects", "warp_drive"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    assert "'warp_drive': not something prove --on hides" in r.stderr.strip().splitlines()[-1]
+    r = subprocess.run([*DYNO, "prove", "--on", tmp_path / "none.mcap"], cwd=tmp_path, capture_output=True, text=True)
+    assert r.returncode != 0 and "no such file" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_a_butterworth_filtered_force_is_read_through_its_filter(tmp_path):
+    """A DAQ's causal 2nd-order Butterworth at 15 Hz delays a 1 Hz force by 15 ms: declared
+    at import, every model goes through it and no lag is left; undeclared, the cell's timing
+    reads it."""
+    from models.diagnose import diagnose
+    from models.source_filter import parse_filtered
+    from protocols.proof import offline_recording
+    ch, ev, _ = offline_recording({}, 0)
+    ch = {n: (t[t < 12.0], y[t < 12.0]) for n, (t, y) in ch.items()}  # its first segments: enough, and quick
+    lowpass = parse_filtered("force=butter:2:15Hz")
+    t, F = ch["force"]
+    filtered = {**ch, "force": (t, lowpass.apply(F, t, float(np.median(np.diff(t)))))}
+    plain = diagnose(filtered, ev, jobs=2, max_effects=1)
+    assert "sensor_delay" in plain.accepted, plain.accepted
+    read = diagnose(filtered, ev, jobs=2, max_effects=1, smoothing=lowpass)
+    from models.diagnose.candidates import EFFECTS  # the valve curve's form is no claim of physics
+    assert [e for e in read.named() if EFFECTS[e].nature in ("physics", "cell")] == [], read.named()
+    # the import's option, said and kept with the recording
+    rows = "t,x,F\n" + "".join(f"{a:.4f},{1e3 * b:.5f},{c:.3f}\n" for a, b, c in zip(t[:4000], ch["x"][1][:4000],
+                                                                                 filtered["force"][1][:4000]))
+    src = _written(tmp_path, "daq.csv", rows)
+    _, meta, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F",
+                           "--filtered", "force=butter:2:15Hz")
+    assert "filtered by its source: the force through a causal butter:2:15Hz low-pass" in r.stdout, r.stdout
+    from models import source_filter
+    assert source_filter.of(meta) == lowpass
+    r = subprocess.run([*DYNO, "import", src, "--out", tmp_path / "y.mcap", "--map", "time=t", "--map",
+                        "displacement=x:mm", "--map", "force=F", "--filtered", "force=butter:2"], capture_output=True,
+                       text=True)
+    assert r.returncode != 0 and "expected force=butter:ORDER:CUTOFFHz" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_the_sign_of_a_gas_charge_pair_is_read_by_physics(tmp_path):
+    """One real damper at two gas charges (its force at rest +50 and +150 N), written by a
+    source that counts the other way: import advises the flip that leaves the gas force at
+    or above zero, and read with it the higher charge pushes harder, by the 100 N added."""
+    from models.recording import gas_level
+    cols = np.loadtxt(UTFSM)
+    t, x, F = cols[:, 0], cols[:, 1], cols[:, 3]
+    args = ["--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F"]
+    read = {}
+    for gas in (50.0, 150.0):
+        for way, (xs, Fs, flip) in {"tension": (x, -(F + gas), "force"),
+                                    "other end": (-x, F + gas, "displacement")}.items():
+            src = _written(tmp_path, f"{gas:g}-{way.replace(' ', '-')}.csv",
+                           "t,x,F\n" + "".join(f"{a},{b},{c}\n" for a, b, c in zip(t, xs, Fs)))
+            _, _, r = _imported(tmp_path, src, *args, "--overwrite")
+            said = next(line for line in r.stdout.splitlines() if line.startswith("sign: "))
+            assert f"import it again with --flip {flip} (or" in said and "a gas spring's is at or above zero" in said
+            channels, _, _ = _imported(tmp_path, src, *args, "--flip", flip, "--overwrite")
+            read[gas, way] = gas_level(channels["x"][1], np.interp(channels["x"][0], *channels["force"]))
+    for way in ("tension", "other end"):
+        assert read[50.0, way] > 0 and abs(read[150.0, way] - read[50.0, way] - 100.0) < 5.0, read

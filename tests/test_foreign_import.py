@@ -641,7 +641,7 @@ def test_the_diagnosis_holds_out_the_tail_of_a_recording_of_several_strokes(tmp_
     _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
     r = dyno("diagnose", tmp_path / "x.mcap", "--holdout", "tail:0.15")
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
-    assert "the last 15 % held out" in r.stdout and "what differs from cycle to cycle at the same phase" in r.stdout
+    assert "the last 15 % held out" in r.stdout and "what differs from one cycle to the next at the same point of the stroke" in r.stdout
 
 
 def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):

@@ -198,9 +198,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     r0 = base_res.residual
     # each fold's prediction [N] on every sample after each round: what an effect changed
     preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
-    # the noise against one fold's model throughout: the folds' models differ from each
-    # other, and alternate cycles are predicted by alternate folds
-    sigma = noise_sd(d.F - preds[0][0], d, judged)
+    sigma = noise_sd(d.F - preds[0][0], d, judged)  # one fold's model throughout: the folds' differ
     d.tone_hz = tone(d, r0, judged)
     progress(f"baseline: held-out error {100 * base_res.nrmse_heldout:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")

@@ -18,6 +18,8 @@ import numpy as np
 from models.diagnose.hiding import Hidden, catalogue, copy, sized, with_heat
 
 SIZES = (1.0, 3.0)  # % of the force range, RMS: the default ladder
+ROUNDS = 4  # the diagnosis's own rounds at most (models.diagnose.diagnose's max_effects)
+TAKEN = 0.1  # of the hidden force's mean square: a baseline whose error grew by less took it up
 
 
 @dataclass(frozen=True)
@@ -41,6 +43,7 @@ class Seen:
     before: float
     after: float
     base: dict  # the baseline's values on this copy (with the cell's alignment)
+    not_proven: list = ()  # the last round's candidates short of the bar (referees.not_proven)
 
 
 @dataclass
@@ -50,7 +53,7 @@ class Row:
     size: float  # % of the force range, RMS
     value: float | None  # in the effect's shown unit; None: it cannot reach this size here
     rms_n: float  # N, RMS added
-    outcome: str  # named / in a group / as a dependence / missed / cannot hide
+    outcome: str  # named / in a group / as a dependence / not proven / in the baseline / missed / cannot hide
     said_as: str  # the finding that counts, with its group
     found_value: float | None  # in the shown unit (a lag: against the untouched copy's own timing)
     also_untouched: bool  # the untouched copy names it already, or holds it in a group
@@ -70,12 +73,16 @@ def diagnose_copy(task: CopyTask) -> Seen:
     lag = next((c.parameters["tau"] for c in r.candidates if c.round == 1 and c.effect == "sensor_delay"), None)
     tau = next((p["tau"] for e, _, _, p, _ in steps if e == "sensor_delay"),
                lag if lag is not None else timing.get("alignment", {}).get("tau_0", 0))
+    from models.diagnose.referees import not_proven
     return Seen(r.named(), steps, float(tau), r.noise_sd, r.left_over.within_noise, r.baseline.nrmse_heldout,
-                r.final.nrmse_heldout, dict(r.baseline.parameters))
+                r.final.nrmse_heldout, dict(r.baseline.parameters), [c.effect for c in not_proven(r.candidates)[1]])
 
 
-def judged(h: Hidden, seen: Seen, null: Seen, size, value, rms) -> Row:
-    """The row of h hidden at value in a copy the diagnosis saw as seen (null: its untouched twin)."""
+def judged(h: Hidden, seen: Seen, null: Seen, size, value, rms, span) -> Row:
+    """The row of h hidden at value in a copy the diagnosis saw as seen (null: its untouched
+    twin; span: the force range [N]). Missed, it may be said short of the bar ("not
+    proven"), or be taken up by the baseline's own refit: its held-out error grew by less
+    than TAKEN of the hidden force's square (an oil mass at one frequency is a spring)."""
     found = set(h.found)
     named = [e for e in seen.named if e.split(":")[0] in found]
     held = {e.split(":")[0] for e in null.named}
@@ -97,6 +104,10 @@ def judged(h: Hidden, seen: Seen, null: Seen, size, value, rms) -> Row:
                         and set(steps.get(e.split(":")[0], ((), (), {}))[1]) & set(h.dependence)), None)
             if dep:
                 out, said = "as a dependence", f"{dep} ({', '.join(h.dependence)})"
+            elif found & {e.split(":")[0] for e in seen.not_proven}:
+                out, said = "not proven", ", ".join(e for e in seen.not_proven if e.split(":")[0] in found)
+            elif seen.before ** 2 - null.before ** 2 < TAKEN * (rms / span) ** 2:
+                out = "in the baseline"
     carried = held | {e.split(":")[0] for e, rv, _, _, _ in null.steps for e in [e, *rv]}
     return Row(h.name, size, h.shown(value), rms, out, said, est, bool(found & carried), seen.named, seen.steps)
 
@@ -111,8 +122,9 @@ def _estimate(h: Hidden, key, params, seen: Seen, null: Seen):
     return None
 
 
-def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None):
-    """(rows, nulls {label: Seen}) of the proof on the recording at path."""
+def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=ROUNDS):
+    """(rows, nulls {label: Seen}, force range [N]) of the proof on the recording at path;
+    rounds: the diagnoses' rounds at most (the diagnosis's own by default)."""
     from models import source_filter
     from models.diagnose.data import prepare
     from models.parallel import run_all
@@ -128,8 +140,9 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None):
     heat = with_heat(ch)
     warm = heat is not ch and any(h.temperature for h in chosen)
     say(f"{path}: diagnosing the untouched recording{' (and a copy with the heat ramp)' if warm else ''}")
-    nulls = run_all(diagnose_copy, [CopyTask("untouched", ch, ev, options)]
-                    + ([CopyTask("untouched, heat ramp", heat, ev, options)] if warm else []), pool)
+    told = {**options, "max_effects": rounds}
+    nulls = run_all(diagnose_copy, [CopyTask("untouched", ch, ev, told)]
+                    + ([CopyTask("untouched, heat ramp", heat, ev, told)] if warm else []), pool)
     d = prepare(ch, ev, **options)
     base = nulls[0].base
     span = float(np.ptp(d.F))
@@ -142,7 +155,7 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None):
             if value is None:
                 pending.append((h, s, None, rms))
                 continue
-            tasks.append(CopyTask(f"{h.name} {s:g} %", copy(h, src, dh, base, value), ev, options, h.name))
+            tasks.append(CopyTask(f"{h.name} {s:g} %", copy(h, src, dh, base, value), ev, told, h.name))
             pending.append((h, s, value, rms))
     say(f"{len(tasks)} copies to diagnose")
     seen = iter(run_all(diagnose_copy, tasks, pool, progress=True, label="prove --on", names=[t.label for t in tasks]))
@@ -152,7 +165,7 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None):
             rows.append(Row(h.name, s, None, rms, "cannot hide", f"at most {rms:.3g} N RMS here", None, False))
             continue
         twin = nulls[1] if h.temperature and warm else nulls[0]
-        rows.append(judged(h, next(seen), twin, s, value, rms))
+        rows.append(judged(h, next(seen), twin, s, value, rms, span))
     return rows, {"untouched": nulls[0], **({"untouched, heat ramp": nulls[1]} if warm else {})}, span
 
 

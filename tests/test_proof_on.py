@@ -29,7 +29,7 @@ def real(tmp_path_factory):
 
 def test_a_lag_a_zero_drift_and_temperature_damping_hidden_in_a_real_file_are_found(real, tmp_path):
     r = subprocess.run([*DYNO, "prove", "--on", real, "--effects", "lag,zero_drift,damping_temperature",
-                        "--sizes", "5", "--json"], cwd=tmp_path, capture_output=True, text=True, timeout=900)
+                        "--sizes", "5", "--rounds", "2", "--json"], cwd=tmp_path, capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     doc = json.loads(r.stdout)
     rows = {row["hidden"]: row for row in doc["rows"]}

@@ -39,6 +39,8 @@ def add(sub):
                     help="prove on your own real recording: each effect and cell fault hidden in copies of it at "
                          "--sizes (RMS, %% of its force range; default 1,3), every copy and the untouched one "
                          "diagnosed: what a diagnosis of this file can and cannot see")
+    pv.add_argument("--rounds", type=number(1, 4, integer=True), default=4,
+                    help="--on: each diagnosis stops after this many rounds (default 4, the diagnosis's own)")
     pv.add_argument("--open", metavar="EXPR",
                     help="hide your own physics: a force [N] in x [m], v [m/s], t [s], T [K], e.g. "
                          "'2e6*maximum(x-0.05,0)**2' (sim_backend/extra.py), against a null per seed")

@@ -23,7 +23,7 @@ def run(args, say):
     sizes = args.sizes or list(SIZES)
     try:
         with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-            rows, nulls, span = run_on(path, names, sizes, pool, say)
+            rows, nulls, span = run_on(path, names, sizes, pool, say, args.rounds)
     except (ValueError, DiagnoseError) as e:
         raise UsageError(f"--on {args.on}: {e}") from None
     least = smallest(rows)

@@ -281,6 +281,23 @@ def flips(x, F) -> tuple[float, str] | None:
     return W, f"--flip {first} (or --flip {second})"
 
 
+def gas_rising(points) -> str | None:
+    """The sentence on a set of one damper's runs at several gas charges, points [(run,
+    charge [its unit], its force at rest: gas_level [N])], or None for fewer than two
+    charges: the gas force at rest rises with the charge (eq 3.19: F_G = p A_rod), or it
+    does not, and the runs' sign conventions or charges are to be checked."""
+    pts = sorted(points, key=lambda p: p[1])
+    if len({p[1] for p in pts}) < 2:
+        return None
+    rising = all(b[2] > a[2] for a, b in zip(pts, pts[1:]) if b[1] > a[1])
+    said = ", ".join(f"{run} at {charge:g}: {gas:+.3g} N" for run, charge, gas in pts)
+    step = pts[-1][2] - pts[0][2]
+    return (f"Gas force at rest against the gas charge: {said}; " + (
+        f"it rises with the charge ({step:+.3g} N from the lowest to the highest), as a gas spring's does" if rising
+        else "it does not rise with the charge, which a gas spring's does (eq 3.19): check each run's sign "
+             "convention (import's --flip) and the charges given"))
+
+
 def gas_level(x, F) -> float:
     """The force at rest at mid-stroke [F's unit], as recorded: the gas force a damper's
     gas spring gives, at or above zero in our convention (compression positive). The

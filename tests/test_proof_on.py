@@ -42,7 +42,8 @@ def test_a_lag_a_zero_drift_and_temperature_damping_hidden_in_a_real_file_are_fo
     assert not rows["lag"]["also_untouched"] and not rows["zero_drift"]["also_untouched"], rows
     for null in doc["untouched"].values():
         assert not {"sensor_delay", "drift", "damping_temperature", "damping_drift"} & set(null["named"])
-    lag = rows["lag"]  # its size, against the untouched file's own timing: within 30 %
+    lag = rows["lag"]  # at one frequency, said with the cell's timing among the rivals; its size
+    assert "sensor_delay" in lag["said_as"], lag  # against the file's own timing: within 30 %
     assert abs(lag["found_value"] - lag["value"]) <= 0.3 * lag["value"], lag
     assert doc["smallest_found"] == {"lag": 5.0, "zero_drift": 5.0, "damping_temperature": 5.0}
 
@@ -70,6 +71,9 @@ def test_a_butterworth_filtered_force_is_read_through_its_filter(tmp_path):
     filtered = {**ch, "force": (t, lowpass.apply(F, t, float(np.median(np.diff(t)))))}
     plain = diagnose(filtered, ev, jobs=2, max_effects=1)
     assert "sensor_delay" in plain.accepted, plain.accepted
+    # undeclared, the noise's correlation reads the filter (a smooth roll-off, not a box)
+    said = [f.message for f in plain.data.flags if f.kind == "smoothed"]
+    assert len(said) == 1 and "--filtered force=butter:2:" in said[0], said
     read = diagnose(filtered, ev, jobs=2, max_effects=1, smoothing=lowpass)
     from models.diagnose.candidates import EFFECTS  # the valve curve's form is no claim of physics
     assert [e for e in read.named() if EFFECTS[e].nature in ("physics", "cell")] == [], read.named()
@@ -105,7 +109,21 @@ def test_the_sign_of_a_gas_charge_pair_is_read_by_physics(tmp_path):
             _, _, r = _imported(tmp_path, src, *args, "--overwrite")
             said = next(line for line in r.stdout.splitlines() if line.startswith("sign: "))
             assert f"import it again with --flip {flip} (or" in said and "a gas spring's is at or above zero" in said
-            channels, _, _ = _imported(tmp_path, src, *args, "--flip", flip, "--overwrite")
+            channels, _, _ = _imported(tmp_path, src, *args, "--flip", flip, "--overwrite",
+                                       "--setup", f"gas_psi={gas:g}")
             read[gas, way] = gas_level(channels["x"][1], np.interp(channels["x"][0], *channels["force"]))
+            (tmp_path / "x.mcap").rename(tmp_path / f"{gas:g}-{flip}.mcap")
     for way in ("tension", "other end"):
         assert read[50.0, way] > 0 and abs(read[150.0, way] - read[50.0, way] - 100.0) < 5.0, read
+    # the set checked by the comparison: the gas force rises with the charge, by how much
+    r = subprocess.run([*DYNO, "report", tmp_path / "150-force.mcap", tmp_path / "50-force.mcap", "--out",
+                        tmp_path / "cmp"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "cmp" / "index.html").read_text()
+    assert "Gas force at rest against the gas charge: B at 50:" in page and "it rises with the charge (+" in page
+    # one of the pair read with the other flip: its gas force falls below zero, and the set says so
+    _imported(tmp_path, tmp_path / "150-tension.csv", *args, "--overwrite", "--setup", "gas_psi=150")
+    (tmp_path / "x.mcap").rename(tmp_path / "150-unflipped.mcap")
+    r = subprocess.run([*DYNO, "report", tmp_path / "150-unflipped.mcap", tmp_path / "50-force.mcap", "--out",
+                        tmp_path / "cmp2"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert "it does not rise with the charge" in (tmp_path / "cmp2" / "index.html").read_text()

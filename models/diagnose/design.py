@@ -4,7 +4,8 @@ diagnosis could not, per second of rig time.
 Rivals come from the diagnosis itself, among what a motion can tell apart (not an effect
 in time, temperature or an aux channel, which a sine holds constant):
   - an accepted effect against the runner-up of its round, where that runner-up was worth
-    having too (RELEVANCE noise variances): the residual had two readings;
+    having too (RELEVANCE noise variances): the residual had two readings; and against
+    each of its rivals (the cell's timing at one frequency among them);
   - the model as accepted against it with a candidate of the last round that was worth
     having but not significant, or hinted at (p under HINT_P): an effect under the noise.
 
@@ -134,13 +135,17 @@ def rivals(diag: Diagnosis) -> list[Rival]:
                   and c.relevance >= RELEVANCE and _designable(c.effect)]
         if not others or not _designable(e):
             continue
-        c = max(others, key=lambda c: c.relevance)
+        # the runner-up, and the step's own rivals beside it (the cell's timing at one
+        # frequency: referees.timing_rival), each a pair a motion may part
+        said = {r for r, _, _ in next((st.rivals for st in diag.steps if st.effect == e), [])}
+        top = max(others, key=lambda c: c.relevance)
         own = {p.name for p in EFFECTS[e.split(":")[0]].params(diag.data, e)}
-        values = {**{n: v for n, v in final.items() if n not in own}, **c.parameters}
         chosen_gain = next(x.relevance for x in by_round[k + 1] if x.effect == e)
-        out.append(Rival(fitted, cell + tuple(a if a != e else c.effect for a in accepted), values,
-                         f"{_say(e)} was taken over {_say(c.effect)}, {chosen_gain:.2f} to {c.relevance:.2f} "
-                         f"noise variances"))
+        for c in [top] + [c for c in others if c is not top and c.effect in said]:
+            values = {**{n: v for n, v in final.items() if n not in own}, **c.parameters}
+            out.append(Rival(fitted, cell + tuple(a if a != e else c.effect for a in accepted), values,
+                             f"{_say(e)} was taken over {_say(c.effect)}, {chosen_gain:.2f} to {c.relevance:.2f} "
+                             f"noise variances"))
     last = by_round.get(len(accepted) + 1, [])
     hints = [c for c in sorted(last, key=lambda c: -c.relevance)
              if c.effect not in accepted and (c.relevance >= RELEVANCE or c.p_value < HINT_P)

@@ -167,6 +167,16 @@ def smoothed(name, t, y, cycles, declared=None):
     if not rho or min(rho) <= SMOOTHED_RHO:
         return []
     n, h, f = sorted((_window(e, int(0.5 / (f * h))), h, f) for e, h, f in stretches)[len(stretches) // 2]
+    lowpass = None if declared else _lowpass(*max(stretches, key=lambda s: len(s[0]))[:2])
+    if lowpass:
+        return [Flag(name, "smoothed", np.nan, np.nan, 0,
+                     f"{name} was filtered by its source (a low-pass before the file was written): its change from "
+                     f"one cycle to the next keeps a sample-to-sample correlation of {min(rho):.2f} or more (white "
+                     f"noise: 0), so its noise is the filter's, not the load cell's, and a model compared with it "
+                     f"needs the same filter: the correlation reads a causal low-pass of about {lowpass[1]:.2g} Hz "
+                     f"(a Butterworth of order {lowpass[0]} fits it better than a moving average; the source's own "
+                     f"figure is better); import the file again with the filter its source used (dyno import "
+                     f"--filtered force=butter:{lowpass[0]}:{float(f'{lowpass[1]:.2g}'):g}Hz)")]
     return [Flag(name, "smoothed", np.nan, np.nan, 0,
                  f"{name} was smoothed by its source (a moving average or a low-pass before the file was "
                  f"written): its change from one cycle to the next keeps a sample-to-sample correlation of "
@@ -177,6 +187,36 @@ def smoothed(name, t, y, cycles, declared=None):
                     f"period; this reading runs up to a third short, the source's own figure is better); import the "
                     f"file again with the filter its source used (dyno import --smoothed, e.g. "
                     f"{float(f'{n * h * f:.1g}'):g}period or {float(f'{1e3 * n * h:.2g}'):g}ms)"))]
+
+
+LOWPASS_BETTER = 0.5  # a Butterworth's correlation must fit with at most this share of a moving average's error
+
+
+def _lowpass(e, h):
+    """(order, cut-off [Hz]) of the Butterworth low-pass whose noise correlation fits e's
+    best, when it fits much better (LOWPASS_BETTER) than any moving average's triangle;
+    else None. A DAQ's anti-alias filter rolls the spectrum off smoothly (four decades from
+    10 to 60 Hz on a crank dyno's 300 Hz files), where a moving average's has notches."""
+    from scipy.signal import butter, sosfreqz
+    L = max(3, min(64, len(e) // 4))
+    e = e - e.mean()
+    ac = np.fft.irfft(np.abs(np.fft.rfft(e, 2 * len(e))) ** 2)[:L]
+    ac = ac / ac[0]
+    # the lags before the correlation falls to a tenth: each cycle's trend removed
+    # (_cycle_to_cycle) pulls the longer ones below zero, whatever the filter
+    L = max(3, int(np.argmax(ac < 0.1)) or L)
+    ac = ac[:L]
+    lags = np.arange(L)
+    box = min(float(np.sum((ac - np.maximum(0.0, 1.0 - lags / m)) ** 2)) for m in range(2, L + 1))
+    best = None
+    for order in (1, 2, 4):
+        for fc in np.geomspace(0.01 / h, 0.4 / h, 40):
+            _, H = sosfreqz(butter(order, fc, fs=1 / h, output="sos"), worN=4096, fs=1 / h)
+            r = np.fft.irfft(np.abs(H) ** 2, 2 * 4096 - 2)[:L]
+            err = float(np.sum((ac - r / r[0]) ** 2))
+            if best is None or err < best[0]:
+                best = (err, order, float(fc))
+    return best[1:] if best[0] <= LOWPASS_BETTER * box else None
 
 
 def _window(e, most):

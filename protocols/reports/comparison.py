@@ -38,6 +38,23 @@ def _run(path):
     return rows, meta, loops, sign_problem(ch)
 
 
+def _gas_charges(runs) -> str | None:
+    """gas_rising's sentence for runs whose setup gives a gas charge (a key starting with
+    gas, a number first: --setup gas_psi=150, gas_bar=10), else None."""
+    import re
+    from models.recording import gas_level, gas_rising
+    points = []
+    for tag, path, _, meta in runs:
+        run = meta.get("run", {})
+        key = next((k for k in sorted(run) if k.startswith("setup.gas")), None)
+        number = re.match(r"\s*([0-9]+(?:\.[0-9]*)?)", str(run.get(key, ""))) if key else None
+        if number:
+            ch, _, _ = load_recording(path, ("x", "force"))
+            (tx, x), (tF, F) = ch["x"], ch["force"]
+            points.append((tag, float(number.group(1)), gas_level(x, np.interp(tx, tF, F))))
+    return gas_rising(points)
+
+
 def run_name(meta, path) -> str:
     """What a run is called on the page: its damper, serial and note, else its file."""
     damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}").get("name")
@@ -103,6 +120,9 @@ def compare(paths, out_dir, units=Units()):
                        + (f", operator {run['operator']}" if run.get("operator") else "")
                        + (f". Sign convention: {signs[tag]}; its forces below are in the file's convention"
                           if signs[tag] else ""))
+    gas = _gas_charges(runs)
+    if gas:
+        page.paragraph(gas)
     first = runs[0]
     diffs = differences(first[2], [(tag, rows) for tag, _, rows, _ in runs[1:]])
     L, F, T = (lambda si, q=q: units.show(q, si) for q in ("length", "force", "temperature"))

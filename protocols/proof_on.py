@@ -64,6 +64,7 @@ class Row:
 def diagnose_copy(task: CopyTask) -> Seen:
     """Diagnose one copy (one process: the copies themselves run in parallel)."""
     from models.diagnose import diagnose
+    from models.diagnose.referees import not_proven
     r = diagnose(task.channels, task.events, jobs=1, **task.options)
     timing = {c.effect: c.parameters for c in r.baseline.cell}
     steps = [(s.effect, [e for e, _, _ in s.rivals], list(s.depends_on), dict(s.parameters), s.size_rms_n)
@@ -73,7 +74,6 @@ def diagnose_copy(task: CopyTask) -> Seen:
     lag = next((c.parameters["tau"] for c in r.candidates if c.round == 1 and c.effect == "sensor_delay"), None)
     tau = next((p["tau"] for e, _, _, p, _ in steps if e == "sensor_delay"),
                lag if lag is not None else timing.get("alignment", {}).get("tau_0", 0))
-    from models.diagnose.referees import not_proven
     return Seen(r.named(), steps, float(tau), r.noise_sd, r.left_over.within_noise, r.baseline.nrmse_heldout,
                 r.final.nrmse_heldout, dict(r.baseline.parameters), [c.effect for c in not_proven(r.candidates)[1]])
 
@@ -84,35 +84,34 @@ def judged(h: Hidden, seen: Seen, null: Seen, size, value, rms, span) -> Row:
     proven"), or be taken up by the baseline's own refit: its held-out error grew by less
     than TAKEN of the hidden force's square (an oil mass at one frequency is a spring)."""
     found = set(h.found)
-    named = [e for e in seen.named if e.split(":")[0] in found]
-    held = {e.split(":")[0] for e in null.named}
+    held = {_key(e) for e in null.named}
+    steps = {_key(e): (rv, dep, p) for e, rv, dep, p, _ in seen.steps}
+    named = [_key(e) for e in seen.named if _key(e) in found]
+    group = next(([_key(e), *map(_key, rv)] for e, rv, *_ in seen.steps if found & {_key(e), *map(_key, rv)}), None)
+    dep = next((e for e in seen.named if _key(e) not in held
+                and set(steps.get(_key(e), ((), (), {}))[1]) & set(h.dependence)), None)
     out, said, est = "missed", "", None
-    steps = {e.split(":")[0]: (rv, dep, p) for e, rv, dep, p, _ in seen.steps}
     if named:
-        key = named[0].split(":")[0]
-        out, said = "named", ", ".join([key] + [r.split(":")[0] for r in steps.get(key, ([],))[0]])
-        est = _estimate(h, key, steps[key][2], seen, null) if key in steps else None
-    else:
-        group = next(([e.split(":")[0]] + [r.split(":")[0] for r in rv] for e, rv, _, _ in
-                      ((e, rv, dep, p) for e, rv, dep, p, _ in seen.steps)
-                      if found & ({e.split(":")[0]} | {r.split(":")[0] for r in rv})), None)
-        if group:
-            out, said = "in a group", ", ".join(group)
-            est = _estimate(h, "", {}, seen, null)
-        else:
-            dep = next((e for e in seen.named if e.split(":")[0] not in held
-                        and set(steps.get(e.split(":")[0], ((), (), {}))[1]) & set(h.dependence)), None)
-            if dep:
-                out, said = "as a dependence", f"{dep} ({', '.join(h.dependence)})"
-            elif found & {e.split(":")[0] for e in seen.not_proven}:
-                out, said = "not proven", ", ".join(e for e in seen.not_proven if e.split(":")[0] in found)
-            elif seen.before ** 2 - null.before ** 2 < TAKEN * (rms / span) ** 2:
-                out = "in the baseline"
-    carried = held | {e.split(":")[0] for e, rv, _, _, _ in null.steps for e in [e, *rv]}
+        out, said = "named", ", ".join([named[0], *map(_key, steps.get(named[0], ((),))[0])])
+        est = _estimate(h, steps.get(named[0], ((), (), {}))[2], seen, null)
+    elif group:
+        out, said, est = "in a group", ", ".join(group), _estimate(h, {}, seen, null)
+    elif dep:
+        out, said = "as a dependence", f"{dep} ({', '.join(h.dependence)})"
+    elif found & set(map(_key, seen.not_proven)):
+        out, said = "not proven", ", ".join(e for e in seen.not_proven if _key(e) in found)
+    elif seen.before ** 2 - null.before ** 2 < TAKEN * (rms / span) ** 2:
+        out = "in the baseline"
+    carried = held | {_key(e) for e, rv, *_ in null.steps for e in [e, *rv]}
     return Row(h.name, size, h.shown(value), rms, out, said, est, bool(found & carried), seen.named, seen.steps)
 
 
-def _estimate(h: Hidden, key, params, seen: Seen, null: Seen):
+def _key(e):
+    """An effect id's catalogue name (bouc_wen:aux.x -> bouc_wen)."""
+    return e.split(":")[0]
+
+
+def _estimate(h: Hidden, params, seen: Seen, null: Seen):
     """The size the diagnosis found, in h's shown unit, where it measures h's own value: a
     lag against the untouched copy's timing (a later force reads as a negative timing)."""
     if h.name == "lag":

@@ -3,7 +3,8 @@ imported as real_data.toml says, each catalogue effect and cell fault hidden in 
 at --sizes (RMS, % of its force range), and a table per file of what its diagnosis found,
 with the smallest size found per effect across files.
 
-    .venv/bin/python -m tests.prove_real [--data ../shared/data] [--sizes 3,5] --markdown > docs/results/prove-on.md
+    .venv/bin/python -m tests.prove_real [--data ../shared/data] [--sizes 3,5] [--keep runs.jsonl] --markdown > docs/results/prove-on.md
+    .venv/bin/python -m tests.prove_real --from runs.jsonl > docs/results/prove-on.md   # from the kept lines
 """
 import json
 import subprocess
@@ -61,14 +62,39 @@ def markdown(results):
     return "\n\n".join(lines) + "\n"
 
 
+KEEP = None  # a file each result is appended to as it ends (--keep)
+
+
+def kept(task):
+    """one(task), appended to KEEP as a JSON line."""
+    out = one(task)
+    if KEEP:
+        with open(KEEP, "a") as f:
+            f.write(json.dumps(out) + "\n")
+    return out
+
+
 def main(argv=None):
+    """As real_data's generate, each file's result also appended to --keep FILE as it ends
+    (a JSON line: a long run that stops keeps what it made), and --from FILE prints the
+    Markdown of such lines without running."""
     global SIZES
     argv = list(sys.argv[1:] if argv is None else argv)
-    if "--sizes" in argv:
-        i = argv.index("--sizes")
-        SIZES = argv[i + 1]
-        del argv[i:i + 2]
-    generate("python -m tests.prove_real", argv, files, one, markdown, "recordings")
+    opts = {}
+    for flag in ("--sizes", "--keep", "--from"):
+        if flag in argv:
+            i = argv.index(flag)
+            opts[flag] = argv[i + 1]
+            del argv[i:i + 2]
+    SIZES = opts.get("--sizes", SIZES)
+    if "--from" in opts:
+        print(markdown([json.loads(line) for line in Path(opts["--from"]).read_text().splitlines() if line]))
+        return
+    global KEEP
+    KEEP = opts.get("--keep")
+    # the small files first: a stopped run has the most tables
+    generate("python -m tests.prove_real", argv, lambda d: sorted(files(d), key=lambda t: t[0].stat().st_size), kept,
+             markdown, "recordings")
 
 
 if __name__ == "__main__":

@@ -127,3 +127,22 @@ def test_the_sign_of_a_gas_charge_pair_is_read_by_physics(tmp_path):
     r = subprocess.run([*DYNO, "report", tmp_path / "150-unflipped.mcap", tmp_path / "50-force.mcap", "--out",
                         tmp_path / "cmp2"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert "it does not rise with the charge" in (tmp_path / "cmp2" / "index.html").read_text()
+
+
+def test_the_noise_is_what_repeats_not_a_drift_or_a_heat_gun():
+    """A crank whose speed wanders 1 %, a load cell's zero drifting 40 N, damping falling
+    16 % over the run as a heat gun warms it: the noise read is the noise's, within 10 %."""
+    from models.diagnose.data import Data
+    from models.diagnose.noise import noise_sd
+    rng = np.random.default_rng(3)
+    h, f0, n = 1 / 300, 1.5, 300 * 96
+    t = np.arange(n) * h
+    phase = 2 * np.pi * np.cumsum(f0 * (1 + 0.01 * np.sin(2 * np.pi * t / 40))) * h  # the crank's speed wanders
+    v = np.cos(phase)
+    u = t / t[-1]
+    misfit = 30 * np.sign(v) * np.abs(v) ** 0.5 * (1 - 0.16 * np.sin(np.pi * u / 2))  # a valve misfit, warming
+    for sigma in (2.0, 7.0):
+        r = misfit + 40 * u + sigma * rng.standard_normal(n)
+        d = Data(t, np.sin(phase), v, -np.sin(phase), r, np.floor(t * f0).astype(int), np.zeros(n, int),
+                 np.full(n, h), [("sine", f0)])
+        assert abs(noise_sd(r, d, np.ones(n, bool)) / sigma - 1) < 0.1, (sigma, noise_sd(r, d, np.ones(n, bool)))

@@ -38,7 +38,8 @@ def add(sub):
     pv.add_argument("--on", metavar="RECORDING",
                     help="prove on your own real recording: each effect and cell fault hidden in copies of it at "
                          "--sizes (RMS, %% of its force range; default 1,3), every copy and the untouched one "
-                         "diagnosed: what a diagnosis of this file can and cannot see")
+                         "diagnosed: what a diagnosis of this file can and cannot see; --effects picks from "
+                         "models/diagnose/hiding.toml (the catalogue's and lag, zero_drift, gain_drift, filter)")
     pv.add_argument("--rounds", type=number(1, 4, integer=True), default=4,
                     help="--on: each diagnosis stops after this many rounds (default 4, the diagnosis's own)")
     pv.add_argument("--open", metavar="EXPR",

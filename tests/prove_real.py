@@ -40,14 +40,20 @@ def markdown(results):
     done = [r for r in results if "rows" in r]
     hidden = list(dict.fromkeys(row["hidden"] for r in done for row in r["rows"]))
     shown = (lambda s: "-" if s is None else f"{s:g}")
+    def cell(r, h):  # the smallest size found; n/a where it cannot be hidden at any size
+        rows = [row for row in r["rows"] if row["hidden"] == h]
+        if rows and all(row["outcome"] == "cannot hide" for row in rows):
+            return "n/a"
+        return shown(r["smallest_found"].get(h))
     summary = md.table(("file", "untouched names", *hidden),
                        [(r["file"], ", ".join(r["untouched"]["untouched"]["named"]) or "nothing",
-                         *(shown(r["smallest_found"].get(h)) for h in hidden)) for r in done])
+                         *(cell(r, h) for h in hidden)) for r in done])
     found = {h: sum(r["smallest_found"].get(h) is not None for r in done) for h in hidden}
     lines = ["# Effects hidden in real recordings (dyno prove --on)", stamp,
              __doc__.split("\n\n")[0].replace("\n", " "),
              f"Sizes {SIZES} % of each file's force range (RMS); each diagnosis stops after {ROUNDS} rounds. Smallest size found per file ('-': not found at "
-             f"these sizes, or cannot be hidden there: its rows say which). Found on how many of {len(done)} files: "
+             f"these sizes; n/a: it cannot be hidden there at these sizes, a friction effect where the baseline fits "
+             f"no friction). Found on how many of {len(done)} files: "
              + ", ".join(f"{h} {n}" for h, n in found.items()) + ".", summary]
     lines += [f"- {r['file']}: {r['error']}" for r in results if "error" in r]
     for r in done:

@@ -21,7 +21,7 @@ def _diagnosis(extra=()):
     cands = [cand("sensor_delay", {"tau": 2e-4}, 0.55), cand("fluid_inertia", {"m_oil": 0.4}, 0.30),
              cand("free_play", {"c_play": 1e-7}, 0.01, p=0.5)] + list(extra)
     # the model as accepted: the lag took the place of the channels' alignment (supersedes)
-    return SimpleNamespace(data=d, accepted=["sensor_delay"], effects=lambda: ["sensor_delay"], candidates=cands,
+    return SimpleNamespace(data=d, accepted=["sensor_delay"], effects=lambda: ["sensor_delay"], candidates=cands, steps=[],
                            noise_sd=1.0, final=SimpleNamespace(parameters=final))
 
 
@@ -91,3 +91,13 @@ def test_no_proposal_says_whether_none_is_needed_or_none_the_cell_can_run_would_
     assert said.startswith("Next test: none the cell can run, though explanations compete") and "38 mm" in said, said
     diag.candidates = diag.candidates[:1]
     assert text([], diag, CELL, 120.0).startswith("Next test: none needed")
+
+
+def test_a_findings_own_rivals_are_designed_for_beside_the_runner_up():
+    """The cell's timing at one frequency (referees.timing_rival) is a step's rival though
+    another candidate gained more: the next test parts each pair."""
+    diag = _diagnosis([Candidate("compressibility", 1, {"inv_k_oil": 1e-8}, {"inv_k_oil": [9e-9, 1.1e-8]}, 0.0, 0.0,
+                                 0.0, 1e-4, 0.50, 0.50)])
+    assert [r.other for r in rivals(diag)] == [("compressibility",)]
+    diag.steps = [SimpleNamespace(effect="sensor_delay", rivals=[("fluid_inertia", 0.30, 0.2)])]
+    assert [r.other for r in rivals(diag)] == [("compressibility",), ("fluid_inertia",)]

@@ -74,8 +74,9 @@ def _by_strokes(r, k, t, v, h):
     the noise's correlation from one sample to the next. None: fewer than three strokes a
     way."""
     num, weights, D = 0.0, [], []
+    strokes = _strokes(t, v, h)
     for way in (-1.0, 1.0):
-        ss = [s for s in _strokes(t, v, h) if s[4] == way]
+        ss = [s for s in strokes if s[4] == way]
         for a, b, c in zip(ss, ss[1:], ss[2:]):
             before, after = b[2] - a[2], c[2] - b[2]
             if abs(after - before) > STROKE_SPACING * min(before, after):

@@ -456,13 +456,9 @@ def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_pa
     assert "Bleed the damper" not in doc["summary"]
 
 
-def test_a_terms_exact_columns_are_the_forces_derivatives_beside_every_other_effect():
-    """Model.columns gives a term's basis as the force's derivative in its coefficients
-    (the fits use it instead of a model evaluation per coefficient) only where nothing
-    after the term alters the part it adds to: checked against a finite difference beside
-    each effect of the catalogue, so an effect that alters a part and does not say so
-    (Effect.alters) fails here."""
-    from models.diagnose.candidates import ORDER, WITH_BASELINE, Model
+def _motion_with_every_channel():
+    """Data of two sine frequencies with a temperature, an aux channel and a tone: every
+    effect of the catalogue and every term can act on it."""
     t = np.arange(0.0, 4.0, 1e-3)
     f = np.where(t < 2.0, 3.0, 7.0)
     x = 0.04 + 0.01 * np.sin(2 * np.pi * f * t)
@@ -473,24 +469,47 @@ def test_a_terms_exact_columns_are_the_forces_derivatives_beside_every_other_eff
     d = prepare({"force": (t, F), "x": (t, x), "T_body": (t, 300.0 + 5.0 * t),
                  "aux.valve_current": (t, 0.5 + 0.1 * np.sin(0.7 * t))}, ev)
     d.tone_hz = 50.0
+    return d
+
+
+# where each effect's derivative is checked: a clearance, an oil spring and a cap that act
+# (the defaults leave them at nothing), and valves that crack within the motion
+AT = {"c1_c": 3000.0, "c2_c": 2e5, "C_c": 1700.0, "Fcr_c": 770.0, "c1_r": 6900.0, "c2_r": 2.8e5, "C_r": 4700.0,
+      "Fcr_r": 1060.0, "G0": 430.0, "L": 0.05, "F_c": 70.0, "inv_k_oil": 1e-7, "c_play": 2e-4, "Fcav_c": 400.0,
+      "Fcav_r": 500.0, "kcav": 2.0, "r_break": 2.0, "v_break": 0.02, "x_stick": 2e-4}
+
+
+@pytest.mark.rounding
+@pytest.mark.parametrize("effect", [e for e in EFFECTS if EFFECTS[e].acts_on != "motion"])
+def test_each_effects_derivatives_are_its_differences_beside_every_other(effect):
+    """Model.columns: the baseline's derivatives carried through each effect by its
+    tangent, with the effect's own added, which the fits read instead of a model
+    evaluation per parameter. Each effect alone and beside those that change the whole
+    force after it (an oil spring, a clearance, a cap): every column a central difference
+    of the force; only a timing's and a shape's parameters are left to differences."""
+    from models.diagnose.candidates import ORDER, WITH_BASELINE, Model
+    d = _motion_with_every_channel()
     rng = np.random.default_rng(1)
-    terms = ("valve_form", "elastic_stroke", "drift", "interference", "temperature_force", "loop_surface")
-    for term in terms:
-        for other in [None, *[e for e in EFFECTS if e != term and e not in WITH_BASELINE]]:
-            effects = sorted({term, *(["aux_channel:aux.valve_current"] if other == "aux_channel" else
-                                      [other] if other else [])}, key=lambda e: ORDER.index(e.split(":")[0]))
-            m = Model(d, WITH_BASELINE + effects)
-            p = {q.name: q.x0 + (rng.uniform(0.05, 0.3) * (q.hi - q.lo) if q.x0 == 0.0 else 0.0) for q in m.params}
-            f0 = m.forces(d, p)
-            # the term's own coefficients (the baseline's columns are checked in test_verdict)
-            cols = {k: c for k, c in m.columns(f0).items() if k in m.own[term]}
-            alters = [EFFECTS[e.split(":")[0]].alters for e in effects if e != term
-                      and ORDER.index(e.split(":")[0]) > ORDER.index(term)]
-            told = {"valve_form": "Fd", "elastic_stroke": "Fg"}.get(term, "F")
-            assert bool(cols) == (not any(told in a or "F" in a for a in alters)), (term, other)
-            for name, col in cols.items():
-                fd = m.force(d, {**p, name: p[name] + 1.0}) - f0.F  # linear: the step's size is free
-                assert np.max(np.abs(fd - col)) <= 1e-6 * max(1.0, np.max(np.abs(fd))), (term, other, name)
+    e = effect + (":aux.valve_current" if EFFECTS[effect].needs == "aux" else "")
+    left = {"tau_0", "x_y", "gamma_bw", "lag:aux.valve_current"}  # a timing's, a yield's shape
+    for beside in ([], ["compressibility"], ["free_play"], ["cavitation"]):
+        effects = sorted({e, *beside}, key=lambda x: ORDER.index(x.split(":")[0]))
+        m = Model(d, WITH_BASELINE + effects)
+        p = {q.name: AT.get(q.name, q.x0 + (rng.uniform(0.05, 0.3) * (q.hi - q.lo) if q.x0 == 0.0 else 0.0))
+             for q in m.params}
+        f0 = m.forces(d, p)
+        cols = m.columns(f0)
+        assert set(cols) == {q.name for q in m.params} - left, (effects, {q.name for q in m.params} - set(cols))
+        scale = np.max(np.abs(f0.F))
+        for q in m.params:
+            if q.name not in cols:
+                continue
+            h = 1e-6 * max(abs(p[q.name]), 1e-3 * (q.hi - q.lo))
+            diff = (m.force(d, {**p, q.name: p[q.name] + h}) - m.force(d, {**p, q.name: p[q.name] - h})) / (2 * h)
+            # a difference's rounding (eps |F| / h, with room) and a tenth-mille of its size (kinks)
+            atol = 1e-12 * scale / h + 1e-4 * np.max(np.abs(diff))
+            assert np.allclose(cols[q.name], diff, rtol=1e-4, atol=atol), \
+                (effects, q.name, float(np.max(np.abs(cols[q.name] - diff))), float(np.max(np.abs(diff))))
 
 
 def test_the_spline_basis_is_scipys_to_the_last_bit():

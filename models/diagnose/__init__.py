@@ -36,7 +36,8 @@ from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Fina
 from models.diagnose.noise import noise_from, noise_sd
 from models.diagnose import stability
 from models.diagnose.bootstrap import ALPHA, p_value
-from models.diagnose.referees import RELEVANCE, bar, chosen, referees, term
+from models.diagnose.referees import RELEVANCE, bar, chosen, rivals_of, stood_in, term
+from models.diagnose.stages import Clock
 from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
 from models.recording import differing_repeats, nrmse
@@ -183,6 +184,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     (holdout_masks). drives: the aux channels that drive the damper (models.recording.drives), the only ones
     an effect may be scaled by; None: all. jobs: processes fitting a round's candidates (threads.forked); 1:
     this one (a rig's). smoothing: the source's moving average every model goes through (source_filter)."""
+    clock = Clock(jobs)
     d = prepare(channels, events, drives, smoothing)
     if baseline is None:
         base = Minimal(d)
@@ -194,12 +196,13 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         d.fitted_until = float(np.max(d.t[folds[0][0]]))
     judge = stability.judge(d, judged, seed, blocks)
     cell = list(WITH_BASELINE)
-    base_res, fold_vals, values = _fit_baseline(d, base, cell, folds, shown)
-    r0 = base_res.residual
-    # each fold's prediction [N] on every sample after each round: what an effect changed
-    preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
-    sigma = noise_sd(d.F - preds[0][0], d, judged)  # one fold's model throughout: the folds' differ
-    d.tone_hz = tone(d, r0, judged)
+    with clock.stage("baseline"):
+        base_res, fold_vals, values = _fit_baseline(d, base, cell, folds, shown)
+        r0 = base_res.residual
+        # each fold's prediction [N] on every sample after each round: what an effect changed
+        preds = [[Model(d, cell, base).force(d, v) for v in fold_vals]]
+        sigma = noise_sd(d.F - preds[0][0], d, judged)  # one fold's model throughout: the folds' differ
+        d.tone_hz = tone(d, r0, judged)
     progress(f"baseline: held-out error {100 * base_res.nrmse_heldout:.2f} % of the force range, "
              f"force noise {sigma:.2f} N")
     accepted, steps, candidates = [], [], []
@@ -209,8 +212,9 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         alpha = bar(len(names))
-        round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, judge, r_cur, shown, sigma,
-                        alpha, last, cost, progress, jobs)
+        with clock.stage("candidates"):
+            round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, judge, r_cur, shown,
+                            sigma, alpha, last, cost, progress, jobs, clock)
         candidates += [c for c, *_ in round_]
         last = {c.effect: f_vals for c, _, f_vals, _ in round_}
         ok = [x for x in round_ if x[0].accept_share >= 0.5]  # accepted in most judgements
@@ -219,17 +223,20 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         # the effect carried may be one at the edge that the held-out blocks cannot tell from the best
         best, b_vals, b_folds, b_r = chosen(ok, [x for x in round_ if stability.EDGE < x[0].accept_share], judge,
                                             alpha, names)
-        rivals, rival_votes, stand_in, stand_in_votes = referees(d, base, cell + accepted, best, b_folds, b_r, round_,
-                                                                 folds, judge, alpha)
-        m_best = Model(d, cell + accepted + [best.effect], base)
-        if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
-            # from the screening's values, close to the optimum: a few evaluations per parameter
-            b_folds, f_sds, b_r = cross_fit(m_best, d, folds, b_folds, effort=REFIT_EFFORT)
-            b_vals = pooled(b_folds, f_sds)[0]
-        preds.append([m_best.force(d, v) for v in b_folds])
-        shares = [(e, form_share(d, folds, judged, preds[-2], changes(preds, j + 1), changes(preds, len(preds) - 1)))
-                  for j, e in enumerate(accepted)]
-        traded = trades(m_best, d, folds[0][0], b_folds[0], accepted)
+        with clock.stage("rivals"):
+            rivals, rival_votes = rivals_of(d, best, b_r, round_, judge)
+        with clock.stage("stand-ins"):
+            stand_in, stand_in_votes = stood_in(d, base, cell + accepted, best, b_folds, b_r, folds, judge)
+        with clock.stage("refit"):
+            m_best = Model(d, cell + accepted + [best.effect], base)
+            if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
+                # from the screening's values, close to the optimum: a few evaluations per parameter
+                b_folds, f_sds, b_r = cross_fit(m_best, d, folds, b_folds, effort=REFIT_EFFORT)
+                b_vals = pooled(b_folds, f_sds)[0]
+            preds.append([m_best.force(d, v) for v in b_folds])
+            shares = [(e, form_share(d, folds, judged, preds[-2], changes(preds, j + 1),
+                                     changes(preds, len(preds) - 1))) for j, e in enumerate(accepted)]
+            traded = trades(m_best, d, folds[0][0], b_folds[0], accepted)
         form_of = [(e, sh) for e, sh in shares if sh >= FORM_SHARE]
         steps.append(Step(best.effect, scores(d.F, r_cur, shown)["nrmse_heldout"], best.nrmse_heldout,
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
@@ -240,21 +247,24 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")
-    accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judge, accepted, values, current,
-                                                           r_cur, progress)
-    final_model = Model(d, cell + accepted, base)
-    held = judged | shown
-    for st in steps:
-        st.replaced_by = replaced.get(st.effect)
-        if st.effect in accepted:
-            for k, v in describe(d, st.effect, st.residual_after - st.residual_before, held).items():
-                setattr(st, k, v)
-    _sized(steps, float(np.mean(r0[judged] ** 2)) - sigma ** 2, sigma)
-    return Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
-                     locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
-                     left_over(r_cur, judge, sigma),
-                     Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
-                     noise_from(d), repeats=differing_repeats(channels, events), judge=judge)
+    with clock.stage("final"):
+        accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judge, accepted, values,
+                                                               current, r_cur, progress)
+        final_model = Model(d, cell + accepted, base)
+        held = judged | shown
+        for st in steps:
+            st.replaced_by = replaced.get(st.effect)
+            if st.effect in accepted:
+                for k, v in describe(d, st.effect, st.residual_after - st.residual_before, held).items():
+                    setattr(st, k, v)
+        _sized(steps, float(np.mean(r0[judged] ** 2)) - sigma ** 2, sigma)
+        out = Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
+                        locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
+                        left_over(r_cur, judge, sigma),
+                        Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
+                        noise_from(d), repeats=differing_repeats(channels, events), judge=judge)
+    out.timing = clock.report()
+    return out
 
 
 def repeated(first, channels, events, n, **kw) -> dict:
@@ -333,7 +343,7 @@ def _sized(steps, excess, sigma):
 
 
 def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, sigma, alpha, last, cost, progress,
-           jobs):
+           jobs, clock):
     """Each candidate fitted beside the effects fitted so far (the cell's and those
     accepted) and judged on the held-out blocks: [(Candidate, pooled values, values per
     fold, residual [N])] of round `number`. A candidate is accepted where it is significant
@@ -360,17 +370,19 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
     cost.update({e: seconds for e, (_, seconds) in done.items()})
     out = []
     for e, ((f_vals, f_sds, r), _) in ((e, done[e]) for e in names):
-        vals, sds = pooled(f_vals, f_sds)
-        gain = float((sse_cur - judge.sse(r, judge.main)).sum() / n_judged)  # held-out mean-square improvement [N^2]
-        own = {p.name: vals[p.name] for p in EFFECTS[e.split(":")[0]].params(d, e)}
-        c = Candidate(e, number, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                      **scores(d.F, r, shown), p_value=judge.p(r, r_cur, alpha), gain=gain, relevance=gain / sigma ** 2)
-        # each block counts alike whatever its force, and symmetrically: a block made ten
-        # times worse weighs what one made ten times better does (Judge.log_ratio)
-        worth = stability.against(c.relevance, RELEVANCE) * stability.against(gain / max(mse, 1e-30), SHARE)
-        c.accept_votes = np.zeros(len(judge.variants))
-        if worth > 0 and resolved(d, e, c.parameters, c.ci):
-            c.accept_votes = judge.votes(r, r_cur, alpha) * worth
+        with clock.stage("p-values"):
+            vals, sds = pooled(f_vals, f_sds)
+            gain = float((sse_cur - judge.sse(r, judge.main)).sum() / n_judged)  # held-out mean-square gain [N^2]
+            own = {p.name: vals[p.name] for p in EFFECTS[e.split(":")[0]].params(d, e)}
+            c = Candidate(e, number, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
+                          **scores(d.F, r, shown), p_value=judge.p(r, r_cur, alpha), gain=gain,
+                          relevance=gain / sigma ** 2)
+            # each block counts alike whatever its force, and symmetrically: a block made ten
+            # times worse weighs what one made ten times better does (Judge.log_ratio)
+            worth = stability.against(c.relevance, RELEVANCE) * stability.against(gain / max(mse, 1e-30), SHARE)
+            c.accept_votes = np.zeros(len(judge.variants))
+            if worth > 0 and resolved(d, e, c.parameters, c.ci):
+                c.accept_votes = judge.votes(r, r_cur, alpha) * worth
         out.append((c, vals, f_vals, r))
         progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
                  f"  gain {c.relevance:+.3f} noise variances")

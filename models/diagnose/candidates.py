@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from models.diagnose import kernels, terms
-from models.diagnose.valves import VALVES, damping_grad, slope, damping
+from models.diagnose.valves import VALVES, damping_grad, slope, slope_grad, damping
 from models.diagnose.spec import V_EPS, Effect, P
 from models.diagnose.terms import TERMS
 
@@ -89,6 +89,14 @@ class Minimal:
                 "Fg": {"G0": R ** GAMMA, "L": np.where(free, p["G0"] * GAMMA * R ** (GAMMA - 1) * -dx / room ** 2, 0.0)},
                 "Ff": {"F_c": soft_sign(v)}}
 
+    def slope_columns(self, f):
+        """{parameter: the damping slope's derivative} along the Forces' motion."""
+        return dict(zip(VALVES, slope_grad(f.v, f.p)))
+
+    def friction_columns(self, p):
+        """{parameter: the sliding friction's derivative} (friction_level's)."""
+        return {"F_c": 1.0}
+
     def parts(self, d, p, x, v, tau):
         """(damping, gas, friction [N], a callable giving the damping's slope dF/dv [N s/m])
         along motion x, v (already shifted by the sensor delay tau)."""
@@ -127,23 +135,24 @@ class Model:
 
     def columns(self, f):
         """{parameter: the force's derivative in it [N per unit]} from one evaluation's
-        Forces, for the coefficients of terms that add a basis to a part of the force
-        which no later effect alters (Effect.alters), and the baseline's own parameters
-        where no effect alters their part (Minimal.columns): exact, where a finite
-        difference costs a model evaluation each."""
-        out = {}
-        altered = {part for x in self.effects for part in EFFECTS[x.split(":")[0]].alters}
-        if hasattr(self.base, "columns") and "F" not in altered:
-            for part, cols in self.base.columns(f).items():
-                if part not in altered:
-                    out.update({k: f.data.through_source(c) for k, c in cols.items()})
-        for e, (part, B) in f.bases.items():
-            after = [EFFECTS[x.split(":")[0]] for x in self.effects
-                     if ORDER.index(x.split(":")[0]) > ORDER.index(e.split(":")[0])]
-            if not any(part in c.alters or "F" in c.alters for c in after):
-                # the source's moving average is linear: a column through it is exact
-                out.update(zip(self.own[e], (f.data.through_source(b) for b in B.T)))
-        return out
+        Forces: the baseline's (Minimal.columns) carried through each effect after it by
+        that effect's tangent, which adds its own parameters' (Effect.tangent). A parameter
+        missing (a timing offset's, a shape no closed form follows) is left to a finite
+        difference; so is every one an effect without a tangent changes."""
+        cols = {"Fd": {}, "Fg": {}, "Ff": {}}
+        if hasattr(self.base, "columns"):
+            for part, c in self.base.columns(f).items():
+                cols[part] = dict(c)
+        for c, e, before in f.trace:
+            if c.acts_on == "total" and "F" not in cols:
+                cols["F"] = _summed(cols)
+            if c.tangent is not None:
+                c.tangent(self, f.data, f.p, f, e, cols, before)
+            else:  # what it changes is left to differences
+                for part in c.alters or ("F",):
+                    cols[part] = {}
+        F = cols.get("F") or _summed(cols)
+        return {k: f.data.through_source(np.broadcast_to(c, f.F.shape)) for k, c in F.items()}
 
     def forces(self, d, p):
         """Model.force's Forces, every stage's result in it."""
@@ -156,13 +165,29 @@ class Model:
         f.Fd, f.Fg, f.Ff, f.slope = self.base.parts(d, p, f.x, f.v, f.tau)
         for c, e in staged:
             if c.acts_on == "parts":
+                f.trace.append((c, e, f.state()))
                 c.apply(self, d, p, f, e)
         f.F = f.Fd + f.Fg + f.Ff
         for c, e in staged:
             if c.acts_on == "total":
+                f.trace.append((c, e, f.state()))
                 c.apply(self, d, p, f, e)
         f.F = d.through_source(f.F)  # as the file's force was written (models/source_filter.py)
         return f
+
+
+def _summed(cols):
+    """The total's columns: each parameter's in the parts summed."""
+    out = {}
+    for part in ("Fd", "Fg", "Ff"):
+        for k, c in cols[part].items():
+            out[k] = out[k] + c if k in out else c
+    return out
+
+
+def _scaled(cols, part, g):
+    """The part multiplied by g: its columns too."""
+    cols[part] = {k: c * g for k, c in cols[part].items()}
 
 
 class Forces:
@@ -174,6 +199,10 @@ class Forces:
         self.x, self.v, self.a, self.t, self.tau = d.x, d.v, d.a, d.t, 0.0
         self.Fd = self.Fg = self.Ff = self.F = self.slope = None
         self.bases = {}  # {term: (the part it adds to, its basis)} (terms.add)
+        self.trace = []  # [(Effect, effect id, the parts before it acted)]: what Model.columns walks
+
+    def state(self):
+        return {"Fd": self.Fd, "Fg": self.Fg, "Ff": self.Ff, "F": self.F}
 
 
 _bouc_wen, _dahl = kernels.recent(kernels.bouc_wen), kernels.recent(kernels.dahl)
@@ -203,12 +232,36 @@ def _damping_temperature(m, d, p, f, e):
     f.Fd = f.Fd * (1 + p["k_dT"] * (d.T - m.T_m))
 
 
+def _damping_temperature_tangent(m, d, p, f, e, cols, before):
+    dT = d.T - m.T_m
+    _scaled(cols, "Fd", 1 + p["k_dT"] * dT)
+    cols["Fd"]["k_dT"] = before["Fd"] * dT
+
+
 def _compressibility(m, d, p, f, e):  # the valve in series with the oil's spring
     f.Fd = kernels.lag(f.Fd, f.slope() * p["inv_k_oil"], d.h)
 
 
+def _compressibility_tangent(m, d, p, f, e, cols, before):
+    # the lag's time constant is the slope times the compliance: both move it
+    S, inv_k = f.slope(), p["inv_k_oil"]
+    dS = m.base.slope_columns(f) if hasattr(m.base, "slope_columns") else {}
+    names = list(dict.fromkeys([*cols["Fd"], *dS, "inv_k_oil"]))
+    zero = np.zeros(len(S))
+    dF = np.array([cols["Fd"].get(k, zero) for k in names])
+    dtau = np.array([S if k == "inv_k_oil" else inv_k * dS[k] if k in dS else zero for k in names])
+    out = kernels.lag_tangent(before["Fd"], S * inv_k, d.h, f.Fd, dF, dtau)
+    cols["Fd"] = dict(zip(names, out))
+
+
 def _gas_temperature(m, d, p, f, e):
     f.Fg = f.Fg * (1 + p["k_gT"] * (d.T - m.T_m))
+
+
+def _gas_temperature_tangent(m, d, p, f, e, cols, before):
+    dT = d.T - m.T_m
+    _scaled(cols, "Fg", 1 + p["k_gT"] * dT)
+    cols["Fg"]["k_gT"] = before["Fg"] * dT
 
 
 def _position_friction(m, d, p, f, e):
@@ -219,6 +272,12 @@ def _position_friction(m, d, p, f, e):
     f.Ff = f.Ff + (B @ np.array([p[f"pf{i}"] for i in range(B.shape[1])])) * soft_sign(f.v)
 
 
+def _position_friction_tangent(m, d, p, f, e, cols, before):
+    B = terms.cached(m, d, e, lambda ref, dd: terms.x_basis(ref, dd, FRICTION_KNOTS))
+    ss = soft_sign(f.v)
+    cols["Ff"].update({f"pf{i}": B[:, i] * ss for i in range(B.shape[1])})
+
+
 def _breakaway_friction(m, d, p, f, e):
     # the seal grips harder near rest, falling to sliding friction with speed (the
     # thesis's friction falls with velocity, section 3.2.1); Stribeck's curve with its
@@ -226,10 +285,33 @@ def _breakaway_friction(m, d, p, f, e):
     f.Ff = f.Ff * (1 + (p["r_break"] - 1) * np.exp(-(np.abs(f.v) / p["v_break"]) ** p["d_break"]))
 
 
+def _breakaway_friction_tangent(m, d, p, f, e, cols, before):
+    r, vb, n = p["r_break"], p["v_break"], p["d_break"]
+    u = np.abs(f.v) / vb
+    un = u ** n
+    E = np.exp(-un)
+    _scaled(cols, "Ff", 1 + (r - 1) * E)
+    Ff = before["Ff"]
+    cols["Ff"].update({"r_break": Ff * E, "v_break": Ff * (r - 1) * E * n * un / vb,
+                       "d_break": -Ff * (r - 1) * E * un * np.log(np.where(u > 0, u, 1.0))})
+
+
 def _presliding_friction(m, d, p, f, e):
     # the seal deforms before it slides: its friction builds over x_stick of travel after
     # each reversal (Dahl), where the baseline's Coulomb law switches at once (eq 3.3)
     f.Ff = m.base.friction_level(p) * _dahl(f.x, d.t, d.h, p["x_stick"])
+
+
+def _presliding_friction_tangent(m, d, p, f, e, cols, before):
+    # the friction is replaced: its level's derivative times the state, and the state's in x_stick
+    xs = p["x_stick"]
+    travel = np.abs(np.diff(f.x, prepend=f.x[:1]))
+    decay = np.exp(-travel / xs)
+    z = _dahl(f.x, d.t, d.h, xs)
+    level = m.base.friction_columns(p) if hasattr(m.base, "friction_columns") else {}
+    cols["Ff"] = {k: z * g for k, g in level.items()}
+    dz = kernels.dahl_tangent(f.x, d.t, d.h, decay, z, decay * travel / xs ** 2)
+    cols["Ff"]["x_stick"] = m.base.friction_level(p) * dz
 
 
 def _bouc_wen_force(m, d, p, f, e):
@@ -244,14 +326,38 @@ def _bouc_wen_force(m, d, p, f, e):
     f.F = f.F + alpha * _bouc_wen(f.x, d.t, d.h, p["x_y"], p["gamma_bw"])
 
 
+def _bouc_wen_tangent(m, d, p, f, e, cols, before):
+    # its size's derivatives; the yield's shape (x_y, gamma_bw) and a coil's lag are left to differences
+    z = _bouc_wen(f.x, d.t, d.h, p["x_y"], p["gamma_bw"])
+    cols["F"]["alpha_bw"] = z
+    if ":" in e:
+        n = e.split(":", 1)[1]
+        u = kernels.lag(d.aux[n], np.full(len(d.t), p[f"eta:{n}"]), d.h) - m.aux_m[n]
+        cols["F"][f"alpha_u:{n}"] = u * z
+
+
 def _fluid_inertia(m, d, p, f, e):
     f.F = f.F + p["m_oil"] * f.a
+
+
+def _fluid_inertia_tangent(m, d, p, f, e, cols, before):
+    cols["F"]["m_oil"] = f.a
 
 
 def _aux_channel(m, d, p, f, e):
     name = e.split(":", 1)[1]
     u = shift(d.aux[name], f.t, p[f"lag:{name}"]) - m.aux_m[name]
     f.F = f.F + (p[f"b0:{name}"] + p[f"b1:{name}"] * f.Fd) * u
+
+
+def _aux_channel_tangent(m, d, p, f, e, cols, before):
+    # the channel's lag is left to differences
+    name = e.split(":", 1)[1]
+    u = shift(d.aux[name], f.t, p[f"lag:{name}"]) - m.aux_m[name]
+    b1u = p[f"b1:{name}"] * u
+    for k, c in cols["Fd"].items():
+        cols["F"][k] = cols["F"].get(k, 0.0) + b1u * c
+    cols["F"].update({f"b0:{name}": u, f"b1:{name}": f.Fd * u})
 
 
 def _cavitation(m, d, p, f, e):
@@ -262,8 +368,32 @@ def _cavitation(m, d, p, f, e):
     f.F = np.where(f.v > 0, np.minimum(f.F, cap), np.maximum(f.F, -p["Fcav_r"]))
 
 
+def _cavitation_tangent(m, d, p, f, e, cols, before):
+    F, kcav = before["F"], p["kcav"]
+    cap = p["Fcav_c"] + kcav * (f.Fg - m.Fg_m)
+    up, down = (f.v > 0) & (cap < F), (f.v <= 0) & (F < -p["Fcav_r"])  # where a cap holds the force
+    free = ~(up | down)
+    out = {k: np.where(free, c, 0.0) for k, c in cols["F"].items()}
+    for k, c in cols["Fg"].items():
+        out[k] = out.get(k, 0.0) + np.where(up, kcav * c, 0.0)
+    out.update({"Fcav_c": up * 1.0, "kcav": np.where(up, f.Fg - m.Fg_m, 0.0), "Fcav_r": -1.0 * down})
+    cols["F"] = out
+
+
 def _free_play(m, d, p, f, e):
     f.F = kernels.plateau(f.F, f.slope(), f.t, p["c_play"], W_FORCE * m.h)
+
+
+def _free_play_tangent(m, d, p, f, e, cols, before):
+    S = f.slope()
+    dS = m.base.slope_columns(f) if hasattr(m.base, "slope_columns") else {}
+    names = list(dict.fromkeys([*cols["F"], "c_play"]))
+    zero = np.zeros(len(S))
+    out = kernels.plateau_tangent(before["F"], S, f.t, p["c_play"], W_FORCE * m.h,
+                                  np.array([cols["F"].get(k, zero) for k in names]),
+                                  np.array([dS.get(k, zero) for k in names]),
+                                  np.array([1.0 if k == "c_play" else 0.0 for k in names]))
+    cols["F"] = dict(zip(names, out))
 
 
 def _p(*ps):
@@ -316,7 +446,7 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("free_play", "clearance (free play) in the damper's mounts",
            _p(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
-           estimate="c_play", alters=("F",), apply=_free_play, acts_on="total", depends_on=("velocity", "direction"),
+           estimate="c_play", alters=("F",), apply=_free_play, tangent=_free_play_tangent, acts_on="total", depends_on=("velocity", "direction"),
            say=("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
                 "meanwhile where the damper's own force on it is zero) each time it changes sign: "
                 "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
@@ -324,7 +454,7 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("compressibility", "compressible oil (entrained air) in series with the valves",
            _p(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
-           estimate="inv_k_oil", apply=_compressibility, acts_on="parts", depends_on=("velocity", "frequency"),
+           estimate="inv_k_oil", apply=_compressibility, tangent=_compressibility_tangent, acts_on="parts", depends_on=("velocity", "frequency"),
            alters=("Fd",),
            described=lambda dm: (dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12  # eq 3.32
                                  or dm.compressibility.air_fraction > 0),
@@ -336,7 +466,7 @@ CATALOGUE = {e.name: e for e in (
            _p(P("r_break", 1.2, 1.0, 5.0, "-"),
               P("v_break", 5e-3, 2e-4, 0.1, "m/s", tuple(np.geomspace(5e-4, 5e-2, 7))),
               P("d_break", 1.0, 0.5, 3.0, "-", (1.0, 2.0))),
-           estimate="r_break", apply=_breakaway_friction, acts_on="parts", depends_on=("velocity", "direction"),
+           estimate="r_break", apply=_breakaway_friction, tangent=_breakaway_friction_tangent, acts_on="parts", depends_on=("velocity", "direction"),
            alters=("Ff",),
            say=("Friction is higher just after each velocity reversal, static/dynamic ratio {v}: "
                 "seal breakaway. It sets the force near zero velocity; check seal and rod finish.",
@@ -344,14 +474,14 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("position_friction", "seal friction varying along the bore",
            lambda d, e: terms.coefficients("pf", FRICTION_KNOTS, terms.force_bound(d)),
-           estimate=None, apply=_position_friction, acts_on="parts", depends_on=("displacement", "direction"),
+           estimate=None, apply=_position_friction, tangent=_position_friction_tangent, acts_on="parts", depends_on=("displacement", "direction"),
            linear=True,
            say=("Friction changes along the stroke ({region}; {size}): a tight spot or wear in the bore or "
                 "seal. Inspect the bore and rod.", None, 1.0, "N"),
     ),
     Effect("gas_temperature", "gas-spring force rising with temperature",
            _p(P("k_gT", 0.0, -0.05, 0.05, "1/K")),
-           estimate="k_gT", alters=("Fg",), apply=_gas_temperature, acts_on="parts", needs="T",
+           estimate="k_gT", alters=("Fg",), apply=_gas_temperature, tangent=_gas_temperature_tangent, acts_on="parts", needs="T",
            described=lambda dm: True,  # every damper's gas follows its temperature (eq 3.19)
            depends_on=("temperature", "displacement"), referee="drift",
            say=("The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge "
@@ -359,27 +489,27 @@ CATALOGUE = {e.name: e for e in (
     ),
     Effect("damping_temperature", "damping changing with oil temperature",
            _p(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
-           estimate="k_dT", alters=("Fd",), apply=_damping_temperature, acts_on="parts", needs="T",
+           estimate="k_dT", alters=("Fd",), apply=_damping_temperature, tangent=_damping_temperature_tangent, acts_on="parts", needs="T",
            depends_on=("temperature", "velocity", "direction"), referee="damping_drift",
            say=("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
                 "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
     ),
     Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
            _p(P("m_oil", 0.0, -20.0, 200.0, "kg", floor=0.0)),
-           estimate="m_oil", apply=_fluid_inertia, acts_on="total", depends_on=("acceleration",),
+           estimate="m_oil", apply=_fluid_inertia, tangent=_fluid_inertia_tangent, acts_on="total", depends_on=("acceleration",),
            say=("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
                 "(or unsupported mass in the load path). It matters in step and high-frequency tests.",
                 "m_oil", 1.0, "kg"),
     ),
     Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
-           estimate="Fcav_c", apply=_cavitation, acts_on="total", depends_on=("velocity", "direction", "displacement"),
+           estimate="Fcav_c", apply=_cavitation, tangent=_cavitation_tangent, acts_on="total", depends_on=("velocity", "direction", "displacement"),
            alters=("F", "Fg"),
            say=("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
                 "charge or check for air.", None, 1.0, "N"),
     ),
     Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
            _p(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
-           estimate="x_stick", apply=_presliding_friction, acts_on="parts", depends_on=("displacement", "direction"),
+           estimate="x_stick", apply=_presliding_friction, tangent=_presliding_friction_tangent, acts_on="parts", depends_on=("displacement", "direction"),
            alters=("Ff",),
            say=("Friction builds over {v} {u} of travel after each reversal before the seal slides "
                 "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
@@ -387,7 +517,7 @@ CATALOGUE = {e.name: e for e in (
                 "x_stick", 1e3, "mm"),
     ),
     Effect("bouc_wen", "a hysteretic force that yields over a little travel (Bouc-Wen, Spencer's MR model)",
-           _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, acts_on="total", needs="aux?",
+           _bw_params, estimate="alpha_bw", apply=_bouc_wen_force, tangent=_bouc_wen_tangent, acts_on="total", needs="aux?",
            depends_on=("displacement", "direction"),
            # {aux}: what it is (words.sentence): an MR fluid only when a channel drives its size
            say=("The force carries a hysteretic part of {v} N that yields over {xy} mm of travel (a Bouc-Wen "
@@ -395,7 +525,7 @@ CATALOGUE = {e.name: e for e in (
                 "alpha_bw", 1.0, "N"),
     ),
     Effect("aux_channel", "an auxiliary channel changing the force", _aux_params,
-           estimate="b1:aux.valve_current", apply=_aux_channel, acts_on="total", needs="aux", depends_on=("aux",),
+           estimate="b1:aux.valve_current", apply=_aux_channel, tangent=_aux_channel_tangent, acts_on="total", needs="aux", depends_on=("aux",),
            alters=("Fd",),
            say=("The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. "
                 "Hold it constant or include it in the model.", "lag", 1e3, "ms"),

@@ -223,8 +223,9 @@ def linear_fit(model: Model, d: Data, folds, starts, hold=()):
         f0 = model.forces(d, z)
         F0, exact = f0.F, model.columns(f0)
         cols = [exact[p.name] if p.name in exact else model.force(d, {**z, p.name: 1.0}) - F0 for p in own]
-        steps_ = [max(abs(z[p.name]) * 1e-4, (p.hi - p.lo) * 1e-7) for p in rest]
-        cols += [(model.force(d, {**z, p.name: z[p.name] + dz}) - F0) / dz for p, dz in zip(rest, steps_)]
+        for p in rest:  # the model's exact derivative, else a forward difference
+            dz = max(abs(z[p.name]) * 1e-4, (p.hi - p.lo) * 1e-7)
+            cols.append(exact[p.name] if p.name in exact else (model.force(d, {**z, p.name: z[p.name] + dz}) - F0) / dz)
         A = np.column_stack(cols)
         At, y = A[train], (d.F - F0)[train]
         # the term alone, and the term with a damped step in the rest (their columns are

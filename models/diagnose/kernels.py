@@ -238,3 +238,107 @@ def _bw_step(z, u, up, down, c, r):
         return math.tanh(max(u, 0.0))
     z = min(z, 1.0 - 1e-15)
     return (z + up) / (1.0 + z * up)
+
+
+# --- tangents: each kernel's derivative along the fit's parameters, (k, n) rows in, (k, n)
+# out, one row per parameter (the Jacobian's columns; models/diagnose/candidates.py)
+
+@njit(cache=True, nogil=True)
+def lag_tangent(F, tau, h, y, dF, dtau):
+    """lag(F, tau, h) = y's derivative: y_i = y_(i-1) + a_i (F_i - y_(i-1)), a_i = h_i / (tau_i + h_i),
+    y_(-1) = F_0, so dy_i = dy_(i-1) + a_i (dF_i - dy_(i-1)) + da_i (F_i - y_(i-1))."""
+    k, n = dF.shape
+    out = np.empty((k, n))
+    for q in range(k):
+        dy, yp = dF[q, 0], F[0]
+        for i in range(n):
+            a = h[i] / (tau[i] + h[i])
+            da = -h[i] / (tau[i] + h[i]) ** 2 * dtau[q, i]
+            dy = dy + a * (dF[q, i] - dy) + da * (F[i] - yp)
+            yp = y[i]
+            out[q, i] = dy
+    return out
+
+
+@njit(cache=True, nogil=True)
+def dahl_tangent(x, t, h, decay, z, ddecay):
+    """dahl's state z's derivative in its x_stick, from each sample's decay's (ddecay):
+    z_i = s + (z_(i-1) - s) decay_i, so dz_i = dz_(i-1) decay_i + (z_(i-1) - s) ddecay_i; none at a reset."""
+    out = np.empty_like(x)
+    dz = 0.0
+    for i in range(len(x)):
+        if reset(t, h, i):
+            dz = 0.0
+        else:
+            s = 1.0 if x[i] > x[i - 1] else -1.0
+            dz = dz * decay[i] + (z[i - 1] - s) * ddecay[i]
+        out[i] = dz
+    return out
+
+
+@njit(cache=True, nogil=True)
+def plateau_tangent(F, S, t, c, W, dF, dS, dc):
+    """plateau(F, S, t, c, W)'s derivative along rows dF, dS (the force's and the slope's) and
+    dc (the clearance's, one per row). Each crossing's window integrals move with F at fixed
+    limits, and with the gap's closing time t_e, where the force is |F_e|: the start t_z
+    moves the limits where F is zero, which moves nothing. t_e solves
+    int_tz^te |F| / S dt = c, so |F_e| dt_e = S_e (dc - int_tz^te d(|F| / S) dt), S stepwise
+    as plateau takes it (its value at each interval's end)."""
+    k, n = dF.shape
+    out = dF.copy()
+    c = max(c, 0.0)  # at 0, the derivative on the side of a clearance
+    i = 1
+    G = np.zeros(k)
+    while i < n:
+        h = t[i] - t[i - 1]
+        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
+            i += 1
+            continue
+        tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
+        side = 1.0 if F[i] > 0 else -1.0
+        s, t0, f0, te = 0.0, tz, 0.0, t[n - 1]
+        closed = False
+        for q in range(k):
+            G[q] = 0.0
+        j = i
+        while j < n:
+            f1 = side * F[j]
+            if f1 < 0.0:  # back where F is zero: no force at t_e, nothing moves with it
+                te = t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1)
+                break
+            dt = t[j] - t0
+            kj = max(S[j], 1e-9)
+            ds = 0.5 * (f0 + f1) * dt / kj
+            hi = t[j]
+            if s + ds >= c and dt > 0.0:
+                b = (f1 - f0) / dt
+                need = (c - s) * kj
+                if abs(b) * need < 1e-12 * f0 * f0:
+                    tau = need / max(f0, 1e-30)
+                else:
+                    tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
+                te = t0 + min(max(tau, 0.0), dt)
+                hi = te
+                closed = True
+            # this interval's share of int d(|F| / S): |F| = side F on the gap, S = kj here
+            for q in range(k):
+                dk = dS[q, j] if S[j] > 1e-9 else 0.0
+                G[q] -= side * integral(dF[q], t, t0, hi) / kj - dk / (kj * kj) * side * integral(F, t, t0, hi)
+            if closed:
+                for q in range(k):
+                    G[q] = kj * (G[q] + dc[q])  # |F_e| dt_e
+                break
+            s += ds
+            t0, f0 = t[j], f1
+            j += 1
+        m = i - 1
+        while m < n and t[m] - 0.5 * W < te:
+            lo, hi = max(t[m] - 0.5 * W, tz), min(t[m] + 0.5 * W, te)
+            for q in range(k):  # (at c = 0 the window holding t_z has no width and still moves)
+                acc = integral(dF[q], t, lo, hi) if hi > lo else 0.0
+                if closed and hi == te:
+                    acc += side * G[q]
+                out[q, m] -= acc / W
+            m += 1
+        i = max(m, i + 1)
+    return out

@@ -74,16 +74,16 @@ def chosen(ok, near, judge, alpha, order):
     return best if better else cat
 
 
-def referees(d, base, fitted, best, b_folds, r_best, round_, folds, judge, alpha):
-    """(rivals, {candidate: its votes as a rival}, stand-in, its votes) of a round's
-    winner: the candidates the held-out blocks cannot tell from it, and the flexible
-    stand-in when it explains as much, each in at least half of the judgements."""
+def rivals_of(d, best, r_best, round_, judge):
+    """(rivals, {candidate: its votes as a rival}) of a round's winner: the candidates the
+    held-out blocks cannot tell from it (rivals), and the cell's timing where one test
+    frequency cannot (timing_rival). Its stand-in is stood_in's."""
     significant = [x for x in round_ if x[0].accept_share >= 0.5]
     found, votes = rivals(best, r_best, significant, judge)
     lag = timing_rival(d, best, r_best, [x for x in round_ if x[0].accept_share > EDGE], judge, found)
     if lag:
         found, votes = sorted(found + [lag], key=lambda x: -x[1]), {**votes, lag[0]: np.ones(len(judge.variants))}
-    return (found, votes, *stood_in(d, base, fitted, best, b_folds, r_best, folds, judge))
+    return found, votes
 
 
 def timing_rival(d, best, r_best, near, judge, found):

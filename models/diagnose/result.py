@@ -152,6 +152,7 @@ class Diagnosis:
     # recording does not carry changed (models.recording.differing_repeats)
     repeats: list = field(default_factory=list)
     judge: object = None  # the held-out judgements every decision was taken on (stability.Judge)
+    timing: dict = field(default_factory=dict)  # where its time went (models/diagnose/stages.py Clock.report)
 
     def effects(self):
         """The final model's effects: the cell's, fitted with the baseline, then those accepted."""

@@ -58,3 +58,7 @@ class Effect:
     # adding to them, or reads: a term's basis added to such a part before it does not reach
     # the total as it is, so its coefficients' derivatives are not their basis (fitting.py)
     alters: tuple = ()
+    # (model, data, values, Forces, effect id, columns, the parts before it acted) -> None: the
+    # force's derivatives carried through it, in place ({part: {parameter: [N per unit]}}),
+    # its own parameters' added; None: what it changes is left to finite differences
+    tangent: callable = None

@@ -75,6 +75,20 @@ def add(f, part, e, B, c):
     setattr(f, part, getattr(f, part) + _times(B, tuple(c)))
 
 
+def added(m, d, p, f, e, cols, before):
+    """The tangent of a term add()ed: its basis is its coefficients' derivative."""
+    part, B = f.bases[e]
+    cols[part].update(zip(m.own[e], B.T))
+
+
+def _scaled_by(cols, before, B, names, where=None):
+    """The tangent of damping multiplied by 1 + B @ c (where: per direction, the samples
+    each set of coefficients acts on): the damping's columns scaled, each coefficient's
+    its basis times the damping it multiplied."""
+    Fd = before["Fd"]
+    return {n: B[:, i] * Fd * (1.0 if where is None else where) for i, n in enumerate(names)}
+
+
 @functools.partial(kernels.recent, size=16)
 def _times(B, c):
     """B @ c, remembered: a finite-difference column moves another parameter and leaves
@@ -124,11 +138,31 @@ def _elastic_stroke(m, d, p, f, e):
 
 
 def _stroke_damping(m, d, p, f, e):
-    B = cached(m, d, e, lambda ref, dd: x_basis(ref, dd, KNOTS[e]))
+    f.Fd = f.Fd * (1.0 + _per_direction(f, p, cached(m, d, e, lambda ref, dd: x_basis(ref, dd, KNOTS[e])), "sd"))
+
+
+def _per_direction(f, p, B, prefix):
+    """B @ c per direction: coefficients {prefix}c.. in compression, {prefix}r.. in rebound."""
     n = B.shape[1]
-    gc = B @ np.array([p[f"sdc{i}"] for i in range(n)])
-    gr = B @ np.array([p[f"sdr{i}"] for i in range(n)])
-    f.Fd = f.Fd * (1.0 + np.where(f.v > 0, gc, gr))
+    gc = B @ np.array([p[f"{prefix}c{i}"] for i in range(n)])
+    gr = B @ np.array([p[f"{prefix}r{i}"] for i in range(n)])
+    return np.where(f.v > 0, gc, gr)
+
+
+def _per_direction_tangent(m, d, p, f, e, cols, before, B, prefix):
+    n, up = B.shape[1], f.v > 0
+    _scale(cols, "Fd", 1.0 + _per_direction(f, p, B, prefix))
+    cols["Fd"].update(_scaled_by(cols, before, B, [f"{prefix}c{i}" for i in range(n)], up))
+    cols["Fd"].update(_scaled_by(cols, before, B, [f"{prefix}r{i}" for i in range(n)], ~up))
+
+
+def _scale(cols, part, g):
+    cols[part] = {k: c * g for k, c in cols[part].items()}
+
+
+def _stroke_damping_tangent(m, d, p, f, e, cols, before):
+    _per_direction_tangent(m, d, p, f, e, cols, before, cached(m, d, e, lambda ref, dd: x_basis(ref, dd, KNOTS[e])),
+                           "sd")
 
 
 def _t_span(ref):
@@ -159,6 +193,13 @@ def _damping_drift(m, d, p, f, e):
     f.Fd = f.Fd * (1.0 + B @ np.array([p[f"dd{i}"] for i in range(B.shape[1])]))
 
 
+def _damping_drift_tangent(m, d, p, f, e, cols, before):
+    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
+    names = [f"dd{i}" for i in range(B.shape[1])]
+    _scale(cols, "Fd", 1.0 + B @ np.array([p[n] for n in names]))
+    cols["Fd"].update(_scaled_by(cols, before, B, names))
+
+
 def frequency_u(d):
     """Each sample's segment frequency as u = log(f / f_mid) over half the log range:
     -1 at the lowest frequency, +1 at the highest; 0 where a segment has none."""
@@ -176,15 +217,18 @@ def _frequency_n(d):
     return 1 if len(frequencies(d)) < 3 else 2
 
 
+def _frequency_basis(ref, dd):
+    """Powers of u on dd, the square centred over ref (its mean is the valve's level)."""
+    u, u_ref = frequency_u(dd), frequency_u(ref)
+    return np.stack([u, u ** 2 - np.mean(u_ref ** 2)][:_frequency_n(ref)], axis=1)
+
+
 def _frequency_damping(m, d, p, f, e):
-    def basis(ref, dd):  # powers of u on dd, the square centred over ref (its mean is the valve's level)
-        u, u_ref = frequency_u(dd), frequency_u(ref)
-        return np.stack([u, u ** 2 - np.mean(u_ref ** 2)][:_frequency_n(ref)], axis=1)
-    B = cached(m, d, e, basis)
-    n = B.shape[1]
-    gc = B @ np.array([p[f"fdc{i}"] for i in range(n)])
-    gr = B @ np.array([p[f"fdr{i}"] for i in range(n)])
-    f.Fd = f.Fd * (1.0 + np.where(f.v > 0, gc, gr))
+    f.Fd = f.Fd * (1.0 + _per_direction(f, p, cached(m, d, e, _frequency_basis), "fd"))
+
+
+def _frequency_damping_tangent(m, d, p, f, e, cols, before):
+    _per_direction_tangent(m, d, p, f, e, cols, before, cached(m, d, e, _frequency_basis), "fd")
 
 
 def _interference(m, d, p, f, e):
@@ -272,51 +316,60 @@ TERMS = {e.name: e for e in (
     Effect("valve_form", "the valve curve shaped otherwise than the baseline's two-stage law",
            lambda d, e: coefficients("vf", 2 * (KNOTS["valve_form"] - 1), force_bound(d)), "vf0", _valve_form, "parts",
            depends_on=("velocity", "direction"), linear=True, nature="form",
+           tangent=added,
            say=("The valve curve is shaped otherwise than the baseline's two-stage law ({region}; {size}): "
                 "the baseline's form, not physics left out. Fit the valves with a table or a richer law.",
                 None, 1.0, "N")),
     Effect("elastic_stroke", "an elastic force along the stroke, alike in both directions",
            lambda d, e: coefficients("es", KNOTS["elastic_stroke"], force_bound(d)), "es0", _elastic_stroke, "parts",
            depends_on=("displacement",), linear=True, nature="open",
+           tangent=added,
            say=("Not in the catalogue: an elastic force along the stroke, alike in both directions ({region}; "
                 "{size}): a bump stop, a top-out spring, or a gas spring other than the baseline's?",
                 None, 1.0, "N")),
     Effect("stroke_damping", "damping changing along the stroke, per direction", _damping_params, "sdc0",
            _stroke_damping, "parts", depends_on=("displacement", "velocity", "direction"), linear=True, nature="open",
            alters=("Fd",),
+           tangent=_stroke_damping_tangent,
            say=("Not in the catalogue: damping that changes along the stroke ({region}; {size}): bypass grooves "
                 "or position-sensitive valving?", None, 1.0, "N")),
     Effect("drift", "a slow offset in time, independent of the motion",
            lambda d, e: coefficients("dr", _drift_n(d), force_bound(d)), "dr0", _drift, "total", depends_on=("time",),
            linear=True, nature="open",
+           tangent=added,
            say=("Not in the catalogue: a slow offset in time, independent of the motion ({region}; {size}): "
                 "the load cell's zero drifting, a leak or warm-up? Re-zero and repeat a reference segment.",
                 None, 1.0, "N")),
     Effect("damping_drift", "damping changing in time, independent of the motion",
            lambda d, e: [P(f"dd{i}", 0.0, -0.9, 0.9, "-") for i in range(_drift_n(d))], "dd0", _damping_drift,
            "parts", depends_on=("time", "velocity", "direction"), linear=True, alters=("Fd",), nature="open",
+           tangent=_damping_drift_tangent,
            say=("Not in the catalogue: damping that changes in time ({region}; {size}): the oil warming without "
                 "a thermocouple to show it, or a valve settling in? Log the oil temperature.", None, 1.0, "N")),
     Effect("frequency_damping", "damping changing with the test frequency at the same velocity",
            lambda d, e: [P(f"fd{s}{i}", 0.0, -0.9, 0.9, "-") for s in "cr" for i in range(_frequency_n(d))], "fdc0",
            _frequency_damping, "parts", needs="frequencies", depends_on=("frequency", "velocity", "direction"),
            linear=True, alters=("Fd",), nature="open",
+           tangent=_frequency_damping_tangent,
            say=("Not in the catalogue: damping that changes with the test frequency at the same velocity "
                 "({region}; {size}): the valves' own dynamics (shim stack inertia, a pressure-lagged bleed) or "
                 "oil compressibility beyond the model's?", None, 1.0, "N")),
     Effect("interference", "a tone unrelated to the motion",
            lambda d, e: [P("hum_c", 0.0, -force_bound(d), force_bound(d), "N"), P("hum_s", 0.0, -force_bound(d), force_bound(d), "N")],
            "hum_c", _interference, "total", needs="tone", depends_on=("time",), linear=True, nature="cell",
+           tangent=added,
            say=("A tone at {hz:.2f} Hz, unrelated to the motion, rides on the force ({size}): interference in "
                 "the cell (mains at 50 or 60 Hz, a pump, a fan), not the damper. Shield or filter the force "
                 "channel.", None, 1.0, "N")),
     Effect("loop_surface", "a smooth surface in displacement, speed and direction",
            lambda d, e: coefficients("ls", 2 * SURFACE[0] * SURFACE[1], force_bound(d)), None, _loop_surface,
            "total", needs="referee", depends_on=("displacement", "velocity", "direction"), linear=True,
-           nature="open", say=("{region}; {size}", None, 1.0, "N")),
+           nature="open", tangent=added,
+           say=("{region}; {size}", None, 1.0, "N")),
     Effect("temperature_force", "a force varying with temperature, apart from the motion",
            lambda d, e: coefficients("tf", KNOTS["temperature_force"], force_bound(d)), "tf0", _temperature_force, "total",
            needs="T", depends_on=("temperature",), linear=True, nature="open", referee="drift",
+           tangent=added,
            say=("Not in the catalogue: a force that varies with temperature apart from the motion ({region}; "
                 "{size}): a thermal offset of the load cell?", None, 1.0, "N")),
 )}

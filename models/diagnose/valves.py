@@ -99,3 +99,39 @@ def _slope_of(v, *valves):
 def slope(v, p):
     """Local slope dF/dv of the damping curve [N s/m] (finite difference)."""
     return _slope_of(v, *(p[k] for k in VALVES))
+
+
+@njit(cache=True, nogil=True)
+def _slope_grad(v, c1_c, c2_c, C_c, Fcr_c, c1_r, c2_r, C_r, Fcr_r):
+    """slope's derivatives, (8, len(v)): the difference of damping_grad's over slope's own
+    step, signed as the difference of the forces (slope is its size)."""
+    dv = 1e-3  # m/s, slope's step
+    out = np.zeros((8, len(v)))
+    up, dn = np.zeros((8, 1)), np.zeros((8, 1))
+    for i in range(len(v)):
+        for q in range(8):
+            up[q, 0] = 0.0
+            dn[q, 0] = 0.0
+        a, b = v[i] + dv, v[i] - dv
+        Fa = _magnitude(a, c1_c, c2_c, C_c, Fcr_c) if a >= 0 else -_magnitude(-a, c1_r, c2_r, C_r, Fcr_r)
+        Fb = _magnitude(b, c1_c, c2_c, C_c, Fcr_c) if b >= 0 else -_magnitude(-b, c1_r, c2_r, C_r, Fcr_r)
+        if a >= 0:
+            _magnitude_grad(a, c1_c, c2_c, C_c, Fcr_c, up, 0, 0, 1.0)
+        else:
+            _magnitude_grad(-a, c1_r, c2_r, C_r, Fcr_r, up, 4, 0, -1.0)
+        if b >= 0:
+            _magnitude_grad(b, c1_c, c2_c, C_c, Fcr_c, dn, 0, 0, 1.0)
+        else:
+            _magnitude_grad(-b, c1_r, c2_r, C_r, Fcr_r, dn, 4, 0, -1.0)
+        sign = 1.0 if Fa > Fb else -1.0 if Fa < Fb else 0.0
+        for q in range(8):
+            out[q, i] = sign * (up[q, 0] - dn[q, 0]) / (2 * dv)
+    return out
+
+
+_slope_grad_recent = kernels.recent(_slope_grad)
+
+
+def slope_grad(v, p):
+    """slope's derivatives in VALVES' parameters [N s/m per unit]: (8, len(v))."""
+    return _slope_grad_recent(v, *(p[k] for k in VALVES))

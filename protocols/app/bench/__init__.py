@@ -119,14 +119,22 @@ def diagnose(args):
         text = (f"diagnosed {r['recording_s']:.0f} s of a slider-crank at {r['rate_hz']:.0f} Hz ({r['samples']} "
                 f"samples per channel, hidden: {', '.join(r['hidden'])}) in {r['diagnose_s']:.1f} s (goal < "
                 f"{r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}, named {r['named'] or 'nothing'}")
-        return emit(args, "Diagnosis time on a crank dyno's recording (dyno bench diagnose --crank)", r, text)
-    from protocols.app.bench.throughput import bench_diagnose
-    r = bench_diagnose(args.seconds or 60.0, args.rate or 5000.0)
-    text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
-            f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}; "
-            f"next test designed in {r['design_s']:.1f} s (goal < {r['design_goal_s']:.0f} s, "
-            f"{r['proposals']} sines)")
-    return emit(args, "Diagnosis time (dyno bench diagnose)", r, text)
+        title = "Diagnosis time on a crank dyno's recording (dyno bench diagnose --crank)"
+    else:
+        from protocols.app.bench.throughput import bench_diagnose
+        r = bench_diagnose(args.seconds or 60.0, args.rate or 5000.0)
+        text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
+                f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}; "
+                f"next test designed in {r['design_s']:.1f} s (goal < {r['design_goal_s']:.0f} s, "
+                f"{r['proposals']} sines)")
+        title = "Diagnosis time (dyno bench diagnose)"
+    t = r["timing"]
+    stages = ", ".join(f"{k} {v:.1f} s" for k, v in t["stages_s"].items())
+    text += f"\nby stage: {stages}; {100 * t['cores_used']:.0f} % of {t['cores']} cores busy"
+    rows = [[k, f"{v:.2f}", f"{100 * v / max(t['wall_s'], 1e-9):.0f} %"] for k, v in t["stages_s"].items()]
+    note = (f"Wall {t['wall_s']:.2f} s; the cores busy: {100 * t['cores_used']:.0f} % of {t['cores']} (CPU time of "
+            "the diagnosis and the fits' forked children over wall time times cores).")
+    return emit(args, title, r, text, md.table(["stage", "wall [s]", "share"], rows), note)
 
 
 def discover(args):

@@ -70,4 +70,4 @@ def bench(seconds=100.0, rate_hz=300.0):
     return {"recording": "slider-crank", "recording_s": float(ch["force"][0][-1] - ch["force"][0][0]),
             "rate_hz": rate_hz, "samples": int(len(ch["force"][0])), "hidden": sorted(HIDDEN),
             "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res.accepted, "named": res.named(),
-            "goal_s": 10.0}
+            "goal_s": 5.0, "timing": res.timing}

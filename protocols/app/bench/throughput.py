@@ -120,7 +120,7 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     props = design.propose(res, limits(rig_config.load("virtual")), 120.0)
     t_design = time.perf_counter() - t0
     return {"recording_s": float(min(t_end, seconds)), "rate_hz": rate_hz, "samples": int(len(ch["force"][0])),
-            "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res.accepted, "goal_s": 3.0,
+            "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res.accepted, "goal_s": 2.0, "timing": res.timing,
             "design_s": t_design, "design_goal_s": 10.0, "proposals": len(props)}
 
 

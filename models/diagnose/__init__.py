@@ -21,7 +21,6 @@ from, so that far above the noise an effect must still matter.
 """
 from __future__ import annotations
 
-import re
 import time
 
 import numpy as np
@@ -31,6 +30,7 @@ from models.diagnose.candidates import EFFECTS, WITH_BASELINE, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
 from models.diagnose.data import Data, DiagnoseError, prepare
 from models.diagnose.from_model import FromModel
+from models.diagnose.measured import friction_outside_physics, undetermined
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
 from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step
 from models.diagnose.noise import noise_from, noise_sd
@@ -42,11 +42,10 @@ from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
 from models.recording import differing_repeats, nrmse
 
-__all__ = ["diagnose", "repeated", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
+__all__ = ["diagnose", "friction_outside_physics", "undetermined", "repeated", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
 
 MIN_TRAIN = 4  # cycles or blocks a time split fits on at least
 REFIT_EFFORT = 4  # function evaluations per parameter when an accepted term is refitted with the rest
-LAG_RESOLVED = 0.02  # of a sample period: a lag shorter than this, its interval reaching zero, is not resolved
 SHARE = 0.01
 # practical size (docs/diagnosis.md, chosen on nulls and concealed effects of both
 # generators): physics is named only when its held-out gain is at least NAMED_SHARE of the
@@ -131,52 +130,6 @@ def scores(F, r, k):
             "r2_heldout": 1.0 - float(np.sum(e ** 2)) / max(sst, 1e-30)}
 
 
-AT_BOUND = 1e-3  # a value within this share of its range from a bound sits at the bound
-
-
-def undetermined(params, values, sd) -> dict:
-    """{parameter: why the recording could not determine it}: no influence on the fit (an
-    infinite deviation in sd; a parameter sd lacks is not judged so), at a bound of its
-    range (held there, not measured), or below the floor physics sets (P.floor) by more
-    than its range's AT_BOUND and twice its deviation where it has one (it takes up
-    something else)."""
-    unknown = {}
-    for p in params:
-        span = p.hi - p.lo
-        v, s = values[p.name], sd.get(p.name, 0.0)
-        if not np.isfinite(s):
-            unknown[p.name] = "no influence on the fit: the recording does not determine it"
-        elif min(v - p.lo, p.hi - v) <= AT_BOUND * span:
-            bound = "lower" if v - p.lo <= AT_BOUND * span else "upper"
-            unknown[p.name] = f"at the {bound} bound of its range ({p.lo:g}..{p.hi:g} {p.unit}): held, not measured"
-        elif p.floor is not None and v < p.floor - max(AT_BOUND * span, 2 * (s or 0.0)):
-            unknown[p.name] = (f"below {p.floor:g} {p.unit}, where physics puts none: it takes up something else, "
-                               "not measured")
-    return unknown
-
-
-SLIDING = 0.2  # of the top speed: above it the seal slides, and its friction opposes the motion
-
-
-def friction_outside_physics(model, d, values) -> dict:
-    """{parameter: why} for the friction's parameters (F_c, position friction's pf...) when
-    the model's friction reads below zero where the rod slides (above SLIDING of the top
-    speed) by more than 1 % of the force range: a seal cannot push the rod along, so these
-    take up something else (an MR fluid's yield against its valve curve) and are no
-    measurement of a friction."""
-    f = model.forces(d, values)
-    sliding = np.abs(f.v) > SLIDING * np.max(np.abs(f.v))
-    if not np.any(sliding):
-        return {}
-    level = f.Ff[sliding] * np.sign(f.v[sliding])
-    i = int(np.argmin(level))
-    if level[i] >= -0.01 * float(np.ptp(d.F)):
-        return {}
-    why = (f"the friction it gives reads {level[i]:.0f} N at {1e3 * f.x[sliding][i]:.1f} mm, below zero, which a "
-           "seal cannot give: it takes up something else, not measured")
-    return {p.name: why for p in model.params if p.name == "F_c" or re.fullmatch(r"pf\d+", p.name)}
-
-
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
              holdout="interleaved", drives=None, jobs=1, smoothing=None) -> Diagnosis:
     """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for `minimal`, or (name,
@@ -228,15 +181,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         with clock.stage("stand-ins"):
             stand_in, stand_in_votes = stood_in(d, base, cell + accepted, best, b_folds, b_r, folds, judge)
         with clock.stage("refit"):
-            m_best = Model(d, cell + accepted + [best.effect], base)
-            if open_params(d, accepted + [best.effect]):  # screened with parts held: now all refitted
-                # from the screening's values, close to the optimum: a few evaluations per parameter
-                b_folds, f_sds, b_r = cross_fit(m_best, d, folds, b_folds, effort=REFIT_EFFORT)
-                b_vals = pooled(b_folds, f_sds)[0]
-            preds.append([m_best.force(d, v) for v in b_folds])
-            shares = [(e, form_share(d, folds, judged, preds[-2], changes(preds, j + 1),
-                                     changes(preds, len(preds) - 1))) for j, e in enumerate(accepted)]
-            traded = trades(m_best, d, folds[0][0], b_folds[0], accepted)
+            b_vals, b_folds, b_r, shares, traded = _refit(d, base, cell, accepted, best.effect, b_vals, b_folds, b_r,
+                                                          folds, judged, preds)
         form_of = [(e, sh) for e, sh in shares if sh >= FORM_SHARE]
         steps.append(Step(best.effect, scores(d.F, r_cur, shown)["nrmse_heldout"], best.nrmse_heldout,
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
@@ -250,7 +196,6 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     with clock.stage("final"):
         accepted, values, current, r_cur, replaced = _replaced(d, base, cell, folds, judge, accepted, values,
                                                                current, r_cur, progress)
-        final_model = Model(d, cell + accepted, base)
         held = judged | shown
         for st in steps:
             st.replaced_by = replaced.get(st.effect)
@@ -260,11 +205,29 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         _sized(steps, float(np.mean(r0[judged] ** 2)) - sigma ** 2, sigma)
         out = Diagnosis(d, holdout, held, shown, base_res, sigma, locate(d.take(held), r0[held], sigma),
                         locate(d.take(held), r_cur[held], sigma), candidates, accepted, steps, not_assessed,
-                        left_over(r_cur, judge, sigma),
-                        Final(**scores(d.F, r_cur, shown), parameters=values, force=final_model.force(d, values)),
+                        left_over(r_cur, judge, sigma), _final(d, Model(d, cell + accepted, base), values, r_cur, shown),
                         noise_from(d), repeats=differing_repeats(channels, events), judge=judge)
     out.timing = clock.report()
     return out
+
+
+def _refit(d, base, cell, accepted, effect, b_vals, b_folds, b_r, folds, judged, preds):
+    """A round's winner refitted with everything where it was screened with the open terms
+    held (from the screening's values, close to the optimum: a few evaluations per
+    parameter); its predictions added to preds; with the earlier effects' form shares and
+    trades (compensation.py): (values, per fold, residual, shares, trades)."""
+    m_best = Model(d, cell + accepted + [effect], base)
+    if open_params(d, accepted + [effect]):
+        b_folds, f_sds, b_r = cross_fit(m_best, d, folds, b_folds, effort=REFIT_EFFORT)
+        b_vals = pooled(b_folds, f_sds)[0]
+    preds.append([m_best.force(d, v) for v in b_folds])
+    shares = [(e, form_share(d, folds, judged, preds[-2], changes(preds, j + 1), changes(preds, len(preds) - 1)))
+              for j, e in enumerate(accepted)]
+    return b_vals, b_folds, b_r, shares, trades(m_best, d, folds[0][0], b_folds[0], accepted)
+
+
+def _final(d, model, values, r, shown):
+    return Final(**scores(d.F, r, shown), parameters=values, force=model.force(d, values))
 
 
 def repeated(first, channels, events, n, **kw) -> dict:
@@ -412,20 +375,9 @@ def _replaced(d, base, cell, folds, judge, accepted, values, current, r_cur, pro
 
 
 def resolved(d: Data, effect, params, ci):
-    """False when an effect's size is below what one sample can resolve: a pre-sliding
-    travel shorter than the rod moves in the first sample after a reversal (half the
-    reversal's acceleration times the sample period squared, the median over segments), or
-    a lag under LAG_RESOLVED of a sample period whose interval reaches zero."""
-    key = effect.split(":")[0]
-    h = float(np.median(d.h))
-    if key == "presliding_friction":
-        a = [np.max(np.abs(d.a[d.segment == s])) for s in np.unique(d.segment)]
-        return params["x_stick"] >= 0.5 * float(np.median(a)) * h * h
-    if EFFECTS[key].acts_on == "motion":  # a lag: the sensor delay, the channels' alignment
-        tau = EFFECTS[key].estimate
-        lo, hi = ci[tau]
-        return abs(params[tau]) >= LAG_RESOLVED * h or lo * hi > 0
-    return True
+    """False when an effect's size is below what the recording can resolve (Effect.resolved)."""
+    spec = EFFECTS[effect.split(":")[0]]
+    return spec.resolved is None or spec.resolved(d, params, ci)
 
 
 def left_over(r, judge, sigma):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.diagnose.candidates import shift
+from models.diagnose.forms import shift
 from models.diagnose.spec import P
 
 LEAD = 20  # samples run before a stretch when a damper model is simulated along it

@@ -62,3 +62,5 @@ class Effect:
     # force's derivatives carried through it, in place ({part: {parameter: [N per unit]}}),
     # its own parameters' added; None: what it changes is left to finite differences
     tangent: callable = None
+    # (data, its values, their 95 % intervals) -> whether the recording resolves its size; None: always
+    resolved: callable = None

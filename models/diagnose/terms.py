@@ -31,6 +31,7 @@ import functools
 import numpy as np
 
 from models.diagnose import kernels
+from models.diagnose.forms import scaled
 from models.diagnose.spec import Effect, P
 
 DEGREE = 3
@@ -151,13 +152,9 @@ def _per_direction(f, p, B, prefix):
 
 def _per_direction_tangent(m, d, p, f, e, cols, before, B, prefix):
     n, up = B.shape[1], f.v > 0
-    _scale(cols, "Fd", 1.0 + _per_direction(f, p, B, prefix))
+    scaled(cols, "Fd", 1.0 + _per_direction(f, p, B, prefix))
     cols["Fd"].update(_scaled_by(cols, before, B, [f"{prefix}c{i}" for i in range(n)], up))
     cols["Fd"].update(_scaled_by(cols, before, B, [f"{prefix}r{i}" for i in range(n)], ~up))
-
-
-def _scale(cols, part, g):
-    cols[part] = {k: c * g for k, c in cols[part].items()}
 
 
 def _stroke_damping_tangent(m, d, p, f, e, cols, before):
@@ -196,7 +193,7 @@ def _damping_drift(m, d, p, f, e):
 def _damping_drift_tangent(m, d, p, f, e, cols, before):
     B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
     names = [f"dd{i}" for i in range(B.shape[1])]
-    _scale(cols, "Fd", 1.0 + B @ np.array([p[n] for n in names]))
+    scaled(cols, "Fd", 1.0 + B @ np.array([p[n] for n in names]))
     cols["Fd"].update(_scaled_by(cols, before, B, names))
 
 

@@ -1,0 +1,40 @@
+"""Clearance (free play) in the damper's mounts: the load cell reads zero while the mount
+crosses it (kernels.plateau), with its exact tangent."""
+from __future__ import annotations
+
+import numpy as np
+
+from models.diagnose import kernels
+from models.diagnose.forms import fixed
+from models.diagnose.spec import Effect, P
+
+
+# the force channel's averaging time, in sample periods: a first-order anti-alias filter at Nyquist
+# averages over about 0.6 of one (a choice; the data cannot tell it from a short clearance crossing's size)
+W_FORCE = 0.5
+
+
+def _free_play(m, d, p, f, e):
+    f.F = kernels.plateau(f.F, f.slope(), f.t, p["c_play"], W_FORCE * m.h)
+
+
+def _free_play_tangent(m, d, p, f, e, cols, before):
+    S = f.slope()
+    dS = m.base.slope_columns(f) if hasattr(m.base, "slope_columns") else {}
+    names = list(dict.fromkeys([*cols["F"], "c_play"]))
+    zero = np.zeros(len(S))
+    out = kernels.plateau_tangent(before["F"], S, f.t, p["c_play"], W_FORCE * m.h,
+                                  np.array([cols["F"].get(k, zero) for k in names]),
+                                  np.array([dS.get(k, zero) for k in names]),
+                                  np.array([1.0 if k == "c_play" else 0.0 for k in names]))
+    cols["F"] = dict(zip(names, out))
+
+
+EFFECT = Effect("free_play", "clearance (free play) in the damper's mounts",
+       fixed(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
+       estimate="c_play", alters=("F",), apply=_free_play, tangent=_free_play_tangent, acts_on="total", depends_on=("velocity", "direction"),
+       say=("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
+            "meanwhile where the damper's own force on it is zero) each time it changes sign: "
+            "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
+            "c_play", 1e3, "mm"),
+)

@@ -85,7 +85,7 @@ def available(d: Data, accepted):
             if name not in taken:
                 out += [name] + [f"{name}:{n}" for n in d.aux]
         elif e.needs == "aux":
-            out += [f"aux_channel:{n}" for n in d.aux if f"aux_channel:{n}" not in accepted]
+            out += [f"{name}:{n}" for n in d.aux if f"{name}:{n}" not in accepted]
             if not d.aux:
                 skipped.append(name)
         elif name not in accepted:

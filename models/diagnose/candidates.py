@@ -196,9 +196,5 @@ class Forces:
 EFFECTS = {**CATALOGUE, **TERMS}
 # the cell's part of every model the diagnosis fits, from the baseline on (needs="baseline")
 WITH_BASELINE = [n for n, e in EFFECTS.items() if e.needs == "baseline"]
-# the order the effects act in, whatever order they were accepted in: multiplications
-# of one part, the total's sum, then its caps and the free play's zero-force crossings
-ORDER = ("alignment", "sensor_delay", "valve_form", "stroke_damping", "damping_drift", "frequency_damping",
-         "damping_temperature", "compressibility", "gas_temperature", "elastic_stroke", "presliding_friction",
-         "position_friction", "breakaway_friction", "fluid_inertia", "bouc_wen", "aux_channel", "drift",
-         "interference", "temperature_force", "loop_surface", "cavitation", "free_play")
+# the order the effects act in (Effect.order)
+ORDER = tuple(sorted(EFFECTS, key=lambda n: EFFECTS[n].order))

@@ -12,9 +12,11 @@ from models.diagnose.stability import EDGE, against
 
 RELEVANCE = 0.1  # noise variances an accepted effect must gain at least
 # a mechanism whose variables the loop shows is named only when it beats this stand-in
-STAND_IN = "loop_surface"
+STAND_IN = next(n for n, e in EFFECTS.items() if e.needs == "referee")
 LOOP_VARIABLES = {"displacement", "velocity", "direction", "acceleration", "frequency"}
-TIMING = "sensor_delay"  # the cell's timing, a rival of a loop mechanism at one frequency
+# the cell's timing a round may accept (beyond the alignment fitted with the baseline), a rival
+# of a loop mechanism at one frequency
+TIMING = next(n for n, e in EFFECTS.items() if e.acts_on == "motion" and e.needs != "baseline")
 # a lag accepted in some judgements explaining at least this share of what a loop mechanism explains, at one
 # frequency, is among its rivals whatever the blocks say: a lag F(t - tau) ~ F - tau dF/dt
 # opens the loop at one frequency as a stiffness, a compressible oil or a hysteresis does,

@@ -64,3 +64,11 @@ class Effect:
     tangent: callable = None
     # (data, its values, their 95 % intervals) -> whether the recording resolves its size; None: always
     resolved: callable = None
+    # where it acts among the others, whatever order they were accepted in: the motion's
+    # timing first, multiplications of one part, the total's sum, then its caps, the free
+    # play's zero-force crossings and last what the load cell does to all of it
+    order: int = 0
+    short: str = ""  # its name in a list of findings; "": the id's words
+    # (step, sample period [s]) -> its sentence from the finding's values and intervals
+    # (parameters, ci, effect id), or None for the general one (models/diagnose/words.py)
+    words: callable = None

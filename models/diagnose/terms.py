@@ -162,7 +162,7 @@ def _stroke_damping_tangent(m, d, p, f, e, cols, before):
                            "sd")
 
 
-def _t_span(ref):
+def t_span(ref):
     """(first, last) time [s] a function of time is fitted over: on a time split, up to the
     last sample the fits see, so that the held-out tail is a forecast at the last fitted
     level, not an extrapolation of the last spline pieces, which the training barely
@@ -172,12 +172,12 @@ def _t_span(ref):
 
 
 def _drift_n(d):
-    lo, hi = _t_span(d)
+    lo, hi = t_span(d)
     return int(np.clip(round((hi - lo) / DRIFT_S), DEGREE + 1, 8))
 
 
 def _t_basis(ref, d):
-    return bspline(d.t, *_t_span(ref), _drift_n(ref))
+    return bspline(d.t, *t_span(ref), _drift_n(ref))
 
 
 def _drift(m, d, p, f, e):
@@ -314,6 +314,7 @@ TERMS = {e.name: e for e in (
            lambda d, e: coefficients("vf", 2 * (KNOTS["valve_form"] - 1), force_bound(d)), "vf0", _valve_form, "parts",
            depends_on=("velocity", "direction"), linear=True, nature="form",
            tangent=added,
+           order=30, short="the valve curve's form",
            say=("The valve curve is shaped otherwise than the baseline's two-stage law ({region}; {size}): "
                 "the baseline's form, not physics left out. Fit the valves with a table or a richer law.",
                 None, 1.0, "N")),
@@ -321,6 +322,7 @@ TERMS = {e.name: e for e in (
            lambda d, e: coefficients("es", KNOTS["elastic_stroke"], force_bound(d)), "es0", _elastic_stroke, "parts",
            depends_on=("displacement",), linear=True, nature="open",
            tangent=added,
+           order=100,
            say=("Not in the catalogue: an elastic force along the stroke, alike in both directions ({region}; "
                 "{size}): a bump stop, a top-out spring, or a gas spring other than the baseline's?",
                 None, 1.0, "N")),
@@ -328,19 +330,21 @@ TERMS = {e.name: e for e in (
            _stroke_damping, "parts", depends_on=("displacement", "velocity", "direction"), linear=True, nature="open",
            alters=("Fd",),
            tangent=_stroke_damping_tangent,
+           order=40,
            say=("Not in the catalogue: damping that changes along the stroke ({region}; {size}): bypass grooves "
                 "or position-sensitive valving?", None, 1.0, "N")),
     Effect("drift", "a slow offset in time, independent of the motion",
            lambda d, e: coefficients("dr", _drift_n(d), force_bound(d)), "dr0", _drift, "total", depends_on=("time",),
            linear=True, nature="open",
            tangent=added,
-           say=("Not in the catalogue: a slow offset in time, independent of the motion ({region}; {size}): "
+           order=170, say=("Not in the catalogue: a slow offset in time, independent of the motion ({region}; {size}): "
                 "the load cell's zero drifting, a leak or warm-up? Re-zero and repeat a reference segment.",
                 None, 1.0, "N")),
     Effect("damping_drift", "damping changing in time, independent of the motion",
            lambda d, e: [P(f"dd{i}", 0.0, -0.9, 0.9, "-") for i in range(_drift_n(d))], "dd0", _damping_drift,
            "parts", depends_on=("time", "velocity", "direction"), linear=True, alters=("Fd",), nature="open",
            tangent=_damping_drift_tangent,
+           order=50,
            say=("Not in the catalogue: damping that changes in time ({region}; {size}): the oil warming without "
                 "a thermocouple to show it, or a valve settling in? Log the oil temperature.", None, 1.0, "N")),
     Effect("frequency_damping", "damping changing with the test frequency at the same velocity",
@@ -348,13 +352,14 @@ TERMS = {e.name: e for e in (
            _frequency_damping, "parts", needs="frequencies", depends_on=("frequency", "velocity", "direction"),
            linear=True, alters=("Fd",), nature="open",
            tangent=_frequency_damping_tangent,
-           say=("Not in the catalogue: damping that changes with the test frequency at the same velocity "
+           order=60, say=("Not in the catalogue: damping that changes with the test frequency at the same velocity "
                 "({region}; {size}): the valves' own dynamics (shim stack inertia, a pressure-lagged bleed) or "
                 "oil compressibility beyond the model's?", None, 1.0, "N")),
     Effect("interference", "a tone unrelated to the motion",
            lambda d, e: [P("hum_c", 0.0, -force_bound(d), force_bound(d), "N"), P("hum_s", 0.0, -force_bound(d), force_bound(d), "N")],
            "hum_c", _interference, "total", needs="tone", depends_on=("time",), linear=True, nature="cell",
            tangent=added,
+           order=180,
            say=("A tone at {hz:.2f} Hz, unrelated to the motion, rides on the force ({size}): interference in "
                 "the cell (mains at 50 or 60 Hz, a pump, a fan), not the damper. Shield or filter the force "
                 "channel.", None, 1.0, "N")),
@@ -362,11 +367,12 @@ TERMS = {e.name: e for e in (
            lambda d, e: coefficients("ls", 2 * SURFACE[0] * SURFACE[1], force_bound(d)), None, _loop_surface,
            "total", needs="referee", depends_on=("displacement", "velocity", "direction"), linear=True,
            nature="open", tangent=added,
-           say=("{region}; {size}", None, 1.0, "N")),
+           order=200, say=("{region}; {size}", None, 1.0, "N")),
     Effect("temperature_force", "a force varying with temperature, apart from the motion",
            lambda d, e: coefficients("tf", KNOTS["temperature_force"], force_bound(d)), "tf0", _temperature_force, "total",
            needs="T", depends_on=("temperature",), linear=True, nature="open", referee="drift",
            tangent=added,
+           order=190,
            say=("Not in the catalogue: a force that varies with temperature apart from the motion ({region}; "
                 "{size}): a thermal offset of the load cell?", None, 1.0, "N")),
 )}

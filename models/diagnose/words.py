@@ -11,16 +11,14 @@ from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
 from models.recording import reads_low, repeats_sentence
 
-NAMES = {"bouc_wen": "hysteresis (Bouc-Wen)", "presliding_friction": "pre-sliding friction",
-         "sensor_delay": "a timing offset of the cell", "valve_form": "the valve curve's form",
-         "alignment": "the channels' alignment"}
 # how a finding opens, by its nature (models/diagnose/spec.py NATURES)
 # (an open term's or the valve form's sentence opens with what it is)
 OPENING = {"physics": "Left out: {name}. ", "cell": "In the cell, not the damper: {name}. ", "form": "", "open": ""}
 
 
 def _what(step):
-    said_already = step.nature in ("open", "form") or step.effect == "interference"
+    # a smooth basis's sentence says its own region and size
+    said_already = step.nature in ("open", "form") or "{size}" in EFFECTS[step.effect.split(":")[0]].say[0]
     return (f"depends on {_on(step)}; {step.character}"
             + ("" if said_already else f"; {step.region}; {_size(step)}"))
 
@@ -44,71 +42,23 @@ def _on(step):
 def said(effect):
     """An effect id ("aux_channel:aux.x") in words."""
     key = effect.split(":")[0]
-    return NAMES.get(key, key.replace("_", " "))
+    return EFFECTS[key].short or key.replace("_", " ")
 
 
 def sentence(step, sample_s=None):
-    """An accepted effect in words; sample_s: the recording's sample period [s], below
-    which a lag is said as unresolved, never as channels to re-align."""
-    e = step.effect
-    key = e.split(":")[0]
-    text, pname, factor, unit = EFFECTS[key].say
-    p, ci = step.parameters, step.ci
-    if EFFECTS[key].acts_on == "motion":  # a lag between the channels
-        return lag_sentence(key, p, ci, sample_s) + _change(step)
-    if (pname is None and key != "cavitation") or key == "interference":  # a smooth basis: by where and size
+    """An accepted effect in words: its own (Effect.words), else its sentence with its size
+    and interval, or for a smooth basis where it lives and how large; sample_s: the
+    recording's sample period [s] (a lag below it is said as unresolved)."""
+    spec = EFFECTS[step.effect.split(":")[0]]
+    own = spec.words(step, sample_s) if spec.words else None
+    if own is not None:
+        return own + _change(step)
+    text, pname, factor, unit = spec.say
+    if pname is None:  # a smooth basis: by where and size
         return text.format(region=step.region, size=_size(step), hz=step.tone_hz or 0.0) + _change(step)
-    if key == "cavitation":
-        v = min(p["Fcav_c"], p["Fcav_r"])
-        vs = f"{v:.0f}"
-    elif key == "bouc_wen":
-        if ":" in e:  # a channel scales it: the MR story (Spencer's phenomenological model)
-            ch = e.split(":", 1)[1]
-            aux = (f", as in Spencer's magnetorheological damper model: a yield-stress fluid whose yield force "
-                   f"follows {ch}, {p[f'alpha_u:{ch}']:.3g} N per unit, through a first-order lag of "
-                   f"{1e3 * p[f'eta:{ch}']:.3g} ms, as an MR damper's follows its coil current, which lags the "
-                   f"driver's voltage.")
-        else:  # no channel drives it: what gives way in any damper, not an MR story
-            aux = (": something stiff that gives way at each reversal, which a valve curve cannot follow around the "
-                   "loops (a seal or bush that deforms before it slides, trapped air; a yield-stress fluid only in "
-                   "a damper that has one).")
-        return text.format(v=f"{p['alpha_bw']:.3g}", xy=f"{1e3 * p['x_y']:.3g}", aux=aux) + _change(step)
-    elif key == "aux_channel":
-        ch = e.split(":", 1)[1]
-        name = f"lag:{ch}"
-        vs = f"{p[name] * factor:.1f}"
-        return text.format(ch=ch, v=vs, u=unit) + _change(step)
-    elif key == "compressibility":
-        k = 1.0 / max(p[pname], 1e-30)
-        lo, hi = (1.0 / max(c, 1e-30) for c in ci[pname][::-1])
-        vs = f"{k / 1e6:.3g} ({max(lo, 0) / 1e6:.3g} to {hi / 1e6:.3g})"
-    elif key == "free_play" and p[pname] < 1e-6:
-        return (f"The force dips towards zero for less than a sample each time it changes sign: a clearance of "
-                f"roughly {p[pname] * 1e6:.2g} um crossed that fast (at this sample rate its size is uncertain by a "
-                f"factor of two or three), in the damper's mounts or bearings. Check the rod-end and eye bushes."
-                + _change(step))
-    else:
-        v = p[pname] * factor
-        lo, hi = (c * factor for c in ci[pname])
-        vs = f"{v:.3g} ({lo:.3g} to {hi:.3g})"
-    return text.format(v=vs, u=unit) + _change(step)
-
-
-def lag_sentence(key, p, ci, sample_s=None):
-    """A timing offset between the channels (effect `key`, its values p and 95 % interval
-    ci) in words; under one sample period sample_s [s], said as unresolved, never as
-    channels to re-align."""
-    text, pname, factor, unit = EFFECTS[key].say
-    v = p[pname] * factor
-    lo, hi = (c * factor for c in ci[pname])
-    late = "force reading lags the displacement" if v < 0 else "displacement reading lags the force"
-    # the size of the lag; an interval across zero starts at zero
-    v, lo, hi = abs(v), (0.0 if lo * hi < 0 else min(abs(lo), abs(hi))), max(abs(lo), abs(hi))
-    if sample_s and v < sample_s * factor:
-        return (f"The {late} by {v:.2g} {unit} ({v / (sample_s * factor):.2g} of a sample period): below one "
-                f"sample, unresolved at this rate and no reason to re-align the channels; it may stand for anything "
-                f"that shifts the loop a little in time.")
-    return text.format(v=f"{v:.3g} ({lo:.3g} to {hi:.3g})", u=unit, late=late)
+    v = step.parameters[pname] * factor
+    lo, hi = (c * factor for c in step.ci[pname])
+    return text.format(v=f"{v:.3g} ({lo:.3g} to {hi:.3g})", u=unit) + _change(step)
 
 
 def rivals_sentence(step):
@@ -201,7 +151,7 @@ def summary(res):
     if low:
         lines.append(f"Offset: {low}.")
     for c in (c for c in b.cell if c.resolved):
-        said_ = lag_sentence(c.effect, c.parameters, c.ci, float(np.median(res.data.h)))
+        said_ = EFFECTS[c.effect].words(c, float(np.median(res.data.h)))
         lines.append(f"The channels' alignment, fitted with the baseline: {said_[0].lower()}{said_[1:]}")
     for test, names, ranges in res.repeats:
         lines.append(f"Repeats that differ: {repeats_sentence(test, names, ranges)}; a change in time found below may "

@@ -1,5 +1,6 @@
 """A chamber cavitating: the force capped at high speed, the compression cap following the
 gas force."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -30,14 +31,35 @@ def _cavitation_tangent(m, d, p, f, e, cols, before):
 def _cav_params(d, e):
     Fmax = float(np.max(np.abs(d.F)))
     fc, fr = float(np.max(d.F)), float(-np.min(d.F))
-    return [P("Fcav_c", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fc * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
-            P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fr * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
-            P("kcav", 0.0, 0.0, 30.0, "-", (0.0, 5.0, 10.0))]
+    return [
+        P("Fcav_c", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fc * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
+        P("Fcav_r", 1.5 * Fmax, 0.2 * Fmax, 3 * Fmax, "N", tuple(fr * np.r_[0.9, 0.95, 0.98, 0.99, 1.5])),
+        P("kcav", 0.0, 0.0, 30.0, "-", (0.0, 5.0, 10.0)),
+    ]
 
 
-EFFECT = Effect("cavitation", "a chamber cavitating: force capped at high speed", _cav_params,
-       estimate="Fcav_c", apply=_cavitation, tangent=_cavitation_tangent, acts_on="total", depends_on=("velocity", "direction", "displacement"),
-       alters=("F", "Fg"),
-       say=("The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas "
-            "charge or check for air.", None, 1.0, "N"),
+def _words(step, sample_s):
+    text, _, _, unit = EFFECT.say
+    return text.format(v=f"{min(step.parameters['Fcav_c'], step.parameters['Fcav_r']):.0f}", u=unit)
+
+
+EFFECT = Effect(
+    "cavitation",
+    "a chamber cavitating: force capped at high speed",
+    params=_cav_params,
+    estimate="Fcav_c",
+    apply=_cavitation,
+    tangent=_cavitation_tangent,
+    acts_on="total",
+    depends_on=("velocity", "direction", "displacement"),
+    alters=("F", "Fg"),
+    words=_words,
+    order=210,
+    say=(
+        "The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas charge or "
+        "check for air.",
+        None,
+        1.0,
+        "N",
+    ),
 )

@@ -1,6 +1,7 @@
 """Compressible oil (entrained air) in series with the valves: the damping force through a
 first-order lag whose time constant is the valve's slope times the oil's compliance
 (eq 3.32's spring in series)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -26,13 +27,35 @@ def _compressibility_tangent(m, d, p, f, e, cols, before):
     cols["Fd"] = dict(zip(names, out))
 
 
-EFFECT = Effect("compressibility", "compressible oil (entrained air) in series with the valves",
-       fixed(P("inv_k_oil", 1e-8, 0.0, 1e-5, "m/N", (0.0, 1e-9, 1e-8, 1e-7, 1e-6))),
-       estimate="inv_k_oil", apply=_compressibility, tangent=_compressibility_tangent, acts_on="parts", depends_on=("velocity", "frequency"),
-       alters=("Fd",),
-       described=lambda dm: (dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12  # eq 3.32
-                             or dm.compressibility.air_fraction > 0),
-       say=("The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in "
-            "series: compressible oil (entrained air). Bleed the damper or raise the gas charge.",
-            "inv_k_oil", None, "kN/mm"),
+def _words(step, sample_s):
+    """The oil's stiffness [kN/mm], its interval the compliance's inverted."""
+    text, name, _, unit = EFFECT.say
+    k = 1.0 / max(step.parameters[name], 1e-30)
+    lo, hi = (1.0 / max(c, 1e-30) for c in step.ci[name][::-1])
+    return text.format(v=f"{k / 1e6:.3g} ({max(lo, 0) / 1e6:.3g} to {hi / 1e6:.3g})", u=unit)
+
+
+EFFECT = Effect(
+    "compressibility",
+    "compressible oil (entrained air) in series with the valves",
+    params=fixed(P("inv_k_oil", 1e-08, 0.0, 1e-05, "m/N", (0.0, 1e-09, 1e-08, 1e-07, 1e-06))),
+    estimate="inv_k_oil",
+    apply=_compressibility,
+    tangent=_compressibility_tangent,
+    acts_on="parts",
+    depends_on=("velocity", "frequency"),
+    alters=("Fd",),
+    # a damper described with compressible oil or air in it (eq 3.32)
+    described=lambda dm: (
+        dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12 or dm.compressibility.air_fraction > 0
+    ),
+    words=_words,
+    order=80,
+    say=(
+        "The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in series: "
+        "compressible oil (entrained air). Bleed the damper or raise the gas charge.",
+        "inv_k_oil",
+        None,
+        "kN/mm",
+    ),
 )

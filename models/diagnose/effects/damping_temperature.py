@@ -1,4 +1,5 @@
 """Damping changing with the oil's temperature (its viscosity and density)."""
+
 from __future__ import annotations
 
 from models.diagnose.forms import fixed, scaled
@@ -15,10 +16,24 @@ def _damping_temperature_tangent(m, d, p, f, e, cols, before):
     cols["Fd"]["k_dT"] = before["Fd"] * dT
 
 
-EFFECT = Effect("damping_temperature", "damping changing with oil temperature",
-       fixed(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
-       estimate="k_dT", alters=("Fd",), apply=_damping_temperature, tangent=_damping_temperature_tangent, acts_on="parts", needs="T",
-       depends_on=("temperature", "velocity", "direction"), referee="damping_drift",
-       say=("Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at "
-            "a controlled temperature or use the temperature-corrected model.", "k_dT", 100.0, "%"),
+EFFECT = Effect(
+    "damping_temperature",
+    "damping changing with oil temperature",
+    params=fixed(P("k_dT", 0.0, -0.05, 0.05, "1/K")),
+    estimate="k_dT",
+    apply=_damping_temperature,
+    tangent=_damping_temperature_tangent,
+    acts_on="parts",
+    needs="T",
+    depends_on=("temperature", "velocity", "direction"),
+    alters=("Fd",),
+    referee="damping_drift",
+    order=70,
+    say=(
+        "Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at a controlled "
+        "temperature or use the temperature-corrected model.",
+        "k_dT",
+        100.0,
+        "%",
+    ),
 )

@@ -1,4 +1,5 @@
 """The oil column's inertia: a force in proportion to the acceleration (kg)."""
+
 from __future__ import annotations
 
 from models.diagnose.forms import fixed
@@ -13,10 +14,21 @@ def _fluid_inertia_tangent(m, d, p, f, e, cols, before):
     cols["F"]["m_oil"] = f.a
 
 
-EFFECT = Effect("fluid_inertia", "inertia of the oil column accelerated through the valves",
-       fixed(P("m_oil", 0.0, -20.0, 200.0, "kg", floor=0.0)),
-       estimate="m_oil", apply=_fluid_inertia, tangent=_fluid_inertia_tangent, acts_on="total", depends_on=("acceleration",),
-       say=("The force carries an acceleration term of {v} {u}: oil column inertia in the valves "
-            "(or unsupported mass in the load path). It matters in step and high-frequency tests.",
-            "m_oil", 1.0, "kg"),
+EFFECT = Effect(
+    "fluid_inertia",
+    "inertia of the oil column accelerated through the valves",
+    params=fixed(P("m_oil", 0.0, -20.0, 200.0, "kg", floor=0.0)),
+    estimate="m_oil",
+    apply=_fluid_inertia,
+    tangent=_fluid_inertia_tangent,
+    acts_on="total",
+    depends_on=("acceleration",),
+    order=140,
+    say=(
+        "The force carries an acceleration term of {v} {u}: oil column inertia in the valves (or unsupported"
+        " mass in the load path). It matters in step and high-frequency tests.",
+        "m_oil",
+        1.0,
+        "kg",
+    ),
 )

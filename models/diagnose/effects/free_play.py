@@ -1,5 +1,6 @@
 """Clearance (free play) in the damper's mounts: the load cell reads zero while the mount
 crosses it (kernels.plateau), with its exact tangent."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,18 +24,49 @@ def _free_play_tangent(m, d, p, f, e, cols, before):
     dS = m.base.slope_columns(f) if hasattr(m.base, "slope_columns") else {}
     names = list(dict.fromkeys([*cols["F"], "c_play"]))
     zero = np.zeros(len(S))
-    out = kernels.plateau_tangent(before["F"], S, f.t, p["c_play"], W_FORCE * m.h,
-                                  np.array([cols["F"].get(k, zero) for k in names]),
-                                  np.array([dS.get(k, zero) for k in names]),
-                                  np.array([1.0 if k == "c_play" else 0.0 for k in names]))
+    out = kernels.plateau_tangent(
+        before["F"],
+        S,
+        f.t,
+        p["c_play"],
+        W_FORCE * m.h,
+        np.array([cols["F"].get(k, zero) for k in names]),
+        np.array([dS.get(k, zero) for k in names]),
+        np.array([1.0 if k == "c_play" else 0.0 for k in names]),
+    )
     cols["F"] = dict(zip(names, out))
 
 
-EFFECT = Effect("free_play", "clearance (free play) in the damper's mounts",
-       fixed(P("c_play", 2e-5, 0.0, 5e-3, "m", (0.0, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3))),
-       estimate="c_play", alters=("F",), apply=_free_play, tangent=_free_play_tangent, acts_on="total", depends_on=("velocity", "direction"),
-       say=("The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats "
-            "meanwhile where the damper's own force on it is zero) each time it changes sign: "
-            "clearance in the damper's mounts or bearings. Check the rod-end and eye bushes.",
-            "c_play", 1e3, "mm"),
+def _words(step, sample_s):
+    """Under a micrometre: crossed within a sample, its size uncertain; else the general sentence."""
+    c = step.parameters["c_play"]
+    if c >= 1e-6:
+        return None
+    return (f"The force dips towards zero for less than a sample each time it changes sign: a clearance of "
+            f"roughly {c * 1e6:.2g} um crossed that fast (at this sample rate its size is uncertain by a "
+            f"factor of two or three), in the damper's mounts or bearings. Check the rod-end and eye bushes.")
+
+
+EFFECT = Effect(
+    "free_play",
+    "clearance (free play) in the damper's mounts",
+    params=fixed(
+        P("c_play", 2e-05, 0.0, 0.005, "m", (0.0, 1e-07, 3e-07, 1e-06, 3e-06, 1e-05, 3e-05, 0.0001, 0.0003, 0.001))
+    ),
+    estimate="c_play",
+    apply=_free_play,
+    tangent=_free_play_tangent,
+    acts_on="total",
+    depends_on=("velocity", "direction"),
+    alters=("F",),
+    words=_words,
+    order=220,
+    say=(
+        "The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats meanwhile"
+        " where the damper's own force on it is zero) each time it changes sign: clearance in the damper's "
+        "mounts or bearings. Check the rod-end and eye bushes.",
+        "c_play",
+        1000.0,
+        "mm",
+    ),
 )

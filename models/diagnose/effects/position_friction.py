@@ -1,4 +1,5 @@
 """Seal friction varying along the bore: sgn(v) B(x), a smooth basis over the stroke."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,10 +26,22 @@ def _position_friction_tangent(m, d, p, f, e, cols, before):
     cols["Ff"].update({f"pf{i}": B[:, i] * ss for i in range(B.shape[1])})
 
 
-EFFECT = Effect("position_friction", "seal friction varying along the bore",
-       lambda d, e: terms.coefficients("pf", FRICTION_KNOTS, terms.force_bound(d)),
-       estimate=None, apply=_position_friction, tangent=_position_friction_tangent, acts_on="parts", depends_on=("displacement", "direction"),
-       linear=True,
-       say=("Friction changes along the stroke ({region}; {size}): a tight spot or wear in the bore or "
-            "seal. Inspect the bore and rod.", None, 1.0, "N"),
+EFFECT = Effect(
+    "position_friction",
+    "seal friction varying along the bore",
+    params=lambda d, e: terms.coefficients("pf", FRICTION_KNOTS, terms.force_bound(d)),
+    estimate=None,
+    apply=_position_friction,
+    tangent=_position_friction_tangent,
+    acts_on="parts",
+    depends_on=("displacement", "direction"),
+    linear=True,
+    order=120,
+    say=(
+        "Friction changes along the stroke ({region}; {size}): a tight spot or wear in the bore or seal. "
+        "Inspect the bore and rod.",
+        None,
+        1.0,
+        "N",
+    ),
 )

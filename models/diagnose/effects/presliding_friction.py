@@ -1,5 +1,6 @@
 """Pre-sliding friction (Dahl): the seal's friction builds over a little travel after each
 reversal, where the baseline's Coulomb law (eq 3.3) switches at once."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +27,7 @@ def _presliding_friction_tangent(m, d, p, f, e, cols, before):
     z = _dahl(f.x, d.t, d.h, xs)
     level = m.base.friction_columns(p) if hasattr(m.base, "friction_columns") else {}
     cols["Ff"] = {k: z * g for k, g in level.items()}
-    dz = kernels.dahl_tangent(f.x, d.t, d.h, decay, z, decay * travel / xs ** 2)
+    dz = kernels.dahl_tangent(f.x, d.t, d.h, decay, z, decay * travel / xs**2)
     cols["Ff"]["x_stick"] = m.base.friction_level(p) * dz
 
 
@@ -38,12 +39,25 @@ def _resolved(d, params, ci):
     return params["x_stick"] >= 0.5 * float(np.median(a)) * float(np.median(d.h)) ** 2
 
 
-EFFECT = Effect("presliding_friction", "seal friction that builds over a little travel after each reversal (Dahl)",
-       fixed(P("x_stick", 1e-4, 1e-9, 2e-3, "m", tuple(np.geomspace(1e-8, 1e-3, 11)))),
-       estimate="x_stick", apply=_presliding_friction, resolved=_resolved, tangent=_presliding_friction_tangent, acts_on="parts", depends_on=("displacement", "direction"),
-       alters=("Ff",),
-       say=("Friction builds over {v} {u} of travel after each reversal before the seal slides "
-            "(pre-sliding, Dahl): the seal and bushes deform elastically first. It rounds the "
-            "corners of small-amplitude loops; keep it in the model when tuning low-speed valving.",
-            "x_stick", 1e3, "mm"),
+EFFECT = Effect(
+    "presliding_friction",
+    "seal friction that builds over a little travel after each reversal (Dahl)",
+    params=fixed(P("x_stick", 0.0001, 1e-09, 0.002, "m", tuple(np.geomspace(1e-08, 0.001, 11)))),
+    estimate="x_stick",
+    apply=_presliding_friction,
+    tangent=_presliding_friction_tangent,
+    acts_on="parts",
+    depends_on=("displacement", "direction"),
+    alters=("Ff",),
+    resolved=_resolved,
+    short="pre-sliding friction",
+    order=110,
+    say=(
+        "Friction builds over {v} {u} of travel after each reversal before the seal slides (pre-sliding, "
+        "Dahl): the seal and bushes deform elastically first. It rounds the corners of small-amplitude "
+        "loops; keep it in the model when tuning low-speed valving.",
+        "x_stick",
+        1000.0,
+        "mm",
+    ),
 )

@@ -85,7 +85,8 @@ class Normals:
 def readings(pl):
     """Sensor values in SI, as the transducers would report them, with noise."""
     s, n = pl.p["sensors"], pl.noise()
-    force = pl.F_meas + s["force_noise"] * n[0]
+    gain = 1.0 + pl.fx["gain_drift"] * pl.t if "gain_drift" in pl.fx else 1.0  # a hidden gain drift
+    force = pl.F_meas * gain + s["force_noise"] * n[0]
     if "loadcell_stuck" in pl.faults:
         if pl.stuck_force is None:
             pl.stuck_force = force

@@ -32,7 +32,7 @@ def test_every_effect_has_at_least_three_plant_forms():
 
 
 @pytest.mark.parametrize("key", [k for k in FORMS if not k.startswith(("sensor_delay", "gas_temperature",
-                                                                       "damping_temperature"))])
+                                                                       "damping_temperature", "gain_drift"))])
 def test_each_form_changes_the_force_and_differs_from_the_default(key):
     name, form = key.split(":")
     value = {"cavitation": 2.5e6, "compressibility": 2e9, "breakaway_friction": 3.0,
@@ -44,6 +44,28 @@ def test_each_form_changes_the_force_and_differs_from_the_default(key):
     rms = (lambda a, b: float(np.sqrt(np.mean((a - b) ** 2))))
     assert rms(other, null) > 0.2, "the form does nothing"
     assert rms(other, default) > 0.005 * rms(default, null), "the form is the default's"
+
+
+def test_each_gain_drift_scales_the_load_cells_reading_as_its_form_says():
+    """The load cell's reading, not the force: the default drifts at VALUE per second, the
+    settling form starts at that rate and levels off at VALUE GAIN_TAU_S, the stepped form
+    moves every GAIN_STEP_S."""
+    from sim_backend.plant.sensors import GAIN_STEP_S, GAIN_TAU_S, gain_drift
+    r = 1e-3
+    assert gain_drift(r, None, 10.0) == pytest.approx(1e-2)
+    assert gain_drift(r, "settling", 1e-3) == pytest.approx(1e-6, rel=1e-3)
+    assert gain_drift(r, "settling", 50 * GAIN_TAU_S) == pytest.approx(r * GAIN_TAU_S)
+    assert gain_drift(r, "stepped", 0.99 * GAIN_STEP_S) == 0.0
+    assert gain_drift(r, "stepped", 2.5 * GAIN_STEP_S) == pytest.approx(2 * r * GAIN_STEP_S)
+    h, F = 5e-4, _force({})
+    t = h * np.arange(1, len(F) + 1)
+    null = _force({}, channel="force")
+    for form in (None, "settling", "stepped"):
+        fx = {"gain_drift": 0.5, **({"forms": {"gain_drift": form}} if form else {})}
+        read = _force(fx, channel="force")  # the same noise: the difference is the gain's
+        want = F * np.array([gain_drift(0.5, form, u) for u in t])
+        assert np.allclose(read - null, want, atol=1e-6 * np.max(np.abs(F))), form
+    assert np.allclose(_force({"gain_drift": 0.5}), F)  # the damper's force itself unchanged
 
 
 def test_temperature_forms_follow_their_own_temperature():

@@ -82,10 +82,24 @@ class Normals:
         return self.block[self.i - 1]
 
 
+GAIN_TAU_S = 20.0  # s: the settling gain drift's time constant (a choice: a bridge warming up)
+GAIN_STEP_S = 5.0  # s: the stepped gain drift's update period (a choice)
+
+
+def gain_drift(rate, form, t):
+    """The load cell's gain change [-] at t [s] from the plant's start: rate [1/s] times t
+    (hidden.toml's default), settling towards rate GAIN_TAU_S, or in steps."""
+    if form == "settling":
+        return rate * GAIN_TAU_S * (1.0 - math.exp(-t / GAIN_TAU_S))
+    if form == "stepped":
+        return rate * GAIN_STEP_S * math.floor(t / GAIN_STEP_S)
+    return rate * t
+
+
 def readings(pl):
     """Sensor values in SI, as the transducers would report them, with noise."""
     s, n = pl.p["sensors"], pl.noise()
-    gain = 1.0 + pl.fx["gain_drift"] * pl.t if "gain_drift" in pl.fx else 1.0  # a hidden gain drift
+    gain = 1.0 + gain_drift(pl.fx["gain_drift"], pl.forms.get("gain_drift"), pl.t) if "gain_drift" in pl.fx else 1.0
     force = pl.F_meas * gain + s["force_noise"] * n[0]
     if "loadcell_stuck" in pl.faults:
         if pl.stuck_force is None:

@@ -134,7 +134,9 @@ def diagnose(args):
     rows = [[k, f"{v:.2f}", f"{100 * v / max(t['wall_s'], 1e-9):.0f} %"] for k, v in t["stages_s"].items()]
     note = (f"Wall {t['wall_s']:.2f} s; the cores busy: {100 * t['cores_used']:.0f} % of {t['cores']} (CPU time of "
             "the diagnosis and the fits' forked children over wall time times cores).")
-    return emit(args, title, r, text, md.table(["stage", "wall [s]", "share"], rows), note)
+    body = (md.table(("quantity", "value"), md.flat({k: v for k, v in r.items() if k != "timing"})) + "\n\n"
+            + md.table(["stage", "wall [s]", "share"], rows))
+    return emit(args, title, r, text, body, note)
 
 
 def discover(args):

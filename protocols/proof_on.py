@@ -64,16 +64,17 @@ class Row:
 def diagnose_copy(task: CopyTask) -> Seen:
     """Diagnose one copy (one process: the copies themselves run in parallel)."""
     from models.diagnose import diagnose
-    from models.diagnose.referees import not_proven
+    from models.diagnose.candidates import EFFECTS
+    from models.diagnose.referees import TIMING, not_proven
     r = diagnose(task.channels, task.events, jobs=1, **task.options)
-    timing = {c.effect: c.parameters for c in r.baseline.cell}
     steps = [(s.effect, [e for e, _, _ in s.rivals], list(s.depends_on), dict(s.parameters), s.size_rms_n)
              for s in r.steps if not s.replaced_by]
     # the cell's timing: a lag accepted, else the first round's lag candidate (a rival or
-    # not, it measures the loop's delay), else the channels' alignment
-    lag = next((c.parameters["tau"] for c in r.candidates if c.round == 1 and c.effect == "sensor_delay"), None)
-    tau = next((p["tau"] for e, _, _, p, _ in steps if e == "sensor_delay"),
-               lag if lag is not None else timing.get("alignment", {}).get("tau_0", 0))
+    # not, it measures the loop's delay), else the channels' alignment fitted with the baseline
+    tau_of = EFFECTS[TIMING].estimate
+    lag = next((c.parameters[tau_of] for c in r.candidates if c.round == 1 and c.effect == TIMING), None)
+    aligned = next((c.parameters[EFFECTS[c.effect].estimate] for c in r.baseline.cell), 0.0)
+    tau = next((p[tau_of] for e, _, _, p, _ in steps if e == TIMING), lag if lag is not None else aligned)
     return Seen(r.named(), steps, float(tau), r.noise_sd, r.left_over.within_noise, r.baseline.nrmse_heldout,
                 r.final.nrmse_heldout, dict(r.baseline.parameters), [c.effect for c in not_proven(r.candidates)[1]])
 
@@ -114,7 +115,7 @@ def _key(e):
 def _estimate(h: Hidden, params, seen: Seen, null: Seen):
     """The size the diagnosis found, in h's shown unit, where it measures h's own value: a
     lag against the untouched copy's timing (a later force reads as a negative timing)."""
-    if h.name == "lag":
+    if h.fault == "delay":
         return h.factor * (null.timing_s - seen.timing_s)
     if h.param in params:
         return h.shown(params[h.param])

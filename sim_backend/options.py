@@ -19,6 +19,11 @@ class PlantOptions:
     seed: int = 0  # the sensors' noise and the adjuster's wander
     T0: float | None = None  # K: the damper's starting temperature, if not the plant's ambient
 
+    def drives(self) -> dict:
+        """{channel: what it is} of the channels the hidden physics makes drive the damper:
+        the adjuster's current when the damping follows it."""
+        return {"aux.valve_current": "valve current"} if self.effects.get("aux_channel") else {}
+
 
 def plain_cell():
     """(damper name, plant parameters, prove settings) of sim_backend/plain.toml: the

@@ -46,6 +46,9 @@ class Hidden:
     temperature: bool = False  # needs a body temperature
     inverse: bool = False
     what: str = ""
+    fault: str = ""  # a cell fault's form: delay, offset, scale or lowpass (hiding.toml)
+    below_peak: str = ""  # a cap: this parameter set to (1 - value) times the force's compression peak
+    peaks: dict = field(default_factory=dict)  # parameters set to these multiples of the largest |force|
 
     def shown(self, value: float) -> float:
         """The value in the unit shown."""
@@ -61,7 +64,8 @@ def catalogue() -> dict[str, Hidden]:
             out[name] = Hidden(name, kind, e.get("param", name), e["unit"], e["factor"], e["off"], e["far"],
                                e["scale"], tuple(e["found"]), tuple(e.get("dependence", ())), e.get("fixed", {}),
                                tuple(e.get("shape", ())), e.get("temperature", False), e.get("inverse", False),
-                               e.get("what", ""))
+                               e.get("what", ""), e.get("fault", ""), e.get("below_peak", ""),
+                               e.get("peaks", {}))
     return out
 
 
@@ -85,8 +89,9 @@ def added(hidden: Hidden, d: Data, base: dict, value: float):
     p.update(hidden.fixed)
     if hidden.shape:
         p.update({f"{hidden.param}{i}": value * c for i, c in enumerate(hidden.shape)})
-    elif hidden.name == "cavitation":  # the compression force capped below its peak; rebound never
-        p.update(Fcav_c=(1 - value) * float(np.max(d.F)), Fcav_r=10 * float(np.max(np.abs(d.F))))
+    elif hidden.below_peak:  # a cap below the compression peak (the others far beyond the force)
+        p.update({k: c * float(np.max(np.abs(d.F))) for k, c in hidden.peaks.items()})
+        p[hidden.below_peak] = (1 - value) * float(np.max(d.F))
     else:
         p[hidden.param] = value
     return m1.force(d, p) - m0.force(d, {k: v for k, v in p.items() if k in {q.name for q in m0.params}})
@@ -96,13 +101,13 @@ def fault(hidden: Hidden, t, F, value: float):
     """The force channel F [N] at times t [s] with the cell's fault at value."""
     t, F = np.asarray(t, float), np.asarray(F, float)
     u = (t - t[0]) / max(t[-1] - t[0], 1e-9)
-    if hidden.name == "lag":  # the force read value seconds late
+    if hidden.fault == "delay":  # the force read value seconds late
         return np.interp(t - value, t, F)
-    if hidden.name == "zero_drift":
+    if hidden.fault == "offset":
         return F + value * u
-    if hidden.name == "gain_drift":
+    if hidden.fault == "scale":
         return F * (1 + value * u)
-    if hidden.name == "filter":  # value: the cut-off's period [s]
+    if hidden.fault == "lowpass":  # value: the cut-off's period [s]
         from scipy.signal import butter, lfilter, lfilter_zi
         fs = 1.0 / float(np.median(np.diff(t)))
         fc = 1.0 / value
@@ -110,7 +115,7 @@ def fault(hidden: Hidden, t, F, value: float):
             return F
         b, a = butter(2, fc, fs=fs)
         return lfilter(b, a, F, zi=lfilter_zi(b, a) * F[0])[0]
-    raise ValueError(f"{hidden.name}: not a fault of the cell hiding.py knows")
+    raise ValueError(f"{hidden.name}: no fault form {hidden.fault!r} hiding.py knows")
 
 
 def copy(hidden: Hidden, channels, d: Data, base: dict, value: float):

@@ -40,7 +40,7 @@ def _on(step):
 
 
 def said(effect):
-    """An effect id ("aux_channel:aux.x") in words."""
+    """An effect id (an effect's name, or name:channel for one scaled by a channel) in words."""
     key = effect.split(":")[0]
     return EFFECTS[key].short or key.replace("_", " ")
 

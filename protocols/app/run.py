@@ -166,9 +166,9 @@ def _plan_run(args):
     cfg = rig_config.load("virtual" if virtual else args.rig)
     if getattr(args, "rate_hz", None):  # `dyno prove --rates`: the virtual cell at another loop rate
         cfg = rig_config.at_rate(cfg, args.rate_hz)
-    if virtual and plant.effects.get("aux_channel") and "aux.valve_current" in cfg.channels:
-        # the plant's adjuster follows its valve current: the recording says the channel drives the damper
-        cfg = rig_config.driven(cfg, "aux.valve_current", "valve current")
+    for channel, what in plant.drives().items() if virtual else ():
+        if channel in cfg.channels:  # the recording says the channel drives the damper
+            cfg = rig_config.driven(cfg, channel, what)
     info = rig_info(cfg, damper)
     skipped = module.check(params, info)  # refuse before anything connects or moves
     for name, why in skipped:

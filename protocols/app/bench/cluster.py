@@ -16,13 +16,15 @@ import numpy as np
 
 from models.parallel import run_all
 from protocols import cluster
+from protocols.app.bench.hidden import HIDDEN
 
 
 def _prove_tasks(n):
-    """n prove runs: the null and sensor_delay hidden at ten times the noise floor, seeds 0..."""
+    """n prove runs: the null and an effect hidden at some times its concealed value (hidden.toml), seeds 0..."""
     from sim_backend.options import plain_cell
-    concealed = plain_cell()[2]["concealed"]
-    effects = [(None, None), ("sensor_delay", {"sensor_delay": 10 * concealed["sensor_delay"]})]
+    concealed, which = plain_cell()[2]["concealed"], HIDDEN["cluster"]
+    e = which["effect"]
+    effects = [(None, None), (e, {e: which["times"] * concealed[e]})]
     from protocols.proof import ProveTask
     return [ProveTask(e, None, 10.0, v, seed, 1.0, 1000.0) for seed in range(n // 2 + 1) for e, v in effects][:n]
 

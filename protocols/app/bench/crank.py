@@ -9,13 +9,12 @@ import time
 from dataclasses import dataclass
 from types import SimpleNamespace
 
+from protocols.app.bench.hidden import HIDDEN as _HIDDEN
 from protocols.errors import UsageError
 
 CRANK_M = (0.025, 0.15)  # m: crank radius (a 50 mm stroke) and connecting rod
 CRANK_HZ = (0.5, 1.0, 2.0, 3.0)  # the crank's speeds, one segment each (peak 0.5 m/s)
-# five effects hidden, each well above the noise, of the kinds a real racing damper shows
-HIDDEN = {"sensor_delay": 2e-4, "fluid_inertia": 2.0, "breakaway_friction": 2.0, "position_friction": 0.5,
-          "free_play": 2e-5}
+HIDDEN = _HIDDEN["crank"]  # protocols/app/bench/hidden.toml
 
 
 @dataclass

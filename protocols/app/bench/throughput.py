@@ -11,6 +11,7 @@ import numpy as np
 
 from rig import config as rig_config
 from rig.devices import TRANSPORTS
+from protocols.app.bench.hidden import HIDDEN
 from protocols.errors import UsageError
 
 from protocols.io.recording import Recorder
@@ -107,7 +108,7 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     params = {"amplitudes_mm": [12.7, 6.4, 3.2, 1.6], "freqs_hz": [1.0, 2.0, 4.0, 8.0, 16.0],
               "settle_cycles": 1, "record_cycles": 5}
     t0 = time.perf_counter()
-    ch, events, _ = offline_recording({"fluid_inertia": 1.0}, rate_hz=rate_hz, params=params)
+    ch, events, _ = offline_recording(dict(HIDDEN["diagnose"]), rate_hz=rate_hz, params=params)
     t_rec = time.perf_counter() - t0
     t_end = ch["force"][0][-1]
     if t_end > seconds:  # cut to `seconds` of recording

@@ -1,5 +1,6 @@
-"""The diagnosis's models: the minimal baseline and the catalogue of physics it may have
-left out, each a small model with bounded parameters (arrays in, force out, N).
+"""The diagnosis's models: the minimal baseline, and the model that composes it with the
+catalogue's effects (models/diagnose/effects/) and the open terms (terms.py), each a small
+model with bounded parameters (arrays in, force out, N), with its exact derivatives.
 
 Baseline `minimal` (thesis chapter 3, reduced):
   damping   two-stage asymmetric valve curve, low- and mid-speed paths in parallel
@@ -128,7 +129,7 @@ class Model:
         Forces: the baseline's (Minimal.columns) carried through each effect after it by
         that effect's tangent, which adds its own parameters' (Effect.tangent). A parameter
         missing (a timing offset's, a shape no closed form follows) is left to a finite
-        difference; so is every one an effect without a tangent changes."""
+        difference; every one is where an effect has no tangent."""
         cols = {"Fd": {}, "Fg": {}, "Ff": {}}
         if hasattr(self.base, "columns"):
             for part, c in self.base.columns(f).items():
@@ -136,12 +137,10 @@ class Model:
         for c, e, before in f.trace:
             if c.acts_on == "total" and "F" not in cols:
                 cols["F"] = _summed(cols)
-            if c.tangent is not None:
-                c.tangent(self, f.data, f.p, f, e, cols, before)
-            else:  # what it changes is left to differences
-                for part in c.alters or ("F",):
-                    cols[part] = {}
-        F = cols.get("F") or _summed(cols)
+            if c.tangent is None:  # an effect without derivatives: every column is differenced
+                return {}
+            c.tangent(self, f.data, f.p, f, e, cols, before)
+        F = cols["F"] if "F" in cols else _summed(cols)
         return {k: f.data.through_source(np.broadcast_to(c, f.F.shape)) for k, c in F.items()}
 
     def forces(self, d, p):

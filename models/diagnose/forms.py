@@ -28,3 +28,16 @@ def scaled(cols, part, g):
 def fixed(*ps):
     """An effect's parameters, the same whatever the data: Effect.params."""
     return lambda d, e: list(ps)
+
+
+def temperature_gain(part, k):
+    """(apply, tangent) of a part of the force ("Fd", "Fg") scaled by 1 + k (T - T_m), k
+    [1/K] the effect's parameter, T_m the model's mean temperature."""
+    def apply(m, d, p, f, e):
+        setattr(f, part, getattr(f, part) * (1 + p[k] * (d.T - m.T_m)))
+
+    def tangent(m, d, p, f, e, cols, before):
+        dT = d.T - m.T_m
+        scaled(cols, part, 1 + p[k] * dT)
+        cols[part][k] = before[part] * dT
+    return apply, tangent

@@ -1,5 +1,6 @@
 """What is known of an effect, in one place: its parameters (bounds, starts), its force
-and where that acts, what it depends on, what kind of thing it is and how it is said. How
+and where that acts, its derivatives (its tangent), what it depends on, when the recording
+resolves it, what kind of thing it is and how it is said. How
 the virtual plant hides it is the plant's own knowledge (sim_backend/hidden.toml)."""
 from __future__ import annotations
 
@@ -54,10 +55,6 @@ class Effect:
     # "": the loop's surface when the loop shows all it depends on, else none
     # (models/diagnose/__init__.py referee)
     referee: str = ""
-    # the parts of the force ("Fd", "Fg", "Ff" or the total "F") it changes otherwise than by
-    # adding to them, or reads: a term's basis added to such a part before it does not reach
-    # the total as it is, so its coefficients' derivatives are not their basis (fitting.py)
-    alters: tuple = ()
     # (model, data, values, Forces, effect id, columns, the parts before it acted) -> None: the
     # force's derivatives carried through it, in place ({part: {parameter: [N per unit]}}),
     # its own parameters' added; None: what it changes is left to finite differences

@@ -328,7 +328,6 @@ TERMS = {e.name: e for e in (
                 None, 1.0, "N")),
     Effect("stroke_damping", "damping changing along the stroke, per direction", _damping_params, "sdc0",
            _stroke_damping, "parts", depends_on=("displacement", "velocity", "direction"), linear=True, nature="open",
-           alters=("Fd",),
            tangent=_stroke_damping_tangent,
            order=40,
            say=("Not in the catalogue: damping that changes along the stroke ({region}; {size}): bypass grooves "
@@ -342,7 +341,7 @@ TERMS = {e.name: e for e in (
                 None, 1.0, "N")),
     Effect("damping_drift", "damping changing in time, independent of the motion",
            lambda d, e: [P(f"dd{i}", 0.0, -0.9, 0.9, "-") for i in range(_drift_n(d))], "dd0", _damping_drift,
-           "parts", depends_on=("time", "velocity", "direction"), linear=True, alters=("Fd",), nature="open",
+           "parts", depends_on=("time", "velocity", "direction"), linear=True, nature="open",
            tangent=_damping_drift_tangent,
            order=50,
            say=("Not in the catalogue: damping that changes in time ({region}; {size}): the oil warming without "
@@ -350,7 +349,7 @@ TERMS = {e.name: e for e in (
     Effect("frequency_damping", "damping changing with the test frequency at the same velocity",
            lambda d, e: [P(f"fd{s}{i}", 0.0, -0.9, 0.9, "-") for s in "cr" for i in range(_frequency_n(d))], "fdc0",
            _frequency_damping, "parts", needs="frequencies", depends_on=("frequency", "velocity", "direction"),
-           linear=True, alters=("Fd",), nature="open",
+           linear=True, nature="open",
            tangent=_frequency_damping_tangent,
            order=60, say=("Not in the catalogue: damping that changes with the test frequency at the same velocity "
                 "({region}; {size}): the valves' own dynamics (shim stack inertia, a pressure-lagged bleed) or "

@@ -52,7 +52,6 @@ EFFECT = Effect(
     acts_on="total",
     needs="aux",
     depends_on=("aux",),
-    alters=("Fd",),
     words=_words,
     order=160,
     say=(

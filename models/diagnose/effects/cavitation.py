@@ -52,7 +52,6 @@ EFFECT = Effect(
     tangent=_cavitation_tangent,
     acts_on="total",
     depends_on=("velocity", "direction", "displacement"),
-    alters=("F", "Fg"),
     words=_words,
     order=210,
     say=(

@@ -44,7 +44,6 @@ EFFECT = Effect(
     tangent=_compressibility_tangent,
     acts_on="parts",
     depends_on=("velocity", "frequency"),
-    alters=("Fd",),
     # a damper described with compressible oil or air in it (eq 3.32)
     described=lambda dm: (
         dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12 or dm.compressibility.air_fraction > 0

@@ -58,7 +58,6 @@ EFFECT = Effect(
     tangent=_free_play_tangent,
     acts_on="total",
     depends_on=("velocity", "direction"),
-    alters=("F",),
     words=_words,
     order=220,
     say=(

@@ -48,7 +48,6 @@ EFFECT = Effect(
     tangent=_presliding_friction_tangent,
     acts_on="parts",
     depends_on=("displacement", "direction"),
-    alters=("Ff",),
     resolved=_resolved,
     short="pre-sliding friction",
     order=110,

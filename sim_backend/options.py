@@ -35,6 +35,11 @@ def plain_cell():
     return plain["damper"], params, plain["prove"]
 
 
+def benchmark(name) -> dict:
+    """What `dyno bench NAME` hides in the plain cell (plain.toml's [bench.NAME])."""
+    return tomllib.loads((Path(__file__).parent / "plain.toml").read_text())["bench"][name]
+
+
 def plant_options(damper=None, effects=(), plain=False, seed=0, noise=1.0) -> PlantOptions:
     """The virtual plant's options: effects as ["NAME[:FORM]=VALUE", ...] (EffectError names
     a bad one); plain: the plain cell of plain.toml (its damper unless another than the

@@ -109,7 +109,7 @@ def test_no_file_outside_the_catalogue_names_an_effect():
     """An effect's physics, derivatives, words and rules live in its own module
     (models/diagnose/effects/, the open terms in terms.py); the search, the words, the
     commands and the benchmarks ask the effects (data files may name them: hiding.toml,
-    the benchmarks' hidden.toml)."""
+    sim_backend/plain.toml's [bench])."""
     import re
     from pathlib import Path
 

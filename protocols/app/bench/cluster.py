@@ -16,13 +16,13 @@ import numpy as np
 
 from models.parallel import run_all
 from protocols import cluster
-from protocols.app.bench.hidden import HIDDEN
 
 
 def _prove_tasks(n):
-    """n prove runs: the null and an effect hidden at some times its concealed value (hidden.toml), seeds 0..."""
-    from sim_backend.options import plain_cell
-    concealed, which = plain_cell()[2]["concealed"], HIDDEN["cluster"]
+    """n prove runs: the null and an effect hidden at some times its concealed value
+    (sim_backend/plain.toml [bench.cluster]), seeds 0..."""
+    from sim_backend.options import benchmark, plain_cell
+    concealed, which = plain_cell()[2]["concealed"], benchmark("cluster")
     e = which["effect"]
     effects = [(None, None), (e, {e: which["times"] * concealed[e]})]
     from protocols.proof import ProveTask

@@ -9,12 +9,10 @@ import time
 from dataclasses import dataclass
 from types import SimpleNamespace
 
-from protocols.app.bench.hidden import HIDDEN as _HIDDEN
 from protocols.errors import UsageError
 
 CRANK_M = (0.025, 0.15)  # m: crank radius (a 50 mm stroke) and connecting rod
 CRANK_HZ = (0.5, 1.0, 2.0, 3.0)  # the crank's speeds, one segment each (peak 0.5 m/s)
-HIDDEN = _HIDDEN["crank"]  # protocols/app/bench/hidden.toml
 
 
 @dataclass
@@ -39,16 +37,17 @@ def _plan(params, info):
 
 
 def recording(seconds=100.0, rate_hz=300.0, seed=0):
-    """(channels, events) of the crank run on the plain plant with HIDDEN (no wires)."""
+    """(channels, events) of the crank run on the plain plant with its effects hidden
+    (sim_backend/plain.toml [bench.crank]; no wires)."""
     from protocols import cell, runner
     from protocols.plan import Plan
     from rig import config as rig_config
-    from sim_backend.options import PlantOptions, plain_cell
+    from sim_backend.options import PlantOptions, benchmark, plain_cell
     name, params, _ = plain_cell()
     cfg = rig_config.at_rate(rig_config.load("virtual"), rate_hz)
     module = SimpleNamespace(NAME="crank", check=lambda p, i: [], plan=_plan)
     kept = runner.Kept()
-    with cell.direct(cfg, name, PlantOptions(name, dict(HIDDEN), params, seed)) as c:
+    with cell.direct(cfg, name, PlantOptions(name, benchmark("crank"), params, seed)) as c:
         result = runner.run_plan(Plan(module, CrankParams(seconds)), c, [kept])
     if result.fault:
         raise UsageError(f"bench diagnose --crank: the crank run tripped: {result.fault}")
@@ -60,6 +59,7 @@ def recording(seconds=100.0, rate_hz=300.0, seed=0):
 def bench(seconds=100.0, rate_hz=300.0):
     from models import threads
     from models.diagnose import diagnose
+    from sim_backend.options import benchmark
     t0 = time.perf_counter()
     ch, events = recording(seconds, rate_hz)
     t_rec = time.perf_counter() - t0
@@ -67,6 +67,6 @@ def bench(seconds=100.0, rate_hz=300.0):
     res = diagnose(ch, events, jobs=threads.cores())
     wall = time.perf_counter() - t0
     return {"recording": "slider-crank", "recording_s": float(ch["force"][0][-1] - ch["force"][0][0]),
-            "rate_hz": rate_hz, "samples": int(len(ch["force"][0])), "hidden": sorted(HIDDEN),
+            "rate_hz": rate_hz, "samples": int(len(ch["force"][0])), "hidden": sorted(benchmark("crank")),
             "make_recording_s": t_rec, "diagnose_s": wall, "accepted": res.accepted, "named": res.named(),
             "goal_s": 5.0, "timing": res.timing}

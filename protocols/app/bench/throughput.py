@@ -11,7 +11,6 @@ import numpy as np
 
 from rig import config as rig_config
 from rig.devices import TRANSPORTS
-from protocols.app.bench.hidden import HIDDEN
 from protocols.errors import UsageError
 
 from protocols.io.recording import Recorder
@@ -104,11 +103,12 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     from models.diagnose import design, diagnose
     from protocols.discover import limits
     from protocols.proof import offline_recording
+    from sim_backend.options import benchmark
     from rig import config as rig_config
     params = {"amplitudes_mm": [12.7, 6.4, 3.2, 1.6], "freqs_hz": [1.0, 2.0, 4.0, 8.0, 16.0],
               "settle_cycles": 1, "record_cycles": 5}
     t0 = time.perf_counter()
-    ch, events, _ = offline_recording(dict(HIDDEN["diagnose"]), rate_hz=rate_hz, params=params)
+    ch, events, _ = offline_recording(benchmark("diagnose"), rate_hz=rate_hz, params=params)
     t_rec = time.perf_counter() - t0
     t_end = ch["force"][0][-1]
     if t_end > seconds:  # cut to `seconds` of recording

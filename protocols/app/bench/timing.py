@@ -196,10 +196,14 @@ def goals_met(stats):
     return stats["overruns"] <= g["overruns"]
 
 
+DISCOVER_GOAL = 1.2  # wall time over the budget
+
+
 def bench_discover(budget_s=60.0):
     """`dyno run discover --budget` on the embedded plain cell: its wall time against the
     rig time it recorded (the opening and its own tests) and against its budget; the goal
-    (issue 47): the wall time at most 1.5 times the budget."""
+    (issue 73, 1.5 in issue 47): the wall time at most DISCOVER_GOAL times the budget, on a
+    loaded machine too."""
     from protocols.io.reader import load_recording
     dyno = str(Path(sys.executable).parent / "dyno")
     with tempfile.TemporaryDirectory(prefix="dyno-bench-") as d:
@@ -215,6 +219,6 @@ def bench_discover(budget_s=60.0):
     added = float(ends[-1].params.get("added_s", 0.0)) if ends else 0.0
     rig = float(channels["force"][0][-1] - channels["force"][0][0])
     return {"budget_s": budget_s, "wall_s": wall, "rig_s": rig, "added_rig_s": added,
-            "wall_over_budget": wall / budget_s, "wall_over_rig": wall / rig, "goal_wall_over_budget": 1.5,
-            "goal_met": wall <= 1.5 * budget_s,
+            "wall_over_budget": wall / budget_s, "wall_over_rig": wall / rig, "goal_wall_over_budget": DISCOVER_GOAL,
+            "goal_met": wall <= DISCOVER_GOAL * budget_s,
             "verdict": next((e.message for e in events if isinstance(e, Verdict)), "")}

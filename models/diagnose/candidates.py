@@ -141,7 +141,7 @@ class Model:
                 return {}
             c.tangent(self, f.data, f.p, f, e, cols, before)
         F = cols["F"] if "F" in cols else _summed(cols)
-        return {k: f.data.through_source(np.broadcast_to(c, f.F.shape)) for k, c in F.items()}
+        return {k: f.data.through_source(c) for k, c in F.items()}
 
     def forces(self, d, p):
         """Model.force's Forces, every stage's result in it."""

@@ -82,7 +82,7 @@ def added(m, d, p, f, e, cols, before):
     cols[part].update(zip(m.own[e], B.T))
 
 
-def _scaled_by(cols, before, B, names, where=None):
+def _scaled_by(before, B, names, where=None):
     """The tangent of damping multiplied by 1 + B @ c (where: per direction, the samples
     each set of coefficients acts on): the damping's columns scaled, each coefficient's
     its basis times the damping it multiplied."""
@@ -150,16 +150,15 @@ def _per_direction(f, p, B, prefix):
     return np.where(f.v > 0, gc, gr)
 
 
-def _per_direction_tangent(m, d, p, f, e, cols, before, B, prefix):
+def _per_direction_tangent(p, f, cols, before, B, prefix):
     n, up = B.shape[1], f.v > 0
     scaled(cols, "Fd", 1.0 + _per_direction(f, p, B, prefix))
-    cols["Fd"].update(_scaled_by(cols, before, B, [f"{prefix}c{i}" for i in range(n)], up))
-    cols["Fd"].update(_scaled_by(cols, before, B, [f"{prefix}r{i}" for i in range(n)], ~up))
+    cols["Fd"].update(_scaled_by(before, B, [f"{prefix}c{i}" for i in range(n)], up))
+    cols["Fd"].update(_scaled_by(before, B, [f"{prefix}r{i}" for i in range(n)], ~up))
 
 
 def _stroke_damping_tangent(m, d, p, f, e, cols, before):
-    _per_direction_tangent(m, d, p, f, e, cols, before, cached(m, d, e, lambda ref, dd: x_basis(ref, dd, KNOTS[e])),
-                           "sd")
+    _per_direction_tangent(p, f, cols, before, cached(m, d, e, lambda ref, dd: x_basis(ref, dd, KNOTS[e])), "sd")
 
 
 def t_span(ref):
@@ -194,7 +193,7 @@ def _damping_drift_tangent(m, d, p, f, e, cols, before):
     B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
     names = [f"dd{i}" for i in range(B.shape[1])]
     scaled(cols, "Fd", 1.0 + B @ np.array([p[n] for n in names]))
-    cols["Fd"].update(_scaled_by(cols, before, B, names))
+    cols["Fd"].update(_scaled_by(before, B, names))
 
 
 def frequency_u(d):
@@ -225,7 +224,7 @@ def _frequency_damping(m, d, p, f, e):
 
 
 def _frequency_damping_tangent(m, d, p, f, e, cols, before):
-    _per_direction_tangent(m, d, p, f, e, cols, before, cached(m, d, e, _frequency_basis), "fd")
+    _per_direction_tangent(p, f, cols, before, cached(m, d, e, _frequency_basis), "fd")
 
 
 def _interference(m, d, p, f, e):

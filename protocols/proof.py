@@ -65,13 +65,11 @@ def offline_force(effects, seed=0):
 
 def contribution(effect, value, seed=0, null=None, form=None):
     """RMS [N] of what the effect (in the plant's `form`, default None) adds to the
-    measured force (same noise seed, so the noise cancels); for a sensor lag, of the force
-    against itself shifted by the lag (every form delays by about its value)."""
+    measured force (same noise seed, so the noise cancels), or what follows from the null
+    alone where the effect says so (Hidden.without_run: a lag of the motion readings)."""
     F0, rec = null if null is not None else offline_force({}, seed)
-    if effect == "sensor_delay":
-        t = np.arange(len(F0)) * 1e-3
-        d = F0 - np.interp(t - value, t, F0)
-    else:
+    d = EFFECTS[effect].without_run(value, np.arange(len(F0)) * 1e-3, F0)
+    if d is None:
         try:
             F1, _ = offline_force({effect: value, **({"forms": {effect: form}} if form else {})}, seed)
         except RigError:  # so large the run tripped: far above any target
@@ -90,9 +88,7 @@ def calibrate_one(task):
     contribution is at most `target`, by bisection on a log scale."""
     e, form, target = task
     null = offline_force({}, 0)
-    lo, hi = 1e-3, 1e3  # strengths about the guess
-    if e == "compressibility":  # no stiffer than the plain cell's oil (1e12 Pa)
-        lo = EFFECTS[e].guess / 1e12
+    lo, hi = EFFECTS[e].weakest, 1e3  # strengths about the guess
     for _ in range(12):
         s = math.sqrt(lo * hi)
         c = contribution(e, scaled(e, EFFECTS[e].guess, s), 0, null, form)
@@ -122,7 +118,7 @@ class ProveTask:
     """One prove run: what is hidden in the plain cell, how strong, on which seed, noise
     and rate; the user's own force law (--open) and the next tests' rig time (--adaptive)."""
     effect: str | None  # a catalogue effect, a pair "a+b", or None: a null
-    form: str | None  # the plant's form of it (sim_backend/hidden.toml), None: the default
+    form: str | None  # the plant's form of it (sim_backend/effects/), None: the default
     size: float  # times the noise floor
     values: dict | None  # {effect: VALUE} hidden
     seed: int

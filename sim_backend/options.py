@@ -7,7 +7,7 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sim_backend.effects import parse
+from sim_backend.effects import drives, parse
 from sim_backend.plant import plant_params
 
 
@@ -20,9 +20,9 @@ class PlantOptions:
     T0: float | None = None  # K: the damper's starting temperature, if not the plant's ambient
 
     def drives(self) -> dict:
-        """{channel: what it is} of the channels the hidden physics makes drive the damper:
-        the adjuster's current when the damping follows it."""
-        return {"aux.valve_current": "valve current"} if self.effects.get("aux_channel") else {}
+        """{channel: what it is} of the channels the hidden physics makes drive the damper
+        (the adjuster's current when the damping follows it)."""
+        return drives(self.effects)
 
 
 def plain_cell():

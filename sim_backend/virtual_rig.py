@@ -61,7 +61,7 @@ def sim_rig_config(folder, rate_hz=None, stale_s=None):
 
 class VirtualRig:
     def __init__(self, config, damper="koni", seed=0, T0=None, effects=None, params=None):
-        """effects: hidden physics {name: value} (sim_backend/effects.py); params: the
+        """effects: hidden physics {name: value} (sim_backend/effects/); params: the
         plant's parameters if not sim_backend/plant.toml."""
         self.config = copy.deepcopy(config)
         # the emulators send a frame per device each step: in real time at the devices' rate

@@ -1,4 +1,4 @@
-"""The plant's other forms of each hidden effect (sim_backend/effects.py FORMS): each is
+"""The plant's other forms of each hidden effect (sim_backend/effects/ FORMS): each is
 wired into the physics, differs from the default form at the same VALUE, and its pieces do
 what their descriptions say."""
 import math
@@ -10,7 +10,9 @@ from models.physics.compressibility import AIR_P_MIN, pressure_air, strain_air
 from sim_backend.effects import EFFECTS, FORMS
 from sim_backend.options import plain_cell
 from sim_backend.plant import MODE_FOLLOW, Plant
-from sim_backend.plant.load_path import elastoplastic, floored, stribeck
+from sim_backend.effects.breakaway_friction import stribeck
+from sim_backend.effects.cavitation import floored
+from sim_backend.effects.presliding_friction import elastoplastic
 
 
 def _force(effects, seconds=0.6, h=5e-4, channel=None):
@@ -50,7 +52,7 @@ def test_each_gain_drift_scales_the_load_cells_reading_as_its_form_says():
     """The load cell's reading, not the force: the default drifts at VALUE per second, the
     settling form starts at that rate and levels off at VALUE GAIN_TAU_S, the stepped form
     moves every GAIN_STEP_S."""
-    from sim_backend.plant.sensors import GAIN_STEP_S, GAIN_TAU_S, gain_drift
+    from sim_backend.effects.gain_drift import GAIN_STEP_S, GAIN_TAU_S, gain_drift
     r = 1e-3
     assert gain_drift(r, None, 10.0) == pytest.approx(1e-2)
     assert gain_drift(r, "settling", 1e-3) == pytest.approx(1e-6, rel=1e-3)
@@ -73,9 +75,9 @@ def test_temperature_forms_follow_their_own_temperature():
     direction only."""
     from sim_backend.plant import thermal
     name, params, _ = plain_cell()
-    for form, T_of in (("reservoir", lambda p: p.T_res), ("lagged", lambda p: p.T_gas_lag)):
+    for form, T_of in (("reservoir", lambda p: p.T_res), ("lagged", lambda p: p.hidden[0].T_lag)):
         p = Plant(name, params=params, effects={"gas_temperature": 0.5, "forms": {"gas_temperature": form}})
-        p.T, p.T_res, p.T_gas_lag = 320.0, 300.0, 310.0
+        p.T, p.T_res, p.hidden[0].T_lag = 320.0, 300.0, 310.0
         assert thermal.gas_temperature(p) == pytest.approx(p.T_cell + 0.5 * (T_of(p) - p.T_cell))
     for form, (kc, kr) in (("compression", (2e-3, 0.0)), ("rebound", (0.0, 2e-3))):
         p = Plant(name, params=params, effects={"damping_temperature": 1e-3, "forms": {"damping_temperature": form}})

@@ -1,7 +1,7 @@
 """What is known of an effect, in one place: its parameters (bounds, starts), its force
 and where that acts, its derivatives (its tangent), what it depends on, when the recording
 resolves it, what kind of thing it is and how it is said. How
-the virtual plant hides it is the plant's own knowledge (sim_backend/hidden.toml)."""
+the virtual plant hides it is the plant's own knowledge (sim_backend/effects/)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -90,7 +90,7 @@ def run(args):
     variants = list(dict.fromkeys((e.partition(":")[0], e.partition(":")[2] or None) for e in named))
     bad = [f"{e}:{f}" for e, f in variants if f and e in EFFECTS and f not in EFFECTS[e].forms]
     if bad:
-        raise UsageError(f"--effects: {bad[0]}: no such form (sim_backend/effects.py FORMS)")
+        raise UsageError(f"--effects: {bad[0]}: no such form (sim_backend/effects/ FORMS)")
     args.sizes = getattr(args, "sizes", None) or [1.0]
     unknown = [e for e in effects if e != "null" and not set(e.split("+")) <= set(EFFECTS)]
     if unknown:
@@ -99,7 +99,7 @@ def run(args):
     if not all(200.0 <= r <= 10000.0 for r in args.rates):
         raise UsageError(f"--rates: the virtual cell runs at 200-10000 Hz, not "
                          f"{', '.join(f'{r:g}' for r in args.rates)}")
-    if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects.py FORMS)
+    if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects/ FORMS)
         variants = [v for e in effects
                     for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
     for e, form in variants:  # each form at its own noise floor
@@ -227,7 +227,7 @@ def _print(table, args, noise):
     forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
     body = md.table(header, rows)
     if forms:
-        body += "\n\nThe forms (sim_backend/effects.py):\n\n" + md.table(("effect", "form", "in the plant"),
+        body += "\n\nThe forms (sim_backend/effects/):\n\n" + md.table(("effect", "form", "in the plant"),
                                                                        sorted(forms, key=lambda r: (list(EFFECTS).index(r[0]), r[1] != "default", r[1])))
     print(md.document("Proof of the diagnosis (dyno prove)", body,
                       f"{args.seeds} seeds per row on the plain cell through the wires"
@@ -237,5 +237,5 @@ def _print(table, args, noise):
                       f"at noise x1 (every sensor's noise times the noise column). Size x1 is the concealed value "
                       f"at that noise (its contribution equals the force noise, each form calibrated on its own); x10 ten times "
                       f"as strong (a bulk modulus divided by ten, a breakaway ratio's excess times ten); forms: "
-                      f"sim_backend/effects.py FORMS. Goals: detection >= 90 %, false positives <= 5 %. Method: "
+                      f"sim_backend/effects/ FORMS. Goals: detection >= 90 %, false positives <= 5 %. Method: "
                       f"docs/diagnosis.md."))

@@ -1,6 +1,7 @@
 """The virtual test cell: servo-hydraulic actuator, load frame, the damper model from
 models/ (compressible, with its chamber pressures), a lumped thermal model, and sensors
-with noise and filtering, one module each; the hidden effects live in the load path.
+with noise and filtering, one module each; the hidden effects (sim_backend/effects/)
+act through their hooks.
 Parameters: sim_backend/plant.toml.
 
 The plant runs on whatever clock advances it: `advance(seconds)` steps it by that much
@@ -17,7 +18,7 @@ import numpy as np
 
 from models.damper import load as load_damper
 from models.physics.simulate import Stepper
-from sim_backend import effects as fx_mod
+from sim_backend import effects as hidden
 from sim_backend.extra import compile_extra
 from sim_backend.plant import actuator, frame, load_path, sensors, thermal
 from sim_backend.plant.actuator import (MODE_FOLLOW, MODE_HOLD, MODE_OFF, STATE_ALARM,
@@ -34,12 +35,15 @@ def plant_params() -> dict:
 class Plant:
     def __init__(self, damper="koni", T0=None, h=5e-4, seed=0, params=None, effects=None):
         self.p = params or plant_params()
-        self.fx = dict(effects or {})  # hidden physics, sim_backend/effects.py
-        self.forms = self.fx.pop("forms", {})  # {effect: form} other than the default
-        extra = self.fx.pop("extra", None)  # a force the user writes (sim_backend/extra.py)
+        fx = dict(effects or {})
+        extra = fx.pop("extra", None)  # a force the user writes (sim_backend/extra.py)
         self.extra = compile_extra(extra) if extra else None
+        self.hidden = hidden.build(fx)  # hidden physics (sim_backend/effects/), each with its own state
+        self.load_path = sorted(self.hidden, key=lambda e: e.stage)  # in the order they act on the force
         damper = load_damper(damper)
-        self.damper = fx_mod.damper_with(damper, {**self.fx, "forms": self.forms})
+        for e in self.hidden:
+            damper = e.describe(damper)
+        self.damper = damper
         self.h = h
         self.t = 0.0
         self.noise = sensors.Normals(np.random.default_rng(seed), 8)  # the transducers' (sensors.readings)
@@ -47,9 +51,10 @@ class Plant:
         self.T = th["ambient"] if T0 is None else float(T0)
         self.T_res = self.T
         self.T_cell = self.T  # the gas charge's temperature where it does not follow the body
-        self.gas_share = self.fx.get("gas_temperature", th.get("gas_follows_body", 1.0))
-        self.repack_K = 0.05 if {"gas_temperature", "damping_temperature"} & set(self.fx) else th.get("repack_K", 0.5)
+        self.gas_share = th.get("gas_follows_body", 1.0)
+        self.repack_K = min([th.get("repack_K", 0.5)] + [e.repack_K for e in self.hidden if e.repack_K])
         self.x_act = self.damper.mid_stroke  # actuator position, in damper x [m]
+        self.x_rod = self.x_act  # the damper's rod's [m] (a hidden free play moves it off the mount)
         self.v_act = 0.0
         self.setpoint = self.setpoint_from = self.x_act
         self.cmd_period = 1e-3
@@ -59,33 +64,12 @@ class Plant:
         self.alarm = 0
         self.faults = set()  # sensor/actuator faults injected by tests or `--fault`
         self.stuck_force = None
-        # the plant's own Dahl friction hides pre-sliding in the default form; the other forms
-        # build on Coulomb friction in the load path
-        x_stick = self.p["frame"]["friction_x_stick"]
-        if "presliding_friction" not in self.forms:
-            x_stick = self.fx.get("presliding_friction", x_stick)
-        self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=x_stick)
-        if self.forms.get("compressibility"):  # a modulus that varies tenfold over a cycle: Newton
-            self.stepper.nsub = 4                # converges on a quarter of the step
-        self.z_pre, self.x_pre = [0.0] * 4, self.x_act  # pre-sliding elements' states [-] and where [m]
-        self.T_gas_lag = self.T  # the body's temperature through the gas's lag (gas_temperature:lagged)
+        self.stepper = Stepper(self.damper, self.T, self.x_act, h, x_stick=self.p["frame"]["friction_x_stick"])
+        self.i_valve = 1.0  # adjuster current [A] (load_path.adjuster)
+        self.aux_noise = sensors.Normals(np.random.default_rng(seed + 7919))  # its wander's and reading's
+        for e in self.hidden:
+            e.start(self)
         self.stepper.set_temperature(self.T, thermal.gas_temperature(self))
-        # free play: the rod sits a gap (mount less rod, [m]) from the mount, bearing on it in
-        # compression (contact +1), in rebound (-1) or crossing the clearance (0)
-        self.gap = self.fx.get("free_play", 0.0) / 2
-        self.x_rod = self.x_act - self.gap
-        self.give = 0.0  # the contact's deflection under load (free_play:contact, hertz) [m]
-        self.contact = 1
-        self.v_rod = self.F_rest = self.F_grip = 0.0
-        self.curve = load_path.damping_curve(self) if self.gap else None
-        self.x_sens = self.v_sens = None  # the LVDT/LVT conditioning's filtered outputs
-        self.sens_mid = None  # its first stage (second-order form)
-        self.sens_past = deque(maxlen=int(self.fx.get("sensor_delay", 0.0) / h) + 3)  # (x, v) (transport form)
-        self.cav_loss = (0.0, 0.0)  # pressure the released air still holds per chamber [Pa]
-        self.a_f = self.a_f_rate = 0.0  # acceleration through the oil column [m/s^2] and its rate
-        self.z_bw, self.x_bw = 0.0, self.x_rod  # hysteretic element's state [-] and where it was [m]
-        self.aux_noise = sensors.Normals(np.random.default_rng(seed + 7919))  # the adjuster current's
-        self.i_valve = self.i_lag = 1.0  # adjuster current [A] and what the valve has followed
         self.F_frame = 0.0  # force the frame deflects under (low-passed)
         self.T_packed = self.T_gas_packed = self.T
         self.x_gas = self.x_act  # where the gas last reached thermal equilibrium
@@ -137,9 +121,16 @@ class Plant:
         thermal.advance(self, F_d, h)
         load_path.adjuster(self, h)
         sensors.condition(self, F, h)
+        for e in self.hidden:
+            e.advance(self, h)
         self.t += h
 
     # --- outputs ------------------------------------------------------------------------
+    @property
+    def x_mid(self):
+        """The mount's position [m] the step's force answered (sensors.x_lag)."""
+        return self.x_d - sensors.x_lag(self.h) * self.v_d
+
     def readings(self):
         """Sensor values in SI, as the transducers would report them, with noise."""
         return sensors.readings(self)

@@ -2,17 +2,15 @@
 body; the gas charge exchanges heat towards isothermal at its present position."""
 from __future__ import annotations
 
-from sim_backend.plant.load_path import damping_curve
-
-
-GAS_LAG_S = 10.0  # s: the gas_temperature:lagged form's lag behind the body
-
 
 def gas_temperature(pl):
-    """The gas charge's temperature [K]: its share of the body's rise over the cell's (of
-    the reservoir's, or of the body's through GAS_LAG_S, in the other forms)."""
-    T = {"reservoir": pl.T_res, "lagged": pl.T_gas_lag}.get(pl.forms.get("gas_temperature"), pl.T)
-    return pl.T_cell + pl.gas_share * (T - pl.T_cell)
+    """The gas charge's temperature [K]: its share of the body's rise over the cell's (a
+    hidden effect may set it otherwise)."""
+    for e in pl.hidden:
+        T = e.gas_temperature(pl)
+        if T is not None:
+            return T
+    return pl.T_cell + pl.gas_share * (pl.T - pl.T_cell)
 
 
 def advance(pl, F_d, h):
@@ -22,13 +20,14 @@ def advance(pl, F_d, h):
     pl.energy += power * h
     pl.T += h * (power - th["conductance"] * (pl.T - th["ambient"])) / th["heat_capacity"]
     pl.T_res += h * (pl.T - pl.T_res) / th["reservoir_tau_s"]
-    pl.T_gas_lag += h * (pl.T - pl.T_gas_lag) / GAS_LAG_S
+    for e in pl.hidden:
+        e.warm(pl, h)
     T_gas = gas_temperature(pl)
     if abs(pl.T - pl.T_packed) > pl.repack_K or abs(T_gas - pl.T_gas_packed) > pl.repack_K:  # re-pack as it warms
         pl.stepper.set_temperature(pl.T, T_gas)
         pl.T_packed, pl.T_gas_packed = pl.T, T_gas
-        if pl.curve is not None:
-            pl.curve = damping_curve(pl)
+        for e in pl.hidden:
+            e.repacked(pl)
     # the gas is polytropic about x_gas (eq 4.4) and exchanges heat towards isothermal
     # at its present position over tau (what a static dwell waits for, eq 3.7)
     pl.x_gas += h / th["gas_tau_s"] * (pl.x_d - pl.x_gas)

@@ -14,9 +14,9 @@ import typing
 from dataclasses import dataclass
 from pathlib import Path
 
-from models.physics.gas_spring import T_STD
 
 PRESET_DIR = Path(__file__).parent / "presets"
+T_STD = 293.15  # K: the thesis's 20 C reference its temperature coefficients are taken from (eq 3.2, 4.4)
 T_MAX_RATED = 423.15  # K (150 C): top of the thesis's racing-damper temperature range
 
 

@@ -30,17 +30,15 @@ class TaskFailed(RuntimeError):
 
 
 def warm():
-    """Compile the physics kernels in this process, or load them from numba's cache, so
+    """Compile the damper's kernels in this process, or load them from numba's cache, so
     that a worker's first task is not charged for it (a process pool's initializer, a
-    Dask worker plugin)."""
+    Dask worker plugin). The quarter car's (models/quarter_car/, which fans out through
+    this module) load on its first sweep."""
     from models.damper import load
     from models.physics.simulate import simulate, sine
-    from models.quarter_car import load as load_car
-    from models.quarter_car.sim import run
     d = load("koni")
     t, x, v = sine(0.002, 2.0, 1, d.mid_stroke, samples_per_cycle=40)
     simulate(d, t, x, v)
-    run(load_car("race-car"), d, t, x - x[0], v)
 
 
 # glibc's mallopt parameters (malloc.h)

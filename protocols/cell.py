@@ -6,6 +6,7 @@ plan on any of them:
         result = runner.run_plan(Plan(sine_matrix, params), c, [recorder])
     cell.wired(rig_config.load("cell.toml"), damper)   # a real cell (or `dyno sim-rig`)
     cell.direct(config, "koni", PlantOptions(effects=...))   # the plant without wires: many times faster
+    cell.model(config, damper)                 # the damper model alone: a real cell's pre-flight
 
 A cell outlives a run: `dyno run discover` runs several plans on one, and between them the
 actuator holds where the last one left it (its command watchdog holds a lost controller).
@@ -122,12 +123,71 @@ def wired(config, damper=None) -> Cell:
 
 
 def direct(config, damper, plant=None) -> Cell:
-    """The plant without wires (sim_backend/direct_rig.py), on its simulated clock: for the
+    """The virtual plant without wires (rig/direct_rig.py), on its simulated clock: for the
     calibration, the rehearsal and work that needs the runner's stepping, not the wires."""
     from models.damper import load as load_damper
-    from sim_backend.direct_rig import DirectRig
-    d = load_damper(damper)
+    from rig.direct_rig import DirectRig
     from sim_backend.options import PlantOptions
+    from sim_backend.plant import Plant
+    d = load_damper(damper)
     p = plant or PlantOptions()
-    rig = DirectRig(config, d, seed=p.seed, T0=p.T0, effects=p.effects, params=p.params)
+    rig = DirectRig(config, Plant(d, T0=p.T0, h=min(5e-4, 1.0 / config.rate_hz), seed=p.seed, params=p.params,
+                                  effects=p.effects))
     return _opened(Cell(rig, config, d, rig, False, []))
+
+
+def model(config, damper) -> Cell:
+    """The damper model alone on a perfect actuator, on its simulated clock: a real cell's
+    pre-flight (protocols/rehearsal.py), which knows the cell's damper and limits but none
+    of the virtual plant's parameters."""
+    import dataclasses
+
+    from models.damper import load as load_damper
+    from rig.direct_rig import DirectRig
+    d = load_damper(damper)
+    plant = _DamperModel(d, 1.0 / config.rate_hz, rig_info(config, d).T_ambient)
+    # the cell's channels the model reads: no other is watched (it would never report)
+    config = dataclasses.replace(config, channels={n: ch for n, ch in config.channels.items()
+                                                   if n in plant.readings()})
+    rig = DirectRig(config, plant)
+    return _opened(Cell(rig, config, d, rig, False, []))
+
+
+class _DamperModel:
+    """The damper model (models/physics/simulate.Stepper) at the cell's ambient T [K],
+    driven exactly where it is commanded (the setpoint ramped over one command, as a servo
+    controller does), read without noise: what a plan does to the damper, not to a cell."""
+
+    def __init__(self, damper, h, T):
+        from models.physics.simulate import Stepper
+        from rig.codecs.actuator import MODES, STATES
+        self.T = T
+        self.x = self.setpoint = damper.mid_stroke  # m
+        self.v = self.F = 0.0
+        self.P = ()  # Pa: P1, P2, P_gas (none before the first step)
+        self.h, self.follow = h, MODES["follow"]
+        self.stepper = Stepper(damper, self.T, self.x, h)
+        state = {v: k for k, v in STATES.items()}
+        self.state_of = {MODES["off"]: state["off"], MODES["hold"]: state["holding"], self.follow: state["following"]}
+        self.mode, self.alarm = MODES["hold"], 0
+        self.state = self.state_of[self.mode]
+
+    def command(self, mode, x):
+        self.mode = int(mode)
+        self.state = self.state_of[self.mode]
+        if mode == self.follow:
+            self.setpoint = float(x)
+
+    def advance(self, seconds):
+        n = max(1, int(round(seconds / self.h)))
+        x0 = self.x
+        target = self.setpoint if self.mode == self.follow else x0
+        for k in range(1, n + 1):  # pressures [Pa] and the other forces are the model's own
+            x = x0 + (target - x0) * k / n
+            self.v, self.x = (x - self.x) / self.h, x
+            self.F, _, _, _, *self.P = self.stepper.step(self.x, self.v)
+
+    def readings(self):
+        P1, P2, P_gas = self.P or (0.0, 0.0, 0.0)
+        return {"force": self.F, "x": self.x, "v": self.v, "x_internal": self.x, "T_body": self.T,
+                "T_reservoir": self.T, "P_gas": P_gas, "P1": P1, "P2": P2}

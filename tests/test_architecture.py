@@ -3,7 +3,8 @@
 Layers import downward only:
     protocols (the application)  ->  sim_backend  ->  rig, models
     rig and models import nothing of each other, of sim_backend or of protocols;
-    inside models, the equations (physics) import nothing built on them.
+    inside models, the damper's description imports no equation, the equations (physics)
+    nothing built on them, and the fan-out (parallel) none of the libraries that use it.
 No module imports another module's private names (_name), no modules import each other in a
 circle, no command imports another command. Transports are named in one place (the
 registry), and so are the hidden effects."""
@@ -21,6 +22,11 @@ FORBIDDEN = {  # importer prefix -> imported prefixes it must not use
     "rig": ("models", "sim_backend", "protocols"),
     "rig.codecs": ("rig.devices", "rig.loop", "rig.rig", "rig.safety", "rig.config"),
     "models": ("rig", "sim_backend", "protocols"),
+    # the damper's description is what the equations take: it imports none of them
+    "models.damper": ("models.physics", "models.identify", "models.diagnose", "models.quarter_car",
+                      "models.validation"),
+    # the fan-out the libraries use imports none of them (it warms the equations only)
+    "models.parallel": ("models.identify", "models.diagnose", "models.quarter_car", "models.validation"),
     "models.physics": ("models.identify", "models.diagnose", "models.quarter_car", "models.validation"),
     "models.identify": ("models.diagnose", "models.quarter_car", "models.validation"),
     "models.diagnose": ("models.identify", "models.quarter_car", "models.validation"),

@@ -575,3 +575,42 @@ def test_every_figure_of_a_report_speaks_its_unit_system(koni_run, tmp_path, mon
     assert {"static.png", "low_speed.png", "temperature.png", "loops.png", "composite.png"} <= set(labels), labels
     shown = {m for ls in labels.values() for s in ls for m in re.findall(r"\[(.*?)\]", s)}
     assert shown and shown <= {"in", "in/s", "lbf", "F", "s", "ms", "Hz"}, labels
+
+
+# planning `dyno run` in a fresh interpreter, every file it opens under sim_backend/ listed
+# (Python's audit hook: imports open their sources and caches too)
+_AUDITED_PLANNING = """
+import os, sys
+root = os.path.abspath("sim_backend") + os.sep
+opened = set()
+def hook(event, args):
+    if event == "open" and args and isinstance(args[0], (str, bytes, os.PathLike)):
+        path = os.path.abspath(os.fsdecode(args[0]))
+        if path.startswith(root):
+            opened.add(os.path.relpath(path))
+sys.addaudithook(hook)
+from protocols.app.cli import parser
+from protocols.app.run import _plan_run
+args, _ = parser().parse_known_args(["run", *sys.argv[1:]])
+_plan_run(args)
+print(sorted(opened))
+"""
+
+
+def test_a_real_cells_run_opens_no_file_of_the_simulator():
+    """Planning a run on a real cell (its checks, the pre-flight, a closed loop's rehearsal,
+    here against the damper model alone) reads the cell's config and the damper, never
+    the virtual plant's files; the same planning on the virtual rig does (the audit sees)."""
+    root = Path(__file__).resolve().parent.parent
+
+    def planned(*argv):
+        done = subprocess.run([sys.executable, "-c", _AUDITED_PLANNING, *argv], cwd=root, capture_output=True,
+                              text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.strip(), done.stderr
+
+    for protocol in ("sine-matrix", "hil"):
+        opened, said = planned(protocol, "--rig", "rig/configs/example-cell.toml")
+        assert opened == "[]", (protocol, opened)
+    assert "pre-flight (the run against the damper model alone): hil" in said
+    assert "sim_backend/effects/" in planned("sine-matrix")[0]  # the virtual rig's hidden physics parsed

@@ -37,7 +37,8 @@ from models.identify.parameters import canonical, parameter_value, set_parameter
 from models.identify.result import IdentifyError, Result
 from models.identify.segments import GAP_CYCLE_SHARE, dynamic_segments
 from models.identify.static import Estimate, identify_static, static_holds
-from models.physics.gas_spring import P_ATM, T_STD
+from models.damper import T_STD
+from models.physics.gas_spring import P_ATM
 from models.recording import at, covariance, missing, nrmse, segments, sign_problem
 
 __all__ = ["IdentifyError", "Result", "canonical", "dynamic_segments", "identify", "parameter_value",

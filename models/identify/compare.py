@@ -11,7 +11,7 @@ import numpy as np
 
 from models.damper import Damper
 from models.physics.friction import breakaway_ratio, static_friction
-from models.physics.gas_spring import T_STD
+from models.damper import T_STD
 from models.identify.parameters import canonical, parameter_value
 from models.physics.simulate import simulate, sine
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from models.physics.friction import static_friction
-from models.physics.gas_spring import T_STD
+from models.damper import T_STD
 from models.identify.static import Estimate
 
 SKIP_M = 0.37e-3  # data next to the reversal dropped (thesis: 2.9 x the DAQ resolution)

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.physics.gas_spring import T_STD
+from models.damper import T_STD
 from models.recording import at, cycle_blocks, gaps, missing, segments, smooth
 
 WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)

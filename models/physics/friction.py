@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from models.physics.gas_spring import T_STD
+from models.damper import T_STD
 
 
 def static_friction(x, x_table, F_table):

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from models.damper import T_STD
+
 P_ATM = 101_325.0  # Pa
-T_STD = 293.15  # K, the thesis's 20 C reference for delta-T
 
 
 def force_from_pressure(P, A_r):

@@ -18,7 +18,7 @@ import numpy as np
 
 from models.physics import gas_spring
 from models.validation import quarter_car as quarter_car_validation
-from models.damper import load
+from models.damper import T_STD, load
 from models.physics.friction import static_friction
 from models.physics.simulate import C_to_K, simulate, sine
 
@@ -48,7 +48,7 @@ def static_test(d, rng, n=11, resolution=LOADCELL_RESOLUTION):
     Returns (x, gas force = mean of the two, friction = half the difference)."""
     x = np.linspace(0.05, 0.95, n) * d.geometry.stroke
     g, f = d.gas_spring, d.friction
-    F_g = gas_spring.static_force(x, gas_spring.T_STD, g.P0, g.V0, g.T0, d.geometry.A_r, g.K_voil, g.K_voint)
+    F_g = gas_spring.static_force(x, T_STD, g.P0, g.V0, g.T0, d.geometry.A_r, g.K_voil, g.K_voint)
     F_s = static_friction(x, f.x_table, f.F_table)
     noise = lambda: rng.uniform(-resolution, resolution, n)
     up, down = F_g + F_s + noise(), F_g - F_s + noise()

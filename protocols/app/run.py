@@ -135,7 +135,7 @@ def _plan_run(args):
     from protocols.io.files import output_file
     from protocols.library import DISCOVER, PROTOCOLS
     from protocols.plan import parse, rig_info
-    from protocols.rehearsal import rehearse
+    from protocols.rehearsal import AGAINST, rehearse
     module = PROTOCOLS.get("sine-matrix" if args.protocol == DISCOVER else args.protocol)
     if module is None:
         raise UsageError(f"unknown protocol {args.protocol!r} (known: {', '.join(PROTOCOLS)}, {DISCOVER})")
@@ -156,8 +156,8 @@ def _plan_run(args):
     if args.rig == DIRECT and args.realtime:
         raise UsageError(f"--realtime: the {DIRECT} cell runs on its simulated clock (the embedded rig keeps real "
                          f"time)")
-    plant = virtual_plant(args)
-    damper = load_damper(plant.damper)
+    plant = virtual_plant(args) if virtual else None  # a real cell opens no file of the simulator
+    damper = load_damper(plant.damper if virtual else args.damper)
     if damper.layout == "simplified":
         raise UsageError(f"{damper.name}: a simplified model (eq 6.1/6.2) has no geometry or gas spring to run on a "
                        f"rig; give a full damper (a preset or JSON)")
@@ -176,8 +176,9 @@ def _plan_run(args):
     forecast = preflight.check(list(module.plan(params, info)), info, long=args.long)
     print(preflight.summary(forecast, args.units), file=sys.stderr)
     if getattr(module, "REHEARSE", False):
-        for name, found in rehearse(module, params, cfg, damper):
-            print(f"pre-flight (the run against the virtual plant): {name}: {module.summary(found)}", file=sys.stderr)
+        for name, found in rehearse(module, params, cfg, damper, virtual):
+            print(f"pre-flight (the run against {AGAINST[virtual]}): {name}: {module.summary(found)}",
+                  file=sys.stderr)
     return module, params, plant, damper, cfg, info
 
 

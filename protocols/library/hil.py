@@ -171,6 +171,8 @@ class CarLoop:
         r = fit(self._probe.c, self._probe.m, self._probe.f, self.h, with_force=False) if self._probe else None
         self.delay_probe = float(r[0][1] / r[0][0]) if r is not None and r[0][0] > 0 else float("nan")
         delay = self.p.delay_ms / 1e3 if self.p.delay_ms > 0 else self.delay_probe
+        if -self.h / 2 < delay < 0.0:  # within half a tick of none (a perfect actuator): none
+            delay = 0.0
         if not 0.0 <= delay <= 0.05:
             raise RigError(f"hil: the probe's delay estimate {delay * 1e3:.1f} ms is not an actuator's: give delay_ms")
         d = self.rig.damper

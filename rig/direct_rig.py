@@ -1,10 +1,11 @@
-"""The plant without wires: the `Rig` interface (rig/rig.py) read straight off the plant, on
-its simulated clock. For work that needs the runner's own stepping of a plan but not the
-wire protocols: `dyno prove --calibrate` and the diagnosis benchmark run through
-protocols.runner exactly as a recorded run does, many times faster than through the
-emulators.
+"""A plant without wires: the `Rig` interface (rig/rig.py) read straight off an object that
+steps itself (`advance(seconds)`, `readings()` in SI, `command(mode, x)`, `state`, `alarm`),
+on its simulated clock. For work that needs the runner's own stepping of a plan but not the
+wire protocols: `dyno prove --calibrate` and the diagnosis benchmark run the virtual plant
+through protocols.runner exactly as a recorded run does, many times faster than through
+the emulators; a real cell's pre-flight runs the damper model alone (protocols/cell.py).
 
-    with protocols.cell.direct(config, damper, effects=..., seed=...) as c:
+    with protocols.cell.direct(config, damper, PlantOptions(effects=...)) as c:
         protocols.runner.run_plan(plan, c, observers)
 """
 from __future__ import annotations
@@ -13,17 +14,15 @@ import time
 
 import numpy as np
 
-from rig.codecs.actuator import STATES, alarm_texts
+from rig.codecs.actuator import MODES, STATES, alarm_texts
 from rig.rig import Reading
-from sim_backend.plant import MODE_FOLLOW, MODE_HOLD, MODE_OFF, Plant
 
 
 class DirectRig:
-    def __init__(self, config, damper="koni", seed=0, T0=None, effects=None, params=None, h=5e-4):
-        """config: a RigConfig (its channels that the plant reads, its limits and rate);
-        h: the plant's step [s], at most the loop period."""
+    def __init__(self, config, plant):
+        """config: a RigConfig (its channels that the plant reads, its limits and rate)."""
         self.config = config
-        self.plant = Plant(damper, T0=T0, h=min(h, 1.0 / config.rate_hz), seed=seed, params=params, effects=effects)
+        self.plant = plant
         self.t = 0.0
         self.wall_start = time.time()
         names = set(self.plant.readings())
@@ -62,13 +61,13 @@ class DirectRig:
         return out
 
     def follow(self, x):
-        self.plant.command(MODE_FOLLOW, float(x))
+        self.plant.command(MODES["follow"], float(x))
 
     def hold(self):
-        self.plant.command(MODE_HOLD, 0.0)
+        self.plant.command(MODES["hold"], 0.0)
 
     def stop(self):
-        self.plant.command(MODE_OFF, 0.0)
+        self.plant.command(MODES["off"], 0.0)
 
     def actuator(self):
         return STATES.get(self.plant.state, f"state {self.plant.state}"), alarm_texts(self.plant.alarm)

@@ -133,6 +133,54 @@ class ProveTask:
         return f"{what} noise x{self.noise:g} {self.rate:g} Hz seed {self.seed}"
 
 
+def matrix(asked, all_forms, sizes, noise, rates, seeds, budget, concealed):
+    """(effects, [ProveTask]) of `dyno prove --effects ASKED`: each effect (ALL: every one;
+    A+B: two hidden together; EFFECT:FORM: that form only; null: nothing hidden; None: all
+    and the nulls), in its other forms too with all_forms, at each size (times its
+    concealed value's noise floor), noise level and rate, on each seed, with a null per seed
+    to measure contributions against; UsageError names what cannot be proven."""
+    from sim_backend.effects import EffectError, parse
+    from protocols.errors import UsageError
+    named = ([n for e in asked.split(",") for n in (EFFECTS if e == "ALL" else [e])] if asked
+             else list(EFFECTS) + ["null"])
+    effects = list(dict.fromkeys(e.partition(":")[0] for e in named))
+    variants = list(dict.fromkeys((e.partition(":")[0], e.partition(":")[2] or None) for e in named))
+    bad = [f"{e}:{f}" for e, f in variants if f and e in EFFECTS and f not in EFFECTS[e].forms]
+    if bad:
+        raise UsageError(f"--effects: {bad[0]}: no such form (sim_backend/effects/ FORMS)")
+    unknown = [e for e in effects if e != "null" and not set(e.split("+")) <= set(EFFECTS)]
+    if unknown:
+        raise UsageError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
+                         f"A+B hidden together)")
+    if not all(200.0 <= r <= 10000.0 for r in rates):
+        raise UsageError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in rates)}")
+    if all_forms:
+        variants = [v for e in effects for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS
+                                                                                  else ())]]
+    for e, form in variants:  # each form at its own noise floor
+        for part in (e.split("+") if e != "null" else ()):
+            if key(part, form) not in concealed:
+                raise UsageError(f"no concealed value for {key(part, form)!r} in sim_backend/plain.toml "
+                                 f"(run dyno prove --calibrate{' --forms all' if form else ''})")
+    tasks = []
+    for seed in range(seeds):
+        for level, rate in [(n, r) for n in noise for r in rates]:
+            for e, form in variants:
+                for size in ([1.0] if e == "null" else sizes):  # a multiple of the noise floor at this level
+                    values = None if e == "null" else {
+                        p: scaled(p, concealed[key(p, form)], size * level) for p in e.split("+")}
+                    tasks.append(ProveTask(None if e == "null" else e, form, size, values, seed, level, rate,
+                                           budget_s=budget))
+            if "null" not in effects:  # the contribution is measured against the null of the same seed
+                tasks.append(ProveTask(None, None, 1.0, None, seed, level, rate, budget_s=budget))
+    for t in tasks:  # a size the plant cannot take is refused before any run
+        try:
+            parse([f"{e}{':' + t.form if t.form else ''}={v}" for e, v in (t.values or {}).items()])
+        except EffectError as err:
+            raise UsageError(f"--sizes {t.size:g}: {err}") from None
+    return effects, tasks
+
+
 def run_tasks(tasks, pool, label, keep=None, say=lambda s: None):
     """[run_task(t) for t in tasks] on the pool. keep: a folder (protocols/keep.py) where
     each result is kept as it comes in, and from which a task already run is taken."""
@@ -306,3 +354,82 @@ def table(results, effects, concealed):
                                     if any("contribution" in r for r in rs) else None)}
         table.append(row)
     return table
+
+
+def open_tasks(expr, seeds, level, rate):
+    """`dyno prove --open EXPR`'s runs: on each seed, a null and the user's own physics
+    (sim_backend/extra.py) hidden; UsageError names a law that cannot be compiled."""
+    from sim_backend.effects import EffectError, parse
+    from protocols.errors import UsageError
+    try:
+        parse([f"extra:{expr}"])
+    except EffectError as e:
+        raise UsageError(str(e).replace("--effect extra:", "--open ")) from None
+    return [t for seed in range(seeds) for t in (ProveTask(None, None, 1.0, None, seed, level, rate),
+                                                 ProveTask(None, None, 1.0, None, seed, level, rate, expr))]
+
+
+def open_rows(results):
+    """Per seed, of open_tasks' results: the hidden force's size against its null, what the
+    null claimed, what was found, and the share of the held-out error above the noise it
+    explains."""
+    rows = []
+    for null, r in zip(results[::2], results[1::2]):
+        base, final = (e ** 2 for e in r["rmse"])
+        explained = 1.0 - max(final - r["noise_sd"] ** 2, 0.0) / max(base - r["noise_sd"] ** 2, 1e-12)
+        rows.append({"seed": r["seed"], "contribution_rms": measured_rms_diff(r, null), "null_claims": null["claims"],
+                     "found": r["found"], "explained": explained, "within_noise": r["within_noise"]})
+    return rows
+
+
+# --- the table, as `dyno prove` prints it ---------------------------------------------
+HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",
+          "named first or in a group of <= 3", "wrong effect", "false positive",
+          "also named: left out / may compensate", "estimate (median)", "held-out NRMSE before / after [%]")
+ADAPTIVE = ("detection by the prove plan alone", "rig time added [s] (median)")
+
+
+def _cells(r):
+    f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
+    return (r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f"x{r['noise']:g}", f"{r['rate_hz']:g}",
+            f(r["value"], ".3g"), f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"),
+            f(r["detection_group"], ".0%"), f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"),
+            f"{f(r['extra_left_out'], '.0%')} / {f(r['extra_compensating'], '.0%')}", f(r["estimate"], ".3g"),
+            f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}")
+
+
+def rows(table, adaptive=False):
+    """(header, rows of text) of table(); adaptive: the opening's detection and the next
+    tests' rig time beside the detection."""
+    header, cells = HEADER, [_cells(r) for r in table]
+    if adaptive:
+        header = (*HEADER[:7], ADAPTIVE[0], HEADER[7], ADAPTIVE[1], *HEADER[8:])
+        cells = [(*c[:7], "-" if r["detection_opening"] is None else f"{r['detection_opening']:.0%}", c[7],
+                  f"{r['added_s']:.0f}", *c[8:]) for c, r in zip(cells, table)]
+    return header, cells
+
+
+def markdown(header, cells, table, seeds, noise, budget=None):
+    """The stamped Markdown page of the table (docs/results), with the plant's forms used;
+    budget: the next tests' rig time [s] (--adaptive), None without."""
+    from sim_backend.effects import FORMS
+    from protocols.discover import MAX_ROUNDS
+    from protocols.reports import markdown as md
+    order = list(EFFECTS)
+    used = sorted({(r["effect"], r["form"]) for r in table if r["form"] not in (None, "default")},
+                  key=lambda k: (order.index(k[0]) if k[0] in EFFECTS else 99, k[1]))
+    forms = [(e, "default", EFFECTS[e].form) for e in dict.fromkeys(e for e, _ in used) if e in EFFECTS]
+    forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
+    body = md.table(header, cells)
+    if forms:
+        body += "\n\nThe forms (sim_backend/effects/):\n\n" + md.table(
+            ("effect", "form", "in the plant"), sorted(forms, key=lambda r: (order.index(r[0]), r[1] != "default", r[1])))
+    return md.document("Proof of the diagnosis (dyno prove)", body,
+                       f"{seeds} seeds per row on the plain cell through the wires"
+                       + (f", each recording followed by the dyno's own next tests (dyno run discover, at most "
+                          f"{budget:g} s of rig time added, at most {MAX_ROUNDS} rounds)" if budget is not None else "")
+                       + f"; force noise {noise:g} N RMS at noise x1 (every sensor's noise times the noise column). "
+                       f"Size x1 is the concealed value at that noise (its contribution equals the force noise, each "
+                       f"form calibrated on its own); x10 ten times as strong (a bulk modulus divided by ten, a "
+                       f"breakaway ratio's excess times ten); forms: sim_backend/effects/ FORMS. Goals: detection >= "
+                       f"90 %, false positives <= 5 %. Method: docs/diagnosis.md.")

@@ -688,7 +688,7 @@ def test_a_recording_being_written_is_left_alone_and_a_stale_lock_is_cleared(fil
 
 
 def test_rig_zero_writes_within_range_into_a_linked_cell_files_target(tmp_path):
-    from protocols.app.rig_zero import write_offsets
+    from protocols.commissioning import write_offsets
     from rig import config as rig_config
     real = tmp_path / "cells" / "cell-2.toml"
     real.parent.mkdir()

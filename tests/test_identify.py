@@ -339,7 +339,7 @@ def test_a_parameter_on_its_bound_is_flagged_not_shown_as_measured():
     """Issue 45: C_linw 999999.99 (the range ends at 1e6) was printed as identified."""
     from models.damper import load
     from models.identify.parameters import at_bounds
-    from protocols.app.identify import text
+    from protocols.identification import text
     d = load("koni")
     assert at_bounds(d) == []  # a zero that means "none" (no air, no pre-sliding travel) is no bound hit
     d.valves.piston.compression.mid.C_linw = 999999.99

@@ -130,7 +130,7 @@ def test_any_edit_of_a_config_loads_or_gives_one_line(data):
 def test_rig_zero_changes_one_offset_and_leaves_the_rest_of_the_file():
     import pytest
 
-    from protocols.app.rig_zero import set_offset
+    from protocols.commissioning import set_offset
     from protocols.errors import UsageError
     text = ('[channels.force]\ndevice = "loadcell"\ngain = 1032.0  # N/V\noffset = 0.0  # tared\nunit = "N"\n\n'
             '[channels.x]\noffset = 0.0381\n')

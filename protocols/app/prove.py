@@ -15,8 +15,6 @@ from __future__ import annotations
 import json
 import sys
 
-from protocols.errors import UsageError
-
 from protocols.app.arguments import cluster_option, number, sizes
 
 def add(sub):
@@ -64,10 +62,9 @@ def add(sub):
 
 
 def run(args):
-    from sim_backend.effects import EFFECTS, scaled
     from sim_backend.options import plain_cell
     from protocols import cluster
-    from protocols.proof import ProveTask, calibrate, key, measured_rms_diff, run_tasks, table as proof_table
+    from protocols.proof import calibrate, matrix, measured_rms_diff, run_tasks, table as proof_table
     _, params, prove = plain_cell()
     say = (lambda s: print(s, file=sys.stderr, flush=True))
     noise = params["sensors"]["force_noise"]
@@ -84,49 +81,10 @@ def run(args):
     if getattr(args, "open", None) is not None:  # an empty EXPR is refused there, not ignored
         return prove_open(args, say)
     concealed = prove.get("concealed", {})
-    named = ([n for e in args.effects.split(",") for n in (EFFECTS if e == "ALL" else [e])] if args.effects
-             else list(EFFECTS) + ["null"])  # ALL: every effect
-    effects = list(dict.fromkeys(e.partition(":")[0] for e in named))  # EFFECT:FORM proves that form only
-    variants = list(dict.fromkeys((e.partition(":")[0], e.partition(":")[2] or None) for e in named))
-    bad = [f"{e}:{f}" for e, f in variants if f and e in EFFECTS and f not in EFFECTS[e].forms]
-    if bad:
-        raise UsageError(f"--effects: {bad[0]}: no such form (sim_backend/effects/ FORMS)")
-    args.sizes = getattr(args, "sizes", None) or [1.0]
-    unknown = [e for e in effects if e != "null" and not set(e.split("+")) <= set(EFFECTS)]
-    if unknown:
-        raise UsageError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
-                       f"A+B hidden together)")
-    if not all(200.0 <= r <= 10000.0 for r in args.rates):
-        raise UsageError(f"--rates: the virtual cell runs at 200-10000 Hz, not "
-                         f"{', '.join(f'{r:g}' for r in args.rates)}")
-    if args.forms == "all":  # each effect also in the plant's other forms (sim_backend/effects/ FORMS)
-        variants = [v for e in effects
-                    for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS else ())]]
-    for e, form in variants:  # each form at its own noise floor
-        for part in (e.split("+") if e != "null" else ()):
-            if key(part, form) not in concealed:
-                say(f"dyno: error: no concealed value for {key(part, form)!r} in sim_backend/plain.toml "
-                    f"(run dyno prove --calibrate{' --forms all' if form else ''})")
-                return 2
-    tasks = []
     budget = args.budget if getattr(args, "adaptive", False) else 0.0
-    for seed in range(args.seeds):
-        for level, rate in [(n, r) for n in args.noise for r in args.rates]:
-            for e, form in variants:
-                for size in ([1.0] if e == "null" else args.sizes):
-                    # a size is a multiple of the noise floor at this noise level
-                    values = None if e == "null" else {
-                        p: scaled(p, concealed[key(p, form)], size * level) for p in e.split("+")}
-                    tasks.append(ProveTask(None if e == "null" else e, form, size, values, seed, level, rate,
-                                           budget_s=budget))
-            if "null" not in effects:  # the contribution is measured against the null of the same seed
-                tasks.append(ProveTask(None, None, 1.0, None, seed, level, rate, budget_s=budget))
-    from sim_backend.effects import EffectError, parse
-    for t in tasks:  # a size the plant cannot take is refused before any run
-        try:
-            parse([f"{e}{':' + t.form if t.form else ''}={v}" for e, v in (t.values or {}).items()])
-        except EffectError as err:
-            raise UsageError(f"--sizes {t.size:g}: {err}") from None
+    args.sizes = getattr(args, "sizes", None) or [1.0]
+    effects, tasks = matrix(args.effects, args.forms == "all", args.sizes, args.noise, args.rates, args.seeds,
+                            budget, concealed)
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
         results = run_tasks(tasks, pool, "prove", _keep(args), say)
     for t, r in zip(tasks, results):
@@ -151,24 +109,11 @@ def prove_open(args, say):
     what it depends on, where it lives, and how much of the held-out error above the
     noise it explains."""
     from protocols import cluster
-    from protocols.proof import ProveTask, measured_rms_diff, run_tasks
-    from sim_backend.effects import EffectError, parse
-    try:
-        parse([f"extra:{args.open}"])
-    except EffectError as e:
-        raise UsageError(str(e).replace("--effect extra:", "--open ")) from None
+    from protocols.proof import open_rows, open_tasks, run_tasks
     level, rate = args.noise[0], args.rates[0]
-    tasks = [t for seed in range(args.seeds) for t in (ProveTask(None, None, 1.0, None, seed, level, rate),
-                                                        ProveTask(None, None, 1.0, None, seed, level, rate, args.open))]
+    tasks = open_tasks(args.open, args.seeds, level, rate)
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-        results = run_tasks(tasks, pool, "prove --open", _keep(args), say)
-    rows = []
-    for null, r in zip(results[::2], results[1::2]):
-        size = measured_rms_diff(r, null)
-        base, final = (e ** 2 for e in r["rmse"])
-        explained = 1.0 - max(final - r["noise_sd"] ** 2, 0.0) / max(base - r["noise_sd"] ** 2, 1e-12)
-        rows.append({"seed": r["seed"], "contribution_rms": size, "null_claims": null["claims"],
-                     "found": r["found"], "explained": explained, "within_noise": r["within_noise"]})
+        rows = open_rows(run_tasks(tasks, pool, "prove --open", _keep(args), say))
     if args.json:
         print(json.dumps({"expression": args.open, "rate_hz": rate, "noise": level, "runs": rows}, indent=1))
         return 0
@@ -189,53 +134,13 @@ def _keep(args):
     return None if getattr(args, "keep", None) is None else keep.folder(args.keep)
 
 
-HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",
-          "named first or in a group of <= 3", "wrong effect", "false positive", "also named: left out / may compensate", "estimate (median)",
-          "held-out NRMSE before / after [%]")
-
-
-def _cells(r):
-    f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
-    return (r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f"x{r['noise']:g}", f"{r['rate_hz']:g}",
-            f(r["value"], ".3g"), f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"),
-            f(r["detection_group"], ".0%"), f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"),
-            f"{f(r['extra_left_out'], '.0%')} / {f(r['extra_compensating'], '.0%')}", f(r["estimate"], ".3g"),
-            f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}")
-
-
-ADAPTIVE = ("detection by the prove plan alone", "rig time added [s] (median)")
-
-
 def _print(table, args, noise):
-    from sim_backend.effects import EFFECTS
-    from protocols.discover import MAX_ROUNDS
-    header, rows = HEADER, [_cells(r) for r in table]
-    if getattr(args, "adaptive", False):  # beside the detection: the opening's, and what the next tests cost
-        header = (*HEADER[:7], ADAPTIVE[0], HEADER[7], ADAPTIVE[1], *HEADER[8:])
-        rows = [(*c[:7], "-" if r["detection_opening"] is None else f"{r['detection_opening']:.0%}", c[7],
-                 f"{r['added_s']:.0f}", *c[8:]) for c, r in zip(rows, table)]
-    if not getattr(args, "markdown", False):
-        widths = [max(len(c) for c in col) for col in zip(header, *rows)]
-        for row in (header, *rows):
-            print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    from protocols.proof import markdown, rows
+    header, cells = rows(table, getattr(args, "adaptive", False))
+    if getattr(args, "markdown", False):
+        print(markdown(header, cells, table, args.seeds, noise, args.budget if getattr(args, "adaptive", False)
+                       else None))
         return
-    from protocols.reports import markdown as md
-    from sim_backend.effects import FORMS
-    used = sorted({(r["effect"], r["form"]) for r in table if r["form"] not in (None, "default")},
-                  key=lambda k: (list(EFFECTS).index(k[0]) if k[0] in EFFECTS else 99, k[1]))
-    forms = [(e, "default", EFFECTS[e].form) for e in dict.fromkeys(e for e, _ in used) if e in EFFECTS]
-    forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
-    body = md.table(header, rows)
-    if forms:
-        body += "\n\nThe forms (sim_backend/effects/):\n\n" + md.table(("effect", "form", "in the plant"),
-                                                                       sorted(forms, key=lambda r: (list(EFFECTS).index(r[0]), r[1] != "default", r[1])))
-    print(md.document("Proof of the diagnosis (dyno prove)", body,
-                      f"{args.seeds} seeds per row on the plain cell through the wires"
-                      + (f", each recording followed by the dyno's own next tests (dyno run discover, at most "
-                         f"{args.budget:g} s of rig time added, at most {MAX_ROUNDS} rounds)"
-                         if getattr(args, "adaptive", False) else "") + f"; force noise {noise:g} N RMS "
-                      f"at noise x1 (every sensor's noise times the noise column). Size x1 is the concealed value "
-                      f"at that noise (its contribution equals the force noise, each form calibrated on its own); x10 ten times "
-                      f"as strong (a bulk modulus divided by ten, a breakaway ratio's excess times ten); forms: "
-                      f"sim_backend/effects/ FORMS. Goals: detection >= 90 %, false positives <= 5 %. Method: "
-                      f"docs/diagnosis.md."))
+    widths = [max(len(c) for c in col) for col in zip(header, *cells)]
+    for row in (header, *cells):
+        print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())

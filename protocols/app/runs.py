@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import sys
 from contextlib import closing
-from datetime import datetime, timezone
 from pathlib import Path
 
 from protocols.errors import UsageError
@@ -72,51 +71,22 @@ def index(args):
     return 0
 
 
-LIST = ("id", "started", "serial", "damper", "protocol", "duration_s", "outcome", "path")
-
-
-def _cell(row, k):
-    v = row[k]
-    if k == "path":
-        return Path(v).name
-    if k == "duration_s" and v is not None:
-        return f"{v:.0f}"
-    if k == "outcome" and row["error"]:
-        return f"unreadable: {row['error']}"
-    return "-" if v is None else v
-
-
 def list_runs(args):
     from protocols import catalogue
-    from protocols.reports import markdown as md
+    from protocols.reports.runs import run_list
     with _connect(args) as c:
         rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol,
                               where=getattr(args, "where", None))
     if args.json:
         print(json.dumps([dict(r) for r in rows], indent=1))
     else:
-        print(md.table(LIST, [[_cell(r, k) for k in LIST] for r in rows]) if rows else "no runs match")
+        print(run_list(rows))
     return 0
 
 
-def _shown(key, value):
-    """A catalogue field as a person reads it: file times as UTC dates, durations in s."""
-    if key == "mtime":
-        return datetime.fromtimestamp(value, timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
-    if key == "started":
-        try:
-            return datetime.fromisoformat(value).astimezone(timezone.utc).strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] + " UTC"
-        except ValueError:
-            return value
-    if key == "duration_s":
-        return f"{value:.1f}"
-    return value
-
-
 def show(args):
-    from protocols import catalogue, catalogue_terms
-    from protocols.reports import markdown as md
-    from protocols.units import fmt
+    from protocols import catalogue
+    from protocols.reports.runs import run_page
     with _connect(args) as c:
         row, peaks = catalogue.run(c, args.id)
         checks, models, diagnoses = (catalogue.attached(c, t, args.id) for t in ("checks", "models", "diagnoses"))
@@ -124,30 +94,7 @@ def show(args):
         print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks], "checks": [dict(k) for k in checks],
                           "models": [dict(m) for m in models], "diagnoses": [dict(d) for d in diagnoses]}, indent=1))
         return 0
-    for k in row.keys():
-        if row[k] not in (None, "", "{}"):
-            print(f"{k:11s} {_shown(k, row[k])}")
-    units = args.units
-    V, F = (lambda si, q=q: fmt(units.show(q, si)) for q in ("velocity", "force"))
-    if peaks:
-        print("\n" + md.table(("segment", *(units.label(n, q) for n, q in (("v comp", "velocity"), ("F comp", "force"),
-                                                                        ("v reb", "velocity"), ("F reb", "force")))),
-                              [(p["segment"], V(p["v_comp"]), F(p["F_comp"]), V(p["v_reb"]), F(p["F_reb"]))
-                               for p in peaks]))
-    if checks:
-        from protocols.reports.qa import verdict
-        print("\n" + md.table(("checked (UTC)", "against", "tolerance", "verdict", units.label("worst margin", "force")),
-                              [(k["checked"], k["reference"], k["tolerance"],
-                                verdict(k["points"], k["failed"]),
-                                F(k["worst_margin_n"])) for k in checks]))
-    if models:
-        print("\n" + md.table(("identified (UTC)", "model", "held-out NRMSE [%]"),
-                              [(m["identified"], m["model"], catalogue_terms.model_quality(m["heldout_nrmse"]))
-                               for m in models]))
-    if diagnoses:
-        print("\n" + md.table(("diagnosed (UTC)", "baseline", "effects", "left over"),
-                              [(d["diagnosed"], d["baseline"], catalogue_terms.diagnosis_words(d),
-                                "within the noise" if d["within_noise"] else "above the noise") for d in diagnoses]))
+    print(run_page(row, peaks, checks, models, diagnoses, args.units))
     return 0
 
 

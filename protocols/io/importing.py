@@ -1,0 +1,276 @@
+"""A recording another dyno or acquisition system made, written as a dyno recording: its
+table read (csv_import.py), its signs made ours, its velocity derived where it has none,
+its motion segmented as a run of ours marks it, and what the file could not tell said as
+notes (`dyno import`, `dyno import --inspect`)."""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from protocols.errors import UsageError
+
+FLIPS = ("force", "displacement", "velocity")
+PLOT_POINTS = 10_000  # /plot messages per channel at most: over two per pixel of a 4k display; /channels keeps every sample
+BATCH = 5000  # samples per /channels message
+
+
+@dataclass
+class Source:
+    """What to read from the file and how it was made: the map (NAME=COLUMN[:UNIT]), gains
+    and offsets into the mapped units, channels counted the other way, the rate when no
+    time column says it, the sheet, the aux channels that drive the damper, the source's
+    own filter (models/source_filter.py) and who tested which damper (run metadata)."""
+    file: str
+    map: list
+    gains: dict = field(default_factory=dict)
+    offsets: dict = field(default_factory=dict)
+    flips: tuple = ()
+    rate: float | None = None
+    sheet: str | None = None
+    drives: dict = field(default_factory=dict)
+    smoothing: object = None
+    identity: dict = field(default_factory=dict)
+    given: dict = field(default_factory=dict)  # the options as given, kept in the recording's params
+
+
+@dataclass
+class Imported:
+    """What was written: the recording, its rows, when it started (and how that is known),
+    its channels with their units, the periodic segments and holds found, and the notes."""
+    path: Path
+    rows: int
+    wall_start: float  # s since the epoch
+    dated: str  # "" when the file says its date, else how its start was taken
+    channels: dict  # {channel: unit}
+    velocity_derived: bool
+    named_units: dict  # {name: unit} taken from the columns' names
+    segments: list  # segmentation.Found, in order
+    notes: list[str]
+
+
+def scales(items, what):
+    """{channel: number} from NAME=NUMBER options (--gain, --offset)."""
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not sep or not math.isfinite(v) or (what == "--gain" and v == 0) or abs(v) > 1e12:
+            raise UsageError(f"{what} {item}: expected NAME=NUMBER (a finite number{', not 0' * (what == '--gain')})")
+        out[name] = v
+    return out
+
+
+def drives(items, mapping):
+    """{aux channel: what of the damper it drives} from --drive NAME=KIND."""
+    from rig.config import DRIVES
+    out = {}
+    for item in items or ():
+        name, _, kind = item.partition("=")
+        if not name.startswith("aux.") or name not in {n for n, _, _ in mapping}:
+            raise UsageError(f"--drive {item}: {name!r} is not a mapped aux.NAME channel")
+        if kind not in DRIVES:
+            raise UsageError(f"--drive {item}: say what it drives: {', '.join(f'{name}={k}' for k in DRIVES)}")
+        out[name] = kind
+    return out
+
+
+def import_file(src: Source, claim) -> Imported:
+    """Read src, write it through claim (files.Claim) as an MCAP recording; UsageError names
+    what cannot be read."""
+    from models import segmentation
+    from models.recording import other_sign
+    from protocols.io.csv_import import derived_velocity, parse_map, read
+    from protocols.io.recording import Recorder
+    got = read(src.file, parse_map(src.map), src.gains, src.offsets, src.rate, src.sheet)
+    data, units = got.data, got.units
+    flip(data, set(src.flips))
+    t = data.pop("time")
+    if "velocity" not in data:
+        ok = ~np.isnan(data["displacement"])
+        data["velocity"] = np.full_like(t, np.nan)
+        data["velocity"][ok] = derived_velocity(t[ok], data["displacement"][ok])
+        units["velocity"] = "derived from displacement"
+    channels, gaps = _channels(t, data, units)
+    cfg = SimpleNamespace(
+        name="imported", path=Path(src.file),
+        channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0,
+                                     drives=src.drives.get(n, "")) for n, (_, _, u) in channels.items()},
+        text=f'# imported by dyno import\n[import]\nsource = "{Path(src.file).name}"\n'
+             f"map = {json.dumps(src.map)}\n")
+    duration = float(t[-1] - t[0])
+    if got.start_epoch is not None:
+        wall_start, how = got.start_epoch, got.start_source
+    else:  # the file's own start is unknown: its file time less its duration stands for it
+        wall_start, how = os.path.getmtime(src.file) - duration, "file time less its duration"
+    params = {"source": str(src.file), **src.given,
+              **({"sheet": got.layout.sheet} if got.layout and got.layout.sheet else {})}
+    every = -(-len(t) // PLOT_POINTS)
+    ok = ~np.isnan(data["displacement"])
+    found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
+    # what the report says again; it says the rest itself
+    kept = (_time_notes(got, t, src.map) + got.unit_notes + gaps + _zero_note(data, units)
+            + _velocity_note(t, data, units))
+    kept += _smoothing_note(src.smoothing, found)
+    notes = list(kept)
+    if any(f.kind == "sine" for f in found):
+        rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
+                                                              [(f.t0, f.t1) for f in found]))
+        notes += [f"not in a segment: {rest}"] if rest else []
+    sign = other_sign(data["displacement"], data["force"])
+    notes += [f"sign: {sign}"] if sign else []
+    notes += [postamble(got.layout)] if got.layout and got.layout.postamble else []
+    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
+                   run_info=_run_info(got, how, every, src, kept))
+    try:
+        for n, (tt, v, _) in channels.items():
+            for i in range(0, len(tt), BATCH):
+                rec.samples({n: (tt[i:i + BATCH], v[i:i + BATCH])})
+        for e in segmentation.events(found):  # as a run of ours marks its segments
+            rec.event(e)
+        rec.commit()
+    finally:
+        rec.close()
+    return Imported(rec.path, len(t), wall_start, "" if got.start_epoch is not None else how,
+                    {n: u for n, (_, _, u) in channels.items()}, units.get("velocity", "").startswith("derived"),
+                    dict(got.named_units or {}), list(found), notes)
+
+
+def _smoothing_note(smoothing, found) -> list[str]:
+    """What import says of the source's filter; a share of a period where nothing repeats is refused."""
+    from models import source_filter
+    if smoothing is None:
+        return []
+    if isinstance(smoothing, source_filter.LowPass):
+        return [f"filtered by its source: the force through a {'zero-phase' if smoothing.zero_phase else 'causal'} "
+                f"{smoothing.text()} low-pass; the analyses compare every model with it through the same filter"]
+    if smoothing.per_period and not any(f.kind == "sine" for f in found):
+        raise UsageError(f"--smoothed {smoothing.text()}: no stroke of this file repeats, so it has no period to "
+                         f"take a share of: give the moving average's width as a time (e.g. 20ms)")
+    return [f"smoothed by its source: a centred moving average of {smoothing.text()}; the analyses compare every "
+            f"model with it through the same filter"]
+
+
+def _channels(t, data, units):
+    """({channel: (t [s] from the first row, values, unit)}, notes): each mapped column's
+    rows that hold a number; a column with none is left out, and rows without one (NaN,
+    an empty or missing cell) are said with their count."""
+    from protocols.io.column_units import SI
+    from protocols.io.csv_import import CHANNELS
+    channels, gaps = {}, []
+    for name, a in data.items():
+        ok = ~np.isnan(a)
+        if not ok.any():  # an empty column
+            continue
+        channels[CHANNELS.get(name, name)] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
+        if not ok.all() and name != "velocity":  # a derived velocity has a gap where its displacement has
+            gaps.append(f"{name}: {int((~ok).sum())} of {len(a)} rows hold no number (NaN, or an empty or missing "
+                        f"cell): left out of it, the channel read between them")
+    return channels, gaps
+
+
+def _run_info(got, how, every, src, kept) -> dict:
+    """The recording's run metadata: who tested which damper, where its start and time came
+    from, the source's smoothing (models/source_filter.py) and what import said of the
+    file, for the report."""
+    from models.source_filter import RUN_KEY
+    return {**src.identity, "wall_start_source": how,
+            **({"time_source": got.derived_time} if got.derived_time else {}),
+            **({"plot_every": every} if every > 1 else {}),
+            **({RUN_KEY: src.smoothing.text()} if src.smoothing else {}),
+            **({"import_notes": "\n".join(kept)} if kept else {})}
+
+
+def postamble(layout) -> str:
+    """What import leaves out after the data: an export's summary block."""
+    lines = layout.postamble
+    return (f"after the data, left out: {len(lines)} line{'s' * (len(lines) > 1)} that are no row of it ("
+            + "; ".join(repr(line.strip()) for line in lines[:3]) + (", ..." if len(lines) > 3 else "") + ")")
+
+
+def flip(data, flips):
+    """The channels counted the other way made ours: the force negated, the displacement
+    about its most extended reading (its velocity with it), the velocity alone."""
+    if "velocity" in flips and "velocity" not in data:
+        raise UsageError("--flip velocity: no velocity is mapped (the one derived from the displacement follows it)")
+    for name in flips & {"force", "displacement"}:
+        data[name] = -data[name] + (np.nanmax(data[name]) if name == "displacement" else 0.0)
+    if "velocity" in data and ("displacement" in flips) != ("velocity" in flips):
+        data["velocity"] = -data["velocity"]
+
+
+def _time_notes(got, t, maps) -> list[str]:
+    """What the time column could not tell (the day from the month, its unit) or how it was
+    read (tests one after another)."""
+    notes = [f"time: {got.time_note}"] if got.time_note else []
+    step = float(np.median(np.diff(t))) if len(t) > 2 else 0.0
+    if step >= 0.5 and not got.stamped and any(m.startswith("time=") and ":" not in m for m in maps):
+        notes.append(f"time: one row every {step:.3g} s ({1 / step:.3g} Hz), read as seconds: a dyno samples "
+                     f"faster; in ms? give --map time=COLUMN:ms")
+    return notes
+
+
+def _zero_note(data, units) -> list[str]:
+    """A displacement below zero, with the offset that puts its most extended reading at zero."""
+    from models.recording import below_extension
+    from protocols.io.column_units import UNITS
+    unit = units.get("displacement", "m")
+    below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
+    return [f"displacement: {below}"] if below else []
+
+
+def _velocity_note(t, data, units) -> list[str]:
+    """A mapped velocity that is not the displacement's rate of change (the other way, or in
+    another unit)."""
+    from models.recording import velocity_disagrees
+    if units.get("velocity", "").startswith("derived"):
+        return []
+    said = velocity_disagrees(t, data["displacement"], data["velocity"])
+    return [f"velocity: {said}"] if said else []
+
+
+@dataclass
+class Inspection:
+    """What import would read from a file: its layout, its columns with sample values, and
+    the map guessed from their names and values."""
+    layout: object  # table.Layout, or None (a file format with named columns)
+    described: str
+    rows: int
+    columns: list  # [(1-based position, name, sample values, "date-time" or "")]
+    guesses: list[str]  # NAME=COLUMN[:UNIT] from the columns' names
+    from_values: list  # [(NAME=COLUMN[:UNIT], why)] from their values
+    sign: str  # a sign convention other than ours, said; "" if none seen
+    counters: list[str]  # numeric columns that count the rows
+    unnamed: list[str]  # numeric columns guessed from nothing
+
+
+def inspect_file(file, sheet=None) -> Inspection:
+    """What import would read from the file. Writes nothing."""
+    from protocols.io import table
+    from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, key_of, numeric, sign
+    from protocols.io.csv_import import source
+    cols, layout = source(file, sheet)
+    rows = len(next(iter(cols.values()))) if cols else 0
+    columns, guesses = [], []
+    for j, (name, cells) in enumerate(cols.items()):
+        sample = [str(c) for c in list(cells[:SAMPLES])]
+        columns.append((j + 1, name, sample, "date-time" if sample and table.is_stamp(sample[0]) else ""))
+        g = by_name(name, cells)
+        if g and not any(x.split("=")[0] == g.split(":")[0] for x in guesses):
+            guesses.append(f"{g.split(':')[0]}={key_of(j, name, layout)}" + (f":{g.split(':')[1]}" if ":" in g else ""))
+    mapped = {g.split("=", 1)[1].split(":")[0] for g in guesses}
+    found = by_values(cols, layout, guesses)
+    mapped |= {g.split("=", 1)[1].split(":")[0] for g, _ in found}
+    rest = [(f"{j + 1} ({name})", counter(cells, layout)) for j, (name, cells) in enumerate(cols.items())
+            if name not in mapped and str(j + 1) not in mapped and numeric(cells) and by_name(name, cells) is None]
+    return Inspection(layout, layout.describe() if layout else Path(file).suffix[1:] + " columns", rows, columns,
+                      guesses, list(found), sign(cols, layout, guesses + [g for g, _ in found]) or "",
+                      [u for u, c in rest if c], [u for u, c in rest if not c])

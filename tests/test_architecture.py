@@ -130,11 +130,15 @@ def test_no_modules_import_each_other_in_a_circle():
 
 
 def _command_modules():
+    """The modules of protocols.app that are commands (the benches': protocols.app.bench)."""
     from protocols.app.cli import COMMANDS
     names = [m for c in COMMANDS for m in (c[2] if isinstance(c, tuple) else [c])]
-    return {f"protocols.app.{n}" for n in names if not n.startswith("bench")} | {
-        f"protocols.app.bench.{p.stem}" for p in (ROOT / "protocols/app/bench").glob("*.py")
-        if p.stem not in ("__init__", "arguments")}
+    return {f"protocols.app.{n}" for n in names if not n.startswith("bench")} | {"protocols.app.bench"}
+
+
+def _file(module):
+    path = ROOT / module.replace(".", "/")
+    return path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
 
 
 def test_no_command_imports_another_command():
@@ -159,8 +163,26 @@ def test_each_command_declares_its_arguments_and_building_the_parser_stays_light
     assert out.strip() == "[]", out
     cli = (ROOT / "protocols/app/cli.py").read_text()
     assert "set_defaults(command" not in cli  # no command declared in the table itself
-    for m in _command_modules() - {c for c in _command_modules() if ".bench." in c}:
-        assert "def add(sub)" in (ROOT / (m.replace(".", "/") + ".py")).read_text(), m
+    for m in _command_modules() - {"protocols.app.bench"}:  # the benches declare theirs in bench/arguments.py
+        assert "def add(sub)" in _file(m).read_text(), m
+
+
+MAX_COMMAND_LINES = 150
+
+
+def test_nothing_below_the_command_layer_imports_it():
+    """The commands call the library, never the other way: a bench, a proof or a run's life
+    reaches an import or a model through the library, not through `dyno`'s parser."""
+    bad = [f"{m} imports {t}" for path in sources() if not within(m := module_name(path)[0], "protocols.app")
+           for t, _ in imports(path) if within(t, "protocols.app")]
+    assert not bad
+
+
+def test_every_command_only_parses_calls_and_prints():
+    """A command module is short: its work (a run's life, an import, a proof's matrix, a
+    model's documents) lives below the command layer, where other callers reach it too."""
+    long = {m: n for m in _command_modules() if (n := len(_file(m).read_text().splitlines())) > MAX_COMMAND_LINES}
+    assert not long, long
 
 
 def test_no_application_code_opens_a_simulator_file():

@@ -4,8 +4,6 @@ or acquisition system made (CSV, a DAQ's text export, Excel, TDMS, Parquet, MATL
 the table's layout: protocols/io/table.py; the columns' units: protocols/io/column_units.py."""
 from __future__ import annotations
 
-import gc
-
 from protocols.app.arguments import FILE, identity, identity_info, number, overwrite, writes
 from protocols.errors import UsageError
 from protocols.io.importing import FLIPS
@@ -83,13 +81,9 @@ def run(args):
                  {"map": args.map, "flip": args.flip or [], "gain": args.gain or [], "offset": args.offset or [],
                   "drive": args.drive or []})
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
-    gc_was = gc.isenabled()
-    gc.disable()  # millions of cells and floats, no cycles among them: the collector would take most of the time
     try:
         done = import_file(src, claim)
     finally:
-        if gc_was:
-            gc.enable()
         claim.abandon()  # nothing, once the recording was committed
         claim.release()
     _said(done)

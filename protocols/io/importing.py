@@ -4,6 +4,7 @@ its motion segmented as a run of ours marks it, and what the file could not tell
 notes (`dyno import`, `dyno import --inspect`)."""
 from __future__ import annotations
 
+import gc
 import json
 import math
 import os
@@ -86,6 +87,16 @@ def drives(items, mapping):
 def import_file(src: Source, claim) -> Imported:
     """Read src, write it through claim (files.Claim) as an MCAP recording; UsageError names
     what cannot be read."""
+    gc_was = gc.isenabled()
+    gc.disable()  # millions of cells and floats, no cycles among them: the collector would take most of the time
+    try:
+        return _import(src, claim)
+    finally:
+        if gc_was:
+            gc.enable()
+
+
+def _import(src, claim):
     from models import segmentation
     from models.recording import other_sign
     from protocols.io.csv_import import derived_velocity, parse_map, read

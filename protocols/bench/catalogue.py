@@ -135,3 +135,28 @@ def _check_time(recording, folder):
     qa.band_figure(checked.results, folder / "check.png", "bench", Units())
     catalogue.add_check(recording, checked.reference, tol, checked.results)
     return time.perf_counter() - t0
+
+
+def said(r):
+    """(text, Markdown table, note) of bench_catalogue's result against GOALS."""
+    from protocols.reports import markdown as md
+    met = r["goals_met"]
+    rows = [("index every recording (cold)", f"{r['index_s']:.1f} s", f"< {GOALS['index_s']:g} s", met["index_s"]),
+            ("index again, nothing new", f"{r['reindex_s']:.2f} s", f"< {GOALS['reindex_s']:g} s", met["reindex_s"]),
+            ("filtered list (serial and since)", f"{r['list_ms']:.2f} ms", f"< {GOALS['list_ms']:g} ms",
+             met["list_ms"]),
+            ("filtered list (--where on two fields)", f"{r['where_ms']:.2f} ms", "", None),
+            ("runs page, every run (at the server)", f"{r['page_s']:.2f} s", f"< {GOALS['page_s']:g} s",
+             met["page_s"]),
+            ("runs page, every run (in Chromium, to its load event)",
+             "not measured (no Playwright or Chromium)" if r["browser_s"] is None else f"{r['browser_s']:.2f} s",
+             f"< {GOALS['browser_s']:g} s", met.get("browser_s")),
+            ("dyno check, standard recording", f"{r['check_s']:.1f} s", f"< {GOALS['check_s']:g} s", met["check_s"])]
+    table = [(what, value, goal, "" if ok is None else "met" if ok else "NOT met") for what, value, goal, ok in rows]
+    text = (f"{r['runs']} recordings ({r['mb']:.0f} MB, {r['failed']} unreadable); "
+            + "; ".join(f"{w}: {v}" for w, v, _, _ in table))
+    note = (f"{r['runs']} recordings of {r['mb'] / r['runs']:.1f} MB each, made from four short sine matrices on "
+            f"the direct cell (protocols/bench/catalogue.py); the filtered list returned {r['listed']} runs; "
+            f"the runs page is {r['page_kb']:.0f} kB of HTML; the check reads both recordings, draws its band and "
+            f"adds its row to the catalogue.")
+    return text, md.table(("measure", "measured", "goal", ""), table), note

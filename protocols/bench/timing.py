@@ -222,3 +222,25 @@ def bench_discover(budget_s=60.0):
             "wall_over_budget": wall / budget_s, "wall_over_rig": wall / rig, "goal_wall_over_budget": DISCOVER_GOAL,
             "goal_met": wall <= DISCOVER_GOAL * budget_s,
             "verdict": next((e.message for e in events if isinstance(e, Verdict)), "")}
+
+
+def said(stats, embedded, seconds) -> str:
+    """What `dyno bench loop` says of bench_loop's or bench_embedded's stats."""
+    j, b = stats["jitter_us"], stats["machine_baseline"]
+    against = "the embedded virtual rig" if embedded else "sim-rig"
+    n_busy = stats["busy_programs"]
+    beside = f", {n_busy} busy program{'s' * (n_busy != 1)} beside" if n_busy else ""
+    lines = [f"loop at {stats['rate_hz_target']:g} Hz for {seconds:g} s against {against}{beside}: achieved "
+             f"{stats['rate_hz']:.1f} Hz, jitter p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, p99.9 {j['p999']:.0f} us, "
+             f"overruns {stats['overruns']} of {stats['ticks']} ticks, {stats['missed_ticks']} skipped"
+             + (f", FAULT: {stats['fault']}" if stats["fault"] else ""),
+             f"machine baseline (a bare sleep loop, same rate and duration, no rig): {b['late_beyond_period']} of "
+             f"{b['ticks']} ticks late by more than a period, worst {b['max_late_us']:.0f} us"]
+    if "live_diagnoses" in stats:
+        lines.append(f"live diagnosis alongside, beside the controller: {stats['live_diagnoses']} diagnoses of a 4 Hz "
+                     f"segment, median {stats['live_diagnosis_s.median']:.2f} s, worst "
+                     f"{stats['live_diagnosis_s.max']:.2f} s each" if stats["live_diagnoses"]
+                     else "live diagnosis alongside: none finished")
+    if stats["goals_met"] is not None:
+        lines.append("goals: " + ("met" if stats["goals_met"] else "NOT met"))
+    return "\n".join(lines)

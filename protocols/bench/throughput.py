@@ -132,15 +132,15 @@ IMPORT_REPEATS = 3
 
 
 def bench_import(rows=1_000_000):
-    """Seconds `dyno import` takes for a CSV of `rows` rows (time, displacement, force)
-    written with date-time stamps and with plain seconds, end to end (read, convert,
-    record, catalogue): the median of IMPORT_REPEATS imports in one process (the first
-    also loads the modules), and the slowest."""
-    import contextlib
-    import io
+    """Seconds `dyno import`'s work takes for a CSV of `rows` rows (time, displacement,
+    force) written with date-time stamps and with plain seconds, end to end (read, convert,
+    record, catalogue; protocols/io/importing.py): the median of IMPORT_REPEATS imports in
+    one process (the first also loads the modules), and the slowest."""
     from datetime import datetime, timedelta, timezone
 
-    from protocols.app import cli
+    from protocols import catalogue
+    from protocols.io.files import Claim
+    from protocols.io.importing import Source, import_file
     t = np.arange(rows) / 1000.0
     x = 30 + 5 * np.sin(2 * np.pi * t)
     F = 100 * np.cos(2 * np.pi * t)
@@ -158,13 +158,63 @@ def bench_import(rows=1_000_000):
             took = []
             for _ in range(IMPORT_REPEATS):  # this machine's speed wanders by a third from run to run
                 t0 = time.perf_counter()
-                with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-                    code = cli.main(["import", str(src), "--out", str(Path(d) / f"{src.stem}.mcap"), "--overwrite",
-                                     "--map", time_map, "--map", "displacement=x:mm", "--map", "force=F:N"])
-                if code != 0:
-                    raise UsageError(f"bench import: dyno import of the {name} file failed")
+                claim = Claim(Path(d) / f"{src.stem}.mcap", overwrite=True, inputs=[src])
+                try:
+                    catalogue.add(import_file(Source(str(src), [time_map, "displacement=x:mm", "force=F:N"]),
+                                              claim).path)
+                finally:
+                    claim.abandon()
+                    claim.release()
                 took.append(time.perf_counter() - t0)
             out[name] = float(np.median(took))
             out[f"{name}, slowest"] = max(took)
     out["goal_met"] = all(out[k] < IMPORT_GOAL_S for k in ("seconds", "date-time stamps"))
     return out
+
+
+ROUND_TRIP = ("P0", "V0", "gas_spring.gamma", "K_voil", "friction at mid-stroke, 20 C")
+
+
+def identify_said(runs, truth):
+    """(text, Markdown table, note) of bench_identify's runs (truth: against the damper run)."""
+    from protocols.reports import markdown as md
+    text = "\n".join(f"identify {r['damper']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
+                     f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %"
+                     + (f", peak curve worst {100 * r['curve_max_rel_error']:.1f} %" if truth else "")
+                     for r in runs)
+    pct = (lambda v: "-" if v is None else f"{100 * v:+.1f} %")
+    header = ["damper", "wall time [s]", "held-out loop NRMSE"] + (
+        [*(f"{n} error" for n in ROUND_TRIP), "peak curve worst error 0.02-1 m/s"] if truth else [])
+    rows = [[r["damper"], f"{r['wall_s']:.1f}", f"{100 * r['heldout_nrmse']:.2f} %"]
+            + ([*(pct(r["errors"].get(n)) for n in ROUND_TRIP), f"{100 * r['curve_max_rel_error']:.1f} %"]
+               if truth else []) for r in runs]
+    note = ("The standard sequence recorded on the virtual rig, then `dyno identify`"
+            + (" --truth: errors against the damper the rig ran." if truth else ".")
+            + " Goals: P0, V0, gamma within 3 %, peak curve within 5 %, held-out under 3 %, under 2 min.")
+    return text, md.table(header, rows), note
+
+
+def diagnose_said(r, crank=False):
+    """(title, text, Markdown body, note) of bench_diagnose's or the crank bench's result,
+    with the diagnosis's stages."""
+    from protocols.reports import markdown as md
+    if crank:
+        text = (f"diagnosed {r['recording_s']:.0f} s of a slider-crank at {r['rate_hz']:.0f} Hz ({r['samples']} "
+                f"samples per channel, hidden: {', '.join(r['hidden'])}) in {r['diagnose_s']:.1f} s (goal < "
+                f"{r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}, named {r['named'] or 'nothing'}")
+        title = "Diagnosis time on a crank dyno's recording (dyno bench diagnose --crank)"
+    else:
+        text = (f"diagnosed {r['recording_s']:.0f} s at {r['rate_hz']:.0f} Hz ({r['samples']} samples per channel) "
+                f"in {r['diagnose_s']:.1f} s (goal < {r['goal_s']:.0f} s); accepted {r['accepted'] or 'nothing'}; "
+                f"next test designed in {r['design_s']:.1f} s (goal < {r['design_goal_s']:.0f} s, "
+                f"{r['proposals']} sines)")
+        title = "Diagnosis time (dyno bench diagnose)"
+    t = r["timing"]
+    stages = ", ".join(f"{k} {v:.1f} s" for k, v in t["stages_s"].items())
+    text += f"\nby stage: {stages}; {100 * t['cores_used']:.0f} % of {t['cores']} cores busy"
+    rows = [[k, f"{v:.2f}", f"{100 * v / max(t['wall_s'], 1e-9):.0f} %"] for k, v in t["stages_s"].items()]
+    note = (f"Wall {t['wall_s']:.2f} s; the cores busy: {100 * t['cores_used']:.0f} % of {t['cores']} (CPU time of "
+            "the diagnosis and the fits' forked children over wall time times cores).")
+    body = (md.table(("quantity", "value"), md.flat({k: v for k, v in r.items() if k != "timing"})) + "\n\n"
+            + md.table(["stage", "wall [s]", "share"], rows))
+    return title, text, body, note

@@ -29,10 +29,9 @@ class BoucWen(Hidden):
             return
         if self.variant == "elastoplastic":
             self.z = elastoplastic([self.z], s.x - self.x, [BW_YIELD])[0]
-            self.x = s.x
         else:
             self.z = hysteresis(self.z, s.x - self.x, 5 * BW_YIELD if self.variant == "wide" else BW_YIELD)
-            self.x = s.x
+        self.x = s.x
         s.F += self.value * self.z
 
 

@@ -46,10 +46,12 @@ def readings(pl):
     """Sensor values in SI, as the transducers would report them, with noise."""
     s, n = pl.p["sensors"], pl.noise()
     # the displacement the force answered (x_lag), else the force seems to lag by 0.24 ms
-    clean = {"force": pl.F_meas, "x": pl.x_mid, "v": pl.v_d}
-    for e in pl.hidden:  # a lag in the conditioning, a drifting gain
-        e.read(pl, clean)
-    force, x, v = clean["force"], clean["x"], clean["v"]
+    force, x, v = pl.F_meas, pl.x_mid, pl.v_d
+    if pl.hidden:  # a lag in the conditioning, a drifting gain
+        clean = {"force": force, "x": x, "v": v}
+        for e in pl.hidden:
+            e.read(pl, clean)
+        force, x, v = clean["force"], clean["x"], clean["v"]
     force += s["force_noise"] * n[0]
     if "loadcell_stuck" in pl.faults:
         if pl.stuck_force is None:

@@ -272,3 +272,37 @@ def test_a_wall_clock_cell_runs_its_threads_above_normal_programs_then_gives_tha
     assert os.sched_getscheduler(0) == os.SCHED_OTHER
     with cell.embedded("koni") as c:
         assert os.sched_getscheduler(0) == os.SCHED_OTHER and c.pacer().wall_clock is False
+
+
+@pytest.mark.skipif(not _fifo_granted(), reason="this OS grants no SCHED_FIFO here (root or an rtprio limit)")
+def test_a_polled_modules_thread_runs_above_the_cells_other_threads():
+    """A real cell's Modbus module is polled on a thread of its own at DEVICE_PRIORITY, above
+    the observers' and recorder's threads: a CPU-bound thread at its own priority would never
+    yield to it."""
+    import os
+    import time
+
+    from rig import config as rig_config
+    from rig.devices.modbus import ModbusModule
+    from rig.pacing import DEVICE_PRIORITY, THREADS_PRIORITY, realtime_priority, restore_priority
+    from sim_backend.emulators.modbus_modules import ModbusServers
+    cfg = rig_config.load("sim-rig")
+    cfg.devices["tc"].params["port"] = "auto"
+    servers = ModbusServers(cfg, ["tc"])
+    old = realtime_priority(THREADS_PRIORITY)
+    module = ModbusModule("tc", cfg.devices["tc"].params, threaded=True)
+    try:
+        module.open()
+        tid = module._thread.native_id
+        deadline = time.monotonic() + 5
+        while os.sched_getparam(tid).sched_priority != DEVICE_PRIORITY and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert os.sched_getscheduler(tid) == os.SCHED_FIFO and os.sched_getparam(tid).sched_priority == DEVICE_PRIORITY
+        assert os.sched_getparam(0).sched_priority == THREADS_PRIORITY  # the caller keeps its own
+        while not module.poll(None) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert module.frames  # and it reads
+    finally:
+        module.close()
+        servers.close()
+        restore_priority(old)

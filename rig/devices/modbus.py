@@ -9,6 +9,7 @@ import time
 
 from rig.codecs import registers
 from rig.errors import RigError
+from rig.pacing import device_thread
 from rig.schema import Field, number
 from rig.devices.transport import Transport
 
@@ -80,6 +81,7 @@ class ModbusModule:
                            f"0x{m.identity[1]:04X}: wrong device_id?")
 
     def _run(self):
+        device_thread()
         t0 = time.monotonic()
         while not self._stop.is_set():
             try:

@@ -48,7 +48,7 @@ class MinimalModel:
     def along(self, fitted_on, recording, smoothing=None):
         """(t [s], force [N]) along a recording's prepared motion (models/diagnose/data.py),
         the effects included, through the moving average its source applied (smoothing:
-        models/source_filter.py); fitted_on and recording: (channels, events) of the source
+        records/source_filter.py); fitted_on and recording: (channels, events) of the source
         (None without effects) and of the recording. DamperError when the recording lacks
         what an effect reads."""
         try:

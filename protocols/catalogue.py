@@ -18,10 +18,10 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from models.events import Fault, OperatorStop
-from models.recording import segments
-from protocols.io.files import writer
-from protocols.io.reader import load_recording
+from records.events import Fault, OperatorStop
+from records.data import segments
+from records.files import writer
+from records.reader import load_recording
 from protocols.reports import peaks as peak_rows
 from protocols.reports import velocity_table as vt
 from protocols.catalogue_terms import CatalogueError, condition, quantity, since_time

@@ -8,7 +8,7 @@ import json
 import re
 from datetime import datetime, timezone
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from protocols.units import parse_with_unit
 
 

@@ -15,7 +15,7 @@ import re
 
 from models import threads
 from models.parallel import process_pool, worker_start
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 INSTALL = "pip install 'dyno[cluster]' (Dask distributed)"
 

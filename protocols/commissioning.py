@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.recording import segments
-from protocols.errors import UsageError
+from records.data import segments
+from rig.errors import UsageError
 from protocols.plan import RigInfo, Segment
 from protocols.units import Units
 
@@ -117,7 +117,7 @@ def write_offsets(path, cfg, changes, units=Units()):
     comment: all or nothing, and only offsets that move a zero by less than the channel's
     span. A link is followed: its target is edited, the link kept. The file written."""
     from rig import config as rig_config
-    from protocols.io.files import written
+    from records.files import written
     for name, value, _ in changes:
         q = QUANTITY[name]
         if not abs(value - cfg.channels[name].offset) <= span(cfg, name):

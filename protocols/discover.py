@@ -18,7 +18,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 
-from models.events import Diagnosis, NextTest, RunEnd, Verdict
+from records.events import Diagnosis, NextTest, RunEnd, Verdict
 from models.diagnose import design, diagnose
 from models.diagnose.words import said
 from rig.loop import describe

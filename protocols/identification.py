@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from models import damper as dm
-from protocols.errors import Refused, UsageError
+from rig.errors import Refused, UsageError
 
 MINIMAL_SUFFIX = ".minimal.json"  # not .model.json: report overlays that as a full damper model
 
@@ -87,7 +87,7 @@ def minimal_doc(recordings, segments, out, base, found, channels, events):
     from models.diagnose import friction_outside_physics, undetermined
     from models.diagnose.candidates import Model
     from models.minimal import envelope
-    from models.recording import differing_repeats, reads_low
+    from records.data import differing_repeats, reads_low
     d = found.data
     # the channels' alignment, fitted with the baseline, goes with the model where the
     # recording resolves it (and no accepted lag took its place): the model is then evaluated
@@ -130,7 +130,7 @@ def finite(x):
 
 def minimal_text(doc, found, recordings, path) -> str:
     """What `dyno identify` says of a minimal model (doc, of minimal_doc) written to path."""
-    from models.recording import repeats_sentence
+    from records.data import repeats_sentence
     base, out = found.baseline, []
     if doc["poor"]:
         out.append(f"POOR MODEL, kept with --keep-poor: {doc['poor']}")

@@ -12,8 +12,8 @@ import pickle
 import tempfile
 from pathlib import Path
 
-from protocols.errors import UsageError
-from protocols.io.files import make_folder
+from rig.errors import UsageError
+from records.files import make_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = ("models", "protocols", "sim_backend", "rig")  # what a result depends on: code and data files

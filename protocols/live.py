@@ -22,8 +22,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from models.events import STOPS, Diagnosis, SegmentStart
-from protocols.errors import UsageError
+from records.events import STOPS, Diagnosis, SegmentStart
+from rig.errors import UsageError
 
 from protocols.display import shown
 

@@ -13,8 +13,8 @@ import sys
 import time
 from dataclasses import replace
 
-from models.events import Diagnosis, SegmentEnd, SegmentStart, Skipped
-from models.recording import segment_kind
+from records.events import Diagnosis, SegmentEnd, SegmentStart, Skipped
+from records.data import segment_kind
 from protocols.segment_feed import SegmentFeed
 
 FINISH_S = 60.0  # s the run's end waits for the last segments' findings
@@ -94,7 +94,7 @@ def _worker(inbox, outbox, ending, description):
     import numpy as np
 
     from models import damper as dm
-    from models.recording import segments
+    from records.data import segments
     damper = dm.from_dict(description)
     channels, events, done = {}, [], set()
     while True:

@@ -102,7 +102,7 @@ def predicted_force(damper, channels, events, points=2000):
     segment's motion (at the segment's temperature) and the measured force
     there, at most `points` samples; None without such a segment or if the model fails."""
     from models.physics.simulate import simulate
-    from models.recording import segments
+    from records.data import segments
     segs = [s for s in segments(events) if s.kind in ("sine", "low-speed")]
     if not segs or not {"force", "x", "v"} <= set(channels):
         return None
@@ -128,8 +128,8 @@ def _worker(inbox, outbox, ending, description, model_path):
     data would delay the final fit (by a minute on the tests' short run)."""
     from models import damper as dm
     from models.identify import identify
-    from protocols.io.files import written
-    from protocols.errors import UsageError
+    from records.files import written
+    from rig.errors import UsageError
     desc = dm.from_dict(description)
     channels, events = {}, []
     done = False

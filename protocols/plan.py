@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 
 # predicted force and gas pressure must stay below this share of the rig's limits: the
@@ -40,7 +40,7 @@ class Segment:
     # a cycling that `until` ends early runs on to its next whole cycle of this length [s],
     # so the segment after it starts in phase (no setpoint jump)
     cycle: float | None = None
-    # what the motion is (models.recording.KINDS), written into the events so analyses
+    # what the motion is (records.data.KINDS), written into the events so analyses
     # choose segments by it and not by their params' keys
     kind: str = "transition"
     # closed loop: an object whose setpoint(t, ts, readings) replaces x on the rig (x stays the

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from models.events import RunEnd
+from records.events import RunEnd
 from models.diagnose.candidates import EFFECTS as SPECS
 from models.parallel import run_all
-from models.recording import segments
+from records.data import segments
 from rig import config as rig_config
 from rig.errors import RigError
 from sim_backend.effects import EFFECTS, scaled
@@ -140,7 +140,7 @@ def matrix(asked, all_forms, sizes, noise, rates, seeds, budget, concealed):
     concealed value's noise floor), noise level and rate, on each seed, with a null per seed
     to measure contributions against; UsageError names what cannot be proven."""
     from sim_backend.effects import EffectError, parse
-    from protocols.errors import UsageError
+    from rig.errors import UsageError
     named = ([n for e in asked.split(",") for n in (EFFECTS if e == "ALL" else [e])] if asked
              else list(EFFECTS) + ["null"])
     effects = list(dict.fromkeys(e.partition(":")[0] for e in named))
@@ -220,8 +220,8 @@ def _recorded(task: ProveTask, folder):
     from models.damper import load as load_damper
     from models.diagnose import diagnose
     from protocols.discover import discover
-    from protocols.io.reader import load_recording
-    from protocols.io.recording import for_run
+    from records.reader import load_recording
+    from protocols.recorded import for_run
     from sim_backend.options import plant_options
     effect, form, size, values, seed, noise, rate = (task.effect, task.form, task.size, task.values, task.seed,
                                                      task.noise, task.rate)
@@ -360,7 +360,7 @@ def open_tasks(expr, seeds, level, rate):
     """`dyno prove --open EXPR`'s runs: on each seed, a null and the user's own physics
     (sim_backend/extra.py) hidden; UsageError names a law that cannot be compiled."""
     from sim_backend.effects import EffectError, parse
-    from protocols.errors import UsageError
+    from rig.errors import UsageError
     try:
         parse([f"extra:{expr}"])
     except EffectError as e:

@@ -125,11 +125,11 @@ def _estimate(h: Hidden, params, seen: Seen, null: Seen):
 def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=ROUNDS):
     """(rows, nulls {label: Seen}, force range [N]) of the proof on the recording at path;
     rounds: the diagnoses' rounds at most (the diagnosis's own by default)."""
-    from models import source_filter
+    from records import source_filter
     from models.diagnose.data import prepare
     from models.parallel import run_all
-    from models.recording import drives
-    from protocols.io.reader import load_recording
+    from records.data import drives
+    from records.reader import load_recording
     ch, ev, meta = load_recording(path)
     options = {"drives": drives(meta), "smoothing": source_filter.of(meta)}
     hidden = catalogue()

@@ -10,8 +10,7 @@ import json
 from dataclasses import dataclass, field
 
 from models.damper import to_dict
-from protocols.errors import UsageError
-from rig.errors import RigError
+from rig.errors import RigError, UsageError
 
 
 def planned(protocol, pairs, damper, rig, plant=None, long=False, rate_hz=None, units=None, budget=None, say=print):
@@ -62,7 +61,7 @@ def claimed(out, name, inputs, overwrite, identifying):
     from datetime import datetime
     from pathlib import Path
 
-    from protocols.io.files import Claim, numbered, output_file
+    from records.files import Claim, numbered, output_file
     claim = Claim(out or numbered(Path("recordings") / f"{name}-{datetime.now():%Y%m%d-%H%M%S}.mcap"),
                   overwrite=overwrite, inputs=inputs)
     if identifying:
@@ -72,6 +71,16 @@ def claimed(out, name, inputs, overwrite, identifying):
             claim.release()
             raise
     return claim
+
+
+def for_run(path, cell, plan, run_info=None, overwrite=False):
+    """The recorder (records/recorder.py) of a plan run on a cell (protocols/cell.py): its
+    damper, protocol and parameters, on the rig's clock; run_info as `dyno run` gives it
+    (damper_serial, note...). Close it after the run (contextlib.closing)."""
+    from protocols.plan import as_dict
+    from records.recorder import Recorder
+    return Recorder(path, cell.config, json.dumps(to_dict(cell.damper)), plan.name, as_dict(plan.params),
+                    wall_start=cell.rig.wall_start, overwrite=overwrite, run_info=run_info)
 
 
 @dataclass
@@ -106,7 +115,7 @@ class Ended:
 
 def record(run: Run) -> Ended:
     """Run it, recorded; RigError when it never started (nothing moved, nothing recorded)."""
-    from protocols.io.recording import Recorder
+    from records.recorder import Recorder
     from protocols.library import DISCOVER
     from protocols.plan import Plan, as_dict
     from protocols.runner import run_plan

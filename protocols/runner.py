@@ -1,6 +1,6 @@
 """Runs a protocol's segments through the control loop, streaming to observers (the
 recorder, the live view, later the identification hook: anything with `samples(drained)`,
-`event(e)` with an Event of models/events.py and optionally `setpoints(t, x)`), with events
+`event(e)` with an Event of records/events.py and optionally `setpoints(t, x)`), with events
 at every segment boundary and a progress line with an ETA.
 
 An observer that raises (a full disk under the recorder) is not called again, and the run
@@ -18,7 +18,7 @@ from typing import Protocol
 
 import numpy as np
 
-from models.events import (Event, Fault, OperatorStop, Result, RunEnd, RunStart, SegmentEnd, SegmentStart,
+from records.events import (Event, Fault, OperatorStop, Result, RunEnd, RunStart, SegmentEnd, SegmentStart,
                            Skipped)
 from rig.errors import RigError
 from rig.loop import ControlLoop, LoopResult, describe
@@ -110,7 +110,7 @@ class Observer(Protocol):
     identification); an observer implements those it needs."""
 
     def samples(self, drained: dict) -> None: ...  # {channel: (t [s], values [SI])} since the last call
-    def event(self, e: Event) -> None: ...  # models/events.py
+    def event(self, e: Event) -> None: ...  # records/events.py
     def setpoints(self, t: list, x: list) -> None: ...  # every setpoint sent [s], [m]
     def units(self, units: dict) -> None: ...  # {channel: unit} of channels a closed loop adds
 

@@ -12,7 +12,7 @@ import queue
 
 import numpy as np
 
-from models.events import SegmentEnd
+from records.events import SegmentEnd
 from rig.pacing import normal_priority
 
 NICE = 19  # the worker yields the cores to the control loop, the recorder and (on a bench) the simulator

@@ -44,7 +44,7 @@ def recorded(out, protocol, params, damper="koni", effects=(), plain=False):
     from contextlib import closing
 
     from protocols import cell, runner
-    from protocols.io.recording import for_run
+    from protocols.recorded import for_run
     from protocols.library import PROTOCOLS
     from protocols.plan import Plan
     from rig import config as rig_config

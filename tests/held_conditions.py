@@ -28,10 +28,10 @@ def _dyno(cwd, *args):
 
 def _error(model_path, recording):
     """RMS of the model's force less the measured along the recording, % of its force range."""
-    from models import source_filter
+    from records import source_filter
     from models.diagnose.data import prepare
     from models.minimal import load
-    from protocols.io.reader import load_recording, merged
+    from records.reader import load_recording, merged
     model = load(model_path)
     *target, meta = load_recording(recording)
     smoothing = source_filter.of(meta)

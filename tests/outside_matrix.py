@@ -26,7 +26,7 @@ FORM = {"valve_form"}  # the baseline's valve law reshaped: not physics
 
 def one(task):
     from models.diagnose import diagnose
-    from protocols.io.reader import load_recording
+    from records.reader import load_recording
     from tests.outside_generator import record
     cell, seed = task
     with tempfile.TemporaryDirectory() as d:

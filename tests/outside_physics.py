@@ -52,7 +52,7 @@ PHYSICS = {
 def one(task):
     from models.diagnose import diagnose
     from models.diagnose.words import alternatives
-    from protocols.io.reader import load_recording
+    from records.reader import load_recording
     from tests.outside_generator import record
     name, size, rate, seed = task
     extra = PHYSICS[name][0] if name else None  # None: the null of that rate and seed

@@ -55,7 +55,7 @@ def _said(p, d):
 def one(task):
     """Everything measured on one file: {column: text} and the exit codes."""
     src, imports = task
-    from protocols.io.reader import load_recording
+    from records.reader import load_recording
     out = {"file": f"{src.parent.name}/{src.name}"}
     with tempfile.TemporaryDirectory() as d:
         rec = Path(d) / "x.mcap"
@@ -176,7 +176,7 @@ def generate(prog, argv, tasks_of, measure, markdown, what):
 
 
 def main(argv=None):
-    generate("python -m tests.real_data", argv, files, one, markdown, "recordings")
+    generate("python -m tests.real_data", argv, files, one, markdown, "records")
 
 
 if __name__ == "__main__":

@@ -1,8 +1,9 @@
 """The layering and the size rules, checked on the source so they cannot silently erode.
 
 Layers import downward only:
-    protocols (the application)  ->  sim_backend  ->  rig, models
-    rig and models import nothing of each other, of sim_backend or of protocols;
+    protocols (the application)  ->  sim_backend  ->  models  ->  records  ->  rig
+    rig imports none of the others; records (a run as data and its files) imports only
+    rig; models (the physics) only records, never rig itself, sim_backend or protocols;
     inside models, the damper's description imports no equation, the equations (physics)
     nothing built on them, and the fan-out (parallel) none of the libraries that use it.
 No module imports another module's private names (_name), no modules import each other in a
@@ -17,9 +18,10 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("rig", "models", "sim_backend", "protocols")
+PACKAGES = ("rig", "records", "models", "sim_backend", "protocols")
 FORBIDDEN = {  # importer prefix -> imported prefixes it must not use
-    "rig": ("models", "sim_backend", "protocols"),
+    "rig": ("records", "models", "sim_backend", "protocols"),
+    "records": ("models", "sim_backend", "protocols"),
     "rig.codecs": ("rig.devices", "rig.loop", "rig.rig", "rig.safety", "rig.config"),
     "models": ("rig", "sim_backend", "protocols"),
     # the damper's description is what the equations take: it imports none of them
@@ -200,11 +202,11 @@ def test_no_application_code_opens_a_simulator_file():
     assert not bad
 
 
-# an event's kind and message are its class and field (models/events.py); only the wire
+# an event's kind and message are its class and field (records/events.py); only the wire
 # (the events' own module, the MCAP reader) and the inference of an old segment's kind
-# (models/recording.py) read them as keys
+# (records/data.py) read them as keys
 EVENT_KEYS = ("kind", "message")
-EVENT_WIRE = ("models/events.py", "models/recording.py", "protocols/io/reader.py")
+EVENT_WIRE = ("records/events.py", "records/data.py", "records/reader.py")
 
 
 def keyed_reads(tree, keys):

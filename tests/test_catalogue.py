@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from protocols import catalogue, catalogue_terms
-from protocols.io.reader import load_recording
+from records.reader import load_recording
 
 DYNO = [str(Path(sys.executable).parent / "dyno")]
 

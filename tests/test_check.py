@@ -108,7 +108,7 @@ def test_a_warmer_run_is_compensated_to_its_references_temperature_with_its_mode
 
     from models.damper import load, to_dict
     from protocols import cell, runner
-    from protocols.io.recording import for_run
+    from protocols.recorded import for_run
     from protocols.library import PROTOCOLS
     from protocols.plan import Plan
     from rig import config as rig_config

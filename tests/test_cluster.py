@@ -13,7 +13,7 @@ import pytest
 from models.damper import load as load_damper
 from models.physics.simulate import simulate, sine
 from protocols import cluster
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from tests.conftest import operator_stopped, recorded
 
 DYNO = str(Path(sys.executable).parent / "dyno")

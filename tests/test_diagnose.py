@@ -7,14 +7,14 @@ import sys
 import numpy as np
 import pytest
 
-from models.events import SegmentEnd, SegmentStart
+from records.events import SegmentEnd, SegmentStart
 from models.diagnose.candidates import EFFECTS
 
 from models.diagnose.valves import _direction
 from models.diagnose import diagnose
 from models.diagnose.data import DiagnoseError, prepare
 from models.diagnose.words import summary
-from protocols.io.reader import load_recording
+from records.reader import load_recording
 from tests.conftest import recorded
 
 # their verdicts must not be one processor's last bits: run again under another kernel (Makefile)

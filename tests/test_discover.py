@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models.diagnose import design
-from models.recording import segments
+from records.data import segments
 from protocols import cell
 from protocols.discover import discover, next_plan
 from protocols.library import sine_matrix

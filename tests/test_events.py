@@ -1,14 +1,14 @@
-"""Events written to a recording are read back as the same classes (models/events.py);
+"""Events written to a recording are read back as the same classes (records/events.py);
 a recording written before a kind had its own fields, or by a newer writer, still reads."""
 import json
 
 import numpy as np
 import pytest
 
-from models import events as ev
-from protocols.errors import UsageError
-from protocols.io.reader import load_recording, read_event
-from protocols.io.recording import Recorder
+from records import events as ev
+from rig.errors import UsageError
+from records.reader import load_recording, read_event
+from records.recorder import Recorder
 from rig import config
 from tests import mcap_files
 

@@ -11,7 +11,7 @@ from datetime import datetime, timedelta, timezone
 import numpy as np
 import pytest
 
-from protocols.io.reader import load_recording
+from records.reader import load_recording
 from tests.conftest import dyno
 from tests.test_hostile_inputs import one_line_error
 
@@ -95,12 +95,12 @@ def test_stamps_of_whole_seconds_take_the_time_from_the_rate(tmp_path):
                    "its date-time stamps repeat (300 rows share each, a stamp every 1 s): give the sampling rate")
     one_line_error(dyno("import", bare, "--out", tmp_path / "b.mcap", *args, "--rate", "100"),
                    "900 rows at 100 Hz span 8.99 s, the stamps 2 s: check the sampling rate")
-    from models import segmentation
+    from records import segmentation
     assert segmentation.find(np.zeros(len(t)), x) == []
 
 
 def test_a_zone_after_zone_less_stamps_is_applied_not_warned_about():
-    from protocols.io.table import stamps
+    from records.table import stamps
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # numpy's parser would warn and apply the zone itself
         t, bad = stamps(["2026-01-01T00:00:00", "2026-01-01T02:00:01+02:00", "2026-01-01 00:00:02"])
@@ -108,7 +108,7 @@ def test_a_zone_after_zone_less_stamps_is_applied_not_warned_about():
 
 
 def test_stamps_that_cannot_tell_the_day_from_the_month_or_give_no_date(tmp_path):
-    from protocols.io import csv_import, table
+    from records import csv_import, table
     # past midnight, the reading whose dates lie a day apart, not a month
     assert table.day_first(["03/05/2022 23:59:59", "04/05/2022 00:00:01"]) is True
     assert table.day_first(["05/03/2022 23:59:59", "05/04/2022 00:00:01"]) is False
@@ -154,7 +154,7 @@ def test_a_row_of_units_under_the_names_and_a_start_in_the_preamble(tmp_path):
         f"{a:.5f}\t{1e3 * b:.4f}\t{c:.3f}\n" for a, b, c in zip(t, x, F)))
     assert "--map 'time=1:s' --map 'displacement=2:mm' --map 'force=3:N'" in dyno("import", colon, "--inspect").stdout
     # names alone, with a line above them: not a row of units
-    from protocols.io.table import sniff
+    from records.table import sniff
     assert sniff("a,b,c\nt,x,F\n0,1,2\n1,2,3\n").units is None
 
 
@@ -313,7 +313,7 @@ def test_a_name_the_header_repeats_hides_no_column(tmp_path):
      ("time", "displacement:mm", "velocity:mm/s", "force:kN", "pressure:bar")),
 ])
 def test_column_names_in_the_languages_dyno_software_writes(names, expected):
-    from protocols.io.column_guess import by_name
+    from records.column_guess import by_name
     assert tuple(by_name(n, None) for n in names) == expected
 
 
@@ -608,7 +608,7 @@ def test_identify_without_a_description_gives_the_minimal_model_judged_on_held_o
 
 
 def test_a_force_smoothed_by_its_source_is_said_as_such_and_white_noise_is_not():
-    from models import source_filter
+    from records import source_filter
     from models.diagnose import quality
     rng = np.random.default_rng(1)
     t = np.arange(20_000) / 1000.0  # 20 s at 1 kHz of a 1.3 Hz sine, as the UTFSM files
@@ -971,7 +971,7 @@ def test_the_derived_velocity_is_scipys_savitzky_golay_derivative(n):
     """Import derives velocity with its own Savitzky-Golay slope (scipy.signal's import costs
     a second): the same numbers as scipy's, edges included."""
     from scipy.signal import savgol_filter
-    from protocols.io.csv_import import savgol_slope
+    from records.csv_import import savgol_slope
     x = np.cumsum(np.random.default_rng(n).normal(size=n))
     assert np.allclose(savgol_slope(x, 0.003), savgol_filter(x, 11, 2, deriv=1, delta=0.003), rtol=0, atol=1e-9)
 
@@ -1000,7 +1000,7 @@ def test_a_path_that_does_not_close_is_not_read_as_the_other_sign():
     """A static test's move against the gas force stores energy, it does not dissipate it:
     the sign check leaves the force's part that depends on position alone out (the live
     identification met it on the standard run's first segments and advised --flip)."""
-    from models.recording import other_sign
+    from records.data import other_sign
     t = np.linspace(0, 20, 20_000)
     x = 0.03 - 0.001 * t  # extending 20 mm against a 600-760 N gas force: -15 J
     v = np.gradient(x, t)
@@ -1020,7 +1020,7 @@ def test_strokes_outside_every_segment_are_said_left_out(tmp_path):
     so only its faster part made segments, and 9.6 s of strokes were read by nothing
     without a word. A hole in the file (the ME file's acquisition paused between currents)
     is no stroke, however far x moved across it."""
-    from models.segmentation import find, unsegmented
+    from records.segmentation import find, unsegmented
     rate = 200.0
     t = np.arange(int(8 * rate)) / rate
     sweep = 0.004 * np.sin(2 * np.pi * (0.5 * t + 0.125 * t ** 2))  # 0.5 to 2.5 Hz in 8 s

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from protocols.io.reader import load_recording
+from records.reader import load_recording
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 LAYOUT = Path(__file__).parent.parent / "docs" / "foxglove-layout.json"

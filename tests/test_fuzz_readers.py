@@ -18,12 +18,11 @@ from hypothesis import strategies as st
 from models import damper as dm
 from protocols import preflight
 from protocols.app import import_csv
-from protocols.io.reader import load_recording
+from records.reader import load_recording
 from protocols.library import PROTOCOLS
 from protocols.plan import parse, rig_info
 from rig import config as rig_config
-from protocols.errors import UsageError
-from rig.errors import RigError
+from rig.errors import RigError, UsageError
 
 # no explain phase: its tracing slows every call tenfold and a slow call would read as a hang
 FUZZ = settings(max_examples=int(os.environ.get("DYNO_FUZZ_EXAMPLES", "30")), deadline=None, database=None,
@@ -206,7 +205,7 @@ def test_any_csv_imports_or_gives_one_line(tmp_path_factory, data):
 @given(st.data())
 def test_any_force_velocity_table_reads_or_gives_one_line(tmp_path_factory, data):
     """What `check --against TABLE` reads: speeds above zero, compression positive, rebound negative."""
-    from protocols.io import spec_table
+    from records import spec_table
     src = tmp_path_factory.mktemp("spec") / "spec.csv"
     names = data.draw(st.lists(st.sampled_from(["Velocity [mm/s]", "v_m_s", "Speed", "Comp (lbs)", "F_comp_N",
                                                 "Rebound [N]", "Zug [daN]", "", "x"]), min_size=1, max_size=5))
@@ -243,7 +242,7 @@ def _good_mcap(folder):
 def test_any_tdms_file_reads_or_gives_one_line(tmp_path_factory, data):
     """A LabVIEW file cut short or with bytes changed: columns of one length, or one line."""
     from nptdms import ChannelObject, TdmsWriter
-    from protocols.io import tdms
+    from records import tdms
     path = tmp_path_factory.mktemp("tdms") / "run.tdms"
     wave = {"wf_increment": 1e-3, "wf_start_time": np.datetime64("2025-11-14T20:14:37")}
     with TdmsWriter(path) as w:

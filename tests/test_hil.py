@@ -14,7 +14,7 @@ from models.damper import to_dict
 from models.quarter_car import load as load_car
 from models.quarter_car.road import faded
 from models.quarter_car.sim import Stepper, simulate
-from protocols.io.reader import load_recording
+from records.reader import load_recording
 from protocols.library import roads
 from protocols.plan import ParamError
 from rig.compensation import Adaptive, NoCompensation, Polynomial, fit, kernels

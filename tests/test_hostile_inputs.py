@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from models import damper as dm
 from protocols.app import cli, import_csv
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from rig.config import CONFIG_DIR
 from tests.conftest import dyno
 
@@ -667,7 +667,7 @@ def test_a_catalogue_not_ours_corrupt_or_misplaced_is_one_line_and_never_written
 
 
 def test_a_recording_being_written_is_left_alone_and_a_stale_lock_is_cleared(files, tmp_path):
-    from protocols.io.files import Claim
+    from records.files import Claim
     claim = Claim(files.rec, overwrite=True)  # this process writes it, as a run would
     try:
         for args in (["recover", files.rec], ["export", files.rec, "--csv", tmp_path / "x.csv"],
@@ -758,7 +758,7 @@ def test_ctrl_c_at_a_hundred_points_of_the_start_up_is_never_swallowed(tmp_path,
     import statistics
     import time
 
-    from protocols.io.reader import load_recording
+    from records.reader import load_recording
     from rig import loop
     out = tmp_path / "x.mcap"
     entered = []  # when the control loop began: the start-up's end

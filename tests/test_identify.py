@@ -11,7 +11,7 @@ import pytest
 
 from models.identify import gas as identify_gas, low_speed as identify_low_speed, valves as identify_valves
 from models.damper import _check_direction, load, load_file
-from models.events import SegmentEnd, SegmentStart
+from records.events import SegmentEnd, SegmentStart
 from models.physics.friction import dahl_series
 from models.identify import canonical, parameter_value, set_parameter
 from models.identify.dynamic import direction_ranges
@@ -224,7 +224,7 @@ def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     """A CSV with only time, displacement (mm) and force (kN): velocity derived, an empty
     column and a trailing separator ignored; identify skips the steps whose channels are
     missing, naming them, and still fits the valves; without --damper, the model that needs none."""
-    from protocols.io.reader import load_recording as load_rec
+    from records.reader import load_recording as load_rec
     from models.identify import dynamic_segments
     ch, events, _ = load_rec(koni_run[0])
     segs = [s for s in dynamic_segments(ch, events) if s.name.startswith("sine 12.7") or s.name.startswith("sine 3.2")]

@@ -8,9 +8,9 @@ import sys
 from html import unescape
 from pathlib import Path
 
-from models.events import Diagnosis
-from models.recording import segments
-from protocols.io.reader import load_recording
+from records.events import Diagnosis
+from records.data import segments
+from records.reader import load_recording
 from tests.conftest import dyno
 
 DYNO = str(Path(sys.executable).parent / "dyno")

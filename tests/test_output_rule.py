@@ -1,11 +1,11 @@
-"""The one output rule (protocols/io/files.py): an output never aliases an input, an
+"""The one output rule (records/files.py): an output never aliases an input, an
 existing one is kept unless overwrite, and it appears only when complete."""
 import os
 
 import pytest
 
-from protocols.io.files import existing_files, filled, output_file, output_folder, written
-from protocols.errors import UsageError
+from records.files import existing_files, filled, output_file, output_folder, written
+from rig.errors import UsageError
 
 
 def test_an_output_is_never_an_input_by_path_link_or_folder(tmp_path):

@@ -62,7 +62,7 @@ def test_a_butterworth_filtered_force_is_read_through_its_filter(tmp_path):
     at import, every model goes through it and no lag is left; undeclared, the cell's timing
     reads it."""
     from models.diagnose import diagnose
-    from models.source_filter import parse_filtered
+    from records.source_filter import parse_filtered
     from protocols.proof import offline_recording
     ch, ev, _ = offline_recording({}, 0)
     ch = {n: (t[t < 12.0], y[t < 12.0]) for n, (t, y) in ch.items()}  # its first segments: enough, and quick
@@ -84,7 +84,7 @@ def test_a_butterworth_filtered_force_is_read_through_its_filter(tmp_path):
     _, meta, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F",
                            "--filtered", "force=butter:2:15Hz")
     assert "filtered by its source: the force through a causal butter:2:15Hz low-pass" in r.stdout, r.stdout
-    from models import source_filter
+    from records import source_filter
     assert source_filter.of(meta) == lowpass
     r = subprocess.run([*DYNO, "import", src, "--out", tmp_path / "y.mcap", "--map", "time=t", "--map",
                         "displacement=x:mm", "--map", "force=F", "--filtered", "force=butter:2"], capture_output=True,
@@ -96,7 +96,7 @@ def test_the_sign_of_a_gas_charge_pair_is_read_by_physics(tmp_path):
     """One real damper at two gas charges (its force at rest +50 and +150 N), written by a
     source that counts the other way: import advises the flip that leaves the gas force at
     or above zero, and read with it the higher charge pushes harder, by the 100 N added."""
-    from models.recording import gas_level
+    from records.data import gas_level
     cols = np.loadtxt(UTFSM)
     t, x, F = cols[:, 0], cols[:, 1], cols[:, 3]
     args = ["--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F"]

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from models.recording import Span
+from records.data import Span
 from protocols.reports import peaks
 from protocols.reports.sines import force_temperature_figure
 
@@ -141,7 +141,7 @@ def test_a_clipped_or_overlapping_label_is_found_and_a_clean_figure_passes():
 
 
 def test_a_sine_the_plan_moved_to_another_frequency_is_marked_adapted_with_why(tmp_path):
-    from models.recording import segments
+    from records.data import segments
     from protocols import cell
     from protocols.library import sine_matrix
     from protocols.plan import Plan, parse

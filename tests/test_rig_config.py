@@ -131,7 +131,7 @@ def test_rig_zero_changes_one_offset_and_leaves_the_rest_of_the_file():
     import pytest
 
     from protocols.commissioning import set_offset
-    from protocols.errors import UsageError
+    from rig.errors import UsageError
     text = ('[channels.force]\ndevice = "loadcell"\ngain = 1032.0  # N/V\noffset = 0.0  # tared\nunit = "N"\n\n'
             '[channels.x]\noffset = 0.0381\n')
     out = set_offset(text, "force", -419.8, "dyno rig zero 2026-11-24: tared")

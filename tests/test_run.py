@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from models.events import Diagnosis, SegmentStart
+from records.events import Diagnosis, SegmentStart
 from protocols import cell, runner
 from protocols.library import sine_matrix
 from protocols.plan import Plan, parse, rig_info
-from protocols.io.recording import Recorder
+from records.recorder import Recorder
 from rig import config
 from rig.pacing import SimulatedPacer
 from rig.rig import Rig
@@ -271,8 +271,8 @@ def test_report_of_a_standard_run(koni_run, tmp_path):
     for png in ("static.png", "loops.png", "composite.png"):
         assert png in page and (tmp_path / "rep" / png).stat().st_size > 20_000
     # the friction the seal held shows: half the difference of the two approaches
-    from protocols.io.reader import load_recording as load
-    from models.recording import segments
+    from records.reader import load_recording as load
+    from records.data import segments
     ch, events, _ = load(out)
     holds = [s for s in segments(events) if "x_mm" in s[1]]
     assert len(holds) == 10 and {s[1]["approach"] for s in holds} == {"compression stroke", "extension stroke"}
@@ -405,7 +405,7 @@ def test_the_proofs_progress_into_a_log_is_a_line_per_task():
 def test_recover_keeps_every_intact_chunk_after_damage_and_a_damaged_magic(tmp_path):
     from mcap.writer import CompressionType, Writer
 
-    from protocols.io.recording import recover
+    from records.recorder import recover
     path = tmp_path / "many.mcap"
     with open(path, "wb") as f:
         w = Writer(f, chunk_size=2048, compression=CompressionType.ZSTD)
@@ -549,8 +549,8 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
     assert p.returncode == 0, p.stderr
     html = (tmp_path / "rep" / "index.html").read_text()
     assert "No measured segments" not in html and "rise 10-90 % [ms]" in html and (tmp_path / "rep" / "steps.png").exists()
-    from protocols.io.reader import load_recording
-    from models.recording import segments
+    from records.reader import load_recording
+    from records.data import segments
     from protocols.reports.recording import step_measures
     ch, events, _ = load_recording(out)
     rows = step_measures(ch, segments(events))

@@ -11,7 +11,7 @@ from contextlib import closing
 import numpy as np
 import pytest
 
-from models.events import Diagnosis, Fault, RunStart, SegmentEnd, SegmentStart, Verdict
+from records.events import Diagnosis, Fault, RunStart, SegmentEnd, SegmentStart, Verdict
 from protocols.app.cli import main as dyno
 from tests import mcap_files
 from protocols.units import Units
@@ -23,7 +23,7 @@ pytestmark = pytest.mark.xdist_group("browser")
 def _record(folder, name, damper, serial, note):
     """A short sine matrix on the direct cell, recorded as `dyno run` records it."""
     from protocols import cell, runner
-    from protocols.io.recording import for_run
+    from protocols.recorded import for_run
     from protocols.library import PROTOCOLS
     from protocols.plan import Plan
     from rig import config as rig_config
@@ -149,7 +149,7 @@ def test_a_serials_trend(page, server):
 
 
 def test_a_run_in_progress_shows_its_progress_readings_and_trip(page, server, runs_folder):
-    from protocols.io.recording import Recorder
+    from records.recorder import Recorder
     from rig import config as rig_config
     page.goto(server + "/live")
     assert page.locator("#none").count() == 1
@@ -185,7 +185,7 @@ def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, ser
     and the live diagnosis's findings, and redraws them as the recording grows, without
     reloading."""
     from models import damper as dm
-    from protocols.io.recording import Recorder
+    from records.recorder import Recorder
     from rig import config as rig_config
     rec = Recorder(runs_folder / "plots.mcap", rig_config.load("virtual"), json.dumps(dm.to_dict(dm.load("koni"))),
                    "sine-matrix", {})
@@ -251,7 +251,7 @@ def test_dyno_serve_serves_on_loopback_until_ctrl_c_and_refuses_a_busy_port(runs
 
 
 def test_a_recording_being_written_is_read_on_from_where_the_last_look_ended(tmp_path):
-    from protocols.io.recording import Recorder
+    from records.recorder import Recorder
     from protocols.web.in_progress import Live
     from rig import config as rig_config
     rec = Recorder(tmp_path / "r.mcap", rig_config.load("virtual"), "{}", "sine-matrix", {})

@@ -1,15 +1,15 @@
 """A file whose source smoothed force and displacement (the UTFSM sine files: a moving average
 a tenth of a test period long) is compared with every model through the same filter once
-import is told it (models/source_filter.py)."""
+import is told it (records/source_filter.py)."""
 import json
 
 import numpy as np
 import pytest
 from scipy.ndimage import uniform_filter1d
 
-from models import source_filter
+from records import source_filter
 from models.minimal import MinimalModel
-from protocols.io.reader import load_recording
+from records.reader import load_recording
 from tests.conftest import dyno
 from tests.test_hostile_inputs import one_line_error
 
@@ -120,7 +120,7 @@ def test_a_full_model_identified_through_the_declared_filter_fits_its_held_out_s
     assert held["smoothed"] < 0.02 and held["smoothed"] < 0.75 * held["plain"], held
     # the report's and check's overlay of the damper itself along the smoothed recording goes
     # through the filter too: 10-14 N RMS from the recorded force, 43-50 N unfiltered
-    from models.recording import segments
+    from records.data import segments
     from protocols.reports import peaks
     ch, events, meta = load_recording(tmp_path / "smoothed.mcap")
     through = peaks.along(d, ch, events, meta)

@@ -177,7 +177,7 @@ def _mcap(batches, chunk_size, batched):
 
     from mcap.writer import CompressionType, Writer
 
-    from protocols.io.mcap_batch import add_messages
+    from records.mcap_batch import add_messages
     out = BytesIO()
     w = Writer(out, chunk_size=chunk_size, compression=CompressionType.NONE)
     w.start(profile="", library="test")

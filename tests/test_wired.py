@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from models.events import from_wire
+from records.events import from_wire
 from protocols.plan import STALLED_SHARE
 from sim_backend.virtual_rig import sim_rig_config
 from tests.conftest import stop

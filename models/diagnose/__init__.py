@@ -40,7 +40,8 @@ from models.diagnose.referees import RELEVANCE, bar, chosen, rivals_of, stood_in
 from models.diagnose.stages import Clock
 from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
-from models.recording import differing_repeats, nrmse
+from models.statistics import nrmse
+from records.data import differing_repeats
 
 __all__ = ["diagnose", "friction_outside_physics", "undetermined", "repeated", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
 
@@ -134,7 +135,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
              holdout="interleaved", drives=None, jobs=1, smoothing=None) -> Diagnosis:
     """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for `minimal`, or (name,
     damper model) to start from that model, refitted. holdout: "interleaved" or the tail's fraction
-    (holdout_masks). drives: the aux channels that drive the damper (models.recording.drives), the only ones
+    (holdout_masks). drives: the aux channels that drive the damper (records.data.drives), the only ones
     an effect may be scaled by; None: all. jobs: processes fitting a round's candidates (threads.forked); 1:
     this one (a rig's). smoothing: the source's moving average every model goes through (source_filter)."""
     clock = Clock(jobs)

@@ -161,7 +161,7 @@ class Model:
             if c.acts_on == "total":
                 f.trace.append((c, e, f.state()))
                 c.apply(self, d, p, f, e)
-        f.F = d.through_source(f.F)  # as the file's force was written (models/source_filter.py)
+        f.F = d.through_source(f.F)  # as the file's force was written (records/source_filter.py)
         return f
 
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.data import Data
-from models.recording import covariance
+from models.statistics import covariance
 
 TRADE = 0.7  # |correlation| between an accepted effect's parameters and an earlier one's: may be compensating its form
 

@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.diagnose import quality
-from models.recording import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
-from models.segmentation import imported_unsegmented, left_out
-from models.source_filter import Smoothing
+from records.data import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
+from records.segmentation import imported_unsegmented, left_out
+from records.source_filter import Smoothing
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
@@ -56,7 +56,7 @@ class Data:
     # s: the last time any fit sees on a time split (None: the fits span the recording). A
     # function of time is not extrapolated past it: beyond, it holds its last value
     fitted_until: float | None = None
-    smoothing: Smoothing | None = None  # the source's moving average, declared at import (models/source_filter.py)
+    smoothing: Smoothing | None = None  # the source's moving average, declared at import (records/source_filter.py)
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
@@ -175,7 +175,7 @@ def _usable(channels):
 
 def prepare(channels, events, drives=None, smoothing=None) -> Data:
     """Data from a recording's channels {name: (t, values)} and events; smoothing: the
-    moving average its source applied (models/source_filter.py), or None."""
+    moving average its source applied (records/source_filter.py), or None."""
     _usable(channels)
     notes = []
     tF, F = _clean(*channels["force"])

@@ -8,7 +8,7 @@ from scipy.optimize import least_squares
 
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.data import Data
-from models.recording import covariance
+from models.statistics import covariance
 from models.threads import each
 
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit

@@ -140,14 +140,14 @@ def _cycle_to_cycle(t, y, f, k):
 
 
 def _named(declared) -> str:
-    """A declared source filter in words (models/source_filter.py)."""
+    """A declared source filter in words (records/source_filter.py)."""
     return f"moving average of {declared.text()}" if hasattr(declared, "width") else f"low-pass {declared.text()}"
 
 
 def smoothed(name, t, y, cycles, declared=None):
     """A channel-wide flag when the channel y(t) was smoothed by its source. cycles: [(f [Hz],
     t0, t1 [s])] of periodic stretches; declared: the source's moving average as import was
-    told it (models/source_filter.py), which every model then goes through. From one cycle
+    told it (records/source_filter.py), which every model then goes through. From one cycle
     to the next the repeating force cancels and the noise is left: white noise changes from
     sample to sample with no correlation, smoothed noise keeps it. A source smooths the whole
     channel, so every stretch must show it (a damper's own slow change from cycle to cycle

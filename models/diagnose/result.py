@@ -149,7 +149,7 @@ class Diagnosis:
     noise_from: str = ""  # where the noise estimate came from, in words (noise_from())
     described: dict = field(default_factory=dict)  # {effect: damper}: physics the recording's own damper has
     # [(test, [segment names], [force range, N])]: a test run again with something the
-    # recording does not carry changed (models.recording.differing_repeats)
+    # recording does not carry changed (records.data.differing_repeats)
     repeats: list = field(default_factory=list)
     judge: object = None  # the held-out judgements every decision was taken on (stability.Judge)
     timing: dict = field(default_factory=dict)  # where its time went (models/diagnose/stages.py Clock.report)

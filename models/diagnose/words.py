@@ -9,7 +9,7 @@ import numpy as np
 from models.diagnose import fitting, quality, stability
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
-from models.recording import reads_low, repeats_sentence
+from records.data import reads_low, repeats_sentence
 
 # how a finding opens, by its nature (models/diagnose/spec.py NATURES)
 # (an open term's or the valve form's sentence opens with what it is)

@@ -1,7 +1,7 @@
 """The identification pipeline of thesis chapter 4: a recording in, a damper model out.
 
 Steps, each run when its data and channels are there (a step that cannot run says why),
-by segment kind (models/recording.py); the module of each:
+by segment kind (records/data.py); the module of each:
   static      friction look-up (eq 3.1) and the gas charge (eq 3.7)         static.py
   gas         oil thermal expansion K_voil from the gas pressure at rest (eq 4.6)   here
   low-speed   dynamic breakaway friction and its temperature coefficients   low_speed.py
@@ -39,7 +39,8 @@ from models.identify.segments import GAP_CYCLE_SHARE, dynamic_segments
 from models.identify.static import Estimate, identify_static, static_holds
 from models.damper import T_STD
 from models.physics.gas_spring import P_ATM
-from models.recording import at, covariance, missing, nrmse, segments, sign_problem
+from models.statistics import covariance, nrmse
+from records.data import at, missing, segments, sign_problem
 
 __all__ = ["IdentifyError", "Result", "canonical", "dynamic_segments", "identify", "parameter_value",
            "set_parameter", "simulate_segment"]
@@ -50,7 +51,7 @@ HELDOUT_EVERY = 3  # every third dynamic segment is held out of all fitting
 def identify(channels, events, description: Damper, progress=print, dynamic=True, smoothing=None) -> Result:
     """A damper model from a recording (see the module docstring). dynamic=False stops
     after the incompressible valve step (what the live view shows while a test runs).
-    smoothing: the source's moving average (models/source_filter.py), which the compressible
+    smoothing: the source's moving average (records/source_filter.py), which the compressible
     fit's and the held-out segments' simulated force go through."""
     if missing(channels, ("force", "x")):
         raise IdentifyError(f"recording has no {' or '.join(missing(channels, ('force', 'x')))} channel: "

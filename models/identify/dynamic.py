@@ -18,7 +18,7 @@ from models.identify.result import Result
 from models.identify.segments import Segment
 from models.identify.static import Estimate
 from models.physics.simulate import simulate
-from models.recording import covariance, nrmse
+from models.statistics import covariance, nrmse
 from models.threads import each
 
 G_START = 1.40  # adiabatic nitrogen: where the gamma fit starts (the thesis found 1.38)
@@ -40,7 +40,7 @@ def simulate_segment(d: Damper, s: Segment, cycles=None, full=False):
         end = min(end, s.score_from + int(cycles / s.freq / (s.t[1] - s.t[0])))
     x = np.clip(s.x[:end], 0.0, d.geometry.stroke)
     r = simulate(d, s.t[:end], x, s.v[:end], T=s.T, compressible=True, x_e=float(s.x.mean()))
-    if s.smoothing is not None:  # as the file's force was written (models/source_filter.py)
+    if s.smoothing is not None:  # as the file's force was written (records/source_filter.py)
         r.force = s.smoothing.apply(r.force, s.t[:end], float(s.t[1] - s.t[0]), s.freq or None)
     return r if full else r.force[s.score_from:]
 

@@ -50,7 +50,7 @@ def poor_sentence(nrmse, events, minimal=False, noise=None) -> str:
     """Why a model with held-out error nrmse [share] is poor, and what the recording lacks:
     its sine tests' amplitudes, frequencies and top speed, or a quieter force when its noise
     (a share of the force range, where known) is most of that error."""
-    from models.recording import Test, same_tests, segments
+    from records.data import Test, same_tests, segments
     sines = [s for s in segments(events, kinds=("sine",)) if "amplitude_mm" in s.params]
     tests = [Test.of(s.params) for s in sines]
     groups = same_tests(tests)

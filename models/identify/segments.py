@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.damper import T_STD
-from models.recording import at, cycle_blocks, gaps, missing, segments, smooth
+from records.data import at, cycle_blocks, gaps, missing, segments, smooth
 
 WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
 # a gap longer than this share of a cycle leaves its segment out: resampled across it, a sine
@@ -20,7 +20,7 @@ def by_cycles(channels, span):
     """A long sine segment as consecutive groups of its whole cycles (the valves are fitted
     on some and judged on others: held-out cycles); the segment itself when it has fewer
     than four cycles."""
-    from models.segmentation import cycles
+    from records.segmentation import cycles
     name, params, t0, t1 = span
     t, x = channels["x"]
     k = (t >= t0) & (t <= t1)

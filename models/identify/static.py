@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.recording import segments
+from records.data import segments
 
 from models.physics.gas_spring import fit_charge
 

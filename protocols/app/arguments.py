@@ -8,7 +8,7 @@ import argparse
 import difflib
 import math
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 BUDGET_S = 120.0  # s: rig time the dyno's own next tests take unless --budget says otherwise
 MAX_BUDGET_S = 7200.0  # s: what a run may move without --long (protocols/preflight.py)
@@ -134,7 +134,7 @@ FILE, FOLDER = "file", "folder"  # what an output option names (protocols/app/ou
 
 def writes(p, flag, kind, **kw):
     """An option naming a file or folder the command writes: main() checks it by the one
-    rule (protocols/io/files.py) before the command starts, whatever the command does."""
+    rule (records/files.py) before the command starts, whatever the command does."""
     action = p.add_argument(flag, **kw)
     action.writes = kind
     return action

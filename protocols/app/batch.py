@@ -16,7 +16,7 @@ from pathlib import Path
 from models.parallel import run_all
 
 from protocols import cluster
-from protocols.io.files import input_file, output_file, written
+from records.files import input_file, output_file, written
 
 
 @contextlib.contextmanager

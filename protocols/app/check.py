@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from models.damper import DamperError
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from protocols.app.arguments import FOLDER, overwrite, units, writes
 
 
@@ -29,7 +29,7 @@ def add(sub):
 
 def run(args):
     from protocols import catalogue
-    from protocols.io.files import existing_files, input_file, output_folder, filled
+    from records.files import existing_files, input_file, output_folder, filled
     from protocols.reports import qa
     from protocols.units import fmt
     try:

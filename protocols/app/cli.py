@@ -11,7 +11,7 @@ from models.damper import DamperError
 from models.parallel import TaskFailed
 from protocols.app.arguments import Parser
 from protocols.app.output import check_outputs
-from protocols.errors import Refused, UsageError
+from rig.errors import Refused, UsageError
 from rig.errors import RigError
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
 from protocols.app.arguments import BUDGET_S, FOLDER, MAX_BUDGET_S, batch_options, holdout, number, overwrite, writes
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 
 def add(sub):
@@ -57,10 +57,10 @@ def run(args):
     from models.diagnose import design, diagnose
     from models.diagnose.data import DiagnoseError
     from models.diagnose.words import repeats_text, summary
-    from models import source_filter
-    from models.recording import drives
-    from protocols.io.files import existing_files, filled, output_folder
-    from protocols.io.reader import load_recording
+    from records import source_filter
+    from records.data import drives
+    from records.files import existing_files, filled, output_folder
+    from records.reader import load_recording
     from protocols.reports.diagnosis import described, own_baseline, report, to_json
     baseline = _baseline(args.baseline)
     if getattr(args, "batch", None):

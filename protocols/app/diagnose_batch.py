@@ -2,8 +2,7 @@
 as FILE.diagnosis.json, a summary row each."""
 from __future__ import annotations
 
-from protocols.errors import UsageError
-from rig.errors import RigError
+from rig.errors import RigError, UsageError
 
 from protocols.app import batch
 
@@ -15,9 +14,9 @@ def _one(task):
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     from protocols.reports.diagnosis import own_baseline, to_json
-    from models import source_filter
-    from models.recording import drives
-    from protocols.io.reader import load_recording
+    from records import source_filter
+    from records.data import drives
+    from records.reader import load_recording
     with batch.unpacked(name, data) as path:
         try:
             ch, events, meta = load_recording(path)

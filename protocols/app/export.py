@@ -7,7 +7,7 @@ no row has an empty cell); a sample outside every segment has an empty segment. 
 are written to the decimals each channel resolves. The run's metadata goes with the
 table: Parquet schema metadata, or FILE.meta.json beside a CSV (docs/recording.md,
 "Exported tables"). Parquet through pyarrow (rerun-sdk installs it). The table:
-protocols/io/export.py."""
+protocols/export.py."""
 from __future__ import annotations
 
 import json
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from protocols.app.arguments import FILE, overwrite, units, writes
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 def add(sub):
     """The `dyno export` command's arguments."""
@@ -34,9 +34,9 @@ def add(sub):
 
 
 def run(args):
-    from protocols.io.export import json_safe, table, write
-    from protocols.io.files import output_file, written
-    from protocols.io.reader import load_recording
+    from protocols.export import json_safe, table, write
+    from records.files import output_file, written
+    from records.reader import load_recording
     if sum(bool(getattr(args, k, None)) for k in ("csv", "parquet", "target")) != 1:
         raise UsageError("give one of --csv FILE, --parquet FILE or --target FILE")
     if args.target:
@@ -69,9 +69,9 @@ def _target(args):
     """A replay target from the recording's position (protocols/library/replay.py reads it):
     time [s] from 0 and displacement [mm] about the recorded damper's mid-stroke (the
     recording's mean position without a model), at the position's own samples."""
-    from protocols.io.export import replay_target
-    from protocols.io.files import output_file, written
-    from protocols.io.reader import load_recording
+    from protocols.export import replay_target
+    from records.files import output_file, written
+    from records.reader import load_recording
     out = output_file(args.target, [args.recording], args.overwrite, "--target")
     t, x, mid, damper = replay_target(args.recording, *load_recording(args.recording), args.segment)
     with written(out, "--target") as tmp:

@@ -9,17 +9,17 @@ from pathlib import Path
 
 import numpy as np
 
-from models import damper as dm, source_filter
+from models import damper as dm
 from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
-from protocols.errors import UsageError
 from protocols.identification import clean, description, identified, model_of, summary, text
-from rig.errors import RigError
+from records import source_filter
+from rig.errors import RigError, UsageError
 
 
 def add(sub):
     """The `dyno identify` command's arguments."""
     idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
-    idf.add_argument("recordings", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
+    idf.add_argument("records", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
     idf.add_argument("--damper", default=None,
                      help="description giving layout and geometry (default: the damper the recording names)")
     writes(idf, "--out", FILE, default=None, help="model JSON (default: RECORDING.model.json)")
@@ -39,7 +39,7 @@ def add(sub):
 def _one(task):
     """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one
     recording's bytes; desc: the --damper description as a dict, or None."""
-    from protocols.io.reader import load_recording
+    from records.reader import load_recording
     name, data, desc = task
     from protocols.app import batch
     with batch.unpacked(name, data) as path:
@@ -61,9 +61,9 @@ def _row(name, doc, error):
 
 
 def run(args):
-    from models.recording import drives, only
-    from protocols.io.files import existing_files, filled, output_file, output_folder, written
-    from protocols.io.reader import merged
+    from records.data import drives, only
+    from records.files import existing_files, filled, output_file, output_folder, written
+    from records.reader import merged
     if getattr(args, "batch", None):
         from protocols.app import batch
         if args.recordings or args.out or args.report or args.truth:
@@ -122,7 +122,7 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     from protocols.identification import MINIMAL_SUFFIX, minimal_doc, minimal_text, poor
-    from protocols.io.files import output_file, written
+    from records.files import output_file, written
     if args.report or args.truth:
         raise UsageError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
     out = output_file(args.out or Path(args.recordings[0]).with_suffix(MINIMAL_SUFFIX), inputs, args.overwrite)

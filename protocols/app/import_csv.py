@@ -1,12 +1,12 @@
 """`dyno import FILE --out FILE.mcap --map NAME=COLUMN[:UNIT] ...`: a recording another dyno
 or acquisition system made (CSV, a DAQ's text export, Excel, TDMS, Parquet, MATLAB) as a dyno recording;
-`--inspect` shows what would be read and writes nothing. The work: protocols/io/importing.py;
-the table's layout: protocols/io/table.py; the columns' units: protocols/io/column_units.py."""
+`--inspect` shows what would be read and writes nothing. The work: records/importing.py;
+the table's layout: records/table.py; the columns' units: records/column_units.py."""
 from __future__ import annotations
 
 from protocols.app.arguments import FILE, identity, identity_info, number, overwrite, writes
-from protocols.errors import UsageError
-from protocols.io.importing import FLIPS
+from rig.errors import UsageError
+from records.importing import FLIPS
 
 
 def add(sub):
@@ -48,10 +48,10 @@ def add(sub):
 
 
 def run(args):
-    from models import source_filter
-    from protocols.io.csv_import import parse_map
-    from protocols.io.files import Claim
-    from protocols.io.importing import Source, drives, import_file, scales
+    from records import source_filter
+    from records.csv_import import parse_map
+    from records.files import Claim
+    from records.importing import Source, drives, import_file, scales
     for option in ("inspect", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed", "filtered"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
@@ -92,7 +92,7 @@ def run(args):
 
 def _said(done):
     from protocols import catalogue
-    from protocols.io import table
+    from records import table
     dated = f" (no date in the file: {done.dated})" if done.dated else ""
     print(f"{done.path}: {done.rows} rows from {table.iso(done.wall_start)[:23]} UTC{dated}, channels "
           + ", ".join(f"{n} [{u}]" for n, u in done.channels.items())
@@ -113,7 +113,7 @@ def _said(done):
 def inspect(args):
     """What import would read from the file: layout, columns with sample values, the rate,
     and a guessed map. Writes nothing."""
-    from protocols.io.importing import inspect_file, postamble
+    from records.importing import inspect_file, postamble
     seen = inspect_file(args.file, args.sheet)
     layout = seen.layout
     print(f"{args.file}: {seen.described}")

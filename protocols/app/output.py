@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 from protocols.reports import markdown as md
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 
 def emit(args, title, result, text, body=None, note=""):
@@ -36,7 +36,7 @@ def check_outputs(p, args):
     """Every file or folder the command will write, checked by the one rule before it
     starts: never an input (any file named among its other arguments), kept unless
     --overwrite, each a path of its own."""
-    from protocols.io.files import existing_files, output_file, output_folder
+    from records.files import existing_files, output_file, output_folder
     actions = [a for q in chosen(p, args) for a in q._actions if a.dest != "help"]
     outputs = [(a, getattr(args, a.dest, None)) for a in actions if getattr(a, "writes", None)]
     outputs = [(a, v) for a, v in outputs if v is not None]

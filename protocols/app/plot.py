@@ -49,8 +49,8 @@ def add(sub):
 
 def _figures(fn):
     """fn(args, folder) -> [PNG paths] drawn into --out: the folder is checked before the work
-    and filled once every figure is drawn (protocols/io/files.py)."""
-    from protocols.io.files import existing_files, filled, output_folder
+    and filled once every figure is drawn (records/files.py)."""
+    from records.files import existing_files, filled, output_folder
     @functools.wraps(fn)
     def run(args):
         out = output_folder(args.out, existing_files(args.damper, getattr(args, "car", None)), args.overwrite)

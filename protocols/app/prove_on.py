@@ -6,7 +6,7 @@ import dataclasses
 import json
 from pathlib import Path
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 HEADER = ("hidden", "size [% of range]", "value hidden", "RMS added [N]", "found", "said as", "value found",
           "also on the untouched")

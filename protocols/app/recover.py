@@ -11,7 +11,7 @@ def add(sub):
 
 def run(args):
     from protocols import catalogue
-    from protocols.io.recording import recover
+    from records.recorder import recover
     r = recover(args.file)
     if r["intact"]:
         print(f"{args.file}: intact, nothing to recover")

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from models.damper import DamperError
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 from protocols.app.arguments import FOLDER, overwrite, units, writes
 
@@ -54,7 +54,7 @@ def _speeds(text, units):
 
 
 def run(args):
-    from protocols.io.files import existing_files, filled, output_folder
+    from records.files import existing_files, filled, output_folder
     from protocols.reports.comparison import compare
     from protocols.reports.recording import report
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)

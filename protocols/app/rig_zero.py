@@ -7,8 +7,7 @@ from __future__ import annotations
 from models.damper import load as load_damper
 from protocols.app.arguments import number, units
 from protocols.commissioning import QUANTITY, as_shown, looks_loaded, write_offsets
-from protocols.errors import UsageError
-from rig.errors import RigError
+from rig.errors import RigError, UsageError
 def add(sub):
     """The `dyno rig zero` command's arguments."""
     rz = sub.add_parser("zero", help="tare the load cell, reference the position, check the LVT; offsets "

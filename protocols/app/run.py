@@ -10,7 +10,7 @@ import sys
 from models.damper import load as load_damper
 from protocols.app.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, identity, identity_info, number,
                                      units, virtual_plant, writes)
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 DIRECT = "direct"  # --rig: the virtual plant without its wires (protocols/cell.py direct)
 
@@ -72,7 +72,7 @@ def run(args):
 def _plan_run(args):
     """What a run needs, checked before anything connects or moves: (protocol module,
     params, virtual plant options, damper, rig config, RigInfo)."""
-    from protocols.io.files import output_file
+    from records.files import output_file
     from protocols.library import DISCOVER
     from protocols.recorded import planned
     given = [f"{n}={getattr(args, n)}" for n in ("car", "road", "compensator", "target", "iterations")
@@ -145,6 +145,6 @@ def _finish_run(module, name, ended):
 def _inputs(args):
     """The files a run reads: no output may be one of them."""
     from rig import config as rig_config
-    from protocols.io.files import existing_files
+    from records.files import existing_files
     rig = args.rig not in (None, DIRECT) and str(rig_config.path_of(args.rig))
     return existing_files(args.damper, rig, args.params, *(getattr(args, n, None) for n in ("car", "road", "target")))

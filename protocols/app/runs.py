@@ -7,7 +7,7 @@ import sys
 from contextlib import closing
 from pathlib import Path
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from protocols.app.arguments import FILE, overwrite, setup_item, units, writes
 
 
@@ -100,7 +100,7 @@ def show(args):
 
 def trend(args):
     from protocols import catalogue
-    from protocols.io.files import written
+    from records.files import written
     from protocols.reports import markdown as md
     from protocols.units import fmt
     from protocols.reports import trend as trend_report
@@ -125,7 +125,7 @@ def edit(args):
     """`dyno runs edit ID --serial/--operator/--note/--setup KEY=VALUE`: what was typed wrong
     or left out at the run, in the recording's metadata and its catalogue row both."""
     from protocols import catalogue
-    from protocols.io.recording import edit_run_info
+    from records.recorder import edit_run_info
     changes = {k: v for k, v in (("damper_serial", args.serial), ("operator", args.operator), ("note", args.note))
                if v is not None}
     changes.update({f"setup.{k}": v for k, v in args.setup})

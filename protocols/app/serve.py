@@ -9,7 +9,7 @@ import tempfile
 from contextlib import closing
 from pathlib import Path
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from protocols.app.arguments import number, units
 
 

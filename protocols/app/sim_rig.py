@@ -6,7 +6,7 @@ import math
 import signal
 import threading
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 from protocols.app.arguments import hidden_physics, number, virtual_plant
 

@@ -63,7 +63,7 @@ def _readings_table():
 def _report(path, kept):
     """The figures, written into a temporary folder that becomes `path` once all are done."""
     from models.validation import quarter_car
-    from protocols.io.files import filled
+    from records.files import filled
     from protocols.reports import validation as figures
     with filled(path, "--report") as folder:
         figures.plot_steps(kept["steps"], quarter_car.STEPS, folder / "steps.png", quarter_car.SETTLE_S)
@@ -74,7 +74,7 @@ def _report(path, kept):
 def run(args):
     from models.validation import format_table, rows
     from protocols.app.output import emit
-    from protocols.io.files import output_folder
+    from records.files import output_folder
     from protocols.reports import markdown as md
     if args.report:  # checked before the minute of simulation, not after
         output_folder(args.report, overwrite=args.overwrite, what="--report")

@@ -15,7 +15,7 @@ from pathlib import Path
 from rig import config as rig_config
 
 from protocols import catalogue, cell, runner
-from protocols.io.recording import for_run
+from protocols.recorded import for_run
 from protocols.library import PROTOCOLS
 from protocols.plan import Plan
 from protocols.units import Units

@@ -9,7 +9,7 @@ import time
 from dataclasses import dataclass
 from types import SimpleNamespace
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 CRANK_M = (0.025, 0.15)  # m: crank radius (a 50 mm stroke) and connecting rod
 CRANK_HZ = (0.5, 1.0, 2.0, 3.0)  # the crank's speeds, one segment each (peak 0.5 m/s)

@@ -11,9 +11,9 @@ import numpy as np
 
 from rig import config as rig_config
 from rig.devices import TRANSPORTS
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
-from protocols.io.recording import Recorder
+from records.recorder import Recorder
 
 
 def protocol_rate(cfg):
@@ -134,13 +134,13 @@ IMPORT_REPEATS = 3
 def bench_import(rows=1_000_000):
     """Seconds `dyno import`'s work takes for a CSV of `rows` rows (time, displacement,
     force) written with date-time stamps and with plain seconds, end to end (read, convert,
-    record, catalogue; protocols/io/importing.py): the median of IMPORT_REPEATS imports in
+    record, catalogue; records/importing.py): the median of IMPORT_REPEATS imports in
     one process (the first also loads the modules), and the slowest."""
     from datetime import datetime, timedelta, timezone
 
     from protocols import catalogue
-    from protocols.io.files import Claim
-    from protocols.io.importing import Source, import_file
+    from records.files import Claim
+    from records.importing import Source, import_file
     t = np.arange(rows) / 1000.0
     x = 30 + 5 * np.sin(2 * np.pi * t)
     F = 100 * np.cos(2 * np.pi * t)

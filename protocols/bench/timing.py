@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from models.events import RunEnd, Verdict
+from records.events import RunEnd, Verdict
 from rig import config
 from rig.errors import RigError
 from rig.loop import ControlLoop
@@ -119,8 +119,8 @@ def _diagnosis_load(folder, dyno, damper):
 
 
 def _diagnose_again(path, took, stop):
-    from models.recording import segments
-    from protocols.io.reader import load_recording
+    from records.data import segments
+    from records.reader import load_recording
     from protocols.live_diagnose import diagnosed
     from protocols.reports.peaks import recorded_damper
     channels, events, meta = load_recording(path)
@@ -204,7 +204,7 @@ def bench_discover(budget_s=60.0):
     rig time it recorded (the opening and its own tests) and against its budget; the goal
     (issue 73, 1.5 in issue 47): the wall time at most DISCOVER_GOAL times the budget, on a
     loaded machine too."""
-    from protocols.io.reader import load_recording
+    from records.reader import load_recording
     dyno = str(Path(sys.executable).parent / "dyno")
     with tempfile.TemporaryDirectory(prefix="dyno-bench-") as d:
         out = Path(d) / "discover.mcap"

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from models.recording import SAME_TEST_AMPLITUDE, SAME_TEST_FREQUENCY, SAME_TEST_K, near, segments, sign_problem
-from protocols.io.reader import load_recording
+from records.data import SAME_TEST_AMPLITUDE, SAME_TEST_FREQUENCY, SAME_TEST_K, near, segments, sign_problem
+from records.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
 from protocols.reports.page import Page, save
@@ -42,7 +42,7 @@ def _gas_charges(runs) -> str | None:
     """gas_rising's sentence for runs whose setup gives a gas charge (a key starting with
     gas, a number first: --setup gas_psi=150, gas_bar=10), else None."""
     import re
-    from models.recording import gas_level, gas_rising
+    from records.data import gas_level, gas_rising
     points = []
     for tag, path, _, meta in runs:
         run = meta.get("run", {})

@@ -9,7 +9,7 @@ import numpy as np
 
 from models.diagnose.referees import not_proven
 from models.diagnose.words import summary
-from models.recording import reads_low
+from records.data import reads_low
 
 
 def own_baseline(meta):

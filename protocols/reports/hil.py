@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.events import Result, SegmentStart
-from models.recording import segment_kind
+from records.events import Result, SegmentStart
+from records.data import segment_kind
 from models.quarter_car.hil import transmissibility
 from protocols.reports.page import save
 from protocols.reports.plots import plt

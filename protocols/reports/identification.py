@@ -9,7 +9,7 @@ import numpy as np
 
 from models.identify import simulate_segment
 from models.identify.parameters import bound_sentence
-from models.recording import nrmse
+from models.statistics import nrmse
 from protocols.reports.plots import plt
 from protocols.reports.page import Page, number, save
 

@@ -54,7 +54,7 @@ class Peak:
     @property
     def test(self):
         """What makes two recordings' segments comparable (Test.same), never the name."""
-        from models.recording import Test
+        from records.data import Test
         return Test.of(vars(self))
 
 
@@ -112,7 +112,7 @@ class Sampled:
 @dataclass
 class ThroughSource:
     """A full damper model read through the moving average a recording's source applied
-    (models/source_filter.py): its force along a stretch of motion, filtered at the
+    (records/source_filter.py): its force along a stretch of motion, filtered at the
     stretch's own period (its displacement's strongest frequency)."""
     damper: object
     smoothing: object
@@ -139,7 +139,7 @@ def along(model, ch, events, meta=None):
     the samples the diagnosis keeps, interpolated); a full damper model along a smoothed
     recording through its filter (ThroughSource); any other model as it is. DamperError
     when its source recording or a channel its effects read is missing."""
-    from models import source_filter
+    from records import source_filter
     smoothing = source_filter.of(meta or {})
     if smoothing and hasattr(model, "geometry"):  # a full damper model, simulated stretch by stretch
         return ThroughSource(model, smoothing)
@@ -148,8 +148,8 @@ def along(model, ch, events, meta=None):
     if not model.effects:
         return Sampled(model.name, *model.along(None, (ch, events), smoothing))
     from models.damper import DamperError
-    from protocols.io.reader import merged
-    from protocols.errors import UsageError
+    from records.reader import merged
+    from rig.errors import UsageError
     try:
         source = merged(model.source)[:2]
     except (UsageError, OSError) as e:

@@ -18,9 +18,9 @@ import numpy as np
 
 from models.damper import DamperError
 from models.minimal import load_reference as load_damper, outside
-from models.recording import segments, sign_problem
-from protocols.io import spec_table
-from protocols.io.reader import load_recording
+from records.data import segments, sign_problem
+from records import spec_table
+from records.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
 from protocols.reports.plots import plt

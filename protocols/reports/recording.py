@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from models.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
-from models.recording import segments, sign_problem
-from models.segmentation import imported_unsegmented, left_out
-from protocols.io.reader import load_recording
+from records.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
+from records.data import segments, sign_problem
+from records.segmentation import imported_unsegmented, left_out
+from records.reader import load_recording
 from models.identify.static import static_holds
 from protocols.reports import hil, peaks, sines, velocity_table as vt
 from protocols.reports.page import Page, save

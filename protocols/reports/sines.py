@@ -176,7 +176,7 @@ def force_temperature_figure(rows, out, units=Units()):
 
 
 def left_out_figure(ch, rest, out, units=Units()):
-    """The strokes outside every segment (models.segmentation.unsegmented: a sweep's), force
+    """The strokes outside every segment (records.segmentation.unsegmented: a sweep's), force
     against velocity and against displacement, each stroke coloured by its frequency."""
     from matplotlib import cm, colors
     V, F_, X = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force", "length"))

@@ -29,8 +29,7 @@ from protocols.reports.page import TEMPLATES
 from protocols.reports.recording import report
 from protocols.units import Units, fmt
 from protocols.web.in_progress import being_written, in_progress
-from protocols.errors import UsageError
-from rig.errors import RigError
+from rig.errors import RigError, UsageError
 
 REINDEX_S = 5.0  # new recordings show up on the runs page within this
 COLUMNS = {"id": "id", "started": "started", "serial": "serial", "damper": "damper", "protocol": "protocol",

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 from mcap.records import Attachment, Channel, Message, Metadata
 
-from models.events import STOPS, Diagnosis, RunStart, SegmentEnd, SegmentStart, Verdict
-from protocols.errors import UsageError
-from protocols.io.files import writer
-from protocols.io.reader import read_event
-from protocols.io.recording import intact_from
+from records.events import STOPS, Diagnosis, RunStart, SegmentEnd, SegmentStart, Verdict
+from rig.errors import UsageError
+from records.files import writer
+from records.reader import read_event
+from records.recorder import intact_from
 from protocols.reports.comparison import run_name
 from protocols.units import Units, quantity_of
 

@@ -2,7 +2,7 @@
 prints text, --json, or --markdown for docs/results."""
 from __future__ import annotations
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 from protocols.app.output import emit
 from protocols.reports import markdown as md

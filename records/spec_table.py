@@ -11,10 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from protocols.errors import UsageError
-from protocols.io import table
-from protocols.io.column_units import UNITS, unit, unit_in_name
-from protocols.io.csv_import import source
+from rig.errors import UsageError
+from records import table
+from records.column_units import UNITS, unit, unit_in_name
+from records.csv_import import source
 
 # what each column is called; a name holding one of these words (or a longer word starting
 # with one of the longer ones) is that column, the first such column counts

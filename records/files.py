@@ -31,7 +31,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from rig.operator_stop import quiet
 
 TEMP_ROOM = 32  # characters the temporary names add to a file name

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from models.events import Event, SegmentEnd, SegmentStart
-from models.recording import Test, same_tests, segments
+from records.events import Event, SegmentEnd, SegmentStart
+from records.data import Test, same_tests, segments
 
 MIN_TRAVEL = 2e-4  # m: a cycle moves at least this far each way (below: noise about a hold)
 REVERSAL_SHARE = 0.25  # a crossing counts once the motion has gone this share of the local range back

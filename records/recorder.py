@@ -25,12 +25,11 @@ from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
 from mcap.stream_reader import breakup_chunk
 from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
-from models.events import KINDS, Event, Fault, OperatorStop, SegmentStart, Skipped
-from protocols.errors import UsageError
-from rig.errors import RigError
+from records.events import KINDS, Event, Fault, OperatorStop, SegmentStart, Skipped
+from rig.errors import RigError, UsageError
 
-from protocols.io.files import Claim, input_file, not_being_written, output_file, written
-from protocols.io.mcap_batch import add_messages
+from records.files import Claim, input_file, not_being_written, output_file, written
+from records.mcap_batch import add_messages
 
 FLUSH_S = 0.5
 
@@ -59,7 +58,7 @@ SCHEMAS = {
         "required": ["seq", "t", "x"]},
     "dyno.Event": {
         "type": "object", "title": "dyno.Event",
-        "description": "Protocol, safety and analysis events (models/events.py); a kind's own fields ride "
+        "description": "Protocol, safety and analysis events (records/events.py); a kind's own fields ride "
                        "in params (run_start: segment_count, duration_max_s; diagnosis: source).",
         "properties": {"seq": {"type": "integer"}, "t": {"type": "number"},
                        "kind": {"type": "string", "examples": list(KINDS)},
@@ -87,7 +86,7 @@ VERSION = metadata.version("dyno")  # pyproject.toml's, as installed
 
 
 class Recorder:
-    """Writes a run to `path` through a Claim (protocols/io/files.py): to a partial file
+    """Writes a run to `path` through a Claim (records/files.py): to a partial file
     beside it, renamed onto `path` at the first segment_start event (the run has started
     cleanly); a run that never starts leaves no file and an existing one untouched.
 
@@ -236,16 +235,6 @@ class Recorder:
             why = getattr(error, "strerror", None) or str(error)
             raise RigError(f"{self.path}: recording not finished ({why}); what was written up to the last "
                            f"flush is kept: run `dyno recover {self.path}`")
-
-
-def for_run(path, cell, plan, run_info=None, overwrite=False) -> Recorder:
-    """The recorder of a plan run on a cell (protocols/cell.py): its damper, protocol and
-    parameters, on the rig's clock; run_info as `dyno run` gives it (damper_serial, note...).
-    Close it after the run (contextlib.closing)."""
-    from models.damper import to_dict
-    from protocols.plan import as_dict
-    return Recorder(path, cell.config, json.dumps(to_dict(cell.damper)), plan.name, as_dict(plan.params),
-                    wall_start=cell.rig.wall_start, overwrite=overwrite, run_info=run_info)
 
 
 # records worth keeping, and how a resync finds a candidate: opcode, then a little-endian

@@ -8,7 +8,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 from protocols.units import Units
 
 SIGNIFICANT = 7  # digits of a channel's range kept where its samples sit on no coarser grid
@@ -34,7 +34,7 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
     """(columns [str], column arrays, decimals per column or None): the wide table on the
     force clock, channels in the unit system `shown` (units: each channel's SI unit, as
     recorded); wall_start (ISO 8601) adds the UTC time of every row."""
-    from models.recording import segments
+    from records.data import segments
     if "force" not in channels:
         raise UsageError("the recording has no force channel to put the table on")
     names = names or sorted(channels, key=lambda n: (n != "force", n))
@@ -76,7 +76,7 @@ def replay_target(path, channels, events, meta, segment=None):
     """(t [s], x [m], mid-stroke [m], the recorded damper or None) of the recording's position,
     over one segment if named: the displacement a replay follows (protocols/library/replay.py),
     about the damper's mid-stroke (the mean position without a model)."""
-    from models.recording import segments
+    from records.data import segments
     from protocols.reports.peaks import recorded_damper
     if "x" not in channels or len(channels["x"][0]) < 2:
         raise UsageError(f"{path}: no position channel x to make a target of")

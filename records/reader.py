@@ -1,7 +1,7 @@
 """Reading a recording (docs/recording.md) into plain data: what reports, identification,
 diagnosis and any user's own analysis start from.
 
-    from protocols.io.reader import load_recording
+    from records.reader import load_recording
     channels, events, metadata = load_recording("run.mcap")
     t, force = channels["force"]          # seconds on the run clock, newtons
     metadata["units"]["force"]            # "N": each channel's unit as recorded
@@ -24,10 +24,10 @@ from mcap.reader import make_reader
 from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import get_chunk_data_stream
 
-from models.events import from_wire
-from models import source_filter
-from protocols.io.files import input_file, not_being_written
-from protocols.errors import UsageError
+from records.events import from_wire
+from records import source_filter
+from records.files import input_file, not_being_written
+from rig.errors import UsageError
 
 
 MAX_TIME_S = 1e8  # s from a run's start: three years, beyond any durability run's clock
@@ -38,7 +38,7 @@ JSON_METADATA = {"damper": ("model",), "protocol": ("params",), "calibration": N
 
 
 def load_recording(path, channels=None):
-    """(channels {name: (t, values)}, events [Event] (models/events.py), metadata {name: dict}); metadata
+    """(channels {name: (t, values)}, events [Event] (records/events.py), metadata {name: dict}); metadata
     "units" is {channel: unit} as recorded. Only the named channels when given (those the
     recording has): the others' batches are most of a 1 kHz recording's reading time.
     Whatever the file holds is checked here: RigError naming the topic or metadata record

@@ -1,5 +1,5 @@
 """A table of numbers as dyno software and acquisition systems write it, found without
-being told: the encoding (protocols/io/csv_import.decode), the delimiter (comma,
+being told: the encoding (recordings/csv_import.decode), the delimiter (comma,
 semicolon, tab or whitespace), a decimal comma, a preamble before the header (a DAQ's
 `Sampling Rate: 1000` read from it), a header or none, trailing delimiters and an empty
 last column, and time as numbers or date-time stamps.
@@ -22,7 +22,7 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 DELIMITERS = (",", ";", "\t", None)  # None: runs of whitespace
 TAIL = 40  # data lines looked at to learn the table's shape

@@ -1,7 +1,7 @@
 """A recording as plain data, and the helpers every analysis of one shares.
 
 channels: {name: (t [s], values [SI])}; events: the recording's events
-(models/events.py, docs/recording.md). A segment's kind is written into its params by the runner
+(records/events.py, docs/recording.md). A segment's kind is written into its params by the runner
 (`protocols/plan.py`); recordings made before that are read by inferring it from the
 params' keys (`segment_kind`), in this one place.
 """
@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from models.events import SegmentEnd, SegmentStart
+from records.events import SegmentEnd, SegmentStart
 
 # what a segment of motion is; the analyses choose segments by these
 # road: motion a virtual car or a replayed history asks for (hardware-in-the-loop, replay)
@@ -371,36 +371,6 @@ def sign_problem(channels) -> str | None:
     tF, F = channels["force"]
     tx, x = channels["x"]
     return other_sign(x, np.interp(tx, tF, F) if len(tF) > 1 else np.full_like(x, np.nan))
-
-
-def nrmse(F_model, F_meas):
-    """RMS error over the measured force's peak-to-peak range [-]."""
-    return float(np.sqrt(np.mean((F_model - F_meas) ** 2)) / max(np.ptp(F_meas), 1e-9))
-
-
-def covariance(jac, residual):
-    """(standard deviations, correlation matrix) of least-squares parameters from the
-    Jacobian: the residual variance per effective independent sample (neighbouring
-    samples' errors are correlated; one independent error per sign change of the
-    residual). A parameter without influence on the fit gets an infinite deviation."""
-    J, r = np.asarray(jac), np.asarray(residual)
-    n, p = J.shape
-    n_eff = max(int(np.sum(np.diff(np.sign(r)) != 0)), p + 1)
-    norms = np.linalg.norm(J, axis=0)
-    live = norms > 1e-6 * max(norms.max(), 1e-300)
-    sd = np.full(p, np.inf)
-    rho = np.zeros((p, p))
-    if live.any():
-        Jl = J[:, live]
-        # sigma^2 (J^T J)^-1 with the residual variance counted per independent error
-        cov = (r @ r) / max(n_eff - p, 1) * np.linalg.pinv(Jl.T @ Jl)
-        var = np.diag(cov)
-        # pinv gives a direction the data does not see no variance at all: not "exact"
-        sdl = np.where(var > 0, np.sqrt(np.abs(var)), np.inf)
-        sd[live] = sdl
-        with np.errstate(invalid="ignore", divide="ignore"):
-            rho[np.ix_(live, live)] = np.clip(np.nan_to_num(cov / np.outer(sdl, sdl)), -1.0, 1.0)
-    return sd, rho
 
 
 def drives(meta) -> list[str]:

@@ -23,8 +23,8 @@ NAMES = (("time", ("time", "t", "zeit", "temps", "tiempo", "tempo", "sec")),
 def by_name(name: str, cells) -> str | None:
     """A standard channel a column's name (or first value) suggests, with its unit: the
     map a user would likely write."""
-    from protocols.io import table
-    from protocols.io.column_units import unit_in_name
+    from records import table
+    from records.column_units import unit_in_name
     n = name.lower()
     if cells is not None and len(cells) and (getattr(cells, "dtype", None) is not None and cells.dtype.kind == "M" or
                                              not isinstance(cells, np.ndarray) and table.is_stamp(str(cells[0]))):
@@ -41,7 +41,7 @@ def by_name(name: str, cells) -> str | None:
 def time_unit(cells) -> str | None:
     """ms or us for a time column whose name gives no unit and whose step is 0.5 or more
     (no dyno samples slower than 2 Hz: 1 a row is 1 kHz in ms; over 50, us), else None."""
-    from protocols.io import table
+    from records import table
     if cells is None or not len(cells):
         return None
     head = np.asarray(cells[:200], float) if isinstance(cells, np.ndarray) else next(
@@ -59,7 +59,7 @@ def key_of(j: int, name: str, layout) -> str:
 def _with_units(found):
     """by_values' guesses with the unit each column's name carries, where it is the
     channel's."""
-    from protocols.io.column_units import unit_in_name
+    from records.column_units import unit_in_name
     out = []
     for g, why in found:
         channel, key = g.split("=", 1)
@@ -76,7 +76,7 @@ def _named(mapping) -> dict:
 def _values(cols, layout, guesses):
     """({column key: values} of the numeric columns no name explained, the time column's
     values [s] if a name gave it, else None)."""
-    from protocols.io import table
+    from records import table
     named = _named(guesses)
     vals, t = {}, None
     for j, (name, cells) in enumerate(cols.items()):
@@ -93,15 +93,15 @@ def _values(cols, layout, guesses):
 
 def _numbers(cells, layout):
     """A column's cells as floats (nan where not a number)."""
-    from protocols.io import table
+    from records import table
     return np.asarray(cells, float) if isinstance(cells, np.ndarray) else table.numbers(
         list(cells), layout.decimal if layout else ".")[0]
 
 
 def sign(cols, layout, mapping) -> str | None:
     """What to flip when the guessed map's force and displacement would give energy back
-    (models.recording.flips), or None. mapping: [NAME=COLUMN[:UNIT]]."""
-    from models.recording import flips
+    (records.data.flips), or None. mapping: [NAME=COLUMN[:UNIT]]."""
+    from records.data import flips
     named = _named(mapping)
     if not {"displacement", "force"} <= named.keys():
         return None
@@ -170,7 +170,7 @@ FOLLOWS = 0.6  # correlation of a force with the displacement's rate of change (
 def _motion_and_force(vals, t, force_named):
     """[displacement, force] guesses of a DAQ's raw channels: the smoothest column, and the
     one that follows its rate of change unless another follows it within 0.05; or []."""
-    from protocols.io.column_units import unit_in_name
+    from records.column_units import unit_in_name
     if len(vals) < 2 or force_named:
         return []
     rough = {k: float(np.std(np.diff(a, 2)) / np.std(a)) for k, a in vals.items()}
@@ -203,6 +203,6 @@ def counter(cells, layout) -> bool:
 
 def numeric(cells) -> bool:
     """A column whose first values are numbers (a DAQ's channels, not a sample counter's name)."""
-    from protocols.io import table
+    from records import table
     first = [str(c) for c in list(cells[:SAMPLES]) if str(c)]
     return bool(first) and all(table.NUMBER.match(c) for c in first)

@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 FLIPS = ("force", "displacement", "velocity")
 PLOT_POINTS = 10_000  # /plot messages per channel at most: over two per pixel of a 4k display; /channels keeps every sample
@@ -26,7 +26,7 @@ class Source:
     """What to read from the file and how it was made: the map (NAME=COLUMN[:UNIT]), gains
     and offsets into the mapped units, channels counted the other way, the rate when no
     time column says it, the sheet, the aux channels that drive the damper, the source's
-    own filter (models/source_filter.py) and who tested which damper (run metadata)."""
+    own filter (records/source_filter.py) and who tested which damper (run metadata)."""
     file: str
     map: list
     gains: dict = field(default_factory=dict)
@@ -97,10 +97,10 @@ def import_file(src: Source, claim) -> Imported:
 
 
 def _import(src, claim):
-    from models import segmentation
-    from models.recording import other_sign
-    from protocols.io.csv_import import derived_velocity, parse_map, read
-    from protocols.io.recording import Recorder
+    from records import segmentation
+    from records.data import other_sign
+    from records.csv_import import derived_velocity, parse_map, read
+    from records.recorder import Recorder
     got = read(src.file, parse_map(src.map), src.gains, src.offsets, src.rate, src.sheet)
     data, units = got.data, got.units
     flip(data, set(src.flips))
@@ -157,7 +157,7 @@ def _import(src, claim):
 
 def _smoothing_note(smoothing, found) -> list[str]:
     """What import says of the source's filter; a share of a period where nothing repeats is refused."""
-    from models import source_filter
+    from records import source_filter
     if smoothing is None:
         return []
     if isinstance(smoothing, source_filter.LowPass):
@@ -174,8 +174,8 @@ def _channels(t, data, units):
     """({channel: (t [s] from the first row, values, unit)}, notes): each mapped column's
     rows that hold a number; a column with none is left out, and rows without one (NaN,
     an empty or missing cell) are said with their count."""
-    from protocols.io.column_units import SI
-    from protocols.io.csv_import import CHANNELS
+    from records.column_units import SI
+    from records.csv_import import CHANNELS
     channels, gaps = {}, []
     for name, a in data.items():
         ok = ~np.isnan(a)
@@ -190,9 +190,9 @@ def _channels(t, data, units):
 
 def _run_info(got, how, every, src, kept) -> dict:
     """The recording's run metadata: who tested which damper, where its start and time came
-    from, the source's smoothing (models/source_filter.py) and what import said of the
+    from, the source's smoothing (records/source_filter.py) and what import said of the
     file, for the report."""
-    from models.source_filter import RUN_KEY
+    from records.source_filter import RUN_KEY
     return {**src.identity, "wall_start_source": how,
             **({"time_source": got.derived_time} if got.derived_time else {}),
             **({"plot_every": every} if every > 1 else {}),
@@ -231,8 +231,8 @@ def _time_notes(got, t, maps) -> list[str]:
 
 def _zero_note(data, units) -> list[str]:
     """A displacement below zero, with the offset that puts its most extended reading at zero."""
-    from models.recording import below_extension
-    from protocols.io.column_units import UNITS
+    from records.data import below_extension
+    from records.column_units import UNITS
     unit = units.get("displacement", "m")
     below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
     return [f"displacement: {below}"] if below else []
@@ -241,7 +241,7 @@ def _zero_note(data, units) -> list[str]:
 def _velocity_note(t, data, units) -> list[str]:
     """A mapped velocity that is not the displacement's rate of change (the other way, or in
     another unit)."""
-    from models.recording import velocity_disagrees
+    from records.data import velocity_disagrees
     if units.get("velocity", "").startswith("derived"):
         return []
     said = velocity_disagrees(t, data["displacement"], data["velocity"])
@@ -265,9 +265,9 @@ class Inspection:
 
 def inspect_file(file, sheet=None) -> Inspection:
     """What import would read from the file. Writes nothing."""
-    from protocols.io import table
-    from protocols.io.column_guess import SAMPLES, by_name, by_values, counter, key_of, numeric, sign
-    from protocols.io.csv_import import source
+    from records import table
+    from records.column_guess import SAMPLES, by_name, by_values, counter, key_of, numeric, sign
+    from records.csv_import import source
     cols, layout = source(file, sheet)
     rows = len(next(iter(cols.values()))) if cols else 0
     columns, guesses = [], []

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 
 def columns(path) -> dict:

@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from protocols.io import table
-from protocols.io.column_units import BRACKETED, SI, UNIT_NAMES, UNITS, unit, unit_in_name
-from protocols.io.files import input_file
+from records import table
+from records.column_units import BRACKETED, SI, UNIT_NAMES, UNITS, unit, unit_in_name
+from records.files import input_file
 from rig.config import quantity
-from protocols.errors import UsageError
+from rig.errors import UsageError
 
 CHANNELS = {"time": "t", "displacement": "x", "velocity": "v", "force": "force", "temperature": "T_body",
             "pressure": "P_gas"}
@@ -96,7 +96,7 @@ class Imported:
 def source(path, sheet=None):
     """({column name: cells (text) or values (array)}, Layout or None) of a text table,
     an Excel workbook (its sheet named so, else its fullest), a Parquet file, a TDMS file
-    (protocols/io/tdms.py) or a MATLAB file (columns VAR, or VAR[N] for a matrix's N-th)."""
+    (records/tdms.py) or a MATLAB file (columns VAR, or VAR[N] for a matrix's N-th)."""
     path = input_file(path)
     if sheet is not None and path.suffix.lower() not in (".xlsx", ".xlsm"):
         raise UsageError(f"--sheet {sheet}: {path} is not an Excel workbook")
@@ -112,7 +112,7 @@ def source(path, sheet=None):
             raise UsageError(f"{path}: not a readable Parquet file ({str(e).splitlines()[0]})") from None
         return {n: np.asarray(t.column(n).to_numpy(zero_copy_only=False)) for n in t.column_names}, None
     if suffix == ".tdms":
-        from protocols.io import tdms
+        from records import tdms
         return tdms.columns(path), None
     if suffix == ".mat":
         from scipy.io import loadmat

@@ -1,1 +1,0 @@
-"""Recordings on disk: MCAP writing and recovery, reading, CSV import, files never lost."""

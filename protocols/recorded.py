@@ -3,7 +3,7 @@ claim of its recording to the last close (`record`): the cell opened,
 the observers attached (the recorder, the live view, live identification and diagnosis),
 the plan run (or `dyno run discover`'s rounds), then everything closed in order with every
 error kept, the first being the one that ended the run. `dyno run` parses and prints
-around it (protocols/app/run.py)."""
+around it (commands/run.py)."""
 from __future__ import annotations
 
 import json

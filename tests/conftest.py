@@ -26,7 +26,7 @@ def dyno(*args):
     """`dyno ARGS` run in this process (the console script's own main: a process each would
     spend most of its time importing); (returncode, stdout, stderr) as a process gives them.
     An exception main lets through fails the test, as a traceback would."""
-    from protocols.app import cli
+    from commands import cli
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:

@@ -1,9 +1,10 @@
 """The layering and the size rules, checked on the source so they cannot silently erode.
 
 Layers import downward only:
-    protocols (the application)  ->  sim_backend  ->  models  ->  records  ->  rig
-    rig imports none of the others; records (a run as data and its files) imports only
-    rig; models (the physics) only records, never rig itself, sim_backend or protocols;
+    commands -> proof -> protocols -> sim_backend -> models -> records -> rig
+    (the command line; prove and the benchmarks; plans, runner, cell, reports; the virtual
+    cell; the physics; a run as data and its files; the cell's drivers and loop). rig
+    imports none of the others, records only rig, models only records (never rig itself);
     inside models, the damper's description imports no equation, the equations (physics)
     nothing built on them, and the fan-out (parallel) none of the libraries that use it.
 No module imports another module's private names (_name), no modules import each other in a
@@ -18,12 +19,13 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("rig", "records", "models", "sim_backend", "protocols")
+# the rooms, bottom to top: each imports only those below it
+PACKAGES = ("rig", "records", "models", "sim_backend", "protocols", "proof", "commands")
+ABOVE = {room: PACKAGES[i + 1:] for i, room in enumerate(PACKAGES)}
 FORBIDDEN = {  # importer prefix -> imported prefixes it must not use
-    "rig": ("records", "models", "sim_backend", "protocols"),
-    "records": ("models", "sim_backend", "protocols"),
+    **ABOVE,
     "rig.codecs": ("rig.devices", "rig.loop", "rig.rig", "rig.safety", "rig.config"),
-    "models": ("rig", "sim_backend", "protocols"),
+    "models": ("rig", *ABOVE["models"]),  # a model is the same on any cell and on a file
     # the damper's description is what the equations take: it imports none of them
     "models.damper": ("models.physics", "models.identify", "models.diagnose", "models.quarter_car",
                       "models.validation"),
@@ -32,7 +34,7 @@ FORBIDDEN = {  # importer prefix -> imported prefixes it must not use
     "models.physics": ("models.identify", "models.diagnose", "models.quarter_car", "models.validation"),
     "models.identify": ("models.diagnose", "models.quarter_car", "models.validation"),
     "models.diagnose": ("models.identify", "models.quarter_car", "models.validation"),
-    "sim_backend": ("protocols", "models.diagnose"),  # the plant hides physics it knows itself
+    "sim_backend": (*ABOVE["sim_backend"], "models.diagnose"),  # the plant hides physics it knows itself
 }
 MAX_FILE_LINES = 450
 MAX_FUNCTION_LINES = 80
@@ -132,10 +134,10 @@ def test_no_modules_import_each_other_in_a_circle():
 
 
 def _command_modules():
-    """The modules of protocols.app that are commands (the benches': protocols.app.bench)."""
-    from protocols.app.cli import COMMANDS
+    """The modules of commands that are commands (the benches': commands.bench)."""
+    from commands.cli import COMMANDS
     names = [m for c in COMMANDS for m in (c[2] if isinstance(c, tuple) else [c])]
-    return {f"protocols.app.{n}" for n in names if not n.startswith("bench")} | {"protocols.app.bench"}
+    return {f"commands.{n}" for n in names if not n.startswith("bench")} | {"commands.bench"}
 
 
 def _file(module):
@@ -159,13 +161,13 @@ def test_each_command_declares_its_arguments_and_building_the_parser_stays_light
     """Every command module declares its own arguments (add) beside its run, and imports what
     it runs only when it runs: building `dyno`'s parser (every call, --help included) loads
     none of the analysis, the rig's transports or the plots."""
-    code = ("import sys; from protocols.app.cli import parser; parser(); "
+    code = ("import sys; from commands.cli import parser; parser(); "
             f"print(sorted(m for m in sys.modules if m.startswith({HEAVY!r})))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True).stdout
     assert out.strip() == "[]", out
-    cli = (ROOT / "protocols/app/cli.py").read_text()
+    cli = (ROOT / "commands/cli.py").read_text()
     assert "set_defaults(command" not in cli  # no command declared in the table itself
-    for m in _command_modules() - {"protocols.app.bench"}:  # the benches declare theirs in bench/arguments.py
+    for m in _command_modules() - {"commands.bench"}:  # the benches declare theirs in bench/arguments.py
         assert "def add(sub)" in _file(m).read_text(), m
 
 
@@ -175,8 +177,8 @@ MAX_COMMAND_LINES = 150
 def test_nothing_below_the_command_layer_imports_it():
     """The commands call the library, never the other way: a bench, a proof or a run's life
     reaches an import or a model through the library, not through `dyno`'s parser."""
-    bad = [f"{m} imports {t}" for path in sources() if not within(m := module_name(path)[0], "protocols.app")
-           for t, _ in imports(path) if within(t, "protocols.app")]
+    bad = [f"{m} imports {t}" for path in sources() if not within(m := module_name(path)[0], "commands")
+           for t, _ in imports(path) if within(t, "commands")]
     assert not bad
 
 
@@ -188,12 +190,13 @@ def test_every_command_only_parses_calls_and_prints():
 
 
 def test_no_application_code_opens_a_simulator_file():
-    """A real cell reads only its own files: no path in rig/ or protocols/ names a file of
-    sim_backend/ (the simulator opens its own, in its functions). Sentences may name one."""
+    """A real cell reads only its own files: no path in rig/, records/, models/, protocols/ or
+    commands/ names a file of sim_backend/ (the simulator opens its own, in its functions;
+    proof/ is the simulator's harness). Sentences may name one."""
     own = {p.name for p in (ROOT / "sim_backend").rglob("*.toml")}
     bad = []
     for path in sources():
-        if path.relative_to(ROOT).parts[0] in ("rig", "protocols"):
+        if path.relative_to(ROOT).parts[0] in ("rig", "records", "models", "protocols", "commands"):
             for n in ast.walk(ast.parse(path.read_text())):
                 path_like = isinstance(n, ast.Constant) and isinstance(n.value, str) and not re.search(r"\s", n.value)
                 if (path_like and (n.value.rpartition("/")[2] in own or "sim_backend/" in n.value)

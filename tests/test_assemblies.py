@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from protocols.bench import speed as bench
+from proof.bench import speed as bench
 from models.damper import DamperError, load
 from models.physics.simulate import C_to_K, simulate, sine
 

@@ -178,7 +178,7 @@ def test_runs_are_found_by_a_where_expression_on_fields_and_setup(folder):
 
 
 def test_runs_show_and_trend_speak_the_chosen_units(folder, capsys):
-    from protocols.app.cli import main
+    from commands.cli import main
     catalogue.index(folder)
     with catalogue.connect(folder) as c:
         run_id = next(r["id"] for r in catalogue.runs(c) if not r["error"])
@@ -194,7 +194,7 @@ def test_runs_show_and_trend_speak_the_chosen_units(folder, capsys):
 
 
 def test_runs_edit_corrects_the_recording_and_its_row_and_nothing_else(folder, tmp_path, capsys):
-    from protocols.app.cli import main
+    from commands.cli import main
     shutil.copy(folder / "d12-a.mcap", tmp_path / "d12-a.mcap")  # the shared folder stays as it was
     folder = tmp_path
     catalogue.index(folder)

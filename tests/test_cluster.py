@@ -129,7 +129,7 @@ def test_a_sweep_on_the_cluster_equals_the_serial_one():
 def test_the_diagnosis_summary_says_what_the_recording_cannot_tell_apart():
     """The UTFSM 10 mm 1 Hz files: the model carries hysteresis for the MR fluid, but a
     flexible surface explains as much; a pandas reader of the summary sees that, not a name."""
-    from protocols.app.diagnose_batch import _row
+    from commands.diagnose_batch import _row
     held = {"nrmse_heldout": 0.005, "rmse_heldout": 9.3, "r2_heldout": 0.9998}
     doc = {"baseline": held, "final": held, "accepted": ["bouc_wen", "position_friction"], "named": [],
            "not_proven": ["stroke_damping", "presliding_friction"],

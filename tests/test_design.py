@@ -83,7 +83,7 @@ def test_no_proposal_says_whether_none_is_needed_or_none_the_cell_can_run_would_
     extension on the virtual cell) has rivals but no sine the cell's stroke holds: "none
     needed" was wrong there."""
     from dataclasses import replace
-    from protocols.app.next_test import text
+    from commands.next_test import text
     diag = _diagnosis()
     assert "none within 0.5 s of rig time would decide" in text([], diag, CELL, 0.5)
     assert "sensor delay was taken over fluid inertia" in text([], diag, CELL, 0.5)

@@ -19,7 +19,7 @@ from tests.conftest import recorded
 
 # their verdicts must not be one processor's last bits: run again under another kernel (Makefile)
 
-DYNO = [sys.executable, "-m", "protocols.app.cli"]
+DYNO = [sys.executable, "-m", "commands.cli"]
 
 
 # one worker makes the three recordings once for every test that reads them

@@ -92,7 +92,7 @@ def test_extra_physics_is_an_expression_in_x_v_t_T_and_nothing_else():
 
 
 def test_the_plant_adds_the_extra_force_on_the_load_cell():
-    from protocols.proof import offline_force
+    from proof.on_plant import offline_force
     F0, rec = offline_force({}, seed=0)
     F1, _ = offline_force({"extra": "25.0"}, seed=0)
     assert np.median((F1 - F0)[rec]) == pytest.approx(25.0, abs=0.5)
@@ -112,7 +112,7 @@ def test_no_file_outside_the_catalogue_names_an_effect():
     own = {root / "models/diagnose/terms.py", *(root / "models/diagnose/effects").glob("*.py")}
     said = re.compile(r"""["'](%s)["':]""" % "|".join(sorted(EFFECTS, key=len, reverse=True)))
     hits = []
-    for top in ("models", "protocols", "sim_backend", "rig", "records"):
+    for top in ("rig", "records", "models", "sim_backend", "protocols", "proof", "commands"):
         for path in sorted((root / top).rglob("*.py")):
             rel = path.relative_to(root).as_posix()
             if path in own:

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from models import damper as dm
 from protocols import preflight
-from protocols.app import import_csv
+from commands import import_csv
 from records.reader import load_recording
 from protocols.library import PROTOCOLS
 from protocols.plan import parse, rig_info

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from models import damper as dm
-from protocols.app import cli, import_csv
+from commands import cli, import_csv
 from rig.errors import UsageError
 from rig.config import CONFIG_DIR
 from tests.conftest import dyno
@@ -827,7 +827,7 @@ def test_dyno_serve_starts_on_a_catalogue_it_cannot_use_and_serves_the_live_view
     import urllib.request
     (files.folder / "dyno-runs.sqlite").unlink()
     _not_ours(files.folder)
-    p = subprocess.Popen([sys.executable, "-m", "protocols.app.cli", "serve", str(files.folder), "--port", "0"],
+    p = subprocess.Popen([sys.executable, "-m", "commands.cli", "serve", str(files.folder), "--port", "0"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = p.stdout.readline()

@@ -63,7 +63,7 @@ def test_a_butterworth_filtered_force_is_read_through_its_filter(tmp_path):
     reads it."""
     from models.diagnose import diagnose
     from records.source_filter import parse_filtered
-    from protocols.proof import offline_recording
+    from proof.on_plant import offline_recording
     ch, ev, _ = offline_recording({}, 0)
     ch = {n: (t[t < 12.0], y[t < 12.0]) for n, (t, y) in ch.items()}  # its first segments: enough, and quick
     lowpass = parse_filtered("force=butter:2:15Hz")

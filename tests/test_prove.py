@@ -10,7 +10,7 @@ from tests.conftest import operator_stopped
 
 
 def test_prove_runs_another_form_and_a_pair(prove_keep):
-    r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects",
+    r = subprocess.run([sys.executable, "-m", "commands.cli", "prove", "--effects",
                         "free_play:hertz,fluid_inertia+sensor_delay,null", "--sizes", "10",
                         "--seeds", "1", "--jobs", "1", "--keep", prove_keep, "--json"], capture_output=True, text=True,
                        timeout=900)
@@ -26,7 +26,7 @@ def test_prove_runs_another_form_and_a_pair(prove_keep):
 
 
 def test_an_unknown_form_is_named():
-    r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "free_play:rubber"],
+    r = subprocess.run([sys.executable, "-m", "commands.cli", "prove", "--effects", "free_play:rubber"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "free_play:rubber: no such form" in r.stderr and "Traceback" not in r.stderr
 
@@ -34,7 +34,7 @@ def test_an_unknown_form_is_named():
 def test_a_kept_run_is_taken_not_run_again_and_only_by_the_same_code(tmp_path, monkeypatch):
     """`dyno prove --keep`: each result is kept as it comes in; a task kept is taken from the
     folder, the others run (and kept); a cut-short file is run again; other code reuses nothing."""
-    from protocols import keep, proof
+    from proof import keep, on_plant as proof
     ran = []
     monkeypatch.setattr(proof, "run_task", lambda t: ran.append(t.seed) or {"seed": t.seed, "run": len(ran)})
     tasks = [proof.ProveTask(None, None, 1.0, None, seed, 1.0, 1000.0) for seed in (0, 1)]
@@ -55,7 +55,7 @@ def test_a_kept_run_is_taken_not_run_again_and_only_by_the_same_code(tmp_path, m
 
 def test_a_keep_folder_that_is_a_file_is_one_line(tmp_path):
     (tmp_path / "f").write_text("")
-    r = subprocess.run([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "null", "--seeds", "1",
+    r = subprocess.run([sys.executable, "-m", "commands.cli", "prove", "--effects", "null", "--seeds", "1",
                         "--keep", str(tmp_path / "f")], capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "--keep" in r.stderr and "is a file" in r.stderr and "Traceback" not in r.stderr
 
@@ -65,7 +65,7 @@ def test_a_sigterm_ends_prove_and_its_workers_at_once(tmp_path):
     their recordings and diagnoses to the end (at 5 kHz, minutes) while it waited for them."""
     import time
     from pathlib import Path
-    p = subprocess.Popen([sys.executable, "-m", "protocols.app.cli", "prove", "--effects", "free_play,null",
+    p = subprocess.Popen([sys.executable, "-m", "commands.cli", "prove", "--effects", "free_play,null",
                           "--seeds", "2", "--rates", "5000", "--jobs", "2", "--keep", str(tmp_path / "kept")],
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     children = Path(f"/proc/{p.pid}/task/{p.pid}/children")

@@ -146,7 +146,7 @@ def test_rig_zero_changes_one_offset_and_leaves_the_rest_of_the_file():
 def test_rig_zero_on_the_embedded_rig_reports_and_writes_nothing():
     import subprocess
     import sys
-    p = subprocess.run([sys.executable, "-m", "protocols.app.cli", "rig", "zero", "--unloaded", "--x-mm", "38"],
+    p = subprocess.run([sys.executable, "-m", "commands.cli", "rig", "zero", "--unloaded", "--x-mm", "38"],
                        capture_output=True, text=True, timeout=300)
     # the virtual damper cannot be disconnected: what the cell reads is its gas force, not a zero error
     assert p.returncode == 1, p.stderr
@@ -155,7 +155,7 @@ def test_rig_zero_on_the_embedded_rig_reports_and_writes_nothing():
 
 
 def test_rig_zero_and_rig_check_speak_the_chosen_units(capsys):
-    from protocols.app.cli import main
+    from commands.cli import main
     assert main(["rig", "zero", "--units", "us", "--x-mm", "38.1"]) == 0
     out = capsys.readouterr().out
     # offsets and readings in inches and pounds, to the sensors' resolution (1 um, 0.1 N)

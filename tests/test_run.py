@@ -589,8 +589,8 @@ def hook(event, args):
         if path.startswith(root):
             opened.add(os.path.relpath(path))
 sys.addaudithook(hook)
-from protocols.app.cli import parser
-from protocols.app.run import _plan_run
+from commands.cli import parser
+from commands.run import _plan_run
 args, _ = parser().parse_known_args(["run", *sys.argv[1:]])
 _plan_run(args)
 print(sorted(opened))

@@ -68,7 +68,7 @@ def test_a_position_that_is_not_a_number_is_not_trusted(x):
 def test_a_virtual_plant_that_fails_every_step_ends_the_run_with_its_fault(monkeypatch):
     """The simulated clock stands still when the plant raises: the stop could never settle
     (the offline prove run once spun forever on a diverged plant)."""
-    from protocols.proof import offline_recording
+    from proof.on_plant import offline_recording
     from rig.errors import RigError
     from sim_backend.plant import Plant
     step = Plant._step

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from records.events import Diagnosis, Fault, RunStart, SegmentEnd, SegmentStart, Verdict
-from protocols.app.cli import main as dyno
+from commands.cli import main as dyno
 from tests import mcap_files
 from protocols.units import Units
 from protocols.web import create_app
@@ -233,7 +233,7 @@ def test_dyno_serve_serves_on_loopback_until_ctrl_c_and_refuses_a_busy_port(runs
     import subprocess
     import sys
     import urllib.request
-    p = subprocess.Popen([sys.executable, "-m", "protocols.app.cli", "serve", str(runs_folder), "--port", "0"],
+    p = subprocess.Popen([sys.executable, "-m", "commands.cli", "serve", str(runs_folder), "--port", "0"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = p.stdout.readline()

@@ -187,7 +187,7 @@ def test_the_embedded_loop_bench_runs_beside_busy_programs_and_stops_them():
     none is left spinning after it."""
     import os
 
-    from protocols.bench.timing import bench_embedded, busy
+    from proof.bench.timing import bench_embedded, busy
 
     def spinning():
         mine = []

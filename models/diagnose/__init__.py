@@ -133,7 +133,7 @@ def scores(F, r, k):
 
 def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
              holdout="interleaved", drives=None, jobs=1, smoothing=None) -> Diagnosis:
-    """The diagnosis (see protocols/app/diagnose.py for its JSON). baseline: None for `minimal`, or (name,
+    """The diagnosis (see commands/diagnose.py for its JSON). baseline: None for `minimal`, or (name,
     damper model) to start from that model, refitted. holdout: "interleaved" or the tail's fraction
     (holdout_masks). drives: the aux channels that drive the damper (records.data.drives), the only ones
     an effect may be scaled by; None: all. jobs: processes fitting a round's candidates (threads.forked); 1:

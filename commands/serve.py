@@ -10,7 +10,7 @@ from contextlib import closing
 from pathlib import Path
 
 from rig.errors import UsageError
-from protocols.app.arguments import number, units
+from commands.arguments import number, units
 
 
 def add(sub):

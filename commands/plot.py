@@ -8,7 +8,7 @@ from pathlib import Path
 from models import threads
 from models.damper import DamperError, load
 
-from protocols.app.arguments import FOLDER, cluster_option, number, overwrite, writes
+from commands.arguments import FOLDER, cluster_option, number, overwrite, writes
 
 
 def add(sub):

@@ -8,7 +8,7 @@ import threading
 
 from rig.errors import UsageError
 
-from protocols.app.arguments import hidden_physics, number, virtual_plant
+from commands.arguments import hidden_physics, number, virtual_plant
 
 
 def add(sub):

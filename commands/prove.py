@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import sys
 
-from protocols.app.arguments import cluster_option, number, sizes
+from commands.arguments import cluster_option, number, sizes
 
 def add(sub):
     """The `dyno prove` command's arguments."""
@@ -64,7 +64,7 @@ def add(sub):
 def run(args):
     from sim_backend.options import plain_cell
     from protocols import cluster
-    from protocols.proof import calibrate, matrix, measured_rms_diff, run_tasks, table as proof_table
+    from proof.on_plant import calibrate, matrix, measured_rms_diff, run_tasks, table as proof_table
     _, params, prove = plain_cell()
     say = (lambda s: print(s, file=sys.stderr, flush=True))
     noise = params["sensors"]["force_noise"]
@@ -76,7 +76,7 @@ def run(args):
             print(f'"{e}" = {v:g}' if ":" in e else f"{e} = {v:g}")
         return 0
     if getattr(args, "on", None) is not None:
-        from protocols.app import prove_on
+        from commands import prove_on
         return prove_on.run(args, say)
     if getattr(args, "open", None) is not None:  # an empty EXPR is refused there, not ignored
         return prove_open(args, say)
@@ -109,7 +109,7 @@ def prove_open(args, say):
     what it depends on, where it lives, and how much of the held-out error above the
     noise it explains."""
     from protocols import cluster
-    from protocols.proof import open_rows, open_tasks, run_tasks
+    from proof.on_plant import open_rows, open_tasks, run_tasks
     level, rate = args.noise[0], args.rates[0]
     tasks = open_tasks(args.open, args.seeds, level, rate)
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
@@ -130,12 +130,12 @@ def prove_open(args, say):
 
 def _keep(args):
     """--keep's folder, created now (a bad one is refused before any run), or None."""
-    from protocols import keep
+    from proof import keep
     return None if getattr(args, "keep", None) is None else keep.folder(args.keep)
 
 
 def _print(table, args, noise):
-    from protocols.proof import markdown, rows
+    from proof.on_plant import markdown, rows
     header, cells = rows(table, getattr(args, "adaptive", False))
     if getattr(args, "markdown", False):
         print(markdown(header, cells, table, args.seeds, noise, args.budget if getattr(args, "adaptive", False)

@@ -1,5 +1,5 @@
 """`dyno prove --on RECORDING`: the proof on the user's own real recording
-(protocols/proof_on.py); this module parses, calls and prints."""
+(proof/on_files.py); this module parses, calls and prints."""
 from __future__ import annotations
 
 import dataclasses
@@ -15,7 +15,7 @@ HEADER = ("hidden", "size [% of range]", "value hidden", "RMS added [N]", "found
 def run(args, say):
     from models.diagnose.data import DiagnoseError
     from protocols import cluster
-    from protocols.proof_on import SIZES, run_on, smallest
+    from proof.on_files import SIZES, run_on, smallest
     path = Path(args.on)
     if not path.is_file():
         raise UsageError(f"--on {args.on}: no such file")

@@ -4,7 +4,7 @@ or acquisition system made (CSV, a DAQ's text export, Excel, TDMS, Parquet, MATL
 the table's layout: records/table.py; the columns' units: records/column_units.py."""
 from __future__ import annotations
 
-from protocols.app.arguments import FILE, identity, identity_info, number, overwrite, writes
+from commands.arguments import FILE, identity, identity_info, number, overwrite, writes
 from rig.errors import UsageError
 from records.importing import FLIPS
 

@@ -25,7 +25,7 @@ def _prove_tasks(n):
     concealed, which = plain_cell()[2]["concealed"], benchmark("cluster")
     e = which["effect"]
     effects = [(None, None), (e, {e: which["times"] * concealed[e]})]
-    from protocols.proof import ProveTask
+    from proof.on_plant import ProveTask
     return [ProveTask(e, None, 10.0, v, seed, 1.0, 1000.0) for seed in range(n // 2 + 1) for e, v in effects][:n]
 
 
@@ -78,7 +78,7 @@ def measure(name, fn, tasks, workers):
 
 def bench(workers=2, prove_tasks=6, sweep_tasks=60):
     from models.quarter_car.sweeps import harmonic_point
-    from protocols.proof import run_task
+    from proof.on_plant import run_task
     rows = [measure("prove", run_task, _prove_tasks(prove_tasks), workers),
             measure("sweep", harmonic_point, _sweep_tasks(sweep_tasks), workers),
             measure("sweep, 70 points a task", _points, _batched_sweep_tasks(8, 70), workers)]

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from rig.errors import UsageError
 
-from protocols.app.output import emit
+from commands.output import emit
 from protocols.reports import markdown as md
 
 
 def sim(args):
-    from protocols.bench.speed import bench
+    from proof.bench.speed import bench
     result = bench(seconds=args.seconds, ref_seconds=args.ref_seconds)
     goals = "goals (>= 200x real time, >= 10x reference, < 0.5 % force): " + ("met" if result["goals_met"] else "NOT met")
     lines = [f"{name:10s} real-time factor {c['realtime_factor']:7.0f}x   "
@@ -23,7 +23,7 @@ def sim(args):
 
 
 def sweep(args):
-    from protocols.bench.speed import bench_sweep
+    from proof.bench.speed import bench_sweep
     result = bench_sweep(workers=args.workers, spec=args.cluster)
     text = (f"{result['damper']} sweep, {result['points']} points ({len(result['amplitudes_m'])} amplitudes x "
             f"{len(result['freqs_hz'])} frequencies, {result['simulated_s']:.0f} s simulated) on "
@@ -39,7 +39,7 @@ def sweep(args):
 
 
 def log(args):
-    from protocols.bench.throughput import bench_log
+    from proof.bench.throughput import bench_log
     r = bench_log(args.seconds)
     text = (f"MCAP logging: {r['samples_per_s']:,.0f} samples/s sustained ({r['bytes_per_sample']:.1f} bytes/sample "
             f"on disk), {r['ratio']:.0f}x the {r['protocol_samples_per_s']:,.0f} samples/s a protocol records "
@@ -48,7 +48,7 @@ def log(args):
 
 
 def import_(args):
-    from protocols.bench.throughput import bench_import
+    from proof.bench.throughput import bench_import
     r = bench_import(args.rows)
     text = (f"dyno import of {r['rows']:,} CSV rows, median of 3: {r['seconds']:.1f} s with times in seconds, "
             f"{r['date-time stamps']:.1f} s with date-time stamps (slowest {r['seconds, slowest']:.1f} and "
@@ -58,7 +58,7 @@ def import_(args):
 
 
 def loop(args):
-    from protocols.bench.timing import baseline, bench_embedded, bench_loop, busy, goals_met, said
+    from proof.bench.timing import baseline, bench_embedded, bench_loop, busy, goals_met, said
     if args.embedded and args.diagnose:
         raise UsageError("bench loop: --diagnose measures the loop against sim-rig, not --embedded")
     with busy(args.busy):  # the parser bounds rate, seconds and busy
@@ -71,7 +71,7 @@ def loop(args):
 
 
 def identify(args):
-    from protocols.bench.throughput import bench_identify, identify_said
+    from proof.bench.throughput import bench_identify, identify_said
     dampers = args.damper.split(",")
     if args.recording and len(dampers) > 1:
         raise UsageError("bench identify: one --damper with a RECORDING")
@@ -81,19 +81,19 @@ def identify(args):
 
 
 def diagnose(args):
-    from protocols.bench.throughput import diagnose_said
+    from proof.bench.throughput import diagnose_said
     if args.crank:
-        from protocols.bench.crank import bench
+        from proof.bench.crank import bench
         r = bench(args.seconds or 100.0, args.rate or 300.0)
     else:
-        from protocols.bench.throughput import bench_diagnose
+        from proof.bench.throughput import bench_diagnose
         r = bench_diagnose(args.seconds or 60.0, args.rate or 5000.0)
     title, text, body, note = diagnose_said(r, args.crank)
     return emit(args, title, r, text, body, note)
 
 
 def discover(args):
-    from protocols.bench.timing import bench_discover
+    from proof.bench.timing import bench_discover
     r = bench_discover(args.budget)
     text = (f"dyno run discover --budget {r['budget_s']:g} on the embedded plain cell: {r['wall_s']:.0f} s of wall "
             f"time for {r['rig_s']:.0f} s of rig time recorded ({r['added_rig_s']:.0f} s of its own tests): "
@@ -103,13 +103,13 @@ def discover(args):
 
 
 def hil(args):
-    from protocols.bench.hil import bench, said
+    from proof.bench.hil import bench, said
     r = bench(args.damper)
     return emit(args, "Hardware-in-the-loop tracking (dyno bench hil)", r, *said(r))
 
 
 def cluster(args):
-    from protocols.bench.cluster import bench
+    from proof.bench.cluster import bench
     r = bench(args.workers, args.prove_tasks, args.sweep_tasks)
     head = ("work", "tasks", "workers", "task [s]", "serial [s]", "cluster [s]", "start-up [s]", "speed-up",
             "efficiency", "overhead per task [s]", "identical")
@@ -125,6 +125,6 @@ def cluster(args):
 
 
 def catalogue(args):
-    from protocols.bench.catalogue import bench_catalogue, said
+    from proof.bench.catalogue import bench_catalogue, said
     r = bench_catalogue(args.runs, args.check_recording)
     return emit(args, "Run catalogue at a season's size (dyno bench catalogue)", r, *said(r))

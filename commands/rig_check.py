@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 import time
 
-from protocols.app.arguments import units
+from commands.arguments import units
 
 
 CHECK_S = 0.5  # how long rig check listens

@@ -1,5 +1,5 @@
 """The `dyno` command line: the commands' table and their errors. Each command is a module
-of protocols.app that declares its arguments (add) and runs them (run). Errors in what the user gave us are one line and exit 2."""
+of commands that declares its arguments (add) and runs them (run). Errors in what the user gave us are one line and exit 2."""
 from __future__ import annotations
 
 import importlib
@@ -9,13 +9,13 @@ from importlib import metadata
 
 from models.damper import DamperError
 from models.parallel import TaskFailed
-from protocols.app.arguments import Parser
-from protocols.app.output import check_outputs
+from commands.arguments import Parser
+from commands.output import check_outputs
 from rig.errors import Refused, UsageError
 from rig.errors import RigError
 
 
-# the commands in the order `dyno` lists them; each module of protocols.app declares its
+# the commands in the order `dyno` lists them; each module of commands declares its
 # own arguments beside it (its add(sub)) and imports what it runs only when it runs
 COMMANDS = ("validate", "plot", "sim_rig", "protocols_list", "run", "recover", "report",
             ("rig", "the test cell", ("rig_check", "rig_zero")), "runs", "serve", "identify", "diagnose", "prove",
@@ -31,9 +31,9 @@ def parser():
             name, helptext, members = c
             group = sub.add_parser(name, help=helptext).add_subparsers(dest="what", required=True)
             for m in members:
-                importlib.import_module(f"protocols.app.{m}").add(group)
+                importlib.import_module(f"commands.{m}").add(group)
         else:
-            importlib.import_module(f"protocols.app.{c}").add(sub)
+            importlib.import_module(f"commands.{c}").add(sub)
     p.commands = sub.choices  # {name: its parser}: what a mistyped command is matched against (check_command)
     return p
 
@@ -56,7 +56,7 @@ def main(argv=None):
 
 def _main(argv):
     if argv[:1] == ["run"] and {"-h", "--help"} & set(argv):  # a protocol's own parameters
-        from protocols.app.protocols_list import protocol_help
+        from commands.protocols_list import protocol_help
         if any(protocol_help(a) for a in argv[1:]):
             return 0
     p = parser()
@@ -70,7 +70,7 @@ def _main(argv):
     module, _, function = args.command.partition(":")
     try:
         check_outputs(p, args)
-        return getattr(importlib.import_module(f"protocols.app.{module}"), function or "run")(args)
+        return getattr(importlib.import_module(f"commands.{module}"), function or "run")(args)
     except (DamperError, RigError, UsageError) as e:
         print(f"dyno: error: {e}", file=sys.stderr)
         return 2

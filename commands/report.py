@@ -8,7 +8,7 @@ from pathlib import Path
 from models.damper import DamperError
 from rig.errors import UsageError
 
-from protocols.app.arguments import FOLDER, overwrite, units, writes
+from commands.arguments import FOLDER, overwrite, units, writes
 
 
 def add(sub):

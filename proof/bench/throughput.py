@@ -102,7 +102,7 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     from models import threads
     from models.diagnose import design, diagnose
     from protocols.discover import limits
-    from protocols.proof import offline_recording
+    from proof.on_plant import offline_recording
     from sim_backend.options import benchmark
     from rig import config as rig_config
     params = {"amplitudes_mm": [12.7, 6.4, 3.2, 1.6], "freqs_hz": [1.0, 2.0, 4.0, 8.0, 16.0],

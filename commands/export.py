@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from protocols.app.arguments import FILE, overwrite, units, writes
+from commands.arguments import FILE, overwrite, units, writes
 from rig.errors import UsageError
 
 def add(sub):

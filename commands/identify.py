@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from models import damper as dm
-from protocols.app.arguments import FILE, FOLDER, batch_options, overwrite, writes
+from commands.arguments import FILE, FOLDER, batch_options, overwrite, writes
 from protocols.identification import clean, description, identified, model_of, summary, text
 from records import source_filter
 from rig.errors import RigError, UsageError
@@ -41,7 +41,7 @@ def _one(task):
     recording's bytes; desc: the --damper description as a dict, or None."""
     from records.reader import load_recording
     name, data, desc = task
-    from protocols.app import batch
+    from commands import batch
     with batch.unpacked(name, data) as path:
         try:
             channels, events, meta = load_recording(path)
@@ -65,7 +65,7 @@ def run(args):
     from records.files import existing_files, filled, output_file, output_folder, written
     from records.reader import merged
     if getattr(args, "batch", None):
-        from protocols.app import batch
+        from commands import batch
         if args.recordings or args.out or args.report or args.truth:
             raise UsageError("--batch writes FILE.model.json beside each recording and one summary: RECORDING, "
                            "--out, --report and --truth are for a single identification")

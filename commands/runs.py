@@ -8,7 +8,7 @@ from contextlib import closing
 from pathlib import Path
 
 from rig.errors import UsageError
-from protocols.app.arguments import FILE, overwrite, setup_item, units, writes
+from commands.arguments import FILE, overwrite, setup_item, units, writes
 
 
 def add(sub):

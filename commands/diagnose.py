@@ -8,7 +8,7 @@ from pathlib import Path
 
 from models.damper import DamperError, SimplifiedDamper
 from models.damper import load as load_damper
-from protocols.app.arguments import BUDGET_S, FOLDER, MAX_BUDGET_S, batch_options, holdout, number, overwrite, writes
+from commands.arguments import BUDGET_S, FOLDER, MAX_BUDGET_S, batch_options, holdout, number, overwrite, writes
 from rig.errors import UsageError
 
 
@@ -65,7 +65,7 @@ def run(args):
     baseline = _baseline(args.baseline)
     if getattr(args, "batch", None):
         from models.damper import to_dict
-        from protocols.app import diagnose_batch
+        from commands import diagnose_batch
         return diagnose_batch.run(args, baseline and (baseline[0], to_dict(baseline[1])) or args.baseline)
     if args.recording is None:
         raise UsageError("diagnose: give a RECORDING, or --batch FILE...")
@@ -75,7 +75,7 @@ def run(args):
         raise UsageError("--budget: the rig time of --next's proposals; give --next with it")
     budget = BUDGET_S if args.budget is None else args.budget
     if getattr(args, "next", False):  # the rig config read before the diagnosis, not after it
-        from protocols.app import next_test
+        from commands import next_test
         limits = next_test.limits(args.rig)
     if args.report:
         output_folder(args.report, existing_files(args.recording, args.baseline), args.overwrite, "--report")

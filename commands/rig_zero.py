@@ -5,7 +5,7 @@ with a dated comment (the embedded virtual rig: shown, not written)."""
 from __future__ import annotations
 
 from models.damper import load as load_damper
-from protocols.app.arguments import number, units
+from commands.arguments import number, units
 from protocols.commissioning import QUANTITY, as_shown, looks_loaded, write_offsets
 from rig.errors import RigError, UsageError
 def add(sub):

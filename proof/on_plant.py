@@ -1,4 +1,4 @@
-"""The proof of the diagnosis (`dyno prove`, protocols/app/prove.py): effects hidden in the
+"""The proof of the diagnosis (`dyno prove`, commands/prove.py): effects hidden in the
 plain virtual rig (sim_backend/plain.toml) at a calibrated size, recorded, diagnosed and
 counted. Here: the calibration on the direct cell, one recorded and diagnosed run (with
 its next tests, given a budget) and the table of many.
@@ -182,9 +182,9 @@ def matrix(asked, all_forms, sizes, noise, rates, seeds, budget, concealed):
 
 
 def run_tasks(tasks, pool, label, keep=None, say=lambda s: None):
-    """[run_task(t) for t in tasks] on the pool. keep: a folder (protocols/keep.py) where
+    """[run_task(t) for t in tasks] on the pool. keep: a folder (proof/keep.py) where
     each result is kept as it comes in, and from which a task already run is taken."""
-    from protocols import keep as kept
+    from proof import keep as kept
     got = [kept.load(keep, t) if keep else None for t in tasks]
     todo = [i for i, r in enumerate(got) if r is None]
     if len(todo) < len(tasks):

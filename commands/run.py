@@ -8,7 +8,7 @@ import functools
 import sys
 
 from models.damper import load as load_damper
-from protocols.app.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, identity, identity_info, number,
+from commands.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, identity, identity_info, number,
                                      units, virtual_plant, writes)
 from rig.errors import UsageError
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from protocols.app.arguments import FOLDER, overwrite, writes
+from commands.arguments import FOLDER, overwrite, writes
 
 SEED = "../shared/seed/000_79c7770b026c394b.txt"
 
@@ -73,7 +73,7 @@ def _report(path, kept):
 
 def run(args):
     from models.validation import format_table, rows
-    from protocols.app.output import emit
+    from commands.output import emit
     from records.files import output_folder
     from protocols.reports import markdown as md
     if args.report:  # checked before the minute of simulation, not after

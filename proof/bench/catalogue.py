@@ -156,7 +156,7 @@ def said(r):
     text = (f"{r['runs']} recordings ({r['mb']:.0f} MB, {r['failed']} unreadable); "
             + "; ".join(f"{w}: {v}" for w, v, _, _ in table))
     note = (f"{r['runs']} recordings of {r['mb'] / r['runs']:.1f} MB each, made from four short sine matrices on "
-            f"the direct cell (protocols/bench/catalogue.py); the filtered list returned {r['listed']} runs; "
+            f"the direct cell (proof/bench/catalogue.py); the filtered list returned {r['listed']} runs; "
             f"the runs page is {r['page_kb']:.0f} kB of HTML; the check reads both recordings, draws its band and "
             f"adds its row to the catalogue.")
     return text, md.table(("measure", "measured", "goal", ""), table), note

@@ -129,7 +129,7 @@ def unit_system(text):
 
 # --- the options several commands declare alike ---
 
-FILE, FOLDER = "file", "folder"  # what an output option names (protocols/app/output.py checks it)
+FILE, FOLDER = "file", "folder"  # what an output option names (commands/output.py checks it)
 
 
 def writes(p, flag, kind, **kw):

@@ -1,7 +1,7 @@
 """`dyno bench`'s arguments, beside its commands."""
 from __future__ import annotations
 
-from protocols.app.arguments import cluster_option, number
+from commands.arguments import cluster_option, number
 
 
 def _bench(bsub, name, help):
@@ -38,7 +38,7 @@ def add(sub):
     bi.add_argument("--truth", action="store_true", help="compare with the damper the rig ran (the round trip)")
     bd = _bench(bsub, "diagnose", help="dyno diagnose's time on 60 s of sine matrix at 5 kHz (goal < 2 s), or "
                                        "--crank: 100 s of a slider-crank at 300 Hz with five effects (goal < 5 s); each by stage")
-    bd.add_argument("--crank", action="store_true", help="a crank dyno's recording (protocols/bench/crank.py)")
+    bd.add_argument("--crank", action="store_true", help="a crank dyno's recording (proof/bench/crank.py)")
     bd.add_argument("--seconds", type=number(above=0, hi=3600), default=None, help="recorded (default 60, crank 100)")
     bd.add_argument("--rate", type=number(above=0, hi=100000), default=None,
                     help="sample rate [Hz] (default 5000, crank 300)")

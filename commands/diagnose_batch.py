@@ -1,10 +1,10 @@
-"""`dyno diagnose --batch`: one diagnosis per recording (protocols/app/batch.py), written
+"""`dyno diagnose --batch`: one diagnosis per recording (commands/batch.py), written
 as FILE.diagnosis.json, a summary row each."""
 from __future__ import annotations
 
 from rig.errors import RigError, UsageError
 
-from protocols.app import batch
+from commands import batch
 
 
 def _one(task):

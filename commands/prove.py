@@ -13,6 +13,7 @@ curve's form is no claim of physics (models/diagnose/spec.py NATURES).
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 import sys
 
 from commands.arguments import cluster_option, number, sizes
@@ -64,7 +65,8 @@ def add(sub):
 def run(args):
     from sim_backend.options import plain_cell
     from protocols import cluster
-    from proof.on_plant import calibrate, matrix, measured_rms_diff, run_tasks, table as proof_table
+    from proof.on_plant import calibrate, matrix, run_tasks
+    from proof.table import paired, table as proof_table
     _, params, prove = plain_cell()
     say = (lambda s: print(s, file=sys.stderr, flush=True))
     noise = params["sensors"]["force_noise"]
@@ -88,13 +90,10 @@ def run(args):
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
         results = run_tasks(tasks, pool, "prove", _keep(args), say)
     for t, r in zip(tasks, results):
-        say(f"{t.name}: accepted {r['accepted'] or 'nothing'}")
-    nulls = {(r["seed"], r["noise"], r["rate"]): r for r in results if r["effect"] is None}
-    for r in results:
-        if r["effect"]:
-            r["contribution"] = measured_rms_diff(r, nulls[r["seed"], r["noise"], r["rate"]])
-    table = proof_table(results, effects, concealed)
-    doc = {"noise_rms": noise, "seeds": args.seeds, "effects": table, "adaptive_budget_s": budget or None,
+        say(f"{t.name}: accepted {r.accepted or 'nothing'}")
+    table = proof_table(paired(results), effects, concealed)
+    doc = {"noise_rms": noise, "seeds": args.seeds, "effects": [asdict(row) for row in table],
+           "adaptive_budget_s": budget or None,
            "goals": {"detection": 0.9, "false_positive": 0.05}}
     if args.json:
         print(json.dumps(doc, indent=1))
@@ -109,22 +108,24 @@ def prove_open(args, say):
     what it depends on, where it lives, and how much of the held-out error above the
     noise it explains."""
     from protocols import cluster
-    from proof.on_plant import open_rows, open_tasks, run_tasks
+    from proof.on_plant import open_tasks, run_tasks
+    from proof.table import open_rows
     level, rate = args.noise[0], args.rates[0]
     tasks = open_tasks(args.open, args.seeds, level, rate)
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
         rows = open_rows(run_tasks(tasks, pool, "prove --open", _keep(args), say))
     if args.json:
-        print(json.dumps({"expression": args.open, "rate_hz": rate, "noise": level, "runs": rows}, indent=1))
+        print(json.dumps({"expression": args.open, "rate_hz": rate, "noise": level,
+                          "runs": [asdict(row) for row in rows]}, indent=1))
         return 0
     print(f"extra: {args.open}  (x [m], v [m/s], t [s], T [K]; {rate:g} Hz, noise x{level:g})")
     for row in rows:
         found = "; ".join(f"{f['effect']} ({f['nature']}: {', '.join(f['depends_on'] or [])}; {f['region']}; "
-                          f"{f['size_rms_n']:.3g} N RMS)" for f in row["found"]) or "nothing"
-        print(f"seed {row['seed']}: hidden {row['contribution_rms']:.3g} N RMS; named {found}; "
-              f"{100 * row['explained']:.0f} % of the held-out error above the noise explained"
-              f"{'' if row['within_noise'] else '; some left unexplained'}"
-              f"{'; the null claimed ' + ', '.join(row['null_claims']) if row['null_claims'] else ''}")
+                          f"{f['size_rms_n']:.3g} N RMS)" for f in row.found) or "nothing"
+        print(f"seed {row.seed}: hidden {row.contribution_rms:.3g} N RMS; named {found}; "
+              f"{100 * row.explained:.0f} % of the held-out error above the noise explained"
+              f"{'' if row.within_noise else '; some left unexplained'}"
+              f"{'; the null claimed ' + ', '.join(row.null_claims) if row.null_claims else ''}")
     return 0
 
 
@@ -135,7 +136,7 @@ def _keep(args):
 
 
 def _print(table, args, noise):
-    from proof.on_plant import markdown, rows
+    from proof.table import markdown, rows
     header, cells = rows(table, getattr(args, "adaptive", False))
     if getattr(args, "markdown", False):
         print(markdown(header, cells, table, args.seeds, noise, args.budget if getattr(args, "adaptive", False)

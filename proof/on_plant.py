@@ -26,6 +26,8 @@ from sim_backend.options import PlantOptions, plain_cell
 from protocols import cell, runner
 from protocols.plan import Plan
 
+from proof.table import Outcome, key
+
 
 def prove_plan(override=None) -> Plan:
     """The plan the diagnosis is proven on (protocols/proven.toml), or its protocol with
@@ -78,11 +80,6 @@ def contribution(effect, value, seed=0, null=None, form=None):
     return float(np.sqrt(np.mean(d[rec] ** 2)))
 
 
-def key(effect, form=None):
-    """An effect's key in plain.toml's [prove.concealed]: EFFECT, or EFFECT:FORM."""
-    return f"{effect}:{form}" if form else effect
-
-
 def calibrate_one(task):
     """(value, its contribution [N]): the largest VALUE of effect e in `form` whose
     contribution is at most `target`, by bisection on a log scale."""
@@ -110,7 +107,6 @@ def calibrate(target, progress, effects=None, forms=False, pool=None):
     return {n: v for n, (v, _) in zip(names, results)}
 
 
-GROUP = 3  # a rival group larger than this tells the engineer too little to count as found
 
 
 @dataclass(frozen=True)
@@ -209,7 +205,7 @@ def run_tasks(tasks, pool, label, keep=None, say=lambda s: None):
     return got
 
 
-def run_task(task: ProveTask):
+def run_task(task: ProveTask) -> Outcome:
     """Record one prove run through the wire protocols (and, given a budget, the next tests
     it asks for: protocols/discover.py), diagnose it."""
     with tempfile.TemporaryDirectory(prefix="dyno-prove-") as folder:  # on the worker's own disk
@@ -266,22 +262,19 @@ def _recorded(task: ProveTask, folder):
     # physics below the practical size is kept in the model but not named: no claim
     claims = [e for e in r.named() if SPECS[e.split(":")[0]].nature in ("physics", "open")]
     extra = [s for s in r.steps if s.effect.split(":")[0] not in hidden and s.effect in claims]
-    return {"effect": effect, "form": form, "size": size, "noise": noise, "rate": rate, "seed": seed,
-            "rounds": [dataclasses.asdict(x) for x in rounds], "added_s": found.spent_s if found else 0.0,
-            # the opening's diagnosis: what the prove plan alone named, on the same recording
-            # (with the channels' alignment of the last: every round fits it with the baseline)
-            "first_opening": _first([_covered(e) for e in r.cell_found()] + rounds[0].accepted, hidden) if rounds
-            else first,
-            "accepted": r.accepted, "claims": claims, "first": first, "group": group, "noise_sd": r.noise_sd,
-            "found": [{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n",
-                                                  "relevance", "excess_share", "held_in")}
-                      for s in r.steps if not s.replaced_by],
-            "within_noise": r.left_over.within_noise,
-            "rmse": (r.baseline.rmse_heldout, r.final.rmse_heldout),
-            "extra_left_out": any(not s.compensates for s in extra),
-            "extra_compensating": any(s.compensates for s in extra), "force_t": t, "force": F, "measured": measured,
-            "estimate": est,
-            "before": r.baseline.nrmse_heldout, "after": r.final.nrmse_heldout}
+    return Outcome(
+        effect=effect, form=form, size=size, noise=noise, rate=rate, seed=seed,
+        rounds=[dataclasses.asdict(x) for x in rounds], added_s=found.spent_s if found else 0.0,
+        # the opening's diagnosis: what the prove plan alone named, on the same recording
+        # (with the channels' alignment of the last: every round fits it with the baseline)
+        first_opening=_first([_covered(e) for e in r.cell_found()] + rounds[0].accepted, hidden) if rounds else first,
+        accepted=r.accepted, claims=claims, first=first, group=group, noise_sd=r.noise_sd,
+        found=[{k: getattr(s, k) for k in ("effect", "nature", "depends_on", "region", "size_rms_n", "relevance",
+                                           "excess_share", "held_in")} for s in r.steps if not s.replaced_by],
+        within_noise=r.left_over.within_noise, rmse=(r.baseline.rmse_heldout, r.final.rmse_heldout),
+        extra_left_out=any(not s.compensates for s in extra), extra_compensating=any(s.compensates for s in extra),
+        force_t=t, force=F, measured=measured, estimate=est,
+        before=r.baseline.nrmse_heldout, after=r.final.nrmse_heldout)
 
 
 def _first(accepted, hidden):
@@ -311,51 +304,6 @@ def _group(r, hidden):
     return []
 
 
-def measured_rms_diff(a, b):
-    """RMS [N] of the force difference of two prove results over a's measured samples."""
-    _, ia, ib = np.intersect1d(np.round(a["force_t"], 6), np.round(b["force_t"], 6), return_indices=True)
-    return float(np.sqrt(np.mean((a["force"][ia] - b["force"][ib])[a["measured"][ia]] ** 2)))
-
-
-def table(results, effects, concealed):
-    """A row per (effect, form, size) of the runs' results: detection, wrong effect, false
-    positives, medians of the estimate, contribution and held-out errors."""
-    table = []
-    row_key = (lambda r: (r["effect"] or "null", r["form"], r["size"], r["noise"], r["rate"]))
-    rows = sorted({row_key(r) for r in results}, key=lambda k: ([*effects, "null"].index(k[0]), k[1] or "", *k[2:]))
-    for e, form, size, noise, rate in rows:
-        rs = [r for r in results if row_key(r) == (e, form, size, noise, rate)]
-        parts = set(e.split("+"))
-        named = [{a.split(":")[0] for a in r["accepted"]} for r in rs]
-        row = {"effect": e, "form": form or ("default" if e != "null" else None), "size": size, "noise": noise,
-               "rate_hz": rate, "n": len(rs),
-               "value": (scaled(e, concealed[key(e, form)], size * noise) if key(e, form) in concealed
-                         else None),
-               # a single effect: the first accepted; a pair: both accepted, in either order
-               "detection_opening": (float(np.mean([r["first_opening"] == e for r in rs])) if e in EFFECTS
-                                     else None),
-               "added_s": float(np.median([r["added_s"] for r in rs])),
-               # named first, or inside a group of at most GROUP that holds the truth (rivals, stand-in)
-               "detection_group": (float(np.mean([r["first"] == e or (e in r["group"] and len(r["group"]) <= GROUP)
-                                                  for r in rs])) if e in EFFECTS else None),
-               "detection": (float(np.mean([r["first"] == e for r in rs])) if e in EFFECTS
-                             else float(np.mean([parts <= n for n in named])) if e != "null" else None),
-               "wrong_effect": (float(np.mean([r["first"] not in (None, e) for r in rs])) if e in EFFECTS
-                                else float(np.mean([bool(n - parts) for n in named])) if e != "null" else None),
-               "false_positive": float(np.mean([bool(r["claims"]) for r in rs])) if e == "null" else None,
-               # beside the hidden effect(s): another said as left out, or as may be compensating
-               "extra_left_out": float(np.mean([r["extra_left_out"] for r in rs])) if e != "null" else None,
-               "extra_compensating": float(np.mean([r["extra_compensating"] for r in rs])) if e != "null" else None,
-               "heldout_before": float(np.median([r["before"] for r in rs])),
-               "heldout_after": float(np.median([r["after"] for r in rs])),
-               "estimate": (float(np.median([r["estimate"] for r in rs if r["estimate"] is not None]))
-                            if any(r["estimate"] is not None for r in rs) else None),
-               "contribution_rms": (float(np.median([r["contribution"] for r in rs if "contribution" in r]))
-                                    if any("contribution" in r for r in rs) else None)}
-        table.append(row)
-    return table
-
-
 def open_tasks(expr, seeds, level, rate):
     """`dyno prove --open EXPR`'s runs: on each seed, a null and the user's own physics
     (sim_backend/extra.py) hidden; UsageError names a law that cannot be compiled."""
@@ -367,69 +315,3 @@ def open_tasks(expr, seeds, level, rate):
         raise UsageError(str(e).replace("--effect extra:", "--open ")) from None
     return [t for seed in range(seeds) for t in (ProveTask(None, None, 1.0, None, seed, level, rate),
                                                  ProveTask(None, None, 1.0, None, seed, level, rate, expr))]
-
-
-def open_rows(results):
-    """Per seed, of open_tasks' results: the hidden force's size against its null, what the
-    null claimed, what was found, and the share of the held-out error above the noise it
-    explains."""
-    rows = []
-    for null, r in zip(results[::2], results[1::2]):
-        base, final = (e ** 2 for e in r["rmse"])
-        explained = 1.0 - max(final - r["noise_sd"] ** 2, 0.0) / max(base - r["noise_sd"] ** 2, 1e-12)
-        rows.append({"seed": r["seed"], "contribution_rms": measured_rms_diff(r, null), "null_claims": null["claims"],
-                     "found": r["found"], "explained": explained, "within_noise": r["within_noise"]})
-    return rows
-
-
-# --- the table, as `dyno prove` prints it ---------------------------------------------
-HEADER = ("effect", "form", "size", "noise", "rate [Hz]", "hidden value", "force contribution RMS [N]", "detection",
-          "named first or in a group of <= 3", "wrong effect", "false positive",
-          "also named: left out / may compensate", "estimate (median)", "held-out NRMSE before / after [%]")
-ADAPTIVE = ("detection by the prove plan alone", "rig time added [s] (median)")
-
-
-def _cells(r):
-    f = (lambda v, fmt: format(v, fmt) if v is not None else "-")
-    return (r["effect"], f(r["form"], "s"), f"x{r['size']:g}", f"x{r['noise']:g}", f"{r['rate_hz']:g}",
-            f(r["value"], ".3g"), f(r["contribution_rms"], ".2f"), f(r["detection"], ".0%"),
-            f(r["detection_group"], ".0%"), f(r["wrong_effect"], ".0%"), f(r["false_positive"], ".0%"),
-            f"{f(r['extra_left_out'], '.0%')} / {f(r['extra_compensating'], '.0%')}", f(r["estimate"], ".3g"),
-            f"{100 * r['heldout_before']:.4f} / {100 * r['heldout_after']:.4f}")
-
-
-def rows(table, adaptive=False):
-    """(header, rows of text) of table(); adaptive: the opening's detection and the next
-    tests' rig time beside the detection."""
-    header, cells = HEADER, [_cells(r) for r in table]
-    if adaptive:
-        header = (*HEADER[:7], ADAPTIVE[0], HEADER[7], ADAPTIVE[1], *HEADER[8:])
-        cells = [(*c[:7], "-" if r["detection_opening"] is None else f"{r['detection_opening']:.0%}", c[7],
-                  f"{r['added_s']:.0f}", *c[8:]) for c, r in zip(cells, table)]
-    return header, cells
-
-
-def markdown(header, cells, table, seeds, noise, budget=None):
-    """The stamped Markdown page of the table (docs/results), with the plant's forms used;
-    budget: the next tests' rig time [s] (--adaptive), None without."""
-    from sim_backend.effects import FORMS
-    from protocols.discover import MAX_ROUNDS
-    from protocols.reports import markdown as md
-    order = list(EFFECTS)
-    used = sorted({(r["effect"], r["form"]) for r in table if r["form"] not in (None, "default")},
-                  key=lambda k: (order.index(k[0]) if k[0] in EFFECTS else 99, k[1]))
-    forms = [(e, "default", EFFECTS[e].form) for e in dict.fromkeys(e for e, _ in used) if e in EFFECTS]
-    forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
-    body = md.table(header, cells)
-    if forms:
-        body += "\n\nThe forms (sim_backend/effects/):\n\n" + md.table(
-            ("effect", "form", "in the plant"), sorted(forms, key=lambda r: (order.index(r[0]), r[1] != "default", r[1])))
-    return md.document("Proof of the diagnosis (dyno prove)", body,
-                       f"{seeds} seeds per row on the plain cell through the wires"
-                       + (f", each recording followed by the dyno's own next tests (dyno run discover, at most "
-                          f"{budget:g} s of rig time added, at most {MAX_ROUNDS} rounds)" if budget is not None else "")
-                       + f"; force noise {noise:g} N RMS at noise x1 (every sensor's noise times the noise column). "
-                       f"Size x1 is the concealed value at that noise (its contribution equals the force noise, each "
-                       f"form calibrated on its own); x10 ten times as strong (a bulk modulus divided by ten, a "
-                       f"breakaway ratio's excess times ten); forms: sim_backend/effects/ FORMS. Goals: detection >= "
-                       f"90 %, false positives <= 5 %. Method: docs/diagnosis.md.")

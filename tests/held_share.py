@@ -14,6 +14,7 @@ from pathlib import Path
 
 from models.diagnose import stability
 from models.diagnose.candidates import EFFECTS
+from proof.table import Outcome
 
 BARS = (0.5, 0.6, stability.HELD, 0.8, 0.9, 1.0)
 
@@ -21,19 +22,19 @@ BARS = (0.5, 0.6, stability.HELD, 0.8, 0.9, 1.0)
 def _held(r, bar, natures=("physics", "open")):
     """What a run names at `bar` (its findings held in at least that share) of these natures:
     a cell's timing or the valve curve's form is no claim of physics."""
-    return {f["effect"].split(":")[0] for f in r["found"]
+    return {f["effect"].split(":")[0] for f in r.found
             if f["held_in"] >= bar - 1e-12 and EFFECTS[f["effect"].split(":")[0]].nature in natures}
 
 
 def table(runs):
     """Rows (bar, nulls with a false name, hidden effects named alone or among others)."""
-    nulls = [r for r in runs if r["effect"] is None]
-    hidden = [r for r in runs if r["effect"] is not None and "+" not in r["effect"]]
+    nulls = [r for r in runs if r.effect is None]
+    hidden = [r for r in runs if r.effect is not None and "+" not in r.effect]
     rows = []
     for bar in BARS:
         false = sum(bool(_held(r, bar)) for r in nulls)
         edge = sum(bool(_held(r, stability.EDGE + 1e-9) - _held(r, bar)) for r in nulls)
-        found = sum(r["effect"] in _held(r, bar, ("physics", "open", "cell", "form")) for r in hidden)
+        found = sum(r.effect in _held(r, bar, ("physics", "open", "cell", "form")) for r in hidden)
         rows.append((f"{bar:.2f}" + (" (HELD)" if bar == stability.HELD else ""), f"{false} of {len(nulls)}",
                      f"{edge} of {len(nulls)}", f"{found} of {len(hidden)}"))
     return rows
@@ -45,7 +46,7 @@ def main(argv=None):
     ap.add_argument("--markdown", action="store_true")
     args = ap.parse_args(argv)
     runs = [pickle.loads(p.read_bytes()) for d in args.kept for p in sorted(Path(d).glob("*.pkl"))]
-    runs = [r for r in runs if "held_in" in (r["found"] or [{"held_in": 0}])[0]]  # kept by this code
+    runs = [r for r in runs if isinstance(r, Outcome)]  # kept by this code (older ones were dicts)
     rows = table(runs)
     if not args.markdown:
         for row in rows:
@@ -58,10 +59,10 @@ def main(argv=None):
           f"diagnosis; at the edge: held in more than {stability.EDGE:.2f} but less than the bar.\n")
     print(md.table(("bar (share of judgements)", "nulls naming physics", "nulls at the edge",
                     "hidden effects named"), rows))
-    held = sorted(f["held_in"] for r in runs if r["effect"] and "+" not in r["effect"] for f in r["found"]
-                  if f["effect"].split(":")[0] == r["effect"])
+    held = sorted(f["held_in"] for r in runs if r.effect and "+" not in r.effect for f in r.found
+                  if f["effect"].split(":")[0] == r.effect)
     print(f"\nThe hidden effects' own shares (held_in), {len(held)} accepted of "
-          f"{sum(bool(r['effect']) for r in runs)} runs: {', '.join(f'{h:.2f}' for h in held)}.")
+          f"{sum(bool(r.effect) for r in runs)} runs: {', '.join(f'{h:.2f}' for h in held)}.")
 
 
 if __name__ == "__main__":

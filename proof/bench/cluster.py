@@ -10,6 +10,7 @@ warm() does as they join) reported apart. overhead_per_task_s = (cluster_s * wor
 serial_s) / tasks: what scheduling, transfer and an idle worker at the end cost a task."""
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -51,6 +52,8 @@ def _batched_sweep_tasks(n, per_task):
 
 def _same(a, b):
     """Results equal, value for value (arrays included)."""
+    if dataclasses.is_dataclass(a):
+        return type(a) is type(b) and _same(vars(a), vars(b))
     if isinstance(a, dict):
         return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
     if isinstance(a, (list, tuple)):

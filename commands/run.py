@@ -9,7 +9,7 @@ import sys
 
 from models.damper import load as load_damper
 from commands.arguments import (BUDGET_S, FILE, MAX_BUDGET_S, hidden_physics, identity, identity_info, number,
-                                     units, virtual_plant, writes)
+                                units, virtual_plant, writes)
 from rig.errors import UsageError
 
 DIRECT = "direct"  # --rig: the virtual plant without its wires (protocols/cell.py direct)

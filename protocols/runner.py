@@ -19,7 +19,7 @@ from typing import Protocol
 import numpy as np
 
 from records.events import (Event, Fault, OperatorStop, Result, RunEnd, RunStart, SegmentEnd, SegmentStart,
-                           Skipped)
+                            Skipped)
 from rig.errors import RigError
 from rig.loop import ControlLoop, LoopResult, describe
 

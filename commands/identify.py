@@ -19,7 +19,7 @@ from rig.errors import RigError, UsageError
 def add(sub):
     """The `dyno identify` command's arguments."""
     idf = sub.add_parser("identify", help="damper model from recordings (thesis chapter 4)")
-    idf.add_argument("records", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
+    idf.add_argument("recordings", nargs="*", metavar="RECORDING", help="MCAP files (dyno run or dyno import)")
     idf.add_argument("--damper", default=None,
                      help="description giving layout and geometry (default: the damper the recording names)")
     writes(idf, "--out", FILE, default=None, help="model JSON (default: RECORDING.model.json)")

@@ -100,7 +100,7 @@ def main(argv=None):
     KEEP = opts.get("--keep")
     # the small files first: a stopped run has the most tables
     generate("python -m tests.prove_real", argv, lambda d: sorted(files(d), key=lambda t: t[0].stat().st_size), kept,
-             markdown, "records")
+             markdown, "recordings")
 
 
 if __name__ == "__main__":

@@ -176,7 +176,7 @@ def generate(prog, argv, tasks_of, measure, markdown, what):
 
 
 def main(argv=None):
-    generate("python -m tests.real_data", argv, files, one, markdown, "records")
+    generate("python -m tests.real_data", argv, files, one, markdown, "recordings")
 
 
 if __name__ == "__main__":

@@ -82,7 +82,7 @@ def markdown(results):
 
 
 def main(argv=None):
-    generate("python -m tests.verdicts", argv, files, one, markdown, "records")
+    generate("python -m tests.verdicts", argv, files, one, markdown, "recordings")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """The proof of the diagnosis (`dyno prove`, commands/prove.py): effects hidden in the
 plain virtual rig (sim_backend/plain.toml) at a calibrated size, recorded, diagnosed and
-counted. Here: the calibration on the direct cell, one recorded and diagnosed run (with
-its next tests, given a budget) and the table of many.
+counted. Here: the calibration on the direct cell, the matrix of runs and one recorded and
+diagnosed run (with its next tests, given a budget); what they count: proof/table.py.
 """
 from __future__ import annotations
 

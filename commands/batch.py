@@ -13,7 +13,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from models.parallel import run_all
+from workers.pool import run_all
 
 from protocols import cluster
 from records.files import input_file, output_file, written

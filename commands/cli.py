@@ -8,7 +8,7 @@ import sys
 from importlib import metadata
 
 from models.damper import DamperError
-from models.parallel import TaskFailed
+from workers.pool import TaskFailed
 from commands.arguments import Parser
 from commands.output import check_outputs
 from rig.errors import Refused, UsageError
@@ -74,7 +74,7 @@ def _main(argv):
     except (DamperError, RigError, UsageError) as e:
         print(f"dyno: error: {e}", file=sys.stderr)
         return 2
-    except (TaskFailed, Refused) as e:  # a fanned-out task failed twice (models/parallel.py); a poor model
+    except (TaskFailed, Refused) as e:  # a fanned-out task failed twice (workers/pool.py); a poor model
         print(f"dyno: error: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # a run says its own stop; any other command's output is written whole or not at all

@@ -53,7 +53,7 @@ def _baseline(name):
 
 
 def run(args):
-    from models import threads
+    from workers import threads
     from models.diagnose import design, diagnose
     from models.diagnose.data import DiagnoseError
     from models.diagnose.words import repeats_text, summary

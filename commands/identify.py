@@ -37,8 +37,7 @@ def add(sub):
 
 
 def _one(task):
-    """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one
-    recording's bytes; desc: the --damper description as a dict, or None."""
+    """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one recording's bytes."""
     from records.reader import load_recording
     name, data, desc = task
     from commands import batch
@@ -118,7 +117,7 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
     description (the diagnosis's baseline `minimal`) with the effects the diagnosis accepts on
     it, judged on held-out cycles, with what the recording could not determine; written as
     JSON (models/minimal.py reads it)."""
-    from models import threads
+    from workers import threads
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
     from protocols.identification import MINIMAL_SUFFIX, minimal_doc, minimal_text, poor

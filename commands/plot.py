@@ -5,7 +5,7 @@ import functools
 import sys
 from pathlib import Path
 
-from models import threads
+from workers import threads
 from models.damper import DamperError, load
 
 from commands.arguments import FOLDER, cluster_option, number, overwrite, writes

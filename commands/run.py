@@ -70,8 +70,7 @@ def run(args):
 
 
 def _plan_run(args):
-    """What a run needs, checked before anything connects or moves: (protocol module,
-    params, virtual plant options, damper, rig config, RigInfo)."""
+    """What a run needs, checked before anything connects or moves: (module, params, plant, damper, config, RigInfo)."""
     from records.files import output_file
     from protocols.library import DISCOVER
     from protocols.recorded import planned
@@ -107,8 +106,7 @@ def open_cell(args, cfg, damper, plant):
 
 
 def _finish_run(module, name, ended):
-    """Say what was recorded and what stopped it, finish the live identification; the exit
-    status."""
+    """Say what was recorded and what stopped it, finish the live identification; the exit status."""
     from protocols import catalogue
     c, result, errors, ident = ended.cell, ended.result, ended.errors, ended.identification
     say = functools.partial(print, file=sys.stderr, flush=True)

@@ -127,7 +127,8 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=
     rounds: the diagnoses' rounds at most (the diagnosis's own by default)."""
     from records import source_filter
     from models.diagnose.data import prepare
-    from models.parallel import run_all
+    from models.physics.simulate import warm as warm_kernels
+    from workers.pool import run_all
     from records.data import drives
     from records.reader import load_recording
     ch, ev, meta = load_recording(path)
@@ -142,7 +143,7 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=
     say(f"{path}: diagnosing the untouched recording{' (and a copy with the heat ramp)' if warm else ''}")
     told = {**options, "max_effects": rounds}
     nulls = run_all(diagnose_copy, [CopyTask("untouched", ch, ev, told)]
-                    + ([CopyTask("untouched, heat ramp", heat, ev, told)] if warm else []), pool)
+                    + ([CopyTask("untouched, heat ramp", heat, ev, told)] if warm else []), pool, warm=warm_kernels)
     d = prepare(ch, ev, **options)
     base = nulls[0].base
     span = float(np.ptp(d.F))
@@ -158,7 +159,7 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=
             tasks.append(CopyTask(f"{h.name} {s:g} %", copy(h, src, dh, base, value), ev, told, h.name))
             pending.append((h, s, value, rms))
     say(f"{len(tasks)} copies to diagnose")
-    seen = iter(run_all(diagnose_copy, tasks, pool, progress=True, label="prove --on", names=[t.label for t in tasks]))
+    seen = iter(run_all(diagnose_copy, tasks, pool, progress=True, label="prove --on", names=[t.label for t in tasks], warm=warm_kernels))
     rows = []
     for h, s, value, rms in pending:
         if value is None:

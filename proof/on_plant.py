@@ -16,7 +16,8 @@ import numpy as np
 
 from records.events import RunEnd
 from models.diagnose.candidates import EFFECTS as SPECS
-from models.parallel import run_all
+from models.physics.simulate import warm
+from workers.pool import run_all
 from records.data import segments
 from rig import config as rig_config
 from rig.errors import RigError
@@ -101,7 +102,7 @@ def calibrate(target, progress, effects=None, forms=False, pool=None):
             for f in [None, *(EFFECTS[e].forms if forms else ())]]
     names = [key(e, f) for e, f in keys]
     results = run_all(calibrate_one, [(e, f, target) for e, f in keys], pool, progress=True, label="calibrate",
-                      names=names)
+                      names=names, warm=warm)
     for n, (e, _), (v, c) in zip(names, keys, results):
         progress(f"{n} = {v:g} {EFFECTS[e].unit} (contribution {c:.2f} N)")
     return {n: v for n, (v, _) in zip(names, results)}
@@ -193,7 +194,7 @@ def run_tasks(tasks, pool, label, keep=None, say=lambda s: None):
             kept.save(keep, tasks[todo[j]], r)
     try:
         new = run_all(run_task, [tasks[i] for i in todo], pool, progress=True, label=label,
-                      names=[tasks[i].name for i in todo], done=done)
+                      names=[tasks[i].name for i in todo], done=done, warm=warm)
     except KeyboardInterrupt:  # an operator's stop: say what of the work survives it
         ran = len(tasks) - len(todo) + len(finished)
         say(f"{label}: stopped; {ran} of {len(tasks)} runs done, "

@@ -1,8 +1,8 @@
 """`--cluster local[:WORKERS] | tcp://HOST:PORT`: fan-out work on Dask distributed instead of
 a local process pool. Dask is optional (`pip install 'dyno[cluster]'`); the executor it
-gives is a concurrent.futures one, for models.parallel.run_all (progress over the tasks,
+gives is a concurrent.futures one, for workers.pool.run_all (progress over the tasks,
 a failed task run once more and then named). Every worker compiles the physics kernels
-once when it joins (models.parallel.warm), not inside the first task.
+once when it joins (workers.pool.warm), not inside the first task.
 
     with pool("local:2", jobs=2) as (ex, workers):
         results = run_all(task, jobs, ex, progress=True)  # in job order; a dead worker's task is re-run
@@ -13,8 +13,9 @@ import contextlib
 import os
 import re
 
-from models import threads
-from models.parallel import process_pool, worker_start
+from workers import threads
+from models.physics.simulate import warm
+from workers.pool import process_pool, worker_start
 from rig.errors import UsageError
 
 INSTALL = "pip install 'dyno[cluster]' (Dask distributed)"
@@ -42,21 +43,21 @@ def pool(spec, jobs):
             yield out
         return
     n = max(1, jobs)
-    with process_pool(n) as local:
+    with process_pool(n, warm) as local:
         yield local, n
 
 
 def _warm_plugin():
-    """A Dask worker plugin (Dask wants the subclass): models.parallel.warm() once in each
+    """A Dask worker plugin (Dask wants the subclass): models.physics.simulate.warm() once in each
     worker as it starts, and one thread for its fits (a worker is one of a machine's
-    processes, each with its one thread: models/threads.py)."""
+    processes, each with its one thread: workers/threads.py)."""
     from distributed.diagnostics.plugin import WorkerPlugin
 
     class Warm(WorkerPlugin):
         name = "dyno-warm"
 
         def setup(self, worker):
-            worker_start(threads.cores())  # one process per core: one fit thread each
+            worker_start(threads.cores(), warm)  # one process per core: one fit thread each
     return Warm()
 
 
@@ -103,7 +104,7 @@ def executor(spec: str):
 def _restore(env):
     """os.environ as `env` again. A nanny sets its workers' environment in its own process
     before it starts one: MALLOC_TRIM_THRESHOLD_ among it, which would make every process
-    this one starts afterwards fault in each large array anew (models.parallel.heap_for_arrays)."""
+    this one starts afterwards fault in each large array anew (workers.pool.heap_for_arrays)."""
     for k in set(os.environ) - set(env):
         del os.environ[k]
     os.environ.update(env)

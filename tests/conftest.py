@@ -18,7 +18,7 @@ DYNO = str(Path(sys.executable).parent / "dyno")
 
 # pytest-xdist's workers share the cores: each (and every dyno command it starts) fits on its share
 if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit():
-    from models import threads
+    from workers import threads
     threads.share(int(os.environ["PYTEST_XDIST_WORKER_COUNT"]))
 
 

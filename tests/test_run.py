@@ -392,7 +392,7 @@ def test_progress_into_a_log_is_a_line_per_segment_or_ten_seconds_never_a_redraw
 def test_the_proofs_progress_into_a_log_is_a_line_per_task():
     import io
 
-    from models.parallel import Progress
+    from workers.pool import Progress
     out = io.StringIO()
     bar = Progress(3, "prove", out)
     bar.note("null seed 0: accepted []")

@@ -11,7 +11,7 @@ from models import quarter_car as qcm
 from models.validation import quarter_car as qv
 from models.quarter_car import sweeps
 from models.damper import DamperError, SimplifiedDamper, SimplifiedDirection, load
-from models.parallel import TaskFailed, run_all
+from workers.pool import TaskFailed, run_all
 from models.physics.simulate import simulate
 
 

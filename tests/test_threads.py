@@ -1,10 +1,10 @@
-"""models/threads.py: independent fits on the cores give what one after the other gives."""
+"""workers/threads.py: independent fits on the cores give what one after the other gives."""
 import threading
 
 import numpy as np
 import pytest
 
-from models import threads
+from workers import threads
 
 
 def test_each_keeps_the_items_order_and_runs_nested_calls_in_place(monkeypatch):

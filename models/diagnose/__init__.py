@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from models import threads
+from workers import threads
 from models.diagnose.candidates import EFFECTS, WITH_BASELINE, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
 from models.diagnose.data import Data, DiagnoseError, prepare

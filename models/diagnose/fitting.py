@@ -9,7 +9,7 @@ from scipy.optimize import least_squares
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.data import Data
 from models.statistics import covariance
-from models.threads import each
+from workers.threads import each
 
 SHORT = 4  # function evaluations per free parameter in a grid start's brief fit
 TIE = 1e-6  # of two starts, a fit no lower in cost than the earlier's by this share keeps the earlier

@@ -19,7 +19,7 @@ from models.identify.segments import Segment
 from models.identify.static import Estimate
 from models.physics.simulate import simulate
 from models.statistics import covariance, nrmse
-from models.threads import each
+from workers.threads import each
 
 G_START = 1.40  # adiabatic nitrogen: where the gamma fit starts (the thesis found 1.38)
 X_STICK_START = 2e-4  # m: starting pre-sliding travel of the friction (Dahl)

@@ -16,7 +16,7 @@ from scipy.optimize import least_squares
 
 from models.physics import valves
 from models.damper import LOW_BRANCH_MIN, Branch, Direction, Line
-from models.threads import each
+from workers.threads import each
 
 # structure name -> its parameters: a [N s^2/m^2], b [N s/m] (low branch, eq 4.14),
 # m [N s/m], c [N] (mid line slope and cracking force, eq 4.13), m2, c2 (high line)

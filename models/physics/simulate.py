@@ -117,6 +117,16 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
                   new_state, int(capped))
 
 
+def warm():
+    """Compile the damper's kernels in this process, or load them from numba's cache: a
+    process pool's or a Dask worker's start (workers/pool.py), so that its first task is not
+    charged for it. The quarter car's load on its first sweep."""
+    from models.damper import load
+    d = load("koni")
+    t, x, v = sine(0.002, 2.0, 1, d.mid_stroke, samples_per_cycle=40)
+    simulate(d, t, x, v)
+
+
 def sine(amplitude, freq, cycles, x_mid, samples_per_cycle=None, dt=None):
     """Sinusoidal displacement about x_mid, (t, x, v) for amplitude [m] and freq [Hz].
 

@@ -21,11 +21,11 @@ import numpy as np
 from models.physics import gas_spring
 from models.quarter_car import metrics
 from models.damper import Damper, DamperError, load
-from models.parallel import run_all
+from workers.pool import run_all
 from models.quarter_car import QuarterCar
 from models.quarter_car.sim import run
 from models.quarter_car.road import harmonic, square_edge, step
-from models.physics.simulate import C_to_K
+from models.physics.simulate import C_to_K, warm
 
 AMPLITUDES = (0.0032, 0.0127)  # m (6.2.3)
 FREQS = tuple(np.arange(1.25, 20.001, 0.25))  # Hz: 1.25-20 Hz at the 0.25 Hz the tables resolve
@@ -136,7 +136,7 @@ def sweep_cases(car: QuarterCar, cases, amplitudes=AMPLITUDES, freqs=FREQS, comp
         _check_amplitude(d, amplitudes)
     jobs = [Harmonic(car, d, float(a), float(f), T, compressible) for _, d, T in cases for a in amplitudes
             for f in freqs]
-    out = iter(run_all(harmonic_point, jobs, executor, workers, progress, label))
+    out = iter(run_all(harmonic_point, jobs, executor, workers, progress, label, warm=warm))
     result = {}
     for name, d, T in cases:
         rows = [next(out) for _ in range(len(amplitudes) * len(freqs))]

@@ -20,9 +20,9 @@ from scipy.optimize import brentq
 
 from models import quarter_car as qcm
 from models.damper import load
-from models.physics.simulate import C_to_K
+from models.physics.simulate import C_to_K, warm
 from models.quarter_car import sweeps
-from models.parallel import run_all
+from workers.pool import run_all
 
 DAMPERS = ("koni", "mechformance", "fox-heavy", "fox-light")
 TOL_RATIO, TOL_HZ, TOL_OVERSHOOT = 0.25, 1.0, 10.0
@@ -124,7 +124,7 @@ def step_sensitivity(step_rows, executor=None, workers=None, progress=None):
     cases = list(dict.fromkeys(key for key, _, r in step_rows if not r["pass"]))
     jobs = [(n, A, mm, False) for n, A in cases for mm in INSTALL_MM]
     got = {j[:3]: m for j, (_, m) in zip(jobs, run_all(_step_job, jobs, executor, workers, progress,
-                                                         "install offsets"))}
+                                                         "install offsets", warm=warm))}
     def meets(r, key, metric, mm):
         return row("", "", "", r["thesis"], got[(*key, mm)][metric], r["tolerance"], "",
                    absolute=r["tolerance_type"] == "absolute")["pass"]
@@ -204,7 +204,7 @@ def rows(executor=None, workers=None, progress=None, sensitivity=False, kept=Non
                    qcm.tire_mode_frequency(car), 0.02, "check", reading=("car",)))
 
     steps = run_all(_step_job, [(n, A, None, kept is not None) for n, A in STEPS], executor, workers, progress,
-                    "step responses")
+                    "step responses", warm=warm)
     step_rows = _step_rows([m for _, m in steps])
     if sensitivity:
         step_sensitivity(step_rows, executor, workers, progress)

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from models.parallel import run_all
+from workers.pool import run_all
 from protocols import cluster
 
 

@@ -57,7 +57,7 @@ def recording(seconds=100.0, rate_hz=300.0, seed=0):
 
 
 def bench(seconds=100.0, rate_hz=300.0):
-    from models import threads
+    from workers import threads
     from models.diagnose import diagnose
     from sim_backend.options import benchmark
     t0 = time.perf_counter()

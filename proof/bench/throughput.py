@@ -99,7 +99,7 @@ def bench_diagnose(seconds=60.0, rate_hz=5000.0):
     """`dyno bench diagnose`: a recording of `seconds` of sine matrix at rate_hz from the
     plain plant (no wires), then the diagnosis's wall time (goal, issue 47: 60 s at 5 kHz in < 3 s)
     and the next test's design within 120 s of rig time on the virtual cell (goal < 10 s)."""
-    from models import threads
+    from workers import threads
     from models.diagnose import design, diagnose
     from protocols.discover import limits
     from proof.on_plant import offline_recording

@@ -15,7 +15,7 @@ _lock = threading.Lock()
 
 # how many threads one process's fits may use (default: the cores it may run on). Processes
 # that share the machine's cores each get their share: a process pool's workers and a test
-# suite's (models/parallel.py, tests/conftest.py): threads beyond the free cores would only
+# suite's (workers/pool.py, tests/conftest.py): threads beyond the free cores would only
 # contend for the GIL and the caches
 ENV = "DYNO_FIT_THREADS"
 

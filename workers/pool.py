@@ -22,23 +22,11 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
-from models import threads
+from workers import threads
 
 
 class TaskFailed(RuntimeError):
     """A job failed twice; the message names it."""
-
-
-def warm():
-    """Compile the damper's kernels in this process, or load them from numba's cache, so
-    that a worker's first task is not charged for it (a process pool's initializer, a
-    Dask worker plugin). The quarter car's (models/quarter_car/, which fans out through
-    this module) load on its first sweep."""
-    from models.damper import load
-    from models.physics.simulate import simulate, sine
-    d = load("koni")
-    t, x, v = sine(0.002, 2.0, 1, d.mid_stroke, samples_per_cycle=40)
-    simulate(d, t, x, v)
 
 
 # glibc's mallopt parameters (malloc.h)
@@ -60,12 +48,14 @@ def heap_for_arrays():
     libc.mallopt(_M_TRIM_THRESHOLD, 64 << 20)
 
 
-def worker_start(processes):
-    """A pool worker's start, one of `processes`: its share of the cores for its fits (models/threads.py), its
-    arrays on the heap, its kernels warm."""
+def worker_start(processes, warm=None):
+    """A pool worker's start, one of `processes`: its share of the cores for its fits (workers/threads.py), its
+    arrays on the heap, and warm() called (the caller's kernels compiled or loaded, so that a worker's first
+    task is not charged for it)."""
     threads.share(processes)
     heap_for_arrays()
-    warm()
+    if warm is not None:
+        warm()
 
 
 class Progress:
@@ -99,12 +89,12 @@ class Progress:
             self.stream.flush()
 
 
-def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", names=None, done=None):
+def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", names=None, done=None, warm=None):
     """[fn(job) for job in jobs], in parallel.
 
     executor: an Executor to submit to (left open); by default a process pool of
-    `workers` processes (each warmed once) is made for the call: by default the cores this
-    process may use, its share where processes share them (models/threads.py).
+    `workers` processes (each calling warm() once as it starts) is made for the call: by default the cores this
+    process may use, its share where processes share them (workers/threads.py).
     workers=1 without an executor runs in this process. progress: a stream for the
     progress bar, True for stderr, None for none. names: each job's name in messages
     (default: its number). done(i, result): called in this process as each job's result
@@ -116,7 +106,7 @@ def run_all(fn, jobs, executor=None, workers=None, progress=None, label="", name
     if progress and jobs:
         bar = Progress(len(jobs), label, None if progress is True else progress)
     try:
-        return _run(fn, jobs, names, executor, workers or threads.cores(), bar, done or (lambda i, r: None))
+        return _run(fn, jobs, names, executor, workers or threads.cores(), bar, done or (lambda i, r: None), warm)
     except BaseException:
         if bar and bar.done < bar.total:
             bar.stream.write("\n")  # an error message after us starts on its own line
@@ -142,7 +132,7 @@ def _once_more(name, result, again, bar):
         raise TaskFailed(f"{name} failed twice: {e}") from e
 
 
-def _run(fn, jobs, names, executor, workers, bar, done):
+def _run(fn, jobs, names, executor, workers, bar, done, warm):
     if executor is None and (workers == 1 or len(jobs) == 1):
         out = []
         for job, name in zip(jobs, names):
@@ -152,7 +142,7 @@ def _run(fn, jobs, names, executor, workers, bar, done):
                 bar.advance()
         return out
     n = min(workers, len(jobs))
-    with process_pool(n) if executor is None else contextlib.nullcontext(executor) as ex:
+    with process_pool(n, warm) if executor is None else contextlib.nullcontext(executor) as ex:
         futures = [ex.submit(fn, job) for job in jobs]
         out = []
         for f, job, name in zip(futures, jobs, names):
@@ -164,13 +154,13 @@ def _run(fn, jobs, names, executor, workers, bar, done):
 
 
 @contextlib.contextmanager
-def process_pool(n):
-    """A pool of n worker processes (worker_start). Left by a stop (Ctrl-C or SIGTERM,
+def process_pool(n, warm=None):
+    """A pool of n worker processes (worker_start, each calling warm). Left by a stop (Ctrl-C or SIGTERM,
     rig/operator_stop.py), it ends its workers rather than wait for them: a SIGTERM reaches
     this process alone, and its workers would run their jobs to the end (minutes of
     `dyno prove`)."""
     before = set(multiprocessing.active_children())
-    ex = ProcessPoolExecutor(max_workers=n, initializer=worker_start, initargs=(n,))
+    ex = ProcessPoolExecutor(max_workers=n, initializer=worker_start, initargs=(n, warm))
     try:
         yield ex
     except KeyboardInterrupt:

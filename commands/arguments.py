@@ -52,6 +52,16 @@ def identity(p, what="test"):
                         "--setup gas_bar=10)")
 
 
+def reference(p, required=False):
+    """--against and --tolerance: what a run is checked against (dyno check, the report's sheet)."""
+    p.add_argument("--against", required=required, default=None, metavar="REF.mcap|MODEL|TABLE",
+                   help="the reference: another run, a damper model (preset or FILE.json) simulated along "
+                        "this run's motion, or a force-velocity table (a spec sheet, another dyno's export, a "
+                        "report's velocity.csv; .csv/.txt/.xlsx, units in the column names)")
+    p.add_argument("--tolerance", default="5%",
+                   help="the band, with its unit: 5%% of the reference, 50N, 11lbf, or 5%%,50N (the larger)")
+
+
 def identity_info(args) -> dict:
     """identity()'s options as the run metadata's fields (operator, damper_serial, note,
     setup.KEY), those given only."""

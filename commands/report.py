@@ -1,6 +1,7 @@
-"""`dyno report FILE.mcap [OTHER.mcap ...] --out DIR [--model FILE]`: the recording's HTML
-report (with the damper model overlaid: --model, or the run's identified
-FILE.model.json), or recordings compared with the first."""
+"""`dyno report FILE.mcap [OTHER.mcap ...] --out DIR [--model FILE] [--against REF]`: the
+recording's test sheet (report.pdf's page 1, sheet.png; the verdict against REF as `dyno
+check` gives it) and its report (with the damper model overlaid: --model, or the run's
+identified FILE.model.json), or recordings compared with the first."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,7 +9,7 @@ from pathlib import Path
 from models.damper import DamperError
 from rig.errors import UsageError
 
-from commands.arguments import FOLDER, overwrite, units, writes
+from commands.arguments import FOLDER, overwrite, reference, units, writes
 
 
 def add(sub):
@@ -22,6 +23,7 @@ def add(sub):
                     help="shaft speeds of the velocity table, in --units' velocity unit (default 0.025-0.5 m/s, "
                          "1-20 in/s)")
     rp.add_argument("--paper", choices=("a4", "letter"), default="a4", help="report.pdf's paper (default a4)")
+    reference(rp)
     units(rp)
     overwrite(rp, "the report's files in --out")
     rp.set_defaults(command="report")
@@ -60,14 +62,20 @@ def run(args):
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
     with filled(out) as folder:
         if args.other:
-            index, pngs = compare([args.file, *args.other], folder, args.units)
+            index, pngs = compare([args.file, *args.other], folder, args.units, args.against, args.tolerance)
+            pngs = [*pngs, Path(folder) / "report.pdf"]
         else:
             model = _model(args)
             if model is not None:
                 print(f"model overlaid: {model.name}")
             units = args.units
+            check = None
+            if args.against:
+                from protocols.reports import qa
+                check = qa.said(*qa.checked(args.file, args.against, args.tolerance, units), units)
+                print(f"sheet's verdict against {check[1]}: {check[0]}")
             try:
-                index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units)
+                index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units, check)
             except DamperError as e:  # a model whose effects this recording cannot carry
                 raise UsageError(f"--model: {e}") from None
             pngs = [*pngs, Path(folder) / "report.pdf"]

@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import json
 import os
+import functools
 import re
+import subprocess
 import time
 import zlib
 from importlib import metadata
 from io import BytesIO
 from datetime import datetime, timezone
+from pathlib import Path
 
 import numpy as np
 import orjson
@@ -85,6 +88,26 @@ LOG_LEVEL = {Fault: 4, OperatorStop: 3, Skipped: 3}  # foxglove.Log levels; othe
 VERSION = metadata.version("dyno")  # pyproject.toml's, as installed
 
 
+@functools.cache
+def software() -> dict:
+    """{"name", "version", "commit"}: this dyno, with the git commit of its source when it runs
+    from a checkout (a "+" when the checkout has changes not committed); no commit otherwise.
+    Recorded in every file and printed on the test sheet: which code made a result."""
+    here = Path(__file__).resolve().parent.parent
+    out = {"name": "dyno", "version": VERSION}
+    try:
+        head = subprocess.run(["git", "-C", str(here), "rev-parse", "--show-toplevel", "--short=12", "HEAD"],
+                              capture_output=True, text=True, timeout=10)
+        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return out
+    top, _, commit = head.stdout.strip().partition("\n")
+    if head.returncode == 0 and commit and Path(top).resolve() == here:  # not a checkout the package sits inside
+        out["commit"] = commit + ("+" if dirty.stdout.strip() else "")
+    return out
+
+
 class Recorder:
     """Writes a run to `path` through a Claim (records/files.py): to a partial file
     beside it, renamed onto `path` at the first segment_start event (the run has started
@@ -115,7 +138,7 @@ class Recorder:
         self._topic("/actuator/setpoint", "dyno.Setpoints")
         self._topic("/events", "dyno.Event")
         self._topic("/log", "foxglove.Log")
-        self.w.add_metadata("software", {"name": "dyno", "version": VERSION})
+        self.w.add_metadata("software", software())
         started = datetime.fromtimestamp(self.wall_start, timezone.utc)
         self.w.add_metadata("run", {"wall_start": started.isoformat(timespec="microseconds"),
                                     "wall_start_unix_s": repr(self.wall_start),
@@ -125,7 +148,8 @@ class Recorder:
         self.w.add_metadata("rig", {"name": config.name, "config_path": str(config.path)})
         self.w.add_metadata("calibration", {n: json.dumps({"device": c.device, "signal": c.signal, "gain": c.gain,
                                                            "offset": c.offset, "unit": c.unit,
-                                                           **({"drives": c.drives} if getattr(c, "drives", "") else {})})
+                                                           **{k: getattr(c, k) for k in ("drives", "sensor", "calibrated")
+                                                              if getattr(c, k, "")}})
                                             for n, c in config.channels.items()})
         self.w.add_metadata("damper", {"model": damper_json})
         self.w.add_metadata("protocol", {"name": protocol, "params": json.dumps(params)})

@@ -45,7 +45,9 @@ ACTUATOR_RATINGS = {"stroke": _num(above=0.0, hi=2.0), "force_rating": _num(abov
 DRIVES = ("coil current", "coil voltage", "valve current", "valve command")
 CHANNEL = {"device": Field("string", True), "signal": Field("string", True),
            "gain": _num(required=True, nonzero=True), "offset": _num(), "unit": Field("string", True),
-           "drives": Field("string", choices=DRIVES)}
+           "drives": Field("string", choices=DRIVES),
+           # traceability on the test sheet: the instrument (make, model, serial) and its last calibration
+           "sensor": Field("string"), "calibrated": Field("date")}
 LIMITS = {
     "x_min": _num(required=True, lo=0.0, hi=2.0), "x_max": _num(required=True, above=0.0, hi=2.0),
     "force_max": _num(required=True, above=0.0, hi=1e7),
@@ -79,6 +81,8 @@ class Channel:
     unit: str
     line: int
     drives: str = ""  # what of the damper it drives (DRIVES); "" for a reading
+    sensor: str = ""  # the instrument: make, model, serial ("" not given)
+    calibrated: str = ""  # its last calibration, an ISO date ("" not given)
 
     def scale(self, raw):
         """Device output (V, degC ...) to SI: the one place bytes become physics."""
@@ -258,7 +262,8 @@ def _channels(c, table, devices):
         if ch.get("drives") and not name.startswith("aux."):
             c.fail(c.line(parts, "drives"), f"channel {name!r}: only an aux.* channel drives the damper")
         channels[name] = Channel(name, ch["device"], ch["signal"], float(ch["gain"]), float(ch.get("offset", 0.0)),
-                                 unit, c.line(parts), ch.get("drives", ""))
+                                 unit, c.line(parts), ch.get("drives", ""), ch.get("sensor", ""),
+                                 ch.get("calibrated", ""))
     for name in REQUIRED_CHANNELS:
         if name not in channels:
             c.fail(c.line(["channels"]), f"required channel {name!r} is missing")

@@ -4,6 +4,7 @@ every problem with a "did you mean" for a near miss. The tables' contents are de
 where they belong (rig/config.py, each transport in rig/devices/)."""
 from __future__ import annotations
 
+import datetime
 import difflib
 import math
 import re
@@ -14,7 +15,7 @@ from rig.errors import RigError
 
 @dataclass(frozen=True)
 class Field:
-    kind: str  # "number", "integer", "string", "port" (an integer 1-65535 or "auto")
+    kind: str  # "number", "integer", "string", "port" (an integer 1-65535 or "auto"), "date" (2026-03-01)
     required: bool = False
     lo: float | None = None
     hi: float | None = None
@@ -93,6 +94,12 @@ class Checker:
             if f.choices and v not in f.choices:
                 self.fail(line, f"{what}: {v!r} is not one of {', '.join(f.choices)}")
             return v
+        if f.kind == "date":  # a TOML date, or the same in quotes; kept as its ISO text
+            text = v.isoformat() if isinstance(v, datetime.date) and not isinstance(v, datetime.datetime) else v
+            try:
+                return datetime.date.fromisoformat(text).isoformat()
+            except (TypeError, ValueError):
+                self.fail(line, f"{what}: expected a date like 2026-03-01, got {v!r}")
         if f.kind == "port":
             if v == "auto":
                 return v

@@ -36,11 +36,12 @@ def dyno(*args):
     return SimpleNamespace(returncode=code, stdout=out.getvalue(), stderr=err.getvalue())
 
 
-def recorded(out, protocol, params, damper="koni", effects=(), plain=False):
+def recorded(out, protocol, params, damper="koni", effects=(), plain=False, config="virtual", run_info=None):
     """(out, the run's result): `protocol` with `params` {name: value} recorded on the direct
     cell through the run API, for tests that read a recording, not the wires (the standard
     run below: some 18 s this way, many times that through the embedded rig's wires); effects, plain:
-    as `dyno run --effect --plain`."""
+    as `dyno run --effect --plain`; config: the rig's (a name or path); run_info: as `dyno run`
+    records it (damper_serial, operator, setup.KEY...)."""
     from contextlib import closing
 
     from protocols import cell, runner
@@ -52,7 +53,8 @@ def recorded(out, protocol, params, damper="koni", effects=(), plain=False):
     module = PROTOCOLS[protocol]
     plan = Plan(module, module.Params(**params))
     plant = plant_options(damper, list(effects), plain=plain)
-    with cell.direct(rig_config.load("virtual"), plant.damper, plant) as c, closing(for_run(out, c, plan)) as rec:
+    with cell.direct(rig_config.load(config), plant.damper, plant) as c, \
+            closing(for_run(out, c, plan, run_info)) as rec:
         result = runner.run_plan(plan, c, [rec])
     assert result.fault is None, result.fault
     return out, result

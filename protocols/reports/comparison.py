@@ -9,20 +9,25 @@ from __future__ import annotations
 import csv
 import json
 import string
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
 from records.data import SAME_TEST_AMPLITUDE, SAME_TEST_FREQUENCY, SAME_TEST_K, near, segments, sign_problem
 from records.reader import load_recording
-from protocols.reports import peaks
+from records.recorder import software
+from rig.errors import UsageError
+from protocols.reports import peaks, qa, sheet
 from protocols.reports import velocity_table as vt
 from protocols.reports.page import Page, save
-from protocols.reports.pdf import write_pdf
+from protocols.reports.pdf import first_page_png, write_pdf
+from protocols.reports.sines import SHEET_DPI, SHEET_RC
 from protocols.reports.plots import plt
 from protocols.units import Units, amplitude, fmt
 
 MARKERS = "os^Dv<>p"  # one per amplitude
+COMPOSITE = "compare_composite.png"  # the runs' curves overlaid: the comparison sheet's figure
 
 
 def _run(path):
@@ -103,16 +108,20 @@ def _pct(b, a):
     return 100 * (b - a) / abs(a) if a else np.nan
 
 
-def compare(paths, out_dir, units=Units()):
-    """Write DIR/index.html and differences.csv comparing every run with the first;
-    (index, [PNG paths])."""
+def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
+    """Write DIR/index.html, report.pdf (page 1 the comparison sheet), sheet.png and
+    differences.csv comparing every run with the first; each run's verdict against
+    `against` (a run, model or table, as `dyno check` takes it), or each after the first
+    against the first. (index, [PNG paths])."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs = [(string.ascii_uppercase[i % 26], path, *_run(path)) for i, path in enumerate(paths)]
     loops = {tag: loop for tag, _, _, _, loop, _ in runs}
     signs = {tag: sign for tag, *_, sign in runs}
     runs = [r[:4] for r in runs]
-    page = Page("Dyno comparison: " + ", ".join(f"{tag} {run_name(meta, path)}" for tag, path, _, meta in runs))
+    title = "Dyno comparison: " + ", ".join(f"{tag} {run_name(meta, path)}" for tag, path, _, meta in runs)
+    page = Page(title, meta=[("description", title), ("generator", f"dyno {software()['version']}"),
+                             ("dcterms.created", datetime.now(timezone.utc).isoformat(timespec="seconds"))])
     for tag, path, _, meta in runs:
         run = meta.get("run", {})
         page.paragraph(f"{tag}: {run_name(meta, path)}; {Path(path).name}, protocol "
@@ -162,14 +171,30 @@ def compare(paths, out_dir, units=Units()):
                     pngs[-1].name)
     else:
         page.paragraph("No run has a sine segment: nothing to compare.")
-    table = _speeds_table(runs, units)
-    if table:
-        page.heading(f"Force at shaft velocities, every run read the same way ({table[0]}; difference against "
-                     f"{first[0]})")
-        page.table(*table[1:])
+    curve = next((p.name for p in pngs if p.name == COMPOSITE), None)
+    page.sheet = sheet.comparison([(tag, path, meta) for tag, path, _, meta in runs], curve,
+                                  _speeds_table(runs, units), _verdicts(runs, against, tolerance, units))
+    page.blocks = [b for b in page.blocks if b[0] != "figure" or b[1][0] != curve]  # the curve is on the sheet
     index = page.write(out)
-    write_pdf(page, out)  # report.pdf beside it, as a single run's report has
-    return index, pngs
+    first_page_png(write_pdf(page, out), out / "sheet.png")  # report.pdf beside it, as a single run's report has
+    return index, [*pngs, out / "sheet.png"]
+
+
+def _verdicts(runs, against, tolerance, units):
+    """[(tag, verdict sentence, what against)] of each run: against `against`, or each after
+    the first against the first. A run the check cannot read says why, as its verdict."""
+    out = []
+    for i, (tag, path, _, _) in enumerate(runs):
+        ref = against or (runs[0][1] if i else None)
+        if ref is None:
+            out.append((tag, "REFERENCE", "the other runs are checked against this one"))
+            continue
+        try:
+            said, what = qa.said(*qa.checked(path, ref, tolerance, units), units)
+        except UsageError as e:
+            said, what = f"NO VERDICT: {e}", str(Path(ref).name)
+        out.append((tag, said, what if against else f"{runs[0][0]} ({what})"))
+    return out
 
 
 def _speeds_table(runs, units):
@@ -203,40 +228,42 @@ def _speeds_table(runs, units):
 def _composite(runs, out, units):
     """The single report's composite for every run: colour per run, solid compression,
     dashed rebound, a marker per amplitude."""
-    damping = all(np.isfinite(p.Fd_comp) for _, _, rows, _ in runs for p in rows)
-    amps = []  # one marker per amplitude: estimates of one amplitude (24.4, 24.5 mm) share it
-    for a in sorted({p.amplitude_mm for _, _, rows, _ in runs for p in rows}, reverse=True):
-        amps += [] if any(near(a, b, SAME_TEST_AMPLITUDE) for b in amps) else [a]
-    V, F = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
-    fig, ax = plt.subplots(figsize=(8, 5.5))
-    for i, (tag, path, rows, meta) in enumerate(runs):
-        c = f"C{i % 10}"
+    with plt.rc_context(SHEET_RC):  # the comparison sheet's figure: its text at 8 pt as printed
+        damping = all(np.isfinite(p.Fd_comp) for _, _, rows, _ in runs for p in rows)
+        amps = []  # one marker per amplitude: estimates of one amplitude (24.4, 24.5 mm) share it
+        for a in sorted({p.amplitude_mm for _, _, rows, _ in runs for p in rows}, reverse=True):
+            amps += [] if any(near(a, b, SAME_TEST_AMPLITUDE) for b in amps) else [a]
+        V, F = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
+        fig, ax = plt.subplots(figsize=(6.4, 4.1))
+        for i, (tag, path, rows, meta) in enumerate(runs):
+            c = f"C{i % 10}"
+            for a in amps:
+                ps = sorted((p for p in rows if near(p.amplitude_mm, a, SAME_TEST_AMPLITUDE) and np.isnan(p.target_c)),
+                            key=lambda p: p.v_comp)
+                if not ps:
+                    continue
+                m = MARKERS[amps.index(a) % len(MARKERS)]
+                ax.plot(V([p.v_comp for p in ps]), F([p.Fd_comp if damping else p.F_comp for p in ps]), m + "-",
+                        color=c, ms=4)
+                ax.plot(V([-p.v_reb for p in ps]), F([-(p.Fd_reb if damping else p.F_reb) for p in ps]), m + "--",
+                        color=c, ms=4, alpha=0.8)
+            if vt.method(rows) == "stroke":  # one speed: its force along the stroke, not one point
+                for p in rows:
+                    comp, reb = p.stroke_v > 0, p.stroke_v < 0
+                    ax.plot(V(p.stroke_v[comp]), F(p.stroke_F[comp]), "-", color=c, lw=1)
+                    ax.plot(V(-p.stroke_v[reb]), F(-p.stroke_F[reb]), "--", color=c, lw=1, alpha=0.8)
+            ax.plot([], [], "-", color=c, label=f"{tag}: {run_name(meta, path)}")
+        ax.plot([], [], "k-", label="compression")
+        ax.plot([], [], "k--", label="rebound (magnitude)")
         for a in amps:
-            ps = sorted((p for p in rows if near(p.amplitude_mm, a, SAME_TEST_AMPLITUDE) and np.isnan(p.target_c)),
-                        key=lambda p: p.v_comp)
-            if not ps:
-                continue
-            m = MARKERS[amps.index(a) % len(MARKERS)]
-            ax.plot(V([p.v_comp for p in ps]), F([p.Fd_comp if damping else p.F_comp for p in ps]), m + "-",
-                    color=c, ms=4)
-            ax.plot(V([-p.v_reb for p in ps]), F([-(p.Fd_reb if damping else p.F_reb) for p in ps]), m + "--",
-                    color=c, ms=4, alpha=0.8)
-        if vt.method(rows) == "stroke":  # one speed: its force along the stroke, not one point
-            for p in rows:
-                comp, reb = p.stroke_v > 0, p.stroke_v < 0
-                ax.plot(V(p.stroke_v[comp]), F(p.stroke_F[comp]), "-", color=c, lw=1)
-                ax.plot(V(-p.stroke_v[reb]), F(-p.stroke_F[reb]), "--", color=c, lw=1, alpha=0.8)
-        ax.plot([], [], "-", color=c, label=f"{tag}: {run_name(meta, path)}")
-    ax.plot([], [], "k-", label="compression")
-    ax.plot([], [], "k--", label="rebound (magnitude)")
-    for a in amps:
-        ax.plot([], [], MARKERS[amps.index(a) % len(MARKERS)], color="k", label=amplitude(units, a))
-    what = "damping force (measured - gas - friction)" if damping else "peak force"
-    ax.set(title=f"Composite: {what.split(' (')[0]} vs peak velocity", xlabel=units.label("peak velocity", "velocity"),
-           ylabel=units.label(what, "force"))
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left")
-    return save(fig, out / "compare_composite.png")
+            ax.plot([], [], MARKERS[amps.index(a) % len(MARKERS)], color="k", label=amplitude(units, a))
+        what = "damping force (measured - gas - friction)" if damping else "peak force"
+        ax.set(title=f"{what.split(' (')[0].capitalize()} against peak shaft velocity",
+               xlabel=units.label("peak shaft velocity", "velocity"),
+               ylabel=units.label(what, "force"))
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the curves, not over them
+        return save(fig, out / COMPOSITE, dpi=SHEET_DPI)
 
 
 def _loops(runs, loops, out, units):

@@ -13,7 +13,9 @@ STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto}img{max-w
          "td:first-child,th:first-child{text-align:left}")
 
 
-SHORT_TABLE = 25  # rows a printed table is kept on one page with
+# rows a printed table is kept on one page with: even at two lines a row (a wrapped segment
+# name) it fits a landscape page under its heading; a longer one flows, its header repeated
+SHORT_TABLE = 15
 
 
 def number(v):
@@ -84,8 +86,11 @@ class Page:
     through templates/page.html; the printable PDF reads the same blocks
     (protocols/reports/pdf.py)."""
 
-    def __init__(self, title: str):
-        self.title = title
+    def __init__(self, title: str, sheet=None, meta=()):
+        """sheet: the test sheet (protocols/reports/sheet.py) the page opens with, the rest its
+        appendix; meta: [(name, content)] of the document (author, description,
+        dcterms.created: the PDF's Author, Subject and CreationDate)."""
+        self.title, self.sheet, self.meta = title, sheet, list(meta)
         self.blocks = []
 
     def heading(self, text):
@@ -102,13 +107,13 @@ class Page:
         self.blocks.append(("table", (list(header), [list(r) for r in rows])))
 
     def figure(self, title, png):
-        self.heading(title)
+        """A figure under its title, kept together on a printed page."""
         self.blocks.append(("figure", (png, title)))
 
     def html(self) -> str:
         # printed (protocols/reports/pdf.py): the header repeats on each page; a short table is kept whole
         return templates().get_template("page.html").render(title=self.title, style=STYLE, blocks=self.blocks,
-                                                            short_table=SHORT_TABLE)
+                                                            short_table=SHORT_TABLE, sheet=self.sheet, meta=self.meta)
 
     def write(self, out_dir: Path) -> Path:
         index = Path(out_dir) / "index.html"

@@ -78,18 +78,26 @@ def _table(header, rows):
 
 PRINT_CSS = """@page {{ size: {paper} landscape; margin: 12mm 12mm; @bottom-right {{ content: counter(page) " / " counter(pages);
 font: 8pt sans-serif; }} }}
+@page sheet {{ size: {paper} portrait; margin: 10mm 12mm; }}
 body {{ font: 9pt sans-serif; max-width: none; margin: 0; }}
+section.sheet {{ page: sheet; break-after: page; }}
+section.sheet table {{ font-size: 8.5pt; }}
+section.sheet td {{ white-space: normal; }}
+section.sheet img {{ max-height: 100mm; }}
+section.sheet .overlay img {{ max-height: 85mm; }}
 h1 {{ font-size: 14pt; margin: 0 0 4mm; }}
 h2 {{ font-size: 10.5pt; margin: 5mm 0 2mm; break-after: avoid; }}
 p, li {{ orphans: 3; widows: 3; }}
 table {{ font-size: 8pt; border-collapse: collapse; width: 100%; }}
 table.short {{ break-inside: avoid; }}
+thead {{ display: table-header-group; }}
 tr {{ break-inside: avoid; }}
 td, th {{ padding: 1px 3px; }}
 td {{ white-space: nowrap; }}
 td:first-child {{ white-space: normal; }}
 th {{ vertical-align: bottom; }}
-img {{ max-width: 100%; max-height: 160mm; break-inside: avoid; }}"""
+figure {{ margin: 0; break-inside: avoid; }}
+img {{ max-width: 100%; max-height: 150mm; }}"""
 
 
 def _weasyprint():
@@ -102,15 +110,34 @@ def _weasyprint():
 
 
 def write_pdf(page, out_dir, name="report.pdf", paper="a4") -> Path:
-    """Write the page as DIR/NAME; its path. Figures are read from DIR."""
+    """Write the page as DIR/NAME; its path. Figures are read from DIR. The title and the
+    page's meta (author, description, dcterms.created) are the PDF's Title, Author,
+    Subject and CreationDate."""
     out = Path(out_dir) / name
     wp = _weasyprint()
     if wp is not None:
         wp.HTML(string=page.html(), base_url=str(Path(out_dir).resolve())).write_pdf(
             out, stylesheets=[wp.CSS(string=PRINT_CSS.format(paper=paper.upper() if paper == "a4" else paper))])
         return out
-    with PdfPages(out, metadata={"Title": page.title, "Creator": "dyno"}) as pdf:
+    meta = dict(page.meta)
+    with PdfPages(out, metadata={"Title": page.title, "Creator": "dyno", "Author": meta.get("author", ""),
+                                 "Subject": meta.get("description", "")}) as pdf:
         sheet = _Sheet(pdf, paper)
+        if page.sheet is not None:  # its facts as lines, then the appendix from a new page
+            s = page.sheet
+            sheet.lines("title", _wrap("title", s.title), weight="bold")
+            for k, v in [*s.identity, *s.test, *s.conditions, ("verdict", s.verdict or "none"),
+                         ("reference", s.reference), *s.traceability]:
+                sheet.lines("paragraph", _wrap("paragraph", f"{k}: {v}"))
+            sheet.lines("table", _table(("channel", "instrument", "calibrated"), s.channels), family="monospace",
+                        fit=True)
+            if s.table:
+                sheet.lines("table", _table(*s.table), family="monospace", fit=True)
+            if s.curve:
+                sheet.image(Path(out_dir) / s.curve)
+            sheet.lines("paragraph", [f"{role}: {name or '_' * 30}   signature: {'_' * 30}   date: {'_' * 15}"
+                                      for role, name in s.signoff])
+            sheet.new()
         sheet.lines("title", _wrap("title", page.title), weight="bold")
         for kind, payload in page.blocks:
             if kind == "heading":
@@ -123,6 +150,22 @@ def write_pdf(page, out_dir, name="report.pdf", paper="a4") -> Path:
             elif kind == "table":
                 sheet.lines("table", _table(*payload), family="monospace", fit=True)
             elif kind == "figure":
+                sheet.lines("heading", _wrap("heading", payload[1]), weight="bold")
                 sheet.image(Path(out_dir) / payload[0])
         sheet.close()
     return out
+
+
+PNG_DPI = 150  # the sheet as an image: A4 at 1240 x 1754 pixels, its 8 pt text legible
+
+
+def first_page_png(pdf_path, png_path, dpi=PNG_DPI) -> Path:
+    """Page 1 of the PDF (the test sheet) as a PNG, for a chat or an email (pypdfium2: PDFium,
+    the renderer of Chromium, draws the PDF itself, so the image is what prints)."""
+    import pypdfium2
+    doc = pypdfium2.PdfDocument(str(pdf_path))
+    try:
+        doc[0].render(scale=dpi / 72).to_pil().save(png_path)
+    finally:
+        doc.close()
+    return Path(png_path)

@@ -20,6 +20,7 @@ from models.damper import DamperError
 from models.minimal import load_reference as load_damper, outside
 from records.data import segments, sign_problem
 from records import spec_table
+from rig.errors import UsageError
 from records.reader import load_recording
 from protocols.reports import peaks
 from protocols.reports import velocity_table as vt
@@ -66,20 +67,24 @@ def parse_tolerance(text: str) -> Tolerance:
     return tol
 
 
-def verdict(points: int, failed: int, outside=(), units=Units()) -> str:
+def verdict(points: int, failed: int, outside=(), units=Units(), furthest=False) -> str:
     """The one QA sentence (CLI, web, catalogue): "FAIL: 17 of 18 inside the band; 1 outside:
     rebound at 500 mm/s, -4.1 % (-41 N)" (the force's size against the reference's: -4.1 %
     is weak; the force beside it, since a percentage of a reference near zero says little).
-    outside: the failing Verdicts, when known."""
+    outside: the failing Verdicts, when known; furthest: name only the one furthest outside
+    (a test sheet's line)."""
     head = f"{'FAIL' if failed else 'PASS'}: {points - failed} of {points} inside the band"
     if not failed:
         return head
+    if furthest and outside:
+        outside = [min(outside, key=lambda v: v.margin_N)]
     where = "; ".join(f"{v.direction} at {fmt(units.show('velocity', v.v_m_s), 3)} {units.unit('velocity')}, "
                       f"{100 * (abs(v.measured_N) / max(abs(v.reference_N), 1e-9) - 1):+.1f} % "
                       f"({'+' if abs(v.measured_N) >= abs(v.reference_N) else '-'}"
                       f"{fmt(units.show('force', abs(abs(v.measured_N) - abs(v.reference_N))), 2)} {units.unit('force')})"
                       for v in outside)
-    return f"{head}; {failed} outside" + (f": {where}" if where else "")
+    return f"{head}; {failed} outside" + (f"{', the furthest' if furthest and failed > 1 else ''}: {where}" if where
+                                           else "")
 
 
 @dataclass
@@ -207,6 +212,36 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
             note = (f"compensated for temperature: the run's forces moved from its {T_run:.0f} C to the "
                     f"reference's {T_ref:.0f} C with its identified model {identified.name}")
     return Check(verdicts(run, ref, tol, units=units), Path(against).name, note)
+
+
+def checked(path, against, tolerance: str, units=Units()) -> tuple[Check, Tolerance]:
+    """`dyno check`'s and `dyno report --against`'s check: (Check, Tolerance) of the run
+    against the reference, the tolerance as the user wrote it; UsageError names what cannot
+    be read or compared."""
+    from records.files import input_file
+    try:
+        tol = parse_tolerance(tolerance)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    if Path(against).suffix.lower() in (".mcap", *TABLES):
+        input_file(against, "--against")
+    try:
+        out = check(path, against, tol, units)
+    except OtherSign as e:
+        raise UsageError(str(e)) from None
+    except (DamperError, OSError, ValueError) as e:
+        raise UsageError(f"--against: {e}") from None
+    if not out.results:
+        raise UsageError(f"{Path(path).name} and {out.reference}: no shaft speed measured in both: the check "
+                         "reads the force at shaft speeds from sine or crank strokes, or from a random input's "
+                         "force-velocity scatter, and these share none")
+    return out, tol
+
+
+def said(c: Check, tol: Tolerance, units=Units()) -> tuple[str, str]:
+    """(the verdict sentence, what it is against) of a check, as the test sheet prints them."""
+    failed = [r for r in c.results if not r.passed]
+    return verdict(len(c.results), len(failed), failed, units, furthest=True), f"{c.reference}, tolerance {tol}"
 
 
 def against_table(path, against, tol: Tolerance, units=Units()) -> Check:

@@ -7,6 +7,7 @@ responses (protocols/reports/hil.py)."""
 from __future__ import annotations
 
 import json
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -15,19 +16,23 @@ from records.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
 from records.data import segments, sign_problem
 from records.segmentation import imported_unsegmented, left_out
 from records.reader import load_recording
+from records.recorder import software
 from models.identify.static import static_holds
-from protocols.reports import hil, peaks, sines, velocity_table as vt
+from protocols.reports import hil, peaks, sheet, sines, velocity_table as vt
 from protocols.reports.page import Page, save
-from protocols.reports.pdf import write_pdf
+from protocols.reports.pdf import first_page_png, write_pdf
 from protocols.reports.plots import plt
 from protocols.units import Units, fmt
 
 
-def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
-    """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv; model: a damper model
-    to overlay (the run's identified RECORDING.model.json when there is one); speeds [m/s]:
-    the velocity table's (default velocities.toml); paper: report.pdf's, a4 or letter;
-    units: the tables', CSVs' and figures' unit system. (index, [PNG paths])."""
+def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), check=None):
+    """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv, report.pdf (page 1 the
+    test sheet, protocols/reports/sheet.py; the rest its appendix) and sheet.png; model: a
+    damper model to overlay (the run's identified RECORDING.model.json when there is one);
+    speeds [m/s]: the velocity table's (default velocities.toml); paper: report.pdf's, a4
+    or letter; units: the tables', CSVs' and figures' unit system; check: (verdict
+    sentence, what it is against) for the sheet (protocols/reports/qa.py). (index, [PNG
+    paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -38,8 +43,42 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     figures = (sines.figures(ch, segs, out, rows, model, units) + _static_figures(ch, events, segs, out, units)
                + _low_speed_figures(ch, segs, out, units) + _temperature_figures(ch, segs, out, units)
                + _step_figures(ch, segs, out, units) + hil.figures(ch, events, out, units))
-    page = Page(f"Dyno report: {Path(path).name}")
+    scattered = [] if rows else peaks.scattered(ch, segs, model)
+    if scattered:
+        figures.append(sines.stroke_figure(scattered, out, model, units))
+    table, how = _velocity_table(rows or scattered, speeds, units)
+    if table:
+        vt.write_csv(table, out / "velocity.csv", units)
+    curve = next((png for _, png in figures if png == sines.COMPOSITE), None)
+    holds = [s for s in segs if s.kind == "hold"]
+    gas = None
+    if holds and "force" in ch:
+        _, up, down = static_holds(ch, events)
+        gas = (float(np.nanmin((up + down) / 2)), float(np.nanmax((up + down) / 2)))
+    facts = sheet.sheet(path, meta, ch, _params(meta.get("protocol", {}).get("params", "")), table, curve, gas,
+                        check, units)
+    page = Page(f"Dyno report: {Path(path).name}", facts, _document(facts, meta))
     _header(page, meta, events, model)
+    if table:
+        page.paragraph(f"The sheet's velocity table: force at {how} (also velocity.csv).")
+    _appendix(page, ch, events, meta, rows, units, out, figures, curve)
+    index = page.write(out)
+    pdf = write_pdf(page, out, paper=paper)
+    first_page_png(pdf, out / "sheet.png")
+    return index, [out / png for _, png in figures] + [out / "sheet.png"]
+
+
+def _document(facts, meta):
+    """The PDF's Author, Subject and CreationDate (the page's meta)."""
+    run = meta.get("run", {})
+    return [("author", run.get("operator") or "dyno"), ("description", facts.title),
+            ("generator", f"dyno {software()['version']}"),
+            ("dcterms.created", datetime.now(timezone.utc).isoformat(timespec="seconds"))]
+
+
+def _appendix(page, ch, events, meta, rows, units, out, figures, curve):
+    """What follows the sheet: the peak table, steps, HIL measures and the figures (the
+    sheet's curve not again)."""
     sign = sign_problem(ch)
     if sign:
         page.paragraph(f"Sign convention: {sign}. The tables and figures below are in the file's convention, "
@@ -54,10 +93,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
         page.heading("Peak forces per sine segment (also peaks.csv)")
         page.table(*peaks.table(rows, units))
         _peak_notes(page, rows, units, meta.get("protocol", {}).get("name") != "import")
-    scattered = [] if rows else peaks.scattered(ch, segs, model)
-    if rows or scattered:
-        _velocity_section(page, rows or scattered, speeds, units, out)
-    steps = step_measures(ch, segs)
+    steps = step_measures(ch, segments(events))
     if steps:
         page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")
         page.table(("segment", "step [mm]", "rise 10-90 % [ms]", "overshoot [%]", "settling [ms]", "peak force [N]"),
@@ -75,15 +111,11 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units()):
     stopped = [e for e in events if isinstance(e, STOPS)]
     if (stopped or not figures) and {"force", "x"} <= set(ch) and len(ch["force"][0]):
         figures.append(_trace_figure(ch, stopped, out, units))  # what happened up to the trip
-    if scattered:
-        figures.append(sines.stroke_figure(scattered, out, model, units))
     for title, png in figures:
-        page.figure(title, png)
+        if png != curve:
+            page.figure(title, png)
     if not figures:
         page.paragraph("No measured segments to plot.")
-    index = page.write(out)
-    write_pdf(page, out, paper=paper)
-    return index, [out / png for _, png in figures]
 
 
 def _peak_notes(page, rows, units, ours=True):
@@ -133,21 +165,23 @@ def _peak_notes(page, rows, units, ours=True):
                            "is no pure sine (the recording does not say how it was driven).")
 
 
-def _velocity_section(page, rows, speeds, units, out):
-    """The velocity table (also velocity.csv), at the standard speeds or, for a slow run,
-    at its own; read from the peaks, along the stroke, or from a random input's scatter."""
-    speeds_table = vt.velocity_table(rows, speeds, units)
+def _velocity_table(rows, speeds, units):
+    """(velocity table or None, how it was read in words): at the standard speeds or, for a
+    slow run, at its own; read from the peaks, along the stroke, or from a random input's
+    scatter."""
+    if not rows:
+        return None, ""
+    table = vt.velocity_table(rows, speeds, units)
     at = "standard shaft velocities"
-    if not vt.has_rows(speeds_table) and speeds is None:  # a slow run: at its own speeds
-        speeds_table = vt.velocity_table(rows, vt.own_speeds(rows), units, "stroke")
+    if not vt.has_rows(table) and speeds is None:  # a slow run: at its own speeds
+        table = vt.velocity_table(rows, vt.own_speeds(rows), units, "stroke")
         at = "a quarter, half and three quarters of the top speed (no standard speed was reached)"
-    if vt.has_rows(speeds_table):
-        vt.write_csv(speeds_table, out / "velocity.csv", units)
-        how = ("from the peaks" if vt.method(rows) == "peaks" and at.startswith("standard") else
-               "the mean of all samples at each speed (the force-velocity scatter's mid-line)"
-               if rows[0].segment == peaks.SCATTER else "read along the stroke, both halves of each cycle averaged")
-        page.heading(f"Force at {at}, {how} (also velocity.csv)")
-        page.table(*vt.html_table(speeds_table, units))
+    if not vt.has_rows(table):
+        return None, ""
+    how = ("from the peaks" if vt.method(rows) == "peaks" and at.startswith("standard") else
+           "the mean of all samples at each speed (the force-velocity scatter's mid-line)"
+           if rows[0].segment == peaks.SCATTER else "read along the stroke, both halves of each cycle averaged")
+    return table, f"{at}, {how}"
 
 
 TRACE_POINTS = 20_000  # samples drawn of a whole run's trace (every n-th)

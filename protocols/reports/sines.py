@@ -13,6 +13,12 @@ from protocols.reports.plots import plt
 from protocols.units import Units, amplitude
 
 
+COMPOSITE = "composite.png"  # the force-velocity curve: the test sheet's figure
+# the markers' meaning, as legend entries of their own (a reader of a printed sheet has no caption to ask)
+DIRECTIONS = (("o", "-", "compression"), ("s", "--", "rebound (magnitude)"))
+# the sheet's curve: drawn at about the size it is printed (115 mm wide), its text at 8 pt and more there
+SHEET_FIGURE_IN, SHEET_TEXT_PT, SHEET_DPI = (4.4, 4.1), 8.0, 200
+SHEET_RC = {"font.size": SHEET_TEXT_PT, "axes.titlesize": SHEET_TEXT_PT + 1, "legend.fontsize": SHEET_TEXT_PT}
 MOST_PANELS = 8  # amplitudes drawn apart; beyond, neighbours share a panel and a composite series
 COLUMNS = 4  # panels a row holds once more than WRAP_AFTER of them wrap
 WRAP_AFTER = 6
@@ -91,58 +97,71 @@ def _loops(ch, sine, groups, out, model, units):
 def _composite(rows, groups, out, model, units):
     """composite.png: per group of amplitudes and temperature, peak (damping) force against
     peak velocity, compression and rebound, the model's crosses beside."""
-    V, F_ = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
-    damping = all(np.isfinite(p.Fd_comp) for p in rows)
-    fig, ax = plt.subplots(figsize=(7, 5))
-    series = {}
-    for p in rows:
-        j = next((j for j, g in enumerate(groups) if p.amplitude_mm in g), len(groups))
-        series.setdefault((j, p.target_c), []).append(p)
-    for (j, T), ps in sorted(series.items(), key=lambda kv: (kv[0][0], np.nan_to_num(kv[0][1]))):
-        ps = sorted(ps, key=lambda p: p.v_comp)
-        vc, vr = V(np.array([p.v_comp for p in ps])), -V(np.array([p.v_reb for p in ps]))
-        Fc = F_(np.array([p.Fd_comp if damping else p.F_comp for p in ps]))
-        Fr = -F_(np.array([p.Fd_reb if damping else p.F_reb for p in ps]))
-        name = title(units, groups[j]) if j < len(groups) else amplitude(units, ps[0].amplitude_mm)
-        label = name + ("" if np.isnan(T) else f", {units.show('temperature', T + 273.15):.3g} "
-                                               f"{units.unit('temperature')}")
-        line = ax.plot(vc, Fc, "o-", label=label)[0]  # one entry per amplitude: the markers say the direction
-        ax.plot(vr, Fr, "s--", color=line.get_color())
-        if model is not None:
-            gas = np.array([(p.F_comp - p.Fd_comp) if damping else 0.0 for p in ps])
-            gas_r = np.array([(p.F_reb - p.Fd_reb) if damping else 0.0 for p in ps])
-            ax.plot(vc, F_(np.array([p.model_comp for p in ps]) - gas), "x", color=line.get_color(), ms=8)
-            ax.plot(vr, -F_(np.array([p.model_reb for p in ps]) - gas_r), "x", color=line.get_color(), ms=8)
-    what = "damping force" if damping else "peak force"
-    ax.set(title=f"Composite: {what} vs peak velocity" + ("\n(measured - gas - friction)" if damping else "")
-           + (", x: model" if model is not None else ""),
-           xlabel=units.label("peak velocity", "velocity"),
-           ylabel=f"{units.label(what, 'force')} (o comp., s reb. size)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the data, not over it
-    return save(fig, out / "composite.png")
+    with plt.rc_context(SHEET_RC):  # the sheet's figure: its text at 8 pt as printed
+        V, F_ = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
+        damping = all(np.isfinite(p.Fd_comp) for p in rows)
+        fig, ax = plt.subplots(figsize=SHEET_FIGURE_IN)
+        series = {}
+        for p in rows:
+            j = next((j for j, g in enumerate(groups) if p.amplitude_mm in g), len(groups))
+            series.setdefault((j, p.target_c), []).append(p)
+        for (j, T), ps in sorted(series.items(), key=lambda kv: (kv[0][0], np.nan_to_num(kv[0][1]))):
+            ps = sorted(ps, key=lambda p: p.v_comp)
+            vc, vr = V(np.array([p.v_comp for p in ps])), -V(np.array([p.v_reb for p in ps]))
+            Fc = F_(np.array([p.Fd_comp if damping else p.F_comp for p in ps]))
+            Fr = -F_(np.array([p.Fd_reb if damping else p.F_reb for p in ps]))
+            name = title(units, groups[j]) if j < len(groups) else amplitude(units, ps[0].amplitude_mm)
+            label = name + ("" if np.isnan(T) else f", {units.show('temperature', T + 273.15):.3g} "
+                                                   f"{units.unit('temperature')}")
+            line = ax.plot(vc, Fc, "o-", label=label)[0]  # one entry per amplitude: the markers say the direction
+            ax.plot(vr, Fr, "s--", color=line.get_color())
+            if model is not None:
+                gas = np.array([(p.F_comp - p.Fd_comp) if damping else 0.0 for p in ps])
+                gas_r = np.array([(p.F_reb - p.Fd_reb) if damping else 0.0 for p in ps])
+                ax.plot(vc, F_(np.array([p.model_comp for p in ps]) - gas), "x", color=line.get_color(), ms=8)
+                ax.plot(vr, -F_(np.array([p.model_reb for p in ps]) - gas_r), "x", color=line.get_color(), ms=8)
+        what = "damping force" if damping else "peak force"
+        ax.set(title=f"{what.capitalize()} against peak shaft velocity" + ("\n(measured - gas - friction)" if damping else ""),
+               xlabel=units.label("peak shaft velocity", "velocity"), ylabel=units.label(what, "force"))
+        ax.grid(alpha=0.3)
+        _direction_legend(ax, model is not None, below=True)
+        return save(fig, out / COMPOSITE, dpi=SHEET_DPI)
+
+
+def _direction_legend(ax, model=False, below=False):
+    """The series' legend beside the data (below: under it, in columns, as the sheet's narrow
+    slot wants it), then what the markers mean (grey: any series)."""
+    from matplotlib.lines import Line2D
+    keys = [Line2D([], [], color="0.4", marker=m, ls=ls, label=label) for m, ls, label in DIRECTIONS]
+    if model:
+        keys.append(Line2D([], [], color="0.4", marker="x", ls="", ms=8, label="model"))
+    handles, labels = ax.get_legend_handles_labels()
+    ax.legend([*handles, *keys], [*labels, *(k.get_label() for k in keys)], fontsize=None if below else 7,
+              **({"loc": "upper center", "bbox_to_anchor": (0.5, -0.16), "ncol": 3} if below else
+                 {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}))
 
 
 def stroke_figure(rows, out, model, units):
     """A one-speed run's curve: the force read along its stroke against shaft speed, per
     direction (rebound as magnitude), the model's along the same motion dashed."""
-    V, F_ = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
-    fig, ax = plt.subplots(figsize=(7, 5))
-    for i, p in enumerate(rows):
-        c, r = p.stroke_v > 0, p.stroke_v < 0
-        line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}", label=f"{units.segment(p.segment)} compression")[0]
-        ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color(), label=f"{units.segment(p.segment)} rebound")
-        if model is not None and len(p.model_stroke_F):
-            ax.plot(V(p.stroke_v[c]), F_(p.model_stroke_F[c]), ":", color="k", lw=1)
-            ax.plot(V(-p.stroke_v[r]), -F_(p.model_stroke_F[r]), ":", color="k", lw=1)
-    what = ("Force against shaft speed\n(a random input: the mean force at each speed" if rows[0].segment == peaks.SCATTER
-            else "Force along the stroke\n(one speed tested: the loop's mid-line")
-    ax.set(title=what + ("; dotted: model)" if model is not None else ")"),
-           xlabel=units.label("shaft speed", "velocity"), ylabel=f"{units.label('force', 'force')}, rebound as magnitude")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    return ("Force against shaft speed" + ("" if rows[0].segment == peaks.SCATTER else " along the stroke"),
-            save(fig, out / "composite.png"))
+    with plt.rc_context(SHEET_RC):  # the sheet's figure: its text at 8 pt as printed
+        V, F_ = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force"))
+        fig, ax = plt.subplots(figsize=SHEET_FIGURE_IN)
+        for i, p in enumerate(rows):
+            c, r = p.stroke_v > 0, p.stroke_v < 0
+            line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}", label=f"{units.segment(p.segment)} compression")[0]
+            ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color(), label=f"{units.segment(p.segment)} rebound")
+            if model is not None and len(p.model_stroke_F):
+                ax.plot(V(p.stroke_v[c]), F_(p.model_stroke_F[c]), ":", color="k", lw=1)
+                ax.plot(V(-p.stroke_v[r]), -F_(p.model_stroke_F[r]), ":", color="k", lw=1)
+        what = ("Force against shaft speed\n(a random input: the mean force at each speed" if rows[0].segment == peaks.SCATTER
+                else "Force along the stroke\n(one speed tested: the loop's mid-line")
+        ax.set(title=what + ("; dotted: model)" if model is not None else ")"),
+               xlabel=units.label("shaft speed", "velocity"), ylabel=f"{units.label('force', 'force')}, rebound as magnitude")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        return ("Force against shaft speed" + ("" if rows[0].segment == peaks.SCATTER else " along the stroke"),
+                save(fig, out / COMPOSITE, dpi=SHEET_DPI))
 
 
 def force_temperature_figure(rows, out, units=Units()):
@@ -168,10 +187,10 @@ def force_temperature_figure(rows, out, units=Units()):
         ax.plot(Ts, F(np.array([getattr(p, comp) for p in ps])), "o-", color=c,
                 label=f"{amplitude(units, key[0])} {key[1]:g} Hz")
         ax.plot(Ts, F(-np.array([getattr(p, reb) for p in ps])), "s--", color=c)
-    ax.set(title=f"{what.capitalize()}{'' if damping else ', gas included'} vs temperature (o comp., s reb. size)",
+    ax.set(title=f"{what.capitalize()}{'' if damping else ', gas included'} against temperature",
            xlabel=units.label("body temperature", "temperature"), ylabel=units.label(what, "force"))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the data, not over it
+    _direction_legend(ax)
     return [(f"{what.capitalize()} against temperature", save(fig, out / "force_temperature.png"))]
 
 

@@ -1,0 +1,177 @@
+"""The test sheet: page 1 of the printed report, the page a lab files and signs. Which damper
+(serial, setup, note), how it was tested (protocol, rig, each channel's instrument and
+calibration date), the conditions measured (body temperature at the start and the end, gas
+force), the force-velocity curve with its table, the verdict against a reference when one
+is given (the same as `dyno check`), the software, the recording's name and SHA-256, and a
+sign-off. Traceability as ISO/IEC 17025 asks: instrument, calibration, method, software.
+
+What the recording does not say is printed "not given", never left out: a blank on a
+signed sheet reads as "checked, nothing to say"."""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from records.recorder import software
+from protocols.units import Units, fmt
+
+NOT_GIVEN = "not given"
+# the channels whose instrument a sheet names: what the curve and the conditions are read from
+TRACED = ("force", "x", "v", "T_body", "p_gas")
+CHANNEL_NAMES = {"force": "force (load cell)", "x": "displacement", "v": "velocity", "T_body": "body temperature",
+                 "p_gas": "gas pressure"}
+
+
+@dataclass
+class Sheet:
+    """What page 1 says, as text already in the chosen units; figures by file name."""
+    template = "sheet.html"
+    title: str
+    identity: list  # [(label, text)]
+    test: list  # [(label, text)]: protocol, rig, started, operator
+    channels: list  # [(channel, instrument, calibrated)]
+    conditions: list  # [(label, text)]
+    curve: str | None  # PNG beside the page, or None without a curve
+    table: tuple | None  # (header, rows) of the velocity table
+    verdict: str | None  # "PASS: ..." / "FAIL: ..." against the reference, None without one
+    reference: str  # what the verdict is against, or how to get one
+    traceability: list  # [(label, text)]: software, file, SHA-256
+    signoff: list = field(default_factory=list)  # [(role, name already known or "")]
+
+    @property
+    def passed(self):
+        return None if self.verdict is None else self.verdict.startswith("PASS")
+
+
+def sha256(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _identity(meta):
+    run = meta.get("run", {})
+    damper = json.loads(meta.get("damper", {}).get("model", "{}") or "{}")
+    setup = ", ".join(f"{k.removeprefix('setup.')} {v}" for k, v in run.items() if k.startswith("setup."))
+    return [("damper", damper.get("name") or NOT_GIVEN), ("serial", run.get("damper_serial") or NOT_GIVEN),
+            ("setup", setup or NOT_GIVEN), ("note", run.get("note") or NOT_GIVEN)]
+
+
+def _test(meta, params):
+    run, proto = meta.get("run", {}), meta.get("protocol", {})
+    started = str(run.get("wall_start", ""))[:19].replace("T", " ")
+    return [("protocol", f"{proto.get('name', '?')}" + (f" ({params})" if params else "")),
+            ("rig", meta.get("rig", {}).get("name") or NOT_GIVEN),
+            ("started (UTC)", started or NOT_GIVEN), ("operator", run.get("operator") or NOT_GIVEN)]
+
+
+def _channels(meta):
+    """[(channel, instrument, calibrated)] of the recorded channels a sheet traces."""
+    cal = {n: json.loads(v) for n, v in meta.get("calibration", {}).items()}
+    rows = []
+    for name in [n for n in TRACED if n in cal] + sorted(n for n in cal if n.startswith("aux.")):
+        c = cal[name]
+        rows.append((CHANNEL_NAMES.get(name, name),
+                     c.get("sensor") or f"{NOT_GIVEN} ({c.get('device', '?')}.{c.get('signal', '?')})",
+                     c.get("calibrated") or NOT_GIVEN))
+    return rows
+
+
+def _conditions(ch, gas_N, units: Units):
+    """Body temperature at the start and the end, gas force (static test) and pressure."""
+    out = []
+    if "T_body" in ch and len(ch["T_body"][1]):
+        T = ch["T_body"][1]
+        out.append(("body temperature", f"{fmt(units.show('temperature', T[0]), 3)} {units.unit('temperature')} at the "
+                                        f"start, {fmt(units.show('temperature', T[-1]), 3)} at the end"))
+    else:
+        out.append(("body temperature", "not measured (no thermocouple channel)"))
+    if gas_N is not None and np.isfinite(gas_N[0]):
+        lo, hi = (fmt(units.show("force", g), 3) for g in gas_N)
+        out.append(("gas force", f"{lo} to {hi} {units.unit('force')} over the stroke (static test)" if lo != hi
+                    else f"{lo} {units.unit('force')} (static test)"))
+    else:
+        out.append(("gas force", "not measured (no static test)"))
+    if "p_gas" in ch and len(ch["p_gas"][1]):
+        p = ch["p_gas"][1]
+        out.append(("gas pressure", f"{fmt(units.show('pressure', p[0]), 3)} {units.unit('pressure')} at the start, "
+                                    f"{fmt(units.show('pressure', p[-1]), 3)} at the end"))
+    return out
+
+
+def velocity_rows(table, units: Units):
+    """(header, rows) of the velocity table as the sheet prints it: directions spelled out."""
+    has_d = any(np.isfinite(r.Fd_comp_N) for r in table)
+    lab = units.label
+    head = [lab("shaft speed", "velocity"), lab("compression", "force"), lab("rebound", "force")] + \
+        ([lab("damping, compression", "force"), lab("damping, rebound", "force")] if has_d else [])
+
+    def n(v):
+        return fmt(units.show("force", v), 3) if np.isfinite(v) else "-"
+    return head, [[f"{units.show('velocity', r.v_m_s):.4g}", n(r.F_comp_N), n(r.F_reb_N)]
+                  + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else [])
+                  for r in table if np.isfinite(r.F_comp_N) or np.isfinite(r.F_reb_N)]
+
+
+def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=None, units=Units()) -> Sheet:
+    """The sheet of the recording at path (its metadata and channels already read); table:
+    the velocity table ([VelocityRow]) or None; curve: the force-velocity PNG's name;
+    gas_N: (lowest, highest) gas force of a static test [N]; check: (verdict sentence,
+    what it is against) from protocols/reports/qa.py, or None."""
+    recorded = meta.get("software", {})
+    made = f"dyno {recorded.get('version', '?')}" + (f" ({recorded['commit']})" if recorded.get("commit") else "")
+    identity = _identity(meta)
+    named = [f"{'serial ' if k == 'serial' else ''}{v}" for k, v in identity[:2] if v != NOT_GIVEN]
+    return Sheet(
+        title="Damper test sheet" + (f": {', '.join(named)}" if named else ""),
+        identity=identity, test=_test(meta, params), channels=_channels(meta),
+        conditions=_conditions(ch, gas_N, units), curve=curve,
+        table=velocity_rows(table, units) if table else None,
+        verdict=check[0] if check else None,
+        reference=check[1] if check else "no reference given (dyno report --against REF.mcap|MODEL|TABLE)",
+        traceability=[("recorded with", made), ("printed with", printed_with()), ("recording", Path(path).name),
+                      ("SHA-256", sha256(path))],
+        signoff=[("tested by", meta.get("run", {}).get("operator", "")), ("checked by", "")])
+
+
+@dataclass
+class ComparisonSheet:
+    """Page 1 of `dyno report A B C`: the runs' identities in one table, their curves overlaid,
+    the force differences per shaft speed, and one verdict per run."""
+    template = "comparison_sheet.html"
+    title: str
+    runs: tuple  # (header, rows): tag, damper, serial, setup, note, started, operator
+    curve: str | None
+    table: tuple | None  # (how read, header, rows) of the velocity tables side by side
+    verdicts: list  # [(tag, sentence, what against)]
+    traceability: list  # [(tag, recording, SHA-256)]
+    printed: str
+    signoff: list = field(default_factory=lambda: [("tested by", ""), ("checked by", "")])
+
+
+def printed_with() -> str:
+    now = software()
+    return f"dyno {now['version']}" + (f" ({now['commit']})" if now.get("commit") else "")
+
+
+def comparison(runs, curve, table, verdicts) -> ComparisonSheet:
+    """runs: [(tag, path, meta)]; curve: the overlaid curves' PNG; table: (how, header, rows)
+    or None; verdicts: [(tag, sentence, against)]."""
+    rows = []
+    for tag, _, meta in runs:
+        ident = dict(_identity(meta))
+        test = dict(_test(meta, ""))
+        rows.append([tag, ident["damper"], ident["serial"], ident["setup"], ident["note"],
+                     test["protocol"], test["started (UTC)"], test["operator"]])
+    names = ", ".join(f"{r[0]} {r[2] if r[2] != NOT_GIVEN else r[1]}" for r in rows)
+    return ComparisonSheet(
+        title=f"Damper comparison sheet: {names}",
+        runs=(["run", "damper", "serial", "setup", "note", "protocol", "started (UTC)", "operator"], rows),
+        curve=curve, table=table, verdicts=verdicts,
+        traceability=[(tag, Path(path).name, sha256(path)) for tag, path, _ in runs], printed=printed_with())

@@ -78,24 +78,37 @@ fuzz: $(TEST_STAMP)
 clean:
 	rm -rf $(VENV)
 
-# docs/report-examples: a standard run's velocity table, peaks, composite and printable
-# report in the three unit systems, three runs compared, and one QA-checked against
-# another, from the embedded rig (about 7 minutes)
+# docs/report-examples: a standard run's test sheet (report.pdf's page 1, sheet.png), velocity
+# table, peaks and composite in the three unit systems, checked against the Koni's model; an
+# imported MR run's sheet (a real file, checked against the same damper at less current);
+# three runs compared on one sheet; one run QA-checked against another; from the embedded rig
+# (about 7 minutes)
 EX := docs/report-examples
 SINES := amplitudes_mm=12.7,6.4 freqs_hz=1,4,12 record_cycles=3
 STANDARD := static_points=5 amplitudes_mm=12.7,6.4 freqs_hz=1,4,12 targets_c=45
+MR := tests/data/mr-damper-utfsm/sine
+MR_MAP := --map time=1:s --map displacement=2:mm --map velocity=3:mm/s --map force=4:N --smoothed 0.1period
 report-examples: $(STAMP)
 	T=$$(mktemp -d) && \
-	$(VENV)/bin/dyno run standard $(STANDARD) --no-identify --serial K-12 --setup clicks_reb=12 --note baseline --out $$T/a.mcap && \
+	$(VENV)/bin/dyno run standard $(STANDARD) --no-identify --serial K-12 --setup clicks_reb=12 --note baseline \
+	  --operator "A. Tester" --out $$T/a.mcap && \
 	$(VENV)/bin/dyno run sine-matrix $(SINES) --damper fox-light --serial F-4 --note spare --out $$T/b.mcap && \
 	$(VENV)/bin/dyno run sine-matrix $(SINES) --damper mechformance --serial M-3 --note re-valved --out $$T/c.mcap && \
 	rm -rf $(EX) && mkdir -p $(EX) && \
 	for u in metric us si; do \
-	  $(VENV)/bin/dyno report $$T/a.mcap --units $$u --out $$T/$$u && mkdir -p $(EX)/$$u && \
-	  cp $$T/$$u/velocity.csv $$T/$$u/peaks.csv $$T/$$u/composite.png $$T/$$u/report.pdf $(EX)/$$u/ || exit 1; \
+	  $(VENV)/bin/dyno report $$T/a.mcap --units $$u --against koni --out $$T/$$u && mkdir -p $(EX)/$$u && \
+	  cp $$T/$$u/velocity.csv $$T/$$u/peaks.csv $$T/$$u/composite.png $$T/$$u/report.pdf $$T/$$u/sheet.png \
+	    $(EX)/$$u/ || exit 1; \
 	done && \
+	$(VENV)/bin/dyno import $(MR)/25mm0x5Hz1A.txt $(MR_MAP) --serial MR-1 --setup current_A=1 --note UTFSM \
+	  --out $$T/mr1.mcap && \
+	$(VENV)/bin/dyno import $(MR)/25mm0x5Hz0x75A.txt $(MR_MAP) --serial MR-1 --setup current_A=0.75 --note UTFSM \
+	  --out $$T/mr075.mcap && \
+	$(VENV)/bin/dyno report $$T/mr1.mcap --against $$T/mr075.mcap --tolerance 10% --out $$T/mr && mkdir -p $(EX)/mr && \
+	cp $$T/mr/report.pdf $$T/mr/sheet.png $$T/mr/velocity.csv $(EX)/mr/ && \
 	$(VENV)/bin/dyno report $$T/a.mcap $$T/b.mcap $$T/c.mcap --out $$T/cmp && mkdir -p $(EX)/compare && \
-	cp $$T/cmp/differences.csv $$T/cmp/compare_composite.png $$T/cmp/compare_loops.png $(EX)/compare/ && \
+	cp $$T/cmp/differences.csv $$T/cmp/compare_composite.png $$T/cmp/compare_loops.png $$T/cmp/report.pdf \
+	  $$T/cmp/sheet.png $(EX)/compare/ && \
 	($(VENV)/bin/dyno check $$T/c.mcap --against $$T/a.mcap --out $$T/qa || true) | grep -v "check.png\|catalogued in" > $(EX)/check.txt && \
 	cp $$T/qa/check.png $(EX)/ && rm -rf $$T
 

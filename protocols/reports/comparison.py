@@ -171,10 +171,10 @@ def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
                     pngs[-1].name)
     else:
         page.paragraph("No run has a sine segment: nothing to compare.")
-    curve = next((p.name for p in pngs if p.name == COMPOSITE), None)
+    curve = next(((b[1][1], b[1][0]) for b in page.blocks if b[0] == "figure" and b[1][0] == COMPOSITE), None)
     page.sheet = sheet.comparison([(tag, path, meta) for tag, path, _, meta in runs], curve,
                                   _speeds_table(runs, units), _verdicts(runs, against, tolerance, units))
-    page.blocks = [b for b in page.blocks if b[0] != "figure" or b[1][0] != curve]  # the curve is on the sheet
+    page.blocks = [b for b in page.blocks if b[0] != "figure" or b[1][0] != COMPOSITE]  # the curve is on the sheet
     index = page.write(out)
     first_page_png(write_pdf(page, out), out / "sheet.png")  # report.pdf beside it, as a single run's report has
     return index, [*pngs, out / "sheet.png"]

@@ -49,12 +49,13 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), ch
     table, how = _velocity_table(rows or scattered, speeds, units)
     if table:
         vt.write_csv(table, out / "velocity.csv", units)
-    curve = next((png for _, png in figures if png == sines.COMPOSITE), None)
+    curve = next(((title, png) for title, png in figures if png == sines.COMPOSITE), None)
     holds = [s for s in segs if s.kind == "hold"]
     gas = None
     if holds and "force" in ch:
         _, up, down = static_holds(ch, events)
-        gas = (float(np.nanmin((up + down) / 2)), float(np.nanmax((up + down) / 2)))
+        mean = (np.asarray(up) + np.asarray(down)) / 2
+        gas = (float(np.nanmin(mean)), float(np.nanmax(mean))) if np.isfinite(mean).any() else None
     facts = sheet.sheet(path, meta, ch, _params(meta.get("protocol", {}).get("params", "")), table, curve, gas,
                         check, units)
     page = Page(f"Dyno report: {Path(path).name}", facts, _document(facts, meta))
@@ -112,7 +113,7 @@ def _appendix(page, ch, events, meta, rows, units, out, figures, curve):
     if (stopped or not figures) and {"force", "x"} <= set(ch) and len(ch["force"][0]):
         figures.append(_trace_figure(ch, stopped, out, units))  # what happened up to the trip
     for title, png in figures:
-        if png != curve:
+        if curve is None or png != curve[1]:
             page.figure(title, png)
     if not figures:
         page.paragraph("No measured segments to plot.")

@@ -21,9 +21,9 @@ from protocols.units import Units, fmt
 
 NOT_GIVEN = "not given"
 # the channels whose instrument a sheet names: what the curve and the conditions are read from
-TRACED = ("force", "x", "v", "T_body", "p_gas")
+TRACED = ("force", "x", "v", "T_body", "P_gas")
 CHANNEL_NAMES = {"force": "force (load cell)", "x": "displacement", "v": "velocity", "T_body": "body temperature",
-                 "p_gas": "gas pressure"}
+                 "P_gas": "gas pressure"}
 
 
 @dataclass
@@ -35,7 +35,7 @@ class Sheet:
     test: list  # [(label, text)]: protocol, rig, started, operator
     channels: list  # [(channel, instrument, calibrated)]
     conditions: list  # [(label, text)]
-    curve: str | None  # PNG beside the page, or None without a curve
+    curve: tuple | None  # (title, PNG beside the page), or None without a curve
     table: tuple | None  # (header, rows) of the velocity table
     verdict: str | None  # "PASS: ..." / "FAIL: ..." against the reference, None without one
     reference: str  # what the verdict is against, or how to get one
@@ -98,8 +98,8 @@ def _conditions(ch, gas_N, units: Units):
                     else f"{lo} {units.unit('force')} (static test)"))
     else:
         out.append(("gas force", "not measured (no static test)"))
-    if "p_gas" in ch and len(ch["p_gas"][1]):
-        p = ch["p_gas"][1]
+    if "P_gas" in ch and len(ch["P_gas"][1]):
+        p = ch["P_gas"][1]
         out.append(("gas pressure", f"{fmt(units.show('pressure', p[0]), 3)} {units.unit('pressure')} at the start, "
                                     f"{fmt(units.show('pressure', p[-1]), 3)} at the end"))
     return out
@@ -121,7 +121,7 @@ def velocity_rows(table, units: Units):
 
 def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=None, units=Units()) -> Sheet:
     """The sheet of the recording at path (its metadata and channels already read); table:
-    the velocity table ([VelocityRow]) or None; curve: the force-velocity PNG's name;
+    the velocity table ([VelocityRow]) or None; curve: the force-velocity figure (title, PNG);
     gas_N: (lowest, highest) gas force of a static test [N]; check: (verdict sentence,
     what it is against) from protocols/reports/qa.py, or None."""
     recorded = meta.get("software", {})
@@ -147,7 +147,7 @@ class ComparisonSheet:
     template = "comparison_sheet.html"
     title: str
     runs: tuple  # (header, rows): tag, damper, serial, setup, note, started, operator
-    curve: str | None
+    curve: tuple | None  # (title, PNG) of the curves overlaid
     table: tuple | None  # (how read, header, rows) of the velocity tables side by side
     verdicts: list  # [(tag, sentence, what against)]
     traceability: list  # [(tag, recording, SHA-256)]
@@ -161,7 +161,7 @@ def printed_with() -> str:
 
 
 def comparison(runs, curve, table, verdicts) -> ComparisonSheet:
-    """runs: [(tag, path, meta)]; curve: the overlaid curves' PNG; table: (how, header, rows)
+    """runs: [(tag, path, meta)]; curve: the overlaid curves' (title, PNG); table: (how, header, rows)
     or None; verdicts: [(tag, sentence, against)]."""
     rows = []
     for tag, _, meta in runs:

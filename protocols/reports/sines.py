@@ -51,7 +51,8 @@ def figures(ch, segs, out, rows, model=None, units=Units()):
                 _loops(ch, sine, groups, out, model, units))]
     if vt.method(rows) == "stroke":  # one speed: a composite would be two points
         return figures + [stroke_figure(rows, out, model, units)] + force_temperature_figure(rows, out, units)
-    figures.append(("Composite peak force vs peak velocity", _composite(rows, groups, out, model, units)))
+    figures.append(("Force against shaft speed: each test's peak force at its peak speed (the composite)",
+                    _composite(rows, groups, out, model, units)))
     return figures + force_temperature_figure(rows, out, units)
 
 

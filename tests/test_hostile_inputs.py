@@ -203,6 +203,10 @@ CASES = [
     (["bench", "identify", "--damper", "nosuch"], ["recording nosuch: unknown damper preset 'nosuch'"]),
     (["prove", "--effects", "gremlins"], ["unknown effect 'gremlins'"]),
     (["validate", "--json", "extra"], ["unrecognized arguments: extra"]),
+    # issue 75: the sheet's reference is checked as dyno check checks it, before anything is written
+    (["report", "{rec}", "--out", "{folder}/sheet", "--against", "nosuch.mcap"], ["--against nosuch.mcap: no such file"]),
+    (["report", "{rec}", "{rec}", "--out", "{folder}/sheet", "--against", "nosuch"], ["unknown damper preset 'nosuch'"]),
+    (["report", "{rec}", "--out", "{folder}/sheet", "--against", "koni", "--tolerance", "5"], ["--tolerance: '5' is not"]),
     (["diagnose", "{rec}", "--next", "--budget", "-5"], ["argument --budget: must be above 0, got -5"]),
     (["runs", "list", "{regular}"], ["no such folder of recordings"]),
     (["diagnose", "{rec}", "--next", "--rig", "nosuch"], ["nosuch: no such rig config"]),

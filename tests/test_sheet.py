@@ -133,3 +133,16 @@ def test_a_calibration_date_is_a_date_and_is_recorded(sheet_run, tmp_path):
         rig_config.load(bad)
     bad.write_text(text.replace("[channels.force]\n", '[channels.force]\ncalibrated = "2026-03-01"\n'))
     assert rig_config.load(bad).channels["force"].calibrated == "2026-03-01"
+
+
+def test_without_weasyprint_the_sheet_is_still_page_one(sheet_run, tmp_path, monkeypatch):
+    """Where the OS has no Pango, matplotlib lays the PDF out: the sheet's facts on page 1,
+    the appendix from page 2."""
+    from protocols.reports import pdf
+    monkeypatch.setattr(pdf, "_weasyprint", lambda: None)
+    r = dyno("report", sheet_run, "--out", tmp_path / "rep", "--against", "koni")
+    assert r.returncode == 0, r.stderr
+    texts = _page_one(tmp_path / "rep")[0]
+    assert texts[0].startswith("Damper test sheet: koni, serial K-7") and "PASS: " in texts[0]
+    assert "2026-03-01" in texts[0] and "Dyno report: k7.mcap" not in texts[0]
+    assert texts[1].startswith("Dyno report: k7.mcap") and (tmp_path / "rep" / "sheet.png").is_file()

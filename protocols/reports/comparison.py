@@ -17,7 +17,6 @@ import numpy as np
 from records.data import SAME_TEST_AMPLITUDE, SAME_TEST_FREQUENCY, SAME_TEST_K, near, segments, sign_problem
 from records.reader import load_recording
 from records.recorder import software
-from rig.errors import UsageError
 from protocols.reports import peaks, qa, sheet
 from protocols.reports import velocity_table as vt
 from protocols.reports.page import Page, save
@@ -191,7 +190,7 @@ def _verdicts(runs, against, tolerance, units):
             continue
         try:
             said, what = qa.said(*qa.checked(path, ref, tolerance, units), units)
-        except UsageError as e:
+        except qa.NotComparable as e:  # this run's own: the others still get theirs
             said, what = f"NO VERDICT: {e}", str(Path(ref).name)
         out.append((tag, said, what if against else f"{runs[0][0]} ({what})"))
     return out

@@ -15,6 +15,7 @@ from protocols.reports.plots import plt
 
 PAPER_IN = {"a4": (8.27, 11.69), "letter": (8.5, 11.0)}  # inches
 MARGIN_IN = 0.6
+SHEET_FIGURE_IN = 3.6  # the test sheet's curve at most this high [in], so that the sheet keeps to one page
 # (font size [pt], line height [in], characters per line) of each kind of text
 TEXT = {"title": (13, 0.30, 80), "heading": (10, 0.24, 100), "paragraph": (8, 0.16, 125), "table": (6, 0.12, 150)}
 
@@ -47,10 +48,12 @@ class _Sheet:
                           weight=weight, va="top")
             self.y -= step
 
-    def image(self, path):
+    def image(self, path, most_in=None):
+        """The PNG across the page, at most most_in [in] high (default: the page's)."""
         img = plt.imread(path)
-        width = self.w - 2 * MARGIN_IN
-        height = min(width * img.shape[0] / img.shape[1], self.h - 2 * MARGIN_IN)
+        most = self.h - 2 * MARGIN_IN if most_in is None else most_in
+        height = min((self.w - 2 * MARGIN_IN) * img.shape[0] / img.shape[1], most)
+        width = height * img.shape[1] / img.shape[0]
         self.room(height)
         ax = self.fig.add_axes([MARGIN_IN / self.w, (self.y - height) / self.h, width / self.w, height / self.h])
         ax.imshow(img)
@@ -83,8 +86,7 @@ body {{ font: 9pt sans-serif; max-width: none; margin: 0; }}
 section.sheet {{ page: sheet; break-after: page; }}
 section.sheet table {{ font-size: 8.5pt; }}
 section.sheet td {{ white-space: normal; }}
-section.sheet img {{ max-height: 100mm; }}
-section.sheet .overlay img {{ max-height: 85mm; }}
+section.sheet .overlay img {{ width: auto; max-width: 100%; max-height: 85mm; }}
 h1 {{ font-size: 14pt; margin: 0 0 4mm; }}
 h2 {{ font-size: 10.5pt; margin: 5mm 0 2mm; break-after: avoid; }}
 p, li {{ orphans: 3; widows: 3; }}
@@ -123,37 +125,31 @@ def write_pdf(page, out_dir, name="report.pdf", paper="a4") -> Path:
     with PdfPages(out, metadata={"Title": page.title, "Creator": "dyno", "Author": meta.get("author", ""),
                                  "Subject": meta.get("description", "")}) as pdf:
         sheet = _Sheet(pdf, paper)
-        if page.sheet is not None:  # its facts as lines, then the appendix from a new page
-            s = page.sheet
-            sheet.lines("title", _wrap("title", s.title), weight="bold")
-            for k, v in [*s.identity, *s.test, *s.conditions, ("verdict", s.verdict or "none"),
-                         ("reference", s.reference), *s.traceability]:
-                sheet.lines("paragraph", _wrap("paragraph", f"{k}: {v}"))
-            sheet.lines("table", _table(("channel", "instrument", "calibrated"), s.channels), family="monospace",
-                        fit=True)
-            if s.table:
-                sheet.lines("table", _table(*s.table), family="monospace", fit=True)
-            if s.curve:
-                sheet.image(Path(out_dir) / s.curve)
-            sheet.lines("paragraph", [f"{role}: {name or '_' * 30}   signature: {'_' * 30}   date: {'_' * 15}"
-                                      for role, name in s.signoff])
+        if page.sheet is not None:  # its facts as plain blocks, then the appendix from a new page
+            _blocks(sheet, page.sheet.title, page.sheet.blocks(), out_dir, SHEET_FIGURE_IN)
             sheet.new()
-        sheet.lines("title", _wrap("title", page.title), weight="bold")
-        for kind, payload in page.blocks:
-            if kind == "heading":
-                sheet.y -= 0.08
-                sheet.lines("heading", _wrap("heading", payload), weight="bold")
-            elif kind == "paragraph":
-                sheet.lines("paragraph", _wrap("paragraph", payload))
-            elif kind == "items":
-                sheet.lines("paragraph", [ln for k, v in payload for ln in _wrap("paragraph", f"- {k}: {v}")])
-            elif kind == "table":
-                sheet.lines("table", _table(*payload), family="monospace", fit=True)
-            elif kind == "figure":
-                sheet.lines("heading", _wrap("heading", payload[1]), weight="bold")
-                sheet.image(Path(out_dir) / payload[0])
+        _blocks(sheet, page.title, page.blocks, out_dir)
         sheet.close()
     return out
+
+
+def _blocks(sheet, title, blocks, out_dir, figure_in=None):
+    """A title and a page's blocks laid out on the sheet from where it stands; figure_in:
+    the figures' height at most [in]."""
+    sheet.lines("title", _wrap("title", title), weight="bold")
+    for kind, payload in blocks:
+        if kind == "heading":
+            sheet.y -= 0.08
+            sheet.lines("heading", _wrap("heading", payload), weight="bold")
+        elif kind == "paragraph":
+            sheet.lines("paragraph", _wrap("paragraph", payload))
+        elif kind == "items":
+            sheet.lines("paragraph", [ln for k, v in payload for ln in _wrap("paragraph", f"- {k}: {v}")])
+        elif kind == "table":
+            sheet.lines("table", _table(*payload), family="monospace", fit=True)
+        elif kind == "figure":
+            sheet.lines("heading", _wrap("heading", payload[1]), weight="bold")
+            sheet.image(Path(out_dir) / payload[0], figure_in)
 
 
 PNG_DPI = 150  # the sheet as an image: A4 at 1240 x 1754 pixels, its 8 pt text legible

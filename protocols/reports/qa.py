@@ -150,6 +150,11 @@ class OtherSign(ValueError):
     """A run or reference in the other sign convention: no band can compare it."""
 
 
+class NotComparable(UsageError):
+    """A run and a reference that share no shaft speed or sign convention: no verdict (a
+    comparison sheet says so for that run and goes on)."""
+
+
 def _rows(path, model=None, at_K=None):
     """The recording's peaks; with a model, its force at the same instants (at the body
     temperature measured, or at at_K [K] for every segment when given)."""
@@ -228,11 +233,11 @@ def checked(path, against, tolerance: str, units=Units()) -> tuple[Check, Tolera
     try:
         out = check(path, against, tol, units)
     except OtherSign as e:
-        raise UsageError(str(e)) from None
+        raise NotComparable(str(e)) from None
     except (DamperError, OSError, ValueError) as e:
         raise UsageError(f"--against: {e}") from None
     if not out.results:
-        raise UsageError(f"{Path(path).name} and {out.reference}: no shaft speed measured in both: the check "
+        raise NotComparable(f"{Path(path).name} and {out.reference}: no shaft speed measured in both: the check "
                          "reads the force at shaft speeds from sine or crank strokes, or from a random input's "
                          "force-velocity scatter, and these share none")
     return out, tol

@@ -46,6 +46,17 @@ class Sheet:
     def passed(self):
         return None if self.verdict is None else self.verdict.startswith("PASS")
 
+    def blocks(self):
+        """The sheet as a page's plain blocks (protocols/reports/page.py), where it cannot be
+        typeset (the PDF's fallback without WeasyPrint)."""
+        return [("items", [*self.identity, *self.test, *self.conditions,
+                           ("verdict", f"{self.verdict}, against {self.reference}" if self.verdict else self.reference)]),
+                *([("table", self.table)] if self.table else []),
+                *([("figure", self.curve[::-1])] if self.curve else []),
+                ("table", (["channel", "instrument", "calibrated"], self.channels)),
+                ("items", self.traceability + [(role, f"{name} ____ signature ____ date ____")
+                                               for role, name in self.signoff])]
+
 
 def sha256(path) -> str:
     h = hashlib.sha256()
@@ -153,6 +164,16 @@ class ComparisonSheet:
     traceability: list  # [(tag, recording, SHA-256)]
     printed: str
     signoff: list = field(default_factory=lambda: [("tested by", ""), ("checked by", "")])
+
+    def blocks(self):
+        """As Sheet.blocks."""
+        return [("table", self.runs), ("items", [(tag, f"{said}, against {against}") for tag, said, against in
+                                                 self.verdicts]),
+                *([("figure", self.curve[::-1])] if self.curve else []),
+                *([("table", self.table[1:])] if self.table else []),
+                ("table", (["run", "recording", "SHA-256"], self.traceability)),
+                ("items", [("printed with", self.printed)] + [(role, "____ signature ____ date ____")
+                                                             for role, _ in self.signoff])]
 
 
 def printed_with() -> str:

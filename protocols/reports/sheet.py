@@ -17,9 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from records.recorder import software
+from protocols.reports.velocity_table import html_table
 from protocols.units import Units, fmt
 
 NOT_GIVEN = "not given"
+SHEET_NAMES = ("shaft speed", "compression", "rebound", "damping, compression", "damping, rebound")  # spelled out
 # the channels whose instrument a sheet names: what the curve and the conditions are read from
 TRACED = ("force", "x", "v", "T_body", "P_gas")
 CHANNEL_NAMES = {"force": "force (load cell)", "x": "displacement", "v": "velocity", "T_body": "body temperature",
@@ -116,20 +118,6 @@ def _conditions(ch, gas_N, units: Units):
     return out
 
 
-def velocity_rows(table, units: Units):
-    """(header, rows) of the velocity table as the sheet prints it: directions spelled out."""
-    has_d = any(np.isfinite(r.Fd_comp_N) for r in table)
-    lab = units.label
-    head = [lab("shaft speed", "velocity"), lab("compression", "force"), lab("rebound", "force")] + \
-        ([lab("damping, compression", "force"), lab("damping, rebound", "force")] if has_d else [])
-
-    def n(v):
-        return fmt(units.show("force", v), 3) if np.isfinite(v) else "-"
-    return head, [[f"{units.show('velocity', r.v_m_s):.4g}", n(r.F_comp_N), n(r.F_reb_N)]
-                  + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else [])
-                  for r in table if np.isfinite(r.F_comp_N) or np.isfinite(r.F_reb_N)]
-
-
 def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=None, units=Units()) -> Sheet:
     """The sheet of the recording at path (its metadata and channels already read); table:
     the velocity table ([VelocityRow]) or None; curve: the force-velocity figure (title, PNG);
@@ -143,7 +131,7 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
         title="Damper test sheet" + (f": {', '.join(named)}" if named else ""),
         identity=identity, test=_test(meta, params), channels=_channels(meta),
         conditions=_conditions(ch, gas_N, units), curve=curve,
-        table=velocity_rows(table, units) if table else None,
+        table=html_table(table, units, SHEET_NAMES, measured_only=True) if table else None,
         verdict=check[0] if check else None,
         reference=check[1] if check else "no reference given (dyno report --against REF.mcap|MODEL|TABLE)",
         traceability=[("recorded with", made), ("printed with", printed_with()), ("recording", Path(path).name),

@@ -133,14 +133,18 @@ def write_csv(table, path, units=Units()):
     return path
 
 
-def html_table(table, units=Units()):
-    """(header, rows) for the page; a blank where the speed was not measured."""
+TABLE_NAMES = ("speed", "F comp", "F reb", "damping comp", "damping reb")  # the report's column names
+
+
+def html_table(table, units=Units(), names=TABLE_NAMES, measured_only=False):
+    """(header, rows) for the page; a blank where the speed was not measured (measured_only:
+    such a speed left out); names: the columns' (the test sheet spells the directions out)."""
     has_d = any(np.isfinite(r.Fd_comp_N) for r in table)
     lab = units.label
-    head = [lab("speed", "velocity"), lab("F comp", "force"), lab("F reb", "force")] + \
-        ([lab("damping comp", "force"), lab("damping reb", "force")] if has_d else [])
+    head = [lab(names[0], "velocity")] + [lab(n, "force") for n in names[1:3 + 2 * has_d]]
 
     def n(v):
         return fmt(units.show("force", v), 3) if np.isfinite(v) else "-"
     return head, [[f"{units.show('velocity', r.v_m_s):.4g}", n(r.F_comp_N), n(r.F_reb_N)]
-                  + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else []) for r in table]
+                  + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else []) for r in table
+                  if not measured_only or np.isfinite(r.F_comp_N) or np.isfinite(r.F_reb_N)]

@@ -165,7 +165,7 @@ class ControlLoop:
 
     def _tick(self, plan, t, readings, stop):
         """One running tick: check, command. None once the plan is done."""
-        fault = self.safety.check(readings, t, self.rig.actuator())
+        fault = self.safety.check(readings, t, self.rig.actuator(), getattr(self.rig, "trouble", lambda d: ""))
         if fault is None:
             try:
                 x = plan(t, readings)

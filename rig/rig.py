@@ -93,6 +93,11 @@ class Rig:
     def read(self) -> dict:
         return dict(self.latest)
 
+    def trouble(self, device) -> str:
+        """What a device knows is wrong while its channels age (a Modbus request unanswered:
+        the watchdog's message names it), "" when nothing."""
+        return getattr(self.drivers.get(device), "trouble", "")
+
     def drain(self) -> dict:
         """{channel: (t [s], values [SI])} of every sample since the last drain."""
         out = {}

@@ -46,10 +46,11 @@ class Safety:
             return f"force ({self.config.channels['force'].device}): reading frozen at {f.value:.1f} N while moving"
         return None
 
-    def check(self, readings: dict, now: float, actuator=("unknown", [])):
+    def check(self, readings: dict, now: float, actuator=("unknown", []), trouble=lambda device: ""):
         """First reason to trip, or None. now: the rig's clock, on which readings are
         stamped (a channel that has never reported is stale once its allowed age has
-        passed since the first check)."""
+        passed since the first check); trouble(device): what the device knows is wrong,
+        said with a stale channel of it (which of the two trips first is a race)."""
         if self.started is None:
             self.started = now
         for name, ch in self.config.channels.items():
@@ -57,7 +58,9 @@ class Safety:
             last = r.t if r is not None else self.started
             if now - last > self.max_age[name]:
                 what = "no data" if r is None else f"no new data for {1e3 * (now - r.t):.0f} ms"
-                return f"watchdog: {name} ({ch.device}): {what} (limit {1e3 * self.max_age[name]:.0f} ms)"
+                why = trouble(ch.device)
+                return (f"watchdog: {name} ({ch.device}): {what} (limit {1e3 * self.max_age[name]:.0f} ms)"
+                        + (f": {why}" if why else ""))
             if r is not None and r.fault:
                 return f"{name} ({ch.device}): {r.fault}"
         frozen = self._frozen_force(readings, now)

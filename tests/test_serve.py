@@ -119,7 +119,8 @@ def test_two_runs_compared_overlaid(page, server):
     page.wait_for_url("**/compare?**")
     assert "Comparison of 2 runs" in page.locator("h1").inner_text()
     frame = page.frame_locator("#comparison")
-    assert "Dyno comparison" in frame.locator("h1").inner_text()
+    assert "Damper comparison sheet" in frame.locator("h1").first.inner_text()  # the sheet, then the rest
+    assert "Dyno comparison" in frame.locator("h1.appendix").inner_text()
     for img in (frame.locator("img[src='compare_composite.png']"), frame.locator("img[src='compare_loops.png']")):
         img.wait_for()
         assert img.evaluate("i => i.complete && i.naturalWidth") > 300
@@ -135,7 +136,8 @@ def test_the_qa_verdict_and_a_runs_report(page, server):
     assert "M-3" in page.locator("h1").inner_text()
     assert "FAIL" in page.locator("#checks").inner_text()
     report = page.frame_locator("#report")
-    assert "Dyno report: m3.mcap" in report.locator("h1").inner_text()
+    assert "Damper test sheet: mechformance, serial M-3" in report.locator("h1").first.inner_text()
+    assert "Dyno report: m3.mcap" in report.locator("h1.appendix").inner_text()
 
 
 def test_a_serials_trend(page, server):

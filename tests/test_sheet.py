@@ -67,7 +67,7 @@ def test_page_one_is_the_sheet_a_lab_signs(sheet_run, sheet_report):
     assert "tested by" in one and "checked by" in one and "signature" in one
     assert smallest >= 7.99, smallest  # 8 pt at least, as the PDF rounds it
     # nothing else on it: the appendix starts on page 2
-    assert "Appendix" not in one and texts[1].startswith("Appendix: the run in detail")
+    assert "Appendix" not in one and texts[1].startswith("Appendix: Dyno report: k7.mcap")
     from pypdf import PdfReader
     pdf = PdfReader(out / "report.pdf")
     box = pdf.pages[0].mediabox

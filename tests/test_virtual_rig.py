@@ -306,3 +306,21 @@ def test_a_polled_modules_thread_runs_above_the_cells_other_threads():
         module.close()
         servers.close()
         restore_priority(old)
+
+
+def test_a_stale_channel_names_what_its_device_knows_is_wrong():
+    """A Modbus module that stopped answering: whether its request failures or its channels'
+    age trips first is a race of a few milliseconds, so the watchdog's sentence carries the
+    device's own reason (issue 74's wired fault test lost that race once)."""
+    from rig.rig import Reading
+    cfg = config.load("virtual")
+    safety = Safety(cfg)
+    values = {"x": 0.0381, "x_internal": 0.0381, "T_body": 300.0, "T_reservoir": 300.0, "P_gas": 2e6}
+    fresh = {name: Reading(1.0, values.get(name, 0.0), None) for name in cfg.channels}
+    assert safety.check(fresh, 1.0) is None
+    stale = {**fresh, "P_gas": Reading(0.7, 2e6, None)}
+    said = safety.check(stale, 1.0, trouble=lambda d: "Modbus request failed 1 time in a row (timed out)"
+                        if d == cfg.channels["P_gas"].device else "")
+    assert said.startswith("watchdog: P_gas (analog): no new data for 300 ms")
+    assert said.endswith("ms): Modbus request failed 1 time in a row (timed out)")
+    assert safety.check(stale, 1.0).endswith("(limit 100 ms)")  # a device with nothing to say adds nothing

@@ -37,6 +37,7 @@ class ModbusModule:
         self.client = None
         self.frames = 0
         self.missed = 0  # requests in a row without a reply
+        self.trouble = ""  # why its channels may be ageing (a request unanswered), "" when it answers
         self._results, self._error = [], None
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -114,6 +115,8 @@ class ModbusModule:
             r = read(m.start, count=m.count, device_id=int(self.params["device_id"]))
         except (ModbusException, OSError) as e:
             self.missed += 1
+            self.trouble = (f"Modbus request failed {self.missed} time{'s' * (self.missed > 1)} in a row "
+                            f"({str(e).split('] ')[-1]})")
             # a new connection for the next request: on the old one the late reply to this
             # request would be taken as the answer to the next (pymodbus 3.16 accepts it)
             self.client.close()
@@ -121,7 +124,7 @@ class ModbusModule:
                 return []                     # stale-channel watchdog trips if the device stays silent
             raise RigError(f"device {self.name!r}: Modbus request failed {self.missed} times in a row "
                            f"({str(e).split('] ')[-1]})") from None
-        self.missed = 0
+        self.missed, self.trouble = 0, ""
         if r.isError():
             raise RigError(f"device {self.name!r}: Modbus exception response, code {getattr(r, 'exception_code', '?')}")
         self.frames += 1

@@ -9,14 +9,12 @@ from __future__ import annotations
 import csv
 import json
 import string
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
 from records.data import SAME_TEST_AMPLITUDE, SAME_TEST_FREQUENCY, SAME_TEST_K, near, segments, sign_problem
 from records.reader import load_recording
-from records.recorder import software
 from protocols.reports import peaks, qa, sheet
 from protocols.reports import velocity_table as vt
 from protocols.reports.page import Page, save
@@ -119,8 +117,7 @@ def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
     signs = {tag: sign for tag, *_, sign in runs}
     runs = [r[:4] for r in runs]
     title = "Dyno comparison: " + ", ".join(f"{tag} {run_name(meta, path)}" for tag, path, _, meta in runs)
-    page = Page(title, meta=[("description", title), ("generator", f"dyno {software()['version']}"),
-                             ("dcterms.created", datetime.now(timezone.utc).isoformat(timespec="seconds"))])
+    page = Page(title, meta=sheet.document(title))
     for tag, path, _, meta in runs:
         run = meta.get("run", {})
         page.paragraph(f"{tag}: {run_name(meta, path)}; {Path(path).name}, protocol "
@@ -137,7 +134,7 @@ def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
     # in the unit system: amplitude [mm] and target [C] as the Peak holds them, forces [N]
     diffs = [(tag, L(a * 1e-3), fr, T(Tc + 273.15), F(c0), F(c), dc, F(r0), F(r), dr)
              for tag, a, fr, Tc, c0, c, dc, r0, r, dr in diffs]
-    pngs = []
+    pngs, curve = [], None  # curve: (title, PNG) of the runs overlaid, the sheet's figure
     for sentence in left_out(runs, diffs) if any(rows for _, _, rows, _ in runs) else ():
         page.paragraph(sentence)
     if diffs:
@@ -156,8 +153,7 @@ def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
                     lab(f"F reb {first[0]}", "force"), lab("F reb", "force"), "diff reb [%]"),
                    [(tag, fmt(a), f"{fr:g}", fmt(Tt), fmt(c0), fmt(c), f"{dc:+.1f}", fmt(r0), fmt(r), f"{dr:+.1f}")
                     for tag, a, fr, Tt, c0, c, dc, r0, r, dr in diffs])
-        pngs.append(out / _composite(runs, out, units))
-        page.figure("Composite curves, one colour per run", pngs[-1].name)
+        curve = ("Composite curves, one colour per run", _composite(runs, out, units))
         drawn = _loops(runs, loops, out, units)
         if drawn:
             pngs.append(out / drawn[1])
@@ -165,18 +161,15 @@ def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
     elif any(rows for _, _, rows, _ in runs):  # other tests (another dyno's run): the curves still compare
         page.paragraph(f"No run shares a sine segment with {first[0]} (same amplitude, frequency and target "
                        "temperature): the runs are compared by their velocity tables and curves.")
-        pngs.append(out / _composite(runs, out, units))
-        page.figure("Composite curves, one colour per run (a one-speed run: its force along the stroke)",
-                    pngs[-1].name)
+        curve = ("Composite curves, one colour per run (a one-speed run: its force along the stroke)",
+                 _composite(runs, out, units))
     else:
         page.paragraph("No run has a sine segment: nothing to compare.")
-    curve = next(((b[1][1], b[1][0]) for b in page.blocks if b[0] == "figure" and b[1][0] == COMPOSITE), None)
     page.sheet = sheet.comparison([(tag, path, meta) for tag, path, _, meta in runs], curve,
                                   _speeds_table(runs, units), _verdicts(runs, against, tolerance, units))
-    page.blocks = [b for b in page.blocks if b[0] != "figure" or b[1][0] != COMPOSITE]  # the curve is on the sheet
     index = page.write(out)
     first_page_png(write_pdf(page, out), out / "sheet.png")  # report.pdf beside it, as a single run's report has
-    return index, [*pngs, out / "sheet.png"]
+    return index, [*([out / curve[1]] if curve else []), *pngs, out / "sheet.png"]
 
 
 def _verdicts(runs, against, tolerance, units):

@@ -7,7 +7,6 @@ responses (protocols/reports/hil.py)."""
 from __future__ import annotations
 
 import json
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +15,6 @@ from records.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
 from records.data import segments, sign_problem
 from records.segmentation import imported_unsegmented, left_out
 from records.reader import load_recording
-from records.recorder import software
 from models.identify.static import static_holds
 from protocols.reports import hil, peaks, sheet, sines, velocity_table as vt
 from protocols.reports.page import Page, save
@@ -58,7 +56,8 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), ch
         gas = (float(np.nanmin(mean)), float(np.nanmax(mean))) if np.isfinite(mean).any() else None
     facts = sheet.sheet(path, meta, ch, _params(meta.get("protocol", {}).get("params", "")), table, curve, gas,
                         check, units)
-    page = Page(f"Dyno report: {Path(path).name}", facts, _document(facts, meta))
+    page = Page(f"Dyno report: {Path(path).name}", facts,
+                sheet.document(facts.title, meta.get("run", {}).get("operator") or "dyno"))
     _header(page, meta, events, model)
     if table:
         page.paragraph(f"The sheet's velocity table: force at {how} (also velocity.csv).")
@@ -67,14 +66,6 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), ch
     pdf = write_pdf(page, out, paper=paper)
     first_page_png(pdf, out / "sheet.png")
     return index, [out / png for _, png in figures] + [out / "sheet.png"]
-
-
-def _document(facts, meta):
-    """The PDF's Author, Subject and CreationDate (the page's meta)."""
-    run = meta.get("run", {})
-    return [("author", run.get("operator") or "dyno"), ("description", facts.title),
-            ("generator", f"dyno {software()['version']}"),
-            ("dcterms.created", datetime.now(timezone.utc).isoformat(timespec="seconds"))]
 
 
 def _appendix(page, ch, events, meta, rows, units, out, figures, curve):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from datetime import datetime, timezone
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -123,8 +124,6 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
     the velocity table ([VelocityRow]) or None; curve: the force-velocity figure (title, PNG);
     gas_N: (lowest, highest) gas force of a static test [N]; check: (verdict sentence,
     what it is against) from protocols/reports/qa.py, or None."""
-    recorded = meta.get("software", {})
-    made = f"dyno {recorded.get('version', '?')}" + (f" ({recorded['commit']})" if recorded.get("commit") else "")
     identity = _identity(meta)
     named = [f"{'serial ' if k == 'serial' else ''}{v}" for k, v in identity[:2] if v != NOT_GIVEN]
     return Sheet(
@@ -134,7 +133,7 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
         table=html_table(table, units, SHEET_NAMES, measured_only=True) if table else None,
         verdict=check[0] if check else None,
         reference=check[1] if check else "no reference given (dyno report --against REF.mcap|MODEL|TABLE)",
-        traceability=[("recorded with", made), ("printed with", printed_with()), ("recording", Path(path).name),
+        traceability=[("recorded with", _software(meta.get("software", {}))), ("printed with", printed_with()), ("recording", Path(path).name),
                       ("SHA-256", sha256(path))],
         signoff=[("tested by", meta.get("run", {}).get("operator", "")), ("checked by", "")])
 
@@ -164,9 +163,19 @@ class ComparisonSheet:
                                                              for role, _ in self.signoff])]
 
 
+def _software(s: dict) -> str:
+    """'dyno 0.1.0 (a806eb95f980)' of a software record (records/recorder.py software())."""
+    return f"dyno {s.get('version', '?')}" + (f" ({s['commit']})" if s.get("commit") else "")
+
+
 def printed_with() -> str:
-    now = software()
-    return f"dyno {now['version']}" + (f" ({now['commit']})" if now.get("commit") else "")
+    return _software(software())
+
+
+def document(subject, author="dyno") -> list:
+    """A page's document metadata (the PDF's Author, Subject, Creator and CreationDate)."""
+    return [("author", author), ("description", subject), ("generator", f"dyno {software()['version']}"),
+            ("dcterms.created", datetime.now(timezone.utc).isoformat(timespec="seconds"))]
 
 
 def comparison(runs, curve, table, verdicts) -> ComparisonSheet:

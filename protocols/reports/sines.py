@@ -15,7 +15,7 @@ from protocols.units import Units, amplitude
 
 COMPOSITE = "composite.png"  # the force-velocity curve: the test sheet's figure
 # the markers' meaning, as legend entries of their own (a reader of a printed sheet has no caption to ask)
-DIRECTIONS = (("o", "-", "compression"), ("s", "--", "rebound (magnitude)"))
+DIRECTIONS = (("o", "-", "compression"), ("s", "--", "rebound (magnitude)"))  # (marker, line style, meaning)
 # the sheet's curve: drawn at about the size it is printed (115 mm wide), its text at 8 pt and more there
 SHEET_FIGURE_IN, SHEET_TEXT_PT, SHEET_DPI = (4.4, 4.1), 8.0, 200
 SHEET_RC = {"font.size": SHEET_TEXT_PT, "axes.titlesize": SHEET_TEXT_PT + 1, "legend.fontsize": SHEET_TEXT_PT}
@@ -129,17 +129,19 @@ def _composite(rows, groups, out, model, units):
         return save(fig, out / COMPOSITE, dpi=SHEET_DPI)
 
 
-def _direction_legend(ax, model=False, below=False):
+def _direction_legend(ax, model=False, below=False, markers=True):
     """The series' legend beside the data (below: under it, in columns, as the sheet's narrow
-    slot wants it), then what the markers mean (grey: any series)."""
+    slot wants it), then what the line styles (and markers) mean (grey: any series)."""
     from matplotlib.lines import Line2D
-    keys = [Line2D([], [], color="0.4", marker=m, ls=ls, label=label) for m, ls, label in DIRECTIONS]
+    keys = [Line2D([], [], color="0.4", marker=m if markers else None, ls=ls, label=label)
+            for m, ls, label in DIRECTIONS]
     if model:
-        keys.append(Line2D([], [], color="0.4", marker="x", ls="", ms=8, label="model"))
+        keys.append(Line2D([], [], color="0.4", marker="x", ls="", ms=8, label="model") if markers else
+                    Line2D([], [], color="k", ls=":", lw=1, label="model along the same motion"))
     handles, labels = ax.get_legend_handles_labels()
     ax.legend([*handles, *keys], [*labels, *(k.get_label() for k in keys)], fontsize=None if below else 7,
-              **({"loc": "upper center", "bbox_to_anchor": (0.5, -0.16), "ncol": 3} if below else
-                 {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}))
+              **({"loc": "upper center", "bbox_to_anchor": (0.5, -0.16), "ncol": 2 if not markers else 3} if below
+                 else {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}))
 
 
 def stroke_figure(rows, out, model, units):
@@ -150,17 +152,19 @@ def stroke_figure(rows, out, model, units):
         fig, ax = plt.subplots(figsize=SHEET_FIGURE_IN)
         for i, p in enumerate(rows):
             c, r = p.stroke_v > 0, p.stroke_v < 0
-            line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}", label=f"{units.segment(p.segment)} compression")[0]
-            ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color(), label=f"{units.segment(p.segment)} rebound")
+            line = ax.plot(V(p.stroke_v[c]), F_(p.stroke_F[c]), "-", color=f"C{i % 10}",
+                           label=units.segment(p.segment))[0]  # one entry a segment: the key says the directions
+            ax.plot(V(-p.stroke_v[r]), -F_(p.stroke_F[r]), "--", color=line.get_color())
             if model is not None and len(p.model_stroke_F):
                 ax.plot(V(p.stroke_v[c]), F_(p.model_stroke_F[c]), ":", color="k", lw=1)
                 ax.plot(V(-p.stroke_v[r]), -F_(p.model_stroke_F[r]), ":", color="k", lw=1)
         what = ("Force against shaft speed\n(a random input: the mean force at each speed" if rows[0].segment == peaks.SCATTER
                 else "Force along the stroke\n(one speed tested: the loop's mid-line")
-        ax.set(title=what + ("; dotted: model)" if model is not None else ")"),
-               xlabel=units.label("shaft speed", "velocity"), ylabel=f"{units.label('force', 'force')}, rebound as magnitude")
+        ax.set(title=what + ")", xlabel=units.label("shaft speed", "velocity"),
+               ylabel=f"{units.label('force', 'force')}, rebound as magnitude")
         ax.grid(alpha=0.3)
-        ax.legend()
+        _direction_legend(ax, model is not None and any(len(p.model_stroke_F) for p in rows), below=True,
+                          markers=False)
         return ("Force against shaft speed" + ("" if rows[0].segment == peaks.SCATTER else " along the stroke"),
                 save(fig, out / COMPOSITE, dpi=SHEET_DPI))
 

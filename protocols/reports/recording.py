@@ -48,27 +48,31 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), ch
     if table:
         vt.write_csv(table, out / "velocity.csv", units)
     curve = next(((title, png) for title, png in figures if png == sines.COMPOSITE), None)
-    holds = [s for s in segs if s.kind == "hold"]
-    gas = None
-    if holds and "force" in ch:
-        _, up, down = static_holds(ch, events)
-        mean = (np.asarray(up) + np.asarray(down)) / 2
-        gas = (float(np.nanmin(mean)), float(np.nanmax(mean))) if np.isfinite(mean).any() else None
-    facts = sheet.sheet(path, meta, ch, _params(meta.get("protocol", {}).get("params", "")), table, curve, gas,
-                        check, units)
+    facts = sheet.sheet(path, meta, ch, _params(meta.get("protocol", {}).get("params", "")), table, curve,
+                        _gas_range(ch, events, segs), check, units)
     page = Page(f"Dyno report: {Path(path).name}", facts,
                 sheet.document(facts.title, meta.get("run", {}).get("operator") or "dyno"))
     _header(page, meta, events, model)
     if table:
         page.paragraph(f"The sheet's velocity table: force at {how} (also velocity.csv).")
-    _appendix(page, ch, events, meta, rows, units, out, figures, curve)
+    _appendix(page, ch, events, segs, meta, rows, units, out, figures, curve)
     index = page.write(out)
     pdf = write_pdf(page, out, paper=paper)
     first_page_png(pdf, out / "sheet.png")
     return index, [out / png for _, png in figures] + [out / "sheet.png"]
 
 
-def _appendix(page, ch, events, meta, rows, units, out, figures, curve):
+def _gas_range(ch, events, segs):
+    """(lowest, highest) gas force over the stroke [N] of the static test's holds (the mean
+    of the force held after each stroke direction), None without one."""
+    if "force" not in ch or not any(s.kind == "hold" for s in segs):
+        return None
+    _, up, down = static_holds(ch, events)
+    mean = (np.asarray(up) + np.asarray(down)) / 2
+    return (float(np.nanmin(mean)), float(np.nanmax(mean))) if np.isfinite(mean).any() else None
+
+
+def _appendix(page, ch, events, segs, meta, rows, units, out, figures, curve):
     """What follows the sheet: the peak table, steps, HIL measures and the figures (the
     sheet's curve not again)."""
     sign = sign_problem(ch)
@@ -85,7 +89,7 @@ def _appendix(page, ch, events, meta, rows, units, out, figures, curve):
         page.heading("Peak forces per sine segment (also peaks.csv)")
         page.table(*peaks.table(rows, units))
         _peak_notes(page, rows, units, meta.get("protocol", {}).get("name") != "import")
-    steps = step_measures(ch, segments(events))
+    steps = step_measures(ch, segs)
     if steps:
         page.heading(f"Step response (settled: within {100 * STEP_BAND:g} % of the step)")
         page.table(("segment", "step [mm]", "rise 10-90 % [ms]", "overshoot [%]", "settling [ms]", "peak force [N]"),

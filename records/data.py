@@ -201,12 +201,17 @@ def at(channels, name, t):
     return np.interp(t, tc, vc)
 
 
+def smoothing_cutoff(h, freq):
+    """smooth's cut-off [Hz] at sample period h [s] for a test at freq [Hz]."""
+    return min(max(10.0 * freq, 20.0), 0.2 / h)
+
+
 def smooth(y, h, freq):
     """The motion a model is driven with: zero-phase low-pass at ten times the test
     frequency (at least 20 Hz, at most 0.4 x Nyquist). The transducers' noise would
     otherwise flip the sign of the model's friction and put noise into its damping
     force, which the measured force does not have. h: sample period [s]."""
-    fc = min(max(10.0 * freq, 20.0), 0.2 / h)
+    fc = smoothing_cutoff(h, freq)
     if len(y) < 30:
         return y
     from scipy.signal import butter, filtfilt  # here: scipy.signal takes a second to import

@@ -35,7 +35,7 @@ from models.identify.dynamic import dynamic_step, simulate_segment
 from models.identify.incompressible import charge_from_reversals, valves_step
 from models.identify.parameters import canonical, parameter_value, set_parameter
 from models.identify.result import IdentifyError, Result
-from models.identify.segments import GAP_CYCLE_SHARE, dynamic_segments
+from models.identify.segments import dynamic_segments
 from models.identify.static import Estimate, identify_static, static_holds
 from models.damper import T_STD
 from models.physics.gas_spring import P_ATM
@@ -67,12 +67,11 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
 
     # valves and the compressible model
     need = missing(channels, ("T_body",))
-    gapped = []
-    dyn = dynamic_segments(channels, events, gapped, smoothing)
-    if gapped:
-        res.steps["data"] = (f"{len(gapped)} sine segment(s) left out for a gap in force or displacement longer "
-                             f"than {100 * GAP_CYCLE_SHARE:g} % of a cycle (a stalled loop or lost frames): "
-                             f"{', '.join(gapped)}")
+    left_out = {}
+    dyn = dynamic_segments(channels, events, left_out, smoothing)
+    if left_out:
+        res.steps["data"] = (f"{len(left_out)} sine segment(s) left out: "
+                             + "; ".join(f"{name}: {why}" for name, why in left_out.items()))
     if len(dyn) < 2:
         res.steps["valves"] = f"skipped: {len(dyn)} sine segments (need 2)"
         res.steps["dynamic"] = "skipped: needs the valves step"

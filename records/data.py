@@ -140,11 +140,18 @@ def differing_repeats(channels, events) -> list[tuple[str, list[str], list[float
         k = (t >= span.t0) & (t <= span.t1)
         if k.sum() > 10 and "amplitude_mm" in span.params:
             spans.append((span, float(np.ptp(np.percentile(F[k], [1, 99])))))
+    return [(re.sub(r" \(\d+\)$", "", spans[g[0]][0].name), [spans[i][0].name for i in g], [spans[i][1] for i in g])
+            for g in differing([Test.of(s.params) for s, _ in spans], [r for _, r in spans])]
+
+
+def differing(tests, ranges) -> list[list[int]]:
+    """The groups of indices of tests run more than once (Test.same) whose force ranges [N]
+    differ by more than REPEATS_DIFFER, in order."""
     groups = {}
-    for (span, spread), g in zip(spans, same_tests([Test.of(s.params) for s, _ in spans])):
-        groups.setdefault(g, []).append((span.name, spread))
-    return [(re.sub(r" \(\d+\)$", "", g[0][0]), [n for n, _ in g], [r for _, r in g]) for g in groups.values()
-            if len(g) > 1 and max(r for _, r in g) > (1 + REPEATS_DIFFER) * min(r for _, r in g)]
+    for i, g in enumerate(same_tests(tests)):
+        groups.setdefault(g, []).append(i)
+    return [g for g in groups.values()
+            if len(g) > 1 and max(ranges[i] for i in g) > (1 + REPEATS_DIFFER) * min(ranges[i] for i in g)]
 
 
 def repeats_sentence(test, names, ranges) -> str:

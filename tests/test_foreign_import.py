@@ -654,6 +654,7 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
     t = np.concatenate([t, t[-1] + hold, t + t[-1] + 1.0])
     x = np.concatenate([x, np.full(len(hold), x[-1]), x])
     F = np.concatenate([F, np.full(len(hold), F[-1]), F2]) + np.random.default_rng(3).normal(0, 3.0, len(t))
+    n1 = len(F2)  # the first run's samples
     src = _written(tmp_path, "two.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
                                                             for a, b, c in zip(t, x, F)))
     _, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
@@ -671,6 +672,19 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
     assert doc["repeats_differ"] == []
     one_line_error(dyno("identify", tmp_path / "x.mcap", "--segment", "sine 5 mm", "--out", tmp_path / "o.json"),
                    "no segment 'sine 5 mm'", "sine 19 mm 1.05 Hz (2)")
+    import html
+    # the velocity table is the first run's, not the mean of two settings, and the sheet says so:
+    # the same as the table of a file that holds the first run alone
+    assert dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "both").returncode == 0
+    first = _written(tmp_path, "first.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n" for a, b, c
+                                                                in zip(t[:n1], x[:n1], F[:n1])))
+    assert dyno("import", first, "--out", tmp_path / "first.mcap", "--map", "time=t", "--map", "displacement=x:mm",
+                "--map", "force=F").returncode == 0
+    assert dyno("report", tmp_path / "first.mcap", "--out", tmp_path / "first").returncode == 0
+    table = [(tmp_path / d / "velocity.csv").read_text().splitlines() for d in ("both", "first")]
+    assert len(table[0]) > 2 and table[0] == table[1], table
+    assert ("The table is sine 19 mm 1.05 Hz's alone: 1 later run of the test differs from it by more than 15 %"
+            in html.unescape((tmp_path / "both" / "index.html").read_text()))
 
 
 def test_repeats_whose_estimated_frequency_differs_in_the_last_digit_are_one_test(tmp_path):

@@ -48,13 +48,14 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), ch
     if table:
         vt.write_csv(table, out / "velocity.csv", units)
     curve = next(((title, png) for title, png in figures if png == sines.COMPOSITE), None)
+    note = vt.repeats_note(rows) if table else ""
     facts = sheet.sheet(path, meta, ch, _params(meta.get("protocol", {}).get("params", "")), table, curve,
-                        _gas_range(ch, events, segs), check, units)
+                        _gas_range(ch, events, segs), check, units, note)
     page = Page(f"Dyno report: {Path(path).name}", facts,
                 sheet.document(facts.title, meta.get("run", {}).get("operator") or "dyno"))
     _header(page, meta, events, model)
     if table:
-        page.paragraph(f"The sheet's velocity table: force at {how} (also velocity.csv).")
+        page.paragraph(f"The sheet's velocity table: force at {how} (also velocity.csv). {note}".rstrip())
     _appendix(page, ch, events, segs, meta, rows, units, out, figures, curve)
     index = page.write(out)
     pdf = write_pdf(page, out, paper=paper)

@@ -44,6 +44,7 @@ class Sheet:
     reference: str  # what the verdict is against, or how to get one
     traceability: list  # [(label, text)]: software, file, SHA-256
     signoff: list = field(default_factory=list)  # [(role, name already known or "")]
+    table_note: str = ""  # what the velocity table leaves out (velocity_table.repeats_note)
 
     @property
     def passed(self):
@@ -55,6 +56,7 @@ class Sheet:
         return [("items", [*self.identity, *self.test, *self.conditions,
                            ("verdict", f"{self.verdict}, against {self.reference}" if self.verdict else self.reference)]),
                 *([("table", self.table)] if self.table else []),
+                *([("paragraph", self.table_note)] if self.table and self.table_note else []),
                 *([("figure", self.curve[::-1])] if self.curve else []),
                 ("table", (["channel", "instrument", "calibrated"], self.channels)),
                 ("items", self.traceability + [(role, f"{name} ____ signature ____ date ____")
@@ -119,9 +121,10 @@ def _conditions(ch, gas_N, units: Units):
     return out
 
 
-def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=None, units=Units()) -> Sheet:
+def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=None, units=Units(),
+          table_note="") -> Sheet:
     """The sheet of the recording at path (its metadata and channels already read); table:
-    the velocity table ([VelocityRow]) or None; curve: the force-velocity figure (title, PNG);
+    the velocity table ([VelocityRow]) or None, table_note: what it leaves out; curve: the force-velocity figure (title, PNG);
     gas_N: (lowest, highest) gas force of a static test [N]; check: (verdict sentence,
     what it is against) from protocols/reports/qa.py, or None."""
     identity = _identity(meta)
@@ -135,7 +138,7 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
         reference=check[1] if check else "no reference given (dyno report --against REF.mcap|MODEL|TABLE)",
         traceability=[("recorded with", _software(meta.get("software", {}))), ("printed with", printed_with()), ("recording", Path(path).name),
                       ("SHA-256", sha256(path))],
-        signoff=[("tested by", meta.get("run", {}).get("operator", "")), ("checked by", "")])
+        signoff=[("tested by", meta.get("run", {}).get("operator", "")), ("checked by", "")], table_note=table_note)
 
 
 @dataclass

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from protocols.units import Units, fmt
+from records.data import REPEATS_DIFFER, Test, differing
 
 SPEEDS_FILE = Path(__file__).with_name("velocities.toml")
 MERGE = 0.05  # peaks within 5 % of each other's speed are one point (their forces averaged)
@@ -96,12 +97,33 @@ def _mean(a):
     return np.where(n > 0, np.nansum(a, axis=0) / np.maximum(n, 1), np.nan)
 
 
+def repeats_left_out(rows) -> list[tuple[str, list[str]]]:
+    """[(the first run's segment, [its repeats' segments])] of each sine test run more than
+    once whose repeats differ (records/data.differing, on the peaks' force range): something
+    the recording does not carry changed between them (a coil current, an adjuster), so one
+    table of their mean would be no damper's. The table is the first run's."""
+    rows = [p for p in rows if np.isnan(p.target_c) and np.isfinite(p.amplitude_mm) and np.isfinite(p.freq_hz)]
+    tests = [Test(p.amplitude_mm, p.freq_hz) for p in rows]
+    return [(rows[g[0]].segment, [rows[i].segment for i in g[1:]])
+            for g in differing(tests, [p.F_comp - p.F_reb for p in rows])]
+
+
+def repeats_note(rows) -> str:
+    """repeats_left_out() in words, "" when none."""
+    return " ".join(f"The table is {first}'s alone: {len(names)} later run{'s' * (len(names) > 1)} of the test "
+                    f"differ{'s' * (len(names) == 1)} from it by more than {100 * REPEATS_DIFFER:.0f} % in force range "
+                    f"(a setting the recording does not carry changed); each is in the curve and the peak table."
+                    for first, names in repeats_left_out(rows))
+
+
 def velocity_table(rows, speeds=None, units=Units(), how=None) -> list[VelocityRow]:
     """[VelocityRow] at speeds [m/s] from the Peak rows of sine segments at the cell's
-    temperature (a temperature sweep's segments are left out: they are another curve).
-    how: "peaks" or "stroke" (method()); by default the run's own."""
+    temperature (a temperature sweep's segments are left out: they are another curve; so are
+    repeats that differ, repeats_left_out). how: "peaks" or "stroke" (method()); by default
+    the run's own."""
     speeds = np.asarray(standard_speeds(units) if speeds is None else speeds, float)
-    rows = [p for p in rows if np.isnan(p.target_c)]
+    dropped = {name for _, names in repeats_left_out(rows) for name in names}
+    rows = [p for p in rows if np.isnan(p.target_c) and p.segment not in dropped]
     if (how or method(rows)) == "stroke":
         nan = np.full(len(speeds), np.nan)
         out = [*_along_stroke(speeds, rows, "stroke_F"), nan, nan]

@@ -30,7 +30,7 @@ def run(args):
     results, ref_name = checked.results, checked.reference
     u, f = units.unit("velocity"), units.unit("force")
     print(f"check {Path(args.recording).name} against {ref_name}, tolerance {tol}:")
-    for note in (checked.compensation, checked.unmeasured):
+    for note in (checked.compensation, checked.unmeasured, checked.repeats):
         if note:
             print(f"  {note}")
     for r in results:

@@ -685,6 +685,8 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
     assert len(table[0]) > 2 and table[0] == table[1], table
     assert ("The table is sine 19 mm 1.05 Hz's alone: 1 later run of the test differs from it by more than 15 %"
             in html.unescape((tmp_path / "both" / "index.html").read_text()))
+    r = dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "first.mcap")  # the first run against itself
+    assert r.returncode == 0 and "run: The table is sine 19 mm 1.05 Hz's alone" in r.stdout, r.stdout + r.stderr
 
 
 def test_repeats_whose_estimated_frequency_differs_in_the_last_digit_are_one_test(tmp_path):

@@ -141,6 +141,13 @@ class Check:
     reference: str  # what the run was checked against, in words
     compensation: str = ""  # how temperature was compensated, or why it could not be; "" when not needed
     unmeasured: str = ""  # a table's points the run did not reach, or its motion a model was not identified on
+    repeats: str = ""  # the repeats that differ that the tables leave out (velocity_table.repeats_note)
+
+
+def _repeats(run, ref=None) -> str:
+    said = [f"{who}: {note}" for who, note in (("run", vt.repeats_note(run)),
+                                               ("reference", vt.repeats_note(ref or []))) if note]
+    return " ".join(said)
 
 
 TABLES = (".csv", ".txt", ".tsv", ".xlsx")  # --against: a force-velocity table (spec_table), not a run or model
@@ -190,7 +197,7 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
                       [1e-3 * p.amplitude_mm for p in run],
                       float(np.nanmax([abs(v) for p in run for v in (p.v_comp, p.v_reb)] or [0.0])))
         return Check(verdicts(run, model_rows(run), tol, units=units), f"model {model.name} along this run's motion",
-                     unmeasured=far)
+                     unmeasured=far, repeats=_repeats(run))
     run, ref = _rows(path), _rows(against)
     T_run, T_ref = (_table_temperature(rows) for rows in (run, ref))
     note = ""
@@ -216,7 +223,7 @@ def check(path, against, tol: Tolerance, units=Units()) -> Check:
                    for p, a, b in zip(run, at_run, at_ref)]
             note = (f"compensated for temperature: the run's forces moved from its {T_run:.0f} C to the "
                     f"reference's {T_ref:.0f} C with its identified model {identified.name}")
-    return Check(verdicts(run, ref, tol, units=units), Path(against).name, note)
+    return Check(verdicts(run, ref, tol, units=units), Path(against).name, note, repeats=_repeats(run, ref))
 
 
 def checked(path, against, tolerance: str, units=Units()) -> tuple[Check, Tolerance]:
@@ -261,7 +268,7 @@ def against_table(path, against, tol: Tolerance, units=Units()) -> Check:
     said = ", ".join(fmt(units.show("velocity", v), 3) for v in missed)
     return Check(compared(got, ref, tol), f"table {Path(against).name}",
                  unmeasured=f"not measured by this run, outside the speeds it reached: the table's "
-                            f"{said} {units.unit('velocity')}" if missed else "")
+                            f"{said} {units.unit('velocity')}" if missed else "", repeats=_repeats(run))
 
 
 def model_rows(rows):

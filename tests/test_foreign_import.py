@@ -687,6 +687,8 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
             in html.unescape((tmp_path / "both" / "index.html").read_text()))
     r = dyno("check", tmp_path / "x.mcap", "--against", tmp_path / "first.mcap")  # the first run against itself
     assert r.returncode == 0 and "run: The table is sine 19 mm 1.05 Hz's alone" in r.stdout, r.stdout + r.stderr
+    assert dyno("report", tmp_path / "x.mcap", tmp_path / "first.mcap", "--out", tmp_path / "cmp").returncode == 0
+    assert "A: The table is sine 19 mm 1.05 Hz's alone" in html.unescape((tmp_path / "cmp" / "index.html").read_text())
 
 
 def test_repeats_whose_estimated_frequency_differs_in_the_last_digit_are_one_test(tmp_path):

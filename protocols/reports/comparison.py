@@ -214,7 +214,9 @@ def _speeds_table(runs, units):
         rows.append([f"{units.show('velocity', a.v_m_s):.4g}"] + [F(v) for t in tables for v in (t[i].F_comp_N, t[i].F_reb_N)]
                     + [f"{_pct(t[i].F_comp_N, a.F_comp_N):+.1f} / {_pct(-t[i].F_reb_N, -a.F_reb_N):+.1f}"
                        for t in tables[1:]])
-    return ("from the peaks" if how == "peaks" else "along the stroke"), head, rows
+    # a run whose test repeats differ is read on its first run of the test: said beside how
+    repeats = "".join(f"; {tag}: {note.rstrip('.')}" for tag, _, rows, _ in runs if (note := vt.repeats_note(rows)))
+    return ("from the peaks" if how == "peaks" else "along the stroke") + repeats, head, rows
 
 
 def _composite(runs, out, units):

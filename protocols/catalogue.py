@@ -411,7 +411,9 @@ def force_at(peaks, direction, speed):
     one amplitude and frequency); nan outside the measured speeds."""
     rows = [SimpleNamespace(**{k: p[k] for k in p.keys()}, Fd_comp=np.nan, Fd_reb=np.nan) for p in peaks]
     for r in rows:
-        r.target_c = np.nan if r.target_c is None else r.target_c
+        for k in ("amplitude_mm", "freq_hz", "target_c", "v_comp", "F_comp", "v_reb", "F_reb"):
+            if getattr(r, k, None) is None:  # SQLite keeps a nan (a random input's amplitude) as null
+                setattr(r, k, np.nan)
         for k in ("stroke_v", "stroke_F"):  # null in a catalogue an earlier version wrote
             setattr(r, k, np.array(json.loads(getattr(r, k, None) or "[]"), float))
     if not rows:

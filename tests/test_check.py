@@ -161,3 +161,18 @@ def test_a_catalogued_one_speed_run_trends_as_unmeasured_not_as_an_error():
     row = {"segment": "sine 19 mm 1.05 Hz", "amplitude_mm": 19.0, "freq_hz": 1.05, "target_c": None,
            "v_comp": 0.125, "F_comp": 500.0, "v_reb": -0.125, "F_reb": -400.0}
     assert np.isnan(force_at([row], "compression", 0.1))
+
+
+def test_a_catalogued_run_trends_its_first_run_of_a_differing_test_and_a_random_input_without_an_amplitude():
+    """`runs trend` reads a run's force as its velocity table does: of a test whose repeats
+    differ (a coil current changed), the first run's; a random input's row, whose amplitude
+    SQLite keeps as null, is read too."""
+    from protocols.catalogue import force_at
+
+    def row(segment, amplitude, freq, F):
+        return {"segment": segment, "amplitude_mm": amplitude, "freq_hz": freq, "target_c": None, "v_comp": 0.09,
+                "F_comp": F, "v_reb": -0.09, "F_reb": -F, "stroke_v": "[-0.09, 0, 0.09]",
+                "stroke_F": json.dumps([-F, 0.0, F])}
+    assert force_at([row("sine 5 mm 3 Hz", 5.0, 3.0, 200.0), row("sine 5 mm 3 Hz (2)", 5.0, 3.0, 1500.0)],
+                    "compression", 0.045) == pytest.approx(100.0)
+    assert force_at([row("motion that does not repeat", None, None, 900.0)], "compression", 0.045) == pytest.approx(450.0)

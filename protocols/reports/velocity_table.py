@@ -102,7 +102,8 @@ def repeats_left_out(rows) -> list[tuple[str, list[str]]]:
     once whose repeats differ (records/data.differing, on the peaks' force range): something
     the recording does not carry changed between them (a coil current, an adjuster), so one
     table of their mean would be no damper's. The table is the first run's."""
-    rows = [p for p in rows if np.isnan(p.target_c) and np.isfinite(p.amplitude_mm) and np.isfinite(p.freq_hz)]
+    rows = [p for p in rows if np.isnan(p.target_c)
+            and np.all(np.isfinite([p.amplitude_mm, p.freq_hz, p.F_comp, p.F_reb]))]
     tests = [Test(p.amplitude_mm, p.freq_hz) for p in rows]
     return [(rows[g[0]].segment, [rows[i].segment for i in g[1:]])
             for g in differing(tests, [p.F_comp - p.F_reb for p in rows])]

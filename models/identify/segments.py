@@ -71,6 +71,7 @@ def dynamic_segments(channels, events, left_out=None, smoothing=None):
     {name: why}): one with a gap in its force or displacement record longer than
     GAP_CYCLE_SHARE of its cycle (resampled across it, the segment would be data never
     measured) and one whose motion jumps (its drive would not be the motion measured)."""
+    left_out = {} if left_out is None else left_out
     spans = segments(events, kinds=("sine",))
     if not spans and not events:  # an imported recording: blocks of whole cycles
         spans = cycle_blocks(channels)
@@ -85,8 +86,8 @@ def dynamic_segments(channels, events, left_out=None, smoothing=None):
         longest = GAP_CYCLE_SHARE / params["freq_hz"] if params.get("freq_hz") else 0.0
         hole = next(((a, b) for a, b in holes if a < t1 and b > start and b - a > longest), None)
         if hole:
-            _leave_out(left_out, name, f"a gap of {1e3 * (hole[1] - hole[0]):.0f} ms in its record at {hole[0]:.3f} s, "
-                                       f"over {100 * GAP_CYCLE_SHARE:g} % of a cycle (a stalled loop or lost frames)")
+            left_out[name] = (f"a gap of {1e3 * (hole[1] - hole[0]):.0f} ms in its record at {hole[0]:.3f} s, "
+                              f"over {100 * GAP_CYCLE_SHARE:g} % of a cycle (a stalled loop or lost frames)")
             continue
         t = np.arange(start, t1, h)
         if len(t) < 20:
@@ -96,7 +97,7 @@ def dynamic_segments(channels, events, left_out=None, smoothing=None):
         x = smooth(measured, h, f)
         jump = _jump(t, measured, x, start, t0, t1, smoothing_cutoff(h, f))
         if jump:
-            _leave_out(left_out, name, jump)
+            left_out[name] = jump
             continue
         v = smooth(at(channels, "v", t) if "v" in channels else np.gradient(x, t), h, f)
         T = float(at(channels, "T_body", t).mean()) if "T_body" in channels else T_STD
@@ -112,11 +113,6 @@ def dynamic_segments(channels, events, left_out=None, smoothing=None):
                                 "P_gas": seg.P, "P1": at(channels, "P1", seg.tP), "P2": at(channels, "P2", seg.tP)}
         out.append(seg)
     return out
-
-
-def _leave_out(left_out, name, why):
-    if left_out is not None:
-        left_out[name] = why
 
 
 def _jump(t, measured, drive, start, t0, t1, fc):

@@ -16,9 +16,10 @@ os.environ["DYNO_STRICT_FIGURES"] = "1"
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 
-# pytest-xdist's workers share the cores: each (and every dyno command it starts) fits on its share
-if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit():
-    from workers import threads
+# pytest-xdist's workers share the cores: each (and every dyno command it starts) fits on its
+# share, unless the caller gave one (the Makefile's run beside the suite: DYNO_FIT_THREADS=1)
+from workers import threads  # noqa: E402
+if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit() and threads.ENV not in os.environ:
     threads.share(int(os.environ["PYTEST_XDIST_WORKER_COUNT"]))
 
 

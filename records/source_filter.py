@@ -20,6 +20,13 @@ RUN_KEY = "smoothed"  # the recording's run metadata: Smoothing.text()
 _FORM = re.compile(r"^\s*([0-9.eE+-]+)\s*(period|periods|s|ms)\s*$")
 
 
+def _stretches(t, h):
+    """(first, end) sample of each stretch of times t [s] that no gap longer than 1.5
+    samples of h [s] breaks: a filter never averages across a hole."""
+    cuts = [0, *(np.flatnonzero(np.diff(t) > 1.5 * h) + 1).tolist(), len(t)]
+    return zip(cuts[:-1], cuts[1:])
+
+
 @dataclass(frozen=True)
 class Smoothing:
     width: float  # a share of the test period (per_period), else seconds
@@ -43,9 +50,8 @@ class Smoothing:
         y = np.asarray(y, float)
         if n < 2 or len(y) < 2:
             return y
-        cuts = np.r_[0, np.nonzero(np.diff(t) > 1.5 * h)[0] + 1, len(y)]
         out = np.empty_like(y)
-        for a, b in zip(cuts[:-1], cuts[1:]):
+        for a, b in _stretches(t, h):
             out[a:b] = uniform_filter1d(y[a:b], min(n, b - a), mode="nearest")
         return out
 
@@ -77,9 +83,8 @@ class LowPass:
         design = signal.butter if self.kind == "butter" else signal.bessel
         sos = design(self.order, self.cutoff_hz, fs=1.0 / h, output="sos",
                      **({} if self.kind == "butter" else {"norm": "phase"}))
-        cuts = np.r_[0, np.nonzero(np.diff(t) > 1.5 * h)[0] + 1, len(y)]
         out = np.empty_like(y)
-        for a, b in zip(cuts[:-1], cuts[1:]):
+        for a, b in _stretches(t, h):
             if self.zero_phase and b - a > 3 * (2 * len(sos) + 1):
                 out[a:b] = signal.sosfiltfilt(sos, y[a:b])
             else:

@@ -11,6 +11,7 @@ assessed is said in `notes`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -71,11 +72,20 @@ class Data:
         if self.smoothing is None:
             return y
         out = np.array(y, float)
+        for j, t, h, f in self._stretches:
+            out[j] = self.smoothing.apply(out[j], t, h, f)
+        return out
+
+    @cached_property
+    def _stretches(self):
+        """(samples, their times, median spacing [s], frequency [Hz] or None) of each segment:
+        what through_source reads at every model evaluation and column (a fifth of a smoothed
+        file's diagnosis went to finding them again), taken once: the data do not change."""
+        out = []
         for s, (_, f) in enumerate(self.segments):
             j = np.nonzero(self.segment == s)[0]
             if len(j):
-                out[j] = self.smoothing.apply(out[j], self.t[j], float(np.median(self.h[j])),
-                                              f if self.periodic else None)
+                out.append((j, self.t[j], float(np.median(self.h[j])), f if self.periodic else None))
         return out
 
 

@@ -17,7 +17,7 @@ def soft_sign(v):
 @kernels.recent
 def shift(y, t, tau):
     """y [any unit] at t - tau [s] (linear between samples)."""
-    return np.interp(t - tau, t, y)
+    return kernels.delayed(np.asarray(y, float), np.asarray(t, float), float(tau))
 
 
 def scaled(cols, part, g):

@@ -48,6 +48,40 @@ def lag(F, tau, h):
 
 
 @njit(cache=True, nogil=True)
+def delayed(y, t, tau):
+    """y at t - tau (t increasing [s], tau [s]): np.interp(t - tau, t, y) operation for
+    operation, so the same numbers to the last bit, with a walk to each interval instead of
+    its binary search (a sensor delay's fit shifts three channels at every evaluation)."""
+    n = len(t)
+    out = np.empty(n)
+    j = 0
+    for i in range(n):
+        x = t[i] - tau
+        if np.isnan(x):
+            out[i] = x
+        elif x < t[0]:
+            out[i] = y[0]
+        elif x > t[n - 1]:
+            out[i] = y[n - 1]
+        else:
+            while j < n - 1 and t[j + 1] <= x:
+                j += 1
+            while j > 0 and t[j] > x:
+                j -= 1
+            if j == n - 1 or t[j] == x:
+                out[i] = y[j]
+            else:
+                slope = (y[j + 1] - y[j]) / (t[j + 1] - t[j])
+                r = slope * (x - t[j]) + y[j]
+                if np.isnan(r):  # numpy's retry from the interval's other end
+                    r = slope * (x - t[j + 1]) + y[j + 1]
+                    if np.isnan(r) and y[j] == y[j + 1]:
+                        r = y[j]
+                out[i] = r
+    return out
+
+
+@njit(cache=True, nogil=True)
 def bspline_basis(x, t, k, n):
     """(len(x), n) B-spline basis of degree k on knots t at x (inside [t[k], t[n]]): de
     Boor's recursion as scipy's BSpline.design_matrix runs it, operation for operation, so

@@ -141,8 +141,9 @@ LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open"
 # test left out of the group made the 50 s standard run again on the other worker)
 SHARED = ("koni_run",)
 
-# One worker runs the tests against the wall clock first, one after another (about one core
-# for 150 s: beside them one other test runs, not two), then the prove runs. A prove run's
+# One worker runs the tests against the wall clock first, one after another (about half a
+# core for 150 s: the others run beside them, the Makefile's third worker in what they leave
+# idle), then the prove runs. A prove run's
 # recording hands every tick from thread to thread through the embedded rig's emulators;
 # beside the wall-clock tests' SCHED_FIFO threads it took twice its time. The prove tests
 # share their null run (the prove_keep fixture), made once on this worker.

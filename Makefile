@@ -40,24 +40,24 @@ $(CHROMIUM):
 	@command -v apt-get >/dev/null || { echo "make: the browser tests need Chromium at $(CHROMIUM) (or CHROMIUM=PATH)" >&2; exit 1; }
 	$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium libpango-1.0-0 libpangoft2-1.0-0 >/dev/null
 
-# the suite, naming its ten slowest tests (its budget: 8 minutes on 2 cores). Where the OS
-# grants real-time priority (rig.realtime_priority), the tests against the wall clock go first,
-# one after another on one worker (tests/conftest.py), whose core they leave half idle: the
-# suite then runs on three workers (their SCHED_FIFO threads come first whatever runs beside
-# them). Where it does not, on two, and the wall-clock tests run alone after the others: at
-# normal priority beside a busy worker, a wired HIL run missed 2 % of its ticks and tripped its guard
+# the suite on two workers, naming its ten slowest tests (its budget: 8 minutes on 2 cores).
+# Where the OS grants real-time priority (rig.realtime_priority), the tests against the wall
+# clock go first, one after another on one worker (tests/conftest.py); where it does not, they
+# run alone after the others: at normal priority beside a busy worker, a wired HIL run missed
+# 2 % of its ticks and tripped its guard
 FIFO := $(shell $(PY) -c "import os; os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))" 2>/dev/null && echo granted)
 PYTEST := DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q --dist loadgroup --no-loadscope-reorder --durations=10
 # the diagnosis's and identification's verdicts must not be one processor's last bits (issue 71):
 # their tests run again under another kernel's rounding (OpenBLAS's Sandybridge kernels, numba
 # compiling for a generic x86-64), beside the suite in a process of their own on one fit thread,
-# in the time the suite leaves idle. Their report follows the suite's; either failing fails the
-# target. Fresh clones, 2026-12-02: 8 min 06-12 s one after the other on two workers, 7 min 52 s
-# beside them, 7 min 40 s beside three
+# in the time the suite leaves idle (the wall-clock tests leave their worker's core half idle).
+# Their report follows the suite's; either failing fails the target. Fresh clones, 2026-12-02:
+# 8 min 06-12 s one after the other, 7 min 52 s beside (a third worker for the suite: 7 min 40-50 s,
+# within the runs' spread, and not kept)
 OTHER_KERNEL := OPENBLAS_CORETYPE=Sandybridge NUMBA_CPU_NAME=generic
 BESIDE := DYNO_FIT_THREADS=1 $(OTHER_KERNEL) $(PYTEST) -n 1 -m "rounding and not slow and not realtime"
 ifeq ($(FIFO),granted)
-SUITE := $(PYTEST) -n 3
+SUITE := $(PYTEST) -n 2
 AFTER := true
 else
 SUITE := $(PYTEST) -n 2 -m "not slow and not realtime"

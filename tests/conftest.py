@@ -142,8 +142,8 @@ LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open"
 SHARED = ("koni_run",)
 
 # One worker runs the tests against the wall clock first, one after another (about half a
-# core for 150 s: the others run beside them, the Makefile's third worker in what they leave
-# idle), then the prove runs. A prove run's
+# core for 150 s: the other worker's tests and the Makefile's other-kernel run beside them),
+# then the prove runs. A prove run's
 # recording hands every tick from thread to thread through the embedded rig's emulators;
 # beside the wall-clock tests' SCHED_FIFO threads it took twice its time. The prove tests
 # share their null run (the prove_keep fixture), made once on this worker.

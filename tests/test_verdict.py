@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from models.diagnose import blocks, stability
+from models.diagnose.kernels import delayed
 from models.diagnose.referees import _first
 from models.diagnose.result import Candidate
 from tests.conftest import dyno
@@ -98,6 +99,24 @@ def _verdict(doc):
     groups = sorted(tuple(sorted([e["effect"]] + [r["effect"] for r in e["rivals"] if stability.holds(r["held_in"])]))
                     for e in doc["effects"] if "rivals" in e and not e["small"] and not e["stand_in"] and e["rivals"])
     return doc["named"], doc["at_edge"], groups
+
+
+@pytest.mark.rounding
+def test_a_delayed_channel_is_numpys_interpolation_to_the_last_bit():
+    """kernels.delayed (a sensor delay's or the alignment's shift) is np.interp(t - tau, t, y)
+    bit for bit: even and uneven spacing, shifts within a sample and beyond both ends, nan and
+    inf among the values."""
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        n = int(rng.integers(2, 2000))
+        h = 10 ** rng.uniform(-5, -2)
+        t = np.arange(n) * h + rng.uniform(0, 100) if trial % 2 else np.cumsum(rng.uniform(0.5, 1.5, n) * h)
+        y = rng.normal(size=n) * 10 ** rng.uniform(-6, 4)
+        for tau in (0.0, h * rng.uniform(-3, 3), h * rng.uniform(-0.1, 0.1), t[1] - t[0], 1e9, -1e9):
+            assert np.array_equal(delayed(y, t, tau), np.interp(t - tau, t, y)), (trial, tau)
+    y, t = np.array([1.0, np.inf, 3.0, np.nan, 5.0]), np.arange(5.0)
+    for tau in (0.3, -0.3, 0.0, 1.0):
+        assert np.array_equal(delayed(y, t, tau), np.interp(t - tau, t, y), equal_nan=True), tau
 
 
 @pytest.mark.parametrize("current", ["0x25"])  # its verdict, measured three ways on this machine: stroke damping, a stand-in

@@ -52,7 +52,7 @@ PYTEST := DYNO_CHROMIUM=$(CHROMIUM) $(VENV)/bin/python -m pytest -q --dist loadg
 # compiling for a generic x86-64), beside the suite in a process of their own on one fit thread,
 # in the time the suite leaves idle (the wall-clock tests leave their worker's core half idle).
 # Their report follows the suite's; either failing fails the target. Fresh clones, 2026-12-02:
-# 8 min 06-12 s one after the other, 7 min 52 s beside (a third worker for the suite: 7 min 40-50 s,
+# 8 min 06-12 s one after the other, 7 min 39-52 s beside (a third worker for the suite: 7 min 40-50 s,
 # within the runs' spread, and not kept)
 OTHER_KERNEL := OPENBLAS_CORETYPE=Sandybridge NUMBA_CPU_NAME=generic
 BESIDE := DYNO_FIT_THREADS=1 $(OTHER_KERNEL) $(PYTEST) -n 1 -m "rounding and not slow and not realtime"

@@ -18,9 +18,10 @@ DYNO = str(Path(sys.executable).parent / "dyno")
 
 # pytest-xdist's workers share the cores: each (and every dyno command it starts) fits on its
 # share, unless the caller gave one (the Makefile's run beside the suite: DYNO_FIT_THREADS=1)
-from workers import threads  # noqa: E402
-if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit() and threads.ENV not in os.environ:
-    threads.share(int(os.environ["PYTEST_XDIST_WORKER_COUNT"]))
+if os.environ.get("PYTEST_XDIST_WORKER_COUNT", "").isdigit():
+    from workers import threads
+    if threads.ENV not in os.environ:
+        threads.share(int(os.environ["PYTEST_XDIST_WORKER_COUNT"]))
 
 
 def dyno(*args):
@@ -143,10 +144,9 @@ SHARED = ("koni_run",)
 
 # One worker runs the tests against the wall clock first, one after another (about half a
 # core for 150 s: the other worker's tests and the Makefile's other-kernel run beside them),
-# then the prove runs. A prove run's
-# recording hands every tick from thread to thread through the embedded rig's emulators;
-# beside the wall-clock tests' SCHED_FIFO threads it took twice its time. The prove tests
-# share their null run (the prove_keep fixture), made once on this worker.
+# then the prove runs. A prove run's recording hands every tick from thread to thread through
+# the embedded rig's emulators; beside the wall-clock tests' SCHED_FIFO threads it took twice
+# its time. The prove tests share their null run (the prove_keep fixture), made once on this worker.
 SERIAL = "wall clock, then prove"
 
 

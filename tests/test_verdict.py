@@ -168,6 +168,44 @@ def test_a_fit_that_stops_at_its_step_limit_is_said_not_converged(monkeypatch):
     assert "Not converged: the baseline's fit stopped at its limit of 2 steps on 2 folds" in summary(res)
 
 
+@pytest.mark.rounding
+def test_a_fit_stopped_at_a_kink_starts_again_where_it_stopped(tmp_path):
+    """A trust region that shrank at a kink of the residual stops on the cost's tolerance
+    short of its optimum, wherever the last bits left it (fitting.solve): a fresh start
+    checks each stop. The minimal baseline on the UTFSM 25 mm 0.5 Hz 0 A file, both folds,
+    its three starts: one trust region alone stopped 1.2e-3 of the cost short on one of six,
+    under this machine's rounding and the other kernel's (2 and 5 of 6 beyond 1e-5); with
+    fresh starts each stops within 1e-3 of a tightly polished optimum, five of six within
+    1e-5 (the sixth 2-5e-4 short: there a fresh start gains less than FTOL, and only a polish
+    of hundreds of evaluations finds more)."""
+    from scipy.optimize import least_squares
+    from models.diagnose import _starts, fitting, holdout_masks
+    from models.diagnose.candidates import WITH_BASELINE, Minimal, Model
+    from models.diagnose.data import prepare
+    from records import source_filter
+    from records.reader import load_recording
+    rec = tmp_path / "r.mcap"
+    assert dyno("import", SINE / "25mm0x5Hz0A.txt", "--out", rec, *MAP).returncode == 0
+    ch, events, meta = load_recording(rec)
+    d = prepare(ch, events, None, source_filter.of(meta))
+    base = Minimal(d)
+    m = Model(d, list(WITH_BASELINE), base=base)
+    names = [p.name for p in m.params]
+    lo, hi = np.array([p.lo for p in m.params]), np.array([p.hi for p in m.params])
+    Fs = float(np.std(d.F))
+    short = []
+    for train, _ in holdout_masks(d)[0]:
+        resid = lambda z, train=train: (m.force(d, dict(zip(names, z))) - d.F)[train] / Fs
+        for start in [{}] + _starts(d, base):
+            z = np.array([fitting.fit(m, d, train, start)[0][n] for n in names])
+            scale = np.maximum((hi - lo) * 1e-3, np.abs(z) * 0.1)
+            best = least_squares(lambda u: resid(u * scale), z / scale, bounds=(lo / scale, hi / scale), ftol=1e-14,
+                                 xtol=1e-14, gtol=1e-14, x_scale="jac", max_nfev=300)
+            cost = float(np.sum(resid(z) ** 2))
+            short.append((cost - 2 * best.cost) / cost)
+    assert max(short) < 1e-3 and sum(s > 1e-5 for s in short) <= 1, short
+
+
 def test_repeats_diagnose_perturbed_copies_and_count_what_each_named(tmp_path):
     """`dyno diagnose --repeats N`: N diagnoses, the recording's and N - 1 copies with the force
     rescaled by 1 +- k 1e-9; how often each effect was named or at the edge, in the JSON and

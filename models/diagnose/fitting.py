@@ -134,9 +134,29 @@ def solve(resid, jac, z0, lo, hi, scale, max_nfev):
     """scipy's trust-region least squares over parameters z within [lo, hi], in units of
     their scale: its step tolerance (xtol) compares a step with the parameters' norm, so
     in raw units a stiffness of 1e4 N s/m hid every step of a compliance of 1e-7 m/N and
-    stopped the fit where it started. The result's x and jac are in z's units."""
-    r = least_squares(lambda u: resid(u * scale), z0 / scale, bounds=(lo / scale, hi / scale), max_nfev=max_nfev,
-                      ftol=FTOL, x_scale="jac", method="trf", jac="2-point" if jac is None else (lambda u: jac(u * scale) * scale))
+    stopped the fit where it started. The result's x and jac are in z's units.
+    A stop short of the step limit is checked by a fresh start where it stopped, until one
+    gains less than FTOL: at a kink of the residual (a delay's interpolation between
+    samples, a friction's reversal) scipy's trust region shrinks to steps too small to gain
+    FTOL while the fit is still far from its optimum, and where it stopped was then the last
+    bits' choice (on a real 10 mm 1 Hz MR file, 9 of 46 fits stopped 0.05 to 0.9 noise
+    variances short, and a valve form was named on one processor and not on another)."""
+    run = lambda u0, n: least_squares(lambda u: resid(u * scale), u0, bounds=(lo / scale, hi / scale), max_nfev=n,
+                                      ftol=FTOL, x_scale="jac", method="trf",
+                                      jac="2-point" if jac is None else (lambda u: jac(u * scale) * scale))
+    r = run(z0 / scale, max_nfev)
+    used = r.nfev
+    while r.status > 0:  # stopped by a tolerance, not by the step limit
+        if used >= max_nfev:
+            r.status = 0  # the step limit, reached by fresh starts that still gained
+            break
+        again = run(r.x, max_nfev - used)
+        used += again.nfev
+        cost, gained = float(np.sum(r.fun ** 2)), float(np.sum(r.fun ** 2) - np.sum(again.fun ** 2))
+        if gained > 0:
+            r = again
+        if gained <= FTOL * cost:
+            break
     r.x = np.clip(r.x * scale, lo, hi)
     r.jac = r.jac / scale
     return r

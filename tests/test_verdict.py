@@ -197,7 +197,8 @@ def test_a_fit_stopped_at_a_kink_starts_again_where_it_stopped(tmp_path):
     for train, _ in holdout_masks(d)[0]:
         resid = lambda z, train=train: (m.force(d, dict(zip(names, z))) - d.F)[train] / Fs
         for start in [{}] + _starts(d, base):
-            z = np.array([fitting.fit(m, d, train, start)[0][n] for n in names])
+            landed = fitting.fit(m, d, train, start)[0]
+            z = np.array([landed[n] for n in names])
             scale = np.maximum((hi - lo) * 1e-3, np.abs(z) * 0.1)
             best = least_squares(lambda u: resid(u * scale), z / scale, bounds=(lo / scale, hi / scale), ftol=1e-14,
                                  xtol=1e-14, gtol=1e-14, x_scale="jac", max_nfev=300)

@@ -20,11 +20,11 @@ RUN_KEY = "smoothed"  # the recording's run metadata: Smoothing.text()
 _FORM = re.compile(r"^\s*([0-9.eE+-]+)\s*(period|periods|s|ms)\s*$")
 
 
-def _stretches(t, h):
+def unbroken(t, h):
     """(first, end) sample of each stretch of times t [s] that no gap longer than 1.5
     samples of h [s] breaks: a filter never averages across a hole."""
     cuts = [0, *(np.flatnonzero(np.diff(t) > 1.5 * h) + 1).tolist(), len(t)]
-    return zip(cuts[:-1], cuts[1:])
+    return list(zip(cuts[:-1], cuts[1:]))
 
 
 @dataclass(frozen=True)
@@ -42,17 +42,18 @@ class Smoothing:
             return 1 if not freq_hz else max(1, int(round(self.width / (freq_hz * h))))
         return max(1, int(round(self.width / h)))
 
-    def apply(self, y, t, h: float, freq_hz: float | None):
+    def apply(self, y, t, h: float, freq_hz: float | None, stretches=None):
         """y [any unit] on times t [s] through the window, stretch by stretch: a gap longer
-        than 1.5 samples starts a new one (the filter never averages across a hole)."""
+        than 1.5 samples starts a new one (the filter never averages across a hole).
+        stretches: unbroken(t, h), given where the same times are filtered again and again."""
         from scipy.ndimage import uniform_filter1d  # not at import: the CLI's parser reads this module
         n = self.samples(h, freq_hz)
         y = np.asarray(y, float)
         if n < 2 or len(y) < 2:
             return y
         out = np.empty_like(y)
-        for a, b in _stretches(t, h):
-            out[a:b] = uniform_filter1d(y[a:b], min(n, b - a), mode="nearest")
+        for a, b in stretches or unbroken(t, h):
+            uniform_filter1d(y[a:b], min(n, b - a), output=out[a:b], mode="nearest")
         return out
 
 
@@ -73,9 +74,9 @@ class LowPass:
     def text(self) -> str:
         return f"{self.kind}:{self.order}:{self.cutoff_hz:g}Hz" + (":zero-phase" if self.zero_phase else "")
 
-    def apply(self, y, t, h: float, freq_hz: float | None = None):
+    def apply(self, y, t, h: float, freq_hz: float | None = None, stretches=None):
         """y [any unit] on times t [s] through the filter, stretch by stretch (a gap longer
-        than 1.5 samples starts a new one, at rest at its first value)."""
+        than 1.5 samples starts a new one, at rest at its first value; stretches as Smoothing's)."""
         from scipy import signal  # not at import: the CLI's parser reads this module
         y = np.asarray(y, float)
         if len(y) < 2 or self.cutoff_hz >= 0.49 / h:
@@ -84,7 +85,7 @@ class LowPass:
         sos = design(self.order, self.cutoff_hz, fs=1.0 / h, output="sos",
                      **({} if self.kind == "butter" else {"norm": "phase"}))
         out = np.empty_like(y)
-        for a, b in _stretches(t, h):
+        for a, b in stretches or unbroken(t, h):
             if self.zero_phase and b - a > 3 * (2 * len(sos) + 1):
                 out[a:b] = signal.sosfiltfilt(sos, y[a:b])
             else:

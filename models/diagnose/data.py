@@ -18,7 +18,7 @@ import numpy as np
 from models.diagnose import quality
 from records.data import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
 from records.segmentation import imported_unsegmented, left_out
-from records.source_filter import Smoothing
+from records.source_filter import Smoothing, unbroken
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
@@ -72,20 +72,24 @@ class Data:
         if self.smoothing is None:
             return y
         out = np.array(y, float)
-        for j, t, h, f in self._stretches:
-            out[j] = self.smoothing.apply(out[j], t, h, f)
+        for j, t, h, f, stretches in self._stretches:
+            out[j] = self.smoothing.apply(out[j], t, h, f, stretches)
         return out
 
     @cached_property
     def _stretches(self):
-        """(samples, their times, median spacing [s], frequency [Hz] or None) of each segment:
-        what through_source reads at every model evaluation and column (a fifth of a smoothed
-        file's diagnosis went to finding them again), taken once: the data do not change."""
+        """(samples, their times, median spacing [s], frequency [Hz] or None, the stretches no
+        gap breaks) of each segment: what through_source reads at every model evaluation and
+        column (a fifth of a smoothed file's diagnosis went to finding them again), taken
+        once: the data do not change. A segment's samples in one run are a slice (a view)."""
         out = []
         for s, (_, f) in enumerate(self.segments):
             j = np.nonzero(self.segment == s)[0]
             if len(j):
-                out.append((j, self.t[j], float(np.median(self.h[j])), f if self.periodic else None))
+                h = float(np.median(self.h[j]))
+                if j[-1] - j[0] + 1 == len(j):
+                    j = slice(int(j[0]), int(j[-1]) + 1)
+                out.append((j, self.t[j], h, f if self.periodic else None, unbroken(self.t[j], h)))
         return out
 
 

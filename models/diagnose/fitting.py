@@ -152,7 +152,8 @@ def solve(resid, jac, z0, lo, hi, scale, max_nfev):
             break
         again = run(r.x, max_nfev - used)
         used += again.nfev
-        cost, gained = float(np.sum(r.fun ** 2)), float(np.sum(r.fun ** 2) - np.sum(again.fun ** 2))
+        cost = float(np.sum(r.fun ** 2))
+        gained = cost - float(np.sum(again.fun ** 2))
         if gained > 0:
             r = again
         if gained <= FTOL * cost:

@@ -239,8 +239,9 @@ def test_a_fold_stuck_in_a_local_minimum_restarts_from_the_other_folds_values():
 
 def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winner():
     """A paired test block by block: a candidate whose held-out error is the winner's, give or
-    take noise, is its rival; one clearly worse is not; another form of the same effect is
-    the same physics. The sentence names the group and tells no mechanism's story."""
+    take noise, is its rival in each judgement in which it was accepted, and in no other; one
+    clearly worse is not; another form of the same effect is the same physics. The sentence
+    names the group and tells no mechanism's story."""
     from models.diagnose.referees import rivals
     from models.diagnose.result import Candidate, Step
     from models.diagnose.stability import Judge, Variant
@@ -250,15 +251,21 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     judged, ids = np.ones(len(block), bool), np.arange(40)
     r_best = rng.normal(0, 10.0, len(block))
 
-    def cand(effect, r):
-        return (Candidate(effect, 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 50.0, 2.0), {}, [], r)
+    def cand(effect, r, accepted=(1.0, 1.0, 1.0)):
+        c = Candidate(effect, 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 50.0, 2.0)
+        c.accept_votes = np.array(accepted)
+        return c, {}, [], r
     alike = cand("presliding_friction", r_best * (1 + rng.normal(0, 0.02, len(block))))
     worse = cand("compressibility", r_best * 1.5)
     own_form = cand("bouc_wen:aux.current", r_best)
+    once = cand("cavitation", r_best * (1 + rng.normal(0, 0.02, len(block))), accepted=(0.0, 1.0, 0.0))
+    never = cand("fluid_inertia", r_best, accepted=(0.0, 0.0, 0.0))
     best = Candidate("bouc_wen", 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 60.0, 2.4)
-    found, votes = rivals(best, r_best, [alike, worse, own_form], Judge(judged, [Variant(block, ids, 1)]))
+    judge = Judge(judged, [Variant(block, ids, s) for s in (1, 2, 3)])
+    found, votes = rivals(best, r_best, [alike, worse, own_form, once, never], judge)
     assert [e for e, _, _ in found] == ["presliding_friction"] and found[0][2] >= 0.01
-    assert votes["presliding_friction"].tolist() == [1.0] and votes["compressibility"].tolist() == [0.0]
+    assert votes["presliding_friction"].tolist() == [1.0] * 3 and votes["compressibility"].tolist() == [0.0] * 3
+    assert votes["cavitation"].tolist() == [0.0, 1.0, 0.0] and "fluid_inertia" not in votes
     step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=found,
                 depends_on=["displacement", "direction"], character="elastic", region="both directions",
                 size_rms_n=80.0, size_peak_n=200.0)

@@ -207,6 +207,29 @@ def test_a_fit_stopped_at_a_kink_starts_again_where_it_stopped(tmp_path):
     assert max(short) < 1e-3 and sum(s > 1e-5 for s in short) <= 1, short
 
 
+@pytest.mark.rounding
+def test_the_baseline_lands_in_one_valley_whatever_the_last_bits(tmp_path):
+    """The UTFSM 2 mm 5 Hz 1 A file, an MR fluid's pre-yield stiffness in its loop: from the
+    data's starts one of the baseline's six fits found the valley where the gas spring carries
+    that stiffness (held-out error 4.0 % of the range), and with the force x (1 + 1e-9) none
+    (6.3 %, every verdict after it another). A start from the loop's stiffness lands there
+    both ways."""
+    from models.diagnose import _fit_baseline, holdout_masks
+    from models.diagnose.candidates import WITH_BASELINE, Minimal
+    from models.diagnose.data import prepare
+    from records import source_filter
+    from records.reader import load_recording
+    errors = []
+    for k, gain in enumerate(([], ["--gain", f"force={1 + 1e-9!r}"])):
+        rec = tmp_path / f"{k}.mcap"
+        assert dyno("import", SINE / "2mm5Hz1A.txt", "--out", rec, *MAP, *gain).returncode == 0
+        ch, events, meta = load_recording(rec)
+        d = prepare(ch, events, None, source_filter.of(meta))
+        folds, _, shown = holdout_masks(d)
+        errors.append(_fit_baseline(d, Minimal(d), list(WITH_BASELINE), folds, shown)[0].nrmse_heldout)
+    assert max(errors) < 0.045 and abs(errors[1] - errors[0]) < 1e-3, errors
+
+
 def test_repeats_diagnose_perturbed_copies_and_count_what_each_named(tmp_path):
     """`dyno diagnose --repeats N`: N diagnoses, the recording's and N - 1 copies with the force
     rescaled by 1 +- k 1e-9; how often each effect was named or at the edge, in the JSON and

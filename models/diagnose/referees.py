@@ -8,7 +8,7 @@ import numpy as np
 from models.diagnose.bootstrap import ALPHA
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.fitting import linear_fit, open_params
-from models.diagnose.stability import EDGE, against
+from models.diagnose.stability import EDGE, against, holds
 
 RELEVANCE = 0.1  # noise variances an accepted effect must gain at least
 # a mechanism whose variables the loop shows is named only when it beats this stand-in
@@ -80,8 +80,7 @@ def rivals_of(d, best, r_best, round_, judge):
     """(rivals, {candidate: its votes as a rival}) of a round's winner: the candidates the
     held-out blocks cannot tell from it (rivals), and the cell's timing where one test
     frequency cannot (timing_rival). Its stand-in is stood_in's."""
-    significant = [x for x in round_ if x[0].accept_share >= 0.5]
-    found, votes = rivals(best, r_best, significant, judge)
+    found, votes = rivals(best, r_best, round_, judge)
     lag = timing_rival(d, best, r_best, [x for x in round_ if x[0].accept_share > EDGE], judge, found)
     if lag:
         found, votes = sorted(found + [lag], key=lambda x: -x[1]), {**votes, lag[0]: np.ones(len(judge.variants))}
@@ -117,13 +116,20 @@ def referee(spec):
     return STAND_IN if set(spec.depends_on) <= LOOP_VARIABLES else None
 
 
-def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge):
+def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge, rival_votes=None):
     """((stand-in, paired p) or None, votes): the stand-in when a mechanism does not beat,
     on the same held-out blocks at p < ALPHA in at least half of the judgements, its referee
     (above) fitted beside the same accepted effects; votes: 1.0 in each judgement in which it
     does not. Catalogue physics and terms outside it alike, so that the answer cannot slide from
-    one flexible name to the next."""
+    one flexible name to the next. The cell's timing or a form carried where the recording
+    cannot tell it from physics (a rival in at least stability.HELD of the judgements,
+    rival_votes) faces that physics' referee: which of equals the model carried is not to
+    decide whether the mechanism was told from the surface (the UTFSM 2 mm 5 Hz 1 A file: a
+    friction carried, a stand-in; the cell's timing carried, with the same rivals, a group)."""
     spec = EFFECTS[best.effect.split(":")[0]]
+    if spec.nature not in ("physics", "open"):
+        spec = next((EFFECTS[e.split(":")[0]] for e, v in (rival_votes or {}).items()
+                     if EFFECTS[e.split(":")[0]].nature in ("physics", "open") and holds(np.mean(v))), spec)
     judge_term = referee(spec)
     if spec.nature not in ("physics", "open") or ":" in best.effect or not judge_term or judge_term in fitted:
         return None, np.zeros(len(judge.variants))
@@ -135,19 +141,22 @@ def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge):
     return ((judge_term, judge.p(r_best, r, ALPHA)) if np.mean(votes) >= 0.5 else None), votes
 
 
-def rivals(best, r_best, significant, judge):
+def rivals(best, r_best, round_, judge):
     """([(effect, gain in noise variances, paired p)], {effect: votes}) of the round's
-    significant candidates the recording cannot tell from the winner: on the same held-out
-    blocks, the log ratio of the candidate's error to the winner's, bootstrapped; p >= ALPHA:
-    the winner is not better (a paired test, not two p-values against the baseline
-    compared). A rival is one in more than stability.EDGE of the judgements (votes: 1.0 in
-    each in which it is; below stability.HELD it is said at the edge). Another form
-    of the winner's own effect is not a rival: it is the same physics."""
+    candidates the recording cannot tell from the winner: on the same held-out blocks, the
+    log ratio of the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner
+    is not better (a paired test, not two p-values against the baseline compared). A
+    candidate is a rival in a judgement where it is accepted and the winner is not better
+    (votes: 1.0 in each; its acceptance's band counts half), one judgement at a time: gated
+    on its acceptance share instead, a candidate accepted in 7 of 15 judgements was no rival
+    at all and in 8 a rival in all 15, a flip by one vote. Said when a rival in more than
+    stability.EDGE of the judgements (below stability.HELD at the edge). Another form of
+    the winner's own effect is not a rival: it is the same physics."""
     out, votes = [], {}
-    for c, _, _, r in significant:
-        if c.effect.split(":")[0] == best.effect.split(":")[0]:
+    for c, _, _, r in round_:
+        if c.effect.split(":")[0] == best.effect.split(":")[0] or not np.any(c.accept_votes):
             continue
-        votes[c.effect] = 1.0 - judge.votes(r_best, r, ALPHA)
+        votes[c.effect] = c.accept_votes * (1.0 - judge.votes(r_best, r, ALPHA))
         if np.mean(votes[c.effect]) > EDGE:  # a rival in some judgements: said, with its share
             out.append((c.effect, c.relevance, judge.p(r_best, r, ALPHA)))
     return sorted(out, key=lambda x: -x[1]), votes

@@ -83,7 +83,7 @@ def rivals_of(d, best, r_best, round_, judge):
     found, votes = rivals(best, r_best, round_, judge)
     lag = timing_rival(d, best, r_best, [x for x in round_ if x[0].accept_share > EDGE], judge, found)
     if lag:
-        found, votes = sorted(found + [lag], key=lambda x: -x[1]), {**votes, lag[0]: np.ones(len(judge.variants))}
+        found, votes = sorted(found + [lag], key=lambda x: -x[1]), {**votes, lag[0]: np.asarray(best.accept_votes, float)}
     return found, votes
 
 
@@ -146,17 +146,18 @@ def rivals(best, r_best, round_, judge):
     candidates the recording cannot tell from the winner: on the same held-out blocks, the
     log ratio of the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner
     is not better (a paired test, not two p-values against the baseline compared). A
-    candidate is a rival in a judgement where it is accepted and the winner is not better
-    (votes: 1.0 in each; its acceptance's band counts half), one judgement at a time: gated
+    candidate is a rival in a judgement where both are accepted and the winner is not better
+    (votes: 1.0 in each; an acceptance's band counts half), one judgement at a time: gated
     on its acceptance share instead, a candidate accepted in 7 of 15 judgements was no rival
-    at all and in 8 a rival in all 15, a flip by one vote. Said when a rival in more than
+    at all and in 8 a rival in all 15, a flip by one vote; and a winner carried at the edge
+    of its own acceptance (one the blocks cannot tell from the best) held its group firmly. Said when a rival in more than
     stability.EDGE of the judgements (below stability.HELD at the edge). Another form of
     the winner's own effect is not a rival: it is the same physics."""
     out, votes = [], {}
     for c, _, _, r in round_:
         if c.effect.split(":")[0] == best.effect.split(":")[0] or not np.any(c.accept_votes):
             continue
-        votes[c.effect] = c.accept_votes * (1.0 - judge.votes(r_best, r, ALPHA))
+        votes[c.effect] = best.accept_votes * c.accept_votes * (1.0 - judge.votes(r_best, r, ALPHA))
         if np.mean(votes[c.effect]) > EDGE:  # a rival in some judgements: said, with its share
             out.append((c.effect, c.relevance, judge.p(r_best, r, ALPHA)))
     return sorted(out, key=lambda x: -x[1]), votes

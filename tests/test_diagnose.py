@@ -267,8 +267,8 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     assert [e for e, _, _ in found] == ["presliding_friction"] and found[0][2] >= 0.01
     assert votes["presliding_friction"].tolist() == [1.0] * 3 and votes["compressibility"].tolist() == [0.0] * 3
     assert votes["cavitation"].tolist() == [0.0, 1.0, 0.0] and "fluid_inertia" not in votes
-    best.accept_votes = np.array([1.0, 1.0, 0.0])  # a winner at the edge of its own acceptance
-    assert rivals(best, r_best, [alike], judge)[1]["presliding_friction"].tolist() == [1.0, 1.0, 0.0]
+    best.accept_votes = np.array([1.0, 0.5, 0.0])  # a winner at the edge of its own acceptance
+    assert rivals(best, r_best, [alike], judge)[1]["presliding_friction"].tolist() == [1.0, 0.5, 0.0]
     step = Step("bouc_wen", 0.03, 0.02, {}, {}, 1e-4, r_best, r_best, [], [], [], rivals=found,
                 depends_on=["displacement", "direction"], character="elastic", region="both directions",
                 size_rms_n=80.0, size_peak_n=200.0)

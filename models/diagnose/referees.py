@@ -147,7 +147,7 @@ def rivals(best, r_best, round_, judge):
     log ratio of the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner
     is not better (a paired test, not two p-values against the baseline compared). A
     candidate is a rival in a judgement where both are accepted and the winner is not better
-    (votes: 1.0 in each; an acceptance's band counts half), one judgement at a time: gated
+    (votes: 1.0 in each; an acceptance within a bar's band counts half), one judgement at a time: gated
     on its acceptance share instead, a candidate accepted in 7 of 15 judgements was no rival
     at all and in 8 a rival in all 15, a flip by one vote; and a winner carried at the edge
     of its own acceptance (one the blocks cannot tell from the best) held its group firmly. Said when a rival in more than
@@ -157,7 +157,10 @@ def rivals(best, r_best, round_, judge):
     for c, _, _, r in round_:
         if c.effect.split(":")[0] == best.effect.split(":")[0] or not np.any(c.accept_votes):
             continue
-        votes[c.effect] = best.accept_votes * c.accept_votes * (1.0 - judge.votes(r_best, r, ALPHA))
+        # both accepted: the lesser of the two (two acceptances within a bar's band are at
+        # its edge together, a half, not a quarter)
+        both = np.minimum(best.accept_votes, c.accept_votes)
+        votes[c.effect] = both * (1.0 - judge.votes(r_best, r, ALPHA))
         if np.mean(votes[c.effect]) > EDGE:  # a rival in some judgements: said, with its share
             out.append((c.effect, c.relevance, judge.p(r_best, r, ALPHA)))
     return sorted(out, key=lambda x: -x[1]), votes

@@ -96,7 +96,8 @@ def stand_in_sentence(step, span):
     on = _on(step) if step.depends_on else "displacement, velocity and direction"
     if "time" in judge.depends_on and "time" not in on:  # a temperature that only rose
         on += ", or on time alone"
-    rivals = (f"; {', '.join(said(e) for e, _, _ in step.rivals)} explain it about equally too" if step.rivals else "")
+    verb = "explains" if len(step.rivals) == 1 else "explain"
+    rivals = (f"; {', '.join(said(e) for e, _, _ in step.rivals)} {verb} it about equally too" if step.rivals else "")
     return (f"Not named: the force depends on {on} beyond the baseline, {_rms(step, span)}. "
             f"{judge.what[0].upper() + judge.what[1:]} (a flexible model, no mechanism in it) explains it as well as "
             f"{said(step.effect)} on the held-out cycles (paired p {step.stand_in[1]:.2g} that {said(step.effect)} is "

@@ -147,12 +147,13 @@ def rivals(best, r_best, round_, judge):
     log ratio of the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner
     is not better (a paired test, not two p-values against the baseline compared). A
     candidate is a rival in a judgement where both are accepted and the winner is not better
-    (votes: 1.0 in each; an acceptance within a bar's band counts half), one judgement at a time: gated
-    on its acceptance share instead, a candidate accepted in 7 of 15 judgements was no rival
-    at all and in 8 a rival in all 15, a flip by one vote; and a winner carried at the edge
-    of its own acceptance (one the blocks cannot tell from the best) held its group firmly. Said when a rival in more than
-    stability.EDGE of the judgements (below stability.HELD at the edge). Another form of
-    the winner's own effect is not a rival: it is the same physics."""
+    (votes: 1.0 in each; an acceptance within a bar's band counts half), one judgement at a
+    time: gated on its acceptance share instead, a candidate accepted in 7 of 15 judgements
+    was no rival at all and in 8 a rival in all 15, a flip by one vote; and a winner carried
+    at the edge of its own acceptance (one the blocks cannot tell from the best) held its
+    group firmly. Said when a rival in more than stability.EDGE of the judgements (below
+    stability.HELD at the edge). Another form of the winner's own effect is not a rival: it
+    is the same physics."""
     out, votes = [], {}
     for c, _, _, r in round_:
         if c.effect.split(":")[0] == best.effect.split(":")[0] or not np.any(c.accept_votes):

@@ -425,7 +425,9 @@ def test_a_finding_whose_rivals_depend_on_other_variables_says_either():
     """A zero drifting in time over a matrix whose amplitudes rise with it: hysteresis, an
     elastic force along the stroke and a drift explain it about equally. The dependence
     said is the group's, displacement or time, never displacement alone. A group with the
-    valve curve's form says that the form may be no physics left out at all."""
+    valve curve's form says that the form may be no physics left out at all. The cell's
+    timing carried in a group says its rivals' variables: a lag depends on the motion, not on
+    the time elapsed."""
     from models.diagnose.result import Step
     from models.diagnose.words import rivals_sentence, stand_in_sentence
     step = Step("bouc_wen", 0.0128, 0.012, {}, {}, 3e-5, np.zeros(3), np.zeros(3), [], [], [],
@@ -444,6 +446,11 @@ def test_a_finding_whose_rivals_depend_on_other_variables_says_either():
                     size_rms_n=0.69, size_peak_n=5.3)
     assert "the valve curve's form is the baseline's own law reshaped, so it may be no physics left out at all" \
         in rivals_sentence(stribeck)
+    lag = Step("sensor_delay", 0.024, 0.0056, {"tau": 1e-3}, {}, 3e-5, np.zeros(3), np.zeros(3), [], [], [],
+               rivals=[("presliding_friction", 20.0, 0.4)], stand_in=("loop_surface", 1.0), nature="cell",
+               depends_on=["time"], size_rms_n=71.1, size_peak_n=200.0)
+    assert "Not named: the force depends on displacement, direction beyond the baseline" in stand_in_sentence(lag, 3e3)
+    assert "it depends on displacement, direction;" in rivals_sentence(lag)
 
 
 def test_the_recorded_dampers_own_compressibility_is_not_said_as_left_out(tmp_path):

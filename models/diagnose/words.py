@@ -34,8 +34,11 @@ def alternatives(step):
 
 
 def _on(step):
-    """What a finding depends on: its own variables, or its rivals'."""
+    """What a finding depends on: its own variables, or its rivals'. A lag carried in a group
+    says its rivals' only: it depends on the motion itself, not on the time elapsed."""
     other = alternatives(step)
+    if other and EFFECTS[step.effect.split(":")[0]].acts_on == "motion":
+        return ", ".join(other)
     return ", ".join(step.depends_on) + (f", or on {', '.join(other)}" if other else "")
 
 

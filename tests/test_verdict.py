@@ -17,6 +17,7 @@ from models.diagnose.kernels import delayed
 from models.diagnose.referees import _first
 from models.diagnose.result import Candidate
 from tests.conftest import dyno
+from tests.verdicts import verdict
 
 DYNO = str(Path(sys.executable).parent / "dyno")
 SINE = Path(__file__).parent / "data" / "mr-damper-utfsm" / "sine"
@@ -94,13 +95,6 @@ def test_the_baselines_derivatives_are_its_differences():
     assert set(altered.columns(altered.forces(d, {**p, "inv_k_oil": 1e-7}))) == set(p) | {"inv_k_oil"}
 
 
-def _verdict(doc):
-    """What the diagnosis says: named, at the edge, and the groups it cannot tell apart."""
-    groups = sorted(tuple(sorted([e["effect"]] + [r["effect"] for r in e["rivals"] if stability.holds(r["held_in"])]))
-                    for e in doc["effects"] if "rivals" in e and not e["small"] and not e["stand_in"] and e["rivals"])
-    return doc["named"], doc["at_edge"], groups
-
-
 @pytest.mark.rounding
 def test_a_delayed_channel_is_numpys_interpolation_to_the_last_bit():
     """kernels.delayed (a sensor delay's or the alignment's shift) is np.interp(t - tau, t, y)
@@ -134,7 +128,7 @@ def test_a_real_recording_gets_one_verdict_three_ways(tmp_path, current):
                            env={**os.environ, **env})
         assert p.returncode == 0, p.stderr
         docs.append(json.loads(p.stdout))
-    verdicts = [_verdict(d) for d in docs]
+    verdicts = [verdict(d) for d in docs]  # named, at the edge, groups, each decision held or at the edge
     assert verdicts[1] == verdicts[0] and verdicts[2] == verdicts[0], verdicts
     doc = docs[0]
     assert doc["judgements"] == stability.SHIFTS * stability.DRAWS

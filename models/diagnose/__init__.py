@@ -36,7 +36,7 @@ from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Fina
 from models.diagnose.noise import noise_from, noise_sd
 from models.diagnose import stability
 from models.diagnose.bootstrap import ALPHA, p_value
-from models.diagnose.referees import RELEVANCE, bar, chosen, rivals_of, stood_in, term
+from models.diagnose.referees import MECHANISMS, RELEVANCE, bar, chosen, rivals_of, stood_in, term
 from models.diagnose.stages import Clock
 from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
@@ -310,7 +310,7 @@ def _sized(steps, excess, sigma):
     the cell's and the valve curve's form are never said as physics left out. Then how
     firmly each is named (held_in): the share of the judgements in which it is accepted,
     with no rival and no stand-in, times its size against the practical size's band."""
-    is_physics = [EFFECTS[s.effect.split(":")[0]].nature in ("physics", "open") for s in steps]
+    is_physics = [EFFECTS[s.effect.split(":")[0]].nature in MECHANISMS for s in steps]
     left = excess - sigma ** 2 * sum(s.relevance for s, ph in zip(steps, is_physics) if not ph)
     for s, ph in zip(steps, is_physics):
         sized = 1.0

@@ -23,6 +23,7 @@ TIMING = next(n for n, e in EFFECTS.items() if e.acts_on == "motion" and e.needs
 # and a term along the stroke per direction takes up any loop of one amplitude and
 # frequency, a lag's with the file's own misfit (a 17 ms lag on a real 0.5 Hz run: 0.22)
 TIMING_SHARE = 0.1
+MECHANISMS = ("physics", "open")  # natures that say physics left out: sized, and faced with a referee
 ONE_FREQUENCY = 1.1  # segments whose frequencies are within this ratio are one test frequency
 
 
@@ -96,7 +97,7 @@ def timing_rival(d, best, r_best, near, judge, found):
     round's candidates accepted in more than stability.EDGE of the judgements."""
     f = [f for _, f in d.segments if f]
     spec = EFFECTS[best.effect.split(":")[0]]
-    if (not f or max(f) > ONE_FREQUENCY * min(f) or spec.name == TIMING or spec.nature not in ("physics", "open")
+    if (not f or max(f) > ONE_FREQUENCY * min(f) or spec.name == TIMING or spec.nature not in MECHANISMS
             or not set(spec.depends_on) <= LOOP_VARIABLES or any(e == TIMING for e, _, _ in found)):
         return None
     lag = next((x for x in near if x[0].effect == TIMING), None)
@@ -127,11 +128,11 @@ def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge, rival_votes=N
     decide whether the mechanism was told from the surface (the UTFSM 2 mm 5 Hz 1 A file: a
     friction carried, a stand-in; the cell's timing carried, with the same rivals, a group)."""
     spec = EFFECTS[best.effect.split(":")[0]]
-    if spec.nature not in ("physics", "open"):
+    if spec.nature not in MECHANISMS:
         spec = next((EFFECTS[e.split(":")[0]] for e, v in (rival_votes or {}).items()
-                     if EFFECTS[e.split(":")[0]].nature in ("physics", "open") and holds(np.mean(v))), spec)
+                     if EFFECTS[e.split(":")[0]].nature in MECHANISMS and holds(np.mean(v))), spec)
     judge_term = referee(spec)
-    if spec.nature not in ("physics", "open") or ":" in best.effect or not judge_term or judge_term in fitted:
+    if spec.nature not in MECHANISMS or ":" in best.effect or not judge_term or judge_term in fitted:
         return None, np.zeros(len(judge.variants))
     m = Model(d, fitted + [judge_term], base)
     # from the winner's own fit (the baseline where the mechanism's nonlinear refit moved it),

@@ -99,12 +99,12 @@ def _said(done):
           + (" (velocity derived from displacement)" if done.velocity_derived else ""))
     if done.named_units:
         print("units from the columns' names: " + ", ".join(f"{n} [{u}]" for n, u in done.named_units.items()))
+    from records.segmentation import division
     sines = [f for f in done.segments if f.kind == "sine"]
-    holds = len(done.segments) - len(sines)
-    print(f"segments: {len(sines)} periodic"
-          + (": " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)" for f in sines[:6])
-             + (", ..." if len(sines) > 6 else "") if sines else " (motion that does not repeat: analysed in blocks)")
-          + (f"; {holds} holds" if holds else ""))
+    duration = max((f.t1 for f in done.segments), default=0.0) - min((f.t0 for f in done.segments), default=0.0)
+    print(f"segments: {division(done.segments, duration) or 'none'}"
+          + ("; " + ", ".join(f"{f.name} ({f.params['cycles']} cycles)" for f in sines[:6])
+             + (", ..." if len(sines) > 6 else "") if sines else ""))
     for note in done.notes:
         print(note)
     print(catalogue.add(done.path))

@@ -17,8 +17,10 @@ import numpy as np
 from records.events import SegmentEnd, SegmentStart
 
 # what a segment of motion is; the analyses choose segments by these
-# road: motion a virtual car or a replayed history asks for (hardware-in-the-loop, replay)
-KINDS = ("hold", "low-speed", "sine", "step", "rest", "warm-up", "transition", "road")
+# road: motion a virtual car or a replayed history asks for (hardware-in-the-loop, replay);
+# sweep, ramp, dwell, random: what records/segmentation.py finds in another dyno's program
+KINDS = ("hold", "low-speed", "sine", "step", "rest", "warm-up", "transition", "road", "sweep", "ramp", "dwell",
+         "random")
 LOW_SPEED_HZ = 0.5  # recordings without kinds: cycling at or below this was the low-speed test
 
 
@@ -224,24 +226,6 @@ def smooth(y, h, freq):
     from scipy.signal import butter, filtfilt  # here: scipy.signal takes a second to import
     b, a = butter(2, fc * 2 * h)
     return filtfilt(b, a, y)
-
-
-def cycle_blocks(channels, cycles=3):
-    """[Span]: a recording without segment events cut into blocks of
-    `cycles` whole strokes (displacement rising through its median)."""
-    t, x = channels["x"]
-    up = np.nonzero((x[:-1] < np.median(x)) & (x[1:] >= np.median(x)))[0]
-    # a crossing counts once the motion has gone 1 mm the other way since the last one
-    starts = []
-    for i in up:
-        if not starts or np.ptp(x[starts[-1]:i + 1]) > 2e-3:
-            starts.append(i)
-    out = []
-    for k in range(0, len(starts) - cycles, cycles):
-        t0, t1 = float(t[starts[k]]), float(t[starts[k + cycles]])
-        params = {"freq_hz": cycles / (t1 - t0), "cycles": cycles, "kind": "sine"}
-        out.append(Span(f"cycles {k + 1}-{k + cycles}", params, t0, t1))
-    return out
 
 
 SIGN_SHARE = 0.2  # net work against the work done either way: below this a recording cannot tell its sign

@@ -43,7 +43,7 @@ class Source:
 @dataclass
 class Imported:
     """What was written: the recording, its rows, when it started (and how that is known),
-    its channels with their units, the periodic segments and holds found, and the notes."""
+    its channels with their units, the segments found (records/segmentation.py) and the notes."""
     path: Path
     rows: int
     wall_start: float  # s since the epoch
@@ -51,7 +51,7 @@ class Imported:
     channels: dict  # {channel: unit}
     velocity_derived: bool
     named_units: dict  # {name: unit} taken from the columns' names
-    segments: list  # segmentation.Found, in order
+    segments: list  # segmentation.Segment, in order: they cover the recording
     notes: list[str]
 
 
@@ -132,10 +132,6 @@ def _import(src, claim):
             + _velocity_note(t, data, units))
     kept += _smoothing_note(src.smoothing, found)
     notes = list(kept)
-    if any(f.kind == "sine" for f in found):
-        rest = segmentation.left_out(segmentation.unsegmented(t[ok] - t[0], data["displacement"][ok],
-                                                              [(f.t0, f.t1) for f in found]))
-        notes += [f"not in a segment: {rest}"] if rest else []
     sign = other_sign(data["displacement"], data["force"])
     notes += [f"sign: {sign}"] if sign else []
     notes += [postamble(got.layout)] if got.layout and got.layout.postamble else []

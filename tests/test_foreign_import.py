@@ -2,6 +2,7 @@
 format they come in, imported as one of ours: date-time stamps, a DAQ's preamble and
 volts, a decimal comma, tabs, whitespace without a header, Parquet, MATLAB, and the other
 sign convention."""
+import html
 import json
 import math
 import warnings
@@ -325,8 +326,8 @@ def test_tests_exported_one_after_another_each_from_time_zero(tmp_path):
                                                                for t, x, F in parts for a, b, c in zip(t, x, F)))
     channels, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
     assert "time: it restarts 2 times from its first value (lines 2402, 3544)" in r.stdout, r.stdout
-    assert "segments: 3 periodic: sine 19 mm 0.5 Hz (2 cycles), sine 19 mm 1.05 Hz (3 cycles), sine 19 mm 2.1 Hz" \
-        in r.stdout, r.stdout
+    assert ("segments: 100 % in 3 sines; sine 19 mm 0.5 Hz (4 cycles), sine 19 mm 1.05 Hz (4 cycles), "
+            "sine 19 mm 2.1 Hz (4 cycles)") in r.stdout, r.stdout
     t = channels["x"][0]
     assert np.all(np.diff(t) > 0) and abs(t[-1] - (sum(len(p[0]) for p in parts) - 1) / RATE) < 1e-3
     from protocols.reports.recording import report  # said again to whoever reads the report later
@@ -345,7 +346,7 @@ def test_tests_exported_one_after_another_each_from_time_zero(tmp_path):
                                "--overwrite")
     first = [6 + len(parts[0][0]) + 5, 6 + len(parts[0][0]) + 5 + len(parts[1][0]) + 5]  # each section's first row
     assert f"time: it restarts 2 times from its first value (lines {first[0]}, {first[1]})" in r.stdout, r.stdout
-    assert len(channels["x"][0]) == sum(len(p[0]) for p in parts) and "segments: 3 periodic" in r.stdout
+    assert len(channels["x"][0]) == sum(len(p[0]) for p in parts) and "in 3 sines" in r.stdout
     lines = joined.read_text().splitlines()
     assert lines[first[0] - 1].startswith("0.00000,") and lines[first[0] - 2] == "s,mm,N"
 
@@ -537,7 +538,7 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
     assert "--map 'time=Time' --map 'displacement=Position (mm):mm' --map 'force=Force (N):N'" in r.stdout, r.stdout
     _, _, r = _imported(tmp_path, src, "--map", "time=Time", "--map", "displacement=Position (mm):mm",
                         "--map", "force=Force (N):N")
-    assert "segments: 1 periodic: sine 19 mm 1.05 Hz (28 cycles); 1 holds" in r.stdout, r.stdout
+    assert "segments: 97 % in 1 sine, 3 % in 1 hold; sine 19 mm 1.05 Hz (30 cycles)" in r.stdout, r.stdout
     rep = dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "rep")
     assert rep.returncode == 0, rep.stderr
     peaks = (tmp_path / "rep" / "peaks.csv").read_text().splitlines()
@@ -672,7 +673,6 @@ def test_repeats_that_differ_are_named_and_each_is_identified_alone(tmp_path):
     assert doc["repeats_differ"] == []
     one_line_error(dyno("identify", tmp_path / "x.mcap", "--segment", "sine 5 mm", "--out", tmp_path / "o.json"),
                    "no segment 'sine 5 mm'", "sine 19 mm 1.05 Hz (2)")
-    import html
     # the velocity table is the first run's, not the mean of two settings, and the sheet says so:
     # the same as the table of a file that holds the first run alone
     assert dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "both").returncode == 0
@@ -707,7 +707,8 @@ def test_repeats_whose_estimated_frequency_differs_in_the_last_digit_are_one_tes
     src = _written(tmp_path, "five.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"
                                                               for a, b, c in zip(t, x, F)))
     _, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
-    first = r.stdout.split("segments: 5 periodic: ")[1].split(" (")[0]
+    assert "in 5 sines" in r.stdout, r.stdout
+    first = r.stdout.split("segments: ")[1].split("; ")[1].split(" (")[0]
     assert all(f"{first} ({k}) (" in r.stdout for k in range(2, 6)), r.stdout
     r = dyno("identify", tmp_path / "x.mcap", "--out", tmp_path / "m.json")
     assert f"note: {first} was run 5 times" in r.stdout, r.stdout + r.stderr
@@ -885,7 +886,7 @@ def test_an_imported_run_compares_and_checks_against_a_run_of_ours(tmp_path, kon
 def test_a_recording_of_three_cycles_is_judged_by_quarter_cycles(tmp_path):
     """A slow sine of three whole cycles (the UTFSM 0.1 Hz files) is too short to hold out
     whole cycles: its quarter cycles are fitted and judged alternately, and the answer says so."""
-    t, x, F = crank(n=int(4.6 / 0.1 * 50), rate=50.0, hz=0.1)
+    t, x, F = crank(n=int(3.6 / 0.1 * 50), rate=50.0, hz=0.1)
     F = F + np.random.default_rng(3).normal(0, 2.0, len(F))
     src = _written(tmp_path, "slow.csv", "t,x,F\n" + "".join(f"{a:.4f},{1e3 * b:.4f},{c:.3f}\n"
                                                              for a, b, c in zip(t, x, F)))
@@ -917,7 +918,7 @@ def _random_run(tmp_path, name, seed, gain=1.0):
     out = tmp_path / f"{name}.mcap"
     r = dyno("import", src, "--out", out, "--map", "time=t", "--map", "displacement=x:mm", "--map", "velocity=v:mm/s",
              "--map", "force=F")
-    assert r.returncode == 0 and "0 periodic" in r.stdout, r.stdout + r.stderr
+    assert r.returncode == 0 and "segments: 100 % in 1 stretch of random motion\n" in r.stdout, r.stdout + r.stderr
     return out, float(np.mean(x))
 
 
@@ -1035,12 +1036,13 @@ def test_a_path_that_does_not_close_is_not_read_as_the_other_sign():
     assert "import it again with --flip force" in other_sign(x, -F)
 
 
-def test_strokes_outside_every_segment_are_said_left_out(tmp_path):
-    """The UTFSM chirp: its sweep from 0.5 to 3 Hz changes period by more than 5 % a cycle,
-    so only its faster part made segments, and 9.6 s of strokes were read by nothing
-    without a word. A hole in the file (the ME file's acquisition paused between currents)
-    is no stroke, however far x moved across it."""
-    from records.segmentation import find, unsegmented
+def test_a_sweep_beside_a_sine_is_read_as_a_sweep_by_import_report_and_diagnosis(tmp_path):
+    """The UTFSM chirp's case: a sweep from 0.5 to 2.5 Hz changes its period too fast to be
+    cut into sines, and before issue 88 9.6 s of its strokes were read by nothing. Now the
+    import names it a sweep with its frequencies, the diagnosis judges it in blocks beside
+    the sine's cycles, and the report draws it apart. A hole in the file (the ME file's
+    acquisition paused between currents) is in no segment, however far x moved across it."""
+    from records.segmentation import division, find
     rate = 200.0
     t = np.arange(int(8 * rate)) / rate
     sweep = 0.004 * np.sin(2 * np.pi * (0.5 * t + 0.125 * t ** 2))  # 0.5 to 2.5 Hz in 8 s
@@ -1050,18 +1052,32 @@ def test_strokes_outside_every_segment_are_said_left_out(tmp_path):
     src = _written(tmp_path, "sweep.csv", "t,x,F\n" + "".join(f"{a:.4f},{1e3 * b:.4f},{c:.3f}\n"
                                                               for a, b, c in zip(t, x, F)))
     _, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
-    said = r.stdout.split("not in a segment: ")[1].split("\n")[0]
-    seconds, span = float(said.split(" s of strokes")[0]), said.split("(")[1].split(")")[0]
-    assert 4.0 < seconds < 7.5 and float(span.split("-")[0]) < 3.0 and float(span.split("-")[1][:-2]) <= 8.5, said
+    said = r.stdout.split("segments: ")[1].split("\n")[0]
+    assert "in 1 sweep" in said and "in 1 sine" in said and "sine 4 mm 3 Hz (12 cycles)" in said, said
+    found = find(t, x)
+    sweep_seg = next(s for s in found if s.kind == "sweep")
+    assert sweep_seg.t0 < 1.0 and 7.5 < sweep_seg.t1 <= 8.01, found
+    assert 0.5 <= sweep_seg.params["f_start_hz"] < 0.8 and 2.2 < sweep_seg.params["f_end_hz"] <= 2.5, sweep_seg
     r = dyno("diagnose", tmp_path / "x.mcap")
-    assert r.returncode == 0 and f"Not assessed: {said}" in r.stdout, r.stdout + r.stderr
+    unread = [line for line in r.stdout.splitlines() if line.startswith("Not assessed:")]
+    assert r.returncode == 0 and unread == ["Not assessed: no temperature channel: gas and damping temperature "
+                                            "effects not assessed."], r.stdout + r.stderr
+    from models.diagnose.data import prepare
+    from records.reader import load_recording
+    ch, events, _ = load_recording(tmp_path / "x.mcap")
+    d = prepare(ch, events)
+    read = {name: np.ptp(d.t[d.segment == i]) for i, (name, _) in enumerate(d.segments)}
+    assert read[sweep_seg.name] > 6.0 and [f for n, f in d.segments if n == sweep_seg.name] == [None], read
     assert dyno("report", tmp_path / "x.mcap", "--out", tmp_path / "rep").returncode == 0
-    assert f"Not in a segment: {said}".replace("'", "&#39;") in (tmp_path / "rep" / "index.html").read_text()
-    assert (tmp_path / "rep" / "left_out.png").stat().st_size > 10_000  # their loops, drawn apart
-    tt = np.arange(400) / rate  # a 3 Hz sine, a 20 s hole, the sine again: nothing outside the segments
-    t2, x2 = np.r_[tt, tt + 22.0], np.r_[0.004 * np.sin(6 * np.pi * tt)] * np.ones(2)[:, None]
+    page = html.unescape((tmp_path / "rep" / "index.html").read_text())
+    assert f"cut into its tests at import (docs/recording.md): {said.split('; ')[0]}" in page, page
+    assert (tmp_path / "rep" / "blocks.png").stat().st_size > 10_000  # its loops, drawn apart
+    tt = np.arange(400) / rate  # a 3 Hz sine, a 20 s hole, the sine again: the hole alone in no segment
+    t2, x2 = np.r_[tt, tt + 22.0], np.r_[0.04 + 0.004 * np.sin(6 * np.pi * tt)] * np.ones(2)[:, None]
     x2 = x2.ravel()
-    assert unsegmented(t2, x2, [(s.t0, s.t1) for s in find(t2, x2)]) == []
+    cut = find(t2, x2)
+    assert sum(s.t1 - s.t0 for s in cut) == pytest.approx(2 * tt[-1], abs=0.01), cut
+    assert division(cut, t2[-1] - t2[0]).endswith("% in no segment (holes in the time stamps)")
 
 
 def test_a_headerless_file_is_mapped_from_its_values(tmp_path):

@@ -16,8 +16,8 @@ from functools import cached_property
 import numpy as np
 
 from models.diagnose import quality
-from records.data import cycle_blocks, gaps as _gaps, segments, sign_problem, smooth
-from records.segmentation import imported_unsegmented, left_out
+from records.data import gaps as _gaps, sign_problem, smooth
+from records.segmentation import BLOCK_KINDS, cut
 from records.source_filter import Smoothing, unbroken
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
@@ -30,7 +30,6 @@ BLOCK_S = 0.5  # s: the unit of motion that does not repeat (random, road replay
 # either side: 40 ms), which would cost every cycle of a 1 Hz segment; a cycle's judgement
 # does not miss a tenth of it.
 GLITCH = 0.1
-REGULAR = 0.2  # strokes whose rates vary by more than this share do not repeat: judged in blocks
 
 
 class DiagnoseError(ValueError):
@@ -52,19 +51,20 @@ class Data:
     aux: dict = field(default_factory=dict)  # {name: values}
     notes: list = field(default_factory=list)  # what could not be assessed, and why
     flags: list = field(default_factory=list)  # [quality.Flag]: samples excluded before fitting
-    periodic: bool = True  # False: motion that does not repeat, judged in blocks of BLOCK_S
+    periodic: bool = True  # some segment is read by cycles (False: all is judged in blocks of BLOCK_S)
     tone_hz: float | None = None  # a line in the residual unrelated to the motion (terms.tone)
     # s: the last time any fit sees on a time split (None: the fits span the recording). A
     # function of time is not extrapolated past it: beyond, it holds its last value
     fitted_until: float | None = None
     smoothing: Smoothing | None = None  # the source's moving average, declared at import (records/source_filter.py)
+    filter_hz: list | None = None  # per segment, the frequency [Hz] a per-period source filter took (None: none)
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
                     {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.tone_hz,
-                    self.fitted_until, self.smoothing)
+                    self.fitted_until, self.smoothing, self.filter_hz)
 
     def through_source(self, y):
         """y along these samples [any unit] through the moving average the source passed
@@ -89,7 +89,8 @@ class Data:
                 h = float(np.median(self.h[j]))
                 if j[-1] - j[0] + 1 == len(j):
                     j = slice(int(j[0]), int(j[-1]) + 1)
-                out.append((j, self.t[j], h, f if self.periodic else None, unbroken(self.t[j], h)))
+                hz = f if self.filter_hz is None else self.filter_hz[s]
+                out.append((j, self.t[j], h, hz, unbroken(self.t[j], h)))
         return out
 
 
@@ -145,21 +146,31 @@ def _band(t, x, t0, t1):
     return max(float(np.fft.rfftfreq(int(k.sum()), h)[np.searchsorted(c, 0.99)]), 1.0)
 
 
-def _spans(events, tx, x):
-    """[(name, freq_hz or None, t0, t1)]: the sine segments; else strokes that repeat (cut
-    into blocks of two); else the road segments, or the whole recording, as motion that
-    does not repeat (freq None: judged in blocks of BLOCK_S)."""
-    spans = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in segments(events, kinds=("sine",))]
+def _spans(channels, events):
+    """[(name, freq_hz or None, t0, t1, the source filter's frequency [Hz] or None)]: the one
+    cut (records/segmentation.cut): its periodic tests, read by whole cycles, and (an
+    imported program's) its ramps, sweeps and random motion, read in blocks of BLOCK_S
+    (freq None; a ramp goes through a source's per-period filter at its sine's); else the
+    road segments, or the whole recording, as motion that does not repeat."""
+    segs = cut(channels, events)
+    sines = {s.name: s for s in segs if s.kind == "sine"}
+    spans = [(s.name, s.params["freq_hz"] if s.kind == "sine" else None, s.t0, s.t1,
+              _ramped(s, segs, sines) if s.kind != "sine" else s.params["freq_hz"])
+             for s in segs if s.kind == "sine" or s.kind in BLOCK_KINDS]
     if spans:
         return spans
-    others = [(n, None, t0, t1) for n, _, t0, t1 in segments(events, kinds=("road",))]
-    if others:
-        return others
-    blocks = [(n, p["freq_hz"], t0, t1) for n, p, t0, t1 in cycle_blocks({"x": (tx, x)}, cycles=2)]
-    f = np.array([b[1] for b in blocks])
-    if len(f) >= MIN_CYCLES and np.std(f) <= REGULAR * np.mean(f):
-        return blocks
-    return [("random", None, float(tx[0]), float(tx[-1]))]
+    spans = [(s.name, None, s.t0, s.t1, None) for s in segs if s.kind == "road"]
+    tx = channels["x"][0]
+    return spans or [("random", None, float(tx[0]), float(tx[-1]), None)]
+
+
+def _ramped(span, segs, sines):
+    """The frequency [Hz] of the sine a ramp leads into or out of (the one beside it), or None."""
+    if span.kind != "ramp":
+        return None
+    i = segs.index(span)
+    near = [segs[j] for j in (i - 1, i + 1) if 0 <= j < len(segs) and segs[j].name in sines]
+    return near[0].params["freq_hz"] if near else None
 
 
 def _screened(channels, force, x, aux):
@@ -202,17 +213,15 @@ def prepare(channels, events, drives=None, smoothing=None) -> Data:
         lost = sum(b - a for a, b in holes)
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
-    rest = left_out(imported_unsegmented(events, tx, x))  # before the screening cuts holes in x
-    notes += [rest] if rest else []
+    spans = _spans(channels, events)  # before the screening cuts holes in x
     flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
-    spans = _spans(events, tx, x)
-    flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1 in spans if f is not None], smoothing)
+    flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1, _ in spans if f is not None], smoothing)
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))
     h = period * step
     T_ch = next((n for n in ("T_body", "temperature", "T_reservoir") if n in channels and len(channels[n][0]) > 1), None)
-    parts, seg_names, n_cycles = [], [], 0
-    for name, f, t0, t1 in spans:
+    parts, seg_names, filter_hz, n_cycles = [], [], [], 0
+    for name, f, t0, t1, source_hz in spans:
         # smooth over the stretch with a margin each side (the recording goes on around a
         # segment), then keep the segment: a zero-phase filter's edges are not to be trusted
         random = f is None
@@ -241,13 +250,14 @@ def prepare(channels, events, drives=None, smoothing=None) -> Data:
         cyc = np.where(whole, cyc + n_cycles, -1)
         n_cycles = max(n_cycles, cyc.max() + 1)
         parts.append((t, xs, v, a, Fi, cyc, np.full(len(t), len(seg_names)), np.full(len(t), h)))
-        seg_names.append((name, f))
+        seg_names.append((name, None if random else f))
+        filter_hz.append(source_hz)
     if not parts:
         raise DiagnoseError("the recording has no motion to judge (no segment and no stretch of at least "
                             "50 samples without a gap)")
     cols = [np.concatenate(c) for c in zip(*parts)]
-    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=all(f is not None for _, f, _, _ in spans),
-             smoothing=smoothing)
+    d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=any(f is not None for _, f in seg_names),
+             smoothing=smoothing, filter_hz=filter_hz)
     keep = d.cycle >= 0
     d = d.take(keep)
     if not len(d.t):  # every cycle touched by a gap: nothing to interpolate the other channels onto
@@ -281,30 +291,36 @@ def _driving(aux, drives, notes):
 
 
 def _enough(d: Data) -> Data:
-    """d, periodic motion split by quarter cycles when it has fewer than MIN_CYCLES whole
-    cycles; DiagnoseError below MIN_WHOLE cycles, or MIN_CYCLES blocks of motion that does
-    not repeat (a block is no stroke to cut)."""
+    """d, its periodic segments split by quarter cycles when they hold fewer than MIN_CYCLES
+    whole cycles; DiagnoseError below MIN_WHOLE cycles, or MIN_CYCLES blocks of motion that
+    does not repeat (a block is no stroke to cut)."""
     n_whole = len(np.unique(d.cycle))
     least = MIN_WHOLE if d.periodic else MIN_CYCLES
     if n_whole < least:
         raise DiagnoseError(f"only {n_whole} whole {'cycle' if d.periodic else 'block'}(s) without gaps: too short "
                             f"to judge (at least {least} needed, half fitted and half held out)")
-    if n_whole < MIN_CYCLES:
-        d.cycle = _quartered(d)
-        d.notes.append(f"cycle by cycle (only {n_whole} whole cycles): fitted and held out by quarter cycles, "
+    cycling = np.array([f is not None for _, f in d.segments])[d.segment]
+    n_cycles = len(np.unique(d.cycle[cycling]))
+    if 0 < n_cycles < MIN_CYCLES:
+        d.cycle = _quartered(d, cycling)
+        d.notes.append(f"cycle by cycle (only {n_cycles} whole cycles): fitted and held out by quarter cycles, "
                        f"alternate ones in alternate cycles, so that fit and judgement both see every stroke")
     return d
 
 
-def _quartered(d: Data):
-    """Unit numbers of a recording of few cycles: each cycle cut into quarters, numbered so
-    that even units are quarters 0 and 2 of even cycles and 1 and 3 of odd ones (a
-    checkerboard): alternate units then hold both directions, all speeds and, across two
-    cycles, both halves of the stroke and both the speeding-up and slowing-down strokes."""
+def _quartered(d: Data, cycling):
+    """Unit numbers of a recording of few cycles: each cycle (of the samples cycling) cut
+    into quarters, numbered so that even units are quarters 0 and 2 of even cycles and 1
+    and 3 of odd ones (a checkerboard): alternate units then hold both directions, all
+    speeds and, across two cycles, both halves of the stroke and both the speeding-up and
+    slowing-down strokes. A block keeps its parity (4 c + c % 2)."""
     out = np.empty(len(d.cycle), int)
     starts = np.r_[0, np.nonzero(np.diff(d.cycle))[0] + 1, len(d.cycle)]
     for a, b in zip(starts[:-1], starts[1:]):
         c = d.cycle[a]
+        if not cycling[a]:
+            out[a:b] = 4 * c + c % 2
+            continue
         q = (np.arange(b - a) * 4) // (b - a)
         out[a:b] = 4 * c + (q ^ 1 if c % 2 else q)  # q ^ 1 swaps 0<->1 and 2<->3
     return out

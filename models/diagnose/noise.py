@@ -25,7 +25,9 @@ def noise_sd(r, d: Data, k):
     if not d.periodic:
         return diff
     out = []
-    for s in range(len(d.segments)):
+    for s, (_, f) in enumerate(d.segments):
+        if f is None:  # a block of motion that does not repeat: no stroke to compare with the next
+            continue
         j = np.nonzero(d.segment == s)[0]
         got = _by_strokes(r[j], k[j], d.t[j], d.v[j], float(np.median(d.h[j])))
         if got is not None:

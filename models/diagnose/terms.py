@@ -282,7 +282,7 @@ def tone(d, r, k):
     power, count = np.zeros(len(grid)), np.zeros(len(grid))
     for s, (_, f) in enumerate(d.segments):
         j = np.nonzero((d.segment == s) & k)[0]
-        if len(j) < 64:
+        if f is None or len(j) < 64:  # a block of motion that does not repeat has no harmonics to mask
             continue
         y = np.where(k[j[0]:j[-1] + 1], r[j[0]:j[-1] + 1], 0.0)
         y = y - y.mean()

@@ -6,7 +6,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.damper import T_STD
-from records.data import at, cycle_blocks, gaps, missing, segments, smooth, smoothing_cutoff
+from records.data import at, gaps, missing, smooth, smoothing_cutoff
+from records.segmentation import cut
 
 WARMUP_S = 0.1  # simulated before a segment's scored part (chamber pressures settle in ms)
 # a gap longer than this share of a cycle leaves its segment out: resampled across it, a sine
@@ -25,21 +26,19 @@ MIN_SEGMENTS = 3  # fewer sine segments than this: each is cut into groups of it
 GROUPS = 6  # ... at most this many, of at least two cycles each
 
 
-def by_cycles(channels, span):
+def by_cycles(span):
     """A long sine segment as consecutive groups of its whole cycles (the valves are fitted
     on some and judged on others: held-out cycles); the segment itself when it has fewer
-    than four cycles."""
-    from records.segmentation import cycles
+    than four cycles. A segment spans whole cycles of its frequency (records/segmentation.py)."""
     name, params, t0, t1 = span
-    t, x = channels["x"]
-    k = (t >= t0) & (t <= t1)
-    found = cycles(t[k], x[k])
-    if len(found) < 4:
+    f = params.get("freq_hz") or 0.0
+    n = int(round((t1 - t0) * f))
+    if n < 4:
         return [span]
     out = []
-    for part in np.array_split(np.arange(len(found)), min(GROUPS, len(found) // 2)):
-        c = [found[i] for i in part]
-        out.append((f"{name} cycles {part[0] + 1}-{part[-1] + 1}", {**params, "cycles": len(c)}, c[0][0], c[-1][1]))
+    for part in np.array_split(np.arange(n), min(GROUPS, n // 2)):
+        out.append((f"{name} cycles {part[0] + 1}-{part[-1] + 1}", {**params, "cycles": len(part)},
+                    t0 + part[0] / f, t0 + (part[-1] + 1) / f))
     return out
 
 
@@ -72,11 +71,9 @@ def dynamic_segments(channels, events, left_out=None, smoothing=None):
     GAP_CYCLE_SHARE of its cycle (resampled across it, the segment would be data never
     measured) and one whose motion jumps (its drive would not be the motion measured)."""
     left_out = {} if left_out is None else left_out
-    spans = segments(events, kinds=("sine",))
-    if not spans and not events:  # an imported recording: blocks of whole cycles
-        spans = cycle_blocks(channels)
+    spans = [s for s in cut(channels, events) if s.kind == "sine"]
     if 0 < len(spans) < MIN_SEGMENTS:  # a crank dyno's run of one stroke: its cycles held out in groups
-        spans = [part for span in spans for part in by_cycles(channels, span)]
+        spans = [part for span in spans for part in by_cycles(span)]
     tf = channels["force"][0]
     h = float(np.median(np.diff(tf)))
     holes = gaps(tf) + gaps(channels["x"][0])

@@ -106,8 +106,8 @@ def report(res, out_dir: Path):
     save(fig, out_dir / "residuals.png")
     base = d.F - res.baseline.residual
     if d.periodic:  # the held-out cycles of the segment with the largest force range
-        seg = int(np.argmax([np.ptp(d.F[(d.segment == s) & held]) if np.any((d.segment == s) & held) else -1.0
-                             for s in range(len(d.segments))]))
+        seg = int(np.argmax([np.ptp(d.F[(d.segment == s) & held]) if f and np.any((d.segment == s) & held) else -1.0
+                             for s, (_, f) in enumerate(d.segments)]))
         k = (d.segment == seg) & held
         title = d.segments[seg][0]
     else:  # motion that does not repeat: the first second reported, loops would be a tangle

@@ -343,14 +343,16 @@ def peaks(ch, segs, damper=None, model=None):
 
 
 SCATTER = "motion that does not repeat"  # the name of scatter()'s row
+UNREPEATED = ("road", "random", "sweep", "ramp")  # segments of motion that does not repeat ...
+STILL = ("hold", "dwell", "step")  # ... and those read beside them
 SCATTER_QUANTILE = 0.005  # of each direction's samples left out at its top speed: a random input's rare extremes
 
 
 def scattered(ch, segs, model=None) -> list:
-    """[scatter()] of a recording that holds only motion that does not repeat (no segment
-    but road input); [] when it holds tests of ours or cut from periodic motion, whose
-    table is read from them."""
-    if any(s.kind != "road" for s in segs):
+    """[scatter()] of a recording whose motion does not repeat (road input, an imported
+    program's random motion or sweeps, with holds beside them); [] when it holds tests of
+    ours or steady tests cut from an imported program, whose table is read from them."""
+    if not any(s.kind in UNREPEATED for s in segs) or any(s.kind not in UNREPEATED + STILL for s in segs):
         return []
     return [p for p in (scatter(ch, model),) if p is not None]
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from records.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
 from records.data import segments, sign_problem
-from records.segmentation import imported_unsegmented, left_out
+from records.segmentation import BLOCK_KINDS, cut, division
 from records.reader import load_recording
 from models.identify.static import static_holds
 from protocols.reports import hil, peaks, sheet, sines, velocity_table as vt
@@ -34,7 +34,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), ch
     ch, events, meta = load_recording(path)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    segs = segments(events)
+    segs = cut(ch, events)
     full = model if model is not None and getattr(model, "layout", "simplified") != "simplified" else None
     model = peaks.along(model, ch, events, meta)
     rows = peaks.peaks(ch, segs, damper=full or peaks.recorded_damper(meta), model=model)
@@ -80,11 +80,12 @@ def _appendix(page, ch, events, segs, meta, rows, units, out, figures, curve):
     if sign:
         page.paragraph(f"Sign convention: {sign}. The tables and figures below are in the file's convention, "
                        f"not dyno's.")
-    rest = imported_unsegmented(events, *ch["x"]) if "x" in ch else []
-    if rest:
-        page.paragraph(f"Not in a segment: {left_out(rest)}; their loops are drawn apart, coloured by each "
-                       f"stroke's frequency.")
-        figures.append(sines.left_out_figure(ch, rest, out, units))
+    found = [s for s in segs if s.params.get("found") == "import"]
+    if found and "x" in ch:
+        page.paragraph(f"The program, cut into its tests at import (docs/recording.md): {division(found, ch['x'][0][-1])}.")
+        blocks = [s for s in found if s.kind in BLOCK_KINDS]
+        if any(s.kind == "sine" for s in found) and blocks:
+            figures.append(sines.blocks_figure(ch, blocks, out, units))
     if rows:
         peaks.write_csv(rows, out / "peaks.csv", units)
         page.heading("Peak forces per sine segment (also peaks.csv)")

@@ -199,25 +199,35 @@ def force_temperature_figure(rows, out, units=Units()):
     return [(f"{what.capitalize()} against temperature", save(fig, out / "force_temperature.png"))]
 
 
-def left_out_figure(ch, rest, out, units=Units()):
-    """The strokes outside every segment (records.segmentation.unsegmented: a sweep's), force
-    against velocity and against displacement, each stroke coloured by its frequency."""
+def blocks_figure(ch, spans, out, units=Units()):
+    """The stretches an imported program holds beside its steady tests (records/segmentation:
+    sweeps, ramps, random motion; the diagnosis reads them in blocks), force against velocity
+    and against displacement, each sample coloured by the motion's frequency there (a
+    sweep's instantaneous one)."""
     from matplotlib import cm, colors
+    from records.segmentation import frequency
     V, F_, X = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force", "length"))
-    strokes = [s for *_, ss in rest for s in ss]
-    hz = [1.0 / (b - a) for a, b in strokes]
-    scale = colors.Normalize(min(hz), max(hz) * 1.0001)
+    got = []
+    for s in spans:
+        t, (F, x, v) = peaks.window(ch, ("force", "x", "v"), s.t0, s.t1)
+        if len(t) > 16:
+            got.append((F, x, v, frequency(t, x, s.t0, s.t1)))
+    hz = np.concatenate([f for *_, f in got]) if got else np.zeros(0)
+    hz = hz[np.isfinite(hz)]
+    scale = colors.Normalize(*(np.percentile(hz, [1, 99]) if len(hz) else (0.0, 1.0)))
     fig, (ax_v, ax_x) = plt.subplots(1, 2, figsize=(12, 4.8))
-    for (a, b), f in zip(strokes, hz):
-        _, (F, x, v) = peaks.window(ch, ("force", "x", "v"), a, b)
-        ax_v.plot(V(v), F_(F), lw=0.7, color=cm.viridis(scale(f)))
-        ax_x.plot(X(x), F_(F), lw=0.7, color=cm.viridis(scale(f)))
+    step = max(1, sum(len(F) for F, *_ in got) // 60_000)  # a point a pixel or so: the picture, not every sample
+    for F, x, v, f in got:
+        for ax, xv in ((ax_v, V(v)), (ax_x, X(x))):
+            ax.scatter(xv[::step], F_(F)[::step], s=1, c=f[::step], cmap="viridis", norm=scale, rasterized=True,
+                       plotnonfinite=True)
     ax_v.set(title="force vs velocity", xlabel=units.label("velocity", "velocity"), ylabel=units.label("force", "force"))
     ax_x.set(title="force vs displacement", xlabel=units.label("displacement", "length"),
              ylabel=units.label("force", "force"))
     for ax in (ax_v, ax_x):
         ax.grid(alpha=0.3)
     fig.colorbar(cm.ScalarMappable(scale, "viridis"), ax=ax_x, label="stroke frequency [Hz]")
-    return (f"Strokes outside every segment ({len(strokes)}, {min(hz):.2g}-{max(hz):.2g} Hz)",
-            save(fig, out / "left_out.png"))
+    kinds = sorted({s.kind for s in spans})
+    return (f"Beside the steady tests: {', '.join(kinds)} ({sum(s.t1 - s.t0 for s in spans):.1f} s, read in blocks)",
+            save(fig, out / "blocks.png"))
 

@@ -42,18 +42,24 @@ class Smoothing:
             return 1 if not freq_hz else max(1, int(round(self.width / (freq_hz * h))))
         return max(1, int(round(self.width / h)))
 
-    def apply(self, y, t, h: float, freq_hz: float | None, stretches=None):
+    def apply(self, y, t, h: float, freq_hz: float | None, stretches=None, whole_cycles=False):
         """y [any unit] on times t [s] through the window, stretch by stretch: a gap longer
         than 1.5 samples starts a new one (the filter never averages across a hole).
-        stretches: unbroken(t, h), given where the same times are filtered again and again."""
+        stretches: unbroken(t, h), given where the same times are filtered again and again.
+        whole_cycles: y is whole cycles of periodic motion, unbroken: the window reaches past
+        an end into the cycle's other end, as the source's reached into the next cycle (held
+        at its end value instead, a model's force at a reversal was half a window off the
+        source's, and a friction fitted 35 % low on a segment that began at one)."""
         from scipy.ndimage import uniform_filter1d  # not at import: the CLI's parser reads this module
         n = self.samples(h, freq_hz)
         y = np.asarray(y, float)
         if n < 2 or len(y) < 2:
             return y
         out = np.empty_like(y)
-        for a, b in stretches or unbroken(t, h):
-            uniform_filter1d(y[a:b], min(n, b - a), output=out[a:b], mode="nearest")
+        pieces = stretches or unbroken(t, h)
+        mode = "wrap" if whole_cycles and len(pieces) == 1 else "nearest"
+        for a, b in pieces:
+            uniform_filter1d(y[a:b], min(n, b - a), output=out[a:b], mode=mode)
         return out
 
 
@@ -74,9 +80,10 @@ class LowPass:
     def text(self) -> str:
         return f"{self.kind}:{self.order}:{self.cutoff_hz:g}Hz" + (":zero-phase" if self.zero_phase else "")
 
-    def apply(self, y, t, h: float, freq_hz: float | None = None, stretches=None):
+    def apply(self, y, t, h: float, freq_hz: float | None = None, stretches=None, whole_cycles=False):
         """y [any unit] on times t [s] through the filter, stretch by stretch (a gap longer
-        than 1.5 samples starts a new one, at rest at its first value; stretches as Smoothing's)."""
+        than 1.5 samples starts a new one, at rest at its first value; stretches as Smoothing's;
+        whole_cycles: not used, a DAQ's filter runs from where it started)."""
         from scipy import signal  # not at import: the CLI's parser reads this module
         y = np.asarray(y, float)
         if len(y) < 2 or self.cutoff_hz >= 0.49 / h:

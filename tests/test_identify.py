@@ -320,11 +320,14 @@ def test_a_sine_segment_with_a_hole_in_its_force_record_is_left_out_and_named():
     keep = (t < 4.00) | (t > 4.03)  # 30 ms of force lost inside B: 6 % of its 2 Hz cycle
     ch = {"force": (t[keep], F[keep]), "x": (t, x)}
     left_out = {}
-    assert [s.name for s in dynamic_segments(ch, events, left_out)] == ["sine A"] and list(left_out) == ["sine B"]
-    assert "a gap of 32 ms in its record at 3.999 s" in left_out["sine B"]
+    # two segments: each held out in groups of its cycles (by_cycles), B's group with the gap left out
+    assert [s.name for s in dynamic_segments(ch, events, left_out)] == [
+        "sine A cycles 1-2", "sine A cycles 3-4", "sine B cycles 4-5"]
+    assert list(left_out) == ["sine B cycles 1-3"] and "a gap of 32 ms in its record at 3.999 s" in left_out[
+        "sine B cycles 1-3"]
     keep = (t < 4.00) | (t > 4.008)  # 8 ms, as a VM's stall leaves: 1.6 % of the cycle, harmless
     ch = {"force": (t[keep], F[keep]), "x": (t, x)}
-    assert [s.name for s in dynamic_segments(ch, events)] == ["sine A", "sine B"]
+    assert [s.name.split(" cycles")[0] for s in dynamic_segments(ch, events)] == ["sine A"] * 2 + ["sine B"] * 2
 
 
 def test_a_sine_segment_whose_actuator_held_and_jumped_is_left_out_and_named():

@@ -72,14 +72,14 @@ class Data:
         if self.smoothing is None:
             return y
         out = np.array(y, float)
-        for j, t, h, f, stretches in self._stretches:
-            out[j] = self.smoothing.apply(out[j], t, h, f, stretches)
+        for j, t, h, f, stretches, whole in self._stretches:
+            out[j] = self.smoothing.apply(out[j], t, h, f, stretches, whole)
         return out
 
     @cached_property
     def _stretches(self):
         """(samples, their times, median spacing [s], frequency [Hz] or None, the stretches no
-        gap breaks) of each segment: what through_source reads at every model evaluation and
+        gap breaks, whether it is whole cycles) of each segment: what through_source reads at every model evaluation and
         column (a fifth of a smoothed file's diagnosis went to finding them again), taken
         once: the data do not change. A segment's samples in one run are a slice (a view)."""
         out = []
@@ -90,7 +90,7 @@ class Data:
                 if j[-1] - j[0] + 1 == len(j):
                     j = slice(int(j[0]), int(j[-1]) + 1)
                 hz = f if self.filter_hz is None else self.filter_hz[s]
-                out.append((j, self.t[j], h, hz, unbroken(self.t[j], h)))
+                out.append((j, self.t[j], h, hz, unbroken(self.t[j], h), f is not None))
         return out
 
 
@@ -332,7 +332,8 @@ def _on_clock(tF, a, b, h):
     rounded to ticks); a time base begun there puts every force value between two samples,
     and across a valve's knee, hundreds of newtons a sample at 12 Hz, the interpolated
     value is off by a hundred or more: a residual no physics left it."""
-    return np.arange(tF[min(np.searchsorted(tF, a), len(tF) - 1)], b, h)
+    end = b + 0.5 * h if b >= tF[-1] else b  # the recording's last sample is one of a segment that ends there
+    return np.arange(tF[min(np.searchsorted(tF, a), len(tF) - 1)], end, h)
 
 
 def _decimated(tF, F, t):

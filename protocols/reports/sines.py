@@ -205,7 +205,7 @@ def blocks_figure(ch, spans, out, units=Units()):
     and against displacement, each sample coloured by the motion's frequency there (a
     sweep's instantaneous one)."""
     from matplotlib import cm, colors
-    from records.segmentation import frequency
+    from records.strokes import frequency
     V, F_, X = (lambda si, q=q: units.show(q, si) for q in ("velocity", "force", "length"))
     got = []
     for s in spans:

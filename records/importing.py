@@ -126,7 +126,7 @@ def _import(src, claim):
               **({"sheet": got.layout.sheet} if got.layout and got.layout.sheet else {})}
     every = -(-len(t) // PLOT_POINTS)
     ok = ~np.isnan(data["displacement"])
-    found = segmentation.find(t[ok] - t[0], data["displacement"][ok])
+    found = segmentation.find(t[ok] - t[0], data["displacement"][ok], src.smoothing)
     # what the report says again; it says the rest itself
     kept = (_time_notes(got, t, src.map) + got.unit_notes + gaps + _zero_note(data, units)
             + _velocity_note(t, data, units))

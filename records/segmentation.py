@@ -31,9 +31,10 @@ RANDOM_S = 2.0  # s: motion that does not repeat is called random from this long
 BLOCK_KINDS = ("ramp", "sweep", "random")
 
 
-def find(t, x) -> list[Segment]:
+def find(t, x, source=None) -> list[Segment]:
     """The segments of a recording's displacement, in time order, covering it (but for
-    holes in its time stamps: an acquisition paused)."""
+    holes in its time stamps: an acquisition paused). source: the moving average the file's
+    source applied (records/source_filter), or None."""
     t, x = np.asarray(t, float), np.asarray(x, float)
     ok = np.isfinite(t) & np.isfinite(x)
     t, x = t[ok], x[ok]
@@ -48,17 +49,17 @@ def find(t, x) -> list[Segment]:
     out = []
     for k in np.split(np.arange(len(t)), np.flatnonzero(dt > 5 * h) + 1):
         if len(k) >= 8:
-            out += _cut(t[k], x[k], h)
+            out += _cut(t[k], x[k], h, source)
     _name(out)
     return out
 
 
-def _cut(t, x, h):
-    """The segments of a stretch of the recording no hole breaks."""
+def _cut(t, x, h, source):
+    """The segments of a stretch of the recording no hole breaks (source: steady's)."""
     xs = smoothed(x, h)
     H = Halves.of(t, xs, max(REVERSAL_NOISE * noise(t, xs), MIN_REVERSAL))
     swept = sweeps(t, H)
-    tests = sorted(swept + steady(t, x, H, noise(t, x), swept), key=lambda s: s.t0)
+    tests = sorted(swept + steady(t, x, H, noise(t, x), swept, source), key=lambda s: s.t0)
     out = _fill(t, xs, tests, turns(t, H))
     for s in swept:  # widened by its tapers: its frequencies read over all of it
         s.params = sweep_params(H, s.t0, s.t1)

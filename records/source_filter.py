@@ -42,6 +42,11 @@ class Smoothing:
             return 1 if not freq_hz else max(1, int(round(self.width / (freq_hz * h))))
         return max(1, int(round(self.width / h)))
 
+    def reach(self, freq_hz: float) -> float:
+        """[s] the window reaches either side of a sample on a test at freq_hz [Hz]: within
+        it of a file's ends the source averaged what the file does not hold."""
+        return 0.5 * (self.width / freq_hz if self.per_period else self.width)
+
     def apply(self, y, t, h: float, freq_hz: float | None, stretches=None, whole_cycles=False):
         """y [any unit] on times t [s] through the window, stretch by stretch: a gap longer
         than 1.5 samples starts a new one (the filter never averages across a hole).
@@ -79,6 +84,11 @@ class LowPass:
 
     def text(self) -> str:
         return f"{self.kind}:{self.order}:{self.cutoff_hz:g}Hz" + (":zero-phase" if self.zero_phase else "")
+
+    def reach(self, freq_hz: float) -> float:
+        """0: a DAQ's filter runs from the file's first sample (a zero-phase one's ends are
+        the file's too)."""
+        return 0.0
 
     def apply(self, y, t, h: float, freq_hz: float | None = None, stretches=None, whole_cycles=False):
         """y [any unit] on times t [s] through the filter, stretch by stretch (a gap longer

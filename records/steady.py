@@ -19,7 +19,7 @@ SAME = 0.03  # half-cycles of one steady test: travel, mid-level (of the travel)
 STEADY_FIT = 0.01  # of the amplitude: RMS misfit of a steady test's periodic fit (beyond the noise) ...
 EDGE = 0.01  # ... and where it is followed to its ends, the misfit [of the amplitude] that ends it
 MIN_CYCLES = 2  # a steady test has at least this many whole cycles
-CYCLE_SLACK = 0.15  # of a cycle: a steady stretch this short of a whole number of cycles still holds it
+CYCLE_SLACK = 0.05  # of a cycle: a steady stretch this short of a whole number of cycles still holds it
 SWEEP_WINDOW = 5  # half-cycles each side of one: the line its period is judged against
 SWEEP_SMOOTH = 0.3  # a sweep's periods leave that line by at most this share of their change per half-cycle ...
 SWEEP_RATE = 5e-4  # ... which is at least this (a steady sine's periods jitter by a tenth of it)
@@ -113,16 +113,20 @@ def _alike_travel(H, i, j):
 
 def sweep_params(H, t0, t1):
     """A sweep's params: its frequency [Hz] at its first and last strokes of MIN_TRAVEL or
-    more between t0 and t1 [s] (one over their periods) and its median amplitude."""
+    more between t0 and t1 [s] but the outermost (one over their periods) and its median
+    amplitude."""
     k = (H.cross >= t0) & (H.cross <= t1) & (H.travel >= MIN_TRAVEL) & np.isfinite(H.period)
+    k[np.flatnonzero(k)[[0, -1]] if k.sum() > 2 else []] = False  # their periods reach across its ends
     f = 1.0 / H.period[k]
     return {"kind": "sweep", "f_start_hz": round(float(f[0]), 4), "f_end_hz": round(float(f[-1]), 4),
             "amplitude_mm": round(float(np.median(H.travel[k])) / 2 * 1e3, 3), "measured": True, "found": "import"}
 
 
-def steady(t, x, H, sigma, swept) -> list[Segment]:
+def steady(t, x, H, sigma, swept, source=None) -> list[Segment]:
     """The steady periodic tests among the half-cycles H (records/strokes.Halves) at times t
-    [s] of the displacement x [m] (its noise sigma [m]) that are in none of the sweeps."""
+    [s] of the displacement x [m] (its noise sigma [m]) that are in none of the sweeps.
+    source: the source's moving average (records/source_filter), whose reach at either end of
+    a stretch holds no whole cycle: there it averaged what lies beyond."""
     free = ~np.any([(H.cross >= s.t0) & (H.cross <= s.t1) for s in swept], axis=0) if swept else np.ones(len(H), bool)
     taken = [(s.t0, s.t1) for s in swept]
     out = []
@@ -133,19 +137,31 @@ def steady(t, x, H, sigma, swept) -> list[Segment]:
         a, b, got = got.run
         i0, i1 = H.ext[a], H.ext[b + 1]
         held0, held1 = _ends(t, x, i0, i1, got, taken + [(s.t0, s.t1) for s in out])
-        # the stretch ends between the last sample the fit holds and the first it does not: at
-        # a few samples a cycle a sixth of a cycle, so it is counted out to the latter
+        # a source's moving average blends whatever lies within its reach of a stretch's ends (the
+        # file's ends, a ramp, the next test) into it: no whole cycle is taken there
+        edge = 0.0 if source is None else source.reach(got.freq)
+        soft0, soft1 = held0 > t[0] and not edge, held1 < t[-1] and not edge
+        held0, held1 = max(held0, float(t[0])) + edge, min(held1, float(t[-1])) - edge
+        # a stretch ends between the last sample the fit held and the first it did not, and a
+        # little past that (EDGE stops inside a ramp): there whole cycles may reach a sample and
+        # half CYCLE_SLACK further (two tests stepped into each other: _apart); the recording's
+        # ends and a source's reach are where it ends, to a sample (a test of 1.05 Hz at 300 Hz is
+        # no whole number of samples a cycle: its last may fall just past a file's end)
         h = float(np.median(np.diff(t[i0:i1 + 1])))
-        n = int(math.floor((held1 - held0 + 2 * h) * got.freq + CYCLE_SLACK))
+        pad = h + 0.5 * CYCLE_SLACK / got.freq
+        lo, hi = held0 - (pad if soft0 else h), held1 + (pad if soft1 else h)
+        n = int(math.floor((hi - lo) * got.freq + 1e-9))
         if n < MIN_CYCLES:
             continue
-        mid = 0.5 * (held0 + held1)
-        t0, t1 = mid - 0.5 * n / got.freq, mid + 0.5 * n / got.freq
-        k = (t >= max(t0, held0)) & (t <= min(t1, held1))
+        # whole cycles from the stretch's firm end when it has one (the same whatever lies past
+        # its other end: one run reads alike in the file that holds it alone), else in its middle
+        if soft0 == soft1:
+            t0 = 0.5 * (lo + hi - n / got.freq)
+        else:
+            t0 = held0 if soft1 else hi - n / got.freq
+        k = (t >= max(t0, held0)) & (t <= min(t0 + n / got.freq, held1))
         final = fit(t[k], x[k], got.freq, search=0.002) or got
-        t0, t1 = _within(t, t0, n, final.freq)
-        if t0 is None:
-            continue
+        t1 = t0 + n / final.freq
         amp = final.amplitude
         name = f"{final.waveform} {_g(amp * 1e3)} mm {_g(final.freq)} Hz"
         out.append(Segment(name, "sine", float(t0), float(t1),
@@ -173,21 +189,6 @@ def _seed(t, x, H, a, b, f0):
     if got is not None:
         got.run = (a, b, got)
     return got
-
-
-def _within(t, t0, n, f):
-    """(t0, t1) of n whole cycles at f [Hz] from t0, moved inside the recording's samples t
-    (to a sample's spacing past its last: the last cycle's last sample) when counting with
-    slack took them past an end, one cycle fewer if they cannot fit; (None, None) below
-    MIN_CYCLES."""
-    h = float(t[1] - t[0]) if len(t) > 1 else 0.0
-    while n >= MIN_CYCLES:
-        t0 = max(t0, float(t[0]))
-        t0 -= max(0.0, t0 + n / f - (float(t[-1]) + h))
-        if t0 >= float(t[0]) - 1e-9:
-            return t0, t0 + n / f
-        t0, n = t0 + 0.5 / f, n - 1
-    return None, None
 
 
 def _alike_runs(H, free):
@@ -258,8 +259,9 @@ def _ends(t, x, i0, i1, got, taken):
     tol = max(EDGE * got.amplitude, 1.5 * float(inside.max()) if len(inside) else 0.0)
     bad = np.flatnonzero(r > tol) + lo
     before, after = bad[bad < i0], bad[bad > i1]
-    start = int(before[-1]) + 1 if len(before) else lo
-    end = int(after[0]) - 1 if len(after) else hi
+    # averaged over w samples, a misfit that sets in at a sample shows w / 2 before it
+    start = max(int(before[-1]) + 1 - w // 2, lo) if len(before) else lo
+    end = min(int(after[0]) - 1 + w // 2, hi) if len(after) else hi
     return float(t[start]), float(t[end])
 
 

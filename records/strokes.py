@@ -29,10 +29,11 @@ TRIANGLE_SHARE = 0.5  # a stroke within 10 % of its median speed this share of t
 
 
 def noise(t, x):
-    """The displacement's noise [x's unit, RMS]: its scatter about a line in the quietest tenth
-    of the recording (blocks of NOISE_S), where the motion adds least. A DAQ's noise need not
-    be white (the UTFSM exports': five times more below 50 Hz than their sample-to-sample
-    differences say), so it is measured as it is, not from differences."""
+    """The displacement's noise [x's unit, RMS], in the quietest tenth of the recording (blocks
+    of NOISE_S), where the motion adds least: its scatter about a line there, or where no
+    block is still (a file of one sine) its white part, from second differences, if less. A
+    DAQ's noise need not be white (the UTFSM exports' has five times more below 50 Hz than
+    their differences say), so where the recording holds still it is measured as it is."""
     t, x = np.asarray(t, float), np.asarray(x, float)
     h = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     m = max(8, int(round(NOISE_S / h)))
@@ -42,7 +43,10 @@ def noise(t, x):
     b = x[:n * m].reshape(n, m)
     u = np.arange(m) - (m - 1) / 2
     line = b.mean(axis=1, keepdims=True) + np.outer(b @ u / (u @ u), u)
-    return float(np.percentile(np.sqrt(np.mean((b - line) ** 2, axis=1)), 10))
+    scatter = np.percentile(np.sqrt(np.mean((b - line) ** 2, axis=1)), 10)
+    d2 = b[:, 2:] - 2 * b[:, 1:-1] + b[:, :-2]
+    white = 1.4826 * np.percentile(np.median(np.abs(d2 - np.median(d2, axis=1, keepdims=True)), axis=1), 10) / math.sqrt(6)
+    return float(min(scatter, white))
 
 
 def smoothed(x, h):

@@ -214,6 +214,12 @@ def prepare(channels, events, drives=None, smoothing=None) -> Data:
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
     spans = _spans(channels, events)  # before the screening cuts holes in x
+    blocks = [sp for sp in spans if sp[1] is None]
+    if isinstance(smoothing, Smoothing) and len(blocks) < len(spans):
+        spans = [sp for sp in spans if sp[1] is not None]
+        notes += [f"the ramps, sweeps and random motion beside the tests ({sum(b[3] - b[2] for b in blocks):.1f} s) "
+                  f"are not judged: the source's moving average blends each with what lies beyond it, which a model "
+                  f"of it alone cannot follow"] if blocks else []
     flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
     flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1, _ in spans if f is not None], smoothing)
@@ -230,8 +236,8 @@ def prepare(channels, events, drives=None, smoothing=None) -> Data:
         te = _on_clock(tF, max(t0 - pad, tF[0], tx[0]), min(t1 + pad, tF[-1], tx[-1]), h)
         keep = (te >= t0) & (te < t1)
         t = te[keep]
-        if len(t) < 50 or t[0] - t0 > 2 * h or t1 - t[-1] > 2 * h:
-            continue
+        if len(t) < 50 or max(tF[0], tx[0]) - t0 > 2 * h or t1 - min(tF[-1], tx[-1]) > 2 * h:
+            continue  # the records do not cover it
         Fi = _decimated(tF, F, t)
         xs, v, a = (None, None, None) if random else _periodic_motion(t, np.interp(t, tx, x), f)
         if xs is None:

@@ -123,11 +123,12 @@ class ThroughSource:
 
     def simulate(self, t, x, v, T=None):
         r = simulate_segment(self.damper, t, x, v, T)
-        h, f = float(np.median(np.diff(t))), None
-        if self.smoothing.per_period:  # padded: a few cycles still read finely
-            spectrum = np.abs(np.fft.rfft(x - np.mean(x), 8 * len(x)))
-            f = float(np.fft.rfftfreq(8 * len(x), h)[1 + np.argmax(spectrum[1:])])
-        r.force = self.smoothing.apply(r.force, t, h, f)
+        h = float(np.median(np.diff(t)))
+        spectrum = np.abs(np.fft.rfft(x - np.mean(x), 8 * len(x)))  # padded: a few cycles still read finely
+        f = float(np.fft.rfftfreq(8 * len(x), h)[1 + np.argmax(spectrum[1:])])
+        cycles = (t[-1] - t[0] + h) * f  # a sine segment's whole cycles: the filter reaches round them
+        whole = cycles >= 1.5 and abs(cycles - round(cycles)) < 0.05
+        r.force = self.smoothing.apply(r.force, t, h, f if self.smoothing.per_period else None, whole_cycles=whole)
         return r
 
 

@@ -220,14 +220,15 @@ def fit(t, x, f0, search=0.01):
     return Fit(f, amplitude, float(c[0]), math.sqrt(sse / len(y)), waveform, c, float(t[0]), n)
 
 
-def frequency(t, x, t0, t1):
-    """The instantaneous frequency [Hz] of the motion at times t between t0 and t1 (a
-    sweep's): one over each half-cycle's period at its mid-level crossing, interpolated; nan
-    where there is none."""
+def frequency(t, x, t0, t1, at=None):
+    """The instantaneous frequency [Hz] of the motion x [m] between t0 and t1 [s] (a sweep's,
+    a ramp's) at times `at` (t by default): one over each half-cycle's period at its
+    mid-level crossing, interpolated; nan outside the crossings found, or where none is."""
     t, x = np.asarray(t, float), np.asarray(x, float)
+    at = t if at is None else np.asarray(at, float)
     k = (t >= t0) & (t <= t1)
     tk, xk = t[k], x[k]
-    out = np.full(len(t), np.nan)
+    out = np.full(len(at), np.nan)
     if len(tk) < 16:
         return out
     xs = smoothed(xk, float(np.median(np.diff(tk))))
@@ -235,8 +236,8 @@ def frequency(t, x, t0, t1):
     ok = np.isfinite(H.period) & (H.travel >= MIN_TRAVEL)
     if ok.sum() < 2:
         return out
-    at = H.cross[ok]
-    out[k] = np.interp(tk, at, 1.0 / H.period[ok])
+    inside = (at >= H.cross[ok][0]) & (at <= H.cross[ok][-1])
+    out[inside] = np.interp(at[inside], H.cross[ok], 1.0 / H.period[ok])
     return out
 
 

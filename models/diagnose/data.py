@@ -18,6 +18,7 @@ import numpy as np
 from models.diagnose import quality
 from records.data import gaps as _gaps, sign_problem, smooth
 from records.segmentation import BLOCK_KINDS, cut
+from records.strokes import frequency
 from records.source_filter import Smoothing, unbroken
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
@@ -58,13 +59,16 @@ class Data:
     fitted_until: float | None = None
     smoothing: Smoothing | None = None  # the source's moving average, declared at import (records/source_filter.py)
     filter_hz: list | None = None  # per segment, the frequency [Hz] a per-period source filter took (None: none)
+    # Hz, the motion's frequency at each sample: its segment's, a sweep's or ramp's as it goes
+    # (records/strokes.frequency: one over each stroke's period), nan where none is known
+    freq: np.ndarray | None = None
 
     def take(self, k):
         """The samples at index array/mask k (same fields)."""
         return Data(self.t[k], self.x[k], self.v[k], self.a[k], self.F[k], self.cycle[k], self.segment[k],
                     self.h[k], self.segments, None if self.T is None else self.T[k],
                     {n: a[k] for n, a in self.aux.items()}, self.notes, self.flags, self.periodic, self.tone_hz,
-                    self.fitted_until, self.smoothing, self.filter_hz)
+                    self.fitted_until, self.smoothing, self.filter_hz, None if self.freq is None else self.freq[k])
 
     def through_source(self, y):
         """y along these samples [any unit] through the moving average the source passed
@@ -146,17 +150,24 @@ def _band(t, x, t0, t1):
     return max(float(np.fft.rfftfreq(int(k.sum()), h)[np.searchsorted(c, 0.99)]), 1.0)
 
 
-def _spans(channels, events):
+def _spans(channels, events, smoothing, notes):
     """[(name, freq_hz or None, t0, t1, the source filter's frequency [Hz] or None)]: the one
     cut (records/segmentation.cut): its periodic tests, read by whole cycles, and (an
     imported program's) its ramps, sweeps and random motion, read in blocks of BLOCK_S
-    (freq None; a ramp goes through a source's per-period filter at its sine's); else the
-    road segments, or the whole recording, as motion that does not repeat."""
+    (freq None; a ramp goes through a source's per-period filter at its sine's) but where a
+    source's moving average blends them with their neighbours (said in notes); else the road
+    segments, or the whole recording, as motion that does not repeat."""
     segs = cut(channels, events)
     sines = {s.name: s for s in segs if s.kind == "sine"}
     spans = [(s.name, s.params["freq_hz"] if s.kind == "sine" else None, s.t0, s.t1,
               _ramped(s, segs, sines) if s.kind != "sine" else s.params["freq_hz"])
              for s in segs if s.kind == "sine" or s.kind in BLOCK_KINDS]
+    blocks = [sp for sp in spans if sp[1] is None]
+    if isinstance(smoothing, Smoothing) and blocks and len(blocks) < len(spans):
+        notes.append(f"the ramps, sweeps and random motion beside the tests ({sum(b[3] - b[2] for b in blocks):.1f} "
+                     f"s) are not judged: the source's moving average blends each with what lies beyond it, which a "
+                     f"model of it alone cannot follow")
+        spans = [sp for sp in spans if sp[1] is not None]
     if spans:
         return spans
     spans = [(s.name, None, s.t0, s.t1, None) for s in segs if s.kind == "road"]
@@ -213,20 +224,14 @@ def prepare(channels, events, drives=None, smoothing=None) -> Data:
         lost = sum(b - a for a, b in holes)
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
-    spans = _spans(channels, events)  # before the screening cuts holes in x
-    blocks = [sp for sp in spans if sp[1] is None]
-    if isinstance(smoothing, Smoothing) and len(blocks) < len(spans):
-        spans = [sp for sp in spans if sp[1] is not None]
-        notes += [f"the ramps, sweeps and random motion beside the tests ({sum(b[3] - b[2] for b in blocks):.1f} s) "
-                  f"are not judged: the source's moving average blends each with what lies beyond it, which a model "
-                  f"of it alone cannot follow"] if blocks else []
+    spans = _spans(channels, events, smoothing, notes)  # before the screening cuts holes in x
     flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
     gaps = holes + bad
     flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1, _ in spans if f is not None], smoothing)
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))
     h = period * step
     T_ch = next((n for n in ("T_body", "temperature", "T_reservoir") if n in channels and len(channels[n][0]) > 1), None)
-    parts, seg_names, filter_hz, n_cycles = [], [], [], 0
+    parts, seg_names, filter_hz, freqs, n_cycles = [], [], [], [], 0
     for name, f, t0, t1, source_hz in spans:
         # smooth over the stretch with a margin each side (the recording goes on around a
         # segment), then keep the segment: a zero-phase filter's edges are not to be trusted
@@ -256,6 +261,7 @@ def prepare(channels, events, drives=None, smoothing=None) -> Data:
         cyc = np.where(whole, cyc + n_cycles, -1)
         n_cycles = max(n_cycles, cyc.max() + 1)
         parts.append((t, xs, v, a, Fi, cyc, np.full(len(t), len(seg_names)), np.full(len(t), h)))
+        freqs.append(frequency(tx, x, t0, t1, t) if random else np.full(len(t), f))
         seg_names.append((name, None if random else f))
         filter_hz.append(source_hz)
     if not parts:
@@ -263,7 +269,7 @@ def prepare(channels, events, drives=None, smoothing=None) -> Data:
                             "50 samples without a gap)")
     cols = [np.concatenate(c) for c in zip(*parts)]
     d = Data(*cols, segments=seg_names, notes=notes, flags=flags, periodic=any(f is not None for _, f in seg_names),
-             smoothing=smoothing, filter_hz=filter_hz)
+             smoothing=smoothing, filter_hz=filter_hz, freq=np.concatenate(freqs))
     keep = d.cycle >= 0
     d = d.take(keep)
     if not len(d.t):  # every cycle touched by a gap: nothing to interpolate the other channels onto

@@ -197,9 +197,15 @@ def _damping_drift_tangent(m, d, p, f, e, cols, before):
 
 
 def frequency_u(d):
-    """Each sample's segment frequency as u = log(f / f_mid) over half the log range:
-    -1 at the lowest frequency, +1 at the highest; 0 where a segment has none."""
-    fs = np.array([f or np.nan for _, f in d.segments], float)[d.segment]
+    """Each sample's motion frequency as u = log(f / f_mid) over half the log range of the
+    tests' frequencies: -1 at the lowest, +1 at the highest (a sweep's or ramp's, as it goes,
+    clipped to them); 0 where none is known."""
+    seg = np.array([f or np.nan for _, f in d.segments], float)
+    fs = seg[d.segment] if d.freq is None else np.where(np.isfinite(seg[d.segment]), seg[d.segment], d.freq)
+    if np.any(np.isfinite(seg)):
+        fs = np.clip(fs, np.nanmin(seg), np.nanmax(seg))
+    if not np.any(np.isfinite(fs)):
+        return np.zeros(len(fs))
     lo, hi = np.nanmin(fs), np.nanmax(fs)
     return np.nan_to_num((2 * np.log(fs) - np.log(lo) - np.log(hi)) / max(np.log(hi / lo), 1e-9))
 

@@ -273,7 +273,8 @@ def sample(program, rate, noise=0.0, quantum=0.0, seed=0):
 def damper_force(program, t, rate=None, friction=40.0, fade_above_hz=None, fade=0.3, reversal=None, seed=0,
                  noise=3.0):
     """Force [N] (compression positive) of a plain damper along the program's true motion:
-    quadratic-plus-linear valves, a gas spring, Coulomb friction, white load-cell noise.
+    quadratic-plus-linear valves, a polytropic gas spring (80 mm of gas, 150 N at
+    mid-stroke), Coulomb friction, white load-cell noise of `noise` [N].
     fade_above_hz: the valves lose `fade` of their damping above it (a smooth step over a
     tenth of the frequency). reversal: friction rises near reversal (a breakaway peak
     `reversal` times the Coulomb level, decaying with speed over 5 mm/s)."""
@@ -284,9 +285,9 @@ def damper_force(program, t, rate=None, friction=40.0, fade_above_hz=None, fade=
     if fade_above_hz:
         f = np.nan_to_num(program.freq_at(t))
         Fd = Fd * (1 - fade / (1 + np.exp(-(f - fade_above_hz) / (0.1 * fade_above_hz))))
-    s = np.tanh(v / 2e-3)
+    s = np.tanh(v / 2e-4)  # a seal's sign, softened over 0.2 mm/s
     Ff = friction * s * (1 + (reversal or 0.0) * np.exp(-np.abs(v) / 5e-3))
-    gas = 150.0 * 0.08 / (0.08 - (x - X_MID))
+    gas = 150.0 * (0.08 / (0.08 - (x - X_MID))) ** 1.4  # polytropic, near adiabatic at test speeds
     return Fd + Ff + gas + np.random.default_rng(seed + 1).normal(0.0, noise, len(t))
 
 

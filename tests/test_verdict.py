@@ -169,9 +169,11 @@ def test_a_fit_stopped_at_a_kink_starts_again_where_it_stopped(tmp_path):
     checks each stop. The minimal baseline on the UTFSM 25 mm 0.5 Hz 0 A file, both folds,
     its first three starts: one trust region alone stopped 1.2e-3 of the cost short on one of
     six, under this machine's rounding and the other kernel's (3 and 5 of 6 beyond 1e-5); with
-    fresh starts each stops within 1e-3 of a tightly polished optimum, and with the fourth
-    start seven of eight within 1e-5 under both (the eighth 2-5e-4 short: there a fresh start
-    gains less than FTOL, and only a polish of hundreds of evaluations finds more)."""
+    fresh starts each stopped within 1e-3 of a tightly polished optimum (one 2-5e-4 short), and
+    with a rectangular trust region tried where a fresh one gains less than FTOL, all eight
+    within 1.5e-5 under both (the whole cycles cut at import, 2026-12-05: the first start
+    1.3e-5 short under both, the fourth 0.6e-5 and 1.4e-5; a polish of hundreds of evaluations
+    finds that much, 1e-4 of the gain a decision counts, referees.RELEVANCE)."""
     from scipy.optimize import least_squares
     from models.diagnose import _starts, fitting, holdout_masks
     from models.diagnose.candidates import WITH_BASELINE, Minimal, Model
@@ -198,7 +200,7 @@ def test_a_fit_stopped_at_a_kink_starts_again_where_it_stopped(tmp_path):
                                  xtol=1e-14, gtol=1e-14, x_scale="jac", max_nfev=300)
             cost = float(np.sum(resid(z) ** 2))
             short.append((cost - 2 * best.cost) / cost)
-    assert max(short) < 1e-3 and sum(s > 1e-5 for s in short) <= 1, short
+    assert max(short) < 1e-4 and sum(s > 1e-5 for s in short) <= 2, short
 
 
 @pytest.mark.rounding

@@ -149,3 +149,4 @@ results: $(STAMP)
 	$(VENV)/bin/python -m tests.outside_physics --seeds 1 --rates 1000 --markdown > docs/results/open-physics.md.tmp; mv docs/results/open-physics.md.tmp docs/results/open-physics.md
 	$(VENV)/bin/dyno bench import --markdown > docs/results/bench-import.md.tmp && mv docs/results/bench-import.md.tmp docs/results/bench-import.md
 	$(VENV)/bin/python -m tests.real_data --markdown > docs/results/real-data.md.tmp && mv docs/results/real-data.md.tmp docs/results/real-data.md
+	$(VENV)/bin/python -m tests.segmentation_grid --markdown > docs/results/segmentation.md.tmp && mv docs/results/segmentation.md.tmp docs/results/segmentation.md

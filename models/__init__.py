@@ -7,6 +7,8 @@ import os
 import sys
 from pathlib import Path
 
+import records  # noqa: F401 - first: one BLAS thread (records/__init__.py)
+
 
 # the sources of compiled code: the equations, and the kernels built on them elsewhere
 COMPILED = ("physics/*.py", "quarter_car/sim.py", "diagnose/kernels.py", "diagnose/candidates.py", "identify/valves.py")
@@ -28,17 +30,3 @@ if "NUMBA_CACHE_DIR" not in os.environ:
     os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()
     if "numba" in sys.modules:  # imported before us: make it read the variable again
         sys.modules["numba"].core.config.reload_config()
-
-# One BLAS thread, as every Dask worker has: a least-squares fit sums in an order that
-# depends on the thread count, so a diagnosis on one machine and on a cluster would differ
-# in their last digits; and the fits' matrices are tall and narrow (samples by a few dozen
-# parameters), where threads cost more than they give (a diagnosis took 36 s on one
-# thread, 99 s on two cores). Before numpy loads (the dyno command, a worker) by the
-# environment; after (a test, a user's script), on the threads it has started.
-if "numpy" not in sys.modules:
-    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(_var, "1")
-else:
-    import scipy.linalg  # noqa: F401 - its own BLAS: loaded now, so that it is limited too
-    from threadpoolctl import threadpool_limits
-    threadpool_limits(limits=1, user_api="blas")

@@ -29,6 +29,7 @@ RANDOM_S = 2.0  # s: motion that does not repeat is called random from this long
 
 # what the diagnosis reads of an imported recording: the periodic tests by their cycles, these by blocks
 BLOCK_KINDS = ("ramp", "sweep", "random")
+TESTS = ("sine", "sweep")  # what a short stretch beside is never joined to
 
 
 def find(t, x, source=None) -> list[Segment]:
@@ -156,19 +157,27 @@ def _approach(t, xs, t0):
 
 def _merged(segs):
     """Stretches shorter than LEAST_S joined to a neighbour that is no test (the one before,
-    else the one after): a test keeps its whole cycles."""
+    else the one after): a test keeps its whole cycles. Between two tests (a sine stepped
+    into the next), such a stretch stays itself: nothing is left unread."""
     out, pending = [], None
     for s in segs:
-        if s.t1 - s.t0 < LEAST_S and s.kind not in ("sine", "sweep"):
-            if out and out[-1].kind not in ("sine", "sweep") and abs(out[-1].t1 - s.t0) < 1e-9:
+        if s.t1 - s.t0 < LEAST_S and s.kind not in TESTS:
+            if out and out[-1].kind not in TESTS and abs(out[-1].t1 - s.t0) < 1e-9:
                 out[-1].t1 = s.t1
+            elif pending is None:
+                pending = s
             else:
-                pending = s.t0 if pending is None else pending
+                pending.t1 = s.t1
             continue
-        if pending is not None and s.kind not in ("sine", "sweep"):
-            s.t0 = pending
+        if pending is not None:
+            if s.kind in TESTS:
+                out.append(pending)
+            else:
+                s.t0 = pending.t0
         pending = None
         out.append(s)
+    if pending is not None:
+        out.append(pending)
     return out
 
 

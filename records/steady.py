@@ -19,6 +19,9 @@ SAME = 0.03  # half-cycles of one steady test: travel, mid-level (of the travel)
 STEADY_FIT = 0.01  # of the amplitude: RMS misfit of a steady test's periodic fit (beyond the noise) ...
 EDGE = 0.01  # ... and where it is followed to its ends, the misfit [of the amplitude] that ends it
 MIN_CYCLES = 2  # a steady test has at least this many whole cycles
+# a seed's frequency is searched this far about its half-cycles' period: two cycles' few
+# periods reach across to the crossings of the motion beside them (3.4 % off beside a ramp)
+SEED_SEARCH = 0.05
 CYCLE_SLACK = 0.05  # of a cycle: a steady stretch this short of a whole number of cycles still holds it
 SWEEP_WINDOW = 5  # half-cycles each side of one: the line its period is judged against
 SWEEP_SMOOTH = 0.3  # a sweep's periods leave that line by at most this share of their change per half-cycle ...
@@ -131,12 +134,19 @@ def steady(t, x, H, sigma, swept, source=None) -> list[Segment]:
     taken = [(s.t0, s.t1) for s in swept]
     out = []
     for a, b, period in _alike_runs(H, free):
-        got = _seed(t, x, H, a, b, 1.0 / period)
-        if got is None or got.rms > STEADY_FIT * got.amplitude + 2 * sigma:
+        got = _seed(t, x, H, a, b, 1.0 / period, sigma)
+        if got is None or not _steady(got, sigma):
             continue
         a, b, got = got.run
         i0, i1 = H.ext[a], H.ext[b + 1]
         held0, held1 = _ends(t, x, i0, i1, got, taken + [(s.t0, s.t1) for s in out])
+        # a seed of three half-cycles holds its frequency loosely (0.4 % off, which stopped a 2 cycle
+        # test's ends a quarter cycle short): refitted on all it holds, its ends followed again
+        j0, j1 = int(np.searchsorted(t, held0)), int(np.searchsorted(t, held1, "right")) - 1
+        again = fit(t[j0:j1 + 1], x[j0:j1 + 1], got.freq) if b - a < 2 * MIN_CYCLES - 1 else None
+        if again is not None and _steady(again, sigma):
+            got = again
+            held0, held1 = _ends(t, x, j0, j1, got, taken + [(s.t0, s.t1) for s in out])
         # a source's moving average blends whatever lies within its reach of a stretch's ends (the
         # file's ends, a ramp, the next test) into it: no whole cycle is taken there
         edge = 0.0 if source is None else source.reach(got.freq)
@@ -170,20 +180,26 @@ def steady(t, x, H, sigma, swept, source=None) -> list[Segment]:
     return _apart(out)
 
 
-def _seed(t, x, H, a, b, f0):
+def _steady(got, sigma):
+    return got.rms <= STEADY_FIT * got.amplitude + 2 * sigma
+
+
+def _seed(t, x, H, a, b, f0, sigma):
     """The fit of the half-cycles a to b (Fit, its .run (a, b, fit) the half-cycles kept),
     less those at either end that the fit misses three times as badly as the median half-
-    cycle: the half-cycle that joins two tests, let in where a few samples a cycle blur its
-    travel. None where no fit is made."""
+    cycle, or the worse end while the fit is not steady: the half-cycle that joins two
+    tests, let in where a few samples a cycle blur its travel or where the two strokes'
+    travels are alike (a fit of two cycles bends to it, and spreads its misfit over all).
+    None where no fit is made."""
     while True:
         i0, i1 = H.ext[a], H.ext[b + 1]
-        got = fit(t[i0:i1 + 1], x[i0:i1 + 1], f0)
+        got = fit(t[i0:i1 + 1], x[i0:i1 + 1], f0, search=SEED_SEARCH)
         if got is None or b - a < 3:
             break
         r = x[i0:i1 + 1] - got.at(t[i0:i1 + 1])
         miss = np.array([np.sqrt(np.mean(r[H.ext[j] - i0:H.ext[j + 1] - i0 + 1] ** 2)) for j in range(a, b + 1)])
         worst = int(np.argmax(miss[[0, -1]]))
-        if not miss[[0, -1]][worst] > 3 * np.median(miss) + EDGE * got.amplitude / 10:
+        if not miss[[0, -1]][worst] > 3 * np.median(miss) + EDGE * got.amplitude / 10 and _steady(got, sigma):
             break
         a, b, f0 = (a + 1, b, got.freq) if worst == 0 else (a, b - 1, got.freq)
     if got is not None:
@@ -195,19 +211,22 @@ def _alike_runs(H, free):
     """[(first, last half-cycle, period [s])] of runs of at least three alike half-cycles (a
     sine's two whole cycles less the quarter cycles at its ends): their travel and mid-level
     within SAME of the run's medians, then split where the period changes by more than
-    SAME. A run's first and last half-cycles take the period of their neighbours: theirs
-    reaches across to the crossing of the motion beside the run."""
+    SAME, two half-cycles running. A run's first and last half-cycles take the period of
+    their neighbours: theirs reaches across to the crossing of the motion beside the run."""
     out = []
     for a, b in _runs(H, free):
         known = [j for j in range(a + 1, b) if np.isfinite(H.period[j])]
         groups = [[a]]
         for j in range(a + 1, b + 1):
             periods = [H.period[i] for i in groups[-1] if i in known]
-            if j in known and periods and abs(H.period[j] / np.median(periods) - 1) > SAME:
-                groups.append([])
+            off = lambda i: i in known and abs(H.period[i] / np.median(periods) - 1) > SAME
+            if periods and off(j) and off(j + 1):  # the next confirms it: a run's last known period
+                groups.append([])                  # reaches across to the motion beside it
             groups[-1].append(j)
         for g in groups:
-            periods = [H.period[i] for i in g if i in known]
+            # a group's end half-cycles reach across to the crossing of the group beside it (a
+            # sine stepped into another): its period from its inner ones where it has them
+            periods = [H.period[i] for i in g[1:-1] if i in known] or [H.period[i] for i in g if i in known]
             if len(g) >= 3 and periods:
                 out.append((g[0], g[-1], float(np.median(periods))))
     return out

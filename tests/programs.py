@@ -195,12 +195,12 @@ def matrix(style="ramped", amplitudes=AMPLITUDES_M, freqs=FREQS_HZ, cycles=4, dw
     return b.hold(0.5).build()
 
 
-def lab_matrix():
+def lab_matrix(amplitudes=AMPLITUDES_M):
     """A 70 s sine matrix (1.6-12.7 mm, 1-16 Hz): per amplitude, a 2 Hz reference, then 4 cycles of each frequency,
     each ramped in and out over a cycle with 0.2 s dwells."""
-    b = Builder("70 s lab matrix")
+    b = Builder("lab matrix")
     b.hold(0.5)
-    for A in AMPLITUDES_M[::-1]:
+    for A in sorted(amplitudes, reverse=True):
         b.sine(0.005, 2.0, 4).hold(0.2)
         for f in (1.0, 2.0, 4.0, 8.0, 12.0, 16.0):
             if 2 * math.pi * f * A <= 0.8:

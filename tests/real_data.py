@@ -8,6 +8,7 @@ file's own model, each through the `dyno` command and its exit code.
 """
 import argparse
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -137,7 +138,7 @@ def markdown(results):
              r.get("diagnosis", "-") + ("; force smoothed by its source" if r.get("smoothed") else ""),
              r.get("check", "-")) for r in results]
     failed = [(r["file"], k, c) for r in results for k, c in r["codes"].items() if c != 0 and not (k == "check" and c == 1)]
-    periodic = [r for r in results if r.get("segments", "").split(" periodic")[0] not in ("0", "-")]
+    periodic = [r for r in results if re.search(r"\d+ (sines?|triangles?)\b", r.get("segments", "").split(";")[0])]
     met = [r for r in periodic if r.get("nrmse") is not None and max(r.get("each") or [r["nrmse"]]) < GOAL_NRMSE]
     smoothed = [r for r in results if r.get("smoothed")]
     grouped = [r for r in results if r.get("rivals")]

@@ -1,0 +1,144 @@
+"""Issue 88: other dynos' programs (tests/programs.py, written apart from our own plans) cut
+into their tests at any rate, with and without an LVDT's noise and an ADC's quantisation:
+every steady sine found whole with its frequency within 0.2 % and its amplitude within 1 %,
+none invented in a ramp, a hold or a sweep, every other piece read as what it is, nothing
+left unread; then imported and diagnosed as a user would."""
+import math
+import os
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from records import segmentation, strokes
+from records.reader import load_recording
+from tests import programs as P
+from tests.conftest import dyno
+
+SINE_PROGRAMS = ("ramped", "stepped", "dwells", "lab", "mixed")
+OTHER_PROGRAMS = ("sweeps", "triangles", "random", "static")
+AS_ITSELF = 0.9  # of a piece's time read as its own kind (a ramp's last moments may be a dwell's first)
+
+
+def cut(program, rate, noise="lvdt", seed=1):
+    t, x = P.sample(program, rate, *P.NOISES[noise], seed=seed)
+    segs = segmentation.find(t, x)
+    return t, x, segs, P.score(program, [(s.kind, s.t0, s.t1, s.params) for s in segs], t[-1])
+
+
+@pytest.mark.parametrize("rate", [300.0, 10000.0])
+@pytest.mark.parametrize("name", SINE_PROGRAMS)
+def test_every_steady_sine_of_a_lab_program_is_found_whole(name, rate):
+    """The slowest and fastest acquisitions of the range, with an LVDT's noise (the whole
+    grid, clean and noisy at 300 Hz to 10 kHz: docs/results/segmentation.md)."""
+    t, _, segs, sc = cut(P.PROGRAMS[name](), rate)
+    assert sc.sines and sc.found == sc.sines, sc.missed
+    assert sc.invented == 0
+    assert sc.freq_err <= P.FREQ_TOL and sc.amp_err <= P.AMP_TOL
+    assert sc.unread_s < 1 / rate, sc.unread_s  # every second of it in a segment
+    assert all(v >= AS_ITSELF for v in sc.kinds.values()), sc.kinds
+
+
+@pytest.mark.parametrize("rate", [300.0, 10000.0])
+@pytest.mark.parametrize("name", OTHER_PROGRAMS)
+def test_sweeps_triangles_random_and_holds_are_read_as_what_they_are(name, rate):
+    program = P.PROGRAMS[name]()
+    t, x, segs, sc = cut(program, rate)
+    assert sc.invented == 0 and sc.unread_s < 1 / rate
+    assert all(v >= AS_ITSELF for v in sc.kinds.values()), sc.kinds
+    if name == "triangles":  # constant-velocity strokes: their speed is 4 A f
+        tri = [s for s in segs if s.params.get("waveform") == "triangle"]
+        for s, p in zip(tri, [p for p in program.pieces if p.kind == "triangle"]):
+            assert s.params["freq_hz"] == pytest.approx(p.freq, rel=P.FREQ_TOL)
+            assert s.params["amplitude_mm"] * 1e-3 == pytest.approx(p.amplitude, rel=P.AMP_TOL)
+    if name == "sweeps":  # the instantaneous frequency, the law's, along each sweep's steady part
+        for p in [p for p in program.pieces if p.kind == "sweep"]:
+            at = np.linspace(p.t0 + 2 / p.freq, p.t1 - 2 / p.freq_end, 9)
+            f = strokes.frequency(t, x, p.t0, p.t1, at=at)
+            assert np.allclose(f, program.freq_at(at), rtol=0.01), (f, program.freq_at(at))
+
+
+STEP = 0.1  # a sine stepped straight into the next differs from it by this share in amplitude or frequency
+
+
+@st.composite
+def sine_programs(draw):
+    """Two to four sines of the issue's range (0.5-16 Hz, 1.6-12.7 mm, under 0.8 m/s), each
+    ramped in and out, stepped straight into the next, or dwelling long, with holds about."""
+    b = P.Builder("drawn").hold(draw(st.floats(0.3, 1.5)))
+    before = None  # the sine this one steps straight on from
+    for _ in range(draw(st.integers(2, 4))):
+        A = draw(st.floats(0.0016, 0.0127))
+        f = draw(st.floats(0.5, min(16.0, 0.8 / (2 * math.pi * A))))
+        # a program steps to another test: one sine stepped into its like is one test
+        assume(before is None or abs(A / before[0] - 1) > STEP or abs(f / before[1] - 1) > STEP)
+        cycles = draw(st.integers(2, 5))
+        style = draw(st.sampled_from(["ramped", "stepped", "dwell"]))
+        b.sine(A, f, cycles, ramp_cycles=0 if style == "stepped" else 1)
+        before = (A, f) if style == "stepped" else None
+        if style != "stepped":
+            b.hold(2.0 if style == "dwell" else 0.2)
+    return b.hold(draw(st.floats(0.3, 1.5))).build()
+
+
+@settings(max_examples=int(os.environ.get("DYNO_PROPERTY_EXAMPLES", "25")), deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(program=sine_programs(), rate=st.floats(math.log(300), math.log(10000)).map(math.exp),
+       noise=st.sampled_from(sorted(P.NOISES)), seed=st.integers(0, 2 ** 16))
+def test_any_sine_program_at_any_rate_is_cut_right(program, rate, noise, seed):
+    """Property: every steady sine found whole within tolerance, none invented in a ramp or
+    a hold, nothing unread (DYNO_PROPERTY_EXAMPLES sets the number of programs). At 400 it
+    found four cuts wrong (2026-12-05): a stepped sine's period read across the step, a
+    seed that let the half-cycle joining two tests in, a seed of three half-cycles whose
+    frequency held loosely, a ramp's first half-cycle alike to the sine before it."""
+    t, _, _, sc = cut(program, rate, noise, seed)
+    assert sc.found == sc.sines, sc.missed
+    assert sc.invented == 0 and sc.unread_s < 1 / rate
+
+
+def _imported(tmp_path, program, rate, **force):
+    """The program as another lab's CSV (time, displacement in mm, force), imported."""
+    t, x = P.sample(program, rate, P.LVDT_NOISE_M, P.LVDT_QUANTUM_M, seed=1)
+    src = tmp_path / "lab.csv"
+    np.savetxt(src, np.c_[t, x * 1e3, P.damper_force(program, t, seed=1, **force)], fmt="%.6f", delimiter=",",
+               header="t,x,F", comments="")
+    rec = tmp_path / "lab.mcap"
+    r = dyno("import", src, "--out", rec, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    assert r.returncode == 0, r.stderr
+    return rec, r.stdout
+
+
+def test_the_import_says_how_a_70_s_matrix_divides_and_leaves_none_of_it(tmp_path):
+    """The issue's 70 s matrix at 5 kHz (4 cycles a sine, a 2 Hz reference between blocks):
+    42 s of it were "not in a segment"; now each of its 27 sines, their ramps and dwells."""
+    program = P.lab_matrix()
+    rec, out = _imported(tmp_path, program, 5000.0)
+    line = next(s for s in out.splitlines() if s.startswith("segments: "))
+    shares = {k: float(v) for v, k in [(p.split(" % in ")[0], p.split(" % in ")[1].split(" ", 1)[1])
+                                       for p in line.removeprefix("segments: ").split(";")[0].split(", ")]}
+    assert line.startswith("segments: 61 % in 27 sines"), line
+    assert set(shares) == {"sines", "ramps", "dwells", "holds"} and sum(shares.values()) >= 99, line
+    ch, events, _ = load_recording(rec)
+    assert [s.name for s in segmentation.cut(ch, events) if s.kind == "sine"] == [
+        s.name for s in segmentation.find(*P.sample(program, 5000.0, P.LVDT_NOISE_M, P.LVDT_QUANTUM_M, seed=1))
+        if s.kind == "sine"]  # the cut the import stored is the one found
+
+
+# a shorter matrix (37 s: 6.4 and 1.6 mm, 1-16 Hz) at 5 kHz: the effects the issue says were
+# never seen, each where only a part of the program holds it
+EFFECTS = {"null": ({}, set()), "fade above 8 Hz": ({"fade_above_hz": 8.0}, {"frequency_damping"}),
+           "friction rising near reversal": ({"reversal": 2.0}, {"breakaway_friction"})}
+
+
+@pytest.mark.rounding
+@pytest.mark.parametrize("case", EFFECTS)
+def test_an_effect_in_part_of_a_lab_program_is_named(tmp_path, case):
+    """Damping that falls 30 % above 8 Hz lives in six of the fifteen sines (8-16 Hz) and their ramps;
+    friction that doubles near reversal lives at the lowest speeds of every stroke; neither
+    is in the plain model, and a null names nothing (measured 2026-12-05: 4-15 s each)."""
+    from models.diagnose import diagnose
+    force, named = EFFECTS[case]
+    rec, _ = _imported(tmp_path, P.lab_matrix((0.0064, 0.0016)), 5000.0, **force)
+    res = diagnose(*load_recording(rec)[:2])
+    assert set(res.named()) == named, (res.named(), res.at_edge())

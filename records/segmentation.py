@@ -17,7 +17,7 @@ from numba import njit
 
 from records.data import Span, Test, same_tests, segments as recorded_segments
 from records.events import Event, SegmentEnd, SegmentStart
-from records.steady import Segment, steady, sweep_params, sweeps
+from records.steady import CYCLE_SLACK, Segment, steady, sweep_params, sweeps
 from records.strokes import MIN_REVERSAL, MIN_TRAVEL, REVERSAL_NOISE, Halves, noise, smoothed, turns
 
 HOLD_S = 0.5  # s: a hold lasts at least this long (a shorter still stretch is a dwell) ...
@@ -102,7 +102,7 @@ def _fill(t, xs, tests, turning):
         after = tests[i] if i < len(tests) else None
         out += _named_pieces(t, xs, pieces, before, after)
     out.sort(key=lambda s: s.t0)
-    return _merged(out)
+    return _merged(out, float(np.median(np.diff(t))) if len(t) > 1 else 0.0)
 
 
 def _named_pieces(t, xs, pieces, before, after):
@@ -155,10 +155,12 @@ def _approach(t, xs, t0):
     return "compression stroke" if came > 0 else "extension stroke"
 
 
-def _merged(segs):
+def _merged(segs, h):
     """Stretches shorter than LEAST_S joined to a neighbour that is no test (the one before,
     else the one after): a test keeps its whole cycles. Between two tests (a sine stepped
-    into the next), such a stretch stays itself: nothing is left unread."""
+    into the next), such a stretch stays itself, nothing left unread, unless it is under two
+    sample intervals h long (no sample lies between them) or CYCLE_SLACK of either's cycle
+    (the slack their whole cycles are counted with): then they meet at its middle."""
     out, pending = [], None
     for s in segs:
         if s.t1 - s.t0 < LEAST_S and s.kind not in TESTS:
@@ -178,6 +180,12 @@ def _merged(segs):
         out.append(s)
     if pending is not None:
         out.append(pending)
+    for i in range(len(out) - 2, 0, -1):
+        a, s, b = out[i - 1:i + 2]
+        slack = CYCLE_SLACK / max(a.params.get("freq_hz", np.inf), b.params.get("freq_hz", np.inf))
+        if a.kind in TESTS and b.kind in TESTS and s.t1 - s.t0 < max(2 * h, slack):
+            a.t1 = b.t0 = 0.5 * (s.t0 + s.t1)
+            del out[i]
     return out
 
 

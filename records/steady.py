@@ -132,7 +132,7 @@ def steady(t, x, H, sigma, swept, source=None) -> list[Segment]:
     a stretch holds no whole cycle: there it averaged what lies beyond."""
     free = ~np.any([(H.cross >= s.t0) & (H.cross <= s.t1) for s in swept], axis=0) if swept else np.ones(len(H), bool)
     taken = [(s.t0, s.t1) for s in swept]
-    out = []
+    out, fits = [], []
     for a, b, period in _alike_runs(H, free):
         got = _seed(t, x, H, a, b, 1.0 / period, sigma)
         if got is None or not _steady(got, sigma):
@@ -174,10 +174,11 @@ def steady(t, x, H, sigma, swept, source=None) -> list[Segment]:
         t1 = t0 + n / final.freq
         amp = final.amplitude
         name = f"{final.waveform} {_g(amp * 1e3)} mm {_g(final.freq)} Hz"
+        fits.append(final)
         out.append(Segment(name, "sine", float(t0), float(t1),
                            {"kind": "sine", "amplitude_mm": round(amp * 1e3, 4), "freq_hz": round(final.freq, 5),
                             "cycles": n, "waveform": final.waveform, "measured": True, "found": "import"}))
-    return _apart(out)
+    return _apart(out, fits, t, x)
 
 
 def _steady(got, sigma):
@@ -187,21 +188,26 @@ def _steady(got, sigma):
 def _seed(t, x, H, a, b, f0, sigma):
     """The fit of the half-cycles a to b (Fit, its .run (a, b, fit) the half-cycles kept),
     less those at either end that the fit misses three times as badly as the median half-
-    cycle, or the worse end while the fit is not steady: the half-cycle that joins two
-    tests, let in where a few samples a cycle blur its travel or where the two strokes'
-    travels are alike (a fit of two cycles bends to it, and spreads its misfit over all).
-    None where no fit is made."""
-    while True:
+    cycle: the half-cycle that joins two tests, let in where a few samples a cycle blur its
+    travel. While the fit is not steady and no end stands out (two cycles' fit bends to a
+    joining half-cycle and spreads its misfit over all), the end whose loss leaves the
+    steadier fit goes. None where no fit is made."""
+    part = lambda a, b, f: fit(t[H.ext[a]:H.ext[b + 1] + 1], x[H.ext[a]:H.ext[b + 1] + 1], f, search=SEED_SEARCH)
+    got = part(a, b, f0)
+    while got is not None and b - a >= 3:
         i0, i1 = H.ext[a], H.ext[b + 1]
-        got = fit(t[i0:i1 + 1], x[i0:i1 + 1], f0, search=SEED_SEARCH)
-        if got is None or b - a < 3:
-            break
         r = x[i0:i1 + 1] - got.at(t[i0:i1 + 1])
         miss = np.array([np.sqrt(np.mean(r[H.ext[j] - i0:H.ext[j + 1] - i0 + 1] ** 2)) for j in range(a, b + 1)])
         worst = int(np.argmax(miss[[0, -1]]))
-        if not miss[[0, -1]][worst] > 3 * np.median(miss) + EDGE * got.amplitude / 10 and _steady(got, sigma):
+        if miss[[0, -1]][worst] > 3 * np.median(miss) + EDGE * got.amplitude / 10:
+            a, b = (a + 1, b) if worst == 0 else (a, b - 1)
+            got = part(a, b, got.freq)
+        elif not _steady(got, sigma):
+            left, right = part(a + 1, b, got.freq), part(a, b - 1, got.freq)
+            share = lambda g: g.rms / g.amplitude if g is not None and g.amplitude > 0 else np.inf
+            a, b, got = (a + 1, b, left) if share(left) <= share(right) else (a, b - 1, right)
+        else:
             break
-        a, b, f0 = (a + 1, b, got.freq) if worst == 0 else (a, b - 1, got.freq)
     if got is not None:
         got.run = (a, b, got)
     return got
@@ -211,7 +217,7 @@ def _alike_runs(H, free):
     """[(first, last half-cycle, period [s])] of runs of at least three alike half-cycles (a
     sine's two whole cycles less the quarter cycles at its ends): their travel and mid-level
     within SAME of the run's medians, then split where the period changes by more than
-    SAME, two half-cycles running. A run's first and last half-cycles take the period of
+    SAME, two half-cycles running (the one at the change in both). A run's first and last half-cycles take the period of
     their neighbours: theirs reaches across to the crossing of the motion beside the run."""
     out = []
     for a, b in _runs(H, free):
@@ -220,8 +226,11 @@ def _alike_runs(H, free):
         for j in range(a + 1, b + 1):
             periods = [H.period[i] for i in groups[-1] if i in known]
             off = lambda i: i in known and abs(H.period[i] / np.median(periods) - 1) > SAME
-            if periods and off(j) and off(j + 1):  # the next confirms it: a run's last known period
-                groups.append([])                  # reaches across to the motion beside it
+            # the next confirms a change (a run's last known period reaches across to the motion
+            # beside it); the half-cycle at the change goes to both groups, their seeds' fits decide
+            if periods and off(j) and off(j + 1):
+                groups[-1].append(j)
+                groups.append([])
             groups[-1].append(j)
         for g in groups:
             # a group's end half-cycles reach across to the crossing of the group beside it (a
@@ -284,16 +293,25 @@ def _ends(t, x, i0, i1, got, taken):
     return float(t[start]), float(t[end])
 
 
-def _apart(sines):
+def _apart(sines, fits, t, x):
     """Steady tests in time order with none overlapping its neighbour. Two tests stepped
-    straight into each other are each followed a little past the step: the overlap is cut
-    at its middle, and each keeps its whole cycles when it loses at most CYCLE_SLACK of a
-    cycle (the slack they were counted with), else the whole cycles left."""
-    sines.sort(key=lambda s: s.t0)
-    for a, b in zip(sines, sines[1:]):
+    straight into each other are each followed a little past the step (their motions
+    agree there within EDGE): the overlap is cut where the displacement leaves one fit
+    (fits, each test's) for the other, and each keeps its whole cycles when it loses at
+    most CYCLE_SLACK of a cycle (the slack they were counted with), else the whole cycles
+    left."""
+    order = sorted(range(len(sines)), key=lambda i: sines[i].t0)
+    sines, fits = [sines[i] for i in order], [fits[i] for i in order]
+    for (a, fa), (b, fb) in zip(zip(sines, fits), zip(sines[1:], fits[1:])):
         if a.t1 <= b.t0:
             continue
+        k = np.flatnonzero((t >= b.t0) & (t <= a.t1))
         cut = 0.5 * (a.t1 + b.t0)
+        if len(k) > 1:  # the change point: a's misfit before it and b's after, least in sum
+            ra, rb = (x[k] - fa.at(t[k])) ** 2, (x[k] - fb.at(t[k])) ** 2
+            cost = np.concatenate([[0.0], np.cumsum(ra)]) + np.concatenate([np.cumsum(rb[::-1])[::-1], [0.0]])
+            j = int(np.argmin(cost))
+            cut = float(t[k[j]] if j < len(k) else t[k[-1]]) if 0 < j < len(k) else cut
         for s, lost in ((a, a.t1 - cut), (b, cut - b.t0)):
             f = s.params["freq_hz"]
             if lost * f > CYCLE_SLACK:

@@ -164,7 +164,9 @@ def process_pool(n, warm=None):
     try:
         yield ex
     except KeyboardInterrupt:
-        ex.shutdown(wait=False, cancel_futures=True)
+        # killed before any shutdown: a shutdown(wait=False) first resets the executor while
+        # its manager thread still runs, which a worker's death then hangs (CPython gh-132969,
+        # unfixed in 3.11); killed, the pool is broken and the shutdown below ends at once
         for p in set(multiprocessing.active_children()) - before:
             p.kill()  # a SIGTERM would run the handler a forked worker inherited, mid-job
         raise

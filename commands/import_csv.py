@@ -123,6 +123,8 @@ def inspect(args):
         print(f"sheets: {', '.join(repr(s) for s in layout.sheets)} (--sheet NAME reads another)")
     if layout and layout.postamble:
         print(postamble(layout))
+    if layout and layout.cut:
+        print(layout.cut)
     print(f"{seen.rows} rows; columns:")
     for j, name, sample, kind in seen.columns:
         print(f"  {j:>2}  {name!r:24} {', '.join(sample)}{'  (' + kind + ')' if kind else ''}")

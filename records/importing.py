@@ -128,7 +128,7 @@ def _import(src, claim):
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok], src.smoothing)
     # what the report says again; it says the rest itself
-    kept = (_time_notes(got, t, src.map) + got.unit_notes + gaps + _zero_note(data, units)
+    kept = (_time_notes(got, t, src.map) + ([got.layout.cut] if got.layout and got.layout.cut else []) + got.unit_notes + gaps + _zero_note(data, units)
             + _velocity_note(t, data, units))
     kept += _smoothing_note(src.smoothing, found)
     notes = list(kept)

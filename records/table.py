@@ -53,6 +53,7 @@ class Layout:
     sheet: str | None = None  # an Excel workbook's sheet the rows come from (lines are its rows)
     sheets: list = field(default_factory=list)  # the workbook's sheets, by name
     postamble: list = field(default_factory=list)  # lines after the data (a summary), left out by split
+    cut: str = ""  # what split said of a last row the file stops inside (dropped), else ""
 
     def describe(self) -> str:
         sep = {",": "comma", ";": "semicolon", "\t": "tab", None: "whitespace"}[self.delimiter]
@@ -186,6 +187,10 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
     while lines and not lines[-1].strip():
         lines.pop()
     lines, layout.postamble = _postamble(lines, d)
+    if lines and not layout.postamble and _cut_short(lines, d, n, text.endswith(("\n", "\r"))):
+        layout.cut = (f"line {layout.first + len(lines)}: the file stops inside its last row "
+                      f"({lines[-1].strip()[-40:]!r}): a cut file; the row is left out")
+        lines = lines[:-1]
     empty = "" if d is None else d * (n - 1)
     lines = [line if line.strip() else empty for line in lines]  # a row of empty cells: each row keeps its line
     if layout.header is not None and text.count(every[layout.header].strip()) > 1:  # the header again: joined exports
@@ -210,6 +215,34 @@ def split(text: str, layout: Layout) -> dict[str, list[str]]:
     rows = [r if len(r) == n else r[:n] if len(r) > n else r + [""] * (n - len(r)) for r in rows]
     return {name: [c.strip() for c in cells] for name, cells in zip(layout.names, zip(*rows))} if rows else \
         {name: [] for name in layout.names}
+
+
+CUT_LOOK = 20  # rows before the last whose number format says what a whole last cell looks like
+
+
+def _cut_short(lines, d, n, ends_cleanly) -> bool:
+    """Whether the last data line is a row the file stops inside: short of its columns, or,
+    where the file does not end its last line, its last cell shorter than that column's
+    fixed format in the rows before (`12` where every row writes `129.83`)."""
+    cells = lines[-1].split(d) if d is not None else lines[-1].split()
+    if len(cells) < n and len(lines) > 1:
+        before = lines[-2].split(d) if d is not None else lines[-2].split()
+        return len(before) >= n  # the row before it is whole: this one was cut
+    if ends_cleanly or len(cells) != n or len(lines) <= CUT_LOOK:
+        return False
+    shape = {_digits(line.split(d)[-1] if d is not None else (line.split() or [""])[-1])
+             for line in lines[-CUT_LOOK - 1:-1]}
+    last = _digits(cells[-1])
+    return len(shape) == 1 and last != (s := next(iter(shape))) and s[1] > 0 and (last[1] < s[1])
+
+
+def _digits(cell) -> tuple[bool, int]:
+    """(a number, its decimals) of a cell: the format a column writes its numbers in."""
+    c = cell.strip().strip('"')
+    if not NUMBER.match(c) or "e" in c.lower():
+        return (False, 0)
+    mantissa = c.replace(",", ".")
+    return (True, len(mantissa.partition(".")[2]) if "." in mantissa else 0)
 
 
 def _repeats_emptied(lines, head, d, n):

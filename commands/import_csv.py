@@ -43,6 +43,9 @@ def add(sub):
     im.add_argument("--sheet", metavar="NAME", help="an Excel workbook's sheet to read (default: its fullest)")
     im.add_argument("--rate", type=number(above=0, hi=1e6), default=None, metavar="HZ",
                     help="the sampling rate, when no time column is mapped and the file does not say it")
+    im.add_argument("--start", metavar="DATE-TIME",
+                    help="when the test began (ISO 8601, e.g. 2025-11-14T20:14:37; UTC unless it says its zone), "
+                         "for a file that holds no date: without it the date is shown as unknown")
     identity(im, "test the file holds")
     im.set_defaults(command="import_csv")
 
@@ -52,7 +55,7 @@ def run(args):
     from records.csv_import import parse_map
     from records.files import Claim
     from records.importing import Source, drives, import_file, scales
-    for option in ("inspect", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed", "filtered"):  # a caller's namespace may have only the map
+    for option in ("inspect", "start", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed", "filtered"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
         return inspect(args)
@@ -77,7 +80,7 @@ def run(args):
     if args.out is None:
         raise UsageError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     src = Source(args.file, args.map, gains, offsets, tuple(args.flip or ()), args.rate, args.sheet,
-                 drives(args.drive, mapping), smoothing, identity_info(args),
+                 drives(args.drive, mapping), smoothing, identity_info(args), _start(args.start),
                  {"map": args.map, "flip": args.flip or [], "gain": args.gain or [], "offset": args.offset or [],
                   "drive": args.drive or []})
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
@@ -90,11 +93,26 @@ def run(args):
     return 0
 
 
+def _start(text):
+    """s since the epoch of --start (naive: UTC); None without it."""
+    from datetime import datetime, timezone
+    if text is None:
+        return None
+    try:
+        when = datetime.fromisoformat(text.strip())
+    except ValueError:
+        raise UsageError(f"--start {text}: expected an ISO 8601 date and time, e.g. 2025-11-14T20:14:37") from None
+    return (when if when.tzinfo else when.replace(tzinfo=timezone.utc)).timestamp()
+
+
 def _said(done):
     from protocols import catalogue
     from records import table
-    dated = f" (no date in the file: {done.dated})" if done.dated else ""
-    print(f"{done.path}: {done.rows} rows from {table.iso(done.wall_start)[:23]} UTC{dated}, channels "
+    if done.wall_start is None:
+        when = "an unknown date (the file holds none: --start gives it)"
+    else:
+        when = f"{table.iso(done.wall_start)[:23]} UTC" + (f" ({done.dated})" if done.dated else "")
+    print(f"{done.path}: {done.rows} rows from {when}, channels "
           + ", ".join(f"{n} [{u}]" for n, u in done.channels.items())
           + (" (velocity derived from displacement)" if done.velocity_derived else ""))
     if done.named_units:

@@ -113,7 +113,7 @@ def trend(args):
         raise UsageError(f"no readable runs of serial {args.serial!r} in {args.dir}")
     units = args.units
     print(md.table(("started", units.label(args.quantity, "force"), "run id", "setup"),
-                   [(s, fmt(units.show("force", F)), i, setup or "-") for s, F, i, setup in points]))
+                   [(s or "unknown", fmt(units.show("force", F)), i, setup or "-") for s, F, i, setup in points]))
     if args.out:
         with written(args.out) as tmp:
             trend_report.figure(points, args.serial, args.quantity, tmp, units, kind)

@@ -22,6 +22,7 @@ from records.events import Fault, OperatorStop
 from records.data import segments
 from records.files import writer
 from records.reader import load_recording
+from records.recorder import UNDATED
 from protocols.reports import peaks as peak_rows
 from protocols.reports import velocity_table as vt
 from protocols.catalogue_terms import CatalogueError, condition, quantity, since_time
@@ -229,12 +230,17 @@ def describe(path):
            "setup": json.dumps({k.removeprefix("setup."): v for k, v in run.items() if k.startswith("setup.")}),
            "damper": json.loads(meta.get("damper", {}).get("model", "{}") or "{}").get("name"),
            "rig": meta.get("rig", {}).get("name"), "protocol": meta.get("protocol", {}).get("name"),
-           "params": meta.get("protocol", {}).get("params"), "started": run.get("wall_start"),
+           "params": meta.get("protocol", {}).get("params"), "started": _dated(run.get("wall_start")),
            "duration_s": float(t[-1] - t[0]) if len(t) else 0.0,
            "outcome": ENDINGS[type(end)] if end else "completed", "reason": end.message if end else None, "error": None}
     rows = peak_rows.peaks(ch, segments(events))
     return row, [(p.segment, p.amplitude_mm, p.freq_hz, p.target_c, p.v_comp, p.F_comp, p.v_reb, p.F_reb,
                   _floats(p.stroke_v), _floats(p.stroke_F)) for p in rows]
+
+
+def _dated(wall_start):
+    """The catalogue's start of a run: its UTC date-time, None (NULL) where unknown."""
+    return None if wall_start in (None, "", UNDATED) else wall_start
 
 
 def _floats(a) -> str:
@@ -378,7 +384,7 @@ def counts(c: sqlite3.Connection) -> tuple[int, int]:
 
 
 def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=None) -> list[sqlite3.Row]:
-    """The catalogue's runs, oldest first, filtered by serial, start (ISO date or time,
+    """The catalogue's runs, oldest first (undated ones last, in the order catalogued), filtered by serial, start (ISO date or time,
     UTC), protocol and a `where` expression (condition)."""
     sql, args = [], []
     for col, op, value in (("serial", "=", serial), ("started", ">=", since_time(since)), ("protocol", "=", protocol)):
@@ -389,7 +395,9 @@ def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=No
         more, more_args = condition(where)
         sql.append(more)
         args += more_args
-    query = "SELECT * FROM runs" + (" WHERE " + " AND ".join(sql) if sql else "") + " ORDER BY started, path"
+    # undated runs (a lab's file without a date) after the dated, in the order catalogued
+    query = "SELECT * FROM runs" + (" WHERE " + " AND ".join(sql) if sql else "") + \
+        " ORDER BY started IS NULL, started, CASE WHEN started IS NULL THEN id END, path"
     return c.execute(query, args).fetchall()
 
 

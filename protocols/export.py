@@ -35,6 +35,7 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
     force clock, channels in the unit system `shown` (units: each channel's SI unit, as
     recorded); wall_start (ISO 8601) adds the UTC time of every row."""
     from records.data import segments
+    from records.recorder import UNDATED
     if "force" not in channels:
         raise UsageError("the recording has no force channel to put the table on")
     names = names or sorted(channels, key=lambda n: (n != "force", n))
@@ -52,7 +53,7 @@ def table(channels, events, units, names=None, wall_start=None, shown=Units("si"
         k = (t >= s.t0) & (t <= s.t1)
         seg[k], kind[k] = s.name, s.kind
     cols, data, dec = ["t [s]"], [t], [6]
-    if wall_start:
+    if wall_start and wall_start != UNDATED:
         start = np.datetime64(datetime.fromisoformat(wall_start).astimezone(timezone.utc).replace(tzinfo=None), "us")
         cols.append("t_utc")
         data.append(start + np.round(t * 1e6).astype("timedelta64[us]"))

@@ -7,7 +7,6 @@ from __future__ import annotations
 import gc
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
@@ -37,6 +36,7 @@ class Source:
     drives: dict = field(default_factory=dict)
     smoothing: object = None
     identity: dict = field(default_factory=dict)
+    start: float | None = None  # s since the epoch: when the test began (--start), for a file that holds no date
     given: dict = field(default_factory=dict)  # the options as given, kept in the recording's params
 
 
@@ -46,7 +46,7 @@ class Imported:
     its channels with their units, the segments found (records/segmentation.py) and the notes."""
     path: Path
     rows: int
-    wall_start: float  # s since the epoch
+    wall_start: float | None  # s since the epoch; None: unknown (the file holds no date, no --start)
     dated: str  # "" when the file says its date, else how its start was taken
     channels: dict  # {channel: unit}
     velocity_derived: bool
@@ -100,7 +100,7 @@ def _import(src, claim):
     from records import segmentation
     from records.data import other_sign
     from records.csv_import import derived_velocity, parse_map, read
-    from records.recorder import Recorder
+    from records.recorder import UNDATED, Recorder
     got = read(src.file, parse_map(src.map), src.gains, src.offsets, src.rate, src.sheet)
     data, units = got.data, got.units
     flip(data, set(src.flips))
@@ -117,11 +117,12 @@ def _import(src, claim):
                                      drives=src.drives.get(n, "")) for n, (_, _, u) in channels.items()},
         text=f'# imported by dyno import\n[import]\nsource = "{Path(src.file).name}"\n'
              f"map = {json.dumps(src.map)}\n")
-    duration = float(t[-1] - t[0])
     if got.start_epoch is not None:
         wall_start, how = got.start_epoch, got.start_source
-    else:  # the file's own start is unknown: its file time less its duration stands for it
-        wall_start, how = os.path.getmtime(src.file) - duration, "file time less its duration"
+    elif src.start is not None:
+        wall_start, how = src.start, "--start"
+    else:  # never the file's time (when it was copied): log times count from 1970, the date says unknown
+        wall_start, how = None, UNDATED
     params = {"source": str(src.file), **src.given,
               **({"sheet": got.layout.sheet} if got.layout and got.layout.sheet else {})}
     every = -(-len(t) // PLOT_POINTS)
@@ -135,7 +136,7 @@ def _import(src, claim):
     sign = other_sign(data["displacement"], data["force"])
     notes += [f"sign: {sign}"] if sign else []
     notes += [postamble(got.layout)] if got.layout and got.layout.postamble else []
-    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start, plot_every=every,
+    rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start or 0.0, plot_every=every,
                    run_info=_run_info(got, how, every, src, kept))
     try:
         for n, (tt, v, _) in channels.items():
@@ -185,11 +186,12 @@ def _channels(t, data, units):
 
 
 def _run_info(got, how, every, src, kept) -> dict:
+    from records.recorder import UNDATED
     """The recording's run metadata: who tested which damper, where its start and time came
     from, the source's smoothing (records/source_filter.py) and what import said of the
     file, for the report."""
     from records.source_filter import RUN_KEY
-    return {**src.identity, "wall_start_source": how,
+    return {**src.identity, "wall_start_source": how, **({"wall_start": UNDATED} if how == UNDATED else {}),
             **({"time_source": got.derived_time} if got.derived_time else {}),
             **({"plot_every": every} if every > 1 else {}),
             **({RUN_KEY: src.smoothing.text()} if src.smoothing else {}),

@@ -108,6 +108,9 @@ def software() -> dict:
     return out
 
 
+UNDATED = "unknown"  # the run metadata's wall_start of a recording whose date nobody knows (an import)
+
+
 class Recorder:
     """Writes a run to `path` through a Claim (records/files.py): to a partial file
     beside it, renamed onto `path` at the first segment_start event (the run has started

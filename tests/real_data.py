@@ -68,7 +68,7 @@ def one(task):
         lines = p.stdout.splitlines()
         ch, _, _ = load_recording(rec, ("force",))
         t = ch["force"][0]
-        start = "no date in the file" if "no date in the file" in lines[0] else \
+        start = "no date in the file" if "from an unknown date" in lines[0] else \
             "from " + lines[0].split(" from ")[1].split(",")[0]
         out["import"] = f"{len(t)} rows, {1 / float(sorted(t[1:] - t[:-1])[len(t) // 2]):.0f} Hz, {start}, {s:.1f} s"
         out["segments"] = next((ln.removeprefix("segments: ") for ln in lines if ln.startswith("segments:")), "-")

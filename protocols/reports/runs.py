@@ -19,6 +19,8 @@ def _cell(row, k):
         return f"{v:.0f}"
     if k == "outcome" and row["error"]:
         return f"unreadable: {row['error']}"
+    if k == "started" and v is None and not row["error"]:
+        return "unknown"
     return "-" if v is None else v
 
 

@@ -22,9 +22,12 @@ BAND_PCT = 5.0  # the band drawn about the runs' mean: dyno check's default tole
 def figure(points, serial, quantity, path, units=Units(), fmt=None):
     """points: [(started ISO, force [N], run id, setup text)]; the PNG (or fmt, one of
     FORMATS) at path (its name). Each point is labelled with its run and setup; the band is
-    the runs' mean +- BAND_PCT."""
+    the runs' mean +- BAND_PCT. Where a run's start is unknown (None: a lab's file without a
+    date) the runs stand in the catalogue's order, never at a made-up date."""
     fig, ax = plt.subplots(figsize=(8, 4.2))
-    ok = [(datetime.fromisoformat(s), units.show("force", F), i, setup) for s, F, i, setup in points if np.isfinite(F)]
+    dated = all(s is not None for s, *_ in points)
+    ok = [(datetime.fromisoformat(s) if dated else k + 1, units.show("force", F), i, setup)
+          for k, (s, F, i, setup) in enumerate(points) if np.isfinite(F)]
     ax.plot([p[0] for p in ok], [p[1] for p in ok], "o-")
     if ok:
         mean = float(np.mean([p[1] for p in ok]))
@@ -34,16 +37,19 @@ def figure(points, serial, quantity, path, units=Units(), fmt=None):
     for k, (when, F, i, setup) in enumerate(ok):  # staggered: runs minutes apart would overprint
         ax.annotate(f"#{i} {setup}".strip(), (when, F), textcoords="offset points", xytext=(3, 5 + 9 * (k % 3)),
                     fontsize=6)
-    if ok and (ok[-1][0] - ok[0][0]).total_seconds() < 600:  # runs of one session: an hour about them
+    if dated and ok and (ok[-1][0] - ok[0][0]).total_seconds() < 600:  # runs of one session: an hour about them
         mid = ok[0][0] + (ok[-1][0] - ok[0][0]) / 2
         ax.set_xlim(mid - timedelta(minutes=30), mid + timedelta(minutes=30))
-    locator = mdates.AutoDateLocator(maxticks=6)
-    ax.xaxis.set_major_locator(locator)
-    ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
+    if dated:
+        locator = mdates.AutoDateLocator(maxticks=6)
+        ax.xaxis.set_major_locator(locator)
+        ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
+    else:
+        ax.xaxis.set_major_locator(plt.MaxNLocator(integer=True))
     ax.margins(x=0.15, y=0.2)
     ax.tick_params(axis="x", labelsize=8)
     ax.set_title(f"{serial}: {quantity}")
     ax.set_ylabel(units.label("force", "force"))
-    ax.set_xlabel("run started (UTC)")
+    ax.set_xlabel("run started (UTC)" if dated else "run, in the order catalogued (not every run's date is known)")
     ax.grid(alpha=0.3)
     return save(fig, Path(path), fmt=fmt)

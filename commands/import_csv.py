@@ -132,7 +132,7 @@ def inspect(args):
     """What import would read from the file: layout, columns with sample values, the rate,
     and a guessed map. Writes nothing."""
     from records.importing import inspect_file, postamble
-    seen = inspect_file(args.file, args.sheet)
+    seen = inspect_file(args.file, args.sheet, args.map or ())
     layout = seen.layout
     print(f"{args.file}: {seen.described}")
     if layout and layout.preamble:

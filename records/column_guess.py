@@ -91,6 +91,15 @@ def _values(cols, layout, guesses):
     return vals, t if t is not None and len(t) and np.all(np.isfinite(t)) else None
 
 
+def _cells(cols, layout, key):
+    """The cells of the column a map's key names (as key_of writes it, its name or its
+    1-based position), or None."""
+    for j, (name, cells) in enumerate(cols.items()):
+        if key in (key_of(j, name, layout), name, str(j + 1)):
+            return cells
+    return None
+
+
 def _numbers(cells, layout):
     """A column's cells as floats (nan where not a number)."""
     from records import table
@@ -105,8 +114,10 @@ def sign(cols, layout, mapping) -> str | None:
     named = _named(mapping)
     if not {"displacement", "force"} <= named.keys():
         return None
-    keys = [key_of(j, name, layout) for j, name in enumerate(cols)]
-    x, F = (_numbers(list(cols.values())[keys.index(named[c])], layout) for c in ("displacement", "force"))
+    x, F = (_cells(cols, layout, named[c]) for c in ("displacement", "force"))
+    if x is None or F is None:  # a map given (--inspect --map) may name a column the file lacks
+        return None
+    x, F = _numbers(x, layout), _numbers(F, layout)
     said = flips(x, F)
     return None if said is None else (f"with this map the damper would give energy back (the integral of F dx is "
                                        f"negative): the file counts force or displacement the other way; add {said[1]}")
@@ -206,3 +217,26 @@ def numeric(cells) -> bool:
     from records import table
     first = [str(c) for c in list(cells[:SAMPLES]) if str(c)]
     return bool(first) and all(table.NUMBER.match(c) for c in first)
+
+
+METRE_SPAN = 1.0  # m: no damper strokes a metre; a length that spans more counts in a smaller unit
+CM_SPAN = 20.0  # a span of at most this many: cm (2-200 mm, a dyno's strokes), above it mm
+
+
+def length_units(guesses, cols, layout) -> list[str]:
+    """guesses with a unit where a displacement named without one spans more than a metre
+    could (cm up to CM_SPAN of them, else mm: the values cannot tell the two apart for
+    certain; --inspect says check the units), and its velocity, named without one too, in
+    that unit per second."""
+    out, length = [], None
+    for g in guesses:
+        channel, _, key = g.partition("=")
+        if channel == "displacement" and ":" not in key and (cells := _cells(cols, layout, key)) is not None:
+            a = _numbers(cells, layout)
+            span = float(np.nanmax(a) - np.nanmin(a)) if np.isfinite(a).any() else 0.0
+            if span > METRE_SPAN:
+                length = "cm" if span <= CM_SPAN else "mm"
+                g = f"{g}:{length}"
+        out.append(g)
+    return [f"{g}:{length}/s" if length and g.startswith("velocity=") and ":" not in g.partition("=")[2] else g
+            for g in out]

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 P_ATM = 101_325.0
 # unit -> (scale, offset): SI = value * scale + offset
 UNITS = {
@@ -37,3 +39,21 @@ def unit_in_name(name: str, channel: str | None = None) -> str | None:
     as import spells it: one of channel's, or of any standard channel's; None if it says none."""
     said = BRACKETED.findall(name) + [name.rpartition(sep)[2] for sep in ("_", ":") if sep in name]
     return next((u for text in said for ch in ([channel] if channel else UNITS) if (u := unit(ch, text))), None)
+
+
+VOLT_UNITS = {"v", "mv", "volt", "volts"}
+DAQ_CHANNEL = re.compile(r"^(channel|chan|ch|ai|ain|analog ?in(put)?|voltage|dev\d+/ai)[ _]?\d+$", re.I)
+DAQ_RANGE_V = 10.5  # V: a DAQ's +-10 V input and a little over
+
+
+def volts(name: str, values) -> str:
+    """Why a column reads volts (its name says V, or a DAQ's channel name whose every value
+    lies within its +-10 V range), else "": a raw channel no gain has made a quantity."""
+    said = [t for t in BRACKETED.findall(name) + [name.rpartition("_")[2]] * ("_" in name)
+            if t.strip().lower() in VOLT_UNITS]
+    if said:
+        return f"its name says {said[0].strip()}"
+    finite = values[np.isfinite(values)]
+    if DAQ_CHANNEL.match(name.strip()) and len(finite) and float(np.abs(finite).max()) <= DAQ_RANGE_V:
+        return f"a DAQ's channel, every value within +-10 V ({finite.min():.4g} to {finite.max():.4g})"
+    return ""

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from records import table
-from records.column_units import BRACKETED, SI, UNIT_NAMES, UNITS, unit, unit_in_name
+from records.column_units import BRACKETED, SI, UNIT_NAMES, UNITS, unit, unit_in_name, volts
 from records.files import input_file
 from rig.config import quantity
 from rig.errors import UsageError
@@ -251,6 +251,10 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> I
         if not np.all(np.isfinite(a[~np.isnan(a)])):
             i = int(np.nonzero(np.isinf(a))[0][0])
             raise UsageError(f"{path}:{first_row + i}: column {column!r}: {cells[i]!r} is not a finite number")
+        raw = volts(str(key), a) if name in UNITS and name != "time" and name not in gains else ""
+        if raw:
+            raise UsageError(f"{path}: column {column!r} ({name}) reads volts ({raw}): give its gain into "
+                             f"{u}, --gain {name}=NUMBER (per volt), or --gain {name}=1 if it is in {u} already")
         a = a * gains.get(name, 1.0) + offsets.get(name, 0.0)
         if name in UNITS:
             scale, offset = UNITS[name][u]

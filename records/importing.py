@@ -261,20 +261,28 @@ class Inspection:
     unnamed: list[str]  # numeric columns guessed from nothing
 
 
-def inspect_file(file, sheet=None) -> Inspection:
-    """What import would read from the file. Writes nothing."""
+def inspect_file(file, sheet=None, given=()) -> Inspection:
+    """What import would read from the file, the map given (--map) kept and the rest
+    guessed. Writes nothing."""
     from records import table
-    from records.column_guess import SAMPLES, by_name, by_values, counter, key_of, numeric, sign
+    from records.column_guess import SAMPLES, by_name, by_values, counter, key_of, length_units, numeric, sign
+    from records.column_units import volts
     from records.csv_import import source
     cols, layout = source(file, sheet)
     rows = len(next(iter(cols.values()))) if cols else 0
-    columns, guesses = [], []
+    columns, guesses, named = [], list(given or ()), []
+    taken = {item.partition("=")[2].partition(":")[0] for item in guesses}  # the columns the map names
     for j, (name, cells) in enumerate(cols.items()):
         sample = [str(c) for c in list(cells[:SAMPLES])]
         columns.append((j + 1, name, sample, "date-time" if sample and table.is_stamp(sample[0]) else ""))
         g = by_name(name, cells)
-        if g and not any(x.split("=")[0] == g.split(":")[0] for x in guesses):
-            guesses.append(f"{g.split(':')[0]}={key_of(j, name, layout)}" + (f":{g.split(':')[1]}" if ":" in g else ""))
+        if g and not {name, str(j + 1)} & taken:
+            named.append((bool(volts(name, np.empty(0))), j, name, g))
+    mine = []
+    for _, j, name, g in sorted(named, key=lambda n: n[0]):  # a column in engineering units before its volt twin
+        if not any(x.split("=")[0] == g.split(":")[0] for x in guesses + mine):
+            mine.append(f"{g.split(':')[0]}={key_of(j, name, layout)}" + (f":{g.split(':')[1]}" if ":" in g else ""))
+    guesses += length_units(mine, cols, layout)
     mapped = {g.split("=", 1)[1].split(":")[0] for g in guesses}
     found = by_values(cols, layout, guesses)
     mapped |= {g.split("=", 1)[1].split(":")[0] for g, _ in found}

@@ -191,13 +191,12 @@ def test_an_imperial_export_its_units_as_written_and_its_date_and_time_on_two_li
     _same_motion(channels, t, x, F, tol_x=1e-8, tol_F=1e-3)
     one_line_error(dyno("import", src, "--out", tmp_path / "y.mcap", "--map", "displacement=2", "--map", "force=4:lbz"),
                    "--map force=4:lbz: unknown force unit 'lbz' (known: N, kN, daN, lbf, kgf)")
-    # a raw channel's volts mapped without a gain: said, and kept for the report
+    # a raw channel's volts mapped without a gain: refused, naming the gain (issue 89)
     volts = _written(tmp_path, "volts.csv", src.read_text("latin-1").replace("Force (lbs)", "Load cell (V)"))
-    _, meta, r = _imported(tmp_path, volts, "--map", "displacement=Position (in)", "--map", "force=Load cell (V)",
-                           "--map", "time=1", "--overwrite")
-    said = "force: its column 'Load cell (V)' says V, read as N: give its unit (--map force=COLUMN:UNIT) or a raw " \
-           "channel's --gain"
-    assert said in r.stdout and said in meta["run"]["import_notes"], r.stdout
+    one_line_error(dyno("import", volts, "--map", "displacement=Position (in)", "--map", "force=Load cell (V)",
+                        "--map", "time=1", "--out", tmp_path / "v.mcap"),
+                   "column 'Load cell (V)' (force) reads volts (its name says V): give its gain into N, "
+                   "--gain force=NUMBER (per volt)")
     _, _, r = _imported(tmp_path, volts, "--map", "displacement=Position (in)", "--map", "force=Load cell (V)",
                         "--map", "time=1", "--gain", "force=4.448", "--overwrite")
     assert "force: its column" not in r.stdout

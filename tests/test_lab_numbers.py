@@ -75,3 +75,53 @@ def test_a_date_comes_from_the_data_or_is_said_unknown_and_import_order_sorts_th
     bad = dyno("import", files[0][0], "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F",
                "--start", "yesterday", "--out", tmp_path / "bad.mcap")
     assert bad.returncode != 0 and bad.stderr.strip().count("\n") == 0 and "--start yesterday" in bad.stderr
+
+
+def _daq(tmp_path, t, x, F):
+    """A DAQ's raw text export as the UTFSM press wrote it: a preamble, CHANNEL0-1 in volts."""
+    rows = [f"{i + 1:>10}, {a:.4f}, {(b - 0.0495) / 0.01:.5f}, {c / 980.665 + 0.01:.6f}"
+            for i, (a, b, c) in enumerate(zip(t, x, F))]
+    src = tmp_path / "daq.txt"
+    src.write_text("Header Size:  7\nVersion:  2\nSampling Interval:  0.001\nSampling Rate:  1000\nSample Count:  "
+                   f"{len(t)}\nDevice Serial Number:  0\nSample Number, Seconds, CHANNEL0, CHANNEL1\n"
+                   + "\n".join(rows) + "\n")
+    return src
+
+
+def test_volts_are_never_read_as_metres_or_newtons(tmp_path):
+    """A DAQ's channels mapped without a gain are refused in one line naming --gain (they
+    read as 'sine 0.3 mm 333 Hz' before); with the gains they import."""
+    from tests.test_hostile_inputs import one_line_error
+    t, x, F = crank(rate=1000.0, n=3000)
+    src = _daq(tmp_path, t, x, F)
+    base = ("import", src, "--map", "time=Seconds", "--out", tmp_path / "d.mcap")
+    one_line_error(dyno(*base, "--map", "displacement=CHANNEL0", "--map", "force=CHANNEL1:N", "--gain",
+                        "force=980.665"),
+                   "column 'CHANNEL0' (displacement) reads volts (a DAQ's channel, every value within +-10 V",
+                   "--gain displacement=NUMBER")
+    one_line_error(dyno(*base, "--map", "displacement=CHANNEL0:mm", "--gain", "displacement=10", "--map",
+                        "force=CHANNEL1"), "column 'CHANNEL1' (force) reads volts", "--gain force=NUMBER")
+    r = dyno(*base, "--map", "displacement=CHANNEL0:mm", "--gain", "displacement=10", "--offset",
+             "displacement=49.5", "--map", "force=CHANNEL1:N", "--gain", "force=980.665", "--offset", "force=-9.80665")
+    assert r.returncode == 0, r.stderr
+    force = load_recording(tmp_path / "d.mcap")[0]["force"][1]
+    assert np.allclose(force, F, atol=0.01)
+
+
+def test_inspect_keeps_the_map_given_prefers_engineering_units_and_sees_centimetres(tmp_path):
+    t = np.arange(0, 4, 1e-3)
+    x = 0.9 * np.sin(2 * np.pi * 1.5 * t) + 0.1 * np.sin(2 * np.pi * 7 * t)  # cm, as the NEES white-noise file
+    v = np.gradient(x, t)
+    F = 900 * v / 100
+    src = tmp_path / "cm.csv"
+    src.write_text('"t","D","V","Force (V)","Force (N)"\n' + "".join(
+        f"{a:.5f},{b:.5f},{c:.4f},{d / 980.665:.6f},{d:.3f}\n" for a, b, c, d in zip(t, x, v, F)))
+    r = dyno("import", src, "--inspect")
+    assert ("--map 'time=t' --map 'displacement=D:cm' --map 'velocity=V:cm/s' --map 'force=Force (N):N'"
+            in r.stdout), r.stdout
+    # a map given is kept as given; the rest is guessed around it
+    r = dyno("import", src, "--inspect", "--map", "force=Force (V):N", "--map", "displacement=D:mm")
+    assert "--map 'force=Force (V):N' --map 'displacement=D:mm' --map 'time=t' --map 'velocity=V'" in r.stdout, r.stdout
+    # a displacement whose span a metre allows keeps SI
+    src.write_text("t,D,F\n" + "".join(f"{a:.5f},{b / 100:.6f},{d:.3f}\n" for a, b, d in zip(t, x, F)))
+    assert "--map 'displacement=D' --map 'force=F'" in dyno("import", src, "--inspect").stdout

@@ -54,7 +54,7 @@ def run(args):
     from records import source_filter
     from records.csv_import import parse_map
     from records.files import Claim
-    from records.importing import Source, drives, import_file, scales
+    from records.importing import Source, drives, import_file, scales, start_of
     for option in ("inspect", "start", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed", "filtered"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
@@ -80,7 +80,7 @@ def run(args):
     if args.out is None:
         raise UsageError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     src = Source(args.file, args.map, gains, offsets, tuple(args.flip or ()), args.rate, args.sheet,
-                 drives(args.drive, mapping), smoothing, identity_info(args), _start(args.start),
+                 drives(args.drive, mapping), smoothing, identity_info(args), start_of(args.start),
                  {"map": args.map, "flip": args.flip or [], "gain": args.gain or [], "offset": args.offset or [],
                   "drive": args.drive or []})
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
@@ -91,18 +91,6 @@ def run(args):
         claim.release()
     _said(done)
     return 0
-
-
-def _start(text):
-    """s since the epoch of --start (naive: UTC); None without it."""
-    from datetime import datetime, timezone
-    if text is None:
-        return None
-    try:
-        when = datetime.fromisoformat(text.strip())
-    except ValueError:
-        raise UsageError(f"--start {text}: expected an ISO 8601 date and time, e.g. 2025-11-14T20:14:37") from None
-    return (when if when.tzinfo else when.replace(tzinfo=timezone.utc)).timestamp()
 
 
 def _said(done):

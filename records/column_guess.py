@@ -119,8 +119,14 @@ def sign(cols, layout, mapping) -> str | None:
         return None
     x, F = _numbers(x, layout), _numbers(F, layout)
     said = flips(x, F)
-    return None if said is None else (f"with this map the damper would give energy back (the integral of F dx is "
-                                       f"negative): the file counts force or displacement the other way; add {said[1]}")
+    if said is None:
+        return None
+    _, flip, gas = said
+    return ("with this map the damper would give energy back (the integral of F dx is negative): the file counts "
+            "force or displacement the other way; " + (
+                f"add --flip {flip} (the force at the turning points reads {gas.text('')}as recorded)" if flip else
+                "which one the values cannot tell (a static push or the rod's direction settles it): add --flip force "
+                "or --flip displacement"))
 
 
 def by_values(cols, layout, guesses) -> list[tuple[str, str]]:

@@ -251,10 +251,8 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> I
         if not np.all(np.isfinite(a[~np.isnan(a)])):
             i = int(np.nonzero(np.isinf(a))[0][0])
             raise UsageError(f"{path}:{first_row + i}: column {column!r}: {cells[i]!r} is not a finite number")
-        raw = volts(str(key), a) if name in UNITS and name != "time" and name not in gains else ""
-        if raw:
-            raise UsageError(f"{path}: column {column!r} ({name}) reads volts ({raw}): give its gain into "
-                             f"{u}, --gain {name}=NUMBER (per volt), or --gain {name}=1 if it is in {u} already")
+        if name in UNITS and name != "time" and name not in gains:
+            _not_volts(path, name, column, str(key), a, u)
         a = a * gains.get(name, 1.0) + offsets.get(name, 0.0)
         if name in UNITS:
             scale, offset = UNITS[name][u]
@@ -288,6 +286,14 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> I
     return Imported({k: v[keep] for k, v in data.items()}, units, layout, start, derived, note,
                     "the start the file's preamble gives" if preamble_start is not None else "the file's first date-time stamp",
                     stamped, named, unit_notes)
+
+
+def _not_volts(path, name, column, key, a, u):
+    """UsageError naming --gain where a mapped quantity's column reads volts (column_units.volts)."""
+    raw = volts(key, a)
+    if raw:
+        raise UsageError(f"{path}: column {column!r} ({name}) reads volts ({raw}): give its gain into "
+                         f"{u}, --gain {name}=NUMBER (per volt), or --gain {name}=1 if it is in {u} already")
 
 
 def _follow_on(t, keep, first_row) -> str:

@@ -231,39 +231,59 @@ def smooth(y, h, freq):
 SIGN_SHARE = 0.2  # net work against the work done either way: below this a recording cannot tell its sign
 
 
-def other_sign(x, F) -> str | None:
+def other_sign(x, F, t=None) -> str | None:
     """The sentence saying a recording is in the other sign convention, or None (flips
     says when and which)."""
-    said = flips(x, F)
-    return None if said is None else (
-        f"the damper would give back {-said[0]:.3g} J over this recording (the integral of F dx is negative), which "
-        f"a passive damper cannot: force or displacement is in the other sign convention (dyno's: both positive "
-        f"in compression); import it again with {said[1]}: {_why(gas_level(x, F))}")
+    return sign_sentence(flips(x, F, t))
+
+
+def sign_sentence(said) -> str | None:
+    """flips' answer in words, or None."""
+    if said is None:
+        return None
+    work, flip, gas = said
+    head = (f"the damper would give back {-work:.3g} J over this recording (the integral of F dx is negative), which "
+            f"a passive damper cannot: force or displacement is in the other sign convention (dyno's: both positive "
+            f"in compression)")
+    if flip:
+        return f"{head}; import it again with --flip {flip}: {_why(gas)}"
+    return (f"{head}; cannot tell which channel: " + (
+        f"the force at the stroke's turning points (friction cancelled) reads {gas.text()} as recorded, which does "
+        f"not say its sign" if gas else "the motion has too few turning points to read its gas force") +
+        "; settle it with a static push (press the rod in: the force must read positive) or the rod's direction (the "
+        "displacement must rise as the rod goes in), then import again with --flip force or --flip displacement")
 
 
 def _why(gas) -> str:
-    """Why flips advises the flip it gives first: the force at rest, a gas force, at or above zero."""
-    return (f"the force at rest at mid-stroke reads {gas:+.3g} as recorded, and a gas spring's is at or above zero "
-            f"(compression positive), so the " + ("force is counted the other way" if gas < 0 else
-                                                   "force is right and the displacement is counted the other way"))
+    """Why flips advises the flip it gives: the gas force at the turning points, beyond its interval."""
+    return (f"the force at the stroke's turning points, where the valves give none and friction cancels, reads "
+            f"{gas.text()} as recorded; a gas spring's is above zero (it pushes the rod out, compression positive), "
+            f"so the " + ("force is counted the other way" if gas.below_zero else
+                          "force is right and the displacement is counted the other way"))
 
 
-def flips(x, F) -> tuple[float, str] | None:
-    """(work [J], the flips to give, likelier first) when a recording is in the other sign
-    convention, or None. A passive damper dissipates: over whole cycles the work done on
-    it, the integral of F dx [J], is positive with force and displacement both positive in
-    compression (ours). Negative work, a clear share of all the work, means the force or
-    the displacement is counted the other way (tension positive, or displacement from the
-    other end); of the two flips, the one that leaves the force at rest (gas_level) at or
-    above zero comes first. The work of the force's part that depends on position alone (a gas
+def flips(x, F, t=None) -> tuple[float, str, object] | None:
+    """(work [J], the flip to give or "" when the recording cannot tell which, the gas force
+    read at the turning points: records/gas_force.GasForce or None) when a recording is in
+    the other sign convention, or None. A passive damper dissipates: over whole cycles the
+    work done on it, the integral of F dx [J], is positive with force and displacement both
+    positive in compression (ours). Negative work, a clear share of all the work, means one
+    of the two is counted the other way (tension positive, or displacement from the other
+    end); dissipation cannot say which. The gas force does: at the turning points
+    (gas_force.at_turns) it is the same whichever way the displacement counts, and a gas
+    spring's is above zero; beyond its 95 % interval it names the channel, within it
+    neither is named. The work of the force's part that depends on position alone (a gas
     spring's: a cubic in x fitted to F) is left out first: on a path that does not close
     (a static test's moves, a run so far) it is energy stored or given back, not
-    dissipated. Scale-free: raw volts with positive gains tell the sign as well."""
+    dissipated. Scale-free: raw volts with positive gains tell the sign as well. t [s]:
+    the samples' times (their index without it)."""
+    from records.gas_force import at_turns
     x, F = np.asarray(x, float), np.asarray(F, float)
     if len(x) != len(F):
         return None
-    ok = np.isfinite(x) & np.isfinite(F)
-    x, F = x[ok], F[ok]
+    t = np.arange(len(x), dtype=float) if t is None else np.asarray(t, float)
+    ok = np.isfinite(x) & np.isfinite(F) & np.isfinite(t)
+    x, F, t = x[ok], F[ok], t[ok]
     if len(x) < 3:
         return None
     with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):  # values no sensor gives
@@ -273,42 +293,10 @@ def flips(x, F) -> tuple[float, str] | None:
         W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
     if not (np.isfinite(A) and A > 0 and W < -SIGN_SHARE * A):
         return None
-    first, second = ("force", "displacement") if gas_level(x, F) < 0 else ("displacement", "force")
-    return W, f"--flip {first} (or --flip {second})"
-
-
-def gas_rising(points) -> str | None:
-    """The sentence on a set of one damper's runs at several gas charges, points [(run,
-    charge [its unit], its force at rest: gas_level [N])], or None for fewer than two
-    charges: the gas force at rest rises with the charge (eq 3.19: F_G = p A_rod), or it
-    does not, and the runs' sign conventions or charges are to be checked."""
-    pts = sorted(points, key=lambda p: p[1])
-    if len({p[1] for p in pts}) < 2:
-        return None
-    rising = all(b[2] > a[2] for a, b in zip(pts, pts[1:]) if b[1] > a[1])
-    said = ", ".join(f"{run} at {charge:g}: {gas:+.3g} N" for run, charge, gas in pts)
-    step = pts[-1][2] - pts[0][2]
-    return (f"Gas force at rest against the gas charge: {said}; " + (
-        f"it rises with the charge ({step:+.3g} N from the lowest to the highest), as a gas spring's does" if rising
-        else "it does not rise with the charge, which a gas spring's does (eq 3.19): check each run's sign "
-             "convention (import's --flip) and the charges given"))
-
-
-def gas_level(x, F) -> float:
-    """The force at rest at mid-stroke [F's unit], as recorded: the gas force a damper's
-    gas spring gives, at or above zero in our convention (compression positive). The
-    force less its dependence on position (a quadratic), on velocity either way (linear,
-    quadratic, per direction: a valve's asymmetry) and on direction (friction), fitted by
-    least squares; its constant. The median force, used before, follows the valves: a
-    damper stiffer in rebound has a negative median whatever its gas, and the flip it
-    advised read a 150 psi charge 39 N below the same damper's 50 psi one. Velocity from
-    the displacement's sample differences (scale-free)."""
-    v = np.gradient(x)
-    u = (x - np.mean(x)) / (np.ptp(x) or 1.0)
-    w = v / (np.max(np.abs(v)) or 1.0)
-    A = np.column_stack([np.ones_like(u), u, u * u, w, w * np.abs(w), np.abs(w), np.tanh(w / 0.02)])
     with np.errstate(all="ignore"):
-        return float(np.linalg.lstsq(A, F, rcond=None)[0][0])
+        gas = at_turns(t, x, F)
+    flip = "" if gas is None else "force" if gas.below_zero else "displacement" if gas.above_zero else ""
+    return W, flip, gas
 
 
 VELOCITY_FOLLOWS = 0.9  # correlation of a velocity's integral with the displacement: below it nothing is said
@@ -366,7 +354,7 @@ def sign_problem(channels) -> str | None:
         return None
     tF, F = channels["force"]
     tx, x = channels["x"]
-    return other_sign(x, np.interp(tx, tF, F) if len(tF) > 1 else np.full_like(x, np.nan))
+    return other_sign(x, np.interp(tx, tF, F) if len(tF) > 1 else np.full_like(x, np.nan), tx)
 
 
 def drives(meta) -> list[str]:

@@ -70,6 +70,18 @@ def scales(items, what):
     return out
 
 
+def start_of(text):
+    """s since the epoch of --start DATE-TIME (ISO 8601; without a zone, UTC); None without it."""
+    from datetime import datetime, timezone
+    if text is None:
+        return None
+    try:
+        when = datetime.fromisoformat(text.strip())
+    except ValueError:
+        raise UsageError(f"--start {text}: expected an ISO 8601 date and time, e.g. 2025-11-14T20:14:37") from None
+    return (when if when.tzinfo else when.replace(tzinfo=timezone.utc)).timestamp()
+
+
 def drives(items, mapping):
     """{aux channel: what of the damper it drives} from --drive NAME=KIND."""
     from rig.config import DRIVES
@@ -97,8 +109,8 @@ def import_file(src: Source, claim) -> Imported:
 
 
 def _import(src, claim):
-    from records import segmentation
-    from records.data import other_sign
+    from records import gas_force, segmentation
+    from records.data import flips, sign_sentence
     from records.csv_import import derived_velocity, parse_map, read
     from records.recorder import UNDATED, Recorder
     got = read(src.file, parse_map(src.map), src.gains, src.offsets, src.rate, src.sheet)
@@ -129,12 +141,13 @@ def _import(src, claim):
     ok = ~np.isnan(data["displacement"])
     found = segmentation.find(t[ok] - t[0], data["displacement"][ok], src.smoothing)
     # what the report says again; it says the rest itself
-    kept = (_time_notes(got, t, src.map) + ([got.layout.cut] if got.layout and got.layout.cut else []) + got.unit_notes + gaps + _zero_note(data, units)
-            + _velocity_note(t, data, units))
+    kept = (_time_notes(got, t, src.map) + ([got.layout.cut] if got.layout and got.layout.cut else [])
+            + got.unit_notes + gaps + _zero_note(data, units) + _velocity_note(t, data, units))
     kept += _smoothing_note(src.smoothing, found)
+    other = flips(data["displacement"], data["force"], t)
+    kept += [] if other else [gas_force.said(gas_force.at_turns(t, data["displacement"], data["force"]))]
     notes = list(kept)
-    sign = other_sign(data["displacement"], data["force"])
-    notes += [f"sign: {sign}"] if sign else []
+    notes += [f"sign: {sign_sentence(other)}"] if other else []
     notes += [postamble(got.layout)] if got.layout and got.layout.postamble else []
     rec = Recorder(claim, cfg, "", "import", params, wall_start=wall_start or 0.0, plot_every=every,
                    run_info=_run_info(got, how, every, src, kept))

@@ -476,14 +476,16 @@ def test_the_other_sign_convention_is_named_in_one_line_and_flipped(tmp_path):
     index, _ = report(tmp_path / "x.mcap", tmp_path / "report")
     assert "Sign convention: the damper would give back" in index.read_text()
     r = dyno("import", src, "--inspect")
-    assert "sign: with this map" in r.stdout and "add --flip force (or --flip displacement)" in r.stdout, r.stdout
+    assert "sign: with this map" in r.stdout and "add --flip force (the force at the turning points reads -" \
+        in r.stdout and "--flip displacement" not in r.stdout, r.stdout
     channels, _, r = _imported(tmp_path, src, *args, "--flip", "force", "--overwrite")
     assert "sign: " not in r.stdout and np.allclose(channels["force"][1], F, atol=1e-6)
     # displacement measured from the other end: flipped about its most extended reading
     src = _written(tmp_path, "other-end.csv", "t,x,F\n" + "".join(f"{a},{1e3 * (0.1 - b)},{c}\n"
                                                                     for a, b, c in zip(t, x, F)))
     _, _, r = _imported(tmp_path, src, *args, "--overwrite")
-    assert "import it again with --flip displacement (or --flip force)" in r.stdout, r.stdout
+    assert "import it again with --flip displacement: the force at the stroke's turning points" in r.stdout \
+        and "--flip force" not in r.stdout, r.stdout
     channels, _, _ = _imported(tmp_path, src, *args, "--flip", "displacement", "--overwrite")
     assert np.allclose(np.diff(channels["x"][1]), np.diff(x), atol=1e-9)
 

@@ -125,3 +125,67 @@ def test_inspect_keeps_the_map_given_prefers_engineering_units_and_sees_centimet
     # a displacement whose span a metre allows keeps SI
     src.write_text("t,D,F\n" + "".join(f"{a:.5f},{b / 100:.6f},{d:.3f}\n" for a, b, d in zip(t, x, F)))
     assert "--map 'displacement=D' --map 'force=F'" in dyno("import", src, "--inspect").stdout
+
+
+PSI = 6894.757  # Pa
+
+
+def _charged(psi, seed):
+    """(t, x [m], F [N], its gas force at mid-stroke [N]): the thesis model's Koni charged to
+    psi (gauge) on a 300 Hz crank-style dyno, 12.5 mm at 1 Hz, a load cell's 3 N of noise."""
+    from dataclasses import replace
+    from models.damper import load
+    from models.physics.simulate import simulate
+    d = load("koni")
+    d = replace(d, gas_spring=replace(d.gas_spring, P0=101325.0 + psi * PSI))
+    t = np.arange(0, 8, 1 / 300)
+    x = d.mid_stroke + 0.0125 * np.sin(2 * np.pi * t)
+    F = simulate(d, t, x, np.gradient(x, t), T=293.15, compressible=True, x_e=d.mid_stroke).force
+    ts = np.arange(0, 20, 1e-3)  # at rest: a 0.1 mm stroke at 0.05 Hz
+    xs = d.mid_stroke + 1e-4 * np.sin(2 * np.pi * 0.05 * ts)
+    rest = simulate(d, ts, xs, np.gradient(xs, ts), T=293.15, compressible=False, x_e=d.mid_stroke).force.mean()
+    return t, x, F + np.random.default_rng(seed).normal(0, 3.0, len(t)), float(rest)
+
+
+def _lab_file(tmp_path, name, t, x, F):
+    src = tmp_path / name
+    src.write_text("t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.2f}\n" for a, b, c in zip(t, x, F)))
+    return src
+
+
+MAP = ("--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+
+
+def test_one_rigs_runs_get_one_right_flip_and_the_gas_force_with_its_interval(tmp_path):
+    """Issue 89: one damper at 50 and 150 psi, its displacement counted from the other end
+    (the force right): each import advises --flip displacement alone (the mean force, -83
+    and +39 N, said the opposite); at 0 psi nothing tells which channel, and it is said.
+    Read right, the comparison gives each gas force and the rise with their intervals,
+    which hold the model's; both channels reversed, the gas force is said below zero."""
+    truth = {}
+    for psi in (50, 150):
+        t, x, F, truth[psi] = _charged(psi, psi)
+        src = _lab_file(tmp_path, f"{psi}.csv", t, 0.1 - x, F)
+        r = dyno("import", src, *MAP, "--out", tmp_path / f"raw{psi}.mcap")
+        said = next(line for line in r.stdout.splitlines() if line.startswith("sign: "))
+        assert "import it again with --flip displacement:" in said and "--flip force" not in said, said
+        r = dyno("import", src, *MAP, "--flip", "displacement", "--setup", f"gas_psi={psi}", "--serial", "K1",
+                 "--out", tmp_path / f"{psi}.mcap")
+        gas = next(line for line in r.stdout.splitlines() if line.startswith("gas force: "))
+        level, hw = (float(v) for v in gas.split()[2:5:2])
+        assert abs(level - truth[psi]) < hw < 20, (gas, truth[psi])
+    t, x, F, rest = _charged(0, 7)
+    r = dyno("import", _lab_file(tmp_path, "0.csv", t, 0.1 - x, F), *MAP, "--out", tmp_path / "raw0.mcap")
+    said = next(line for line in r.stdout.splitlines() if line.startswith("sign: "))
+    assert "cannot tell which channel" in said and "a static push" in said and "--flip displacement:" not in said, said
+    r = dyno("import", _lab_file(tmp_path, "hot.csv", t, 0.1 - x, -F - 60.0), *MAP, "--out", tmp_path / "hot.mcap")
+    assert "sign: " not in r.stdout and "below zero beyond its interval" in r.stdout, r.stdout
+    r = dyno("report", tmp_path / "150.mcap", tmp_path / "50.mcap", "--out", tmp_path / "cmp")
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / "cmp" / "index.html").read_text().replace("&#39;", "'")
+    said = page.split("against the gas charge: ")[1].split("</")[0]
+    rise = float(said.split("it rises with the charge (")[1].split()[0])
+    hw = float(said.split("it rises with the charge (")[1].split()[2])
+    assert abs(rise - (truth[150] - truth[50])) < hw < 30, said
+    step = said.split("over the same test, the mean force: ")[1].split()
+    assert abs(float(step[0]) - (truth[150] - truth[50])) < max(float(step[2].rstrip(";")), 3.0), said

@@ -96,7 +96,7 @@ def test_the_sign_of_a_gas_charge_pair_is_read_by_physics(tmp_path):
     """One real damper at two gas charges (its force at rest +50 and +150 N), written by a
     source that counts the other way: import advises the flip that leaves the gas force at
     or above zero, and read with it the higher charge pushes harder, by the 100 N added."""
-    from records.data import gas_level
+    from records.gas_force import at_turns
     cols = np.loadtxt(UTFSM)
     t, x, F = cols[:, 0], cols[:, 1], cols[:, 3]
     args = ["--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F"]
@@ -108,10 +108,12 @@ def test_the_sign_of_a_gas_charge_pair_is_read_by_physics(tmp_path):
                            "t,x,F\n" + "".join(f"{a},{b},{c}\n" for a, b, c in zip(t, xs, Fs)))
             _, _, r = _imported(tmp_path, src, *args, "--overwrite")
             said = next(line for line in r.stdout.splitlines() if line.startswith("sign: "))
-            assert f"import it again with --flip {flip} (or" in said and "a gas spring's is at or above zero" in said
+            assert f"import it again with --flip {flip}:" in said and "a gas spring's is above zero" in said, said
+            assert "--flip force" not in said if flip == "displacement" else "--flip displacement" not in said
             channels, _, _ = _imported(tmp_path, src, *args, "--flip", flip, "--overwrite",
                                        "--setup", f"gas_psi={gas:g}")
-            read[gas, way] = gas_level(channels["x"][1], np.interp(channels["x"][0], *channels["force"]))
+            read[gas, way] = at_turns(channels["x"][0], channels["x"][1],
+                                      np.interp(channels["x"][0], *channels["force"])).level
             (tmp_path / "x.mcap").rename(tmp_path / f"{gas:g}-{flip}.mcap")
     for way in ("tension", "other end"):
         assert read[50.0, way] > 0 and abs(read[150.0, way] - read[50.0, way] - 100.0) < 5.0, read
@@ -120,7 +122,8 @@ def test_the_sign_of_a_gas_charge_pair_is_read_by_physics(tmp_path):
                         tmp_path / "cmp"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     page = (tmp_path / "cmp" / "index.html").read_text()
-    assert "Gas force at rest against the gas charge: B at 50:" in page and "it rises with the charge (+" in page
+    assert "(friction cancelled) against the gas charge: B at 50: +" in page and "it rises with the charge (+100 +- " \
+        in page and "A against B over the same test, the mean force: +100 +- " in page, page
     # one of the pair read with the other flip: its gas force falls below zero, and the set says so
     _imported(tmp_path, tmp_path / "150-tension.csv", *args, "--overwrite", "--setup", "gas_psi=150")
     (tmp_path / "x.mcap").rename(tmp_path / "150-unflipped.mcap")

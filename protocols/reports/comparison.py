@@ -41,20 +41,29 @@ def _run(path):
 
 
 def _gas_charges(runs) -> str | None:
-    """gas_rising's sentence for runs whose setup gives a gas charge (a key starting with
+    """gas_force.rising's sentence for runs whose setup gives a gas charge (a key starting with
     gas, a number first: --setup gas_psi=150, gas_bar=10), else None."""
     import re
-    from records.data import gas_level, gas_rising
-    points = []
+    from records.data import Test
+    from records.gas_force import at_turns, cycle_means, difference, rising
+    points, tests = [], {}
     for tag, path, _, meta in runs:
         run = meta.get("run", {})
         key = next((k for k in sorted(run) if k.startswith("setup.gas")), None)
         number = re.match(r"\s*([0-9]+(?:\.[0-9]*)?)", str(run.get(key, ""))) if key else None
         if number:
-            ch, _, _ = load_recording(path, ("x", "force"))
+            ch, events, _ = load_recording(path, ("x", "force"))
             (tx, x), (tF, F) = ch["x"], ch["force"]
-            points.append((tag, float(number.group(1)), gas_level(x, np.interp(tx, tF, F))))
-    return gas_rising(points)
+            points.append((tag, float(number.group(1)), at_turns(tx, x, np.interp(tx, tF, F))))
+            tests[tag] = [(Test.of(s.params), cycle_means(tF, F, s.t0, s.t1, s.params["freq_hz"]))
+                          for s in peaks.sines(segments(events))]
+    # runs of one damper through one motion: the difference of their mean forces is that of their gas forces
+    steps, order = [], [tag for tag, _, _ in sorted(points, key=lambda p: p[1])]
+    for a, b in zip(order, order[1:]):
+        shared = next(((ca, cb) for ta, ca in tests[a] for tb, cb in tests[b] if ta.same(tb)), None)
+        if shared:
+            steps.append((a, b, *difference(*shared)))
+    return rising(points, steps)
 
 
 def run_name(meta, path) -> str:

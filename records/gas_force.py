@@ -113,6 +113,66 @@ def at_turns(t, x, F) -> GasForce | None:
     return GasForce(level, hw, stiff, shw, float(mid), len(G))
 
 
+SETTLE = 0.5  # of a hold skipped at its start: the oil's compliance and the gas's heat (eq 3.7) relax there
+
+
+def at_rest(t, F, holds) -> GasForce | None:
+    """The gas force from the force held at rest: holds [(t0 [s], t1 [s], position [x's
+    unit], +1 come into by compression, -1 by extension)] (records/segmentation's holds and
+    dwells, their "approach"). At rest the valves give nothing and the seal holds whatever
+    friction it was left with, in the direction the motion came (+f after compression, -f
+    after extension), so the holds' mean forces are fitted as G + f d (+ k (x - mid) where the
+    positions spread). None unless holds were come into from both directions: from one
+    only, the gas force and the friction held are one number. With one hold each way the
+    gas force lies between them: the interval is that bound."""
+    t, F = np.asarray(t, float), np.asarray(F, float)
+    m, d, at = [], [], []
+    for t0, t1, x, came in holds:
+        k = (t >= t0 + SETTLE * (t1 - t0)) & (t <= t1) & np.isfinite(F)
+        if k.sum() >= MIN_SIDE and came:
+            m.append(float(np.mean(F[k])))
+            d.append(float(np.sign(came)))
+            at.append(float(x))
+    if not (1.0 in d and -1.0 in d):
+        return None
+    m, d, at = np.array(m), np.array(d), np.array(at)
+    mid = 0.5 * (at.min() + at.max())
+    if len(m) == 2:
+        return GasForce(float(m.mean()), 0.5 * abs(m[0] - m[1]), math.nan, math.nan, float(mid), 2)
+    u = at - mid
+    spread = len(m) >= 4 and np.ptp(at) > 0
+    A = np.column_stack([np.ones_like(m), d] + ([u] if spread else []))
+    coef, *_ = np.linalg.lstsq(A, m, rcond=None)
+    r = m - A @ coef
+    dof = len(m) - A.shape[1]
+    cov = float(r @ r) / dof * np.linalg.pinv(A.T @ A)
+    k = _t95(dof)
+    stiff, shw = (float(coef[2]), k * math.sqrt(max(cov[2, 2], 0.0))) if spread else (math.nan, math.nan)
+    return GasForce(float(coef[0]), k * math.sqrt(max(cov[0, 0], 0.0)), stiff, shw, float(mid), len(m))
+
+
+def holds_of(segments) -> list[tuple[float, float, float, int]]:
+    """at_rest's holds from records/segmentation's segments (positions in m)."""
+    side = {"compression stroke": 1, "extension stroke": -1}
+    return [(s.t0, s.t1, 1e-3 * s.params["x_mm"], side.get(s.params.get("approach"), 0))
+            for s in segments if s.kind in ("hold", "dwell") and "x_mm" in s.params]
+
+
+def said_at_rest(gas: GasForce | None, holds) -> list[str]:
+    """What import says of the gas force held at rest (SI: N, m): nothing without holds."""
+    holds = [h for h in holds if h[3]]
+    if not holds:
+        return []
+    if gas is None:
+        return [f"gas force at rest: unknown ({len(holds)} hold{'s' * (len(holds) > 1)}, all come into from one "
+                f"direction: the gas force and the seal's friction held are one number there)"]
+    out = f"gas force at rest: {gas.text()} from {gas.turns} holds come into from both directions (friction cancelled"
+    out += "; the interval is the bound between them)" if gas.turns == 2 else "; 95 % interval)"
+    if gas.below_zero:
+        out += ": below zero beyond its interval, which a gas spring's cannot be"
+    return [out]
+
+
 def said(gas: GasForce | None) -> str:
     """What import says of a recording's gas force (SI: N, m), a gas force below zero beyond
     its interval whatever its size."""

@@ -20,6 +20,7 @@ from records.events import Event, SegmentEnd, SegmentStart
 from records.steady import CYCLE_SLACK, Segment, steady, sweep_params, sweeps
 from records.strokes import MIN_REVERSAL, MIN_TRAVEL, REVERSAL_NOISE, Halves, noise, smoothed, turns
 
+APPROACH_M = 1e-6  # m: a hold come into by less motion than this over 50 ms was not come into from a side
 HOLD_S = 0.5  # s: a hold lasts at least this long (a shorter still stretch is a dwell) ...
 HOLD_BAND = MIN_TRAVEL / 2  # m: ... within this band (a real DAQ's hold wanders 0.1 mm over seconds)
 DWELL_S = 0.1  # s: ... and a dwell at least this long
@@ -149,9 +150,12 @@ def _monotonic(x, travel):
 
 
 def _approach(t, xs, t0):
-    """How a hold was come into (the static test's approaches): the motion over 50 ms before it."""
+    """How a hold was come into (the static test's approaches): the motion over 50 ms before
+    it; "unknown" at the file's start or where it did not move beyond APPROACH_M."""
     i, j = int(np.searchsorted(t, t0)), int(np.searchsorted(t, t0 - 0.05))
     came = xs[min(i, len(xs) - 1)] - xs[min(j, len(xs) - 1)]
+    if i == j or abs(came) <= APPROACH_M:
+        return "unknown"
     return "compression stroke" if came > 0 else "extension stroke"
 
 

@@ -29,7 +29,7 @@ def run(args, say):
     least = smallest(rows)
     if args.json:
         print(json.dumps({"recording": str(path), "force_range_n": span, "sizes": sizes,
-                          "untouched": {k: {"named": n.named, "noise_sd": n.noise_sd, "timing_ms": 1e3 * n.timing_s}
+                          "untouched": {k: {"named": n.named, "noise_sd": n.noise_sd, "timing": n.timing}
                                         for k, n in nulls.items()},
                           "rows": [{k: v for k, v in dataclasses.asdict(r).items() if k != "steps"} for r in rows],
                           "smallest_found": least}, indent=1))
@@ -52,8 +52,7 @@ def _text(rows, nulls, span, least, path):
               "yes" if r.also_untouched else "") for r in rows]
     out = [f"{path}: force range {span:.4g} N"]
     for k, n in nulls.items():
-        out.append(f"- {k}: named {', '.join(n.named) or 'nothing'}; force noise {n.noise_sd:.3g} N; the cell's "
-                   f"timing {1e3 * n.timing_s:.3g} ms")
+        out.append(f"- {k}: named {', '.join(n.named) or 'nothing'}; force noise {n.noise_sd:.3g} N. {n.timing}")
     out += ["", md.table(HEADER, cells), "", "Smallest size found [% of the force range]:", ""]
     out.append(md.table(("hidden", "smallest found"),
                         [(h, "not found up to the largest size" if s is None else f"{s:g}") for h, s in least.items()]))

@@ -37,7 +37,8 @@ class Seen:
     """What the diagnosis of one copy said, picklable: its names, steps and timing."""
     named: list
     steps: list  # [(effect, rivals, depends_on, parameters, size_rms_n)], steps not dropped
-    timing_s: float  # the cell's fitted timing (the alignment, or an accepted sensor delay's) [s]
+    timing: str  # the recording's one timing figure in words (models/diagnose/words.timing_sentence)
+    lag_s: float  # the first round's lag candidate [s]: what a hidden lag is measured by against the untouched copy's
     noise_sd: float
     within_noise: bool
     before: float
@@ -55,7 +56,7 @@ class Row:
     rms_n: float  # N, RMS added
     outcome: str  # named / in a group / as a dependence / not proven / in the baseline / missed / cannot hide
     said_as: str  # the finding that counts, with its group
-    found_value: float | None  # in the shown unit (a lag: against the untouched copy's own timing)
+    found_value: float | None  # in the shown unit (a lag: against the untouched copy's own, Seen.lag_s)
     also_untouched: bool  # the untouched copy names it already, or holds it in a group
     named: list = ()  # everything the copy's diagnosis named
     steps: list = ()  # Seen.steps of the copy
@@ -66,16 +67,17 @@ def diagnose_copy(task: CopyTask) -> Seen:
     from models.diagnose import diagnose
     from models.diagnose.candidates import EFFECTS
     from models.diagnose.referees import TIMING, not_proven
+    from models.diagnose.words import timing_sentence
     r = diagnose(task.channels, task.events, jobs=1, **task.options)
     steps = [(s.effect, [e for e, _, _ in s.rivals], list(s.depends_on), dict(s.parameters), s.size_rms_n)
              for s in r.steps if not s.replaced_by]
-    # the cell's timing: a lag accepted, else the first round's lag candidate (a rival or
-    # not, it measures the loop's delay), else the channels' alignment fitted with the baseline
+    # a hidden lag's size: a lag accepted, else the first round's lag candidate (a rival or
+    # not, it measures the loop's delay, the file's own included: the untouched copy's is taken
+    # off), else the model's timing
     tau_of = EFFECTS[TIMING].estimate
     lag = next((c.parameters[tau_of] for c in r.candidates if c.round == 1 and c.effect == TIMING), None)
-    aligned = next((c.parameters[EFFECTS[c.effect].estimate] for c in r.baseline.cell), 0.0)
-    tau = next((p[tau_of] for e, _, _, p, _ in steps if e == TIMING), lag if lag is not None else aligned)
-    return Seen(r.named(), steps, float(tau), r.noise_sd, r.left_over.within_noise, r.baseline.nrmse_heldout,
+    tau = next((p[tau_of] for e, _, _, p, _ in steps if e == TIMING), lag if lag is not None else r.channel_timing()[0])
+    return Seen(r.named(), steps, timing_sentence(r), float(tau), r.noise_sd, r.left_over.within_noise, r.baseline.nrmse_heldout,
                 r.final.nrmse_heldout, dict(r.baseline.parameters), [c.effect for c in not_proven(r.candidates)[1]])
 
 
@@ -114,9 +116,9 @@ def _key(e):
 
 def _estimate(h: Hidden, params, seen: Seen, null: Seen):
     """The size the diagnosis found, in h's shown unit, where it measures h's own value: a
-    lag against the untouched copy's timing (a later force reads as a negative timing)."""
+    lag against the untouched copy's first-round lag (Seen.lag_s; a later force reads negative)."""
     if h.fault == "delay":
-        return h.factor * (null.timing_s - seen.timing_s)
+        return h.factor * (null.lag_s - seen.lag_s)
     if h.param in params:
         return h.shown(params[h.param])
     return None

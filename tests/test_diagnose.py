@@ -56,7 +56,7 @@ def test_null_recording_names_no_physics(recordings):
     assert [e for e in res.accepted if EFFECTS[e].nature in ("physics", "open")] == []
     assert "sensor_delay" not in res.accepted and res.cell_found() == ["alignment"]
     assert 5e-6 < abs(res.baseline.cell[0].parameters["tau_0"]) < 50e-6
-    assert "The channels' alignment, fitted with the baseline:" in summary(res) and "Align" not in summary(res)
+    assert "Timing (the channels' alignment, fitted with the baseline" in summary(res) and "Align" not in summary(res)
     assert res.baseline.nrmse_heldout < 0.005
 
 

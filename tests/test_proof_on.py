@@ -42,6 +42,13 @@ def test_a_lag_a_zero_drift_and_temperature_damping_hidden_in_a_real_file_are_fo
     assert not rows["lag"]["also_untouched"] and not rows["zero_drift"]["also_untouched"], rows
     for null in doc["untouched"].values():
         assert not {"sensor_delay", "drift", "damping_temperature", "damping_drift"} & set(null["named"])
+    # one timing figure for the file: prove --on's untouched copy, diagnose and its report say the same
+    d = subprocess.run([*DYNO, "diagnose", real, "--report", tmp_path / "rep"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=900)
+    assert d.returncode == 0, d.stderr
+    timing = next(line for line in d.stdout.splitlines() if line.startswith("Timing"))
+    assert timing == doc["untouched"]["untouched"]["timing"], (timing, doc["untouched"])
+    assert timing in (tmp_path / "rep" / "index.html").read_text().replace("&#39;", "'")
     lag = rows["lag"]  # at one frequency, said with the cell's timing among the rivals; its size
     assert "sensor_delay" in lag["said_as"], lag  # against the file's own timing: within 30 %
     assert abs(lag["found_value"] - lag["value"]) <= 0.3 * lag["value"], lag
@@ -71,6 +78,11 @@ def test_a_butterworth_filtered_force_is_read_through_its_filter(tmp_path):
     filtered = {**ch, "force": (t, lowpass.apply(F, t, float(np.median(np.diff(t)))))}
     plain = diagnose(filtered, ev, jobs=2, max_effects=1)
     assert "sensor_delay" in plain.accepted, plain.accepted
+    tau, fit = plain.channel_timing()  # the one timing figure is the delay accepted, the force later (15 ms at 1 Hz,
+    assert fit.effect == "sensor_delay" and -0.02 < tau < -0.005, tau  # one delay fitted over all the segments)
+    from models.diagnose.words import timing_sentence
+    assert timing_sentence(plain).startswith("Timing (a sensor delay, accepted): the force reading lags the "
+                                             f"displacement by {-1e3 * tau:.3g} ("), timing_sentence(plain)
     # undeclared, the noise's correlation reads the filter (a smooth roll-off, not a box)
     said = [f.message for f in plain.data.flags if f.kind == "smoothed"]
     assert len(said) == 1 and "--filtered force=butter:2:" in said[0], said

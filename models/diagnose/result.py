@@ -169,6 +169,18 @@ class Diagnosis:
         from models.diagnose.stability import holds
         return [s.effect for s in self.steps if not s.replaced_by and holds(s.held_in)]
 
+    def channel_timing(self) -> tuple[float, object]:
+        """The recording's one timing figure, which diagnose, the report and prove --on all
+        say: (the shift [s] of the motion the final model's force answers, negative where the
+        force reading lags the displacement; its fit: a sensor delay's Step accepted and not
+        dropped, else the channels' alignment's CellFit, else None)."""
+        from models.diagnose.candidates import EFFECTS
+        for fit in [s for s in self.steps if not s.replaced_by] + list(self.baseline.cell):
+            spec = EFFECTS.get(fit.effect.split(":")[0])
+            if spec is not None and spec.acts_on == "motion" and spec.estimate in fit.parameters:
+                return float(fit.parameters[spec.estimate]), fit
+        return 0.0, None
+
     def at_edge(self):
         """The accepted effects named in some of the held-out judgements but fewer than
         stability.HELD: said as at the edge, with their share, never as a name."""

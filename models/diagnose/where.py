@@ -75,8 +75,10 @@ def locate(d: Data, r, sigma=0.0):
 
 
 def best_lag(d: Data, r):
-    """The residual against the force's rate of change: a lag between force and motion
-    leaves residual = -lag dF/dt."""
+    """The residual against the force's rate of change: what timing it leans to beyond the
+    model's own (Diagnosis.channel_timing, the recording's one timing figure). A force later than
+    the model's by lag leaves residual = -lag dF/dt; lag_s is in the timing's sign (negative:
+    the force later)."""
     dF = np.gradient(d.F, d.t)
     same = np.r_[True, np.diff(d.cycle) == 0]
     k = same & np.isfinite(dF)
@@ -85,9 +87,9 @@ def best_lag(d: Data, r):
         return None
     lag = -float(np.sum(r[k] * dF[k]) / denom)
     share = float(np.sum((lag * dF[k]) ** 2) / max(np.sum(r[k] ** 2), 1e-30))
-    return {"where": f"lag between force and displacement {1e3 * lag:+.3f} ms (force later when positive)",
+    return {"where": f"a further timing of {-1e3 * lag:+.3f} ms beyond the model's (negative: the force later)",
             "energy_share": share, "sample_share": 1.0, "mean_residual": 0.0, "concentration": share,
-            "lag_s": lag}
+            "lag_s": -lag}
 
 
 def describe(d: Data, effect, change, k):

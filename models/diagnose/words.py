@@ -154,9 +154,7 @@ def summary(res):
     low = reads_low(b.parameters, b.sd, float(np.ptp(res.data.F)))
     if low:
         lines.append(f"Offset: {low}.")
-    for c in (c for c in b.cell if c.resolved):
-        said_ = EFFECTS[c.effect].words(c, float(np.median(res.data.h)))
-        lines.append(f"The channels' alignment, fitted with the baseline: {said_[0].lower()}{said_[1:]}")
+    lines.append(timing_sentence(res))
     for test, names, ranges in res.repeats:
         lines.append(f"Repeats that differ: {repeats_sentence(test, names, ranges)}; a change in time found below may "
                      f"be that (`dyno identify --segment NAME` fits each alone).")
@@ -169,6 +167,18 @@ def summary(res):
     for n in res.data.notes:
         lines.append(f"Not assessed: {n}.")
     return "\n".join(lines)
+
+
+def timing_sentence(res) -> str:
+    """The recording's one timing figure (Diagnosis.channel_timing) in words, as diagnose, the
+    report and prove --on say it."""
+    _, fit = res.channel_timing()
+    if fit is None:
+        return "Timing: force and displacement as stamped (no timing fitted)."
+    what = ("the channels' alignment, fitted with the baseline within a tenth of a sample" if fit in res.baseline.cell
+            else "a sensor delay, accepted")
+    said_ = EFFECTS[fit.effect].words(fit, float(np.median(res.data.h)))
+    return f"Timing ({what}): {said_[0].lower()}{said_[1:]}"
 
 
 def findings(res):

@@ -58,8 +58,11 @@ def reference(p, required=False):
                    help="the reference: another run, a damper model (preset or FILE.json) simulated along "
                         "this run's motion, or a force-velocity table (a spec sheet, another dyno's export, a "
                         "report's velocity.csv; .csv/.txt/.xlsx, units in the column names)")
-    p.add_argument("--tolerance", default="5%",
-                   help="the band, with its unit: 5%% of the reference, 50N, 11lbf, or 5%%,50N (the larger)")
+    from protocols.units import TOLERANCE
+    p.add_argument("--tolerance", default=None,
+                   help=f"the band, with its unit: 5%% of the reference, 50N, 11lbf, or 5%%,50N (the larger; default "
+                        f"{TOLERANCE.replace('%', '%%')}; runs that sweep a --setup setting get no pass/fail without it "
+                        f"or --against)")
 
 
 def identity_info(args) -> dict:

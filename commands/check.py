@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from protocols.units import TOLERANCE
 from commands.arguments import FOLDER, overwrite, reference, units, writes
 
 
@@ -26,7 +27,7 @@ def run(args):
     from protocols.reports import qa
     from protocols.units import fmt
     units = args.units
-    checked, tol = qa.checked(args.recording, args.against, args.tolerance, units)
+    checked, tol = qa.checked(args.recording, args.against, args.tolerance or TOLERANCE, units)
     results, ref_name = checked.results, checked.reference
     u, f = units.unit("velocity"), units.unit("force")
     print(f"check {Path(args.recording).name} against {ref_name}, tolerance {tol}:")

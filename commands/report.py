@@ -9,6 +9,7 @@ from pathlib import Path
 from models.damper import DamperError
 from rig.errors import UsageError
 
+from protocols.units import TOLERANCE
 from commands.arguments import FOLDER, overwrite, reference, units, writes
 
 
@@ -72,7 +73,7 @@ def run(args):
             check = None
             if args.against:
                 from protocols.reports import qa
-                check = qa.said(*qa.checked(args.file, args.against, args.tolerance, units), units)
+                check = qa.said(*qa.checked(args.file, args.against, args.tolerance or TOLERANCE, units), units)
                 print(f"sheet's verdict against {check[1]}: {check[0]}")
             try:
                 index, pngs = report(args.file, folder, model, _speeds(args.speeds, units), args.paper, units, check)

@@ -51,6 +51,9 @@ class Units:
         return f"{name}_{self.unit(quantity).replace('/', '_')}"
 
 
+TOLERANCE = "5%"  # the band a run is checked in (dyno check, a report's verdict) when none is given
+
+
 def parse_with_unit(quantity: str, text: str) -> float:
     """'5lbf', '20 N', '500mm/s' -> the SI value; the unit any system names for the
     quantity. ValueError names the units accepted when there is none or another."""

@@ -231,3 +231,48 @@ def test_the_gas_force_held_at_rest_from_holds_come_into_both_ways(tmp_path):
              "--out", tmp_path / "one.mcap")
     said = next(line for line in r.stdout.splitlines() if line.startswith("gas force at rest: "))
     assert said.startswith("gas force at rest: unknown") and "one direction" in said, said
+
+
+def test_a_sheet_a_lab_signs(tmp_path):
+    """Issue 89, item 6: a heat-gun run of the Koni model on a crank-style dyno (one speed,
+    read along the stroke, its force 2 %-gained and flipped by the lab, temperature rising to
+    83.5 C) and a gas-charge sweep. Page 1 names what was done to the data and the
+    temperature's range, each velocity-table force its loop's half-width; the sweep is
+    shown as the change per unit of the charge, no pass/fail until a tolerance is given; no
+    printed page holds fewer than a dozen words."""
+    from tests import pdf_pages
+    t, x, F, _ = _charged(100, 5)
+    T = 20.0 + 63.5 * t / t[-1]  # C
+    src = tmp_path / "hot.csv"
+    src.write_text("t,x,F,T\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{-c / 1.02:.2f},{d:.2f}\n"
+                                          for a, b, c, d in zip(t, x, F, T)))
+    r = dyno("import", src, *MAP, "--map", "temperature=T:C", "--gain", "force=1.02", "--flip", "force",
+             "--out", tmp_path / "hot.mcap")
+    assert r.returncode == 0, r.stderr
+    r = dyno("report", tmp_path / "hot.mcap", "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    texts, _ = pdf_pages.text_and_sizes(tmp_path / "rep" / "report.pdf")
+    one = " ".join(texts[0].split())
+    assert "source data force flipped at import; gain force=1.02 at import; read in mm, C body" in one, one
+    assert "20.0 C at the start, 83.5 at the end; 20.0 to 83.5 over the run" in one, one
+    assert "at the turning points (friction cancelled, 95 %)" in one, one
+    table = [ln.split(",") for ln in (tmp_path / "rep" / "velocity.csv").read_text().splitlines()]
+    assert table[0][-2:] == ["W_comp_N", "W_reb_N"], table[0]
+    row = next(r for r in table[1:] if r[0] == "25")
+    assert float(row[5]) > 0 and float(row[6]) > 0  # the loop opens: the oil's compliance, the seal's friction
+    assert f"{float(row[1]):.3g} ± {float(row[5]):.2g}" in one and "its loop's mid-line" in one, one
+    assert min(len(p.split()) for p in texts) >= 12, [len(p.split()) for p in texts]
+    for psi in (50, 100, 150):
+        t, x, F, _ = _charged(psi, psi)
+        assert dyno("import", _lab_file(tmp_path, f"{psi}.csv", t, x, F), *MAP, "--setup", f"gas_psi={psi}",
+                    "--serial", "K1", "--out", tmp_path / f"{psi}.mcap").returncode == 0
+    runs = [tmp_path / f"{psi}.mcap" for psi in (50, 100, 150)]
+    assert dyno("report", *runs, "--out", tmp_path / "sweep").returncode == 0
+    texts, _ = pdf_pages.text_and_sizes(tmp_path / "sweep" / "report.pdf")
+    one = " ".join(texts[0].split())
+    assert one.count("SWEEP: gas_psi") == 3 and "FAIL" not in one and "PASS" not in one, one
+    assert "comp per gas_psi" in one and "change per unit of gas_psi" in one, one
+    assert min(len(p.split()) for p in texts) >= 12, [len(p.split()) for p in texts]
+    assert dyno("report", *runs, "--out", tmp_path / "judged", "--tolerance", "5%").returncode == 0
+    judged = (tmp_path / "judged" / "index.html").read_text()
+    assert "SWEEP" not in judged and judged.count("PASS: ") + judged.count("FAIL: ") == 2

@@ -63,7 +63,7 @@ def test_the_velocity_table_interpolates_the_peaks_per_direction_and_never_extra
     assert table[3].F_comp_N == pytest.approx(500.0, rel=0.02)
     assert vt.standard_speeds()[0] == 0.025 and vt.standard_speeds()[-1] == 0.5
     text = vt.write_csv(table, tmp_path / "v.csv", Units("si")).read_text().splitlines()
-    assert text[0] == "v_m_s,F_comp_N,F_reb_N,Fd_comp_N,Fd_reb_N" and text[1] == "0.05,,,,"
+    assert text[0] == "v_m_s,F_comp_N,F_reb_N,Fd_comp_N,Fd_reb_N,W_comp_N,W_reb_N" and text[1] == "0.05,,,,,,"
     head, body = vt.html_table(table, Units("si"))
     assert head == ["speed [m/s]", "F comp [N]", "F reb [N]"] and body[2] == ["0.3", "302", "-454"]  # 0.2 to the merged 0.405 m/s
     head, body = vt.html_table(table)  # metric by default

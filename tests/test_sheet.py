@@ -54,7 +54,8 @@ def test_page_one_is_the_sheet_a_lab_signs(sheet_run, sheet_report):
     assert all(s in one for s in ("clicks_reb 12", "baseline", "A. Tester", "sine-matrix"))  # identity and test
     assert "HBM U9C 10 kN, s/n 2203341" in one and "2026-03-01" in one  # the load cell and its calibration
     assert "not given" in one  # the other channels say so, not left out
-    assert "body temperature" in one and "not measured (no static test)" in one  # conditions, as far as measured
+    assert "body temperature" in one and "source data as recorded by dyno" in one  # conditions, as far as measured
+    assert "N at the turning points (friction cancelled, 95 %)" in one  # no static test: the gas force at the turns
     # the verdict is dyno check's
     check = dyno("check", sheet_run, "--against", "koni", "--tolerance", "5%")
     assert check.stdout.strip().splitlines()[-2].split(";")[0] in one
@@ -106,7 +107,10 @@ def test_an_imported_run_says_what_its_file_does_not_hold(tmp_path):
     assert r.returncode == 0, r.stderr
     one = _page_one(tmp_path / "rep")[0][0]
     assert one.startswith("Damper test sheet: serial MR-1") and "current_A 1" in one
-    assert "not measured (no thermocouple channel)" in one and "not measured (no static test)" in one
+    assert "not measured (no thermocouple channel)" in one
+    # what the source did, from the import and the data; the gas force at the turning points, below zero: said
+    assert "source data smoothed by its source (0.1 period); displacement centred on zero" in one
+    assert "force centred on zero" in one and "at the turning points (friction cancelled, 95 %); below zero" in one
     assert "NO VERDICT" in one and "dyno report --against" in one
     assert "25" in one and "compression [N]" in one  # the table at the speeds the stroke reached
     assert not pdf_pages.lone_headings(tmp_path / "rep" / "report.pdf", (tmp_path / "rep" / "index.html").read_text())

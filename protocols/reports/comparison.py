@@ -21,7 +21,7 @@ from protocols.reports.page import Page, save
 from protocols.reports.pdf import first_page_png, write_pdf
 from protocols.reports.sines import SHEET_DPI, SHEET_RC
 from protocols.reports.plots import plt
-from protocols.units import Units, amplitude, fmt
+from protocols.units import TOLERANCE, Units, amplitude, fmt
 
 MARKERS = "os^Dv<>p"  # one per amplitude
 COMPOSITE = "compare_composite.png"  # the runs' curves overlaid: the comparison sheet's figure
@@ -114,11 +114,27 @@ def _pct(b, a):
     return 100 * (b - a) / abs(a) if a else np.nan
 
 
-def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
+def swept(runs) -> tuple[str, list[float]] | None:
+    """(the setting, each run's value) where the runs' declared setups (--setup KEY=VALUE)
+    differ in exactly one setting, a number in every run: a sweep made on purpose (a coil
+    current, a gas charge, clicks); else None."""
+    import re
+    setups = [{k.removeprefix("setup."): str(v) for k, v in meta.get("run", {}).items() if k.startswith("setup.")}
+              for *_, meta in runs]
+    differ = [k for k in sorted(set().union(*setups)) if len({s.get(k) for s in setups}) > 1]
+    if len(runs) < 2 or len(differ) != 1:
+        return None
+    numbers = [re.match(r"\s*([-+]?[0-9]+(?:\.[0-9]*)?)", s.get(differ[0], "")) for s in setups]
+    return (differ[0], [float(m.group(1)) for m in numbers]) if all(numbers) else None
+
+
+def compare(paths, out_dir, units=Units(), against=None, tolerance=None):
     """Write DIR/index.html, report.pdf (page 1 the comparison sheet), sheet.png and
     differences.csv comparing every run with the first; each run's verdict against
     `against` (a run, model or table, as `dyno check` takes it), or each after the first
-    against the first. (index, [PNG paths])."""
+    against the first within tolerance (units.TOLERANCE when None). Runs that sweep a
+    declared setting (swept()) are shown as a sweep, the change per unit of the setting,
+    and judged only against `against` or a tolerance given. (index, [PNG paths])."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs = [(string.ascii_uppercase[i % 26], path, *_run(path)) for i, path in enumerate(paths)]
@@ -174,8 +190,14 @@ def compare(paths, out_dir, units=Units(), against=None, tolerance="5%"):
                  _composite(runs, out, units))
     else:
         page.paragraph("No run has a sine segment: nothing to compare.")
+    sweep = swept(runs)
+    judged = against is not None or tolerance is not None or sweep is None
+    verdicts = (_verdicts(runs, against, tolerance or TOLERANCE, units) if judged else
+                [(tag, f"SWEEP: {sweep[0]} {value:g}", f"no reference: the runs differ in {sweep[0]} on purpose and are "
+                  f"shown as the force's change per unit of it (--against or --tolerance judges them)")
+                 for (tag, *_), value in zip(runs, sweep[1])])
     page.sheet = sheet.comparison([(tag, path, meta) for tag, path, _, meta in runs], curve,
-                                  _speeds_table(runs, units), _verdicts(runs, against, tolerance, units))
+                                  _speeds_table(runs, units, sweep), verdicts)
     index = page.write(out)
     first_page_png(write_pdf(page, out), out / "sheet.png")  # report.pdf beside it, as a single run's report has
     return index, [*([out / curve[1]] if curve else []), *pngs, out / "sheet.png"]
@@ -198,10 +220,12 @@ def _verdicts(runs, against, tolerance, units):
     return out
 
 
-def _speeds_table(runs, units):
+def _speeds_table(runs, units, sweep=None):
     """(how read, header, rows) of every run's velocity table at the speeds all reached, read
     the same way (along the stroke when one of them ran one speed, as `dyno check` reads
-    them), with each run's difference from the first [%]; None when no speed is shared."""
+    them), with each run's difference from the first [%], or, for a sweep (swept()), the
+    force's change per unit of the setting (a straight line through the runs); None when no
+    speed is shared."""
     how = vt.method(*(rows for _, _, rows, _ in runs))
     tables = [vt.velocity_table(rows, None, units, how) for _, _, rows, _ in runs]
     keep = [i for i in range(len(tables[0])) if all(np.isfinite(t[i].F_comp_N) and np.isfinite(t[i].F_reb_N)
@@ -216,16 +240,26 @@ def _speeds_table(runs, units):
     head = [units.label("speed", "velocity")]
     for tag, *_ in runs:
         head += [units.label(f"{tag} comp", "force"), units.label(f"{tag} reb", "force")]
-    head += [f"{tag} diff comp/reb [%]" for tag, *_ in runs[1:]]
+    if sweep:
+        head += [units.label(f"comp per {sweep[0]}", "force"), units.label(f"reb per {sweep[0]}", "force")]
+    else:
+        head += [f"{tag} diff comp/reb [%]" for tag, *_ in runs[1:]]
     rows = []
     for i in keep:
         a = tables[0][i]
-        rows.append([f"{units.show('velocity', a.v_m_s):.4g}"] + [F(v) for t in tables for v in (t[i].F_comp_N, t[i].F_reb_N)]
-                    + [f"{_pct(t[i].F_comp_N, a.F_comp_N):+.1f} / {_pct(-t[i].F_reb_N, -a.F_reb_N):+.1f}"
-                       for t in tables[1:]])
+        row = [f"{units.show('velocity', a.v_m_s):.4g}"] + [F(v) for t in tables for v in (t[i].F_comp_N, t[i].F_reb_N)]
+        if sweep:
+            row += [f"{units.show('force', np.polyfit(sweep[1], [t[i].F_comp_N for t in tables], 1)[0]):+.3g}",
+                    f"{units.show('force', np.polyfit(sweep[1], [t[i].F_reb_N for t in tables], 1)[0]):+.3g}"]
+        else:
+            row += [f"{_pct(t[i].F_comp_N, a.F_comp_N):+.1f} / {_pct(-t[i].F_reb_N, -a.F_reb_N):+.1f}"
+                    for t in tables[1:]]
+        rows.append(row)
     # a run whose test repeats differ is read on its first run of the test: said beside how
     repeats = "".join(f"; {tag}: {note.rstrip('.')}" for tag, _, rows, _ in runs if (note := vt.repeats_note(rows)))
-    return ("from the peaks" if how == "peaks" else "along the stroke") + repeats, head, rows
+    last = (f"; the last columns: the force's change per unit of {sweep[0]}, a straight line through the runs" if sweep
+            else "; differences against the first run")
+    return ("from the peaks" if how == "peaks" else "along the stroke") + repeats + last, head, rows
 
 
 def _composite(runs, out, units):

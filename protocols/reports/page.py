@@ -23,6 +23,20 @@ def number(v):
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
 
 
+@cache
+def _captions() -> dict:
+    import tomllib
+    with open(Path(__file__).with_name("captions.toml"), "rb") as f:
+        return tomllib.load(f)
+
+
+def caption(png) -> str:
+    """What the figure in png shows (captions.toml, by its name or, for a damper's own
+    figures, by what follows the damper's name), "" for one without a caption."""
+    name = Path(str(png)).name
+    return next((c for key, c in _captions().items() if name == key or name.endswith("_" + key)), "")
+
+
 class LayoutWarning(UserWarning):
     """A figure's text is clipped by its edge or overlaps another plot's."""
 
@@ -107,8 +121,9 @@ class Page:
         self.blocks.append(("table", (list(header), [list(r) for r in rows])))
 
     def figure(self, title, png):
-        """A figure under its title, kept together on a printed page."""
-        self.blocks.append(("figure", (png, title)))
+        """A figure under its title with what it shows (captions.toml), kept together on a
+        printed page: a page that holds a figure is never its title alone."""
+        self.blocks.append(("figure", (png, title, caption(png))))
 
     def html(self) -> str:
         # printed (protocols/reports/pdf.py): the header repeats on each page; a short table is kept whole

@@ -150,6 +150,8 @@ def _blocks(sheet, title, blocks, out_dir, figure_in=None):
         elif kind == "figure":
             sheet.lines("heading", _wrap("heading", payload[1]), weight="bold")
             sheet.image(Path(out_dir) / payload[0], figure_in)
+            if len(payload) > 2 and payload[2]:
+                sheet.lines("paragraph", _wrap("paragraph", payload[2]))
 
 
 PNG_DPI = 150  # the sheet as an image: A4 at 1240 x 1754 pixels, its 8 pt text legible

@@ -49,6 +49,7 @@ class Peak:
     # velocity table is read from
     stroke_v: np.ndarray = field(default_factory=lambda: np.zeros(0))
     stroke_F: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    stroke_W: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the loop's half-width there [N]
     model_stroke_F: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
@@ -182,12 +183,16 @@ NO_TEMPERATURE = (f"The recording has no body temperature: its T is shown as \"-
                   f"evaluated at {T_ROOM - 273.15:g} C.")
 
 
-def stroke(v, F):
+def stroke(v, F, widths=False):
     """The force along the stroke: (speed at each bin's centre [m/s], mean force there [N])
     over STROKE_BINS bins per direction up to the top speed reached. Each bin averages the
     accelerating and the decelerating half of the cycle, as a crank dyno's curve is read
-    (the loop's mid-line); bins nothing reached are left out."""
-    out_v, out_F = [], []
+    (the loop's mid-line); bins nothing reached are left out. widths: also the loop's
+    half-width there [N] (half the difference of the two halves' means, v in time order;
+    nan where a bin holds only one of them)."""
+    v, F = np.asarray(v, float), np.asarray(F, float)
+    rising = np.gradient(np.abs(v)) > 0 if len(v) > 1 else np.zeros(len(v), bool)  # |v| growing: accelerating
+    out_v, out_F, out_W = [], [], []
     for sign in (-1.0, 1.0):
         s = sign * v
         top = float(np.max(s, initial=0.0))
@@ -198,13 +203,18 @@ def stroke(v, F):
         idx = np.minimum(np.searchsorted(edges, s[k], side="right") - 1, STROKE_BINS - 1)
         n = np.bincount(idx, minlength=STROKE_BINS)
         mean = np.bincount(idx, weights=F[k], minlength=STROKE_BINS) / np.maximum(n, 1)
+        halves = []
+        for part in (rising[k], ~rising[k]):
+            m = np.bincount(idx[part], minlength=STROKE_BINS)
+            halves.append(np.where(m > 0, np.bincount(idx[part], weights=F[k][part], minlength=STROKE_BINS)
+                                   / np.maximum(m, 1), np.nan))
         centre = 0.5 * (edges[:-1] + edges[1:])
         centre[-1] = top  # the last bin is read at the top speed, where the peak is
         ok = n > 0
-        out_v.append(sign * centre[ok]), out_F.append(mean[ok])
-    v_all, F_all = np.concatenate(out_v or [np.zeros(0)]), np.concatenate(out_F or [np.zeros(0)])
+        out_v.append(sign * centre[ok]), out_F.append(mean[ok]), out_W.append(0.5 * np.abs(halves[0] - halves[1])[ok])
+    v_all, F_all, W_all = (np.concatenate(a or [np.zeros(0)]) for a in (out_v, out_F, out_W))
     order = np.argsort(v_all)
-    return v_all[order], F_all[order]
+    return (v_all[order], F_all[order]) + ((W_all[order],) if widths else ())
 
 
 @dataclass
@@ -326,7 +336,7 @@ def peaks(ch, segs, damper=None, model=None):
         p.crank_ratio = cyc.crank_ratio if cyc is not None else np.nan
         p.achieved_mm = 0.5 * float(np.ptp(x[late])) * 1e3
         p.adapted = prm.get("adapted", "")
-        p.stroke_v, p.stroke_F = stroke(v_read, F[late])
+        p.stroke_v, p.stroke_F, p.stroke_W = stroke(v_read, F[late], widths=True)
         target = 2 * np.pi * prm["freq_hz"] * prm["amplitude_mm"] * 1e-3
         p.short_pct = 100.0 * (1.0 - 0.5 * (p.v_comp - p.v_reb) / target) if target > 0 else np.nan
         if damper is not None:
@@ -371,7 +381,7 @@ def scatter(ch, model=None):
     T_measured = segment_temperature(ch, t[0], t[-1])
     T = model_temperature(T_measured)
     p = Peak(SCATTER, np.nan, np.nan, np.nan, T_measured - 273.15, float(hi), np.nan, float(lo), np.nan)
-    p.stroke_v, p.stroke_F = stroke(v[k], F[k])
+    p.stroke_v, p.stroke_F = stroke(v[k], F[k])  # no loop: motion that does not repeat
     if len(p.stroke_v) == 0:
         return None
     p.F_comp, p.F_reb = float(p.stroke_F[-1]), float(p.stroke_F[0])

@@ -48,7 +48,7 @@ def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), ch
     if table:
         vt.write_csv(table, out / "velocity.csv", units)
     curve = next(((title, png) for title, png in figures if png == sines.COMPOSITE), None)
-    note = vt.repeats_note(rows) if table else ""
+    note = " ".join(n for n in (vt.width_note(table), vt.repeats_note(rows)) if n) if table else ""
     facts = sheet.sheet(path, meta, ch, _params(meta.get("protocol", {}).get("params", "")), table, curve,
                         _gas_range(ch, events, segs), check, units, note)
     page = Page(f"Dyno report: {Path(path).name}", facts,

@@ -100,25 +100,80 @@ def _channels(meta):
 
 
 def _conditions(ch, gas_N, units: Units):
-    """Body temperature at the start and the end, gas force (static test) and pressure."""
+    """Body temperature at the start and the end and its range, gas force (a static test's,
+    else at the stroke's turning points, records/gas_force.py) and pressure."""
     out = []
+    T_ = (lambda v: fmt(units.show("temperature", v), 3))
     if "T_body" in ch and len(ch["T_body"][1]):
-        T = ch["T_body"][1]
-        out.append(("body temperature", f"{fmt(units.show('temperature', T[0]), 3)} {units.unit('temperature')} at the "
-                                        f"start, {fmt(units.show('temperature', T[-1]), 3)} at the end"))
+        t, T = ch["T_body"]
+        i = int(np.nanargmax(T))
+        out.append(("body temperature", f"{T_(T[0])} {units.unit('temperature')} at the start, {T_(T[-1])} at the end; "
+                                        f"{T_(np.nanmin(T))} to {T_(T[i])} over the run (highest at "
+                                        f"{t[i] - t[0]:.4g} s)"))
     else:
         out.append(("body temperature", "not measured (no thermocouple channel)"))
-    if gas_N is not None and np.isfinite(gas_N[0]):
-        lo, hi = (fmt(units.show("force", g), 3) for g in gas_N)
-        out.append(("gas force", f"{lo} to {hi} {units.unit('force')} over the stroke (static test)" if lo != hi
-                    else f"{lo} {units.unit('force')} (static test)"))
-    else:
-        out.append(("gas force", "not measured (no static test)"))
+    out.append(("gas force", _gas(ch, gas_N, units)))
     if "P_gas" in ch and len(ch["P_gas"][1]):
         p = ch["P_gas"][1]
         out.append(("gas pressure", f"{fmt(units.show('pressure', p[0]), 3)} {units.unit('pressure')} at the start, "
                                     f"{fmt(units.show('pressure', p[-1]), 3)} at the end"))
     return out
+
+
+def _at_turns(ch):
+    """records/gas_force.at_turns of the channels (the displacement on the force's clock)."""
+    from records.gas_force import at_turns
+    if not ({"force", "x"} <= set(ch) and len(ch["x"][0]) > 1):
+        return None
+    (tF, F), (tx, x) = ch["force"], ch["x"]
+    with np.errstate(all="ignore"):
+        return at_turns(tF, np.interp(tF, tx, x), F)
+
+
+def _gas(ch, gas_N, units: Units) -> str:
+    """The gas force a sheet states: a static test's range over the stroke, else the force at
+    the stroke's turning points with its 95 % interval, else not measured."""
+    f = units.unit("force")
+    if gas_N is not None and np.isfinite(gas_N[0]):
+        lo, hi = (fmt(units.show("force", g), 3) for g in gas_N)
+        return f"{lo} to {hi} {f} over the stroke (static test)" if lo != hi else f"{lo} {f} (static test)"
+    gas = _at_turns(ch)
+    if gas is None:
+        return "not measured (no static test, too few turning points)"
+    return (f"{fmt(units.show('force', gas.level), 3)} ± {fmt(units.show('force', gas.half_width), 2)} {f} at the "
+            f"turning points (friction cancelled, 95 %)" + ("; below zero: no gas spring's" if gas.below_zero else ""))
+
+
+MEAN_REMOVED = 0.02  # of a channel's range: a mean closer to zero reads as removed by the source
+
+
+def _source(meta, ch) -> str:
+    """What was done to the data between the sensor and this recording: by the source (a
+    smoothing declared at import, a mean seen removed) and by the import (flips, gains,
+    offsets, the units read), or "as recorded by dyno" for a run of ours."""
+    from records.source_filter import of as filtered
+    proto = meta.get("protocol", {})
+    if proto.get("name") != "import":
+        return "as recorded by dyno (each channel's calibration below)"
+    given = json.loads(proto.get("params", "{}") or "{}")
+    done = []
+    smooth = filtered(meta)
+    done += [f"smoothed by its source ({smooth.text()})"] if smooth else []
+    for name, unit in (("x", "displacement"), ("force", "force")):
+        if name in ch and len(ch[name][1]) > 1:
+            y = ch[name][1]
+            span = float(np.nanmax(y) - np.nanmin(y))
+            # a force's mean is its gas force and the valves' asymmetry: near zero it says a mean removed
+            # only where the gas force at the turning points is not above zero either
+            held = name == "force" and (gas := _at_turns(ch)) is not None and gas.above_zero
+            if span > 0 and np.nanmin(y) < 0 and abs(float(np.nanmean(y))) < MEAN_REMOVED * span and not held:
+                done.append(f"{unit} centred on zero (a mean removed, or zeroed mid-way)")
+    done += [f"{v} flipped at import" for v in given.get("flip", [])]
+    done += [f"gain {v} at import" for v in given.get("gain", [])]
+    done += [f"offset {v} at import" for v in given.get("offset", [])]
+    units = [m.rsplit(":", 1)[1] for m in given.get("map", []) if "=" in m and ":" in m]
+    done += [f"read in {', '.join(units)}"] if units else []
+    return "; ".join(done) if done else "as recorded (no filter, flip, gain or offset)"
 
 
 def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=None, units=Units(),
@@ -132,7 +187,7 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
     return Sheet(
         title="Damper test sheet" + (f": {', '.join(named)}" if named else ""),
         identity=identity, test=_test(meta, params), channels=_channels(meta),
-        conditions=_conditions(ch, gas_N, units), curve=curve,
+        conditions=[("source data", _source(meta, ch)), *_conditions(ch, gas_N, units)], curve=curve,
         table=html_table(table, units, SHEET_NAMES, measured_only=True) if table else None,
         verdict=check[0] if check else None,
         reference=check[1] if check else "no reference given (dyno report --against REF.mcap|MODEL|TABLE)",

@@ -36,6 +36,8 @@ class VelocityRow:
     F_reb_N: float  # at -v [N] (negative)
     Fd_comp_N: float = np.nan  # damping force (measured less gas and friction) [N]
     Fd_reb_N: float = np.nan
+    W_comp_N: float = np.nan  # the loop's half-width there [N]: read along the stroke, F is its mid-line
+    W_reb_N: float = np.nan
 
 
 def _curve(v, F):
@@ -117,6 +119,14 @@ def repeats_note(rows) -> str:
                     for first, names in repeats_left_out(rows))
 
 
+def width_note(table) -> str:
+    """What "F ± W" means where the table gives a loop's half-width, "" where it gives none."""
+    if not any(np.isfinite(r.W_comp_N) or np.isfinite(r.W_reb_N) for r in table):
+        return ""
+    return ("Read along the stroke, each force is its loop's mid-line (the accelerating and decelerating halves "
+            "averaged); ± gives the loop's half-width there.")
+
+
 def velocity_table(rows, speeds=None, units=Units(), how=None) -> list[VelocityRow]:
     """[VelocityRow] at speeds [m/s] from the Peak rows of sine segments at the cell's
     temperature (a temperature sweep's segments are left out: they are another curve; so are
@@ -127,7 +137,7 @@ def velocity_table(rows, speeds=None, units=Units(), how=None) -> list[VelocityR
     rows = [p for p in rows if np.isnan(p.target_c) and p.segment not in dropped]
     if (how or method(rows)) == "stroke":
         nan = np.full(len(speeds), np.nan)
-        out = [*_along_stroke(speeds, rows, "stroke_F"), nan, nan]
+        out = [*_along_stroke(speeds, rows, "stroke_F"), nan, nan, *_along_stroke(speeds, rows, "stroke_W")]
         return [VelocityRow(float(s), *(float(c[i]) for c in out)) for i, s in enumerate(speeds)]
     col = {name: np.array([getattr(p, name) for p in rows], float)
            for name in ("v_comp", "v_reb", "F_comp", "F_reb", "Fd_comp", "Fd_reb")}
@@ -142,7 +152,8 @@ def has_rows(table) -> bool:
 
 # each field's CSV name (its unit added by the unit system) and quantity
 CSV = {"v_m_s": ("v", "velocity"), "F_comp_N": ("F_comp", "force"), "F_reb_N": ("F_reb", "force"),
-       "Fd_comp_N": ("Fd_comp", "force"), "Fd_reb_N": ("Fd_reb", "force")}
+       "Fd_comp_N": ("Fd_comp", "force"), "Fd_reb_N": ("Fd_reb", "force"), "W_comp_N": ("W_comp", "force"),
+       "W_reb_N": ("W_reb", "force")}
 
 
 def write_csv(table, path, units=Units()):
@@ -161,13 +172,16 @@ TABLE_NAMES = ("speed", "F comp", "F reb", "damping comp", "damping reb")  # the
 
 def html_table(table, units=Units(), names=TABLE_NAMES, measured_only=False):
     """(header, rows) for the page; a blank where the speed was not measured (measured_only:
-    such a speed left out); names: the columns' (the test sheet spells the directions out)."""
+    such a speed left out); names: the columns' (the test sheet spells the directions out).
+    A force read along the stroke is the loop's mid-line: "F ± its half-width"."""
     has_d = any(np.isfinite(r.Fd_comp_N) for r in table)
     lab = units.label
     head = [lab(names[0], "velocity")] + [lab(n, "force") for n in names[1:3 + 2 * has_d]]
 
-    def n(v):
-        return fmt(units.show("force", v), 3) if np.isfinite(v) else "-"
-    return head, [[f"{units.show('velocity', r.v_m_s):.4g}", n(r.F_comp_N), n(r.F_reb_N)]
+    def n(v, w=np.nan):
+        if not np.isfinite(v):
+            return "-"
+        return fmt(units.show("force", v), 3) + (f" ± {fmt(units.show('force', w), 2)}" if np.isfinite(w) else "")
+    return head, [[f"{units.show('velocity', r.v_m_s):.4g}", n(r.F_comp_N, r.W_comp_N), n(r.F_reb_N, r.W_reb_N)]
                   + ([n(r.Fd_comp_N), n(r.Fd_reb_N)] if has_d else []) for r in table
                   if not measured_only or np.isfinite(r.F_comp_N) or np.isfinite(r.F_reb_N)]

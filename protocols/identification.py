@@ -121,7 +121,7 @@ def minimal_doc(recordings, segments, out, base, found, channels, events):
             **({"segments": segments} if segments else {}),
             "repeats_differ": [{"test": test, "segments": names, "force_range_N": ranges}
                                for test, names, ranges in differing_repeats(channels, events)],
-            "force_reads_low": reads_low(values, sd, float(np.ptp(d.F)))}
+            "force_reads_low": reads_low(values, sd, float(np.ptp(d.F)), d)}
 
 
 def finite(x):

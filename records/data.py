@@ -166,23 +166,33 @@ def repeats_sentence(test, names, ranges) -> str:
 LOW_SHARE = 0.1  # of the force range: a gas force fitted further below zero is the force's zero, not the fit's bias
 
 
-def reads_low(parameters, sd, force_range) -> str | None:
+def reads_low(parameters, sd, force_range, data=None) -> str | None:
     """The sentence saying the force reads low, or None: a gas spring pushes the rod out
-    (positive here, eq 3.19), so a gas force fitted below zero at the motion's mean
-    position (G0 [N]) is the force's zero moved: a load cell's offset the file kept (a raw
-    channel's zero not removed), or its mean removed by the source. Said beyond LOW_SHARE
-    of the force range [N] (the UTFSM sine files, their means removed, fit G0 within 8 %
-    of theirs either way) and twice its deviation where it has one. The recording cannot
-    tell the rest of an offset from a gas force."""
-    G0 = float(parameters.get("G0", np.nan))
-    s = (sd or {}).get("G0")
-    if not -G0 > LOW_SHARE * force_range or (s is not None and not (np.isfinite(s) and G0 + 2 * s < 0)):
+    (positive here, eq 3.19), so a gas force below zero is the force's zero moved: a load
+    cell's offset the file kept (a raw channel's zero not removed), or its mean removed by
+    the source. The gas force is the force at the stroke's turning points (records/
+    gas_force.at_turns) of data (t [s], x [m], F [N]) when it has them, else the fit's at
+    the motion's mean position (G0 [N]), whose constant a sine cannot tell from x^2 and |v|.
+    Said beyond LOW_SHARE of the force range [N] (the UTFSM sine files, their means
+    removed, fit G0 within 8 % of theirs either way) and beyond its interval (twice the
+    fit's deviation). The recording cannot tell the rest of an offset from a gas force."""
+    from records.gas_force import at_turns
+    with np.errstate(all="ignore"):
+        gas = at_turns(data.t, data.x, data.F) if data is not None else None
+    if gas is not None:
+        level, top, how = gas.level, gas.level + gas.half_width, (f"the force at the stroke's turning points "
+                                                                   f"(friction cancelled) reads {gas.text()}")
+    else:
+        level = float(parameters.get("G0", np.nan))
+        s = (sd or {}).get("G0")
+        top = level + 2 * s if s is not None else level
+        how = f"the gas force fitted is {level:.0f} N"
+    if not (-level > LOW_SHARE * force_range and np.isfinite(top) and top < 0):
         return None
-    return (f"the gas force fitted is {G0:.0f} N, below zero, which no gas spring gives (it pushes the rod out): the "
-            f"force reads at least {-G0:.0f} N low: a load cell's offset the file kept (raw volts whose zero was not "
-            f"removed?) or its mean removed by the source; import it again with --offset force={-G0:.0f} (in N; as "
-            f"much in another mapped unit) to remove that much (the recording cannot tell the rest of an offset from "
-            f"a gas force)")
+    return (f"{how}, below zero, which no gas spring gives (it pushes the rod out): the force reads at least "
+            f"{-top:.0f} N low: a load cell's offset the file kept (raw volts whose zero was not removed?) or its mean "
+            f"removed by the source; import it again with --offset force={-top:.0f} (in N; as much in another mapped "
+            f"unit) to remove that much (the recording cannot tell the rest of an offset from a gas force)")
 
 
 def missing(channels, names):

@@ -563,13 +563,13 @@ def test_a_crank_dynos_run_is_cut_into_its_stroke_and_reported(tmp_path):
 
 def test_a_load_cell_offset_the_file_kept_is_said_with_its_tare(tmp_path):
     """Raw volts whose zero was not removed: 600 N low, so the force at the compression peaks
-    is below zero and the gas force fitted too, which no gas spring gives."""
+    is below zero and the gas force at the turning points too, which no gas spring gives."""
     t, x, F = crank(n=int(12 / 1.05 * RATE))
     src = _written(tmp_path, "offset.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c - 600:.3f}\n"
                                                                 for a, b, c in zip(t, x, F)))
     _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
     r = dyno("identify", tmp_path / "x.mcap")
-    said = [line for line in r.stdout.splitlines() if line.startswith("note: the gas force fitted is")]
+    said = [line for line in r.stdout.splitlines() if line.startswith("note: the force at the stroke's turning")]
     assert r.returncode == 0 and len(said) == 1 and "a load cell's offset the file kept" in said[0], r.stdout
     low = float(said[0].split("reads at least ")[1].split(" N low")[0])
     assert abs(low - (600 - np.mean(150 + 800 * x))) < 30 and f"--offset force={low:.0f}" in said[0]

@@ -151,7 +151,7 @@ def summary(res):
         lines.append(f"Not converged: the baseline's fit stopped at its limit of {fitting.MAX_STEPS} steps on {b.stopped} "
                      f"fold{'s' if b.stopped > 1 else ''} of the held-out split (a step still lowered its cost by more "
                      f"than {fitting.FTOL:g} of it): its values are where the search stood.")
-    low = reads_low(b.parameters, b.sd, float(np.ptp(res.data.F)))
+    low = reads_low(b.parameters, b.sd, float(np.ptp(res.data.F)), res.data)
     if low:
         lines.append(f"Offset: {low}.")
     lines.append(timing_sentence(res))

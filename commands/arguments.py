@@ -24,13 +24,41 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"dyno: error: {where + ': ' if where else ''}{message}\n")
 
     def check_command(self, argv):
-        """`dyno` alone lists the commands; a mistyped one is named with the nearest, in one line."""
+        """`dyno` alone lists the commands and ends in the one line saying none was given; a
+        mistyped one is named with the nearest, in one line."""
         if not argv:
-            self.exit(2, self.format_help())
+            self.exit(2, self.format_help() + "dyno: error: no command given: dyno COMMAND, one of those above "
+                                              "(dyno COMMAND --help for its options)\n")
         if not argv[0].startswith("-") and argv[0] not in self.commands:
             near = difflib.get_close_matches(argv[0], self.commands, n=1)
             self.error(f"unknown command {argv[0]!r}" + (f"; did you mean {near[0]!r}?" if near else "")
                        + " (dyno alone lists the commands)")
+
+
+def negative_values(p, argv) -> list:
+    """argv with each negative-looking value of an option that takes one joined to it
+    (`--tolerance -5%` as `--tolerance=-5%`): argparse reads a value starting with '-' as an
+    option, and said "expected one argument" where the value's own check names what is wrong."""
+    takes = set()
+    stack = [p]
+    while stack:
+        q = stack.pop()
+        for a in q._actions:
+            if isinstance(a, argparse._SubParsersAction):
+                stack += list(a.choices.values())
+            elif a.option_strings and a.nargs is None and not isinstance(a, argparse._StoreConstAction):
+                takes.update(o for o in a.option_strings if o.startswith("--"))
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        nxt = argv[i + 1] if i + 1 < len(argv) else ""
+        if a in takes and len(nxt) > 1 and nxt[0] == "-" and (nxt[1].isdigit() or nxt[1] in ".i"):
+            out.append(f"{a}={nxt}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
 
 
 def setup_item(text):

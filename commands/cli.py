@@ -9,7 +9,7 @@ from importlib import metadata
 
 from models.damper import DamperError
 from workers.pool import TaskFailed
-from commands.arguments import Parser
+from commands.arguments import Parser, negative_values
 from commands.output import check_outputs
 from rig.errors import Refused, UsageError
 from rig.errors import RigError
@@ -61,6 +61,7 @@ def _main(argv):
             return 0
     p = parser()
     p.check_command(argv)
+    argv = negative_values(p, argv)
     args, extra = p.parse_known_args(argv)
     if extra:  # `dyno run` takes name=value anywhere among its options
         if getattr(args, "cmd", None) == "run" and all("=" in e and not e.startswith("-") for e in extra):

@@ -62,6 +62,11 @@ def run(args):
     from records.files import existing_files, filled, output_folder
     from records.reader import load_recording
     from protocols.reports.diagnosis import described, own_baseline, report, to_json
+    if getattr(args, "batch", None):
+        for flag, given in (("--next", getattr(args, "next", False)), ("--budget", args.budget is not None),
+                            ("--report", args.report)):
+            if given:  # a batch writes each file's JSON and a summary; the rest is one recording's
+                raise UsageError(f"{flag}: not with --batch (`dyno diagnose FILE {flag} ...` does it for one file)")
     baseline = _baseline(args.baseline)
     if getattr(args, "batch", None):
         from models.damper import to_dict

@@ -46,6 +46,8 @@ def add(sub):
     im.add_argument("--start", metavar="DATE-TIME",
                     help="when the test began (ISO 8601, e.g. 2025-11-14T20:14:37; UTC unless it says its zone), "
                          "for a file that holds no date: without it the date is shown as unknown")
+    im.add_argument("--allow-gaps", action="store_true", help="import a displacement or force column with rows "
+                    "that hold no number among its numbers (each said with its line); without it they are refused")
     identity(im, "test the file holds")
     im.set_defaults(command="import_csv")
 
@@ -55,7 +57,8 @@ def run(args):
     from records.csv_import import parse_map
     from records.files import Claim
     from records.importing import Source, drives, import_file, scales, start_of
-    for option in ("inspect", "start", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed", "filtered"):  # a caller's namespace may have only the map
+    for option in ("inspect", "start", "gain", "offset", "flip", "rate", "drive", "sheet", "smoothed", "filtered",
+                   "allow_gaps"):  # a caller's namespace may have only the map
         setattr(args, option, getattr(args, option, None))
     if args.inspect:
         return inspect(args)
@@ -66,23 +69,20 @@ def run(args):
     gains, offsets = scales(args.gain, "--gain"), scales(args.offset, "--offset")
     for name in {*gains, *offsets} - {n for n, _, _ in mapping}:
         raise UsageError(f"--gain/--offset {name}: not a mapped channel")
+    if args.filtered is not None and args.smoothed is not None:
+        raise UsageError("--filtered and --smoothed: give the one filter the source applied")
+    flag, text, parse = (("--filtered", args.filtered, source_filter.parse_filtered) if args.filtered is not None
+                         else ("--smoothed", args.smoothed, source_filter.parse))
     try:
-        smoothing = None if args.smoothed is None else source_filter.parse(args.smoothed)
+        smoothing = None if text is None else parse(text)
     except ValueError as e:
-        raise UsageError(f"--smoothed {e}") from None
-    if args.filtered is not None:
-        if smoothing is not None:
-            raise UsageError("--filtered and --smoothed: give the one filter the source applied")
-        try:
-            smoothing = source_filter.parse_filtered(args.filtered)
-        except ValueError as e:
-            raise UsageError(f"--filtered {e}") from None
+        raise UsageError(f"{flag} {e}") from None
     if args.out is None:
         raise UsageError("--out FILE.mcap: where to write the recording (or --inspect to only look)")
     src = Source(args.file, args.map, gains, offsets, tuple(args.flip or ()), args.rate, args.sheet,
                  drives(args.drive, mapping), smoothing, identity_info(args), start_of(args.start),
                  {"map": args.map, "flip": args.flip or [], "gain": args.gain or [], "offset": args.offset or [],
-                  "drive": args.drive or []})
+                  "drive": args.drive or []}, bool(args.allow_gaps))
     claim = Claim(args.out, args.overwrite, inputs=[args.file])  # checked before the file is read
     try:
         done = import_file(src, claim)

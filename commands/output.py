@@ -35,9 +35,15 @@ def chosen(p, args):
 def check_outputs(p, args):
     """Every file or folder the command will write, checked by the one rule before it
     starts: never an input (any file named among its other arguments), kept unless
-    --overwrite, each a path of its own."""
+    --overwrite, each a path of its own. A positional argument given as "" is named (a
+    shell variable left empty), never read as the folder it resolves to."""
     from records.files import existing_files, output_file, output_folder
     actions = [a for q in chosen(p, args) for a in q._actions if a.dest != "help"]
+    for a in (a for a in actions if not a.option_strings):
+        value = getattr(args, a.dest, None)
+        if value == "" or isinstance(value, list) and "" in value:
+            raise UsageError(f"{a.metavar or a.dest}: an empty name (\"\") given: a file's name was expected "
+                             f"(a shell variable left empty?)")
     outputs = [(a, getattr(args, a.dest, None)) for a in actions if getattr(a, "writes", None)]
     outputs = [(a, v) for a, v in outputs if v is not None]
     inputs = existing_files(*(getattr(args, a.dest, None) for a in actions if not getattr(a, "writes", None)))

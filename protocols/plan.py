@@ -166,7 +166,12 @@ def parse(cls, pairs):
                     raise ParamError(f"{name}: {text!r} is not true or false")
                 kwargs[name] = text.lower() == "true"
             elif kind is int:
-                kwargs[name] = int(text)
+                try:
+                    kwargs[name] = int(text)
+                except ValueError:
+                    float(text)  # no number at all: said as such below
+                    raise ParamError(f"{name}: {text!r} is not a whole number (a count: write it as digits, "
+                                     f"such as 2)") from None
             elif kind is str:
                 kwargs[name] = text
             else:

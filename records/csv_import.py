@@ -79,8 +79,8 @@ def parse_map(items):
 
 @dataclass
 class Imported:
-    """What import read: {channel name: SI array} on the rows that have a time, the
-    units as given, where the rows came from, and the recording's own start."""
+    """What import read: {channel name: SI array} on the rows that have a time, the units as given, where the rows
+    came from (the file's lines), and the recording's own start."""
     data: dict
     units: dict
     layout: table.Layout | None  # None: Parquet or MAT
@@ -91,6 +91,7 @@ class Imported:
     stamped: bool = False  # the time column is date-time stamps, not numbers in a unit
     named_units: dict = field(default_factory=dict)  # {channel: unit} its column's name gave, the map none
     unit_notes: list = field(default_factory=list)  # a unit a name says that import did not read
+    lines: np.ndarray = None  # the file's line of each row kept (a workbook's: the row's number)
 
 
 def source(path, sheet=None):
@@ -283,9 +284,9 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> I
                            f"with a time (needs at least {need})")
     if preamble_start is not None:  # the time's numbers count from the start the preamble gives
         start = preamble_start + float(t[keep][0])
-    return Imported({k: v[keep] for k, v in data.items()}, units, layout, start, derived, note,
-                    "the start the file's preamble gives" if preamble_start is not None else "the file's first date-time stamp",
-                    stamped, named, unit_notes)
+    how = "the start the file's preamble gives" if preamble_start is not None else "the file's first date-time stamp"
+    return Imported({k: v[keep] for k, v in data.items()}, units, layout, start, derived, note, how, stamped, named,
+                    unit_notes, (first_row if layout else 1) + np.nonzero(keep)[0])
 
 
 def _not_volts(path, name, column, key, a, u):
@@ -361,8 +362,7 @@ def _stamped(cells):
     if dmy and order is None:
         note = (f"the stamps cannot tell the day from the month (both at most 12): read month first "
                 f"({dmy.split()[0]} as MM/DD/YYYY); the date may be wrong, the times are not")
-    # the time of day alone gives no date
-    return (a - first if first is not None else a), None, first if table.dated(cells) else None, note
+    return (a - first if first is not None else a), None, first if table.dated(cells) else None, note  # a clock: no date
 
 
 def _coarse_stamps(path, a, rate, note):

@@ -38,6 +38,7 @@ class Source:
     identity: dict = field(default_factory=dict)
     start: float | None = None  # s since the epoch: when the test began (--start), for a file that holds no date
     given: dict = field(default_factory=dict)  # the options as given, kept in the recording's params
+    allow_gaps: bool = False  # rows of displacement or force without a number imported (--allow-gaps), not refused
 
 
 @dataclass
@@ -115,6 +116,7 @@ def _import(src, claim):
     from records.recorder import UNDATED, Recorder
     got = read(src.file, parse_map(src.map), src.gains, src.offsets, src.rate, src.sheet)
     data, units = got.data, got.units
+    _gaps(src, got)
     flip(data, set(src.flips))
     t = data.pop("time")
     if "velocity" not in data:
@@ -122,7 +124,7 @@ def _import(src, claim):
         data["velocity"] = np.full_like(t, np.nan)
         data["velocity"][ok] = derived_velocity(t[ok], data["displacement"][ok])
         units["velocity"] = "derived from displacement"
-    channels, gaps = _channels(t, data, units)
+    channels, gaps = _channels(t, data, units, got.lines)
     cfg = SimpleNamespace(
         name="imported", path=Path(src.file),
         channels={n: SimpleNamespace(unit=u, device="import", signal=n, gain=1.0, offset=0.0,
@@ -182,10 +184,27 @@ def _smoothing_note(smoothing, found) -> list[str]:
             f"model with it through the same filter"]
 
 
-def _channels(t, data, units):
+GAPLESS = ("displacement", "force")  # a row without a number among theirs is refused, or said (--allow-gaps)
+
+
+def _gaps(src, got):
+    """UsageError naming the first line where a displacement or force holds no number
+    among its numbers (NaN, an empty or missing cell), unless src.allow_gaps."""
+    from records.csv_import import parse_map
+    found = [(got.lines[e[0]], name, len(e)) for name in GAPLESS if name in got.data and not src.allow_gaps
+             for e in [np.nonzero(np.isnan(got.data[name]))[0]] if len(e)]
+    if found:
+        line, name, n = min(found)
+        column = next(c for m, c, _ in parse_map(src.map) if m == name)
+        raise UsageError(f"{src.file}:{line}: column {column!r} ({name}): {n} row{'s' * (n > 1)} with no number among "
+                         f"its numbers (NaN, an empty or missing cell); --allow-gaps imports the rest and says each line")
+
+
+def _channels(t, data, units, lines):
     """({channel: (t [s] from the first row, values, unit)}, notes): each mapped column's
     rows that hold a number; a column with none is left out, and rows without one (NaN,
-    an empty or missing cell) are said with their count."""
+    an empty or missing cell) are said with their count and lines (the file's line of
+    each row)."""
     from records.column_units import SI
     from records.csv_import import CHANNELS
     channels, gaps = {}, []
@@ -195,9 +214,17 @@ def _channels(t, data, units):
             continue
         channels[CHANNELS.get(name, name)] = (t[ok] - t[0], a[ok], SI.get(name, units.get(name, "")))
         if not ok.all() and name != "velocity":  # a derived velocity has a gap where its displacement has
+            at = lines[~ok] if lines is not None and name in GAPLESS else []
             gaps.append(f"{name}: {int((~ok).sum())} of {len(a)} rows hold no number (NaN, or an empty or missing "
-                        f"cell): left out of it, the channel read between them")
+                        f"cell): left out of it, the channel read between them"
+                        + (f" (line{'s' * (len(at) > 1)} {_lines(at)})" if len(at) else ""))
     return channels, gaps
+
+
+def _lines(at, most=8) -> str:
+    """A file's line numbers, the first `most` of them and how many more."""
+    shown = ", ".join(str(int(i)) for i in at[:most])
+    return shown + (f" and {len(at) - most} more" if len(at) > most else "")
 
 
 def _run_info(got, how, every, src, kept) -> dict:

@@ -113,6 +113,10 @@ def sniff(text: str, units=frozenset()) -> Layout:
         # a tie: whitespace splits a stamp's date from its clock (both values), so it never wins one
         if n >= 2 and (best is None or values > best[2] or values == best[2] and n > best[1] and d is not None):
             best = (d, n, values)
+    if best is not None and best[2] == 0 and len(filled) <= 3:  # names, perhaps units: a header and nothing under it
+        more = len(filled) - 1
+        raise UsageError(f"no rows of data: the file holds only its header ({lines[filled[0]].strip()[:60]!r}"
+                         + (f" and {more} more line{'s' * (more > 1)}" if more else "") + ")")
     if best is None or best[2] == 0:
         raise UsageError("not a table: no delimiter (comma, semicolon, tab, spaces) gives two columns of numbers")
     d, n, _ = best

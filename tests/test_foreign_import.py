@@ -278,9 +278,13 @@ def test_cells_a_spreadsheet_marks_missing_are_read_as_empty(tmp_path):
     t, x, F = crank()
     rows = [f"{a:.6f},{'#N/A' if i == 100 else f'{c:.4f}'},{'-' if i == 200 else f'{1e3 * b:.6f}'}\n"
             for i, (a, b, c) in enumerate(zip(t, x, F))]
-    channels, _, _ = _imported(tmp_path, _written(tmp_path, "na.csv", "t,F,x\n" + "".join(rows)), "--map", "time=t",
-                               "--map", "displacement=x:mm", "--map", "force=F")
+    na = _written(tmp_path, "na.csv", "t,F,x\n" + "".join(rows))
+    one_line_error(dyno("import", na, "--out", tmp_path / "n.mcap", "--map", "time=t", "--map", "displacement=x:mm",
+                        "--map", "force=F"), "na.csv:102: column 'F' (force): 1 row with no number", "--allow-gaps")
+    channels, _, r = _imported(tmp_path, na, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F",
+                               "--allow-gaps")
     assert len(channels["force"][0]) == len(t) - 1 and len(channels["x"][0]) == len(t) - 1
+    assert "force: 1 of" in r.stdout and "(line 102)" in r.stdout and "(line 202)" in r.stdout, r.stdout
     assert np.allclose(channels["force"][1], np.delete(F, 100), atol=1e-3)
     one_line_error(dyno("import", _written(tmp_path, "bad.csv", "t,F,x\n" + "".join(rows).replace("#N/A", "#REF?")),
                         "--out", tmp_path / "b.mcap", "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F"),
@@ -783,8 +787,9 @@ def test_a_slider_cranks_speed_over_2_pi_f_a_is_its_geometry_not_an_actuator(tmp
 
 
 def test_rows_with_no_number_are_counted_at_import_and_a_stopped_diagnosis_says_so(tmp_path):
-    """NaN or empty force cells are left out of the force and said with their count; an
-    operator's stop of a diagnosis ends in one line, exit 130."""
+    """NaN or empty force cells, imported with --allow-gaps (refused without it: test_hostile_inputs),
+    are left out of the force and said with their count and lines; an operator's stop of a
+    diagnosis ends in one line, exit 130."""
     import subprocess
     import sys
 
@@ -793,9 +798,12 @@ def test_rows_with_no_number_are_counted_at_import_and_a_stopped_diagnosis_says_
     cells = ["NaN" if i % 50 == 7 else "" if i % 97 == 3 else f"{f:.3f}" for i, f in enumerate(F)]
     src = _written(tmp_path, "nan.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c}\n"
                                                             for a, b, c in zip(t, x, cells)))
-    channels, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F")
+    channels, _, r = _imported(tmp_path, src, "--map", "time=t", "--map", "displacement=x:mm", "--map", "force=F",
+                               "--allow-gaps")
     empty = sum(c in ("NaN", "") for c in cells)
     assert f"force: {empty} of {len(t)} rows hold no number" in r.stdout and len(channels["force"][0]) == len(t) - empty
+    lines = [i + 2 for i, c in enumerate(cells) if c in ("NaN", "")]  # the header is line 1
+    assert f"(lines {', '.join(map(str, lines[:8]))} and {empty - 8} more)" in r.stdout, r.stdout
     p = subprocess.Popen([str(Path(sys.executable).parent / "dyno"), "diagnose", str(tmp_path / "x.mcap")],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     said = p.stderr.readline()  # the diagnosis's first progress line: it is under way

@@ -146,6 +146,7 @@ HOSTILE = {
     # issue 70
     "t1e300": _mcap("t300.mcap", channels={"force": [{"t": [0.0, 1e-3, 1e300], "value": [1.0, 2.0, 3.0]}],
                                            "x": [{"t": [0.0, 1e-3, 2e-3], "value": [0.03, 0.031, 0.032]}]}),
+    "header_only": lambda t, r: _write(t / "header.csv", "t,x,F\n"),
     "fat_head": lambda t, r: _write(t / "fathead.csv", 't,x,"F' + "a" * 200_000 + '"\n' + "".join(
         f"{i / 100},{30 + i % 7},{i % 5}\n" for i in range(50))),
 }
@@ -298,6 +299,19 @@ CASES = [
     (["import", "{fat_head}", "--out", "{folder}/fh.mcap", *MAP], ["a cell longer than any number or name"]),
     (["import", "{fat_head}", "--inspect"], ["a cell longer than any number or name"]),
     (["check", "{rec}", "--against", "{fifo_json}"], ["not a regular file"]),
+    # issue 92: the audit's last cases, each named in its line
+    (["check", "{rec}", "--against", "koni", "--tolerance", "-5%"], ["--tolerance: '-5%' is negative"]),
+    (["check", "{rec}", "--against", "koni", "--tolerance=-0%,50N"], ["--tolerance: '-0%' is negative"]),
+    (["diagnose", "{rec}", "--next", "--budget", "-inf"], ["argument --budget: '-inf' is not a finite number"]),
+    (["diagnose", "{rec}", "--next", "--budget", "-1e-300"], ["argument --budget: must be above 0, got -1e-300"]),
+    (["import", "{header_only}", "--out", "{folder}/ho.mcap", *MAP], ["no rows of data: the file holds only its header"]),
+    (["diagnose", ""], ['recording: an empty name ("") given']),
+    (["report", "", "--out", "{folder}/e"], ['file: an empty name ("") given']),
+    ([], ["no command given: dyno COMMAND"]),
+    (["run", "sine-matrix", "ramp_cycles=1.5"], ["ramp_cycles: '1.5' is not a whole number"]),
+    (["run", "sine-matrix", "record_cycles=1e9"], ["record_cycles: '1e9' is not a whole number"]),
+    (["diagnose", "--batch", "{rec}", "--next"], ["--next: not with --batch"]),
+    (["diagnose", "--batch", "{rec}", "--report", "{folder}/br"], ["--report: not with --batch"]),
 ]
 
 
@@ -324,6 +338,9 @@ def test_bad_input_is_one_line_and_loses_nothing(files, args, words):
     ([(i * 1e-3, "inf" if i == 3 else 30, 1) for i in range(20)], [":5: column 'x': 'inf' is not a finite number"]),
     ([(i * 1e-3, 30, "") for i in range(20)], ["column 'F' (force) holds 0 numbers", "needs at least 10"]),
     ([(i * 1e-3, 30, 5 if i == 7 else "") for i in range(20)], ["column 'F' (force) holds 1 number "]),
+    ([(i * 1e-3, 30, "nan" if i in (4, 9) else 1) for i in range(20)],
+     [":6: column 'F' (force): 2 rows with no number among its numbers", "--allow-gaps"]),
+    ([(i * 1e-3, "" if i == 11 else 30, 1) for i in range(20)], [":13: column 'x' (displacement): 1 row with no"]),
 ])
 def test_bad_csv_values_are_refused_with_their_row(tmp_path, rows, words):
     p = dyno("import", csv(tmp_path, rows), "--out", tmp_path / "x.mcap", *MAP)

@@ -51,6 +51,9 @@ def parse_tolerance(text: str) -> Tolerance:
     both: '5%,50N' (the larger). A bare number is refused: 5 % and 5 N differ thirtyfold."""
     tol = Tolerance()
     for part in text.replace(" ", "").split(","):
+        if part.startswith("-"):  # -0% as well: a band is a size
+            raise ValueError(f"--tolerance: {part!r} is negative: a band is a size about the reference (5%, 50N, "
+                             f"or 5%,50N)")
         if part.endswith("%"):
             try:
                 tol.pct = float(part[:-1])

@@ -213,9 +213,11 @@ def test_force_is_taken_at_its_own_stamps_when_a_segment_starts_between_them():
 
 
 def test_a_fold_stuck_in_a_local_minimum_restarts_from_the_other_folds_values():
-    """cross_fit(restart=True): a fold whose fit stopped far off (here: begun from a valve
-    without its quadratic term, with too little effort to leave it) is fitted again from
-    the other fold's values and keeps the better fit of its own training cycles."""
+    """A fold whose fit stopped at its step limit far off (here: begun from a valve without
+    its quadratic term, with too little effort to leave it) is fitted again from the values
+    of a fold that converged, and keeps the better fit of its own training cycles; with
+    both folds stopped there is no converged one to start from, and restart=True fits each
+    again from the other's whatever."""
     from types import SimpleNamespace
     from models.diagnose import holdout_masks
     from models.diagnose.candidates import Minimal, Model
@@ -231,10 +233,11 @@ def test_a_fold_stuck_in_a_local_minimum_restarts_from_the_other_folds_values():
     # evaluations now: one 30x too stiff with a soft mid valve is not)
     stuck = {**truth, "c1_r": 2e5, "c2_r": 0.0, "F_c": 3.0, "C_r": 200.0}
     rms = lambda v, k: float(np.sqrt(np.mean((m.force(d, v) - d.F)[k] ** 2)))
-    alone, _, _ = cross_fit(m, d, folds, [truth, stuck], effort=1)
-    again, _, r = cross_fit(m, d, folds, [truth, stuck], effort=1, restart=True)
-    assert rms(alone[1], folds[1][0]) > 10.0 and rms(again[1], folds[1][0]) < 2.0
-    assert np.sqrt(np.mean(r[folds[1][1]] ** 2)) < 2.0
+    both, _, _ = cross_fit(m, d, folds, [stuck, stuck], effort=1, stopped=(limits := []))
+    assert limits == [True, True] and min(rms(v, k) for v, (k, _) in zip(both, folds)) > 10.0
+    for restart in (False, True):
+        again, _, r = cross_fit(m, d, folds, [truth, stuck], effort=1, restart=restart)
+        assert rms(again[1], folds[1][0]) < 2.0 and np.sqrt(np.mean(r[folds[1][1]] ** 2)) < 2.0
 
 
 def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winner():

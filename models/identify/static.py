@@ -44,7 +44,7 @@ def static_holds(channels, events, window_s=1.0, name="force", extrapolate=False
             means[0] = ends[i]
         if "x_mm" in params and "approach" in params:  # a hold another dyno made may say neither
             rows.setdefault(params["x_mm"], {})[params["approach"]] = means
-    keys = sorted(k for k, r in rows.items() if len(r) == 2)
+    keys = sorted(k for k, r in rows.items() if {"compression stroke", "extension stroke"} <= set(r))  # not "unknown"
     x = np.array([(rows[k]["compression stroke"][1] + rows[k]["extension stroke"][1]) / 2 for k in keys])
     up = np.array([rows[k]["compression stroke"][0] for k in keys])
     down = np.array([rows[k]["extension stroke"][0] for k in keys])

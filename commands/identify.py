@@ -11,9 +11,9 @@ import numpy as np
 
 from models import damper as dm
 from commands.arguments import FILE, FOLDER, batch_options, overwrite, writes
-from protocols.identification import clean, description, identified, model_of, summary, text
+from protocols.identification import clean, description, identified, text
 from records import source_filter
-from rig.errors import RigError, UsageError
+from rig.errors import Refused, RigError, UsageError
 
 
 def add(sub):
@@ -39,16 +39,16 @@ def add(sub):
 def _one(task):
     """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one recording's bytes."""
     from records.reader import load_recording
-    name, data, desc = task
+    name, data, desc, keep_poor = task
     from commands import batch
     with batch.unpacked(name, data) as path:
-        try:
+        try:  # as a single identification: a poor model is refused, or kept marked poor (--keep-poor)
             channels, events, meta = load_recording(path)
             d = dm.from_dict(desc) if desc is not None else description(None, meta)
-            res = model_of(channels, events, d, [name], lambda m: None, source_filter.of(meta))
-        except (UsageError, RigError, dm.DamperError) as e:
+            res, doc = identified(channels, events, d, [name], lambda m: None, source_filter.of(meta), keep_poor)
+        except (UsageError, RigError, Refused, dm.DamperError) as e:
             return name, None, str(e).replace(str(path), name)
-    return name, {"model": dm.to_dict(res.damper), "summary": clean(summary(res))}, None
+    return name, {"model": dm.to_dict(res.damper), "summary": clean(doc)}, None
 
 
 def _row(name, doc, error):
@@ -71,7 +71,7 @@ def run(args):
         desc = dm.to_dict(dm.load(args.damper)) if args.damper else None
         args.summary = args.summary or "identify-summary.csv"
         # FILE.model.json is the damper model, as `dyno identify FILE` writes it (dyno report overlays it)
-        return batch.run(args, _one, (desc,), ".model.json", _row, "identify", kept=lambda doc: doc["model"])
+        return batch.run(args, _one, (desc, args.keep_poor), ".model.json", _row, "identify", kept=lambda d: d["model"])
     if not args.recordings:
         raise UsageError("identify: give RECORDING..., or --batch FILE...")
     for p in args.recordings:

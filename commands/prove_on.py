@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import sys
 from pathlib import Path
 
 from rig.errors import UsageError
@@ -23,17 +24,27 @@ def run(args, say):
     sizes = args.sizes or list(SIZES)
     try:
         with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
-            rows, nulls, span = run_on(path, names, sizes, pool, say, args.rounds)
+            rows, nulls, span, stopped = run_on(path, names, sizes, pool, say, args.rounds)
     except (ValueError, DiagnoseError) as e:
         raise UsageError(f"--on {args.on}: {e}") from None
-    least = smallest(rows)
+    least = smallest([r for r in rows if r.outcome != "stopped"])
+    try:
+        _print(args, path, rows, nulls, span, least, sizes)
+    finally:
+        if stopped:  # what was diagnosed is printed; the rest are rows marked stopped
+            print("dyno: stopped by the operator; the copies diagnosed before it are above, the rest marked "
+                  "stopped", file=sys.stderr)
+    return 130 if stopped else 0
+
+
+def _print(args, path, rows, nulls, span, least, sizes):
     if args.json:
         print(json.dumps({"recording": str(path), "force_range_n": span, "sizes": sizes,
                           "untouched": {k: {"named": n.named, "noise_sd": n.noise_sd, "timing": n.timing}
                                         for k, n in nulls.items()},
                           "rows": [{k: v for k, v in dataclasses.asdict(r).items() if k != "steps"} for r in rows],
                           "smallest_found": least}, indent=1))
-        return 0
+        return
     lines = _text(rows, nulls, span, least, path)
     if getattr(args, "markdown", False):
         from protocols.reports import markdown as md
@@ -42,7 +53,6 @@ def run(args, say):
                           f"method: docs/diagnosis.md, 'The proof on a real recording'"))
     else:
         print("\n".join(lines))
-    return 0
 
 
 def _text(rows, nulls, span, least, path):

@@ -125,8 +125,10 @@ def _estimate(h: Hidden, params, seen: Seen, null: Seen):
 
 
 def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=ROUNDS):
-    """(rows, nulls {label: Seen}, force range [N]) of the proof on the recording at path;
-    rounds: the diagnoses' rounds at most (the diagnosis's own by default)."""
+    """(rows, nulls {label: Seen}, force range [N], stopped) of the proof on the recording at
+    path; rounds: the diagnoses' rounds at most (the diagnosis's own by default). An
+    operator's stop (Ctrl-C, SIGTERM) while the copies are diagnosed keeps the rows done,
+    the rest marked "stopped" (stopped True); before, it is raised."""
     from records import source_filter
     from models.diagnose.data import prepare
     from models.physics.simulate import warm as warm_kernels
@@ -161,15 +163,22 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=
             tasks.append(CopyTask(f"{h.name} {s:g} %", copy(h, src, dh, base, value), ev, told, h.name))
             pending.append((h, s, value, rms))
     say(f"{len(tasks)} copies to diagnose")
-    seen = iter(run_all(diagnose_copy, tasks, pool, progress=True, label="prove --on", names=[t.label for t in tasks], warm=warm_kernels))
-    rows = []
+    seen, stopped = {}, False
+    try:
+        run_all(diagnose_copy, tasks, pool, progress=True, label="prove --on", names=[t.label for t in tasks],
+                warm=warm_kernels, done=seen.__setitem__)
+    except KeyboardInterrupt:
+        stopped = True
+    rows, k = [], 0
     for h, s, value, rms in pending:
         if value is None:
             rows.append(Row(h.name, s, None, rms, "cannot hide", f"at most {rms:.3g} N RMS here", None, False))
             continue
         twin = nulls[1] if h.temperature and warm else nulls[0]
-        rows.append(judged(h, next(seen), twin, s, value, rms, span))
-    return rows, {"untouched": nulls[0], **({"untouched, heat ramp": nulls[1]} if warm else {})}, span
+        rows.append(judged(h, seen[k], twin, s, value, rms, span) if k in seen else
+                    Row(h.name, s, h.shown(value), rms, "stopped", "stopped before it was diagnosed", None, False))
+        k += 1
+    return rows, {"untouched": nulls[0], **({"untouched, heat ramp": nulls[1]} if warm else {})}, span, stopped
 
 
 def smallest(rows):

@@ -858,6 +858,13 @@ def test_a_model_that_does_not_predict_is_refused_or_kept_marked_poor(tmp_path):
     assert json.loads((tmp_path / "x.minimal.json").read_text())["poor"]
     r = dyno("runs", "show", "1", tmp_path)
     assert "(poor: beyond 10 %)" in r.stdout, r.stdout + r.stderr
+    # --batch, each file as a single identification: refused in its row (exit 1), or kept marked poor
+    r = dyno("identify", "--batch", tmp_path / "x.mcap", "--damper", "koni", "--summary", tmp_path / "s.csv")
+    row = (tmp_path / "s.csv").read_text().splitlines()[1]
+    assert r.returncode == 1 and "no model written (--keep-poor" in row and not (tmp_path / "x.model.json").exists()
+    r = dyno("identify", "--batch", tmp_path / "x.mcap", "--damper", "koni", "--summary", tmp_path / "s.csv",
+             "--keep-poor", "--overwrite")
+    assert r.returncode == 0 and json.loads((tmp_path / "x.model.json").read_text())["name"].endswith("-poor")
 
 
 def test_every_effect_of_the_catalogue_is_said_in_a_sentence():

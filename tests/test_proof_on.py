@@ -161,3 +161,22 @@ def test_the_noise_is_what_repeats_not_a_drift_or_a_heat_gun():
         d = Data(t, np.sin(phase), v, -np.sin(phase), r, np.floor(t * f0).astype(int), np.zeros(n, int),
                  np.full(n, h), [("sine", f0)])
         assert abs(noise_sd(r, d, np.ones(n, bool)) / sigma - 1) < 0.1, (sigma, noise_sd(r, d, np.ones(n, bool)))
+
+
+def test_prove_on_stopped_keeps_the_copies_it_diagnosed(real, tmp_path):
+    """Issue 92: SIGTERM while the copies are diagnosed ends prove --on as an operator's stop
+    (exit 130, one line) with the rows done printed and the rest marked stopped."""
+    from tests.conftest import operator_stopped
+    p = subprocess.Popen([*DYNO, "prove", "--on", real, "--effects", "lag,zero_drift", "--sizes", "5", "--rounds",
+                          "1", "--jobs", "1"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen = ""
+    while "1/2" not in seen:  # the first copy diagnosed (the progress bar counts it)
+        c = p.stderr.read(1)
+        assert c, f"prove --on ended before a copy was diagnosed: {seen}"
+        seen += c
+    err = operator_stopped(p)
+    assert err.strip().splitlines()[-1].startswith("dyno: stopped by the operator; the copies diagnosed"), err
+    rows = [line for line in p.stdout.read().splitlines()  # the proof's table, not the smallest-found one
+            if line.startswith(("| lag", "| zero")) and line.count("|") == 9]
+    done = [r for r in rows if "| stopped |" not in r]
+    assert len(rows) == 2 and len(done) == 1 and "| lag | 5 |" in done[0], rows

@@ -99,7 +99,7 @@ def _channels(meta):
     return rows
 
 
-def _conditions(ch, gas_N, units: Units):
+def _conditions(ch, gas_N, turns, units: Units):
     """Body temperature at the start and the end and its range, gas force (a static test's,
     else at the stroke's turning points, records/gas_force.py) and pressure."""
     out = []
@@ -112,7 +112,7 @@ def _conditions(ch, gas_N, units: Units):
                                         f"{t[i] - t[0]:.4g} s)"))
     else:
         out.append(("body temperature", "not measured (no thermocouple channel)"))
-    out.append(("gas force", _gas(ch, gas_N, units)))
+    out.append(("gas force", _gas(gas_N, turns, units)))
     if "P_gas" in ch and len(ch["P_gas"][1]):
         p = ch["P_gas"][1]
         out.append(("gas pressure", f"{fmt(units.show('pressure', p[0]), 3)} {units.unit('pressure')} at the start, "
@@ -130,14 +130,13 @@ def _at_turns(ch):
         return at_turns(tF, np.interp(tF, tx, x), F)
 
 
-def _gas(ch, gas_N, units: Units) -> str:
+def _gas(gas_N, gas, units: Units) -> str:
     """The gas force a sheet states: a static test's range over the stroke, else the force at
-    the stroke's turning points with its 95 % interval, else not measured."""
+    the stroke's turning points with its 95 % interval (gas: _at_turns), else not measured."""
     f = units.unit("force")
     if gas_N is not None and np.isfinite(gas_N[0]):
         lo, hi = (fmt(units.show("force", g), 3) for g in gas_N)
         return f"{lo} to {hi} {f} over the stroke (static test)" if lo != hi else f"{lo} {f} (static test)"
-    gas = _at_turns(ch)
     if gas is None:
         return "not measured (no static test, too few turning points)"
     return (f"{fmt(units.show('force', gas.level), 3)} ± {fmt(units.show('force', gas.half_width), 2)} {f} at the "
@@ -147,7 +146,7 @@ def _gas(ch, gas_N, units: Units) -> str:
 MEAN_REMOVED = 0.02  # of a channel's range: a mean closer to zero reads as removed by the source
 
 
-def _source(meta, ch) -> str:
+def _source(meta, ch, gas) -> str:
     """What was done to the data between the sensor and this recording: by the source (a
     smoothing declared at import, a mean seen removed) and by the import (flips, gains,
     offsets, the units read), or "as recorded by dyno" for a run of ours."""
@@ -165,7 +164,7 @@ def _source(meta, ch) -> str:
             span = float(np.nanmax(y) - np.nanmin(y))
             # a force's mean is its gas force and the valves' asymmetry: near zero it says a mean removed
             # only where the gas force at the turning points is not above zero either
-            held = name == "force" and (gas := _at_turns(ch)) is not None and gas.above_zero
+            held = name == "force" and gas is not None and gas.above_zero
             if span > 0 and np.nanmin(y) < 0 and abs(float(np.nanmean(y))) < MEAN_REMOVED * span and not held:
                 done.append(f"{unit} centred on zero (a mean removed, or zeroed mid-way)")
     done += [f"{v} flipped at import" for v in given.get("flip", [])]
@@ -182,12 +181,12 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
     the velocity table ([VelocityRow]) or None, table_note: what it leaves out; curve: the force-velocity figure (title, PNG);
     gas_N: (lowest, highest) gas force of a static test [N]; check: (verdict sentence,
     what it is against) from protocols/reports/qa.py, or None."""
-    identity = _identity(meta)
+    identity, turns = _identity(meta), _at_turns(ch)  # the gas force at the turning points, read once
     named = [f"{'serial ' if k == 'serial' else ''}{v}" for k, v in identity[:2] if v != NOT_GIVEN]
     return Sheet(
         title="Damper test sheet" + (f": {', '.join(named)}" if named else ""),
         identity=identity, test=_test(meta, params), channels=_channels(meta),
-        conditions=[("source data", _source(meta, ch)), *_conditions(ch, gas_N, units)], curve=curve,
+        conditions=[("source data", _source(meta, ch, turns)), *_conditions(ch, gas_N, turns, units)], curve=curve,
         table=html_table(table, units, SHEET_NAMES, measured_only=True) if table else None,
         verdict=check[0] if check else None,
         reference=check[1] if check else "no reference given (dyno report --against REF.mcap|MODEL|TABLE)",

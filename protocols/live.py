@@ -79,11 +79,21 @@ class LiveView:
         self.loop = {"x": [], "v": [], "force": []}
         self.segment = ""
         self.first, self.named = {}, set()  # each parameter's first estimate; its series named
-        self._layout()
+        self.laid_out = None  # the channels the blueprint sent shows; None: none sent yet
+        self._name_series(self.channels)
+
+    def _name_series(self, channels):
+        for n, unit in channels.items():
+            self.rec.log(f"channels/{n}", rr.SeriesLines(names=f"{n} [{shown(0.0, unit)[1]}]"), static=True)
 
     def _layout(self):
-        """The blueprint for the channels known so far, and each channel's name with its
-        unit; a closed loop's channels (hardware in the loop) get a column of their own."""
+        """The blueprint, sent once before the first data: a second send_blueprint to a file
+        sink can lose the first one's rows in the .rrd (rerun issue #12769), so a closed loop's
+        channels, which arrive before the first sample, are laid out with the rest. A
+        closed loop's channels (hardware in the loop) get a column of their own."""
+        if self.laid_out == set(self.channels):
+            return
+        self.laid_out = set(self.channels)
         ch = lambda *names: [f"channels/{n}" for n in names if n in self.channels]
         # one view per unit, in the operator's units (force, displacement, velocity,
         # temperatures in C, pressures in bar, then any other)
@@ -111,15 +121,14 @@ class LiveView:
                 rrb.TimeSeriesView(origin="/", contents=ch("hil.sprung", "hil.unsprung", "hil.road"),
                                    name="car: body, wheel, road [mm]")))
         self.rec.send_blueprint(rrb.Blueprint(rrb.Horizontal(*columns, column_shares=[3, 2, 3][:len(columns)])))
-        for n, unit in self.channels.items():
-            self.rec.log(f"channels/{n}", rr.SeriesLines(names=f"{n} [{shown(0.0, unit)[1]}]"), static=True)
 
     def units(self, units):
-        """Channels a closed loop adds, with their units: laid out in the view."""
+        """Channels a closed loop adds, with their units: laid out in the view with the rest."""
         self.channels.update(units)
-        self._layout()
+        self._name_series(units)
 
     def samples(self, drained):
+        self._layout()
         for name, (t, v) in drained.items():
             if len(t):  # in the operator's units: C, bar, mm, mm/s
                 self.rec.send_columns(f"channels/{name}", indexes=[rr.TimeColumn(TIMELINE, duration=t)],
@@ -152,6 +161,7 @@ class LiveView:
         self.rec.log(f"{entity}/scale", rr.Boxes2D(mins=[-100, -100], sizes=[200, 200], labels=[label]))
 
     def event(self, e):
+        self._layout()
         self.rec.set_time(TIMELINE, duration=e.t)
         if isinstance(e, SegmentStart):
             for k in self.loop:
@@ -191,4 +201,5 @@ class LiveView:
         self._frame("identify/fit", f"velocity +-{1e3 * sv:.3g} mm/s (across), force +-{sF:.0f} N (up)")
 
     def close(self):
+        self._layout()
         self.rec.flush(timeout_sec=5.0)

@@ -22,7 +22,7 @@ import numpy as np
 
 from rig.errors import RigError
 from rig.operator_stop import OPERATOR_STOP, quiet
-from rig.pacing import realtime_priority, restore_priority
+from rig.pacing import realtime_priority, restore_priority, restore_slice, short_slice
 from rig.safe_stop import SafeStop
 
 STALLED_TICKS = 100  # failed ticks in a row, the clock standing still: the stop cannot settle
@@ -80,6 +80,9 @@ class ControlLoop:
         if self.pacer.wall_clock:
             sys.setswitchinterval(1e-4)
         policy = realtime_priority(getattr(self.pacer, "fifo_priority", None))
+        # not granted SCHED_FIFO: the normal policy's shortest slice, so a busy program
+        # beside the loop yields its core when a tick is due
+        slice_ = short_slice() if policy is None and self.pacer.wall_clock else None
         try:
             with quiet():  # a Ctrl-C is the flag, looked at every tick (rig/operator_stop.py)
                 result = self._run(plan, max_s)
@@ -88,6 +91,8 @@ class ControlLoop:
         finally:
             if policy is not None:
                 restore_priority(policy)
+            if slice_ is not None:
+                restore_slice(slice_)
             sys.setswitchinterval(switch)
             if gc_enabled:
                 gc.enable()

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from rig.devices import TRANSPORTS, by_transport
 from rig.devices.transport import FRAME_HZ, frame_hz
-from rig.pacing import realtime_priority
+from rig.pacing import realtime_priority, short_slice
 from sim_backend.emulators import EMULATORS
 from sim_backend.emulators.ports import free_port
 from sim_backend.plant import Plant
@@ -114,7 +114,9 @@ class VirtualRig:
         reaches them."""
         dt = 1.0 / self.frame_hz
         pending = sorted(faults)
-        realtime_priority(self.config.realtime_priority)  # as a real cell's devices keep their time
+        # as a real cell's devices keep their time: SCHED_FIFO, else the shortest slice
+        if realtime_priority(self.config.realtime_priority) is None:
+            short_slice()
         gc.disable()  # no collector pauses in the real-time plant (it makes no cycles)
         t0 = time.perf_counter()
         k = 0

@@ -324,3 +324,25 @@ def test_a_stale_channel_names_what_its_device_knows_is_wrong():
     assert said.startswith("watchdog: P_gas (analog): no new data for 300 ms")
     assert said.endswith("ms): Modbus request failed 1 time in a row (timed out)")
     assert safety.check(stale, 1.0).endswith("(limit 100 ms)")  # a device with nothing to say adds nothing
+
+
+@pytest.mark.realtime
+def test_a_wall_clock_loop_not_granted_fifo_asks_for_the_shortest_slice_then_gives_it_back(cell):
+    """Where SCHED_FIFO is not granted (or not asked for), the loop's thread runs on the
+    normal policy's shortest slice (rig.pacing.LOOP_SLICE_S), so a busy program beside it
+    yields its core when a tick is due; after the run the thread's own slice is back."""
+    from rig.pacing import LOOP_SLICE_S, RealTimePacer, _sched_attr
+    if _sched_attr() is None:
+        pytest.skip("this kernel or architecture has no sched_getattr")
+    vr, rig = cell
+    before = _sched_attr().runtime
+    seen = []
+
+    def plan(t, readings):
+        seen.append(_sched_attr().runtime)
+        return None if t > 0.05 else MID
+    res = ControlLoop(rig, RealTimePacer(rig.config.rate_hz, virtual_rig=vr), Safety(rig.config)).run(plan)
+    assert res.fault is None and not res.sched_fifo
+    kernel_takes_it = seen[0] != before  # a kernel before EEVDF's slices (6.12) keeps its own
+    assert set(seen) == ({round(LOOP_SLICE_S * 1e9)} if kernel_takes_it else {before})
+    assert _sched_attr().runtime == before

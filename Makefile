@@ -84,7 +84,7 @@ quick: $(TEST_STAMP)
 # the readers' fuzzers at length (the suite runs 30 examples each): 10,000 examples per reader
 FUZZ_EXAMPLES ?= 10000
 fuzz: $(TEST_STAMP)
-	DYNO_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(VENV)/bin/python -m pytest -q -p no:cacheprovider -n 2 tests/test_fuzz_readers.py
+	DYNO_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(VENV)/bin/python -m pytest -q -p no:cacheprovider --timeout=0 -n 2 tests/test_fuzz_readers.py
 
 clean:
 	rm -rf $(VENV)

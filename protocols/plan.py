@@ -71,15 +71,18 @@ SETTLE_S = 0.01
 STALLED_SHARE = 0.2
 
 
-def stalled(ts, h):
-    """The share of a closed loop's ticks within SETTLE_S after a stall of the control loop
+def after_stall(ts, h, settle_s=SETTLE_S):
+    """Which of a closed loop's ticks fall within settle_s after a stall of the control loop
     (ts: each tick's time [s]; h: the loop's period [s])."""
     ts = np.asarray(ts, float)
-    if len(ts) == 0:
-        return 0.0
     stall = np.r_[False, np.diff(ts) > STALL_PERIODS * h]
     since = ts - np.maximum.accumulate(np.where(stall, ts, -np.inf))
-    return float(np.mean(since < SETTLE_S))
+    return since < settle_s
+
+
+def stalled(ts, h):
+    """The share of a closed loop's ticks within SETTLE_S after a stall of the control loop."""
+    return float(np.mean(after_stall(ts, h))) if len(ts) else 0.0
 
 
 def said_stalled(m):

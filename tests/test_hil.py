@@ -5,6 +5,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -234,6 +235,29 @@ def test_replay_refuses_bad_input_in_one_line(tmp_path, args, message):
     p = dyno("run", "replay", *args, "--out", out)
     assert p.returncode == 2 and message in p.stderr and len(p.stderr.strip().splitlines()) <= 2, p.stderr
     assert not out.exists()
+
+
+def test_a_replay_iteration_s_error_is_also_given_without_a_stall_s_catch_up():
+    """Issue 92: a stall of the control loop (its process frozen 62 ms over the wires) leaves
+    the actuator catching up for about 20 ms; those ticks are the controller's: the iteration's
+    error is also given without them."""
+    from protocols.library import replay
+    h = 1e-3
+    t = np.arange(2000) * h
+    target = 0.1 + 0.01 * np.sin(2 * np.pi * 2 * t)
+    learning = replay.Learning(replay.Params(target="x.csv", iterations=2), target, h)
+    it = learning.iteration(0)
+    held = None
+    for k in range(len(t)):
+        if 1000 <= k < 1060:  # the loop frozen: no tick, the setpoint held
+            held = target[999]
+            continue
+        catch_up = held is not None and k < 1020 + 60  # the actuator still where the freeze left it
+        x = held + (target[k] - held) * (k - 1060) / 20 if catch_up else target[k]
+        it.setpoint(t[k], t[k], {"x": SimpleNamespace(value=x)})
+    _, m = it.after()
+    assert m["nrmse"] > 0.05 and m["nrmse_undisturbed"] < 1e-12, m
+    assert "without the ticks a stall of the control loop disturbed" in replay.summary(m)
 
 
 def test_a_closed_loop_says_when_the_control_loop_stalled_through_it():

@@ -219,7 +219,9 @@ def test_replay_over_the_wires_converges(tmp_path, sim_rig):
     assert p.returncode == 0, p.stderr[-2000:]
     events, _, _, _, _ = read(out)
     results = [e.params for e in events if e.kind == "result"]
-    errors = [r["nrmse"] for r in results]
+    # the convergence is the drive's, judged without the ticks the actuator spent catching up
+    # after a stall of the control loop (one 59 ms stall made a converged 0.37 % iteration 4.08 %)
+    errors = [r["nrmse_undisturbed"] for r in results]
     stalled = [r["stalled"] for r in results]
     if len(errors) == 3 and errors[-1] >= 0.03 and max(stalled) > STALLED_SHARE:
         # the iteration's own stalls are not the rig's to learn: over the wires here, iterations

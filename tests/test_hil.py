@@ -222,6 +222,9 @@ def test_replay_converges_on_the_target(tmp_path):
     assert r.returncode == 0 and "replay.png" in page, r.stderr
     # the error of each iteration, as a table beside the figure
     assert "NRMS error [%]" in page and f"{100 * errors[-1]:.3f}" in page
+    # and without a stall's catch-up: on the simulated clock no tick is late, the two are one
+    undisturbed = [e.params["nrmse_undisturbed"] for e in events if e.kind == "result"]
+    assert undisturbed == errors and "undisturbed [%]" in page
 
 
 @pytest.mark.parametrize("args, message", [

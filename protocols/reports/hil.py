@@ -10,6 +10,7 @@ import numpy as np
 from records.events import Result, SegmentStart
 from records.data import segment_kind
 from models.quarter_car.hil import transmissibility
+from protocols.library.replay import RECOVER_S
 from protocols.reports.page import save
 from protocols.reports.plots import plt
 from protocols.units import Units
@@ -30,7 +31,10 @@ MEANING = ("J2: how far the damper missed the car's wanted motion, RMS(measured 
            "compare the car around the real damper with the car around the damper model (the reference), "
            "each normalised as J2: under a few percent, the model stands in for the damper on this road.")
 REPLAY_MEANING = ("NRMS error: RMS(measured - target) over RMS(target about its mean) of each iteration; "
-                  "each drive is the last one corrected by its error through the rig's measured response.")
+                  "each drive is the last one corrected by its error through the rig's measured response. "
+                  f"Undisturbed: the same without the ticks within {1e3 * RECOVER_S:g} ms after a stall of the "
+                  "control loop, where the actuator caught up with a setpoint that jumped.")
+REPLAY_HEADER = ("iteration", "NRMS error [%]", "undisturbed [%]")
 
 
 def replay_errors(events):
@@ -39,8 +43,11 @@ def replay_errors(events):
 
 
 def replay_table(events):
-    """Rows (iteration, NRMS error [%]) of the replay table."""
-    return [(i, f"{100 * v:.3f}") for i, v in replay_errors(events)]
+    """Rows (REPLAY_HEADER) of the replay table; a recording from before the undisturbed
+    error was kept shows a dash."""
+    return [(e.params["iteration"], f"{100 * e.params['nrmse']:.3f}",
+             f"{100 * e.params['nrmse_undisturbed']:.3f}" if "nrmse_undisturbed" in e.params else "-")
+            for e in events if isinstance(e, Result) and e.of == "replay"]
 
 
 def table(events):

@@ -104,7 +104,7 @@ def _appendix(page, ch, events, segs, meta, rows, units, out, figures, curve):
     replayed = hil.replay_table(events)
     if replayed:
         page.heading("Replay: the error of each iteration (docs/hil.md)")
-        page.table(("iteration", "NRMS error [%]"), replayed)
+        page.table(hil.REPLAY_HEADER, replayed)
         page.paragraph(hil.REPLAY_MEANING)
     stopped = [e for e in events if isinstance(e, STOPS)]
     if (stopped or not figures) and {"force", "x"} <= set(ch) and len(ch["force"][0]):

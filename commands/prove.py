@@ -85,20 +85,22 @@ def run(args):
     concealed = prove.get("concealed", {})
     budget = args.budget if getattr(args, "adaptive", False) else 0.0
     args.sizes = getattr(args, "sizes", None) or [1.0]
-    effects, tasks = matrix(args.effects, args.forms == "all", args.sizes, args.noise, args.rates, args.seeds,
-                            budget, concealed)
+    effects, tasks, beyond = matrix(args.effects, args.forms == "all", args.sizes, args.noise, args.rates,
+                                    args.seeds, budget, concealed)
+    for row, why in beyond:
+        say(f"prove: {row} not run, beyond the plant's range ({why})")
     with cluster.pool(getattr(args, "cluster", None), args.jobs) as (pool, _):
         results = run_tasks(tasks, pool, "prove", _keep(args), say)
     for t, r in zip(tasks, results):
         say(f"{t.name}: accepted {r.accepted or 'nothing'}")
     table = proof_table(paired(results), effects, concealed)
     doc = {"noise_rms": noise, "seeds": args.seeds, "effects": [asdict(row) for row in table],
-           "adaptive_budget_s": budget or None,
+           "adaptive_budget_s": budget or None, "not_run": [{"row": r, "why": w} for r, w in beyond],
            "goals": {"detection": 0.9, "false_positive": 0.05}}
     if args.json:
         print(json.dumps(doc, indent=1))
     else:
-        _print(table, args, noise)
+        _print(table, args, noise, beyond)
     return 0
 
 
@@ -135,13 +137,15 @@ def _keep(args):
     return None if getattr(args, "keep", None) is None else keep.folder(args.keep)
 
 
-def _print(table, args, noise):
+def _print(table, args, noise, beyond):
     from proof.table import markdown, rows
     header, cells = rows(table, getattr(args, "adaptive", False))
     if getattr(args, "markdown", False):
         print(markdown(header, cells, table, args.seeds, noise, args.budget if getattr(args, "adaptive", False)
-                       else None))
+                       else None, beyond))
         return
     widths = [max(len(c) for c in col) for col in zip(header, *cells)]
     for row in (header, *cells):
         print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
+    for row, why in beyond:
+        print(f"not run, beyond the plant's range: {row} ({why})")

@@ -131,11 +131,13 @@ class ProveTask:
 
 
 def matrix(asked, all_forms, sizes, noise, rates, seeds, budget, concealed):
-    """(effects, [ProveTask]) of `dyno prove --effects ASKED`: each effect (ALL: every one;
-    A+B: two hidden together; EFFECT:FORM: that form only; null: nothing hidden; None: all
-    and the nulls), in its other forms too with all_forms, at each size (times its
+    """(effects, [ProveTask], beyond) of `dyno prove --effects ASKED`: each effect (ALL:
+    every one; A+B: two hidden together; EFFECT:FORM: that form only; null: nothing hidden;
+    None: all and the nulls), in its other forms too with all_forms, at each size (times its
     concealed value's noise floor), noise level and rate, on each seed, with a null per seed
-    to measure contributions against; UsageError names what cannot be proven."""
+    to measure contributions against. beyond: [(row, why)] of the rows the plant cannot take
+    at their size and noise, left out (a matrix of sizes and noise levels has some; none is
+    run); UsageError names what cannot be proven, and a matrix with nothing left to hide."""
     from sim_backend.effects import EffectError, parse
     from rig.errors import UsageError
     named = ([n for e in asked.split(",") for n in (EFFECTS if e == "ALL" else [e])] if asked
@@ -170,12 +172,17 @@ def matrix(asked, all_forms, sizes, noise, rates, seeds, budget, concealed):
                                            budget_s=budget))
             if "null" not in effects:  # the contribution is measured against the null of the same seed
                 tasks.append(ProveTask(None, None, 1.0, None, seed, level, rate, budget_s=budget))
-    for t in tasks:  # a size the plant cannot take is refused before any run
+    beyond, kept = {}, []
+    for t in tasks:  # a size the plant cannot take is left out before any run
         try:
             parse([f"{e}{':' + t.form if t.form else ''}={v}" for e, v in (t.values or {}).items()])
+            kept.append(t)
         except EffectError as err:
-            raise UsageError(f"--sizes {t.size:g}: {err}") from None
-    return effects, tasks
+            row = f"{t.effect}{':' + t.form if t.form else ''} x{t.size:g} at noise x{t.noise:g}"
+            beyond.setdefault(row, f"--sizes {t.size:g}: {err}")
+    if beyond and all(t.effect is None for t in kept):
+        raise UsageError(next(iter(beyond.values())))
+    return effects, kept, list(beyond.items())
 
 
 def run_tasks(tasks, pool, label, keep=None, say=lambda s: None):

@@ -180,9 +180,10 @@ def rows(table: list[Row], adaptive=False):
     return header, cells
 
 
-def markdown(header, cells, table, seeds, noise, budget=None):
+def markdown(header, cells, table, seeds, noise, budget=None, beyond=()):
     """The stamped Markdown page of the table (docs/results), with the plant's forms used;
-    budget: the next tests' rig time [s] (--adaptive), None without."""
+    budget: the next tests' rig time [s] (--adaptive), None without; beyond: [(row, why)]
+    left out, the plant cannot take them."""
     from sim_backend.effects import FORMS
     from protocols.discover import MAX_ROUNDS
     from protocols.reports import markdown as md
@@ -192,6 +193,8 @@ def markdown(header, cells, table, seeds, noise, budget=None):
     forms = [(e, "default", EFFECTS[e].form) for e in dict.fromkeys(e for e, _ in used) if e in EFFECTS]
     forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
     body = md.table(header, cells)
+    if beyond:
+        body += "\n\nNot run, beyond the plant's range: " + "; ".join(f"{r} ({w})" for r, w in beyond) + "."
     if forms:
         body += "\n\nThe forms (sim_backend/effects/):\n\n" + md.table(
             ("effect", "form", "in the plant"), sorted(forms, key=lambda r: (order.index(r[0]), r[1] != "default", r[1])))

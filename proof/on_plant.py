@@ -251,9 +251,7 @@ def _recorded(task: ProveTask, folder):
     group = _group(r, hidden)
     est = None
     if first and effect and first == effect:  # a single effect (a pair's name has a "+")
-        # an accepted lag's own estimate before the alignment it took the place of
-        fits = [(s.effect, s.parameters) for s in r.steps] + [(c.effect, c.parameters) for c in r.baseline.cell]
-        est = next(p[SPECS[e.split(":")[0]].estimate] for e, p in fits if _covered(e).split(":")[0] == first)
+        est = own_estimate(r, first)
     t, F = ch["force"]
     # the prove plan's segments: the contribution is measured there, against the null of the
     # same seed (the next tests differ from run to run)
@@ -283,6 +281,14 @@ def _recorded(task: ProveTask, folder):
         extra_left_out=any(not s.compensates for s in extra), extra_compensating=any(s.compensates for s in extra),
         force_t=t, force=F, measured=measured, estimate=est,
         before=r.baseline.nrmse_heldout, after=r.final.nrmse_heldout)
+
+
+def own_estimate(r, first):
+    """The value the diagnosis found for the effect it named first (its spec's estimate), or
+    None where the effect has no one value (friction along the bore: a shape along the
+    stroke). An accepted lag's own estimate before the alignment it took the place of."""
+    fits = [(s.effect, s.parameters) for s in r.steps] + [(c.effect, c.parameters) for c in r.baseline.cell]
+    return next(p.get(SPECS[e.split(":")[0]].estimate) for e, p in fits if _covered(e).split(":")[0] == first)
 
 
 def _first(accepted, hidden):

@@ -31,6 +31,37 @@ def test_an_unknown_form_is_named():
     assert r.returncode == 2 and "free_play:rubber: no such form" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_rows_beyond_the_plant_s_range_are_left_out_and_said():
+    """Issue 90 (make results): a matrix of noise levels asks gas temperature at noise x10
+    for a fraction above 1; that row is left out and said, the rest run. A matrix with
+    nothing left to hide is refused, naming the bound."""
+    import pytest
+    from proof.on_plant import matrix
+    from rig.errors import UsageError
+    from sim_backend.options import plain_cell
+    concealed = plain_cell()[2]["concealed"]
+    _, tasks, beyond = matrix("gas_temperature,free_play,null", False, [1.0], [1.0, 10.0], [1000.0], 1, 0.0,
+                              concealed)
+    assert [r for r, _ in beyond] == ["gas_temperature x1 at noise x10"], beyond
+    assert "VALUE must be a number from 0 to 1" in beyond[0][1]
+    ran = {(t.effect, t.noise) for t in tasks}
+    assert ("gas_temperature", 1.0) in ran and ("free_play", 10.0) in ran and ("gas_temperature", 10.0) not in ran
+    with pytest.raises(UsageError, match="VALUE must be a number from 0 to 1"):
+        matrix("gas_temperature", False, [1.0], [10.0], [1000.0], 1, 0.0, concealed)
+
+
+def test_the_named_effect_s_own_estimate_and_none_where_it_has_no_one_value():
+    """Issue 90 (make results): friction along the bore named first at noise x10 has no
+    single value to report; prove-noise failed on it (KeyError: None). Its estimate is
+    None; a sensor delay's is its own tau, before the alignment it took the place of."""
+    from types import SimpleNamespace as NS
+    from proof.on_plant import own_estimate
+    r = NS(steps=[NS(effect="position_friction", parameters={"pf0": 3.0})],
+           baseline=NS(cell=[NS(effect="alignment", parameters={"tau_0": 2e-5})]))
+    assert own_estimate(r, "position_friction") is None
+    assert own_estimate(r, "sensor_delay") == 2e-5
+
+
 def test_a_kept_run_is_taken_not_run_again_and_only_by_the_same_code(tmp_path, monkeypatch):
     """`dyno prove --keep`: each result is kept as it comes in; a task kept is taken from the
     folder, the others run (and kept); a cut-short file is run again; other code reuses nothing."""

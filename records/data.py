@@ -298,7 +298,10 @@ def flips(x, F, t=None) -> tuple[float, str, object] | None:
         return None
     with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):  # values no sensor gives
         warnings.simplefilter("ignore", np.exceptions.RankWarning)  # a few points: any cubic will do
-        Fd = F - np.polyval(np.polyfit(u := (x - np.mean(x)) / np.ptp(x), F, 3), u) if np.ptp(x) > 0 else F
+        try:
+            Fd = F - np.polyval(np.polyfit(u := (x - np.mean(x)) / np.ptp(x), F, 3), u) if np.ptp(x) > 0 else F
+        except np.linalg.LinAlgError:  # the cubic's fit overflowed (a fuzzed table's 1e308s): no sign from it
+            return None
         dW = 0.5 * (Fd[1:] + Fd[:-1]) * np.diff(x)
         W, A = float(np.sum(dW)), float(np.sum(np.abs(dW)))
     if not (np.isfinite(A) and A > 0 and W < -SIGN_SHARE * A):

@@ -301,3 +301,12 @@ def test_static_holds_pair_only_the_approaches_known():
                           "extension stroke"], approaches
     xs, up, down = static_holds({"force": (t, F), "x": (t, x)}, segmentation.events(found))
     assert np.allclose(xs, [0.010]) and np.allclose(up, down) and np.allclose(up, 240.0), (xs, up, down)
+
+
+def test_values_no_sensor_gives_leave_the_sign_unknown_not_a_traceback():
+    """A fuzzed table's 1e308s overflowed the gas spring's cubic fit (LinAlgError: SVD did not
+    converge) in `dyno import --inspect`: the sign is then not told from them."""
+    from records.data import flips
+    x = np.array([0.0, 1.7e308, -1.7e308, 3.0, 1e300, -5.0])
+    F = np.array([1e308, -1e308, 1.0, 1e307, -1e308, 2.0])
+    assert flips(x, F) is None

@@ -55,13 +55,15 @@ def add(sub):
 
 def run(args):
     from rig import operator_stop
-    from protocols.recorded import Run, claimed, record
+    from protocols.library import DISCOVER, PROTOCOLS
+    from protocols.recorded import Run, claimed, held, record
     with operator_stop.handled():  # dyno's main sets it too; a cluster worker's thread has none
-        module, params, plant, damper, cfg, _ = _plan_run(args)
-        operator_stop.raise_if_stopped()
-        identifying = args.identify if args.identify is not None else module.NAME == "standard"
-        ended = record(Run(module, params, args.protocol, damper,
-                           lambda: claimed(args.out, module.NAME, _inputs(args), args.overwrite, identifying),
+        name = getattr(PROTOCOLS.get("sine-matrix" if args.protocol == DISCOVER else args.protocol), "NAME", None)
+        identifying = args.identify if args.identify is not None else name == "standard"
+        with held(name and claimed(args.out, name, _inputs(args), args.overwrite, identifying)) as claim:
+            module, params, plant, damper, cfg, _ = _plan_run(args)  # unknown protocol (no claim): said here
+            operator_stop.raise_if_stopped()
+        ended = record(Run(module, params, args.protocol, damper, lambda: claim,
                            lambda config: open_cell(args, config, damper, plant), cfg, identify=identifying,
                            diagnose=getattr(args, "diagnose", False), live=args.live, rrd=args.rrd,
                            budget=args.budget, units=args.units, progress=getattr(args, "progress", True),
@@ -140,8 +142,7 @@ def _finish_run(module, name, ended):
     return 0
 
 
-def _inputs(args):
-    """The files a run reads: no output may be one of them."""
+def _inputs(args):  # the files a run reads: no output may be one of them
     from rig import config as rig_config
     from records.files import existing_files
     rig = args.rig not in (None, DIRECT) and str(rig_config.path_of(args.rig))

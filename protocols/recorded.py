@@ -7,6 +7,7 @@ around it (commands/run.py)."""
 from __future__ import annotations
 
 import json
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from models.damper import to_dict
@@ -71,6 +72,20 @@ def claimed(out, name, inputs, overwrite, identifying):
             claim.release()
             raise
     return claim
+
+
+@contextmanager
+def held(claim):
+    """A claim taken before the pre-flight, so that a second writer is refused at once and not
+    after a pre-flight that can outlast the first run; released, its target as it was, if
+    anything fails before the run."""
+    try:
+        yield claim
+    except BaseException:
+        if claim:
+            claim.abandon()
+            claim.release()
+        raise
 
 
 def for_run(path, cell, plan, run_info=None, overwrite=False):

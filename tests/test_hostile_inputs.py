@@ -504,6 +504,9 @@ def test_two_runs_on_one_file_and_a_failed_start_lose_nothing(tmp_path, files):
     before = files.rec.read_bytes()
     one_line_error(dyno("run", "sine-matrix", "--rig", closed, "--out", files.rec, "--overwrite"), "no socketcand")
     assert files.rec.read_bytes() == before
+    # the output is claimed before the pre-flight: its refusal releases the claim, the file as it was
+    one_line_error(dyno("run", "sine-matrix", "amplitudes_mm=500", "--out", files.rec, "--overwrite"), "stroke limits")
+    assert files.rec.read_bytes() == before
     assert not [p for p in files.folder.iterdir() if p.name.endswith((".partial", ".lock"))]
 
 

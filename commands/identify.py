@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from models import damper as dm
+from commands import identify_mr
 from commands.arguments import FILE, FOLDER, batch_options, overwrite, writes
 from protocols.identification import clean, description, identified, text
 from records import source_filter
@@ -24,20 +25,19 @@ def add(sub):
                      help="description giving layout and geometry (default: the damper the recording names)")
     writes(idf, "--out", FILE, default=None, help="model JSON (default: RECORDING.model.json)")
     idf.add_argument("--truth", default=None, help="known damper (preset or JSON) to compare with")
-    idf.add_argument("--segment", action="append", metavar="NAME", help="fit these segments only (repeatable), "
-                     "e.g. one of a file's repeats at another coil current or clicker")
+    idf.add_argument("--segment", action="append", metavar="NAME", help="fit these segments only (repeatable)")
     idf.add_argument("--json", action="store_true", help="results as JSON on stdout")
     writes(idf, "--report", FOLDER, default=None, metavar="DIR", help="HTML report with loops and held-out errors")
     idf.add_argument("--keep-poor", action="store_true",
                      help="write a model whose held-out error exceeds the limit docs/cli.md states (refused "
                           "otherwise), marked poor in its name, its JSON and the catalogue")
+    identify_mr.add(idf)
     overwrite(idf, "--out, --report's files and --batch's outputs")
     batch_options(idf, "identify", "FILE.model.json")
     idf.set_defaults(command="identify")
 
 
-def _one(task):
-    """--batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one recording's bytes."""
+def _one(task):  # --batch: (name, {"model": damper dict, "summary": ...} or None, error or None) of one recording
     from records.reader import load_recording
     name, data, desc, keep_poor = task
     from commands import batch
@@ -63,6 +63,8 @@ def run(args):
     from records.data import drives, only
     from records.files import existing_files, filled, output_file, output_folder, written
     from records.reader import merged
+    if args.model == "spencer" or args.coil or args.holdout:
+        return identify_mr.run(args)
     if getattr(args, "batch", None):
         from commands import batch
         if args.recordings or args.out or args.report or args.truth:
@@ -113,10 +115,8 @@ def run(args):
 
 
 def _minimal(args, channels, events, inputs, driving, smoothing):
-    """A recording that names no damper, and no --damper: the model that needs no
-    description (the diagnosis's baseline `minimal`) with the effects the diagnosis accepts on
-    it, judged on held-out cycles, with what the recording could not determine; written as
-    JSON (models/minimal.py reads it)."""
+    """No damper named, no --damper: the diagnosis's baseline `minimal` with the effects it
+    accepts, judged held out, as JSON (models/minimal.py reads it)."""
     from workers import threads
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError

@@ -150,3 +150,4 @@ results: $(STAMP)
 	$(VENV)/bin/dyno bench import --markdown > docs/results/bench-import.md.tmp && mv docs/results/bench-import.md.tmp docs/results/bench-import.md
 	$(VENV)/bin/python -m tests.real_data --markdown > docs/results/real-data.md.tmp && mv docs/results/real-data.md.tmp docs/results/real-data.md
 	$(VENV)/bin/python -m tests.segmentation_grid --markdown > docs/results/segmentation.md.tmp && mv docs/results/segmentation.md.tmp docs/results/segmentation.md
+	$(VENV)/bin/python -m tests.mr_table --markdown > docs/results/mr-spencer.md.tmp && mv docs/results/mr-spencer.md.tmp docs/results/mr-spencer.md

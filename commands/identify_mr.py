@@ -28,16 +28,18 @@ def run(args):
     from models.diagnose.quality import check, describe, excluded
     from models.mr.identify import identify
     from records.data import drives
-    from records.files import existing_files, output_file, written
+    from records.files import existing_files, filled, output_file, output_folder, written
     from records.reader import merged
     if args.model != "spencer":
         raise UsageError("--coil and --holdout are for --model spencer")
-    if len(args.recordings) != 1 or getattr(args, "batch", None) or args.truth or args.report or args.damper:
-        raise UsageError("--model spencer: give one RECORDING (no --batch, --truth, --report or --damper)")
+    if len(args.recordings) != 1 or getattr(args, "batch", None) or args.truth or args.damper:
+        raise UsageError("--model spencer: give one RECORDING (no --batch, --truth or --damper)")
     path = args.recordings[0]
     if not Path(path).exists():
         raise UsageError(f"{path}: no such file")
     out = output_file(args.out or Path(path).with_suffix(SUFFIX), existing_files(path), args.overwrite)
+    if args.report:
+        output_folder(args.report, existing_files(path), args.overwrite, "--report")
     channels, _, meta = merged([path])
     coil = args.coil or _coil(channels, drives(meta))
     for name in ("force", "x", coil):
@@ -64,6 +66,11 @@ def run(args):
            "heldout": None if fitted.held is None else vars(fitted.held)}
     with written(out) as tmp:
         tmp.write_text(json.dumps(doc, indent=1, default=float))
+    if args.report:
+        from protocols.reports.mr import write
+        with filled(args.report, "--report") as folder:
+            write(fitted, t, xd, on(coil), channels["force"][1], judged, folder, Path(path).name)
+        say(f"report: {Path(args.report) / 'index.md'}")
     if args.json:
         print(json.dumps(doc, indent=2, default=float))
         return 0

@@ -83,9 +83,11 @@ def test_identify_model_spencer_on_an_imported_table(tmp_path, record):
     p = dyno("import", csv, "--out", rec, "--map", "time=time:s", "--map", "displacement=disp:mm",
              "--map", "force=force:N", "--map", "aux.coil=volts:V")
     assert p.returncode == 0, p.stderr
-    p = dyno("identify", rec, "--model", "spencer", "--holdout", "tail:0.2", "--json")
+    p = dyno("identify", rec, "--model", "spencer", "--holdout", "tail:0.2", "--json", "--report", tmp_path / "rep")
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
+    assert {f.name for f in (tmp_path / "rep").iterdir()} == {"index.md", "mr-heldout.png", "mr-loops.png"}
+    assert "not determined" not in (tmp_path / "rep" / "index.md").read_text().split("| alpha_b |")[1].split("\n")[0]
     assert doc["coil"] == "aux.coil" and doc["holdout_tail"] == 0.2
     assert doc["heldout"]["r2"] > 0.99, doc["heldout"]
     assert json.loads((tmp_path / "mr.spencer.json").read_text())["parameters"].keys() == doc["parameters"].keys()

@@ -19,7 +19,8 @@ def add(sub):
     batch_options(dg, "diagnosis", "FILE.diagnosis.json")
     dg.add_argument("--baseline", default=None,
                     help="minimal (the thesis's minimal model, fitted whole), or a damper preset or model JSON, "
-                         "refitted (default: the damper the recording names, else minimal)")
+                         "refitted (default: the damper the recording names, else minimal); spencer: an MR damper's "
+                         "model identified on the past of --holdout tail:F (docs/mr-damper.md)")
     dg.add_argument("--json", action="store_true", help="machine-readable result")
     writes(dg, "--report", FOLDER, metavar="DIR", help="HTML report with residual maps and loops")
     overwrite(dg, "--report's files and --batch's outputs")
@@ -42,6 +43,8 @@ def _baseline(name):
     """(name, damper model) of --baseline, or None for the minimal model."""
     if name in (None, "minimal"):
         return None
+    if name == "spencer":  # an MR damper's model, identified on the recording itself (models/diagnose/from_spencer.py)
+        return name, name
     try:
         model = load_damper(name)
     except (DamperError, OSError, ValueError) as e:
@@ -69,6 +72,8 @@ def run(args):
                 raise UsageError(f"{flag}: not with --batch (`dyno diagnose FILE {flag} ...` does it for one file)")
     baseline = _baseline(args.baseline)
     if getattr(args, "batch", None):
+        if args.baseline == "spencer":
+            raise UsageError("--baseline spencer: one recording at a time, not with --batch")
         from models.damper import to_dict
         from commands import diagnose_batch
         return diagnose_batch.run(args, baseline and (baseline[0], to_dict(baseline[1])) or args.baseline)
@@ -88,7 +93,12 @@ def run(args):
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     if args.baseline is None and not getattr(args, "next", False):  # --next designs from the minimal model
         baseline = own_baseline(meta)
-        if baseline:
+        if not baseline and drives(meta, "coil") and args.holdout != "interleaved":  # an MR damper's coil declared
+            baseline = ("spencer", "spencer")
+            say("baseline: Spencer's MR model, the recording's coil declared (--baseline minimal for the thesis's)")
+        elif not baseline and drives(meta, "coil"):
+            say("a coil drive is declared: --holdout tail:F starts from Spencer's MR model (docs/mr-damper.md)")
+        if baseline and baseline[0] != "spencer":
             say(f"baseline: {baseline[0]}, the damper the recording names, refitted (--baseline minimal for "
                 f"the thesis's minimal model)")
     kw = dict(baseline=baseline, holdout=args.holdout, drives=drives(meta), jobs=threads.cores(),

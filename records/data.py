@@ -370,14 +370,16 @@ def sign_problem(channels) -> str | None:
     return other_sign(x, np.interp(tx, tF, F) if len(tF) > 1 else np.full_like(x, np.nan), tx)
 
 
-def drives(meta) -> list[str]:
+def drives(meta, kind="") -> list[str]:
     """The aux.* channels a recording says drive the damper (its calibration's `drives`:
-    an MR coil's current, an adjuster's command), from load_recording's metadata."""
+    an MR coil's current, an adjuster's command), from load_recording's metadata; kind:
+    only those whose `drives` starts with it ("coil": an MR damper's coil)."""
     out = []
     for name, text in meta.get("calibration", {}).items():
         try:
-            if json.loads(text).get("drives"):
-                out.append(name)
+            said = json.loads(text).get("drives")
         except (ValueError, AttributeError):
             continue
+        if said and said.startswith(kind):
+            out.append(name)
     return out

@@ -135,7 +135,7 @@ def operator_stopped(p):
 # first, and the prove runs then met a hundred short tests that each start a `dyno` process,
 # which more than doubled them (the wired prove pair: 151-167 s against 82 s).
 LONGEST = ("test_prove.py::test_prove_runs", "test_diagnose.py::test_prove_open", "test_diagnose.py::test_prove_finds",
-           "test_outside_data.py::test_the_mr_recording")
+           "test_outside_data.py::test_the_mr_recording", "test_outside_data.py::test_a_declared_coil")
 
 
 # session fixtures made once per worker: every test using one goes to the same worker (a

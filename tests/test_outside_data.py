@@ -18,14 +18,25 @@ from tests.conftest import dyno
 MR = Path(__file__).parent / "data" / "mr-damper" / "ransim_u.csv"
 
 
-def test_the_mr_recording_names_hysteresis_and_the_voltage_on_a_time_split(tmp_path):
-    rec = tmp_path / "mr.mcap"
+@pytest.fixture(scope="module")
+def mr_recording(tmp_path_factory):
+    rec = tmp_path_factory.mktemp("mr") / "mr.mcap"
     r = dyno("import", MR, "--out", rec, "--map", "time=t:s", "--map", "displacement=D:cm", "--map",
              "velocity=V:cm/s", "--map", "force=F:N", "--map", "aux.voltage=Y:V", "--drive", "aux.voltage=coil voltage")
     assert r.returncode == 0, r.stderr
-    r = dyno("diagnose", rec, "--holdout", "tail:0.15", "--json")
+    return rec
+
+
+@pytest.fixture(scope="module")
+def from_minimal(mr_recording):
+    r = dyno("diagnose", mr_recording, "--holdout", "tail:0.15", "--baseline", "minimal", "--json")
     assert r.returncode == 0, r.stderr
-    doc = json.loads(r.stdout)
+    return json.loads(r.stdout)
+
+
+@pytest.mark.xdist_group("mr_recording")  # one import and minimal diagnosis for both
+def test_the_mr_recording_names_hysteresis_and_the_voltage_on_a_time_split(from_minimal):
+    doc = from_minimal
     # the force flat at 4545.45 N for 217 samples at the end (README) is flagged and left out
     sat = [f for f in doc["quality"] if f["kind"] == "saturated" and f["channel"] == "force"]
     assert sum(f["samples"] for f in sat) == 217
@@ -44,6 +55,23 @@ def test_the_mr_recording_names_hysteresis_and_the_voltage_on_a_time_split(tmp_p
     assert said["valve_form"]["nature"] == "form" and said["valve_form"]["character"] == "dissipative"
     assert all(set(c) >= {"nrmse_heldout", "rmse_heldout", "r2_heldout"} for c in doc["candidates"])
     assert "hysteresis (Bouc-Wen)" in doc["summary"] and "aux.voltage" in doc["summary"]
+
+
+@pytest.mark.xdist_group("mr_recording")  # one import and minimal diagnosis for both
+def test_a_declared_coil_starts_the_diagnosis_from_spencer_s_mr_model(mr_recording, from_minimal):
+    """Its coil declared, an MR record on a time split is diagnosed from Spencer's model
+    (identified on the split's past only): on the held-out tail it does better than the
+    minimal model with all the diagnosis adds to it, and what is named is beyond Spencer's."""
+    r = dyno("diagnose", mr_recording, "--holdout", "tail:0.15", "--json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["baseline"]["name"] == "spencer"
+    assert doc["baseline"]["rmse_heldout"] < from_minimal["final"]["rmse_heldout"]
+    assert doc["final"]["r2_heldout"] >= doc["baseline"]["r2_heldout"] > from_minimal["final"]["r2_heldout"]
+    assert not [e for e in doc["accepted"] if e.startswith("bouc_wen")]  # the hysteresis is Spencer's own
+    # interleaved folds would each have seen the other's cycles through the one identification: refused, said
+    r = dyno("diagnose", mr_recording, "--baseline", "spencer")
+    assert r.returncode == 2 and "--holdout tail:F" in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 
 def _signal(n=4000, h=1e-3):

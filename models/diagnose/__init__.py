@@ -30,6 +30,7 @@ from models.diagnose.candidates import EFFECTS, GAMMA, WITH_BASELINE, Minimal, M
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
 from models.diagnose.data import Data, DiagnoseError, prepare
 from models.diagnose.from_model import FromModel
+from models.diagnose.from_spencer import NAME as SPENCER, FromSpencer
 from models.diagnose.measured import friction_outside_physics, undetermined
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
 from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step
@@ -140,12 +141,14 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     this one (a rig's). smoothing: the source's moving average every model goes through (source_filter)."""
     clock = Clock(jobs)
     d = prepare(channels, events, drives, smoothing)
+    folds, judged, shown = holdout_masks(d, holdout)
     if baseline is None:
         base = Minimal(d)
+    elif baseline[1] == SPENCER:
+        base = FromSpencer(d, folds, progress)
     else:
         progress(f"simulating {baseline[0]} along the recorded motion")
         base = FromModel(baseline[1], d, baseline[0])
-    folds, judged, shown = holdout_masks(d, holdout)
     if holdout != "interleaved":
         d.fitted_until = float(np.max(d.t[folds[0][0]]))
     judge = stability.judge(d, judged, seed, blocks)

@@ -92,15 +92,9 @@ def run(args):
     ch, events, meta = load_recording(args.recording)
     say = (lambda s: print(s, file=sys.stderr)) if not args.json else (lambda s: None)
     if args.baseline is None and not getattr(args, "next", False):  # --next designs from the minimal model
-        baseline = own_baseline(meta)
-        if not baseline and drives(meta, "coil") and args.holdout != "interleaved":  # an MR damper's coil declared
-            baseline = ("spencer", "spencer")
-            say("baseline: Spencer's MR model, the recording's coil declared (--baseline minimal for the thesis's)")
-        elif not baseline and drives(meta, "coil"):
-            say("a coil drive is declared: --holdout tail:F starts from Spencer's MR model (docs/mr-damper.md)")
-        if baseline and baseline[0] != "spencer":
-            say(f"baseline: {baseline[0]}, the damper the recording names, refitted (--baseline minimal for "
-                f"the thesis's minimal model)")
+        baseline, said = own_baseline(meta, args.holdout)
+        if said:
+            say(said)
     kw = dict(baseline=baseline, holdout=args.holdout, drives=drives(meta), jobs=threads.cores(),
               smoothing=source_filter.of(meta))
     try:

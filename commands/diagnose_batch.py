@@ -21,7 +21,7 @@ def _one(task):
         try:
             ch, events, meta = load_recording(path)
             if baseline is None:  # the damper the recording names, if any
-                base = own_baseline(meta)
+                base = own_baseline(meta, holdout)[0]
             else:
                 base = None if baseline == "minimal" else (baseline[0], from_dict(baseline[1]))
             res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta),

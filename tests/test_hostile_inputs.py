@@ -487,15 +487,22 @@ def test_two_runs_on_one_file_and_a_failed_start_lose_nothing(tmp_path, files):
     """A second writer of the same file is refused while the first runs; a run that fails
     before it starts leaves the file it was asked to overwrite as it was."""
     out = tmp_path / "busy.mcap"
+    # the first runs for a minute unless stopped: the second is started well within it on any
+    # machine (under the suite's load one took over 5 s to reach its claim), then the first is
+    # stopped by its operator and keeps what it recorded
     first = subprocess.Popen([DYNO, "run", "sine-matrix", "--realtime", "--out", str(out), "amplitudes_mm=3.2",
-                              "freqs_hz=2", "record_cycles=6"], stderr=subprocess.PIPE, text=True)
+                              "freqs_hz=2", "record_cycles=120"], stderr=subprocess.PIPE, text=True)
     try:
         while "recording to" not in first.stderr.readline():
             pass
         one_line_error(dyno("run", "sine-matrix", "--out", out, "--overwrite"), "another run is writing it")
+        assert first.poll() is None  # refused while the first was running, not after it
+        while "sine 3.2 mm 2 Hz" not in first.stderr.readline():  # a segment begun: something to keep
+            pass
+        first.send_signal(signal.SIGINT)
     finally:
         rest = first.communicate(timeout=120)[1]
-    assert first.returncode == 0, rest
+    assert first.returncode == 130 and "operator stop" in rest, rest
     p = dyno("report", out, "--out", tmp_path / "rep")
     assert p.returncode == 0, p.stderr
     # overwrite asked, but the rig never opens: the old recording stays

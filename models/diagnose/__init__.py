@@ -142,13 +142,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
     clock = Clock(jobs)
     d = prepare(channels, events, drives, smoothing)
     folds, judged, shown = holdout_masks(d, holdout)
-    if baseline is None:
-        base = Minimal(d)
-    elif baseline[1] == SPENCER:
-        base = FromSpencer(d, folds, progress)
-    else:
-        progress(f"simulating {baseline[0]} along the recorded motion")
-        base = FromModel(baseline[1], d, baseline[0])
+    base = _base(d, baseline, folds, progress)
     if holdout != "interleaved":
         d.fitted_until = float(np.max(d.t[folds[0][0]]))
     judge = stability.judge(d, judged, seed, blocks)
@@ -213,6 +207,16 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                         noise_from(d), repeats=differing_repeats(channels, events), judge=judge)
     out.timing = clock.report()
     return out
+
+
+def _base(d, baseline, folds, progress):
+    """The baseline model: minimal (None), Spencer's MR model ((name, SPENCER)) or a damper model's."""
+    if baseline is None:
+        return Minimal(d)
+    if baseline[1] == SPENCER:
+        return FromSpencer(d, folds, progress)
+    progress(f"simulating {baseline[0]} along the recorded motion")
+    return FromModel(baseline[1], d, baseline[0])
 
 
 def _refit(d, base, cell, accepted, effect, b_vals, b_folds, b_r, folds, judged, preds):

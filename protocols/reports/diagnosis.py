@@ -12,12 +12,23 @@ from models.diagnose.words import summary
 from records.data import reads_low
 
 
-def own_baseline(meta):
-    """(name, damper) the recording says it was made with, the default baseline: its own
-    physics is then in the model from the start, refitted; None: the minimal model."""
+def own_baseline(meta, holdout="interleaved"):
+    """(baseline, what to say of it) when none is given: the damper the recording says it was
+    made with (its own physics in the model from the start, refitted); else, where it declares
+    an MR damper's coil and the split is in time, Spencer's MR model (docs/mr-damper.md); else
+    None, the minimal model."""
+    from models.diagnose.from_spencer import NAME as SPENCER
     from protocols.reports.peaks import recorded_damper
+    from records.data import drives
     own = recorded_damper(meta)
-    return None if own is None else (own.name, own)
+    if own is not None:
+        return (own.name, own), (f"baseline: {own.name}, the damper the recording names, refitted (--baseline "
+                                 f"minimal for the thesis's minimal model)")
+    if not drives(meta, "coil"):
+        return None, ""
+    if holdout == "interleaved":
+        return None, "a coil drive is declared: --holdout tail:F starts from Spencer's MR model (docs/mr-damper.md)"
+    return (SPENCER, SPENCER), "baseline: Spencer's MR model, the recording's coil declared (--baseline minimal for the thesis's)"
 
 
 def described(res, meta):

@@ -24,6 +24,7 @@ from rig.errors import RigError
 from rig.operator_stop import OPERATOR_STOP, quiet
 from rig.pacing import realtime_priority, restore_priority, restore_slice, short_slice
 from rig.safe_stop import SafeStop
+from rig.stall_trace import StallTrace
 
 STALLED_TICKS = 100  # failed ticks in a row, the clock standing still: the stop cannot settle
 
@@ -38,6 +39,7 @@ class LoopResult:
     missed: int = 0  # ticks skipped after stalls (real time)
     lateness_s: list = field(default_factory=list, repr=False)
     measures: list = field(default_factory=list)  # [(segment, {name: value})] the plan's closed loops measured
+    stall_trace: str | None = None  # a file of every thread's stack during a stall (rig/stall_trace.py)
 
     def stats(self, rate_hz):
         late = np.array(self.lateness_s) if self.lateness_s else np.zeros(1)
@@ -83,12 +85,17 @@ class ControlLoop:
         # not granted SCHED_FIFO: the normal policy's shortest slice, so a busy program
         # beside the loop yields its core when a tick is due
         slice_ = short_slice() if policy is None and self.pacer.wall_clock else None
+        # on the wall clock, the stacks of a stall longer than the watchdog's limit are kept
+        self.trace = StallTrace(self.safety.L["stale_s"], self.period) if self.pacer.wall_clock else None
         try:
             with quiet():  # a Ctrl-C is the flag, looked at every tick (rig/operator_stop.py)
                 result = self._run(plan, max_s)
             result.sched_fifo = policy is not None
+            result.stall_trace = self.trace and self.trace.close()
             return result
         finally:
+            if self.trace is not None:
+                self.trace.close()
             if policy is not None:
                 restore_priority(policy)
             if slice_ is not None:
@@ -119,7 +126,11 @@ class ControlLoop:
                 if late > self.period:
                     r.overruns += 1
                     if late > self.safety.L["stale_s"] and stop.running:
-                        stop.trip(f"watchdog: control loop stalled for {late * 1e3:.0f} ms")
+                        caught = self.trace and self.trace.caught()
+                        stop.trip(f"watchdog: control loop stalled for {late * 1e3:.0f} ms"
+                                  + (f" (every thread's stack during it: {caught})" if caught else ""))
+                if self.trace is not None:
+                    self.trace.tick()
                 readings = self._read(stop)
                 if stop.running:
                     if self._tick(plan, t, readings, stop) is None:

@@ -2,6 +2,8 @@
 virtual bus, a pseudo-terminal, Modbus TCP on 127.0.0.1): every channel, motion, and each
 injected fault ending in the safe state with its message and the samples kept."""
 import numpy as np
+from pathlib import Path
+
 import pytest
 
 from rig import config
@@ -179,6 +181,13 @@ def test_a_stalled_loop_trips_its_watchdog(cell):
     res = loop.run(plan)
     assert res.fault.startswith("watchdog: control loop stalled for") and res.missed >= 70
     assert vr.plant.x_act == pytest.approx(MID, abs=1e-4)  # held where it was
+    # where the process was during the stall: every thread's stack, dumped while it lasted
+    assert res.stall_trace and res.stall_trace in res.fault, res.fault
+    stacks = Path(res.stall_trace).read_text()
+    assert "in plan" in stacks and "test_virtual_rig.py" in stacks, stacks
+    Path(res.stall_trace).unlink()
+    # a loop that never stalls leaves no file behind
+    assert loop.run(lambda t, r: None if t > 0.2 else MID).stall_trace is None
 
 
 @pytest.mark.realtime

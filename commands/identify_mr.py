@@ -25,7 +25,7 @@ def add(idf):
 
 
 def run(args):
-    from models.diagnose.quality import check, describe, excluded
+    from models.diagnose.quality import check, describe, excluded, within
     from models.mr.identify import identify
     from records.data import drives
     from records.files import existing_files, filled, output_file, output_folder, written
@@ -51,14 +51,13 @@ def run(args):
     x = on("x")
     xd = on("v") if "v" in channels else np.gradient(x, t)
     flags = check(channels)
-    judged = np.ones(len(t), bool)
-    for a, b in excluded(flags):
-        judged &= ~((t >= a) & (t <= b))
+    judged = ~within(t, excluded(flags))
     say = (lambda m: print(m, file=sys.stderr)) if args.json else print
     if flags:
         say(f"left out of the fit and the judgement: {'; '.join(describe(flags))}")
     holdout = _tail(args.holdout)
-    fitted = identify(t, x, xd, on(coil), channels["force"][1], holdout, judged, say)
+    command = on(coil)
+    fitted = identify(t, x, xd, command, channels["force"][1], holdout, judged, say)
     doc = {"model": "spencer-1997", "recording": str(path), "coil": coil, "holdout_tail": holdout,
            "parameters": {e.name: {"value": e.value, "unit": e.unit, "ci95": list(e.ci), "determined": e.determined}
                           for e in fitted.estimates},
@@ -69,7 +68,7 @@ def run(args):
     if args.report:
         from protocols.reports.mr import write
         with filled(args.report, "--report") as folder:
-            write(fitted, t, xd, on(coil), channels["force"][1], judged, folder, Path(path).name)
+            write(fitted, t, xd, command, channels["force"][1], judged, folder, Path(path).name)
         say(f"report: {Path(args.report) / 'index.md'}")
     if args.json:
         print(json.dumps(doc, indent=2, default=float))

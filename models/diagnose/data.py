@@ -191,9 +191,7 @@ def _screened(channels, force, x, aux):
     bad = quality.excluded(flags)
 
     def drop(t, y):
-        k = np.zeros(len(t), bool)
-        for a, b in bad:
-            k |= (t >= a) & (t <= b)
+        k = quality.within(t, bad)
         return t[~k], y[~k]
     return flags, bad, drop(*force), drop(*x), {n: drop(*c) for n, c in aux.items()}
 

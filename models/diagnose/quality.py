@@ -261,6 +261,14 @@ def excluded(flags):
     return out
 
 
+def within(t, spans):
+    """The samples at times t [s] inside any of the spans [(t0, t1)] (excluded's)."""
+    k = np.zeros(len(t), bool)
+    for a, b in spans:
+        k |= (t >= a) & (t <= b)
+    return k
+
+
 def describe(flags, most=3):
     """One line per channel and kind: how many, how many samples, the first few."""
     out = []

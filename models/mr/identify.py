@@ -58,7 +58,7 @@ class Fitted:
     stages: list  # [(stage, train RMSE [N])]
 
 
-def starts(t, x, xd, v, F, train) -> list:
+def starts(x, xd, v, F, train) -> list:
     """Spencer models to start from: the data's linear view (module docstring), one per X_YIELD."""
     w = 0.02 * max(float(np.percentile(np.abs(xd[train]), 90)), 1e-6)  # m/s: the yield's velocity scale
     s = np.tanh(xd / w)
@@ -113,7 +113,7 @@ def identify(t, x, xd, v, F, holdout=0.15, judged=None, say=lambda s: None) -> F
     rms = lambda r: float(np.sqrt(np.mean(r.fun ** 2)))
     passive = [p for p in NAMES if p not in PASSIVE and p != "eta"]
     tried = [_fit(replace(s, alpha_b=0.0, c0_b=0.0, c1_b=0.0), passive, args, train, BRIEF)
-             for s in starts(t, x, xd, v, F, train)]
+             for s in starts(x, xd, v, F, train)]
     m, r = min(tried, key=lambda mr: float(np.sum(mr[1].fun ** 2)))
     stages = [("start (best of the yield's travels)", rms(r))]
     m, r = _fit(m, passive, args, train, EFFORT)

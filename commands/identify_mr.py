@@ -35,6 +35,7 @@ def run(args):
     if len(args.recordings) != 1 or getattr(args, "batch", None) or args.truth or args.damper:
         raise UsageError("--model spencer: give one RECORDING (no --batch, --truth or --damper)")
     path = args.recordings[0]
+    holdout = _tail(args.holdout)  # a bad split named before any file is looked at
     if not Path(path).exists():
         raise UsageError(f"{path}: no such file")
     out = output_file(args.out or Path(path).with_suffix(SUFFIX), existing_files(path), args.overwrite)
@@ -55,7 +56,6 @@ def run(args):
     say = (lambda m: print(m, file=sys.stderr)) if args.json else print
     if flags:
         say(f"left out of the fit and the judgement: {'; '.join(describe(flags))}")
-    holdout = _tail(args.holdout)
     command = on(coil)
     fitted = identify(t, x, xd, command, channels["force"][1], holdout, judged, say)
     doc = {"model": "spencer-1997", "recording": str(path), "coil": coil, "holdout_tail": holdout,

@@ -92,6 +92,7 @@ def test_identify_model_spencer_on_an_imported_table(tmp_path, record):
     assert doc["heldout"]["r2"] > 0.99, doc["heldout"]
     assert json.loads((tmp_path / "mr.spencer.json").read_text())["parameters"].keys() == doc["parameters"].keys()
     for args, message in ((("--holdout", "tail:0.7", "--overwrite"), "0 < F < 0.5"),
+                          (("--holdout", "tail:abc"), "0 < F < 0.5"),  # named before the existing output
                           (("--coil", "aux.coil"), "--model spencer"),
                           (("--model", "spencer", "--coil", "aux.none", "--overwrite"), "no aux.none channel")):
         p = dyno("identify", rec, *(["--model", "spencer"] if args[0] == "--holdout" else []), *args)

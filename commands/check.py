@@ -1,5 +1,5 @@
 """`dyno check RUN.mcap --against REF.mcap|MODEL [--tolerance 5%] [--out DIR]`:
-production QA of a run against a reference run or a damper model (protocols/reports/qa.py):
+production QA of a run against a reference run or a damper model (views/reports/qa.py):
 a verdict per velocity point and direction with its margin, check.png of the band, and
 exit 0 when every point passes, 1 when one fails."""
 from __future__ import annotations
@@ -22,9 +22,9 @@ def add(sub):
 
 
 def run(args):
-    from protocols import catalogue
+    from views import run_index
     from records.files import existing_files, output_folder, filled
-    from protocols.reports import qa
+    from views.reports import qa
     from protocols.units import fmt
     units = args.units
     checked, tol = qa.checked(args.recording, args.against, args.tolerance or TOLERANCE, units)
@@ -47,5 +47,5 @@ def run(args):
                                  f"{Path(args.recording).name} against {ref_name}, ±{tol}", units)
         print(out / png)
     print(qa.verdict(len(results), len(failed), failed, units))
-    print(catalogue.add_check(args.recording, ref_name, tol, results))
+    print(run_index.add_check(args.recording, ref_name, tol, results))
     return 1 if failed else 0

@@ -64,7 +64,7 @@ def run(args):
     from records.data import drives
     from records.files import existing_files, filled, output_folder
     from records.reader import load_recording
-    from protocols.reports.diagnosis import described, own_baseline, report, to_json
+    from views.reports.diagnosis import described, own_baseline, report, to_json
     if getattr(args, "batch", None):
         for flag, given in (("--next", getattr(args, "next", False)), ("--budget", args.budget is not None),
                             ("--report", args.report)):
@@ -112,12 +112,12 @@ def run(args):
         with filled(args.report, "--report") as folder:
             page = report(res, folder)
         say(f"report: {Path(args.report) / page.name}")
-    from protocols import catalogue
+    from views import run_index
     named = res.named()
     findings = [{"effect": s.effect, "nature": s.nature, "named": s.effect in named,
                  "parameters": {k: float(v) for k, v in s.parameters.items()}}
                 for s in res.steps if s.effect in res.accepted]
-    say(catalogue.add_diagnosis(args.recording, res.baseline.name, res.accepted, findings, res.left_over.within_noise))
+    say(run_index.add_diagnosis(args.recording, res.baseline.name, res.accepted, findings, res.left_over.within_noise))
     props = None
     if getattr(args, "next", False):
         props = design.propose(res, limits, budget)

@@ -13,7 +13,7 @@ def _one(task):
     from models.damper import DamperError, from_dict
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
-    from protocols.reports.diagnosis import own_baseline, to_json
+    from views.reports.diagnosis import own_baseline, to_json
     from records import source_filter
     from records.data import drives
     from records.reader import load_recording

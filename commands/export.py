@@ -7,7 +7,7 @@ no row has an empty cell); a sample outside every segment has an empty segment. 
 are written to the decimals each channel resolves. The run's metadata goes with the
 table: Parquet schema metadata, or FILE.meta.json beside a CSV (docs/recording.md,
 "Exported tables"). Parquet through pyarrow (rerun-sdk installs it). The table:
-protocols/export.py."""
+views/export.py."""
 from __future__ import annotations
 
 import json
@@ -34,7 +34,7 @@ def add(sub):
 
 
 def run(args):
-    from protocols.export import json_safe, table, write
+    from views.export import json_safe, table, write
     from records.files import output_file, written
     from records.reader import load_recording
     if sum(bool(getattr(args, k, None)) for k in ("csv", "parquet", "target")) != 1:
@@ -69,7 +69,7 @@ def _target(args):
     """A replay target from the recording's position (protocols/library/replay.py reads it):
     time [s] from 0 and displacement [mm] about the recorded damper's mid-stroke (the
     recording's mean position without a model), at the position's own samples."""
-    from protocols.export import replay_target
+    from views.export import replay_target
     from records.files import output_file, written
     from records.reader import load_recording
     out = output_file(args.target, [args.recording], args.overwrite, "--target")

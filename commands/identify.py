@@ -12,7 +12,7 @@ import numpy as np
 from models import damper as dm
 from commands import identify_mr
 from commands.arguments import FILE, FOLDER, batch_options, overwrite, writes
-from protocols.identification import clean, description, identified, text
+from views.identification import clean, description, identified, text
 from records import source_filter
 from rig.errors import Refused, RigError, UsageError
 
@@ -30,7 +30,7 @@ def add(sub):
     writes(idf, "--report", FOLDER, default=None, metavar="DIR", help="HTML report with loops and held-out errors")
     idf.add_argument("--keep-poor", action="store_true",
                      help="write a model whose held-out error exceeds the limit docs/cli.md states (refused "
-                          "otherwise), marked poor in its name, its JSON and the catalogue")
+                          "otherwise), marked poor in its name, its JSON and the run index")
     identify_mr.add(idf)
     overwrite(idf, "--out, --report's files and --batch's outputs")
     batch_options(idf, "identify", "FILE.model.json")
@@ -98,14 +98,14 @@ def run(args):
     with written(out) as tmp:
         dm.save(res.damper, tmp)
     if args.report:
-        from protocols.reports.identification import write
+        from views.reports.identification import write
         with filled(args.report, "--report") as folder:
             index = write(res, doc, folder)
         say(f"report: {Path(args.report) / index.name}")
-    from protocols import catalogue
+    from views import run_index
     values = {e["name"]: e["value"] for e in doc["estimates"] if e["identifiable"]}
-    for recording in args.recordings:  # each recording's catalogue knows the model made of it
-        say(catalogue.add_model(recording, out, doc.get("heldout_nrmse"), values))
+    for recording in args.recordings:  # each recording's run index knows the model made of it
+        say(run_index.add_model(recording, out, doc.get("heldout_nrmse"), values))
     if args.json:
         print(json.dumps(clean(doc), indent=2))
     else:
@@ -120,7 +120,7 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
     from workers import threads
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
-    from protocols.identification import MINIMAL_SUFFIX, minimal_doc, minimal_text, poor
+    from views.identification import MINIMAL_SUFFIX, minimal_doc, minimal_text, poor
     from records.files import output_file, written
     if args.report or args.truth:
         raise UsageError("--report and --truth need a damper description: give --damper PRESET|FILE.json")
@@ -135,9 +135,9 @@ def _minimal(args, channels, events, inputs, driving, smoothing):
                        found.noise_sd / max(np.ptp(found.data.F), 1e-9)) or None
     with written(out) as tmp:
         tmp.write_text(json.dumps(clean(doc), indent=1))
-    from protocols import catalogue
+    from views import run_index
     for recording in args.recordings:
-        print(catalogue.add_model(recording, out, doc["heldout_nrmse"],
+        print(run_index.add_model(recording, out, doc["heldout_nrmse"],
                                   {k: p["value"] for k, p in doc["parameters"].items() if "undetermined" not in p}),
               file=sys.stderr)
     if args.json:

@@ -66,7 +66,7 @@ def run(args):
     with written(out) as tmp:
         tmp.write_text(json.dumps(doc, indent=1, default=float))
     if args.report:
-        from protocols.reports.mr import write
+        from views.reports.mr import write
         with filled(args.report, "--report") as folder:
             write(fitted, t, xd, command, channels["force"][1], judged, folder, Path(path).name)
         say(f"report: {Path(args.report) / 'index.md'}")

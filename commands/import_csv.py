@@ -94,7 +94,7 @@ def run(args):
 
 
 def _said(done):
-    from protocols import catalogue
+    from views import run_index
     from records import table
     if done.wall_start is None:
         when = "an unknown date (the file holds none: --start gives it)"
@@ -113,7 +113,7 @@ def _said(done):
              + (", ..." if len(sines) > 6 else "") if sines else ""))
     for note in done.notes:
         print(note)
-    print(catalogue.add(done.path))
+    print(run_index.add(done.path))
 
 
 def inspect(args):

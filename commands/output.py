@@ -5,7 +5,7 @@ import argparse
 import json
 from pathlib import Path
 
-from protocols.reports import markdown as md
+from views.reports import markdown as md
 from rig.errors import UsageError
 
 

@@ -64,7 +64,7 @@ def _figures(fn):
 
 @_figures
 def damper(args, folder):
-    from protocols.reports.plots import plot_damper
+    from views.reports.plots import plot_damper
     d = load(args.damper)
     if d.layout == "simplified":
         raise DamperError(f"{d.name}: simplified models have no loops to plot (damping only, eq 6.1/6.2)")
@@ -84,7 +84,7 @@ def _freqs(args):
 def quarter_car(args, out):
     from protocols import cluster
     from models import quarter_car as qcm
-    from protocols.reports import quarter_car as qp
+    from views.reports import quarter_car as qp
     from models.quarter_car import sweeps
     car = qcm.load(args.car)
     d = load(args.damper)
@@ -109,7 +109,7 @@ def quarter_car(args, out):
 def parametric(args, folder):
     from protocols import cluster
     from models import quarter_car as qcm
-    from protocols.reports import quarter_car as qp
+    from views.reports import quarter_car as qp
     from models.quarter_car import sweeps
     car = qcm.load(args.car)
     with cluster.pool(args.cluster, args.workers or threads.cores()) as (ex, _):
@@ -122,7 +122,7 @@ def parametric(args, folder):
 def simplified(args, folder):
     from protocols import cluster
     from models import quarter_car as qcm
-    from protocols.reports import quarter_car as qp
+    from views.reports import quarter_car as qp
     from models.quarter_car import sweeps
     with cluster.pool(args.cluster, args.workers or threads.cores()) as (ex, _):
         res = sweeps.simplified_comparison(qcm.load(args.car), args.damper, freqs=_freqs(args), executor=ex,

@@ -47,7 +47,7 @@ def _print(args, path, rows, nulls, span, least, sizes):
         return
     lines = _text(rows, nulls, span, least, path)
     if getattr(args, "markdown", False):
-        from protocols.reports import markdown as md
+        from views.reports import markdown as md
         print(md.document(f"Proof on {path.name} (dyno prove --on)", "\n".join(lines[1:]),
                           f"sizes: RMS of what is hidden, in % of the recording's force range ({span:.4g} N); "
                           f"method: docs/diagnosis.md, 'The proof on a real recording'"))
@@ -56,7 +56,7 @@ def _print(args, path, rows, nulls, span, least, sizes):
 
 
 def _text(rows, nulls, span, least, path):
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     f = (lambda v: "-" if v is None else f"{v:.3g}")
     cells = [(r.hidden, f"{r.size:g}", f(r.value), f"{r.rms_n:.3g}", r.outcome, r.said_as or "-", f(r.found_value),
               "yes" if r.also_untouched else "") for r in rows]

@@ -10,7 +10,7 @@ def add(sub):
 
 
 def run(args):
-    from protocols import catalogue
+    from views import run_index
     from records.recorder import recover
     r = recover(args.file)
     if r["intact"]:
@@ -18,5 +18,5 @@ def run(args):
     else:
         print(f"{args.file}: recovered {r['messages']} messages, {r['metadata']} metadata, "
               f"{r['attachments']} attachments; the damaged original is {r['damaged']}")
-        print(catalogue.add(args.file))
+        print(run_index.add(args.file))
     return 0

@@ -58,8 +58,8 @@ def _speeds(text, units):
 
 def run(args):
     from records.files import existing_files, filled, output_folder
-    from protocols.reports.comparison import compare
-    from protocols.reports.recording import report
+    from views.reports.comparison import compare
+    from views.reports.recording import report
     out = output_folder(args.out, existing_files(args.file, args.other, args.model), args.overwrite)
     with filled(out) as folder:
         if args.other:
@@ -72,7 +72,7 @@ def run(args):
             units = args.units
             check = None
             if args.against:
-                from protocols.reports import qa
+                from views.reports import qa
                 check = qa.said(*qa.checked(args.file, args.against, args.tolerance or TOLERANCE, units), units)
                 print(f"sheet's verdict against {check[1]}: {check[0]}")
             try:

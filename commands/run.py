@@ -109,11 +109,11 @@ def open_cell(args, cfg, damper, plant):
 
 def _finish_run(module, name, ended):
     """Say what was recorded and what stopped it, finish the live identification; the exit status."""
-    from protocols import catalogue
+    from views import run_index
     c, result, errors, ident = ended.cell, ended.result, ended.errors, ended.identification
     say = functools.partial(print, file=sys.stderr, flush=True)
     if ended.recorder.kept:
-        say(f"recorded {result.duration_s:.1f} s of {name} to {ended.recorder.path}; {catalogue.add(ended.recorder.path)}")
+        say(f"recorded {result.duration_s:.1f} s of {name} to {ended.recorder.path}; {run_index.add(ended.recorder.path)}")
     else:
         target = ended.claim.target
         say(f"nothing recorded: the run stopped before its first segment; {target} "

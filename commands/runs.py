@@ -1,4 +1,4 @@
-"""`dyno runs index|list|show|trend`: the run catalogue (protocols/catalogue.py) of a
+"""`dyno runs index|list|show|trend`: the run index (views/run_index.py) of a
 folder of recordings, one SQLite file beside them."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from commands.arguments import FILE, overwrite, setup_item, units, writes
 
 def add(sub):
     """The `dyno runs` command's arguments."""
-    rs = sub.add_parser("runs", help="find and trend runs: a catalogue of a folder of recordings")
+    rs = sub.add_parser("runs", help="find and trend runs: a run index of a folder of recordings")
     rsub = rs.add_subparsers(dest="what", required=True)
     ri = rsub.add_parser("index", help="index the folder's recordings (incremental; unreadable files kept as errors)")
     ri.add_argument("dir", nargs="?", default="recordings")
@@ -31,7 +31,7 @@ def add(sub):
     rw = rsub.add_parser("show", help="one run: identity, setup, outcome and its peaks")
     rw.add_argument("id", type=int)
     rw.add_argument("dir", nargs="?", default="recordings")
-    rw.add_argument("--json", action="store_true", help="everything in SI, as the catalogue holds it")
+    rw.add_argument("--json", action="store_true", help="everything in SI, as the run index holds it")
     units(rw)
     rw.set_defaults(command="runs:show")
     re_ = rsub.add_parser("edit", help="correct a run's serial, operator, note or setup KEY=VALUE ('' removes one)")
@@ -57,25 +57,25 @@ def _folder(args):
 
 
 def _connect(args):
-    """The folder's catalogue, read-only: listing never changes it."""
-    from protocols import catalogue
-    return catalogue.reading(_folder(args))
+    """The folder's run index, read-only: listing never changes it."""
+    from views import run_index
+    return run_index.reading(_folder(args))
 
 
 def index(args):
-    from protocols import catalogue
-    n = catalogue.index(_folder(args))
+    from views import run_index
+    n = run_index.index(_folder(args))
     print(f"{args.dir}: {n.added} added, {n.updated} updated, {n.unchanged} unchanged, {n.failed} unreadable "
           f"(kept with their error)" + (f", {n.writing} being recorded (indexed once finished)" if n.writing else "")
-          + f" -> {Path(args.dir) / catalogue.DB_NAME}")
+          + f" -> {Path(args.dir) / run_index.DB_NAME}")
     return 0
 
 
 def list_runs(args):
-    from protocols import catalogue
-    from protocols.reports.runs import run_list
+    from views import run_index
+    from views.reports.runs import run_list
     with _connect(args) as c:
-        rows = catalogue.runs(c, serial=args.serial, since=args.since, protocol=args.protocol,
+        rows = run_index.runs(c, serial=args.serial, since=args.since, protocol=args.protocol,
                               where=getattr(args, "where", None))
     if args.json:
         print(json.dumps([dict(r) for r in rows], indent=1))
@@ -85,11 +85,11 @@ def list_runs(args):
 
 
 def show(args):
-    from protocols import catalogue
-    from protocols.reports.runs import run_page
+    from views import run_index
+    from views.reports.runs import run_page
     with _connect(args) as c:
-        row, peaks = catalogue.run(c, args.id)
-        checks, models, diagnoses = (catalogue.attached(c, t, args.id) for t in ("checks", "models", "diagnoses"))
+        row, peaks = run_index.run(c, args.id)
+        checks, models, diagnoses = (run_index.attached(c, t, args.id) for t in ("checks", "models", "diagnoses"))
     if args.json:
         print(json.dumps({**dict(row), "peaks": [dict(p) for p in peaks], "checks": [dict(k) for k in checks],
                           "models": [dict(m) for m in models], "diagnoses": [dict(d) for d in diagnoses]}, indent=1))
@@ -99,16 +99,16 @@ def show(args):
 
 
 def trend(args):
-    from protocols import catalogue
+    from views import run_index
     from records.files import written
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     from protocols.units import fmt
-    from protocols.reports import trend as trend_report
+    from views.reports import trend as trend_report
     kind = Path(args.out).suffix.lower().lstrip(".") if args.out else None
     if args.out and kind not in trend_report.FORMATS:
         raise UsageError(f"--out {args.out}: a figure is written as .{', .'.join(trend_report.FORMATS)}")
     with _connect(args) as c:
-        points = catalogue.trend(c, args.serial, args.quantity)
+        points = run_index.trend(c, args.serial, args.quantity)
     if not points:
         raise UsageError(f"no readable runs of serial {args.serial!r} in {args.dir}")
     units = args.units
@@ -123,17 +123,17 @@ def trend(args):
 
 def edit(args):
     """`dyno runs edit ID --serial/--operator/--note/--setup KEY=VALUE`: what was typed wrong
-    or left out at the run, in the recording's metadata and its catalogue row both."""
-    from protocols import catalogue
+    or left out at the run, in the recording's metadata and its run index row both."""
+    from views import run_index
     from records.recorder import edit_run_info
     changes = {k: v for k, v in (("damper_serial", args.serial), ("operator", args.operator), ("note", args.note))
                if v is not None}
     changes.update({f"setup.{k}": v for k, v in args.setup})
     if not changes:
         raise UsageError("runs edit: nothing to change: give --serial, --operator, --note or --setup KEY=VALUE")
-    with closing(catalogue.connect(_folder(args))) as c:
-        row, _ = catalogue.run(c, args.id)
+    with closing(run_index.connect(_folder(args))) as c:
+        row, _ = run_index.run(c, args.id)
         new = edit_run_info(row["path"], changes)
-        catalogue.index_file(c, row["path"])
+        run_index.index_file(c, row["path"])
     print(f"run {args.id} ({Path(row['path']).name}): " + ", ".join(f"{k} {new.get(k, '(removed)')}" for k in changes))
     return 0

@@ -1,4 +1,4 @@
-"""`dyno serve [DIR] [--port 8050]`: the browser view of a folder's runs (protocols/web),
+"""`dyno serve [DIR] [--port 8050]`: the browser view of a folder's runs (views/web),
 on 127.0.0.1 only, until Ctrl-C."""
 from __future__ import annotations
 
@@ -34,22 +34,22 @@ def _free(port):
 
 def run(args):
     from werkzeug.serving import make_server
-    from protocols import catalogue
-    from protocols.web import create_app
+    from views import run_index
+    from views.web import create_app
     folder = Path(args.dir)
     if not folder.is_dir():
         raise UsageError(f"{folder}: no such folder of recordings")
     _free(args.port)  # werkzeug would print its own two lines and exit
     try:
-        catalogue.index(folder)
-    except catalogue.CatalogueError as e:
+        run_index.index(folder)
+    except run_index.RunIndexError as e:
         print(f"dyno: {e}; serving what can be read", file=sys.stderr)
     try:
-        with closing(catalogue.connect(folder, write=False)) as c:
-            total, unreadable = catalogue.counts(c)
+        with closing(run_index.connect(folder, write=False)) as c:
+            total, unreadable = run_index.counts(c)
         found = f"{total} recordings ({unreadable} unreadable)"
-    except catalogue.CatalogueError:
-        found = "no readable catalogue (live runs only)"
+    except run_index.RunIndexError:
+        found = "no readable run index (live runs only)"
     cache = tempfile.mkdtemp(prefix="dyno-serve-")
     server = make_server("127.0.0.1", args.port, create_app(folder, args.units, cache), threaded=True)
     print(f"{folder}: {found}; "

@@ -55,7 +55,7 @@ HEADER = ("source", "case", "unit", "thesis model", "ours", "error", "tolerance"
 
 def _readings_table():
     from models.validation import readings
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     return md.table(("reading", "how the test is read", "seed line", "where the text is silent or contradicts"),
                     [(k, v["reading"], v["line"], v.get("ambiguity", "-")) for k, v in readings().items()])
 
@@ -64,7 +64,7 @@ def _report(path, kept):
     """The figures, written into a temporary folder that becomes `path` once all are done."""
     from models.validation import quarter_car
     from records.files import filled
-    from protocols.reports import validation as figures
+    from views.reports import validation as figures
     with filled(path, "--report") as folder:
         figures.plot_steps(kept["steps"], quarter_car.STEPS, folder / "steps.png", quarter_car.SETTLE_S)
         figures.plot_ride_height(kept["sweeps"], quarter_car.TABLE_6_6, folder / "ride-height.png")
@@ -75,7 +75,7 @@ def run(args):
     from models.validation import format_table, rows
     from commands.output import emit
     from records.files import output_folder
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     if args.report:  # checked before the minute of simulation, not after
         output_folder(args.report, overwrite=args.overwrite, what="--report")
     kept = {} if args.report else None

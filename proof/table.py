@@ -186,7 +186,7 @@ def markdown(header, cells, table, seeds, noise, budget=None, beyond=()):
     left out, the plant cannot take them."""
     from sim_backend.effects import FORMS
     from protocols.discover import MAX_ROUNDS
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     order = list(EFFECTS)
     used = sorted({(r.effect, r.form) for r in table if r.form not in (None, "default")},
                   key=lambda k: (order.index(k[0]) if k[0] in EFFECTS else 99, k[1]))

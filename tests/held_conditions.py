@@ -76,7 +76,7 @@ def tasks(data: Path):
 
 
 def markdown(rows):
-    import protocols.reports.markdown as md
+    import views.reports.markdown as md
     stamp = md.stamp().replace("`dyno ", "`python -m tests.held_conditions ")
     ok = [r for r in rows if r["error"] is not None]
     inside = [r["error"] for r in ok if not r["outside"]]

@@ -52,7 +52,7 @@ def main(argv=None):
         for row in rows:
             print(*row, sep="\t")
         return
-    import protocols.reports.markdown as md
+    import views.reports.markdown as md
     print("# The share a finding must hold in to be named")
     print(md.stamp().replace("`dyno ", "`python -m tests.held_share "))
     print(__doc__.split("\n\n")[0].replace("\n", " ") + f" {stability.SHIFTS * stability.DRAWS} judgements a "

@@ -61,7 +61,7 @@ def _row(doc):
 
 
 def markdown(results):
-    import protocols.reports.markdown as md
+    import views.reports.markdown as md
     stamp = md.stamp().replace("`dyno ", "`python -m tests.mr_table ")
     ok = [r for r in results if "error" not in r]
     rows = [(r["file"], r["coil"], f"{r['train_rmse']:.1f}", f"{r['rmse']:.1f}", f"{r['r2']:.4f}", r["samples"],

@@ -59,7 +59,7 @@ def main(argv=None):
         rows.append((f"{cell['rate'] / 1e3:g}", cell.get("colour", "white"), cell.get("loadcell_hz") or "-",
                      f"{1e6 * cell.get('misalign', 0.0):+g}", cell["law"], f"{cell['friction']:g}", seed,
                      ", ".join(accepted) or "-", ", ".join(wrong) or "-"))
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     summary = (f"{len(done)} recordings ({len(CELLS)} cells x {args.seeds} seed(s)); physics named that is not "
                f"there in {bad} ({100 * bad / len(done):.0f} %); goal (issue 44): at most 2 %.")
     body = md.table(("kHz", "noise", "load cell Hz", "misalign us", "valves", "friction N", "seed",

@@ -101,7 +101,7 @@ def main(argv=None):
                      f"{100 * explained:.0f} %",
                      (", ".join(dep) if dep else "-") + (f" (or {', '.join(others)})" if others else ""), lives,
                      "yes" if ok else "among its rivals" if in_group else "no"))
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     summary = "; ".join(f"{s}: {a} of {n} modelled and read right ({100 * a / max(n, 1):.0f} %), {g} with the "
                         f"right dependence among its rivals' ({100 * g / max(n, 1):.0f} %)"
                         for s, (a, g, n) in tally.items())

@@ -35,7 +35,7 @@ def one(task):
 
 
 def markdown(results):
-    import protocols.reports.markdown as md
+    import views.reports.markdown as md
     stamp = md.stamp().replace("`dyno ", "`python -m tests.prove_real ")
     done = [r for r in results if "rows" in r]
     hidden = list(dict.fromkeys(row["hidden"] for r in done for row in r["rows"]))

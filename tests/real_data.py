@@ -109,7 +109,7 @@ def one(task):
         if model:
             p, _ = _dyno(d, "check", rec, "--against", Path(d) / "x.minimal.json")
             out["codes"]["check"] = p.returncode
-            out["check"] = (p.stdout.strip().splitlines() or ["-"])[-2 if "catalogued" in p.stdout else -1] \
+            out["check"] = (p.stdout.strip().splitlines() or ["-"])[-2 if " indexed in " in p.stdout else -1] \
                 if p.returncode in (0, 1) else _said(p, d)
     return out
 
@@ -126,7 +126,7 @@ def _said_as(e):
 
 
 def markdown(results):
-    import protocols.reports.markdown as md
+    import views.reports.markdown as md
     stamp = md.stamp().replace("`dyno ", "`python -m tests.real_data ")
     header = ("file", "import", "segments", "velocity table [mm/s: N comp / N reb]", "identify held out",
               "diagnosis, last 15 % held out: baseline → final", "check against its own model")

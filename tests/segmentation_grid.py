@@ -6,7 +6,7 @@ docs/results/segmentation.md."""
 import argparse
 import time
 
-from protocols.reports import markdown as md
+from views.reports import markdown as md
 from records import segmentation
 from tests import programs as P
 

@@ -1,8 +1,9 @@
 """The layering and the size rules, checked on the source so they cannot silently erode.
 
 Layers import downward only:
-    commands -> proof -> protocols -> sim_backend -> models -> records -> rig -> workers
-    (the command line; prove and the benchmarks; plans, runner, cell, reports; the virtual
+    commands -> proof -> views -> protocols -> sim_backend -> models -> records -> rig -> workers
+    (the command line; prove and the benchmarks; finished recordings read for people (reports,
+    the web view, the run index, exports); a run's life (plans, runner, cell); the virtual
     cell; the physics; a run as data and its files; the cell's drivers and loop; work
     spread over the cores). workers imports none of the others, rig only workers, records
     only rig, models only records and workers (never rig itself); inside models, the
@@ -20,7 +21,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 # the rooms, bottom to top: each imports only those below it
-PACKAGES = ("workers", "rig", "records", "models", "sim_backend", "protocols", "proof", "commands")
+PACKAGES = ("workers", "rig", "records", "models", "sim_backend", "protocols", "views", "proof", "commands")
 ABOVE = {room: PACKAGES[i + 1:] for i, room in enumerate(PACKAGES)}
 FORBIDDEN = {  # importer prefix -> imported prefixes it must not use
     **ABOVE,
@@ -33,6 +34,11 @@ FORBIDDEN = {  # importer prefix -> imported prefixes it must not use
     "models.identify": ("models.diagnose", "models.quarter_car", "models.validation"),
     "models.diagnose": ("models.identify", "models.quarter_car", "models.validation"),
     "sim_backend": (*ABOVE["sim_backend"], "models.diagnose"),  # the plant hides physics it knows itself
+    # the reading room reads what a run wrote: it may name a protocol's units or constants,
+    # never the machinery that runs one
+    "views": (*ABOVE["views"], "protocols.runner", "protocols.cell", "protocols.live", "protocols.live_diagnose",
+              "protocols.live_identify", "protocols.preflight", "protocols.discover", "protocols.commissioning",
+              "protocols.rehearsal", "protocols.recorded", "protocols.segment_feed", "protocols.cluster"),
 }
 MAX_FILE_LINES = 450
 MAX_FUNCTION_LINES = 80
@@ -152,7 +158,7 @@ def test_no_command_imports_another_command():
 
 
 HEAVY = ("scipy", "numba", "matplotlib", "mcap", "rerun", "flask", "werkzeug", "jinja2", "can", "serial", "pymodbus",
-         "models.diagnose", "models.identify", "sim_backend", "protocols.runner", "protocols.reports.recording")
+         "models.diagnose", "models.identify", "sim_backend", "protocols.runner", "views.reports.recording")
 
 
 def test_each_command_declares_its_arguments_and_building_the_parser_stays_light():
@@ -188,13 +194,13 @@ def test_every_command_only_parses_calls_and_prints():
 
 
 def test_no_application_code_opens_a_simulator_file():
-    """A real cell reads only its own files: no path in rig/, records/, models/, protocols/ or
-    commands/ names a file of sim_backend/ (the simulator opens its own, in its functions;
+    """A real cell reads only its own files: no path in rig/, records/, models/, protocols/,
+    views/ or commands/ names a file of sim_backend/ (the simulator opens its own, in its functions;
     proof/ is the simulator's harness). Sentences may name one."""
     own = {p.name for p in (ROOT / "sim_backend").rglob("*.toml")}
     bad = []
     for path in sources():
-        if path.relative_to(ROOT).parts[0] in ("rig", "records", "models", "protocols", "commands"):
+        if path.relative_to(ROOT).parts[0] in ("rig", "records", "models", "protocols", "views", "commands"):
             for n in ast.walk(ast.parse(path.read_text())):
                 path_like = isinstance(n, ast.Constant) and isinstance(n.value, str) and not re.search(r"\s", n.value)
                 if (path_like and (n.value.rpartition("/")[2] in own or "sim_backend/" in n.value)
@@ -229,10 +235,10 @@ def test_no_reader_of_an_event_uses_a_string_key():
     assert keyed_reads(ast.parse('a = e["kind"]\nb = e.get("message", "")\ne["kind"] = 1'), EVENT_KEYS) == [1, 2]
 
 
-def test_only_the_catalogue_speaks_sql():
-    """The run catalogue owns its schema: every reader (the CLI, the web view) goes through
-    protocols/catalogue.py."""
-    bad = [f"{p.relative_to(ROOT)}" for p in sources() if p.name != "catalogue.py"
+def test_only_the_run_index_speaks_sql():
+    """The run index owns its schema: every reader (the CLI, the web view) goes through
+    views/run_index.py."""
+    bad = [f"{p.relative_to(ROOT)}" for p in sources() if p.relative_to(ROOT).as_posix() != "views/run_index.py"
            and re.search(r"\b(SELECT|INSERT INTO|UPDATE \w+ SET|DELETE FROM)\b", p.read_text())]
     assert not bad
 
@@ -274,6 +280,9 @@ def test_transports_are_named_only_in_their_registry():
     ("models.physics.kernel", "models", ["identify"], True),
     ("sim_backend.plant", "models.physics.simulate", ["Stepper"], False),
     ("rig.codecs.can", "rig.devices", ["TRANSPORTS"], True),
+    ("views.reports.hil", "protocols.library.replay", ["RECOVER_S"], False),
+    ("views.export", "protocols.runner", ["run_plan"], True),
+    ("protocols.runner", "views.reports", ["plots"], True),
 ])
 def test_the_layer_check_catches_what_it_should(mod, imported, names, caught):
     assert bool(violations(mod, [(imported, names)])) == caught

@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from protocols.reports import peaks, qa
+from views.reports import peaks, qa
 from tests.conftest import dyno, recorded
 
 
@@ -59,7 +59,7 @@ def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_dam
     assert p.returncode == 1 and "FAIL" in p.stdout and " lbf, margin " in p.stdout, p.stdout + p.stderr
     p = dyno("check", str(rec), "--against", str(tmp_path / "none.mcap"))
     assert p.returncode == 2 and p.stderr.strip().endswith("none.mcap: no such file")
-    # each check made is a row of the catalogue beside the run: three verdicts, the last a FAIL
+    # each check made is a row of the run index beside the run: three verdicts, the last a FAIL
     p = dyno("runs", "list", str(tmp_path), "--json")
     run_id = json.loads(p.stdout)[0]["id"]
     p = dyno("runs", "show", str(run_id), str(tmp_path), "--json")
@@ -71,7 +71,7 @@ def test_dyno_check_passes_a_run_against_itself_and_fails_it_against_another_dam
 def test_a_run_is_checked_against_a_force_velocity_table_a_spec_sheet_or_a_reports_csv(tmp_path):
     """A customer's spec sheet or another dyno's export: the run's force at the table's own
     speeds; the report's velocity.csv as a table gives the run back exactly."""
-    from protocols.reports.recording import report
+    from views.reports.recording import report
     rec, _ = recorded(tmp_path / "k.mcap", "sine-matrix", {"amplitudes_mm": [12.7], "freqs_hz": [1.0, 4.0],
                                                           "record_cycles": 2})
     report(rec, tmp_path / "report")
@@ -145,7 +145,7 @@ def _one_speed(top, c):
 def test_one_speed_runs_are_read_along_the_stroke_and_a_slow_one_at_its_own_speeds():
     run, ref = [_one_speed(0.3, 1000.0)], [_one_speed(0.3, 1030.0)]
     out = qa.verdicts(run, ref, qa.parse_tolerance("5%"))
-    from protocols.reports.velocity_table import standard_speeds
+    from views.reports.velocity_table import standard_speeds
     assert [r.v_m_s for r in out[::2]] == [s for s in standard_speeds() if s <= 0.3]  # never past the top
     assert all(r.passed for r in out) and out[0].measured_N == pytest.approx(1000.0 * out[0].v_m_s)
     assert not any(r.passed for r in qa.verdicts(run, [_one_speed(0.3, 1200.0)], qa.parse_tolerance("5%")))
@@ -154,20 +154,20 @@ def test_one_speed_runs_are_read_along_the_stroke_and_a_slow_one_at_its_own_spee
     assert [r.v_m_s for r in out[::2]] == pytest.approx([0.003, 0.006, 0.009]) and all(r.passed for r in out)
 
 
-def test_a_catalogued_one_speed_run_trends_as_unmeasured_not_as_an_error():
-    """The catalogue keeps a run's peaks, not its strokes: a one-speed run's force at a speed
+def test_an_indexed_one_speed_run_trends_as_unmeasured_not_as_an_error():
+    """The run index keeps a run's peaks, not its strokes: a one-speed run's force at a speed
     is unknown there (nan), never an AttributeError in `runs trend`."""
-    from protocols.catalogue import force_at
+    from views.run_index import force_at
     row = {"segment": "sine 19 mm 1.05 Hz", "amplitude_mm": 19.0, "freq_hz": 1.05, "target_c": None,
            "v_comp": 0.125, "F_comp": 500.0, "v_reb": -0.125, "F_reb": -400.0}
     assert np.isnan(force_at([row], "compression", 0.1))
 
 
-def test_a_catalogued_run_trends_its_first_run_of_a_differing_test_and_a_random_input_without_an_amplitude():
+def test_an_indexed_run_trends_its_first_run_of_a_differing_test_and_a_random_input_without_an_amplitude():
     """`runs trend` reads a run's force as its velocity table does: of a test whose repeats
     differ (a coil current changed), the first run's; a random input's row, whose amplitude
     SQLite keeps as null, is read too."""
-    from protocols.catalogue import force_at
+    from views.run_index import force_at
 
     def row(segment, amplitude, freq, F):
         return {"segment": segment, "amplitude_mm": amplitude, "freq_hz": freq, "target_c": None, "v_comp": 0.09,

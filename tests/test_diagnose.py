@@ -97,11 +97,11 @@ def test_cli_json_and_summary(recordings, tmp_path):
     # (against the noise read from one fold's model, 1.5 N, frequency-dependent damping is a rival too)
     assert doc["next"][0]["other"][:2] == ["alignment", "fluid_inertia"]
     assert all(p["command"].startswith("dyno run sine-matrix ") and p["why"] for p in doc["next"])
-    # the run's catalogue keeps what the diagnosis found (dyno runs show)
-    from protocols import catalogue
-    with catalogue.beside(recordings["lag"]) as c:
+    # the run index keeps what the diagnosis found (dyno runs show)
+    from views import run_index
+    with run_index.beside(recordings["lag"]) as c:
         run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(recordings["lag"].resolve()),)).fetchone()["id"]
-        kept = catalogue.attached(c, "diagnoses", run_id)[-1]
+        kept = run_index.attached(c, "diagnoses", run_id)[-1]
     assert json.loads(kept["accepted"]) == doc["accepted"] and kept["baseline"] == "minimal"
     assert json.loads(kept["findings"])[0]["effect"] == "sensor_delay" and "tau" in json.loads(kept["findings"])[0]["parameters"]
 

@@ -333,7 +333,7 @@ def test_tests_exported_one_after_another_each_from_time_zero(tmp_path):
             "sine 19 mm 2.1 Hz (4 cycles)") in r.stdout, r.stdout
     t = channels["x"][0]
     assert np.all(np.diff(t) > 0) and abs(t[-1] - (sum(len(p[0]) for p in parts) - 1) / RATE) < 1e-3
-    from protocols.reports.recording import report  # said again to whoever reads the report later
+    from views.reports.recording import report  # said again to whoever reads the report later
     index, _ = report(tmp_path / "x.mcap", tmp_path / "report")
     assert "What the import said of the file:" in index.read_text() and "it restarts 2 times" in index.read_text()
     t, x, F = crank()
@@ -476,7 +476,7 @@ def test_the_other_sign_convention_is_named_in_one_line_and_flipped(tmp_path):
     for command in (["identify", tmp_path / "x.mcap", "--damper", "koni", "--out", tmp_path / "m.json"],
                     ["diagnose", tmp_path / "x.mcap"], ["check", tmp_path / "x.mcap", "--against", "koni"]):
         one_line_error(dyno(*command), "other sign convention", "--flip force")
-    from protocols.reports.recording import report  # drawn as it is, and said so above its tables
+    from views.reports.recording import report  # drawn as it is, and said so above its tables
     index, _ = report(tmp_path / "x.mcap", tmp_path / "report")
     assert "Sign convention: the damper would give back" in index.read_text()
     r = dyno("import", src, "--inspect")
@@ -577,7 +577,7 @@ def test_a_load_cell_offset_the_file_kept_is_said_with_its_tare(tmp_path):
     assert r.returncode == 0 and len(said) == 1 and "a load cell's offset the file kept" in said[0], r.stdout
     low = float(said[0].split("reads at least ")[1].split(" N low")[0])
     assert abs(low - (600 - np.mean(150 + 800 * x))) < 30 and f"--offset force={low:.0f}" in said[0]
-    from protocols.reports.recording import report
+    from views.reports.recording import report
     index, _ = report(tmp_path / "x.mcap", tmp_path / "report")
     assert "compression peak (127 mm/s) the force reads -65" in index.read_text()
 
@@ -834,16 +834,16 @@ def test_a_negative_fitted_mass_is_not_printed_as_measured(tmp_path):
     # below the floor physics sets, or held at the range's end below it: either way no measurement
     assert float(line.split()[1]) < 0 and "undetermined" in line and "not measured" in line, line
     assert "fluid_inertia (its m_oil not measured)" in r.stdout
-    from protocols import catalogue
-    with catalogue.reading(tmp_path) as c:
-        (model,) = catalogue.attached(c, "models", catalogue.runs(c)[0]["id"])
+    from views import run_index
+    with run_index.reading(tmp_path) as c:
+        (model,) = run_index.attached(c, "models", run_index.runs(c)[0]["id"])
     assert "m_oil" not in json.loads(model["parameters"]) and "c1_c" in json.loads(model["parameters"])
 
 
 def test_a_model_that_does_not_predict_is_refused_or_kept_marked_poor(tmp_path):
     """A force whose noise is as large as the damper's own: the held-out error exceeds the
     limit, so no model is written (exit 1, saying why); --keep-poor writes it marked poor,
-    and the catalogue shows it so."""
+    and the run index shows it so."""
     t, x, F = crank(n=int(12 / 1.05 * RATE))
     F = F + np.random.default_rng(1).normal(0, 400.0, len(t))
     src = _written(tmp_path, "n.csv", "t,x,F\n" + "".join(f"{a:.5f},{1e3 * b:.4f},{c:.3f}\n"

@@ -286,37 +286,37 @@ def test_any_mcap_reads_or_gives_one_line(tmp_path_factory, data):
         assert all(isinstance(e.t, (int, float)) and isinstance(e.kind, str) for e in events)
 
 
-# issue 42: the catalogue, its --where parser, the web view's query strings, roads and targets
+# issue 42: the run index, its --where parser, the web view's query strings, roads and targets
 
-_CATALOGUE = []
+_RUN_INDEX = []
 
 
-def _catalogue_folder(tmp_path_factory):
+def _run_index_folder(tmp_path_factory):
     """A folder with two recordings indexed, a check attached: made once, copied by the
     tests that change it."""
-    if not _CATALOGUE:
-        from protocols import catalogue
+    if not _RUN_INDEX:
+        from views import run_index
         folder = tmp_path_factory.mktemp("catalogue")
         _good_mcap(folder)
-        catalogue.index(folder)
-        with catalogue.beside(folder / "good.mcap") as c:
+        run_index.index(folder)
+        with run_index.beside(folder / "good.mcap") as c:
             c.execute("UPDATE runs SET serial = 'K-12', setup = '{\"clicks\": 12}'")
             c.commit()
-        _CATALOGUE.append(folder)
-    return _CATALOGUE[0]
+        _RUN_INDEX.append(folder)
+    return _RUN_INDEX[0]
 
 
 @FUZZ
 @given(st.data())
-def test_any_catalogue_file_reads_or_gives_one_line(tmp_path_factory, data):
-    """A catalogue file torn, garbled or of another program: read or refused in one line,
+def test_any_run_index_file_reads_or_gives_one_line(tmp_path_factory, data):
+    """A run index file torn, garbled or of another program: read or refused in one line,
     never changed by reading."""
     import shutil
     import sqlite3
 
-    from protocols import catalogue
+    from views import run_index
     folder = tmp_path_factory.mktemp("cat")
-    db = folder / catalogue.DB_NAME
+    db = folder / run_index.DB_NAME
     how = data.draw(st.sampled_from(["flip", "cut", "foreign", "bytes"]))
     if how == "foreign":
         with contextlib.closing(sqlite3.connect(db)) as c:
@@ -326,19 +326,19 @@ def test_any_catalogue_file_reads_or_gives_one_line(tmp_path_factory, data):
     elif how == "bytes":
         db.write_bytes(data.draw(st.binary(max_size=2048)))
     else:
-        shutil.copy(_catalogue_folder(tmp_path_factory) / catalogue.DB_NAME, db)
+        shutil.copy(_run_index_folder(tmp_path_factory) / run_index.DB_NAME, db)
         _spoil(db, data, how, 16)
 
     def look(_):  # as runs list, show and trend and the web view read it
-        with catalogue.reading(folder) as c:
-            rows = catalogue.runs(c, serial=data.draw(st.sampled_from([None, "K-12"])))
+        with run_index.reading(folder) as c:
+            rows = run_index.runs(c, serial=data.draw(st.sampled_from([None, "K-12"])))
             for r in rows:
-                catalogue.run(c, r["id"])
-            catalogue.trend(c, "K-12", "rebound@0.1m/s")
+                run_index.run(c, r["id"])
+            run_index.trend(c, "K-12", "rebound@0.1m/s")
             return rows
     read(db, look)
     if how in ("foreign", "bytes"):  # not ours: not put in WAL mode, no journal made (ours is in WAL mode)
-        assert sorted(p.name for p in folder.iterdir()) == [catalogue.DB_NAME]
+        assert sorted(p.name for p in folder.iterdir()) == [run_index.DB_NAME]
 
 
 @FUZZ
@@ -348,13 +348,13 @@ def test_any_catalogue_file_reads_or_gives_one_line(tmp_path_factory, data):
     st.one_of(WORDS, NUMBERS.map(str), st.text(max_size=6).map(lambda s: f'"{s}"'))), max_size=6).map(
     lambda terms: " and ".join(f"{f} {o} {v}" for f, o, v in terms)))
 def test_any_where_filter_parses_or_gives_one_line(tmp_path_factory, text):
-    """--where: valid SQL the catalogue runs, or a CatalogueError naming the term."""
-    from protocols import catalogue
-    folder = _catalogue_folder(tmp_path_factory)
+    """--where: valid SQL the run index runs, or a RunIndexError naming the term."""
+    from views import run_index
+    folder = _run_index_folder(tmp_path_factory)
     try:
-        with catalogue.reading(folder) as c, within():
-            catalogue.runs(c, where=text)
-    except catalogue.CatalogueError as e:
+        with run_index.reading(folder) as c, within():
+            run_index.runs(c, where=text)
+    except run_index.RunIndexError as e:
         refused_in_one_line(e)
 
 
@@ -363,8 +363,8 @@ _APP = []
 
 def _client(tmp_path_factory):
     if not _APP:
-        from protocols.web import create_app
-        app = create_app(_catalogue_folder(tmp_path_factory), cache=tmp_path_factory.mktemp("cache"),
+        from views.web import create_app
+        app = create_app(_run_index_folder(tmp_path_factory), cache=tmp_path_factory.mktemp("cache"),
                          reindex_s=1e9)
         _APP.append(app.test_client())
     return _APP[0]

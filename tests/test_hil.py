@@ -145,7 +145,7 @@ def test_the_loop_reproduces_the_reference_with_a_known_damper_model(tmp_path):
     assert "hil-tracking.png" in page and "hil-responses.png" in page and "J2 [%]" in page
     assert "J2: how far the damper missed" in page  # the measures said where they are shown
     # in a team's units, travel from static equilibrium (it starts at rest: zero)
-    from protocols.reports import hil as hil_page
+    from views.reports import hil as hil_page
     from protocols.units import Units
     fig = hil_page._responses(ch, Units("us"))
     labels = [a.get_ylabel() for a in fig.axes if a.get_ylabel()]

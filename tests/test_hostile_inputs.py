@@ -623,9 +623,9 @@ def test_every_declared_output_refuses_an_existing_file_or_folder_before_any_wor
 
 
 def _serial(folder, serial="K-12"):
-    from protocols import catalogue
-    catalogue.index(folder)
-    with catalogue.beside(folder / "x") as c:
+    from views import run_index
+    run_index.index(folder)
+    with run_index.beside(folder / "x") as c:
         c.execute("UPDATE runs SET serial = ?", (serial,))
         c.commit()
 
@@ -650,13 +650,13 @@ def test_trend_out_never_replaces_a_file_nor_follows_a_link(files):
 
 
 def test_reindexing_a_changed_recording_keeps_its_checks_models_and_diagnoses(files):
-    from protocols import catalogue
-    catalogue.index(files.folder)
+    from views import run_index
+    run_index.index(files.folder)
     verdict = SimpleNamespace(passed=False, margin_N=-3.0)
-    assert "catalogued" in catalogue.add_check(files.rec, "koni", "5 %", [verdict])
-    catalogue.add_model(files.rec, files.folder / "m.json", 0.01, {"c": 1.0})
-    catalogue.add_diagnosis(files.rec, "minimal", ["free_play"], [], True)
-    with catalogue.beside(files.rec) as c:
+    assert "indexed in" in run_index.add_check(files.rec, "koni", "5 %", [verdict])
+    run_index.add_model(files.rec, files.folder / "m.json", 0.01, {"c": 1.0})
+    run_index.add_diagnosis(files.rec, "minimal", ["free_play"], [], True)
+    with run_index.beside(files.rec) as c:
         (run_id,) = c.execute("SELECT id FROM runs WHERE path = ?", (str(files.rec.resolve()),)).fetchone()
     os.utime(files.rec, (1, 1))  # touched: size or time changed, so it is read again
     assert " updated" in dyno("runs", "index", files.folder).stdout
@@ -675,12 +675,12 @@ def _not_ours(folder):
 
 
 @pytest.mark.parametrize("make, words", [
-    (_not_ours, "not a dyno run catalogue"),
+    (_not_ours, "not a dyno run index"),
     (lambda f: (f / "dyno-runs.sqlite").write_bytes(b"SQLite format 3\x00" + b"\xff" * 200), "not a readable"),
     (lambda f: (f / "dyno-runs.sqlite").mkdir(), "not a regular file"),
 ])
-def test_a_catalogue_not_ours_corrupt_or_misplaced_is_one_line_and_never_written(files, make, words):
-    from protocols.web import create_app
+def test_a_run_index_not_ours_corrupt_or_misplaced_is_one_line_and_never_written(files, make, words):
+    from views.web import create_app
     (files.folder / "dyno-runs.sqlite").unlink()  # the one `dyno import` made
     make(files.folder)
     db = files.folder / "dyno-runs.sqlite"
@@ -694,7 +694,7 @@ def test_a_catalogue_not_ours_corrupt_or_misplaced_is_one_line_and_never_written
     client = create_app(files.folder, cache=files.folder / "cache").test_client()
     page = client.get("/")
     assert page.status_code == 503 and words in page.get_data(as_text=True)
-    assert client.get("/live").status_code == 200  # what does not need the catalogue is still served
+    assert client.get("/live").status_code == 200  # what does not need the run index is still served
 
 
 def test_a_recording_being_written_is_left_alone_and_a_stale_lock_is_cleared(files, tmp_path):
@@ -853,7 +853,7 @@ def test_index_skips_link_loops_and_dangling_links(files):
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
 
 
-def test_dyno_serve_starts_on_a_catalogue_it_cannot_use_and_serves_the_live_view(files):
+def test_dyno_serve_starts_on_a_run_index_it_cannot_use_and_serves_the_live_view(files):
     import urllib.error
     import urllib.request
     (files.folder / "dyno-runs.sqlite").unlink()
@@ -863,13 +863,13 @@ def test_dyno_serve_starts_on_a_catalogue_it_cannot_use_and_serves_the_live_view
     try:
         line = p.stdout.readline()
         url = re.search(r"serving (http://127\.0\.0\.1:\d+/)", line).group(1)
-        assert "no readable catalogue (live runs only)" in line, line
+        assert "no readable run index (live runs only)" in line, line
         assert urllib.request.urlopen(url + "live", timeout=30).status == 200
         with pytest.raises(urllib.error.HTTPError) as page:
             urllib.request.urlopen(url, timeout=30)
-        assert page.value.code == 503 and "not a dyno run catalogue" in page.value.read().decode()
+        assert page.value.code == 503 and "not a dyno run index" in page.value.read().decode()
     finally:
         p.send_signal(signal.SIGINT)
         assert p.wait(30) == 0
     err = [line for line in p.stderr.read().splitlines() if not line.startswith("127.0.0.1 - - ")]  # werkzeug's log
-    assert len(err) == 1 and "not a dyno run catalogue" in err[0] and err[0].endswith("; serving what can be read"), err
+    assert len(err) == 1 and "not a dyno run index" in err[0] and err[0].endswith("; serving what can be read"), err

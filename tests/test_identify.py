@@ -251,8 +251,8 @@ def test_import_and_identify_with_missing_channels(koni_run, tmp_path):
     assert "T_body" in doc["steps"]["valves"]  # temperature coefficients skipped, channel named
     assert doc["steps"]["dynamic"].startswith("done")
     assert doc["heldout_nrmse"] < 0.05
-    # the recording's catalogue keeps the model made of it, and `dyno runs show` lists it
-    assert "model catalogued in" in q.stderr
+    # the recording's run index keeps the model made of it, and `dyno runs show` lists it
+    assert "model indexed in" in q.stderr
     shown = dyno("runs", "show", "1", str(tmp_path), "--json")
     assert shown.returncode == 0, shown.stderr
     model = json.loads(shown.stdout)["models"][-1]
@@ -364,7 +364,7 @@ def test_a_parameter_on_its_bound_is_flagged_not_shown_as_measured():
     """Issue 45: C_linw 999999.99 (the range ends at 1e6) was printed as identified."""
     from models.damper import load
     from models.identify.parameters import at_bounds
-    from protocols.identification import text
+    from views.identification import text
     d = load("koni")
     assert at_bounds(d) == []  # a zero that means "none" (no air, no pre-sliding travel) is no bound hit
     d.valves.piston.compression.mid.C_linw = 999999.99

@@ -39,8 +39,8 @@ def test_a_date_comes_from_the_data_or_is_said_unknown_and_import_order_sorts_th
     list and the trend, which takes the runs in the order imported, never the files' times
     (the first written last here). --start gives the date."""
     import os
-    from protocols import catalogue
-    from protocols.reports import trend as trend_report
+    from views import run_index
+    from views.reports import trend as trend_report
     text, F = _crank_csv(n=1500)
     files = []
     for k, gain in enumerate((1.0, 1.2, 1.4)):  # a damper's force rising run by run
@@ -57,8 +57,8 @@ def test_a_date_comes_from_the_data_or_is_said_unknown_and_import_order_sorts_th
     assert meta["run"]["wall_start"] == "unknown"
     listed = dyno("runs", "list", tmp_path).stdout
     assert listed.count("| unknown |") == 3 and "2001" not in listed and "1970" not in listed, listed
-    with catalogue.reading(tmp_path) as c:
-        points = catalogue.trend(c, "D7", "compression@0.1m/s")
+    with run_index.reading(tmp_path) as c:
+        points = run_index.trend(c, "D7", "compression@0.1m/s")
     assert [s for s, *_ in points] == [None] * 3
     forces = [F for _, F, _, _ in points]
     assert forces[0] < forces[1] < forces[2], forces  # as imported

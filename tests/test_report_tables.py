@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from records.data import Span
-from protocols.reports import peaks
-from protocols.reports.sines import force_temperature_figure
+from views.reports import peaks
+from views.reports.sines import force_temperature_figure
 
 
 def _peak(amp, freq, T, F, target=np.nan):
@@ -12,7 +12,7 @@ def _peak(amp, freq, T, F, target=np.nan):
 
 
 def test_the_comparison_pairs_segments_with_the_first_run_and_gives_each_against_it():
-    from protocols.reports.comparison import differences
+    from views.reports.comparison import differences
     a = [_peak(12.7, 4, 20, 1000.0), _peak(12.7, 8, 20, 2000.0), _peak(3.2, 4, 20, 500.0)]
     b = [_peak(12.7, 8, 21, 2200.0), _peak(12.7, 4, 21, 900.0), _peak(6.4, 4, 21, 700.0)]
     c = [_peak(3.2, 4, 22, 550.0)]
@@ -50,7 +50,7 @@ def test_the_csv_names_each_column_with_its_unit_in_every_unit_system(tmp_path):
 
 
 def test_the_velocity_table_interpolates_the_peaks_per_direction_and_never_extrapolates(tmp_path):
-    from protocols.reports import velocity_table as vt
+    from views.reports import velocity_table as vt
     from protocols.units import Units
     # peaks at 0.1-0.8 m/s (0.1 x freq), F = 1000 N per m/s in compression and 1.5x that in
     # rebound; two segments at nearly 0.4 m/s are one point; a sweep's hot segment is left out
@@ -99,9 +99,9 @@ def test_the_printed_report_is_typeset_text_with_headings_kept_with_their_tables
     """Issue 45: the PDF's peak table was set at about 4 pt with columns run together. Now
     WeasyPrint sets the page's own HTML: the table is text at 8 pt, 60 rows flow onto a
     second page with the header repeated, a heading never ends a page."""
-    from protocols.reports.page import Page, save
-    from protocols.reports.pdf import write_pdf
-    from protocols.reports.plots import plt
+    from views.reports.page import Page, save
+    from views.reports.pdf import write_pdf
+    from views.reports.plots import plt
     page = Page("Dyno report: x.mcap")
     page.paragraph("started (UTC): 2026-11-25 · damper serial: K-1")
     page.heading("Peak forces")
@@ -124,8 +124,8 @@ def test_the_printed_report_is_typeset_text_with_headings_kept_with_their_tables
 
 
 def test_a_clipped_or_overlapping_label_is_found_and_a_clean_figure_passes():
-    from protocols.reports.page import layout_problems
-    from protocols.reports.plots import plt
+    from views.reports.page import layout_problems
+    from views.reports.plots import plt
     fig, ax = plt.subplots(figsize=(3, 2))
     ax.set_ylabel("damping force (measured - gas - friction) [N], rebound as magnitude")
     assert any("is clipped by the figure's edge" in p for p in layout_problems(fig))
@@ -217,7 +217,7 @@ def test_segment_names_are_shown_in_the_chosen_units():
 
 def test_compared_loops_overlay_about_each_runs_mid_stroke(tmp_path, monkeypatch):
     """Two runs of one damper set up 10 mm apart: their force-displacement loops overlay."""
-    from protocols.reports import comparison
+    from views.reports import comparison
     figs = []
     monkeypatch.setattr(comparison, "save", lambda fig, path: figs.append(fig) or path.name)
     th = np.linspace(0, 2 * np.pi, 200)
@@ -233,8 +233,8 @@ def test_compared_loops_overlay_about_each_runs_mid_stroke(tmp_path, monkeypatch
 
 def test_without_weasyprint_the_pdf_is_still_written(tmp_path, monkeypatch):
     """A machine without the OS's Pango (make run on a bare one): a plainer PDF, not a failure."""
-    from protocols.reports import pdf
-    from protocols.reports.page import Page
+    from views.reports import pdf
+    from views.reports.page import Page
     monkeypatch.setattr(pdf, "_weasyprint", lambda: None)
     page = Page("Dyno report: bare.mcap")
     page.table(["segment", "F [N]"], [["sine 1", "100"]])
@@ -246,8 +246,8 @@ def test_a_saved_figure_is_checked_as_savefig_drew_it(tmp_path):
     and a label no layout can fit still fails the command (the suite's strict figures)."""
     import warnings
 
-    from protocols.reports.page import LayoutWarning, save
-    from protocols.reports.plots import plt
+    from views.reports.page import LayoutWarning, save
+    from views.reports.plots import plt
     fig, ax = plt.subplots(figsize=(1.5, 1.0))
     ax.set_ylabel("damping force (measured - gas - friction) [N], rebound as magnitude")
     with warnings.catch_warnings():
@@ -263,7 +263,7 @@ def test_many_amplitudes_share_panels_among_neighbours():
     """The UTFSM chirp: 32 segments, each its own amplitude as the actuator falls behind
     (1.88 to 0.68 mm), drew 32 panels side by side, 14,000 pixels wide. A sine matrix's
     amplitudes keep a panel each."""
-    from protocols.reports.sines import MOST_PANELS, panels, title
+    from views.reports.sines import MOST_PANELS, panels, title
     from protocols.units import Units
     assert panels([12.7, 3.2, 6.35, 3.2, 25.4]) == [[25.4], [12.7], [6.35], [3.2]]
     chirp = list(np.linspace(1.88, 0.675, 32))

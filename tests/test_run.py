@@ -199,7 +199,7 @@ def test_a_safety_trip_and_an_operator_stop_end_the_recording(tmp_path):
     assert [e["kind"] for e in events[-2:]] == ["fault", "run_end"]
     assert events[-2]["message"] == "T_body (tc): open thermocouple" == result.fault
     # the report of the tripped run shows its trace up to the trip, not "No measured segments"
-    from protocols.reports.recording import report
+    from views.reports.recording import report
     index, pngs = report(tmp_path / "r.mcap", tmp_path / "rep")
     assert "trace.png" in [p.name for p in pngs] and "to where it was stopped" in index.read_text()
     assert "No measured segments" not in index.read_text()
@@ -551,7 +551,7 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
     assert "No measured segments" not in html and "rise 10-90 % [ms]" in html and (tmp_path / "rep" / "steps.png").exists()
     from records.reader import load_recording
     from records.data import segments
-    from protocols.reports.recording import step_measures
+    from views.reports.recording import step_measures
     ch, events, _ = load_recording(out)
     rows = step_measures(ch, segments(events))
     # the 10 ms ramp through the 40 Hz servo: rise about the ramp's, settled within 100 ms, little overshoot
@@ -562,7 +562,7 @@ def test_report_of_a_step_run_measures_each_step(tmp_path):
 def test_every_figure_of_a_report_speaks_its_unit_system(koni_run, tmp_path, monkeypatch):
     import re
 
-    from protocols.reports import recording as page, sines
+    from views.reports import recording as page, sines
     from protocols.units import Units
     labels, save = {}, page.save
 

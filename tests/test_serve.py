@@ -1,4 +1,4 @@
-"""`dyno serve`: the run catalogue in a real browser (headless Chromium driven by
+"""`dyno serve`: the run index in a real browser (headless Chromium driven by
 Playwright, installed by `make test`): open the runs page, filter and search it, compare
 runs, see a QA verdict, a run's report, a trend, and a run while it is being recorded; a
 corrupt file is one row and breaks nothing."""
@@ -15,7 +15,7 @@ from records.events import Diagnosis, Fault, RunStart, SegmentEnd, SegmentStart,
 from commands.cli import main as dyno
 from tests import mcap_files
 from protocols.units import Units
-from protocols.web import create_app
+from views.web import create_app
 
 pytestmark = pytest.mark.xdist_group("browser")
 
@@ -254,7 +254,7 @@ def test_dyno_serve_serves_on_loopback_until_ctrl_c_and_refuses_a_busy_port(runs
 
 def test_a_recording_being_written_is_read_on_from_where_the_last_look_ended(tmp_path):
     from records.recorder import Recorder
-    from protocols.web.in_progress import Live
+    from views.web.in_progress import Live
     from rig import config as rig_config
     rec = Recorder(tmp_path / "r.mcap", rig_config.load("virtual"), "{}", "sine-matrix", {})
     try:

@@ -149,7 +149,7 @@ def test_a_calibration_date_is_a_date_and_is_recorded(sheet_run, tmp_path):
 def test_without_weasyprint_the_sheet_is_still_page_one(sheet_run, tmp_path, monkeypatch):
     """Where the OS has no Pango, matplotlib lays the PDF out: the sheet's facts on page 1,
     the appendix from page 2."""
-    from protocols.reports import pdf
+    from views.reports import pdf
     monkeypatch.setattr(pdf, "_weasyprint", lambda: None)
     r = dyno("report", sheet_run, "--out", tmp_path / "rep", "--against", "koni")
     assert r.returncode == 0, r.stderr

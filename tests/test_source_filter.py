@@ -124,7 +124,7 @@ def test_a_full_model_identified_through_the_declared_filter_fits_its_held_out_s
     # the report's and check's overlay of the damper itself along the smoothed recording goes
     # through the filter too: 10-14 N RMS from the recorded force, 43-50 N unfiltered
     from records.data import segments
-    from protocols.reports import peaks
+    from views.reports import peaks
     ch, events, meta = load_recording(tmp_path / "smoothed.mcap")
     through = peaks.along(d, ch, events, meta)
     assert isinstance(through, peaks.ThroughSource)

@@ -145,7 +145,7 @@ def test_a_fit_that_stops_at_its_step_limit_is_said_not_converged(monkeypatch):
     from models.diagnose.candidates import Minimal, Model
     from models.diagnose.design import Sine, motion
     from models.diagnose.words import summary
-    from protocols.reports.diagnosis import to_json
+    from views.reports.diagnosis import to_json
     from tests.test_diagnose import _sines_run
     d = motion(Sine(0.01, 2.0, 0.038), SimpleNamespace(T=None, aux={}))
     m = Model(d, base=Minimal(d))

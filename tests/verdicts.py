@@ -73,7 +73,7 @@ def one(task):
 
 
 def markdown(results):
-    import protocols.reports.markdown as md
+    import views.reports.markdown as md
     stamp = md.stamp().replace("`dyno ", "`python -m tests.verdicts ")
     same = lambda r, k: len({json.dumps(v[:k] if isinstance(v, list) else v) for v in r["ways"].values()}) == 1
     flips = {r["file"]: flipped(list(r["ways"].values())) for r in results}

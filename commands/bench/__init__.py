@@ -5,7 +5,7 @@ from __future__ import annotations
 from rig.errors import UsageError
 
 from commands.output import emit
-from protocols.reports import markdown as md
+from views.reports import markdown as md
 
 
 def sim(args):
@@ -127,4 +127,4 @@ def cluster(args):
 def catalogue(args):
     from proof.bench.catalogue import bench_catalogue, said
     r = bench_catalogue(args.runs, args.check_recording)
-    return emit(args, "Run catalogue at a season's size (dyno bench catalogue)", r, *said(r))
+    return emit(args, "Run index at a season's size (dyno bench catalogue)", r, *said(r))

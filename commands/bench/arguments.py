@@ -53,7 +53,7 @@ def add(sub):
                     help="prove runs (default 6, about a minute each)")
     bc.add_argument("--sweep-tasks", type=number(1, 10000, integer=True), default=60,
                     help="harmonic points (default 60)")
-    bk = _bench(bsub, "catalogue", help="the run catalogue and its browser view at 1,000 runs; dyno check's time")
+    bk = _bench(bsub, "catalogue", help="the run index and its browser view at 1,000 runs; dyno check's time")
     bk.add_argument("--runs", type=number(1, 100000, integer=True), default=1000, help="recordings (default 1000)")
     bk.add_argument("--check-recording", default=None,
                     help="a standard recording to time dyno check on (default: record one on the direct cell first)")

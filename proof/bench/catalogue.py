@@ -1,4 +1,4 @@
-"""`dyno bench catalogue`: the run catalogue at a season's size (issue 33's goals). N
+"""`dyno bench catalogue`: the run index at a season's size (issue 33's goals). N
 recordings made from four templates recorded on the direct cell (a short sine matrix on
 each of four dampers): each copy gets its own serial (one of 50) and start time, patched in
 place into the template's metadata at the same length, so every file is a distinct, valid
@@ -14,7 +14,8 @@ from pathlib import Path
 
 from rig import config as rig_config
 
-from protocols import catalogue, cell, runner
+from protocols import cell, runner
+from views import run_index
 from protocols.recorded import for_run
 from protocols.library import PROTOCOLS
 from protocols.plan import Plan
@@ -65,15 +66,15 @@ def _timed(fn, repeat=1):
 
 
 def bench_catalogue(n=1000, check_recording=None):
-    from protocols.web import create_app
+    from views.web import create_app
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d) / "runs"
         size = make_runs(folder, n)
-        index_s, first = _timed(lambda: catalogue.index(folder))
-        reindex_s, again = _timed(lambda: catalogue.index(folder))
-        with catalogue.connect(folder) as c:
-            list_s, rows = _timed(lambda: catalogue.runs(c, serial="S-0007", since="2026-03-01"), repeat=5)
-            where_s, _ = _timed(lambda: catalogue.runs(c, where="damper = koni and duration_s > 1"), repeat=5)
+        index_s, first = _timed(lambda: run_index.index(folder))
+        reindex_s, again = _timed(lambda: run_index.index(folder))
+        with run_index.connect(folder) as c:
+            list_s, rows = _timed(lambda: run_index.runs(c, serial="S-0007", since="2026-03-01"), repeat=5)
+            where_s, _ = _timed(lambda: run_index.runs(c, where="damper = koni and duration_s > 1"), repeat=5)
         app = create_app(folder, cache=Path(d) / "made")
         page_s, page = _timed(lambda: app.test_client().get("/"), repeat=3)  # the first includes the index's look
         browser_s = _in_browser(app)
@@ -120,26 +121,26 @@ def _in_browser(app):
 
 def _check_time(recording, folder):
     """Seconds of a QA check of a standard recording against itself (both read, as a
-    reference run would be), with the band's PNG and the catalogue's row; the recording
+    reference run would be), with the band's PNG and the run index's row; the recording
     made first on the direct cell and indexed, as `dyno run` leaves it, when none is given."""
-    from protocols.reports import qa
+    from views.reports import qa
     if recording is None:
         module = PROTOCOLS["standard"]
         recording, plan = folder / "standard.mcap", Plan(module, module.Params())
         with cell.direct(rig_config.load("virtual"), "koni") as c, closing(for_run(recording, c, plan)) as rec:
             runner.run_plan(plan, c, [rec])
-    catalogue.add(recording)
+    run_index.add(recording)
     t0 = time.perf_counter()
     tol = qa.parse_tolerance("5%")
     checked = qa.check(recording, recording, tol)
     qa.band_figure(checked.results, folder / "check.png", "bench", Units())
-    catalogue.add_check(recording, checked.reference, tol, checked.results)
+    run_index.add_check(recording, checked.reference, tol, checked.results)
     return time.perf_counter() - t0
 
 
 def said(r):
     """(text, Markdown table, note) of bench_catalogue's result against GOALS."""
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     met = r["goals_met"]
     rows = [("index every recording (cold)", f"{r['index_s']:.1f} s", f"< {GOALS['index_s']:g} s", met["index_s"]),
             ("index again, nothing new", f"{r['reindex_s']:.2f} s", f"< {GOALS['reindex_s']:g} s", met["reindex_s"]),
@@ -158,5 +159,5 @@ def said(r):
     note = (f"{r['runs']} recordings of {r['mb'] / r['runs']:.1f} MB each, made from four short sine matrices on "
             f"the direct cell (proof/bench/catalogue.py); the filtered list returned {r['listed']} runs; "
             f"the runs page is {r['page_kb']:.0f} kB of HTML; the check reads both recordings, draws its band and "
-            f"adds its row to the catalogue.")
+            f"adds its row to the run index.")
     return text, md.table(("measure", "measured", "goal", ""), table), note

@@ -109,7 +109,7 @@ def pct(v):
 
 def said(r):
     """(text, Markdown table, note) of bench()'s result."""
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     head = ("damper model", "road", "compensator", "J2", "delay [ms]", "residual delay [ms]", "body acc NRMSE",
             "travel NRMSE", "tire load NRMSE", "stopped by")
     rows = [(x["damper"], x["road"], x["compensator"], pct(x.get("j2")), f"{x.get('delay_ms', float('nan')):.2f}",

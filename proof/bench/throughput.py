@@ -134,11 +134,11 @@ IMPORT_REPEATS = 3
 def bench_import(rows=1_000_000):
     """Seconds `dyno import`'s work takes for a CSV of `rows` rows (time, displacement,
     force) written with date-time stamps and with plain seconds, end to end (read, convert,
-    record, catalogue; records/importing.py): the median of IMPORT_REPEATS imports in
+    record, run index; records/importing.py): the median of IMPORT_REPEATS imports in
     one process (the first also loads the modules), and the slowest."""
     from datetime import datetime, timedelta, timezone
 
-    from protocols import catalogue
+    from views import run_index
     from records.files import Claim
     from records.importing import Source, import_file
     t = np.arange(rows) / 1000.0
@@ -160,7 +160,7 @@ def bench_import(rows=1_000_000):
                 t0 = time.perf_counter()
                 claim = Claim(Path(d) / f"{src.stem}.mcap", overwrite=True, inputs=[src])
                 try:
-                    catalogue.add(import_file(Source(str(src), [time_map, "displacement=x:mm", "force=F:N"]),
+                    run_index.add(import_file(Source(str(src), [time_map, "displacement=x:mm", "force=F:N"]),
                                               claim).path)
                 finally:
                     claim.abandon()
@@ -177,7 +177,7 @@ ROUND_TRIP = ("P0", "V0", "gas_spring.gamma", "K_voil", "friction at mid-stroke,
 
 def identify_said(runs, truth):
     """(text, Markdown table, note) of bench_identify's runs (truth: against the damper run)."""
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     text = "\n".join(f"identify {r['damper']}: {r['wall_s']:.1f} s wall (goal < {r['goal_wall_s']:.0f} s: "
                      f"{'met' if r['goal_met'] else 'NOT met'}), held-out loop NRMSE {100 * r['heldout_nrmse']:.2f} %"
                      + (f", peak curve worst {100 * r['curve_max_rel_error']:.1f} %" if truth else "")
@@ -197,7 +197,7 @@ def identify_said(runs, truth):
 def diagnose_said(r, crank=False):
     """(title, text, Markdown body, note) of bench_diagnose's or the crank bench's result,
     with the diagnosis's stages."""
-    from protocols.reports import markdown as md
+    from views.reports import markdown as md
     if crank:
         text = (f"diagnosed {r['recording_s']:.0f} s of a slider-crank at {r['rate_hz']:.0f} Hz ({r['samples']} "
                 f"samples per channel, hidden: {', '.join(r['hidden'])}) in {r['diagnose_s']:.1f} s (goal < "

@@ -122,7 +122,7 @@ def _diagnose_again(path, took, stop):
     from records.data import segments
     from records.reader import load_recording
     from protocols.live_diagnose import diagnosed
-    from protocols.reports.peaks import recorded_damper
+    from views.reports.peaks import recorded_damper
     channels, events, meta = load_recording(path)
     damper = recorded_damper(meta)
     name, _, t0, t1 = segments(events, kinds=("sine",))[0]

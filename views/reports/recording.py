@@ -1,9 +1,9 @@
 """`dyno report FILE.mcap --out DIR [--model M]`: an HTML page with what a damper engineer
-expects (docs/report.md): the header, the peak-force table (protocols/reports/peaks.py,
+expects (docs/report.md): the header, the peak-force table (views/reports/peaks.py,
 also peaks.csv), loops and the composite damping-force curve with the model overlaid, peak
 force against temperature, gas force and friction from static holds, low-speed loops, a
 sweep's temperatures, step responses, and a hardware-in-the-loop run's tracking and car
-responses (protocols/reports/hil.py)."""
+responses (views/reports/hil.py)."""
 from __future__ import annotations
 
 import json
@@ -16,20 +16,20 @@ from records.data import segments, sign_problem
 from records.segmentation import BLOCK_KINDS, cut, division
 from records.reader import load_recording
 from models.identify.static import static_holds
-from protocols.reports import hil, peaks, sheet, sines, velocity_table as vt
-from protocols.reports.page import Page, save
-from protocols.reports.pdf import first_page_png, write_pdf
-from protocols.reports.plots import plt
+from views.reports import hil, peaks, sheet, sines, velocity_table as vt
+from views.reports.page import Page, save
+from views.reports.pdf import first_page_png, write_pdf
+from views.reports.plots import plt
 from protocols.units import Units, fmt
 
 
 def report(path, out_dir, model=None, speeds=None, paper="a4", units=Units(), check=None):
     """Write DIR/index.html with its PNGs, peaks.csv and velocity.csv, report.pdf (page 1 the
-    test sheet, protocols/reports/sheet.py; the rest its appendix) and sheet.png; model: a
+    test sheet, views/reports/sheet.py; the rest its appendix) and sheet.png; model: a
     damper model to overlay (the run's identified RECORDING.model.json when there is one);
     speeds [m/s]: the velocity table's (default velocities.toml); paper: report.pdf's, a4
     or letter; units: the tables', CSVs' and figures' unit system; check: (verdict
-    sentence, what it is against) for the sheet (protocols/reports/qa.py). (index, [PNG
+    sentence, what it is against) for the sheet (views/reports/qa.py). (index, [PNG
     paths])."""
     ch, events, meta = load_recording(path)
     out = Path(out_dir)

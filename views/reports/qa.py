@@ -22,10 +22,10 @@ from records.data import segments, sign_problem
 from records import spec_table
 from rig.errors import UsageError
 from records.reader import load_recording
-from protocols.reports import peaks
-from protocols.reports import velocity_table as vt
-from protocols.reports.plots import plt
-from protocols.reports.page import save
+from views.reports import peaks
+from views.reports import velocity_table as vt
+from views.reports.plots import plt
+from views.reports.page import save
 from protocols.units import Units, fmt, parse_with_unit
 
 
@@ -71,7 +71,7 @@ def parse_tolerance(text: str) -> Tolerance:
 
 
 def verdict(points: int, failed: int, outside=(), units=Units(), furthest=False) -> str:
-    """The one QA sentence (CLI, web, catalogue): "FAIL: 17 of 18 inside the band; 1 outside:
+    """The one QA sentence (CLI, web, run index): "FAIL: 17 of 18 inside the band; 1 outside:
     rebound at 500 mm/s, -4.1 % (-41 N)" (the force's size against the reference's: -4.1 %
     is weak; the force beside it, since a percentage of a reference near zero says little).
     outside: the failing Verdicts, when known; furthest: name only the one furthest outside

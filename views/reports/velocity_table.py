@@ -1,5 +1,5 @@
 """The dyno sheet's table: force per direction at standard shaft velocities, interpolated
-from the sine segments' peaks (protocols/reports/peaks.py), or, for a run of one speed (a
+from the sine segments' peaks (views/reports/peaks.py), or, for a run of one speed (a
 crank dyno's, or any single sine), read along its stroke: the force at each speed on the
 way up to the top speed, both halves of the cycle averaged. Speeds come from
 velocities.toml unless given. SI inside (m/s, N; compression positive, rebound
@@ -86,7 +86,7 @@ def _along_stroke(speeds, rows, field):
     that reached each speed), nan where none did."""
     comp, reb = np.full((2, len(rows), len(speeds)), np.nan)
     for i, p in enumerate(rows):
-        F = getattr(p, field, ())  # (the catalogue keeps peaks, not strokes: nothing to read)
+        F = getattr(p, field, ())  # (the run index keeps peaks, not strokes: nothing to read)
         if len(F):
             comp[i] = np.interp(speeds, p.stroke_v, F, left=np.nan, right=np.nan)
             reb[i] = np.interp(-speeds, p.stroke_v, F, left=np.nan, right=np.nan)

@@ -98,10 +98,10 @@ def templates():
 class Page:
     """Parts appended in order as data ((kind, payload) blocks), written as index.html
     through templates/page.html; the printable PDF reads the same blocks
-    (protocols/reports/pdf.py)."""
+    (views/reports/pdf.py)."""
 
     def __init__(self, title: str, sheet=None, meta=()):
-        """sheet: the test sheet (protocols/reports/sheet.py) the page opens with, the rest its
+        """sheet: the test sheet (views/reports/sheet.py) the page opens with, the rest its
         appendix; meta: [(name, content)] of the document (author, description,
         dcterms.created: the PDF's Author, Subject and CreationDate)."""
         self.title, self.sheet, self.meta = title, sheet, list(meta)
@@ -126,7 +126,7 @@ class Page:
         self.blocks.append(("figure", (png, title, caption(png))))
 
     def html(self) -> str:
-        # printed (protocols/reports/pdf.py): the header repeats on each page; a short table is kept whole
+        # printed (views/reports/pdf.py): the header repeats on each page; a short table is kept whole
         return templates().get_template("page.html").render(title=self.title, style=STYLE, blocks=self.blocks,
                                                             short_table=SHORT_TABLE, sheet=self.sheet, meta=self.meta)
 

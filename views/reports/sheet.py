@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from records.recorder import software
-from protocols.reports.velocity_table import html_table
+from views.reports.velocity_table import html_table
 from protocols.units import Units, fmt
 
 NOT_GIVEN = "not given"
@@ -51,7 +51,7 @@ class Sheet:
         return None if self.verdict is None else self.verdict.startswith("PASS")
 
     def blocks(self):
-        """The sheet as a page's plain blocks (protocols/reports/page.py), where it cannot be
+        """The sheet as a page's plain blocks (views/reports/page.py), where it cannot be
         typeset (the PDF's fallback without WeasyPrint)."""
         return [("items", [*self.identity, *self.test, *self.conditions,
                            ("verdict", f"{self.verdict}, against {self.reference}" if self.verdict else self.reference)]),
@@ -180,7 +180,7 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
     """The sheet of the recording at path (its metadata and channels already read); table:
     the velocity table ([VelocityRow]) or None, table_note: what it leaves out; curve: the force-velocity figure (title, PNG);
     gas_N: (lowest, highest) gas force of a static test [N]; check: (verdict sentence,
-    what it is against) from protocols/reports/qa.py, or None."""
+    what it is against) from views/reports/qa.py, or None."""
     identity, turns = _identity(meta), _at_turns(ch)  # the gas force at the turning points, read once
     named = [f"{'serial ' if k == 'serial' else ''}{v}" for k, v in identity[:2] if v != NOT_GIVEN]
     return Sheet(

@@ -189,7 +189,7 @@ def clean(o):
 
 def text(doc):
     from models.identify.parameters import bound_sentence
-    from protocols.reports.page import number
+    from views.reports.page import number
     lines = ["steps:"] + [f"  {k:10s} {v}" for k, v in doc["steps"].items()]
     if "parameters" in doc:
         lines.append("parameter                               identified        truth   error   95 % interval")

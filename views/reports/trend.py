@@ -1,5 +1,5 @@
 """A damper's force at one shaft speed over its runs (`dyno runs trend`, the browser view's
-trends): the catalogue's points as a figure."""
+trends): the run index's points as a figure."""
 from __future__ import annotations
 
 from datetime import datetime, timedelta
@@ -8,8 +8,8 @@ from pathlib import Path
 import matplotlib.dates as mdates
 import numpy as np
 
-from protocols.reports.page import save
-from protocols.reports.plots import plt
+from views.reports.page import save
+from views.reports.plots import plt
 from protocols.units import Units
 
 
@@ -23,7 +23,7 @@ def figure(points, serial, quantity, path, units=Units(), fmt=None):
     """points: [(started ISO, force [N], run id, setup text)]; the PNG (or fmt, one of
     FORMATS) at path (its name). Each point is labelled with its run and setup; the band is
     the runs' mean +- BAND_PCT. Where a run's start is unknown (None: a lab's file without a
-    date) the runs stand in the catalogue's order, never at a made-up date."""
+    date) the runs stand in the run index's order, never at a made-up date."""
     fig, ax = plt.subplots(figsize=(8, 4.2))
     dated = all(s is not None for s, *_ in points)
     ok = [(datetime.fromisoformat(s) if dated else k + 1, units.show("force", F), i, setup)
@@ -50,6 +50,6 @@ def figure(points, serial, quantity, path, units=Units(), fmt=None):
     ax.tick_params(axis="x", labelsize=8)
     ax.set_title(f"{serial}: {quantity}")
     ax.set_ylabel(units.label("force", "force"))
-    ax.set_xlabel("run started (UTC)" if dated else "run, in the order catalogued (not every run's date is known)")
+    ax.set_xlabel("run started (UTC)" if dated else "run, in the order indexed (not every run's date is known)")
     ax.grid(alpha=0.3)
     return save(fig, Path(path), fmt=fmt)

@@ -11,8 +11,8 @@ from records.events import Result, SegmentStart
 from records.data import segment_kind
 from models.quarter_car.hil import transmissibility
 from protocols.library.replay import RECOVER_S
-from protocols.reports.page import save
-from protocols.reports.plots import plt
+from views.reports.page import save
+from views.reports.plots import plt
 from protocols.units import Units
 
 HEADER = ("segment", "compensator", "J2 [%]", "delay [ms]", "probe delay [ms]", "residual delay [ms]",

@@ -1,4 +1,4 @@
-"""A sine run's figures in the report (protocols/reports/recording.py): the loops per
+"""A sine run's figures in the report (views/reports/recording.py): the loops per
 amplitude with the model's force dashed, the composite curve (peak force against peak
 velocity), a one-speed run's curve along its stroke, and peak force against temperature.
 A recording of many amplitudes (a chirp, another dyno's sweep) shares panels and series
@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from protocols.reports import peaks, velocity_table as vt
-from protocols.reports.page import save
-from protocols.reports.plots import plt
+from views.reports import peaks, velocity_table as vt
+from views.reports.page import save
+from views.reports.plots import plt
 from protocols.units import Units, amplitude
 
 

@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from protocols.reports.page import caption, save
+from views.reports.page import caption, save
 
 LEVELS = 3  # the command's levels drawn apart: its range cut in equal thirds
 

@@ -15,12 +15,12 @@ import numpy as np
 
 from records.data import SAME_TEST_AMPLITUDE, SAME_TEST_FREQUENCY, SAME_TEST_K, near, segments, sign_problem
 from records.reader import load_recording
-from protocols.reports import peaks, qa, sheet
-from protocols.reports import velocity_table as vt
-from protocols.reports.page import Page, save
-from protocols.reports.pdf import first_page_png, write_pdf
-from protocols.reports.sines import SHEET_DPI, SHEET_RC
-from protocols.reports.plots import plt
+from views.reports import peaks, qa, sheet
+from views.reports import velocity_table as vt
+from views.reports.page import Page, save
+from views.reports.pdf import first_page_png, write_pdf
+from views.reports.sines import SHEET_DPI, SHEET_RC
+from views.reports.plots import plt
 from protocols.units import TOLERANCE, Units, amplitude, fmt
 
 MARKERS = "os^Dv<>p"  # one per amplitude

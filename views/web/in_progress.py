@@ -17,7 +17,7 @@ from rig.errors import UsageError
 from records.files import writer
 from records.reader import read_event
 from records.recorder import intact_from
-from protocols.reports.comparison import run_name
+from views.reports.comparison import run_name
 from protocols.units import Units, quantity_of
 
 PLOTTED = ("force", "x", "v")  # the channels the live page plots, kept for KEEP_S
@@ -169,7 +169,7 @@ class Live:
         """The recording's damper model's force [N] along the motion (incompressible: no
         state to settle, quick enough for every refresh), or None without a full model."""
         from models.physics.simulate import simulate
-        from protocols.reports.peaks import recorded_damper
+        from views.reports.peaks import recorded_damper
         damper = recorded_damper(self.meta)
         if damper is None:
             return None

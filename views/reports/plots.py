@@ -15,7 +15,7 @@ import numpy as np
 
 from models.damper import Damper
 from models.physics.simulate import C_to_K, simulate, sine
-from protocols.reports.page import save
+from views.reports.page import save
 
 AMPLITUDES = (0.0127, 0.0064, 0.0032, 0.0016)  # m, thesis test matrix (2.3.1.1)
 FREQUENCIES = (1.0, 2.0, 4.0, 8.0, 16.0)  # Hz

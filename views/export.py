@@ -78,7 +78,7 @@ def replay_target(path, channels, events, meta, segment=None):
     over one segment if named: the displacement a replay follows (protocols/library/replay.py),
     about the damper's mid-stroke (the mean position without a model)."""
     from records.data import segments
-    from protocols.reports.peaks import recorded_damper
+    from views.reports.peaks import recorded_damper
     if "x" not in channels or len(channels["x"][0]) < 2:
         raise UsageError(f"{path}: no position channel x to make a target of")
     t, x = channels["x"]

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from protocols.reports.plots import plt
-from protocols.reports.quarter_car import save_figure
+from views.reports.plots import plt
+from views.reports.quarter_car import save_figure
 
 MASSES = (("sprung", "y1", "C0"), ("unsprung", "y2", "C1"))
 

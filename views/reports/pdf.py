@@ -1,4 +1,4 @@
-"""The printable report: a Page (protocols/reports/page.py) typeset on A4 or Letter, in
+"""The printable report: a Page (views/reports/page.py) typeset on A4 or Letter, in
 landscape (a dyno sheet's peak table has fourteen columns), by
 WeasyPrint from the page's own HTML and a print stylesheet (tables as text at 8 pt,
 a heading kept with what follows it, figures fitted to the page). Where WeasyPrint cannot
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from matplotlib.backends.backend_pdf import PdfPages
 
-from protocols.reports.plots import plt
+from views.reports.plots import plt
 
 PAPER_IN = {"a4": (8.27, 11.69), "letter": (8.5, 11.0)}  # inches
 MARGIN_IN = 0.6

@@ -10,8 +10,8 @@ import numpy as np
 from models.identify import simulate_segment
 from models.identify.parameters import bound_sentence
 from models.statistics import nrmse
-from protocols.reports.plots import plt
-from protocols.reports.page import Page, number, save
+from views.reports.plots import plt
+from views.reports.page import Page, number, save
 
 
 def _loops(res, segs, title, path):

@@ -1,8 +1,8 @@
-"""The browser view of a folder of recordings (`dyno serve`, issue 33): the run catalogue's
+"""The browser view of a folder of recordings (`dyno serve`, issue 33): the run index's
 table to filter, sort and search; a run's report; runs overlaid; a serial's trend; the QA
 checks; and the runs being recorded now. Flask, with the report's own pages and figures
 (matplotlib) made on first view into a folder of the server's and kept while it runs.
-Read-only toward the rig: it reads recordings and the catalogue, and indexes new
+Read-only toward the rig: it reads recordings and the run index, and indexes new
 recordings as they appear.
 """
 from __future__ import annotations
@@ -22,13 +22,13 @@ from jinja2 import ChoiceLoader, FileSystemLoader
 
 from models.damper import DamperError
 from models.damper import load as load_damper
-from protocols import catalogue, catalogue_terms
-from protocols.reports import trend as trend_report
-from protocols.reports.comparison import compare
-from protocols.reports.page import TEMPLATES
-from protocols.reports.recording import report
+from views import run_index, run_terms
+from views.reports import trend as trend_report
+from views.reports.comparison import compare
+from views.reports.page import TEMPLATES
+from views.reports.recording import report
 from protocols.units import Units, fmt
-from protocols.web.in_progress import being_written, in_progress
+from views.web.in_progress import being_written, in_progress
 from rig.errors import RigError, UsageError
 
 REINDEX_S = 5.0  # new recordings show up on the runs page within this
@@ -46,19 +46,19 @@ class View:
     reindex_s: float
     made: threading.Lock = field(default_factory=threading.Lock)  # one at a time: matplotlib, two cores
     indexed_at: float = -1e9
-    problem: str | None = None  # why the catalogue cannot be indexed now (read-only, not ours, ...)
+    problem: str | None = None  # why the run index cannot be indexed now (read-only, not ours, ...)
 
     def db(self):
-        """The catalogue, read-only, with recordings new since the last look indexed
-        first; CatalogueError (a page saying why) when it cannot be read at all."""
+        """The run index, read-only, with recordings new since the last look indexed
+        first; RunIndexError (a page saying why) when it cannot be read at all."""
         if time.monotonic() - self.indexed_at >= self.reindex_s:
             try:
-                catalogue.index(self.folder)
+                run_index.index(self.folder)
                 self.problem = None
-            except catalogue.CatalogueError as e:
+            except run_index.RunIndexError as e:
                 self.problem = str(e)
             self.indexed_at = time.monotonic()
-        return catalogue.reading(self.folder)
+        return run_index.reading(self.folder)
 
     def page(self, kind, paths, make):
         """The URL of a page made by make(folder) for these recordings, made first if they
@@ -79,7 +79,7 @@ def create_app(folder, units=Units(), cache=None, reindex_s=REINDEX_S) -> Flask:
     """The view of `folder`'s recordings; made pages and figures go to `cache` (a new
     temporary folder by default); new recordings are indexed at most every reindex_s."""
     app = Flask(__name__)
-    # the reports' page parts (protocols/reports/templates/blocks.html) are the web view's too
+    # the reports' page parts (views/reports/templates/blocks.html) are the web view's too
     app.jinja_loader = ChoiceLoader([app.jinja_loader, FileSystemLoader(TEMPLATES)])
     app.config["VIEW"] = View(Path(folder).resolve(), units, Path(cache or tempfile.mkdtemp(prefix="dyno-serve-")),
                               reindex_s)
@@ -91,7 +91,7 @@ def create_app(folder, units=Units(), cache=None, reindex_s=REINDEX_S) -> Flask:
     app.add_template_filter(lambda args, key, desc: urlencode({**args, "sort": key, "desc": desc}), "urlencode_sort")
     app.context_processor(lambda: {"folder": view().folder, "units": view().units, "fmt": fmt,
                                    "live_count": len(being_written(view().folder)), "problem": view().problem})
-    app.register_error_handler(catalogue.CatalogueError, lambda e: (render_template("base.html", error=str(e)), 503))
+    app.register_error_handler(run_index.RunIndexError, lambda e: (render_template("base.html", error=str(e)), 503))
     return app
 
 
@@ -100,11 +100,11 @@ def runs():
     error, rows = None, []
     with view().db() as c:
         try:
-            rows = catalogue.runs(c, serial=a.get("serial") or None, since=a.get("since") or None,
+            rows = run_index.runs(c, serial=a.get("serial") or None, since=a.get("since") or None,
                                   protocol=a.get("protocol") or None, where=a.get("where") or None)
-        except catalogue.CatalogueError as e:
+        except run_index.RunIndexError as e:
             error = str(e)
-        checks, serials = catalogue.latest_checks(c), catalogue.serials(c)
+        checks, serials = run_index.latest_checks(c), run_index.serials(c)
     rows = [dict(r, qa=_verdict(checks.get(r["id"]))) for r in rows]
     q = a.get("q", "").strip().lower()
     if q:
@@ -120,10 +120,10 @@ def run(run_id):
     v = view()
     with v.db() as c:
         try:
-            row, peaks = catalogue.run(c, run_id)
-        except catalogue.CatalogueError:
+            row, peaks = run_index.run(c, run_id)
+        except run_index.RunIndexError:
             abort(404)
-        checks, models, diagnoses = (catalogue.attached(c, t, run_id) for t in ("checks", "models", "diagnoses"))
+        checks, models, diagnoses = (run_index.attached(c, t, run_id) for t in ("checks", "models", "diagnoses"))
     checks = [dict(k, verdict=_verdict(k)) for k in checks]
     made, error = None, row["error"]
     if not error:
@@ -134,7 +134,7 @@ def run(run_id):
             error = str(e).splitlines()[0]
     return render_template("run.html", row=row, setup=json.loads(row["setup"] or "{}"), peaks=peaks, checks=checks,
                            models=models, diagnoses=diagnoses, report=made, error=error,
-                           effects=catalogue_terms.diagnosis_words, quality=catalogue_terms.model_quality)
+                           effects=run_terms.diagnosis_words, quality=run_terms.model_quality)
 
 
 def comparison():
@@ -142,8 +142,8 @@ def comparison():
     with v.db() as c:
         chosen = []
         for i in request.args.getlist("id", type=int):
-            with contextlib.suppress(catalogue.CatalogueError):  # gone since the page was drawn
-                chosen.append(catalogue.run(c, i)[0])
+            with contextlib.suppress(run_index.RunIndexError):  # gone since the page was drawn
+                chosen.append(run_index.run(c, i)[0])
     chosen = [r for r in chosen if not r["error"]]
     error, made = None, None
     if len(chosen) < 2:
@@ -162,11 +162,11 @@ def trend():
     serial, quantity = request.args.get("serial", ""), request.args.get("quantity", "rebound@0.5m/s")
     points, error, png = [], None, None
     with v.db() as c:
-        serials = catalogue.serials(c)
+        serials = run_index.serials(c)
         if serial:
             try:
-                points = catalogue.trend(c, serial, quantity)
-            except catalogue.CatalogueError as e:
+                points = run_index.trend(c, serial, quantity)
+            except run_index.RunIndexError as e:
                 error = str(e)
     if points:
         png = f"trend-{hashlib.sha1(repr((serial, quantity, points)).encode()).hexdigest()[:16]}.png"
@@ -179,7 +179,7 @@ def trend():
 
 def qa():
     with view().db() as c:
-        rows = catalogue.checks(c)
+        rows = run_index.checks(c)
     return render_template("qa.html", rows=[dict(r, verdict=_verdict(r)) for r in rows])
 
 
@@ -198,7 +198,7 @@ def made_file(name):
 def _verdict(check) -> str:
     if check is None:
         return ""
-    from protocols.reports.qa import verdict
+    from views.reports.qa import verdict
     return verdict(check["points"], check["failed"])
 
 

@@ -1,6 +1,6 @@
-"""The run catalogue's terms, both ways: what a user asks it (`runs list --where`,
+"""The run index's terms, both ways: what a user asks it (`runs list --where`,
 `--since`, `runs trend --quantity`) parsed into SQL and SI, and how its rows are said (a
-diagnosis's named effects, a model's held-out error). protocols/catalogue.py reads and writes
+diagnosis's named effects, a model's held-out error). views/run_index.py reads and writes
 the file."""
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from rig.errors import UsageError
 from protocols.units import parse_with_unit
 
 
-class CatalogueError(UsageError, ValueError):
-    """A query the catalogue cannot answer, or a catalogue file it cannot use; the message
+class RunIndexError(UsageError, ValueError):
+    """A query the run index cannot answer, or a run index file it cannot use; the message
     says why in one line."""
 
 
@@ -27,17 +27,17 @@ TERM = re.compile(r"\s*(setup\.[\w.-]+|\w+)\s*(!=|<=|>=|=|<|>|~)\s*(\"[^\"]*\"|'
 def condition(text):
     """(SQL, arguments) of `dyno runs list --where`: terms FIELD OP VALUE joined by `and`;
     FIELD one of FIELDS or setup.KEY, OP one of = != < <= > >= ~ (contains), VALUE a
-    number or text (quoted if it has spaces). CatalogueError names what is wrong."""
+    number or text (quoted if it has spaces). RunIndexError names what is wrong."""
     sql, args = [], []
     parts = re.split(r"\s+and\s+", text.strip(), flags=re.I)
     if len(parts) > MAX_TERMS:
-        raise CatalogueError(f"--where: {len(parts)} conditions; at most {MAX_TERMS}")
+        raise RunIndexError(f"--where: {len(parts)} conditions; at most {MAX_TERMS}")
     if len(text) > MAX_WHERE_CHARS:
-        raise CatalogueError(f"--where: {len(text)} characters; at most {MAX_WHERE_CHARS}")
+        raise RunIndexError(f"--where: {len(text)} characters; at most {MAX_WHERE_CHARS}")
     for part in parts:
         m = TERM.fullmatch(part)
         if m is None:
-            raise CatalogueError(f"--where: {part!r} is not FIELD OP VALUE (OP one of {' '.join(OPS)})")
+            raise RunIndexError(f"--where: {part!r} is not FIELD OP VALUE (OP one of {' '.join(OPS)})")
         field, op, value = m.groups()
         value = value[1:-1] if value[:1] in "'\"" else value
         if field.startswith("setup."):
@@ -45,7 +45,7 @@ def condition(text):
         elif field in FIELDS:
             column, args_ = field, []
         else:
-            raise CatalogueError(f"--where: no field {field!r} (fields: {', '.join(FIELDS)}, setup.KEY)")
+            raise RunIndexError(f"--where: no field {field!r} (fields: {', '.join(FIELDS)}, setup.KEY)")
         try:
             number = float(value)
         except ValueError:
@@ -67,26 +67,26 @@ def quantity(text):
     or "compression@10in/s": any velocity unit units.toml names."""
     direction, at, speed_text = text.replace(" ", "").partition("@")
     if direction not in ("compression", "rebound") or not at:
-        raise CatalogueError(f"--quantity {text!r}: give DIRECTION@SPEED with a unit, e.g. rebound@0.5m/s "
+        raise RunIndexError(f"--quantity {text!r}: give DIRECTION@SPEED with a unit, e.g. rebound@0.5m/s "
                              f"(DIRECTION: compression or rebound)")
     try:
         speed = parse_with_unit("velocity", speed_text)
     except ValueError as e:
-        raise CatalogueError(f"--quantity {text!r}: the speed {e}") from None
+        raise RunIndexError(f"--quantity {text!r}: the speed {e}") from None
     if not 0 < speed <= MAX_SPEED:
-        raise CatalogueError(f"--quantity {text!r}: a speed above 0 and at most {MAX_SPEED:g} m/s")
+        raise RunIndexError(f"--quantity {text!r}: a speed above 0 and at most {MAX_SPEED:g} m/s")
     return direction, speed
 
 
 def since_time(text):
-    """A --since filter as the catalogue stores start times (ISO, UTC): a date or a date and
-    time; CatalogueError otherwise ("yesterday" matched nothing without a word)."""
+    """A --since filter as the run index stores start times (ISO, UTC): a date or a date and
+    time; RunIndexError otherwise ("yesterday" matched nothing without a word)."""
     if text is None:
         return None
     try:
         t = datetime.fromisoformat(text.strip())
     except ValueError:
-        raise CatalogueError(f"--since {text!r}: not a date: give YYYY-MM-DD or YYYY-MM-DDTHH:MM (UTC)") from None
+        raise RunIndexError(f"--since {text!r}: not a date: give YYYY-MM-DD or YYYY-MM-DDTHH:MM (UTC)") from None
     return (t.astimezone(timezone.utc) if t.tzinfo else t).isoformat()  # compared as the stored UTC text
 
 

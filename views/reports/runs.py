@@ -1,4 +1,4 @@
-"""The run catalogue (protocols/catalogue.py) as a person reads it: the list of runs, and
+"""The run index (views/run_index.py) as a person reads it: the list of runs, and
 one run's page (identity, setup, outcome, peaks, and the checks, models and diagnoses made
 of it), for `dyno runs list` and `dyno runs show`."""
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 from datetime import datetime, timezone
 from pathlib import Path
 
-from protocols.reports import markdown as md
+from views.reports import markdown as md
 
 LIST = ("id", "started", "serial", "damper", "protocol", "duration_s", "outcome", "path")
 
@@ -30,7 +30,7 @@ def run_list(rows) -> str:
 
 
 def _shown(key, value):
-    """A catalogue field as a person reads it: file times as UTC dates, durations in s."""
+    """A run index field as a person reads it: file times as UTC dates, durations in s."""
     if key == "mtime":
         return datetime.fromtimestamp(value, timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     if key == "started":
@@ -44,9 +44,9 @@ def _shown(key, value):
 
 
 def run_page(row, peaks, checks, models, diagnoses, units) -> str:
-    """One run's page: its catalogue row's fields, then its peaks, checks, models and
+    """One run's page: its run index row's fields, then its peaks, checks, models and
     diagnoses as tables, in the chosen units."""
-    from protocols import catalogue_terms
+    from views import run_terms
     from protocols.units import fmt
     out = [f"{k:11s} {_shown(k, row[k])}" for k in row.keys() if row[k] not in (None, "", "{}")]
     V, F = (lambda si, q=q: fmt(units.show(q, si)) for q in ("velocity", "force"))
@@ -56,7 +56,7 @@ def run_page(row, peaks, checks, models, diagnoses, units) -> str:
                                                          ("v reb", "velocity"), ("F reb", "force")))),
             [(p["segment"], V(p["v_comp"]), F(p["F_comp"]), V(p["v_reb"]), F(p["F_reb"])) for p in peaks]))
     if checks:
-        from protocols.reports.qa import verdict
+        from views.reports.qa import verdict
         out.append("\n" + md.table(
             ("checked (UTC)", "against", "tolerance", "verdict", units.label("worst margin", "force")),
             [(k["checked"], k["reference"], k["tolerance"], verdict(k["points"], k["failed"]), F(k["worst_margin_n"]))
@@ -64,10 +64,10 @@ def run_page(row, peaks, checks, models, diagnoses, units) -> str:
     if models:
         out.append("\n" + md.table(
             ("identified (UTC)", "model", "held-out NRMSE [%]"),
-            [(m["identified"], m["model"], catalogue_terms.model_quality(m["heldout_nrmse"])) for m in models]))
+            [(m["identified"], m["model"], run_terms.model_quality(m["heldout_nrmse"])) for m in models]))
     if diagnoses:
         out.append("\n" + md.table(
             ("diagnosed (UTC)", "baseline", "effects", "left over"),
-            [(d["diagnosed"], d["baseline"], catalogue_terms.diagnosis_words(d),
+            [(d["diagnosed"], d["baseline"], run_terms.diagnosis_words(d),
               "within the noise" if d["within_noise"] else "above the noise") for d in diagnoses]))
     return "\n".join(out)

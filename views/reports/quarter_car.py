@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from protocols.reports.page import save
-from protocols.reports.plots import plt
+from views.reports.page import save
+from views.reports.plots import plt
 
 # (metric, axis label, scale) of the frequency-response panels
 PANELS = (

@@ -1,9 +1,9 @@
-"""The run catalogue: one SQLite file beside the recordings (WAL, no server) indexing each
+"""The run index: one SQLite file beside the recordings (WAL, no server) indexing each
 recording's identity, setup, protocol, duration, outcome and sine peaks, and what was made of
 it later (QA checks, models, diagnoses). Readers (the CLI, the web view) use these functions:
 no SQL elsewhere. Indexing is incremental and idempotent; an unreadable file is a row with
 its error; each run is one transaction, safe beside other writers. What a user asks of it
-and how its rows are said: protocols/catalogue_terms.py. SI inside; times as ISO 8601 UTC."""
+and how its rows are said: views/run_terms.py. SI inside; times as ISO 8601 UTC."""
 from __future__ import annotations
 
 import json
@@ -23,9 +23,9 @@ from records.data import segments
 from records.files import writer
 from records.reader import load_recording
 from records.recorder import UNDATED
-from protocols.reports import peaks as peak_rows
-from protocols.reports import velocity_table as vt
-from protocols.catalogue_terms import CatalogueError, condition, quantity, since_time
+from views.reports import peaks as peak_rows
+from views.reports import velocity_table as vt
+from views.run_terms import RunIndexError, condition, quantity, since_time
 
 DB_NAME = "dyno-runs.sqlite"
 BUSY_MS = 10_000
@@ -63,7 +63,7 @@ class Indexed:
     writing: int = 0  # being recorded now: indexed once finished
 
 
-APPLICATION_ID = 0x44594E4F  # "DYNO": a catalogue this project made (PRAGMA application_id)
+APPLICATION_ID = 0x44594E4F  # "DYNO": a run index this project made (PRAGMA application_id)
 
 
 def _path(folder) -> Path:
@@ -71,7 +71,7 @@ def _path(folder) -> Path:
 
 
 def _refuse(db, why):
-    raise CatalogueError(f"{db}: {why}")
+    raise RunIndexError(f"{db}: {why}")
 
 
 def _text(b: bytes) -> str:
@@ -90,14 +90,14 @@ def _columns(c: sqlite3.Connection) -> dict[str, set]:
 
 with closing(sqlite3.connect(":memory:")) as _c:
     _c.executescript(SCHEMA)
-    COLUMNS_OF = _columns(_c)  # what a catalogue of ours holds: every table with at least these columns
-# columns a catalogue made by an earlier version lacks: added when it is next written (its
+    COLUMNS_OF = _columns(_c)  # what a run index of ours holds: every table with at least these columns
+# columns a run index made by an earlier version lacks: added when it is next written (its
 # runs then read again), read as missing until then (a one-speed run's force along the stroke)
 ADDED = {"peaks": {"stroke_v", "stroke_F"}}
 
 
 def _ours(c: sqlite3.Connection, db):
-    """CatalogueError unless the open database is a run catalogue of ours: its application
+    """RunIndexError unless the open database is a run index of ours: its application
     id (an older one has none) and every table of SCHEMA with its columns."""
     try:
         app_id = c.execute("PRAGMA application_id").fetchone()[0]
@@ -109,8 +109,8 @@ def _ours(c: sqlite3.Connection, db):
     if app_id in (0, APPLICATION_ID) and all(cols - ADDED.get(t, set()) <= have.get(t, set())
                                              for t, cols in COLUMNS_OF.items()):
         return
-    why = "a dyno run catalogue with tables or columns missing (damaged?)" if app_id == APPLICATION_ID else \
-        "a SQLite file that is not a dyno run catalogue"
+    why = "a dyno run index with tables or columns missing (damaged?)" if app_id == APPLICATION_ID else \
+        "a SQLite file that is not a dyno run index"
     _refuse(db, f"{why}; it is left as it is (move it, or index another folder)")
 
 
@@ -129,7 +129,7 @@ def _writing(c: sqlite3.Connection):
 
 
 def _wal(c: sqlite3.Connection):
-    """The catalogue in WAL mode (readers never wait for a writer). Switching a new file to it
+    """The run index in WAL mode (readers never wait for a writer). Switching a new file to it
     is refused at once, not after the busy wait, while another process holds it (SQLite's
     deadlock rule): tried again until BUSY_MS."""
     deadline = time.monotonic() + BUSY_MS / 1000
@@ -144,15 +144,15 @@ def _wal(c: sqlite3.Connection):
 
 
 def connect(folder, write=True) -> sqlite3.Connection:
-    """The catalogue of recordings in `folder`: created if missing when write, opened
-    read-only otherwise (a reader never changes the file). A file that is not a catalogue
-    of ours is never written: CatalogueError in one line, as for a corrupt, unreadable or
+    """The run index of recordings in `folder`: created if missing when write, opened
+    read-only otherwise (a reader never changes the file). A file that is not a run index
+    of ours is never written: RunIndexError in one line, as for a corrupt, unreadable or
     misplaced one."""
     db = _path(folder)
     if db.is_symlink() or (db.exists() and not db.is_file()):
         _refuse(db, "not a regular file (a folder, link or device); move it away")
     if not write and not db.exists():
-        _refuse(db, f"no run catalogue yet; run `dyno runs index {Path(folder)}`")
+        _refuse(db, f"no run index yet; run `dyno runs index {Path(folder)}`")
     if db.exists() and not os.access(db, os.R_OK):
         _refuse(db, "cannot read it (permission denied)")
     try:
@@ -194,13 +194,13 @@ def _add_columns(c: sqlite3.Connection):
 
 @contextmanager
 def reading(folder):
-    """The catalogue of folder opened read-only for the block, closed after; a page of it
-    that cannot be read (a torn or garbled file) is a CatalogueError in one line."""
+    """The run index of folder opened read-only for the block, closed after; a page of it
+    that cannot be read (a torn or garbled file) is a RunIndexError in one line."""
     c = connect(folder, write=False)
     try:
         yield c
     except (sqlite3.DatabaseError, UnicodeDecodeError) as e:
-        raise CatalogueError(f"{_path(folder)}: cannot read it ({_first(e)}); move it away and run `dyno runs index`") from None
+        raise RunIndexError(f"{_path(folder)}: cannot read it ({_first(e)}); move it away and run `dyno runs index`") from None
     finally:
         c.close()
 
@@ -239,7 +239,7 @@ def describe(path):
 
 
 def _dated(wall_start):
-    """The catalogue's start of a run: its UTC date-time, None (NULL) where unknown."""
+    """The run index's start of a run: its UTC date-time, None (NULL) where unknown."""
     return None if wall_start in (None, "", UNDATED) else wall_start
 
 
@@ -249,7 +249,7 @@ def _floats(a) -> str:
 
 
 def index(folder) -> Indexed:
-    """Index every *.mcap under folder (recursively) into its catalogue, but those a run
+    """Index every *.mcap under folder (recursively) into its run index, but those a run
     is writing now."""
     out = Indexed()
     with closing(connect(folder)) as c:
@@ -265,7 +265,7 @@ def index(folder) -> Indexed:
 def index_file(c: sqlite3.Connection, path) -> str:
     """Index one recording: "added", "updated", "unchanged" or "failed" (its error kept). A
     changed recording keeps its row, so its checks, models and diagnoses stay with it. Safe
-    beside other writers of the catalogue: the file is read outside the transaction, its row
+    beside other writers of the run index: the file is read outside the transaction, its row
     looked up and written inside one (the last writer's description stands)."""
     path = Path(path).resolve()
     st = path.stat()
@@ -295,7 +295,7 @@ def index_file(c: sqlite3.Connection, path) -> str:
 
 @contextmanager
 def beside(path):
-    """The catalogue of the folder a recording is in, closed after use."""
+    """The run index of the folder a recording is in, closed after use."""
     c = connect(Path(path).parent)
     try:
         yield c
@@ -304,21 +304,21 @@ def beside(path):
 
 
 def add(path) -> str:
-    """Index a recording just written (by dyno run, import or recover) into the catalogue
+    """Index a recording just written (by dyno run, import or recover) into the run index
     of its own folder; one line saying so, or why it could not be (the recording stands)."""
     path = Path(path)
     try:
         with beside(path) as c:
             outcome = index_file(c, path)
-    except CatalogueError as e:
-        return f"not catalogued ({e})"
+    except RunIndexError as e:
+        return f"not indexed ({e})"
     except (OSError, sqlite3.Error) as e:
-        return f"not catalogued ({path.parent / DB_NAME}: {e}); dyno runs index {path.parent} retries"
-    return f"catalogued in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
+        return f"not indexed ({path.parent / DB_NAME}: {e}); dyno runs index {path.parent} retries"
+    return f"indexed in {path.parent / DB_NAME}" + (" (unreadable: its error is kept)" if outcome == "failed" else "")
 
 
 def _attach(path, table, values, what) -> str:
-    """A row of `table` (run id, time now, values) about a recording, in the catalogue of its
+    """A row of `table` (run id, time now, values) about a recording, in the run index of its
     folder (the recording indexed first if it is not); one line saying so, or why it could
     not be (what was made stands)."""
     path = Path(path).resolve()
@@ -329,15 +329,15 @@ def _attach(path, table, values, what) -> str:
                 run_id = c.execute("SELECT id FROM runs WHERE path = ?", (str(path),)).fetchone()["id"]
                 c.execute(f"INSERT INTO {table} VALUES ({', '.join('?' * (len(values) + 2))})",
                           (run_id, datetime.now(timezone.utc).isoformat(timespec="seconds"), *values))
-    except CatalogueError as e:
-        return f"{what} not catalogued ({e})"
+    except RunIndexError as e:
+        return f"{what} not indexed ({e})"
     except (OSError, sqlite3.Error) as e:
-        return f"{what} not catalogued ({path.parent / DB_NAME}: {e})"
-    return f"{what} catalogued in {path.parent / DB_NAME} (run {run_id})"
+        return f"{what} not indexed ({path.parent / DB_NAME}: {e})"
+    return f"{what} indexed in {path.parent / DB_NAME} (run {run_id})"
 
 
 def add_check(path, reference, tolerance, verdicts) -> str:
-    """A `dyno check` of a recording, as a row of its catalogue."""
+    """A `dyno check` of a recording, as a row of its run index."""
     return _attach(path, "checks", (str(reference), str(tolerance), len(verdicts), sum(not v.passed for v in verdicts),
                                     min(v.margin_N for v in verdicts)), "check")
 
@@ -359,7 +359,7 @@ def add_diagnosis(path, baseline, accepted, findings, within_noise) -> str:
 def attached(c: sqlite3.Connection, table, run_id) -> list[sqlite3.Row]:
     """A run's rows of checks, models or diagnoses, oldest first."""
     if table not in ("checks", "models", "diagnoses"):
-        raise CatalogueError(f"no table {table!r}")
+        raise RunIndexError(f"no table {table!r}")
     return c.execute(f"SELECT * FROM {table} WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
 
 
@@ -379,12 +379,12 @@ def serials(c: sqlite3.Connection) -> list[str]:
 
 
 def counts(c: sqlite3.Connection) -> tuple[int, int]:
-    """(recordings, of them unreadable) in the catalogue."""
+    """(recordings, of them unreadable) in the run index."""
     return tuple(c.execute("SELECT COUNT(*), COUNT(error) FROM runs").fetchone())
 
 
 def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=None) -> list[sqlite3.Row]:
-    """The catalogue's runs, oldest first (undated ones last, in the order catalogued), filtered by serial, start (ISO date or time,
+    """The run index's runs, oldest first (undated ones last, in the order indexed), filtered by serial, start (ISO date or time,
     UTC), protocol and a `where` expression (condition)."""
     sql, args = [], []
     for col, op, value in (("serial", "=", serial), ("started", ">=", since_time(since)), ("protocol", "=", protocol)):
@@ -395,7 +395,7 @@ def runs(c: sqlite3.Connection, serial=None, since=None, protocol=None, where=No
         more, more_args = condition(where)
         sql.append(more)
         args += more_args
-    # undated runs (a lab's file without a date) after the dated, in the order catalogued
+    # undated runs (a lab's file without a date) after the dated, in the order indexed
     query = "SELECT * FROM runs" + (" WHERE " + " AND ".join(sql) if sql else "") + \
         " ORDER BY started IS NULL, started, CASE WHEN started IS NULL THEN id END, path"
     return c.execute(query, args).fetchall()
@@ -405,11 +405,11 @@ MAX_ID = 2**63 - 1  # SQLite's largest integer
 
 
 def run(c: sqlite3.Connection, run_id) -> tuple[sqlite3.Row, list[sqlite3.Row]]:
-    if not isinstance(run_id, int) or not 0 < run_id <= MAX_ID:  # a garbled catalogue's row may have none
-        raise CatalogueError(f"no run with id {run_id} in the catalogue")
+    if not isinstance(run_id, int) or not 0 < run_id <= MAX_ID:  # a garbled run index's row may have none
+        raise RunIndexError(f"no run with id {run_id} in the run index")
     row = c.execute("SELECT * FROM runs WHERE id = ?", (run_id,)).fetchone()
     if row is None:
-        raise CatalogueError(f"no run with id {run_id} in the catalogue")
+        raise RunIndexError(f"no run with id {run_id} in the run index")
     return row, c.execute("SELECT * FROM peaks WHERE run_id = ? ORDER BY rowid", (run_id,)).fetchall()
 
 
@@ -422,7 +422,7 @@ def force_at(peaks, direction, speed):
         for k in ("amplitude_mm", "freq_hz", "target_c", "v_comp", "F_comp", "v_reb", "F_reb"):
             if getattr(r, k, None) is None:  # SQLite keeps a nan (a random input's amplitude) as null
                 setattr(r, k, np.nan)
-        for k in ("stroke_v", "stroke_F"):  # null in a catalogue an earlier version wrote
+        for k in ("stroke_v", "stroke_F"):  # null in a run index an earlier version wrote
             setattr(r, k, np.array(json.loads(getattr(r, k, None) or "[]"), float))
     if not rows:
         return float("nan")

@@ -18,7 +18,7 @@ def own_baseline(meta, holdout="interleaved"):
     an MR damper's coil and the split is in time, Spencer's MR model (docs/mr-damper.md); else
     None, the minimal model."""
     from models.diagnose.from_spencer import NAME as SPENCER
-    from protocols.reports.peaks import recorded_damper
+    from views.reports.peaks import recorded_damper
     from records.data import drives
     own = recorded_damper(meta)
     if own is not None:
@@ -35,7 +35,7 @@ def described(res, meta):
     """{effect: damper} of the accepted effects the recording's own damper has in its
     description (Effect.described): on the minimal baseline, no fault of that damper."""
     from models.diagnose.candidates import EFFECTS
-    from protocols.reports.peaks import recorded_damper
+    from views.reports.peaks import recorded_damper
     own = recorded_damper(meta)
     spec = (lambda e: EFFECTS[e.split(":")[0]].described)
     return {} if own is None else {s.effect: own.name for s in res.steps if spec(s.effect) and spec(s.effect)(own)}
@@ -101,8 +101,8 @@ def to_json(res):
 
 
 def report(res, out_dir: Path):
-    from protocols.reports.page import Page, save
-    from protocols.reports.plots import plt
+    from views.reports.page import Page, save
+    from views.reports.plots import plt
     out_dir.mkdir(parents=True, exist_ok=True)
     d = res.data
     stages = [("baseline", res.baseline.residual)] + [(f"+ {s.effect}", s.residual_after) for s in res.steps]

@@ -118,7 +118,7 @@ class Valves:
 
 
 @dataclass
-class Compressibility:
+class OilCompressibility:
     """Constant effective bulk modulus beta_inv, or eq 3.32: K = C_ibeta + C_sbeta P
     capped at beta_min_inv. Set either beta_inv or the three others. With beta_inv,
     air_fraction > 0 adds free air entrained in the oil (models/physics/compressibility.py)."""
@@ -150,7 +150,7 @@ class Damper:
     gas_spring: GasSpring
     friction: Friction
     valves: Valves
-    compressibility: Compressibility
+    compressibility: OilCompressibility
     temperature: TemperatureSensitivity
     description: str = ""
     x_mid: float | None = q("m", 0.0, 1.0, None)  # default equilibrium point; mid-stroke if None

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.diagnose.hiding import Hidden, catalogue, copy, sized, with_heat
+from models.diagnose.hiding import HiddenInFile, catalogue, copy, sized, with_heat
 
 SIZES = (1.0, 3.0)  # % of the force range, RMS: the default ladder
 ROUNDS = 4  # the diagnosis's own rounds at most (models.diagnose.diagnose's max_effects)
@@ -48,7 +48,7 @@ class Seen:
 
 
 @dataclass
-class Row:
+class FileRow:
     """One hidden effect at one size, and what the diagnosis of its copy said."""
     hidden: str
     size: float  # % of the force range, RMS
@@ -81,7 +81,7 @@ def diagnose_copy(task: CopyTask) -> Seen:
                 r.final.nrmse_heldout, dict(r.baseline.parameters), [c.effect for c in not_proven(r.candidates)[1]])
 
 
-def judged(h: Hidden, seen: Seen, null: Seen, size, value, rms, span) -> Row:
+def judged(h: HiddenInFile, seen: Seen, null: Seen, size, value, rms, span) -> FileRow:
     """The row of h hidden at value in a copy the diagnosis saw as seen (null: its untouched
     twin; span: the force range [N]). Missed, it may be said short of the bar ("not
     proven"), or be taken up by the baseline's own refit: its held-out error grew by less
@@ -106,7 +106,7 @@ def judged(h: Hidden, seen: Seen, null: Seen, size, value, rms, span) -> Row:
     elif seen.before ** 2 - null.before ** 2 < TAKEN * (rms / span) ** 2:
         out = "in the baseline"
     carried = held | {_key(e) for e, rv, *_ in null.steps for e in [e, *rv]}
-    return Row(h.name, size, h.shown(value), rms, out, said, est, bool(found & carried), seen.named, seen.steps)
+    return FileRow(h.name, size, h.shown(value), rms, out, said, est, bool(found & carried), seen.named, seen.steps)
 
 
 def _key(e):
@@ -114,7 +114,7 @@ def _key(e):
     return e.split(":")[0]
 
 
-def _estimate(h: Hidden, params, seen: Seen, null: Seen):
+def _estimate(h: HiddenInFile, params, seen: Seen, null: Seen):
     """The size the diagnosis found, in h's shown unit, where it measures h's own value: a
     lag against the untouched copy's first-round lag (Seen.lag_s; a later force reads negative)."""
     if h.fault == "delay":
@@ -172,11 +172,11 @@ def run_on(path, names=None, sizes=SIZES, pool=None, say=lambda s: None, rounds=
     rows, k = [], 0
     for h, s, value, rms in pending:
         if value is None:
-            rows.append(Row(h.name, s, None, rms, "cannot hide", f"at most {rms:.3g} N RMS here", None, False))
+            rows.append(FileRow(h.name, s, None, rms, "cannot hide", f"at most {rms:.3g} N RMS here", None, False))
             continue
         twin = nulls[1] if h.temperature and warm else nulls[0]
         rows.append(judged(h, seen[k], twin, s, value, rms, span) if k in seen else
-                    Row(h.name, s, h.shown(value), rms, "stopped", "stopped before it was diagnosed", None, False))
+                    FileRow(h.name, s, h.shown(value), rms, "stopped", "stopped before it was diagnosed", None, False))
         k += 1
     return rows, {"untouched": nulls[0], **({"untouched, heat ramp": nulls[1]} if warm else {})}, span, stopped
 

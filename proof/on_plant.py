@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 
 from records.events import RunEnd
-from models.diagnose.candidates import EFFECTS as SPECS
+from models.diagnose.candidates import EFFECTS
 from models.physics.simulate import warm
 from workers.pool import run_all
 from records.data import segments
 from rig import config as rig_config
 from rig.errors import RigError
-from sim_backend.effects import EFFECTS, scaled
+from sim_backend.effects import HIDDEN, scaled
 from sim_backend.options import PlantOptions, plain_cell
 
 from protocols import cell, runner
@@ -71,7 +71,7 @@ def contribution(effect, value, seed=0, null=None, form=None):
     measured force (same noise seed, so the noise cancels), or what follows from the null
     alone where the effect says so (Hidden.without_run: a lag of the motion readings)."""
     F0, rec = null if null is not None else offline_force({}, seed)
-    d = EFFECTS[effect].without_run(value, np.arange(len(F0)) * 1e-3, F0)
+    d = HIDDEN[effect].without_run(value, np.arange(len(F0)) * 1e-3, F0)
     if d is None:
         try:
             F1, _ = offline_force({effect: value, **({"forms": {effect: form}} if form else {})}, seed)
@@ -86,25 +86,25 @@ def calibrate_one(task):
     contribution is at most `target`, by bisection on a log scale."""
     e, form, target = task
     null = offline_force({}, 0)
-    lo, hi = EFFECTS[e].weakest, 1e3  # strengths about the guess
+    lo, hi = HIDDEN[e].weakest, 1e3  # strengths about the guess
     for _ in range(12):
         s = math.sqrt(lo * hi)
-        c = contribution(e, scaled(e, EFFECTS[e].guess, s), 0, null, form)
+        c = contribution(e, scaled(e, HIDDEN[e].guess, s), 0, null, form)
         lo, hi = (s, hi) if c < target else (lo, s)
-    value = float(f"{scaled(e, EFFECTS[e].guess, lo):.4g}")
+    value = float(f"{scaled(e, HIDDEN[e].guess, lo):.4g}")
     return value, contribution(e, value, 0, null, form)
 
 
 def calibrate(target, progress, effects=None, forms=False, pool=None):
     """{EFFECT or EFFECT:FORM: value} with contribution == target, in the default form of
     each effect (and in every other form, forms=True)."""
-    keys = [(e, f) for e in EFFECTS if not effects or e in effects
-            for f in [None, *(EFFECTS[e].forms if forms else ())]]
+    keys = [(e, f) for e in HIDDEN if not effects or e in effects
+            for f in [None, *(HIDDEN[e].forms if forms else ())]]
     names = [key(e, f) for e, f in keys]
     results = run_all(calibrate_one, [(e, f, target) for e, f in keys], pool, progress=True, label="calibrate",
                       names=names, warm=warm)
     for n, (e, _), (v, c) in zip(names, keys, results):
-        progress(f"{n} = {v:g} {EFFECTS[e].unit} (contribution {c:.2f} N)")
+        progress(f"{n} = {v:g} {HIDDEN[e].unit} (contribution {c:.2f} N)")
     return {n: v for n, (v, _) in zip(names, results)}
 
 
@@ -140,21 +140,21 @@ def matrix(asked, all_forms, sizes, noise, rates, seeds, budget, concealed):
     run); UsageError names what cannot be proven, and a matrix with nothing left to hide."""
     from sim_backend.effects import EffectError, parse
     from rig.errors import UsageError
-    named = ([n for e in asked.split(",") for n in (EFFECTS if e == "ALL" else [e])] if asked
-             else list(EFFECTS) + ["null"])
+    named = ([n for e in asked.split(",") for n in (HIDDEN if e == "ALL" else [e])] if asked
+             else list(HIDDEN) + ["null"])
     effects = list(dict.fromkeys(e.partition(":")[0] for e in named))
     variants = list(dict.fromkeys((e.partition(":")[0], e.partition(":")[2] or None) for e in named))
-    bad = [f"{e}:{f}" for e, f in variants if f and e in EFFECTS and f not in EFFECTS[e].forms]
+    bad = [f"{e}:{f}" for e, f in variants if f and e in HIDDEN and f not in HIDDEN[e].forms]
     if bad:
         raise UsageError(f"--effects: {bad[0]}: no such form (sim_backend/effects/ FORMS)")
-    unknown = [e for e in effects if e != "null" and not set(e.split("+")) <= set(EFFECTS)]
+    unknown = [e for e in effects if e != "null" and not set(e.split("+")) <= set(HIDDEN)]
     if unknown:
-        raise UsageError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECTS)}, null, and pairs "
+        raise UsageError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(HIDDEN)}, null, and pairs "
                          f"A+B hidden together)")
     if not all(200.0 <= r <= 10000.0 for r in rates):
         raise UsageError(f"--rates: the virtual cell runs at 200-10000 Hz, not {', '.join(f'{r:g}' for r in rates)}")
     if all_forms:
-        variants = [v for e in effects for v in [(e, None)] + [(e, f) for f in (EFFECTS[e].forms if e in EFFECTS
+        variants = [v for e in effects for v in [(e, None)] + [(e, f) for f in (HIDDEN[e].forms if e in HIDDEN
                                                                                   else ())]]
     for e, form in variants:  # each form at its own noise floor
         for part in (e.split("+") if e != "null" else ()):
@@ -266,7 +266,7 @@ def _recorded(task: ProveTask, folder):
     # a timing offset of the cell or the valve curve's form is no claim of physics
     # (models/diagnose/spec.py NATURES): not counted against a null or as an extra
     # physics below the practical size is kept in the model but not named: no claim
-    claims = [e for e in r.named() if SPECS[e.split(":")[0]].nature in ("physics", "open")]
+    claims = [e for e in r.named() if EFFECTS[e.split(":")[0]].nature in ("physics", "open")]
     extra = [s for s in r.steps if s.effect.split(":")[0] not in hidden and s.effect in claims]
     return Outcome(
         effect=effect, form=form, size=size, noise=noise, rate=rate, seed=seed,
@@ -288,19 +288,19 @@ def own_estimate(r, first):
     None where the effect has no one value (friction along the bore: a shape along the
     stroke). An accepted lag's own estimate before the alignment it took the place of."""
     fits = [(s.effect, s.parameters) for s in r.steps] + [(c.effect, c.parameters) for c in r.baseline.cell]
-    return next(p.get(SPECS[e.split(":")[0]].estimate) for e, p in fits if _covered(e).split(":")[0] == first)
+    return next(p.get(EFFECTS[e.split(":")[0]].estimate) for e, p in fits if _covered(e).split(":")[0] == first)
 
 
 def _first(accepted, hidden):
     """The first effect named that counts: the valve curve's form and the cell's own timing
     (the plant's, on every null) do not take the first place unless the row hides them."""
-    named = [e for e in accepted if SPECS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
+    named = [e for e in accepted if EFFECTS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
     return named[0].split(":")[0] if named else None
 
 
 def _covered(e):
     """The effect that supersedes e (the lag the channels' alignment is at a larger scale), or e."""
-    return next((n for n, s in SPECS.items() if s.supersedes == e), e)
+    return next((n for n, s in EFFECTS.items() if s.supersedes == e), e)
 
 
 def _group(r, hidden):
@@ -312,7 +312,7 @@ def _group(r, hidden):
         return cell[:1]
     for s in r.steps:
         key = s.effect.split(":")[0]
-        if s.replaced_by or s.small or (SPECS[key].nature in ("form", "cell") and key not in hidden):
+        if s.replaced_by or s.small or (EFFECTS[key].nature in ("form", "cell") and key not in hidden):
             continue
         return [key] + [e.split(":")[0] for e, _, _ in s.rivals]
     return []

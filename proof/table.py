@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim_backend.effects import EFFECTS, scaled
+from sim_backend.effects import HIDDEN, scaled
 
 GROUP = 3  # a rival group larger than this tells the engineer too little to count as found
 
@@ -121,7 +121,7 @@ def table(results: list[Outcome], effects, concealed) -> list[Row]:
         rs = [r for r in results if row_key(r) == (e, form, size, noise, rate)]
         parts = set(e.split("+"))
         named = [{a.split(":")[0] for a in r.accepted} for r in rs]
-        single, null = e in EFFECTS, e == "null"
+        single, null = e in HIDDEN, e == "null"
         out.append(Row(
             effect=e, form=form or (None if null else "default"), size=size, noise=noise, rate_hz=rate, n=len(rs),
             value=scaled(e, concealed[key(e, form)], size * noise) if key(e, form) in concealed else None,
@@ -187,10 +187,10 @@ def markdown(header, cells, table, seeds, noise, budget=None, beyond=()):
     from sim_backend.effects import FORMS
     from protocols.discover import MAX_ROUNDS
     from views.reports import markdown as md
-    order = list(EFFECTS)
+    order = list(HIDDEN)
     used = sorted({(r.effect, r.form) for r in table if r.form not in (None, "default")},
-                  key=lambda k: (order.index(k[0]) if k[0] in EFFECTS else 99, k[1]))
-    forms = [(e, "default", EFFECTS[e].form) for e in dict.fromkeys(e for e, _ in used) if e in EFFECTS]
+                  key=lambda k: (order.index(k[0]) if k[0] in HIDDEN else 99, k[1]))
+    forms = [(e, "default", HIDDEN[e].form) for e in dict.fromkeys(e for e, _ in used) if e in HIDDEN]
     forms += [(e, f, FORMS[f"{e}:{f}"]) for e, f in used if f"{e}:{f}" in FORMS]
     body = md.table(header, cells)
     if beyond:

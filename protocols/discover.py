@@ -18,7 +18,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 
-from records.events import Diagnosis, NextTest, RunEnd, Verdict
+from records.events import Findings, NextTest, RunEnd, DiscoveryVerdict
 from models.diagnose import design, diagnose
 from models.diagnose.words import said
 from rig.loop import describe
@@ -119,7 +119,7 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
             proposals = [] if last else design.propose(diag, lim, budget_s - spent, tried)
         except Exception as e:  # noqa: BLE001 - what is recorded stays; the dyno stops asking
             why = f"round {len(rounds) + 1}: diagnosis failed: {describe(e)}"
-            _tell(observers, Diagnosis(cell.rig.clock(), "", {"round": len(rounds) + 1}, why))
+            _tell(observers, Findings(cell.rig.clock(), "", {"round": len(rounds) + 1}, why))
             say(f"{why}; no further tests")
             stopped = f"the diagnosis failed ({describe(e)})"
             break
@@ -127,7 +127,7 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
                     settled=[r.said for k, r in before.items() if k not in rv])
         rounds.append(now)
         t = cell.rig.clock()
-        _tell(observers, Diagnosis(t, "", {"round": len(rounds), "accepted": now.accepted, "unsure": now.unsure,
+        _tell(observers, Findings(t, "", {"round": len(rounds), "accepted": now.accepted, "unsure": now.unsure,
                                            "settled": now.settled},
                                    f"round {len(rounds)}: named {', '.join(now.accepted) or 'nothing'}; "
                                    f"unsure of {len(now.unsure)}"
@@ -155,7 +155,7 @@ def discover(opening: Plan, cell, observers=(), budget_s=120.0, say=None, max_ro
         before = rv
         runs.append(run_plan(next_plan(proposals), cell, observers))
     said = verdict(rounds, stopped, spent, budget_s)
-    _tell(observers, Verdict(cell.rig.clock(), "discover",
+    _tell(observers, DiscoveryVerdict(cell.rig.clock(), "discover",
                              {"found": rounds[-1].accepted if rounds else [],
                               "unresolved": rounds[-1].unsure if rounds else [],
                               "stopped": stopped, "spent_s": spent, "budget_s": budget_s}, said))

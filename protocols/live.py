@@ -22,7 +22,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from records.events import STOPS, Diagnosis, SegmentStart
+from records.events import STOPS, Findings, SegmentStart
 from rig.errors import UsageError
 
 from protocols.display import shown
@@ -169,7 +169,7 @@ class LiveView:
         level = rr.TextLogLevel.ERROR if isinstance(e, STOPS) else rr.TextLogLevel.INFO
         self.rec.log("events", rr.TextLog(f"{e.kind}: {e.segment} {e.message}".strip(), level=level))
         # dyno run discover's rounds; the live diagnosis's findings (protocols/live_diagnose.py)
-        for key in ("unsure", "settled", "findings") if isinstance(e, Diagnosis) else ():
+        for key in ("unsure", "settled", "findings") if isinstance(e, Findings) else ():
             for said in e.params.get(key, []):
                 self.rec.log("events", rr.TextLog(f"  {key}: {said}", level=rr.TextLogLevel.INFO))
 

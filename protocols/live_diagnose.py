@@ -13,7 +13,7 @@ import sys
 import time
 from dataclasses import replace
 
-from records.events import Diagnosis, SegmentEnd, SegmentStart, Skipped
+from records.events import Findings, SegmentEnd, SegmentStart, Skipped
 from records.data import segment_kind
 from protocols.segment_feed import SegmentFeed
 
@@ -52,7 +52,7 @@ class LiveDiagnose:
     def _show(self, e):
         """A segment's Diagnosis event (t: its end) or Skipped, from the worker."""
         latency = time.monotonic() - self.ended.pop(e.segment, time.monotonic())
-        if isinstance(e, Diagnosis):
+        if isinstance(e, Findings):
             e = replace(e, t=max(self.t_now, e.t), params={**e.params, "segment_end_s": e.t, "latency_s": latency})
             self.recorder.event(e)
             if self.live is not None:
@@ -143,7 +143,7 @@ def diagnosed(damper, channels, events, name, t0, t1):
               "rivals": [r[0] for r in s.rivals], "stand_in": bool(s.stand_in), "small": bool(s.small)}
              for s in res.steps]
     named = [said(e) for e in res.named()]
-    return Diagnosis(float(t1), name, {"baseline": res.baseline.name, "named": named, "effects": steps,
+    return Findings(float(t1), name, {"baseline": res.baseline.name, "named": named, "effects": steps,
                                        "findings": findings(res), "within_noise": bool(res.left_over.within_noise),
                                        "diagnosis_s": time.perf_counter() - start},
                      f"{name}: " + ("; ".join(named) or "nothing named"), source="live")

@@ -18,7 +18,7 @@ from typing import Protocol
 
 import numpy as np
 
-from records.events import (Event, Fault, OperatorStop, Result, RunEnd, RunStart, SegmentEnd, SegmentStart,
+from records.events import (Event, Fault, OperatorStop, ClosedLoopResult, RunEnd, RunStart, SegmentEnd, SegmentStart,
                             Skipped)
 from rig.errors import RigError
 from rig.loop import ControlLoop, LoopResult, describe
@@ -298,7 +298,7 @@ def _measure(sequence, observed, event):
             if channels:
                 observed.call("samples", channels)
             if found:
-                event(Result(sequence.t, seg.name, {**seg.params, "kind": seg.kind, **found},
+                event(ClosedLoopResult(sequence.t, seg.name, {**seg.params, "kind": seg.kind, **found},
                              protocol=sequence.module.NAME))
                 out.append((seg.name, found))
     except Exception as e:  # noqa: BLE001 - the recording is kept whatever the measures do

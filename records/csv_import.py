@@ -78,7 +78,7 @@ def parse_map(items):
 
 
 @dataclass
-class Imported:
+class ColumnsRead:
     """What import read: {channel name: SI array} on the rows that have a time, the units as given, where the rows
     came from (the file's lines), and the recording's own start."""
     data: dict
@@ -207,7 +207,7 @@ def _cell(v) -> str:
     return repr(v) if isinstance(v, float) else str(v).replace("\t", " ").replace("\n", " ").strip()
 
 
-def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> Imported:
+def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> ColumnsRead:
     """The mapped columns in SI. A time column of date-time stamps gives the recording's
     start; without a time column, the rate (given, or the preamble's) makes one. Values
     are raw x gain + offset in the mapped unit, then SI. Unmapped and empty columns are
@@ -285,7 +285,7 @@ def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> I
     if preamble_start is not None:  # the time's numbers count from the start the preamble gives
         start = preamble_start + float(t[keep][0])
     how = "the start the file's preamble gives" if preamble_start is not None else "the file's first date-time stamp"
-    return Imported({k: v[keep] for k, v in data.items()}, units, layout, start, derived, note, how, stamped, named,
+    return ColumnsRead({k: v[keep] for k, v in data.items()}, units, layout, start, derived, note, how, stamped, named,
                     unit_notes, (first_row if layout else 1) + np.nonzero(keep)[0])
 
 

@@ -63,7 +63,7 @@ class Skipped(Event):
 
 
 @dataclass(frozen=True)
-class Result(Event):
+class ClosedLoopResult(Event):
     """What a closed-loop segment measured once the rig was safe (params: the segment's
     parameters and its measures)."""
     kind: ClassVar[str] = "result"
@@ -94,7 +94,7 @@ class RunEnd(Event):
 
 
 @dataclass(frozen=True)
-class Diagnosis(Event):
+class Findings(Event):
     """A diagnosis's findings: one sine segment's while the rig runs (source "live"), or a
     discovery round's."""
     kind: ClassVar[str] = "diagnosis"
@@ -112,7 +112,7 @@ class NextTest(Event):
 
 
 @dataclass(frozen=True)
-class Verdict(Event):
+class DiscoveryVerdict(Event):
     """What a discovery ends with."""
     kind: ClassVar[str] = "verdict"
 
@@ -131,8 +131,8 @@ class Other(Event):
                 "message": self.message}
 
 
-KINDS = {c.kind: c for c in (RunStart, SegmentStart, SegmentEnd, Skipped, Result, Fault, OperatorStop, RunEnd,
-                             Diagnosis, NextTest, Verdict)}
+KINDS = {c.kind: c for c in (RunStart, SegmentStart, SegmentEnd, Skipped, ClosedLoopResult, Fault, OperatorStop, RunEnd,
+                             Findings, NextTest, DiscoveryVerdict)}
 STOPS = (Fault, OperatorStop)  # how a run ends early
 
 

@@ -17,7 +17,7 @@ from numba import njit
 
 from records.data import Span, Test, same_tests, segments as recorded_segments
 from records.events import Event, SegmentEnd, SegmentStart
-from records.steady import CYCLE_SLACK, Segment, steady, sweep_params, sweeps
+from records.steady import CYCLE_SLACK, FoundSegment, steady, sweep_params, sweeps
 from records.strokes import MIN_REVERSAL, MIN_TRAVEL, REVERSAL_NOISE, Halves, noise, smoothed, turns
 
 APPROACH_M = 1e-6  # m: a hold come into by less motion than this over 50 ms was not come into from a side
@@ -33,7 +33,7 @@ BLOCK_KINDS = ("ramp", "sweep", "random")
 TESTS = ("sine", "sweep")  # what a short stretch beside is never joined to
 
 
-def find(t, x, source=None) -> list[Segment]:
+def find(t, x, source=None) -> list[FoundSegment]:
     """The segments of a recording's displacement, in time order, covering it (but for
     holes in its time stamps: an acquisition paused). source: the moving average the file's
     source applied (records/source_filter), or None."""
@@ -114,7 +114,7 @@ def _named_pieces(t, xs, pieces, before, after):
         if what == "still":
             xm = float(np.mean(xs[k])) if k.any() else float(np.interp(t0, t, xs))
             kind = "hold" if t1 - t0 >= HOLD_S else "dwell"
-            out.append(Segment(f"{kind} {xm * 1e3:.1f} mm", kind, t0, t1,
+            out.append(FoundSegment(f"{kind} {xm * 1e3:.1f} mm", kind, t0, t1,
                                {"kind": kind, "x_mm": round(xm * 1e3, 2), "measured": True, "found": "import",
                                 "approach": _approach(t, xs, t0)}))
             continue
@@ -124,18 +124,18 @@ def _named_pieces(t, xs, pieces, before, after):
         travel = float(np.ptp(xs[k])) if k.any() else 0.0
         if still_around and _monotonic(xs[k], travel) and travel >= MIN_TRAVEL:
             step = float(xs[k][-1] - xs[k][0])
-            out.append(Segment(f"step {step * 1e3:+.3g} mm", "step", t0, t1,
+            out.append(FoundSegment(f"step {step * 1e3:+.3g} mm", "step", t0, t1,
                                {"kind": "step", "step_mm": round(step * 1e3, 3), "measured": True, "found": "import"}))
         elif left is not None and left.kind == "sweep" or right is not None and right.kind == "sweep":
             sweep = left if left is not None and left.kind == "sweep" else right
             sweep.t0, sweep.t1 = min(sweep.t0, t0), max(sweep.t1, t1)  # its tapers
         elif left is not None or right is not None:
-            out.append(Segment("ramp", "ramp", t0, t1, {"kind": "ramp", "measured": True, "found": "import"},
+            out.append(FoundSegment("ramp", "ramp", t0, t1, {"kind": "ramp", "measured": True, "found": "import"},
                                (left, right)))
         elif travel < MIN_TRAVEL and out:
             out[-1].t1 = t1  # a wobble beside a still stretch is still
         else:
-            out.append(Segment("random" if t1 - t0 >= RANDOM_S else "transition", "random", t0, t1,
+            out.append(FoundSegment("random" if t1 - t0 >= RANDOM_S else "transition", "random", t0, t1,
                                {"kind": "random", "measured": True, "found": "import"}))
     return out
 

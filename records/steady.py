@@ -32,7 +32,7 @@ SWEEP_CHANGE = 0.1  # ... and its frequency changes by at least this share
 
 
 @dataclass
-class Segment:
+class FoundSegment:
     name: str
     kind: str  # sine (waveform sine or triangle), sweep, ramp, hold, dwell, step, random
     t0: float
@@ -80,10 +80,10 @@ def _swept(H):
     return [(a, b) for a, b, _ in out if b - a + 1 >= SWEEP_HALVES and _change(lp[a:b + 1]) >= math.log(1 + SWEEP_CHANGE)]
 
 
-def sweeps(t, H) -> list[Segment]:
+def sweeps(t, H) -> list[FoundSegment]:
     """The sweeps among the half-cycles H (records/strokes.Halves) at times t [s]; their
     params come from sweep_params once their tapers have widened them."""
-    return [Segment("sweep", "sweep", float(t[H.ext[a]]), float(t[H.ext[b + 1]])) for a, b in _swept(H)]
+    return [FoundSegment("sweep", "sweep", float(t[H.ext[a]]), float(t[H.ext[b + 1]])) for a, b in _swept(H)]
 
 
 def _follow(H, lp, j, k, way):
@@ -125,7 +125,7 @@ def sweep_params(H, t0, t1):
             "amplitude_mm": round(float(np.median(H.travel[k])) / 2 * 1e3, 3), "measured": True, "found": "import"}
 
 
-def steady(t, x, H, sigma, swept, source=None) -> list[Segment]:
+def steady(t, x, H, sigma, swept, source=None) -> list[FoundSegment]:
     """The steady periodic tests among the half-cycles H (records/strokes.Halves) at times t
     [s] of the displacement x [m] (its noise sigma [m]) that are in none of the sweeps.
     source: the source's moving average (records/source_filter), whose reach at either end of
@@ -175,7 +175,7 @@ def steady(t, x, H, sigma, swept, source=None) -> list[Segment]:
         amp = final.amplitude
         name = f"{final.waveform} {_g(amp * 1e3)} mm {_g(final.freq)} Hz"
         fits.append(final)
-        out.append(Segment(name, "sine", float(t0), float(t1),
+        out.append(FoundSegment(name, "sine", float(t0), float(t1),
                            {"kind": "sine", "amplitude_mm": round(amp * 1e3, 4), "freq_hz": round(final.freq, 5),
                             "cycles": n, "waveform": final.waveform, "measured": True, "found": "import"}))
     return _apart(out, fits, t, x)

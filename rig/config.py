@@ -64,7 +64,7 @@ TABLES = ("rig", "devices", "channels", "limits", "thermal")
 
 
 @dataclass
-class Device:
+class DeviceConfig:
     name: str
     transport: str
     params: dict
@@ -216,7 +216,7 @@ def _devices(c, table):
         problem = transport.check(params)
         if problem:
             c.fail(c.line(parts, problem[0]), f"device {name!r}: {problem[1]}")
-        devices[name] = Device(name, t, params, c.line(parts))
+        devices[name] = DeviceConfig(name, t, params, c.line(parts))
         # one device per address: a serial port, a Modbus host:port and id, a CAN node kind on a bus
         address = (t, transport.address(params), params.get("node"))
         if address in where:
@@ -283,5 +283,5 @@ def _limits(c, table, devices):
     return L
 
 
-def signals_of(dev: Device):
+def signals_of(dev: DeviceConfig):
     return TRANSPORTS[dev.transport].signals(dev.params)

@@ -286,3 +286,21 @@ def test_transports_are_named_only_in_their_registry():
 ])
 def test_the_layer_check_catches_what_it_should(mod, imported, names, caught):
     assert bool(violations(mod, [(imported, names)])) == caught
+
+
+def public_classes():
+    """{class name: [module]} of the public classes the product modules define at top level."""
+    out = {}
+    for path in sources():
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+                out.setdefault(node.name, []).append(module_name(path)[0])
+    return out
+
+
+def test_one_name_per_concept():
+    """No two product modules define a public class of one name: a reader meeting `Result`
+    or `Segment` knows which thing it is. Each protocol's `Params` is one convention."""
+    twice = {name: mods for name, mods in public_classes().items() if len(mods) > 1 and name != "Params"}
+    assert not twice, twice
+    assert len(public_classes()) > 100  # the check sees the tree

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models.physics.compressibility import AIR_P_MIN, pressure_air, strain_air
-from sim_backend.effects import EFFECTS, FORMS
+from sim_backend.effects import HIDDEN, FORMS
 from sim_backend.options import plain_cell
 from sim_backend.plant import MODE_FOLLOW, Plant
 from sim_backend.effects.breakaway_friction import stribeck
@@ -29,8 +29,8 @@ def _force(effects, seconds=0.6, h=5e-4, channel=None):
 
 
 def test_every_effect_has_at_least_three_plant_forms():
-    assert all(len(h.forms) >= 2 for h in EFFECTS.values())
-    assert {f"{n}:{f}" for n, h in EFFECTS.items() for f in h.forms} == set(FORMS)
+    assert all(len(h.forms) >= 2 for h in HIDDEN.values())
+    assert {f"{n}:{f}" for n, h in HIDDEN.items() for f in h.forms} == set(FORMS)
 
 
 @pytest.mark.parametrize("key", [k for k in FORMS if not k.startswith(("sensor_delay", "gas_temperature",
@@ -38,7 +38,7 @@ def test_every_effect_has_at_least_three_plant_forms():
 def test_each_form_changes_the_force_and_differs_from_the_default(key):
     name, form = key.split(":")
     value = {"cavitation": 2.5e6, "compressibility": 2e9, "breakaway_friction": 3.0,
-             "presliding_friction": 1e-4}.get(name, 20 * EFFECTS[name].guess)
+             "presliding_friction": 1e-4}.get(name, 20 * HIDDEN[name].guess)
     null = _force({})
     default = _force({name: value})
     other = _force({name: value, "forms": {name: form}})

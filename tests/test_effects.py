@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models.diagnose.candidates import CATALOGUE
-from sim_backend.effects import EFFECTS, parse
+from sim_backend.effects import HIDDEN, parse
 from sim_backend.options import plain_cell
 
 # the catalogue's candidates: the channels' alignment, fitted with every baseline, is no
@@ -16,7 +16,7 @@ CANDIDATES = [n for n, e in CATALOGUE.items() if e.needs != "baseline"]
 
 
 def test_the_plant_hides_exactly_the_catalogues_effects():
-    assert list(EFFECTS) == CANDIDATES and all(CATALOGUE[n].supersedes in CATALOGUE for n in CATALOGUE
+    assert list(HIDDEN) == CANDIDATES and all(CATALOGUE[n].supersedes in CATALOGUE for n in CATALOGUE
                                                 if CATALOGUE[n].supersedes)
     assert all(name == e.name for name, e in CATALOGUE.items())
 
@@ -41,7 +41,7 @@ def test_each_effect_is_sized_by_one_of_its_own_parameters():
 
 
 def test_every_hidden_effect_is_accepted_at_its_guess_by_the_plants_parser():
-    assert parse([f"{n}={h.guess}" for n, h in EFFECTS.items()]) == {n: h.guess for n, h in EFFECTS.items()}
+    assert parse([f"{n}={h.guess}" for n, h in HIDDEN.items()]) == {n: h.guess for n, h in HIDDEN.items()}
 
 
 def test_every_effect_acts_in_a_stated_place_and_order():
@@ -67,7 +67,7 @@ def test_an_effect_in_another_form_is_parsed_and_a_wrong_form_named():
     from sim_backend.effects import FORMS, EffectError
     assert parse(["sensor_delay:transport=1e-4", "fluid_inertia=1"]) == {
         "sensor_delay": 1e-4, "fluid_inertia": 1.0, "forms": {"sensor_delay": "transport"}}
-    assert {f"{n}:{f}" for n, h in EFFECTS.items() for f in h.forms} == set(FORMS)
+    assert {f"{n}:{f}" for n, h in HIDDEN.items() for f in h.forms} == set(FORMS)
     with pytest.raises(EffectError, match="no form 'cubic'"):
         parse(["breakaway_friction:cubic=1.2"])
 

@@ -17,10 +17,10 @@ EVERY_KIND = [
     ev.Skipped(0.0, "sine 12.7 mm 20 Hz", message="beyond the rig's speed"),
     ev.SegmentStart(0.0, "sine 12.7 mm 1 Hz", {"kind": "sine", "freq_hz": 1.0, "measured": True}),
     ev.SegmentEnd(3.0, "sine 12.7 mm 1 Hz"),
-    ev.Diagnosis(3.5, "sine 12.7 mm 1 Hz", {"findings": ["nothing left out"]}, "nothing named", source="live"),
-    ev.Result(4.0, "road", {"kind": "road", "j2": 0.01}, protocol="hil"),
+    ev.Findings(3.5, "sine 12.7 mm 1 Hz", {"findings": ["nothing left out"]}, "nothing named", source="live"),
+    ev.ClosedLoopResult(4.0, "road", {"kind": "road", "j2": 0.01}, protocol="hil"),
     ev.NextTest(4.0, "sine 5 mm 4 Hz", {"round": 1, "rig_s": 2.0}, "separates friction from a lag"),
-    ev.Verdict(5.0, "discover", {"found": []}, "Found: nothing."),
+    ev.DiscoveryVerdict(5.0, "discover", {"found": []}, "Found: nothing."),
     ev.Fault(6.0, "sine 12.7 mm 1 Hz", message="force beyond the load cell"),
     ev.OperatorStop(6.0, message="operator stop"),
     ev.RunEnd(6.0, "sine-matrix", message="completed"),
@@ -43,7 +43,7 @@ def test_a_recording_from_before_the_fields_still_reads():
     start = read_event({"t": 0.0, "kind": "run_start", "segment": "sine-matrix", "params": {}, "message": "3 segments"})
     assert isinstance(start, ev.RunStart) and start.segment_count == 0
     result = read_event({"t": 1.0, "kind": "result", "segment": "iteration 2", "params": {"nrmse": 0.02, "iteration": 2}})
-    assert isinstance(result, ev.Result) and result.of == "replay"
+    assert isinstance(result, ev.ClosedLoopResult) and result.of == "replay"
     live = read_event({"t": 1.0, "kind": "diagnosis", "segment": "s", "params": {"source": "live", "named": []}})
     assert live.live and live.params == {"named": []}
 

@@ -14,7 +14,7 @@ from models.damper import load as load_damper
 from models.damper import to_dict
 from models.quarter_car import load as load_car
 from models.quarter_car.road import faded
-from models.quarter_car.sim import Stepper, simulate
+from models.quarter_car.sim import CarStepper, simulate
 from records.reader import load_recording
 from protocols.library import roads
 from protocols.plan import ParamError
@@ -31,7 +31,7 @@ def test_the_stepper_is_the_simulation_one_step_at_a_time():
     y = faded(t, 0.01 * np.sin(2 * np.pi * 3 * t), 0.2)
     damper = lambda x, v: 2000.0 * v + 300.0
     ref = simulate(qc, damper, t, y, F_static=300.0, x_install=0.04, stroke=0.08)
-    car = Stepper(qc, t, y, F_static=300.0, x_install=0.04, stroke=0.08)
+    car = CarStepper(qc, t, y, F_static=300.0, x_install=0.04, stroke=0.08)
     x, v, _ = car.motion()
     while not car.done:
         x, v, _ = car.step(damper(x, v))

@@ -8,7 +8,7 @@ import sys
 from html import unescape
 from pathlib import Path
 
-from records.events import Diagnosis
+from records.events import Findings
 from records.data import segments
 from records.reader import load_recording
 from tests.conftest import dyno
@@ -25,7 +25,7 @@ def test_a_live_diagnosis_event_is_written_during_a_run_on_the_embedded_rig(tmp_
     assert r.returncode == 0, r.stderr
     _, events, _ = load_recording(out)
     sines = segments(events, kinds=("sine",))
-    found = [e for e in events if isinstance(e, Diagnosis)]
+    found = [e for e in events if isinstance(e, Findings)]
     assert sorted(e.segment for e in found) == sorted(name for name, *_ in sines), r.stderr
     first = found[0]
     assert first.segment == sines[0][0] and sines[0][3] <= first.t < sines[-1][3], (first.t, sines)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from records.events import Diagnosis, SegmentStart
+from records.events import Findings, SegmentStart
 from protocols import cell, runner
 from protocols.library import sine_matrix
 from protocols.plan import Plan, parse, rig_info
@@ -242,7 +242,7 @@ def test_live_view_logs_the_documented_entities():
         from protocols.live_identify import predicted_force
         p = predicted_force(vr.plant.damper, kept.arrays(), kept.events)
         live.prediction(3.0, p["v"], p["F"], p["F_model"])
-        live.event(Diagnosis(4.0, "", {"unsure": ["qz7 over kx9"], "settled": []},
+        live.event(Findings(4.0, "", {"unsure": ["qz7 over kx9"], "settled": []},
                              "round 1: named sensor_delay"))  # dyno run discover's round
     finally:
         live.close()

@@ -11,7 +11,7 @@ from contextlib import closing
 import numpy as np
 import pytest
 
-from records.events import Diagnosis, Fault, RunStart, SegmentEnd, SegmentStart, Verdict
+from records.events import Findings, Fault, RunStart, SegmentEnd, SegmentStart, DiscoveryVerdict
 from commands.cli import main as dyno
 from tests import mcap_files
 from protocols.units import Units
@@ -216,7 +216,7 @@ def test_the_live_page_plots_force_and_the_loops_as_the_run_is_written(page, ser
                                ".dataset.xmax > 2.9", timeout=5_000)
         assert "3.0 s" in page.locator("section.live[data-key='plots.mcap'] .progress-text").inner_text()
         # the live diagnosis's findings (protocols/live_diagnose.py) appear as they are written
-        rec.event(Diagnosis(3.0, "sine 12.7 mm 1 Hz", {"findings": [
+        rec.event(Findings(3.0, "sine 12.7 mm 1 Hz", {"findings": [
             "Nothing significant was left out: the held-out residual is within the force noise."]}, "nothing named",
             source="live"))
         rec.flush()
@@ -273,8 +273,8 @@ def test_a_recording_being_written_is_read_on_from_where_the_last_look_ended(tmp
         live.read_on(rec.claim.target)  # nothing new: nothing read twice
         assert len(live.events) == 4
         # dyno run discover's rounds and verdict are shown with the live diagnosis's findings
-        rec.event(Diagnosis(1.5, "", {"round": 1, "unsure": ["friction or a lag"]}, "named nothing"))
-        rec.event(Verdict(2.0, "discover", message="Found: nothing. Stopped: the budget is spent."))
+        rec.event(Findings(1.5, "", {"round": 1, "unsure": ["friction or a lag"]}, "named nothing"))
+        rec.event(DiscoveryVerdict(2.0, "discover", message="Found: nothing. Stopped: the budget is spent."))
         live.read_on(rec.claim.target)
         assert live.findings == [("verdict", ["Found: nothing. Stopped: the budget is spent."]),
                                  ("round 1", ["named nothing", "Unsure: friction or a lag"])]

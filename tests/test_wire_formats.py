@@ -28,7 +28,7 @@ def test_serial_frame_is_byte_exact():
 def test_serial_parser_recovers_every_frame_from_garbage(frames, garbage, chunk):
     encoded = [serial_frame.encode(s, st_, uv * 1e-6) for s, st_, uv in frames]
     stream = b"".join(g + f for g, f in zip(garbage + [b""] * len(encoded), encoded))
-    p = serial_frame.Parser()
+    p = serial_frame.FrameParser()
     got = []
     for i in range(0, len(stream), chunk):  # bytes arrive in arbitrary pieces
         got += p.feed(stream[i:i + chunk])
@@ -40,7 +40,7 @@ def test_serial_parser_recovers_every_frame_from_garbage(frames, garbage, chunk)
 
 @given(st.binary(max_size=400))
 def test_serial_parser_takes_any_bytes(data):
-    p = serial_frame.Parser()
+    p = serial_frame.FrameParser()
     for f in p.feed(data):
         assert isinstance(f, serial_frame.Frame)
     assert p.dropped <= len(data)
@@ -59,7 +59,7 @@ def test_corrupted_serial_frames_are_counted_not_returned():
     bad = bytearray(serial_frame.encode(2, 0, 0.7))
     bad[5] ^= 0x10  # one flipped bit
     truncated = serial_frame.encode(3, 0, 0.9)[:6]
-    p = serial_frame.Parser()
+    p = serial_frame.FrameParser()
     frames = p.feed(good + bytes(bad) + truncated + serial_frame.encode(4, 0, 1.1))
     assert [f.seq for f in frames] == [1, 4]
     assert p.bad_frames >= 1

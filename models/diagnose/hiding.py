@@ -29,7 +29,7 @@ T_CHANNEL = "T_body"
 
 
 @dataclass(frozen=True)
-class Hidden:
+class HiddenInFile:
     """One thing hidden: a catalogue effect ("effect") or a fault of the cell ("cell")."""
     name: str
     kind: str
@@ -55,13 +55,13 @@ class Hidden:
         return (1.0 / value if value else float("inf")) if self.inverse else value * self.factor
 
 
-def catalogue() -> dict[str, Hidden]:
+def catalogue() -> dict[str, HiddenInFile]:
     """{name: Hidden} of hiding.toml, effects then the cell's faults."""
     doc = tomllib.loads((Path(__file__).with_name("hiding.toml")).read_text())
     out = {}
     for kind in ("effect", "cell"):
         for name, e in doc[kind].items():
-            out[name] = Hidden(name, kind, e.get("param", name), e["unit"], e["factor"], e["off"], e["far"],
+            out[name] = HiddenInFile(name, kind, e.get("param", name), e["unit"], e["factor"], e["off"], e["far"],
                                e["scale"], tuple(e["found"]), tuple(e.get("dependence", ())), e.get("fixed", {}),
                                tuple(e.get("shape", ())), e.get("temperature", False), e.get("inverse", False),
                                e.get("what", ""), e.get("fault", ""), e.get("below_peak", ""),
@@ -79,7 +79,7 @@ def with_heat(channels):
     return {**channels, T_CHANNEL: (t, HEAT_RAMP_K[0] + (HEAT_RAMP_K[1] - HEAT_RAMP_K[0]) * u)}
 
 
-def added(hidden: Hidden, d: Data, base: dict, value: float):
+def added(hidden: HiddenInFile, d: Data, base: dict, value: float):
     """The force [N] the effect adds along d's samples at value (base: the baseline's
     fitted values, the cell's alignment with them)."""
     cell = list(WITH_BASELINE)
@@ -97,7 +97,7 @@ def added(hidden: Hidden, d: Data, base: dict, value: float):
     return m1.force(d, p) - m0.force(d, {k: v for k, v in p.items() if k in {q.name for q in m0.params}})
 
 
-def fault(hidden: Hidden, t, F, value: float):
+def fault(hidden: HiddenInFile, t, F, value: float):
     """The force channel F [N] at times t [s] with the cell's fault at value."""
     t, F = np.asarray(t, float), np.asarray(F, float)
     u = (t - t[0]) / max(t[-1] - t[0], 1e-9)
@@ -118,7 +118,7 @@ def fault(hidden: Hidden, t, F, value: float):
     raise ValueError(f"{hidden.name}: no fault form {hidden.fault!r} hiding.py knows")
 
 
-def copy(hidden: Hidden, channels, d: Data, base: dict, value: float):
+def copy(hidden: HiddenInFile, channels, d: Data, base: dict, value: float):
     """The recording's channels with hidden at value: an effect's force added on the force
     channel's clock (nothing outside the stretches the diagnosis reads), or a cell fault."""
     t, F = channels["force"]
@@ -131,7 +131,7 @@ def copy(hidden: Hidden, channels, d: Data, base: dict, value: float):
     return {**channels, "force": (t, F + np.where(near, on, 0.0))}
 
 
-def contribution(hidden: Hidden, channels, d: Data, base: dict, value: float) -> float:
+def contribution(hidden: HiddenInFile, channels, d: Data, base: dict, value: float) -> float:
     """RMS [N] of what hidden at value adds to the force over d's samples."""
     if hidden.kind == "cell":
         t, F = channels["force"]
@@ -141,7 +141,7 @@ def contribution(hidden: Hidden, channels, d: Data, base: dict, value: float) ->
     return float(np.sqrt(np.mean(dF ** 2)))
 
 
-def sized(hidden: Hidden, channels, d: Data, base: dict, target: float):
+def sized(hidden: HiddenInFile, channels, d: Data, base: dict, target: float):
     """(value, its contribution [N]): the value whose RMS contribution is target [N], by
     bisection between off and far; (None, largest contribution) when even far adds less
     (a friction effect on a baseline with no friction)."""

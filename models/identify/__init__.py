@@ -34,7 +34,7 @@ from models.identify import gas as identify_gas, low_speed as identify_low_speed
 from models.identify.dynamic import dynamic_step, simulate_segment
 from models.identify.incompressible import charge_from_reversals, valves_step
 from models.identify.parameters import canonical, parameter_value, set_parameter
-from models.identify.result import IdentifyError, Result
+from models.identify.result import IdentifyError, Identified
 from models.identify.segments import dynamic_segments
 from models.identify.static import Estimate, identify_static, static_holds
 from models.damper import T_STD
@@ -48,7 +48,7 @@ __all__ = ["IdentifyError", "Result", "canonical", "dynamic_segments", "identify
 HELDOUT_EVERY = 3  # every third dynamic segment is held out of all fitting
 
 
-def identify(channels, events, description: Damper, progress=print, dynamic=True, smoothing=None) -> Result:
+def identify(channels, events, description: Damper, progress=print, dynamic=True, smoothing=None) -> Identified:
     """A damper model from a recording (see the module docstring). dynamic=False stops
     after the incompressible valve step (what the live view shows while a test runs).
     smoothing: the source's moving average (records/source_filter.py), which the compressible
@@ -60,7 +60,7 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
     if sign:
         raise IdentifyError(sign)
     d = canonical(description)
-    res = Result(d)
+    res = Identified(d)
     charge, T_s = _static_step(channels, events, d, res)
     _gas_step(channels, events, d, res, charge, T_s)
     _low_speed_step(channels, events, d, res)
@@ -96,7 +96,7 @@ def identify(channels, events, description: Damper, progress=print, dynamic=True
     return res
 
 
-def _static_step(channels, events, d: Damper, res: Result):
+def _static_step(channels, events, d: Damper, res: Identified):
     """Friction table and gas charge at the hold temperature (eqs 3.1, 3.7); returns
     (charge (P0, V0 Estimates) or None, hold temperature [K])."""
     geo = d.geometry
@@ -126,7 +126,7 @@ def _static_step(channels, events, d: Damper, res: Result):
     return charge, T_s
 
 
-def _gas_step(channels, events, d: Damper, res: Result, charge, T_s):
+def _gas_step(channels, events, d: Damper, res: Identified, charge, T_s):
     """Oil thermal expansion from the gas pressure at rest (eq 4.6), then P0, V0 referred
     to 20 C (eqs 4.4-4.5)."""
     geo = d.geometry
@@ -164,7 +164,7 @@ def _gas_step(channels, events, d: Damper, res: Result, charge, T_s):
                      note="enters only as V0 - K_voint (eq 4.4): folded into V0"))
 
 
-def _low_speed_step(channels, events, d: Damper, res: Result):
+def _low_speed_step(channels, events, d: Damper, res: Identified):
     """Breakaway friction at the low-speed test's stroke reversals and its temperature
     coefficients (eq 4.1)."""
     slow = segments(events, kinds=("low-speed",))
@@ -218,7 +218,7 @@ def _thermal_expansion(channels, rests, charge, T_s, A_r):
     return float(coef[0]), float(coef[1]), float(np.sqrt(cov[0, 0])), float(np.ptp(T))
 
 
-def _gamma_step(d: Damper, res: Result) -> bool:
+def _gamma_step(d: Damper, res: Identified) -> bool:
     """gamma from the training segments' gas and chamber pressures (identify_gas); True
     when it was identified (the compressible fit then keeps it)."""
     if any(s.chambers is None for s in res.train):

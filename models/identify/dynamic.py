@@ -14,8 +14,8 @@ from models.identify import low_speed as identify_low_speed, valves as identify_
 from models.identify.incompressible import bypass_compression_start
 from models.identify.parameters import UNITS, determined, is_slope, parameter_value, set_parameter, to_value, to_z, \
     z_bounds
-from models.identify.result import Result
-from models.identify.segments import Segment
+from models.identify.result import Identified
+from models.identify.segments import Resampled
 from models.identify.static import Estimate
 from models.physics.simulate import simulate
 from models.statistics import covariance, nrmse
@@ -32,9 +32,9 @@ BYPASS_SEAT_START = 100.0  # N: seating force a bypass found by the compressible
 P_WEIGHT = 0.3  # gas-pressure residuals against force residuals: enough to fix gamma (eq 4.3)
 
 
-def simulate_segment(d: Damper, s: Segment, cycles=None, full=False):
+def simulate_segment(d: Damper, s: Resampled, cycles=None, full=False):
     """Model force over a segment's scored part, driven by its measured motion (the
-    simulate.Result from the segment's start if full)."""
+    simulate.Simulated from the segment's start if full)."""
     end = len(s.t)
     if cycles and s.freq:
         end = min(end, s.score_from + int(cycles / s.freq / (s.t[1] - s.t[0])))
@@ -58,7 +58,7 @@ def direction_ranges(Fm, v):
     return scale
 
 
-def _residual(d: Damper, s: Segment, cycles):
+def _residual(d: Damper, s: Resampled, cycles):
     """Force error over the force's range in each direction (`direction_ranges`), and
     gas-pressure error over the pressure's range where the gas pressure was recorded, each
     weighted so that every segment counts the same."""
@@ -78,7 +78,7 @@ def _residual(d: Damper, s: Segment, cycles):
     return np.concatenate(out)
 
 
-def dynamic_step(d: Damper, res: Result, fit_K=True, fit_gamma=True):
+def dynamic_step(d: Damper, res: Identified, fit_K=True, fit_gamma=True):
     """Refit valves, temperature coefficients, bulk modulus, gamma and the friction's
     pre-sliding travel to whole training segments with the compressible model. The bulk
     modulus form (constant, or pressure dependent by eq 3.32) is chosen on validation

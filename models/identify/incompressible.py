@@ -6,14 +6,14 @@ import numpy as np
 
 from models.damper import Bypass, Damper, ValvePath, Valves
 from models.identify import valves as identify_valves
-from models.identify.result import IdentifyError, Result
-from models.identify.segments import Segment
+from models.identify.result import IdentifyError, Identified
+from models.identify.segments import Resampled
 from models.physics.gas_spring import P_ATM
 
 BYPASS_SEAT_MARGIN = 1.25  # ... one the valve step found: this times the largest open force
 
 
-def _gas_force(d: Damper, s: Segment):
+def _gas_force(d: Damper, s: Resampled):
     """Gas force [N] over a segment: measured pressure x rod area when recorded (eq 3.4),
     else the polytropic model about the segment's mean position (eq 4.3)."""
     if s.P_gas is not None:
@@ -28,7 +28,7 @@ def _gas_force(d: Damper, s: Segment):
 GAS_MISFIT = 0.1  # the description's gas force this share of the force range off the data's: refitted
 
 
-def _at_reversals(s: Segment):
+def _at_reversals(s: Resampled):
     """Indices of a segment's velocity reversals (scored part): there the damping is nil and
     the force is the gas force give or take friction, which the two ends cancel."""
     v = s.v[s.score_from:]
@@ -65,7 +65,7 @@ def charge_from_reversals(d: Damper, segments) -> str:
             f"{d.gas_spring.P0 / 1e5:.2f} bar")
 
 
-def _low_acceleration(s: Segment):
+def _low_acceleration(s: Resampled):
     """Samples where the compressibility hardly matters (thesis 4.2.3.1): within half the
     amplitude of mid-stroke (|acceleration| below half its peak)."""
     A = 0.5 * np.ptp(s.x[s.score_from:])
@@ -74,7 +74,7 @@ def _low_acceleration(s: Segment):
     return k
 
 
-def valves_step(d: Damper, res: Result, fit_K=True):
+def valves_step(d: Damper, res: Identified, fit_K=True):
     """Incompressible start: structure and coefficients per path and direction on
     low-acceleration samples of the training segments. Monotube: damping = force - gas -
     friction. Remote reservoir with chamber pressures: the piston's share (P1 - P2) A_w and

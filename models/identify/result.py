@@ -9,7 +9,7 @@ from models.damper import Damper
 
 
 @dataclass
-class Result:
+class Identified:
     damper: Damper
     estimates: list = field(default_factory=list)  # [Estimate]
     steps: dict = field(default_factory=dict)  # step -> "done ..." | "skipped: ..."

@@ -43,7 +43,7 @@ def by_cycles(span):
 
 
 @dataclass
-class Segment:
+class Resampled:
     """A recorded test segment resampled on a uniform clock (the force's)."""
     name: str
     params: dict
@@ -99,7 +99,7 @@ def dynamic_segments(channels, events, left_out=None, smoothing=None):
         v = smooth(at(channels, "v", t) if "v" in channels else np.gradient(x, t), h, f)
         T = float(at(channels, "T_body", t).mean()) if "T_body" in channels else T_STD
         P = at(channels, "P_gas", t) if "P_gas" in channels else None
-        seg = Segment(name, params, t, x, v, at(channels, "force", t), T, P, int(np.searchsorted(t, t0)),
+        seg = Resampled(name, params, t, x, v, at(channels, "force", t), T, P, int(np.searchsorted(t, t0)),
                       smoothing=smoothing)
         if P is not None:
             tp, pv = channels["P_gas"]

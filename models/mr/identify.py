@@ -28,7 +28,7 @@ DETERMINED = 0.5  # a parameter is determined when its 95 % interval's half-widt
 
 
 @dataclass
-class Estimate:
+class SpencerParameter:
     name: str
     value: float
     unit: str
@@ -131,7 +131,7 @@ def identify(t, x, xd, v, F, holdout=0.15, judged=None, say=lambda s: None) -> F
         lo, hi = BOUNDS[name]
         ci = (value - 1.96 * s, value + 1.96 * s)
         on_bound = min(abs(value - lo), abs(hi - value)) <= 1e-6 * max(abs(value), 1.0)
-        est.append(Estimate(name, float(value), UNITS[name], ci,
+        est.append(SpencerParameter(name, float(value), UNITS[name], ci,
                             bool(np.isfinite(s) and 1.96 * s < DETERMINED * abs(value) and not on_bound)))
     Fm = force(m, x, xd, v, h)
     held = None

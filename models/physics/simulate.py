@@ -42,7 +42,7 @@ def C_to_K(T_C):
 
 
 @dataclass
-class Result:
+class Simulated:
     t: np.ndarray  # s
     x: np.ndarray  # m, from full extension, compression positive
     v: np.ndarray  # m/s, compression positive
@@ -59,7 +59,7 @@ class Result:
 
 
 def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
-             substeps=1, state=None) -> Result:
+             substeps=1, state=None) -> Simulated:
     """Force response of `damper` to displacement x(t) [m] at temperature T [K].
 
     t must be uniformly spaced for the compressible model. v defaults to the numerical
@@ -76,7 +76,7 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
         Fd = simplified.force(damper, v)
         nan = np.full_like(t, np.nan)
         zero = np.zeros_like(t)
-        return Result(t, x, v, Fd, Fd, zero, zero, nan, nan, nan, T)
+        return Simulated(t, x, v, Fd, Fd, zero, zero, nan, nan, nan, T)
     if not isinstance(damper, Damper):
         raise TypeError("damper must be a Damper or SimplifiedDamper")
     stroke = damper.geometry.stroke
@@ -113,7 +113,7 @@ def simulate(damper, t, x, v=None, T=C_to_K(94.0), compressible=True, x_e=None,
     else:
         Ff = friction.friction_force(x, v, T, f.x_table, f.F_table, f.C_sfT, f.C_ifT)
     Fd, Fg = out[:, 0], out[:, 1]
-    return Result(t, x, v, Fd + Fg + Ff, Fd, Fg, Ff, out[:, 2], out[:, 3], out[:, 4], T,
+    return Simulated(t, x, v, Fd + Fg + Ff, Fd, Fg, Ff, out[:, 2], out[:, 3], out[:, 4], T,
                   new_state, int(capped))
 
 

@@ -236,7 +236,7 @@ def run(qc: QuarterCar, damper, t, y_in, v_in=None, T=C_to_K(94.0), compressible
     return _result(qc, t, y_in, v_in, rec)
 
 
-class Stepper:
+class CarStepper:
     """The quarter car one step at a time, with the damper force from outside (the load
     cell, in hardware-in-the-loop): `step(F)` takes the force [N] that answered the present
     damper motion, advances the car one step of the road's period, and returns the damper

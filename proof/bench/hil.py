@@ -13,7 +13,7 @@ import numpy as np
 
 from models.damper import load as load_damper
 from models.quarter_car import load as load_car
-from models.quarter_car.sim import Stepper, run as simulate
+from models.quarter_car.sim import CarStepper, run as simulate
 from rig.compensation import COMPENSATORS, make
 from sim_backend.plant import plant_params
 
@@ -70,7 +70,7 @@ def tick_cost(car="race-car", compensator="adaptive", steps=20000):
     as the loop makes them (the adaptive fit's share spread over its ticks)."""
     qc, h = load_car(car), 1e-3
     road = roads.parse("iso8608:C:50:20", 1.0 / h)
-    stepper = Stepper(qc, road.t[:steps], road.y[:steps], road.v[:steps], 500.0, 0.04, 0.08)
+    stepper = CarStepper(qc, road.t[:steps], road.y[:steps], road.v[:steps], 500.0, 0.04, 0.08)
     comp = make(compensator, 0.005, h)
     x, v, _ = stepper.motion()
     t0 = time.perf_counter()

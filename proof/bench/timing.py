@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from records.events import RunEnd, Verdict
+from records.events import RunEnd, DiscoveryVerdict
 from rig import config
 from rig.errors import RigError
 from rig.loop import ControlLoop
@@ -221,7 +221,7 @@ def bench_discover(budget_s=60.0):
     return {"budget_s": budget_s, "wall_s": wall, "rig_s": rig, "added_rig_s": added,
             "wall_over_budget": wall / budget_s, "wall_over_rig": wall / rig, "goal_wall_over_budget": DISCOVER_GOAL,
             "goal_met": wall <= DISCOVER_GOAL * budget_s,
-            "verdict": next((e.message for e in events if isinstance(e, Verdict)), "")}
+            "verdict": next((e.message for e in events if isinstance(e, DiscoveryVerdict)), "")}
 
 
 def said(stats, embedded, seconds) -> str:

@@ -25,7 +25,7 @@ import numpy as np
 from models.damper import DamperError
 from models.quarter_car import hil as measures
 from models.quarter_car import load as load_car
-from models.quarter_car.sim import Stepper
+from models.quarter_car.sim import CarStepper
 from models.quarter_car.sim import run as run_car
 from rig.compensation import COMPENSATORS, fit, make
 from rig.errors import RigError
@@ -176,7 +176,7 @@ class CarLoop:
         if not 0.0 <= delay <= 0.05:
             raise RigError(f"hil: the probe's delay estimate {delay * 1e3:.1f} ms is not an actuator's: give delay_ms")
         d = self.rig.damper
-        self.car = Stepper(self.qc, self.road.t, self.road.y, self.road.v, F_static, self.rig.x_mid,
+        self.car = CarStepper(self.qc, self.road.t, self.road.y, self.road.v, F_static, self.rig.x_mid,
                            d.geometry.stroke)
         self.comp = make(self.p.compensator, delay, self.h, start=r if self.p.delay_ms == 0 else None)
         self.next = self.car.motion()

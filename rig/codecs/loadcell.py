@@ -55,7 +55,7 @@ def decode(frame: bytes) -> Frame:
     return Frame(seq, status, uv * 1e-6)
 
 
-class Parser:
+class FrameParser:
     """Incremental: feed() bytes as they arrive, get the complete valid frames back."""
 
     def __init__(self):

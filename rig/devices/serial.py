@@ -17,7 +17,7 @@ class SerialLoadCell:
     def __init__(self, name, params):
         self.name, self.params = name, params
         self.port = None
-        self.parser = loadcell.Parser()
+        self.parser = loadcell.FrameParser()
         self.frames = 0
         self.glitches = []  # frame counts at which bytes were dropped or frames lost
         self.clock = StreamClock(1.0 / frame_hz(params))

@@ -77,7 +77,7 @@ class Hidden:
 
 
 @dataclass(slots=True)
-class Step:
+class PlantStep:
     """One plant step through the load path, as the hidden effects see and change it."""
     h: float  # s: the step
     x: float  # m: the rod's position

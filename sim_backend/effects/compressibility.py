@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from models.damper import Compressibility as Oil
+from models.damper import OilCompressibility as Oil
 from sim_backend.effects.base import Hidden
 
 P_REF_AIR = 2e6  # Pa: where the air form's effective modulus is VALUE (the pressure form's reference)

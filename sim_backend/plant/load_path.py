@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from sim_backend.effects.base import Step
+from sim_backend.effects.base import PlantStep
 
 
 def damper_step(pl, h, v_prev):
@@ -18,7 +18,7 @@ def damper_step(pl, h, v_prev):
     if pl.extra is not None:  # the user's own physics, on the rod's motion
         F += pl.extra(x, v, pl.t, pl.T)
     if pl.load_path:
-        s = Step(h, x, v, v_prev, F, F_d, F_f, P1, P2)
+        s = PlantStep(h, x, v, v_prev, F, F_d, F_f, P1, P2)
         for e in pl.load_path:
             e.load(pl, s)
         F, P1, P2 = s.F, s.P1, s.P2

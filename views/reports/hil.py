@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from records.events import Result, SegmentStart
+from records.events import ClosedLoopResult, SegmentStart
 from records.data import segment_kind
 from models.quarter_car.hil import transmissibility
 from protocols.library.replay import RECOVER_S
@@ -21,7 +21,7 @@ HEADER = ("segment", "compensator", "J2 [%]", "delay [ms]", "probe delay [ms]", 
 
 def results(events):
     """[(segment, measures)] of the recording's road segments."""
-    return [(e.segment, e.params) for e in events if isinstance(e, Result) and e.of == "hil"]
+    return [(e.segment, e.params) for e in events if isinstance(e, ClosedLoopResult) and e.of == "hil"]
 
 
 # what the table's measures are, said on the page under it (docs/hil.md)
@@ -39,7 +39,7 @@ REPLAY_HEADER = ("iteration", "NRMS error [%]", "undisturbed [%]")
 
 def replay_errors(events):
     """[(iteration, NRMS error [-])] of a replay's iterations."""
-    return [(e.params["iteration"], e.params["nrmse"]) for e in events if isinstance(e, Result) and e.of == "replay"]
+    return [(e.params["iteration"], e.params["nrmse"]) for e in events if isinstance(e, ClosedLoopResult) and e.of == "replay"]
 
 
 def replay_table(events):
@@ -47,7 +47,7 @@ def replay_table(events):
     error was kept shows a dash."""
     return [(e.params["iteration"], f"{100 * e.params['nrmse']:.3f}",
              f"{100 * e.params['nrmse_undisturbed']:.3f}" if "nrmse_undisturbed" in e.params else "-")
-            for e in events if isinstance(e, Result) and e.of == "replay"]
+            for e in events if isinstance(e, ClosedLoopResult) and e.of == "replay"]
 
 
 def table(events):

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from records.events import STOPS, Diagnosis, NextTest, RunEnd, Skipped, Verdict
+from records.events import STOPS, Findings, NextTest, RunEnd, Skipped, DiscoveryVerdict
 from records.data import segments, sign_problem
 from records.segmentation import BLOCK_KINDS, cut, division
 from records.reader import load_recording
@@ -227,11 +227,11 @@ def _header(page, meta, events, model):
     moved = {prm["adapted_from"] for _, prm, _, _ in segments(events) if "adapted_from" in prm}
     page.items(("adapted" if isinstance(e, Skipped) and e.segment in moved else e.kind,
                 f"{e.segment} {e.message}") for e in ends)
-    live = [e for e in events if isinstance(e, Diagnosis) and e.live]
+    live = [e for e in events if isinstance(e, Findings) and e.live]
     if live:  # dyno run --diagnose (protocols/live_diagnose.py)
         page.paragraph("Diagnosed while the run went on, each sine segment against the damper's model refitted:")
         page.items((e.segment, " ".join(e.params.get("findings", []))) for e in live)
-    rounds = [e for e in events if isinstance(e, (Diagnosis, NextTest, Verdict)) and e not in live]
+    rounds = [e for e in events if isinstance(e, (Findings, NextTest, DiscoveryVerdict)) and e not in live]
     if rounds:  # dyno run discover (protocols/discover.py)
         page.paragraph("The dyno's own next tests: after each diagnosis, what it named and was unsure of, what "
                        "the following data settled, and each sine it ran next with why.")
@@ -255,7 +255,7 @@ def _round_item(e):
     p = e.params
     if isinstance(e, NextTest):
         return f"round {p.get('round', '?')}: ran {e.segment}", e.message
-    if isinstance(e, Verdict):
+    if isinstance(e, DiscoveryVerdict):
         return "verdict", e.message
     said = [*(f"unsure: {u}" for u in p.get("unsure", [])), *(f"settled: {s}" for s in p.get("settled", []))]
     return f"round {p.get('round', '?')}: diagnosis", "; ".join([e.message, *said])

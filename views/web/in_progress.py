@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from mcap.records import Attachment, Channel, Message, Metadata
 
-from records.events import STOPS, Diagnosis, RunStart, SegmentEnd, SegmentStart, Verdict
+from records.events import STOPS, Findings, RunStart, SegmentEnd, SegmentStart, DiscoveryVerdict
 from rig.errors import UsageError
 from records.files import writer
 from records.reader import read_event
@@ -107,11 +107,11 @@ class Live:
         out = []
         for e in self.events:
             p = e.params
-            if isinstance(e, Diagnosis) and e.live:
+            if isinstance(e, Findings) and e.live:
                 out.append((e.segment, p.get("findings", [])))
-            elif isinstance(e, Diagnosis):
+            elif isinstance(e, Findings):
                 out.append((f"round {p.get('round', '?')}", [e.message, *(f"Unsure: {u}" for u in p.get("unsure", []))]))
-            elif isinstance(e, Verdict):
+            elif isinstance(e, DiscoveryVerdict):
                 out.append(("verdict", [e.message]))
         return out[::-1]
 

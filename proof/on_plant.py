@@ -16,6 +16,7 @@ import numpy as np
 
 from records.events import RunEnd
 from models.diagnose.candidates import EFFECTS
+from models.diagnose.spec import Nature
 from models.physics.simulate import warm
 from workers.pool import run_all
 from records.data import segments
@@ -266,7 +267,7 @@ def _recorded(task: ProveTask, folder):
     # a timing offset of the cell or the valve curve's form is no claim of physics
     # (models/diagnose/spec.py NATURES): not counted against a null or as an extra
     # physics below the practical size is kept in the model but not named: no claim
-    claims = [e for e in r.named() if EFFECTS[e.split(":")[0]].nature in ("physics", "open")]
+    claims = [e for e in r.named() if EFFECTS[e.split(":")[0]].nature in (Nature.PHYSICS, Nature.OPEN)]
     extra = [s for s in r.steps if s.effect.split(":")[0] not in hidden and s.effect in claims]
     return Outcome(
         effect=effect, form=form, size=size, noise=noise, rate=rate, seed=seed,
@@ -294,7 +295,7 @@ def own_estimate(r, first):
 def _first(accepted, hidden):
     """The first effect named that counts: the valve curve's form and the cell's own timing
     (the plant's, on every null) do not take the first place unless the row hides them."""
-    named = [e for e in accepted if EFFECTS[e.split(":")[0]].nature not in ("form", "cell") or e.split(":")[0] in hidden]
+    named = [e for e in accepted if EFFECTS[e.split(":")[0]].nature not in (Nature.FORM, Nature.CELL) or e.split(":")[0] in hidden]
     return named[0].split(":")[0] if named else None
 
 
@@ -312,7 +313,7 @@ def _group(r, hidden):
         return cell[:1]
     for s in r.steps:
         key = s.effect.split(":")[0]
-        if s.replaced_by or s.small or (EFFECTS[key].nature in ("form", "cell") and key not in hidden):
+        if s.replaced_by or s.small or (EFFECTS[key].nature in (Nature.FORM, Nature.CELL) and key not in hidden):
             continue
         return [key] + [e.split(":")[0] for e, _, _ in s.rivals]
     return []

@@ -112,7 +112,7 @@ def test_no_file_outside_the_catalogue_names_an_effect():
     own = {root / "models/diagnose/terms.py", *(root / "models/diagnose/effects").glob("*.py")}
     said = re.compile(r"""["'](%s)["':]""" % "|".join(sorted(EFFECTS, key=len, reverse=True)))
     hits = []
-    for top in ("rig", "records", "models", "sim_backend", "protocols", "proof", "commands"):
+    for top in ("rig", "records", "models", "sim_backend", "protocols", "views", "proof", "commands"):
         for path in sorted((root / top).rglob("*.py")):
             rel = path.relative_to(root).as_posix()
             if path in own:

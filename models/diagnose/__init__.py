@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from models.diagnose.spec import Needs
 from workers import threads
 from models.diagnose.candidates import EFFECTS, GAMMA, WITH_BASELINE, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
@@ -73,20 +74,20 @@ def available(d: Data, accepted):
     out, skipped = [], []
     taken = {a.split(":")[0] for a in accepted}
     for name, e in EFFECTS.items():
-        if e.needs in ("referee", "baseline"):
+        if e.needs in (Needs.REFEREE, Needs.BASELINE):
             continue
-        if e.needs == "T" and d.T is None:
+        if e.needs == Needs.TEMPERATURE and d.T is None:
             skipped.append(name)
-        elif e.needs == "frequencies":  # a function of frequency needs two of them
+        elif e.needs == Needs.FREQUENCIES:  # a function of frequency needs two of them
             if len(frequencies(d)) >= 2 and name not in accepted:
                 out.append(name)
-        elif e.needs == "tone":
+        elif e.needs == Needs.TONE:
             if d.tone_hz is not None and name not in accepted:
                 out.append(name)
-        elif e.needs == "aux?":  # one of its forms at most
+        elif e.needs == Needs.AUX_OR_NOT:  # one of its forms at most
             if name not in taken:
                 out += [name] + [f"{name}:{n}" for n in d.aux]
-        elif e.needs == "aux":
+        elif e.needs == Needs.AUX:
             out += [f"{name}:{n}" for n in d.aux if f"{name}:{n}" not in accepted]
             if not d.aux:
                 skipped.append(name)
@@ -177,7 +178,7 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         with clock.stage("rivals"):
             rivals, rival_votes = rivals_of(d, best, b_r, round_, judge)
         with clock.stage("stand-ins"):
-            stand_in, stand_in_votes = stood_in(d, base, cell + accepted, best, b_folds, b_r, folds, judge, rival_votes)
+            refereed = stood_in(d, base, cell + accepted, best, b_folds, b_r, folds, judge, rival_votes)
         with clock.stage("refit"):
             b_vals, b_folds, b_r, shares, traded = _refit(d, base, cell, accepted, best.effect, b_vals, b_folds, b_r,
                                                           folds, judged, preds)
@@ -186,8 +187,8 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
                           best.parameters, best.ci, best.p_value, r_cur, b_r, traded, form_of,
                           # the earlier effects whose form this one may be compensating, in acceptance order
                           [e for e in accepted if e in dict(traded) or e in dict(form_of)], rivals=rivals,
-                          stand_in=stand_in, relevance=best.relevance, accept_votes=best.accept_votes,
-                          rival_votes=rival_votes, stand_in_votes=stand_in_votes))
+                          stand_in=refereed.stand_in, referee=refereed.faced, relevance=best.relevance,
+                          accept_votes=best.accept_votes, rival_votes=rival_votes, stand_in_votes=refereed.votes))
         accepted.append(best.effect)
         values, current, r_cur = b_vals, b_folds, b_r
         progress(f"accepted {best.effect}")

@@ -19,7 +19,7 @@ from models.diagnose import kernels
 from models.diagnose.effects import CATALOGUE
 from models.diagnose.forms import soft_sign
 from models.diagnose.valves import VALVES, damping_grad, slope, slope_grad, damping
-from models.diagnose.spec import P
+from models.diagnose.spec import ActsOn, Nature, Needs, P, Variable
 from models.diagnose.terms import TERMS
 
 GAMMA = 1.38  # thesis section 4.1.2
@@ -135,7 +135,7 @@ class Model:
             for part, c in self.base.columns(f).items():
                 cols[part] = dict(c)
         for c, e, before in f.trace:
-            if c.acts_on == "total" and "F" not in cols:
+            if c.acts_on == ActsOn.TOTAL and "F" not in cols:
                 cols["F"] = _summed(cols)
             if c.tangent is None:  # an effect without derivatives: every column is differenced
                 return {}
@@ -149,16 +149,16 @@ class Model:
         f.p = p
         staged = sorted(((EFFECTS[e.split(":")[0]], e) for e in self.effects), key=lambda ce: ORDER.index(ce[0].name))
         for c, e in staged:
-            if c.acts_on == "motion":
+            if c.acts_on == ActsOn.MOTION:
                 c.apply(self, d, p, f, e)
         f.Fd, f.Fg, f.Ff, f.slope = self.base.parts(d, p, f.x, f.v, f.tau)
         for c, e in staged:
-            if c.acts_on == "parts":
+            if c.acts_on == ActsOn.PARTS:
                 f.trace.append((c, e, f.state()))
                 c.apply(self, d, p, f, e)
         f.F = f.Fd + f.Fg + f.Ff
         for c, e in staged:
-            if c.acts_on == "total":
+            if c.acts_on == ActsOn.TOTAL:
                 f.trace.append((c, e, f.state()))
                 c.apply(self, d, p, f, e)
         f.F = d.through_source(f.F)  # as the file's force was written (records/source_filter.py)
@@ -191,9 +191,25 @@ class Forces:
         return {"Fd": self.Fd, "Fg": self.Fg, "Ff": self.Ff, "F": self.F}
 
 
+def refereed(effects):
+    """effects, each referee checked: a named referee is a term of them, and an effect of
+    the damper that follows the temperature names one in time (while the temperature only
+    rises, the recording cannot tell the two apart): one without it fails here, at import,
+    instead of being named without facing a stand-in."""
+    in_time = sorted(n for n, e in effects.items() if e.nature == Nature.OPEN and Variable.TIME in e.depends_on)
+    for n, e in effects.items():
+        if e.referee and e.referee not in effects:
+            raise ValueError(f"effect {n!r}: its referee {e.referee!r} is no effect or term")
+        if (Variable.TEMPERATURE in e.depends_on and e.nature in (Nature.PHYSICS, Nature.OPEN)
+                and e.referee not in in_time):
+            raise ValueError(f"effect {n!r} follows the temperature: its referee must be the same shape in time, "
+                             f"one of {', '.join(in_time)}")
+    return effects
+
+
 # the catalogue and the open terms (models/diagnose/terms.py), which compete in every round
-EFFECTS = {**CATALOGUE, **TERMS}
+EFFECTS = refereed({**CATALOGUE, **TERMS})
 # the cell's part of every model the diagnosis fits, from the baseline on (needs="baseline")
-WITH_BASELINE = [n for n, e in EFFECTS.items() if e.needs == "baseline"]
+WITH_BASELINE = [n for n, e in EFFECTS.items() if e.needs == Needs.BASELINE]
 # the order the effects act in (Effect.order)
 ORDER = tuple(sorted(EFFECTS, key=lambda n: EFFECTS[n].order))

@@ -44,6 +44,7 @@ from models.diagnose import RELEVANCE, resolved  # a rival must have been worth 
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.data import Data
 from models.diagnose.result import Diagnosis
+from models.diagnose.spec import ActsOn, Variable
 
 HINT_P = 0.1  # or a p-value under this: an effect the recording hints at without showing
 MAX_HINTS = 3  # hinted effects designed for, largest gain first (many p-values sit at the
@@ -116,7 +117,7 @@ def _designable(e):
     """Can a motion tell it apart? Not an effect in temperature or an aux channel (held),
     nor a force in time itself (a drift, a tone); a time shift of the motion (a lag) it can."""
     spec = EFFECTS[e.split(":")[0]]
-    return not HELD & set(spec.depends_on) and ("time" not in spec.depends_on or spec.acts_on == "motion")
+    return not HELD & set(spec.depends_on) and (Variable.TIME not in spec.depends_on or spec.acts_on == ActsOn.MOTION)
 
 
 def rivals(diag: Diagnosis) -> list[Rival]:

@@ -3,27 +3,31 @@ it cannot be told from (its rivals) and the flexible model with no mechanism in 
 must beat before it is named (its referee)."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from models.diagnose.bootstrap import ALPHA
 from models.diagnose.candidates import EFFECTS, Model
 from models.diagnose.fitting import linear_fit, open_params
+from models.diagnose.spec import ActsOn, Nature, Needs, Variable
 from models.diagnose.stability import EDGE, against, holds
 
 RELEVANCE = 0.1  # noise variances an accepted effect must gain at least
 # a mechanism whose variables the loop shows is named only when it beats this stand-in
-STAND_IN = next(n for n, e in EFFECTS.items() if e.needs == "referee")
-LOOP_VARIABLES = {"displacement", "velocity", "direction", "acceleration", "frequency"}
+LOOP_VARIABLES = {Variable.DISPLACEMENT, Variable.VELOCITY, Variable.DIRECTION, Variable.ACCELERATION,
+                  Variable.FREQUENCY}
+STAND_IN = next(n for n, e in EFFECTS.items() if e.needs == Needs.REFEREE and set(e.depends_on) <= LOOP_VARIABLES)
 # the cell's timing a round may accept (beyond the alignment fitted with the baseline), a rival
 # of a loop mechanism at one frequency
-TIMING = next(n for n, e in EFFECTS.items() if e.acts_on == "motion" and e.needs != "baseline")
+TIMING = next(n for n, e in EFFECTS.items() if e.acts_on == ActsOn.MOTION and e.needs != Needs.BASELINE)
 # a lag accepted in some judgements explaining at least this share of what a loop mechanism explains, at one
 # frequency, is among its rivals whatever the blocks say: a lag F(t - tau) ~ F - tau dF/dt
 # opens the loop at one frequency as a stiffness, a compressible oil or a hysteresis does,
 # and a term along the stroke per direction takes up any loop of one amplitude and
 # frequency, a lag's with the file's own misfit (a 17 ms lag on a real 0.5 Hz run: 0.22)
 TIMING_SHARE = 0.1
-MECHANISMS = ("physics", "open")  # natures that say physics left out: sized, and faced with a referee
+MECHANISMS = (Nature.PHYSICS, Nature.OPEN)  # natures that say physics left out: sized, and faced with a referee
 ONE_FREQUENCY = 1.1  # segments whose frequencies are within this ratio are one test frequency
 
 
@@ -45,7 +49,7 @@ def not_proven(candidates):
 
 def term(e):
     """Is e a term outside the catalogue (or the baseline's form reshaped), not a named effect?"""
-    return EFFECTS[e.split(":")[0]].nature in ("open", "form")
+    return EFFECTS[e.split(":")[0]].nature in (Nature.OPEN, Nature.FORM)
 
 
 
@@ -117,8 +121,18 @@ def referee(spec):
     return STAND_IN if set(spec.depends_on) <= LOOP_VARIABLES else None
 
 
-def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge, rival_votes=None):
-    """((stand-in, paired p) or None, votes): the stand-in when a mechanism does not beat,
+@dataclass
+class Refereed:
+    """A round's winner against its referee: the term it faced ("": none), the stand-in
+    when that explained as much ((term, paired p), else None) and, per judgement, 1.0
+    where it did."""
+    faced: str
+    stand_in: tuple | None
+    votes: np.ndarray
+
+
+def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge, rival_votes=None) -> Refereed:
+    """Refereed: the stand-in when a mechanism does not beat,
     on the same held-out blocks at p < ALPHA in at least half of the judgements, its referee
     (above) fitted beside the same accepted effects; votes: 1.0 in each judgement in which it
     does not. Catalogue physics and terms outside it alike, so that the answer cannot slide from
@@ -133,13 +147,13 @@ def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge, rival_votes=N
                      if EFFECTS[e.split(":")[0]].nature in MECHANISMS and holds(np.mean(v))), spec)
     judge_term = referee(spec)
     if spec.nature not in MECHANISMS or ":" in best.effect or not judge_term or judge_term in fitted:
-        return None, np.zeros(len(judge.variants))
+        return Refereed("", None, np.zeros(len(judge.variants)))
     m = Model(d, fitted + [judge_term], base)
     # from the winner's own fit (the baseline where the mechanism's nonlinear refit moved it),
     # so that the two differ by what each adds, not by how far the baseline's refit went
     r = linear_fit(m, d, folds, b_folds, hold=open_params(d, fitted))[2]
     votes = 1.0 - judge.votes(r_best, r, ALPHA)
-    return ((judge_term, judge.p(r_best, r, ALPHA)) if np.mean(votes) >= 0.5 else None), votes
+    return Refereed(judge_term, (judge_term, judge.p(r_best, r, ALPHA)) if np.mean(votes) >= 0.5 else None, votes)
 
 
 def rivals(best, r_best, round_, judge):

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from models.diagnose.data import Data
+from models.diagnose.spec import ActsOn
 
 
 @dataclass
@@ -82,6 +83,7 @@ class Step:
     small: bool = False  # significant but below the practical size: kept in the model, not named (named())
     # (stand-in, paired p) when a flexible surface with no mechanism explains as much: not named
     stand_in: tuple | None = None
+    referee: str = ""  # the flexible model with no mechanism it faced before it was named ("": none)
     # what it is (describe): spec.NATURES, spec.VARIABLES, where it lives, elastic or dissipative, size
     nature: str = ""
     depends_on: list = field(default_factory=list)
@@ -177,7 +179,7 @@ class Diagnosis:
         from models.diagnose.candidates import EFFECTS
         for fit in [s for s in self.steps if not s.replaced_by] + list(self.baseline.cell):
             spec = EFFECTS.get(fit.effect.split(":")[0])
-            if spec is not None and spec.acts_on == "motion" and spec.estimate in fit.parameters:
+            if spec is not None and spec.acts_on == ActsOn.MOTION and spec.estimate in fit.parameters:
                 return float(fit.parameters[spec.estimate]), fit
         return 0.0, None
 

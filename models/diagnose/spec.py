@@ -5,15 +5,55 @@ the virtual plant hides it is the plant's own knowledge (sim_backend/effects/)."
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 
 V_EPS = 5e-5  # m/s: a friction's sign is softened over this (the model's velocity is fitted, not measured)
 
-# what an effect may depend on (the JSON's `depends_on`)
-VARIABLES = ("time", "displacement", "velocity", "direction", "acceleration", "temperature", "frequency", "aux")
-# what kind of thing it is: physics of the damper the catalogue names; the test cell
-# (its timing, its interference), not the damper; the baseline's own law reshaped (the
-# valve curve), not physics left out; or a term outside the catalogue, read by its form
-NATURES = ("physics", "cell", "form", "open")
+
+# An effect's kinds are closed sets: a misspelt one fails when its module is imported (Effect
+# checks them), not as an effect silently refereed as another. Each is a str, so the JSON,
+# the words and a comparison with its text read it unchanged.
+class Variable(StrEnum):
+    """What an effect may depend on (the JSON's `depends_on`)."""
+    TIME = "time"
+    DISPLACEMENT = "displacement"
+    VELOCITY = "velocity"
+    DIRECTION = "direction"
+    ACCELERATION = "acceleration"
+    TEMPERATURE = "temperature"
+    FREQUENCY = "frequency"
+    AUX = "aux"
+
+
+class Nature(StrEnum):
+    """What kind of thing an effect is."""
+    PHYSICS = "physics"  # physics of the damper the catalogue names
+    CELL = "cell"  # the test cell (its timing, its interference), not the damper
+    FORM = "form"  # the baseline's own law reshaped (the valve curve), not physics left out
+    OPEN = "open"  # a term outside the catalogue, read by its form
+
+
+class ActsOn(StrEnum):
+    """Where an effect's force acts (its `apply`)."""
+    MOTION = "motion"  # before the baseline: the motion it sees
+    PARTS = "parts"  # the baseline's damping, gas or friction
+    TOTAL = "total"  # the total force
+
+
+class Needs(StrEnum):
+    """What an effect needs of the recording before it is a candidate."""
+    NOTHING = ""
+    TEMPERATURE = "T"  # a temperature channel
+    AUX = "aux"  # an aux channel
+    AUX_OR_NOT = "aux?"  # tried alone and with each aux channel
+    TONE = "tone"  # a tone in the residual
+    FREQUENCIES = "frequencies"  # sine segments of two frequencies or more
+    REFEREE = "referee"  # never a candidate: the stand-in a mechanism must beat (loop_surface)
+    BASELINE = "baseline"  # never a candidate: fitted with the baseline from the start (the cell's timing)
+
+
+VARIABLES = tuple(Variable)
+NATURES = tuple(Nature)
 
 
 @dataclass(frozen=True)
@@ -38,13 +78,10 @@ class Effect:
     params: callable  # (d, effect id) -> [P]
     estimate: str | None  # the parameter that sizes the effect (what `dyno prove` reports); None: a basis
     apply: callable  # (model, d, values, Forces, effect id): its force, in place
-    acts_on: str  # "motion" (before the baseline), "parts" (its damping, gas or friction) or "total"
-    needs: str = ""  # "T" or "aux": a channel it needs; "aux?": tried alone and with each aux channel; "tone": a
-    # tone; "frequencies": sine segments of two frequencies or more; "referee": never a candidate, the stand-in a
-    # mechanism must beat (loop_surface); "baseline": never a candidate, fitted with the baseline from the start
-    # (the cell's timing)
-    depends_on: tuple = ()  # of VARIABLES
-    nature: str = "physics"  # of NATURES
+    acts_on: ActsOn
+    needs: Needs = Needs.NOTHING
+    depends_on: tuple = ()  # of Variable
+    nature: Nature = Nature.PHYSICS
     say: tuple = ()  # (sentence, parameter shown, factor, unit): see models/diagnose/words.py
     linear: bool = False  # a smooth basis, linear in its coefficients: screened by one Gauss-Newton step
     # (Damper) -> bool: a damper description that has this physics (models/damper.py); the
@@ -65,7 +102,20 @@ class Effect:
     # timing first, multiplications of one part, the total's sum, then its caps, the free
     # play's zero-force crossings and last what the load cell does to all of it
     order: int = 0
+    # its place in the catalogue: the order the rounds try the candidates in, and which of two
+    # the held-out blocks cannot tell apart the model carries (referees._first); the plant
+    # lists its own version at the same place (sim_backend/effects/base.py Hidden.listed)
+    listed: int = 0
     short: str = ""  # its name in a list of findings; "": the id's words
     # (step, sample period [s]) -> its sentence from the finding's values and intervals
     # (parameters, ci, effect id), or None for the general one (models/diagnose/words.py)
     words: callable = None
+
+    def __post_init__(self):
+        """Each kind checked and made its enum: a typo is a ValueError naming the effect."""
+        try:
+            for field, kind in (("acts_on", ActsOn), ("needs", Needs), ("nature", Nature)):
+                object.__setattr__(self, field, kind(getattr(self, field)))
+            object.__setattr__(self, "depends_on", tuple(Variable(v) for v in self.depends_on))
+        except ValueError as e:
+            raise ValueError(f"effect {self.name!r}: {e}") from None

@@ -18,6 +18,8 @@ evidence (issue 29). Each is a smooth basis with linear coefficients:
   interference     a tone at a frequency unrelated to the motion, found in the residual's
                    spectrum (mains hum, a pump, a fan)
   temperature_force an offset varying with temperature: B(T)
+  friction_drift   not a candidate: the seal's friction changing in time, (1 + B(t)) F_friction,
+                   the stand-in a friction that follows the temperature must beat
   loop_surface     not a candidate: the flexible stand-in a mechanism of the loop must beat
                    before it is named, per direction B(x) times a quadratic in |v|
 
@@ -82,12 +84,12 @@ def added(m, d, p, f, e, cols, before):
     cols[part].update(zip(m.own[e], B.T))
 
 
-def _scaled_by(before, B, names, where=None):
-    """The tangent of damping multiplied by 1 + B @ c (where: per direction, the samples
-    each set of coefficients acts on): the damping's columns scaled, each coefficient's
-    its basis times the damping it multiplied."""
-    Fd = before["Fd"]
-    return {n: B[:, i] * Fd * (1.0 if where is None else where) for i, n in enumerate(names)}
+def _scaled_by(before, B, names, where=None, part="Fd"):
+    """The tangent of a part (damping) multiplied by 1 + B @ c (where: per direction, the
+    samples each set of coefficients acts on): the part's columns scaled, each coefficient's
+    its basis times the part it multiplied."""
+    F = before[part]
+    return {n: B[:, i] * F * (1.0 if where is None else where) for i, n in enumerate(names)}
 
 
 @functools.partial(kernels.recent, size=16)
@@ -184,16 +186,23 @@ def _drift(m, d, p, f, e):
     add(f, "F", e, B, [p[f"dr{i}"] for i in range(B.shape[1])])
 
 
-def _damping_drift(m, d, p, f, e):
-    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
-    f.Fd = f.Fd * (1.0 + B @ np.array([p[f"dd{i}"] for i in range(B.shape[1])]))
+def part_drift(part, prefix):
+    """(apply, tangent) of a part of the force ("Fd", "Ff") times 1 + B(t): the same part
+    changing in time, the stand-in of that part changing with a temperature that only rises."""
+    def apply(m, d, p, f, e):
+        B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
+        setattr(f, part, getattr(f, part) * (1.0 + B @ np.array([p[f"{prefix}{i}"] for i in range(B.shape[1])])))
+
+    def tangent(m, d, p, f, e, cols, before):
+        B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
+        names = [f"{prefix}{i}" for i in range(B.shape[1])]
+        scaled(cols, part, 1.0 + B @ np.array([p[n] for n in names]))
+        cols[part].update(_scaled_by(before, B, names, part=part))
+    return apply, tangent
 
 
-def _damping_drift_tangent(m, d, p, f, e, cols, before):
-    B = cached(m, d, e, lambda ref, dd: _centred(_t_basis, ref, dd))
-    names = [f"dd{i}" for i in range(B.shape[1])]
-    scaled(cols, "Fd", 1.0 + B @ np.array([p[n] for n in names]))
-    cols["Fd"].update(_scaled_by(before, B, names))
+_damping_drift, _damping_drift_tangent = part_drift("Fd", "dd")
+_friction_drift, _friction_drift_tangent = part_drift("Ff", "fd")
 
 
 def frequency_u(d):
@@ -367,6 +376,11 @@ TERMS = {e.name: e for e in (
            say=("A tone at {hz:.2f} Hz, unrelated to the motion, rides on the force ({size}): interference in "
                 "the cell (mains at 50 or 60 Hz, a pump, a fan), not the damper. Shield or filter the force "
                 "channel.", None, 1.0, "N")),
+    Effect("friction_drift", "the seal's friction changing in time, independent of the motion",
+           lambda d, e: [P(f"fd{i}", 0.0, -0.9, 0.9, "-") for i in range(_drift_n(d))], "fd0", _friction_drift,
+           "parts", needs="referee", depends_on=("time", "direction"), linear=True, nature="open",
+           tangent=_friction_drift_tangent, order=52,
+           say=("Not in the catalogue: the seal's friction changing in time ({region}; {size}).", None, 1.0, "N")),
     Effect("loop_surface", "a smooth surface in displacement, speed and direction",
            lambda d, e: coefficients("ls", 2 * SURFACE[0] * SURFACE[1], force_bound(d)), None, _loop_surface,
            "total", needs="referee", depends_on=("displacement", "velocity", "direction"), linear=True,

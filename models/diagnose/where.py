@@ -6,6 +6,7 @@ import numpy as np
 
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.data import Data
+from models.diagnose.spec import Needs
 
 GAIN_ERROR = 0.02  # a load cell's and a valve curve's proportional misfit: the share of the force a residual is judged against
 
@@ -134,7 +135,7 @@ def describe(d: Data, effect, change, k):
                  else _character(c, x, v))
     return {"depends_on": list(spec.depends_on), "nature": spec.nature, "region": region, "character": character,
             "size_rms_n": float(np.sqrt(np.mean(E))), "size_peak_n": float(np.max(np.abs(c))),
-            **({"tone_hz": d.tone_hz} if spec.needs == "tone" else {})}
+            **({"tone_hz": d.tone_hz} if spec.needs == Needs.TONE else {})}
 
 
 def _character(c, x, v):

@@ -9,6 +9,7 @@ import numpy as np
 from models.diagnose import fitting, quality, stability
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
+from models.diagnose.spec import ActsOn, Nature
 from records.data import reads_low, repeats_sentence
 
 # how a finding opens, by its nature (models/diagnose/spec.py NATURES)
@@ -18,7 +19,7 @@ OPENING = {"physics": "Left out: {name}. ", "cell": "In the cell, not the damper
 
 def _what(step):
     # a smooth basis's sentence says its own region and size
-    said_already = step.nature in ("open", "form") or "{size}" in EFFECTS[step.effect.split(":")[0]].say[0]
+    said_already = step.nature in (Nature.OPEN, Nature.FORM) or "{size}" in EFFECTS[step.effect.split(":")[0]].say[0]
     return (f"depends on {_on(step)}; {step.character}"
             + ("" if said_already else f"; {step.region}; {_size(step)}"))
 
@@ -29,7 +30,7 @@ def alternatives(step):
     the recording does not say which). A lag between the channels depends on the motion
     itself, not on the time elapsed."""
     specs = [EFFECTS[e.split(":")[0]] for e, _, _ in step.rivals]
-    return [v for v in dict.fromkeys(v for s in specs if s.acts_on != "motion" for v in s.depends_on)
+    return [v for v in dict.fromkeys(v for s in specs if s.acts_on != ActsOn.MOTION for v in s.depends_on)
             if v not in step.depends_on]
 
 
@@ -37,7 +38,7 @@ def _on(step):
     """What a finding depends on: its own variables, or its rivals'. A lag carried in a group
     says its rivals' only: it depends on the motion itself, not on the time elapsed."""
     other = alternatives(step)
-    if other and EFFECTS[step.effect.split(":")[0]].acts_on == "motion":
+    if other and EFFECTS[step.effect.split(":")[0]].acts_on == ActsOn.MOTION:
         return ", ".join(other)
     return ", ".join(step.depends_on) + (f", or on {', '.join(other)}" if other else "")
 
@@ -73,7 +74,7 @@ def rivals_sentence(step):
                                    for e, _, _ in step.rivals]
     group = ", ".join(names[:-1]) + " and " + names[-1]
     ps = ", ".join(f"{said(e)} {p:.2g}" for e, _, p in step.rivals)
-    form = [said(e) for e in [step.effect] + [e for e, _, _ in step.rivals] if EFFECTS[e.split(":")[0]].nature == "form"]
+    form = [said(e) for e in [step.effect] + [e for e, _, _ in step.rivals] if EFFECTS[e.split(":")[0]].nature == Nature.FORM]
     maybe = (f"; {form[0]} is the baseline's own law reshaped, so it may be no physics left out at all" if form
              else "")
     return (f"The recording cannot tell which physics was left out: {group} explain the same misfit about equally "

@@ -6,31 +6,34 @@ One module per effect: what its VALUE means, its forms, and its physics with its
 diagnosis fits: a first-order filter against a pure delay, a mount whose rod floats across
 the gap against a stationary one, a Stribeck seal against a breakaway that decays with
 travel, and so on. The plant does not read the diagnosis's catalogue: the names are the
-same, the knowledge is each side's own. Adding one: a module here, a line in HIDDEN_ORDER, a
+same, the knowledge is each side's own. Adding one: a module here (found by its being here), a
 calibrated value in plain.toml ([prove.concealed], `dyno prove --calibrate`).
 """
 from __future__ import annotations
 
-from sim_backend.effects.aux_channel import AuxChannel
+import importlib
+import pkgutil
+
 from sim_backend.effects.base import Hidden
-from sim_backend.effects.bouc_wen import BoucWen
-from sim_backend.effects.breakaway_friction import BreakawayFriction
-from sim_backend.effects.cavitation import Cavitation
-from sim_backend.effects.compressibility import Compressibility
-from sim_backend.effects.damping_temperature import DampingTemperature
-from sim_backend.effects.fluid_inertia import FluidInertia
-from sim_backend.effects.free_play import FreePlay
-from sim_backend.effects.gain_drift import GainDrift
-from sim_backend.effects.gas_temperature import GasTemperature
-from sim_backend.effects.position_friction import PositionFriction
-from sim_backend.effects.presliding_friction import PreslidingFriction
-from sim_backend.effects.sensor_delay import SensorDelay
+
+
+def _found() -> tuple[type[Hidden], ...]:
+    """The Hidden class each module of this package defines, in the order listed
+    (Hidden.listed); two at one place are a ValueError at import."""
+    out = []
+    for m in pkgutil.iter_modules(__path__):
+        module = importlib.import_module(f"{__name__}.{m.name}")
+        out += [c for c in vars(module).values()
+                if isinstance(c, type) and issubclass(c, Hidden) and c is not Hidden and c.__module__ == module.__name__]
+    places = [c.listed for c in out]
+    if len(set(places)) < len(places) or min(places) <= 0:
+        twice = sorted(c.name for c in out if places.count(c.listed) > 1 or c.listed <= 0)
+        raise ValueError(f"hidden effects without a place of their own (Hidden.listed): {', '.join(twice)}")
+    return tuple(sorted(out, key=lambda c: c.listed))
+
 
 # the order of the prove tables; each effect's state starts in it (free play places the rod first)
-HIDDEN_ORDER: tuple[type[Hidden], ...] = (
-    SensorDelay, FreePlay, Compressibility, BreakawayFriction, PositionFriction, GasTemperature,
-    DampingTemperature, FluidInertia, Cavitation, PreslidingFriction, BoucWen, AuxChannel, GainDrift)
-HIDDEN = {E.name: E for E in HIDDEN_ORDER}
+HIDDEN = {E.name: E for E in _found()}
 # the other forms, in the plant's words (VALUE keeps its meaning and unit in each)
 FORMS = {f"{name}:{form}": what for name, E in HIDDEN.items() for form, what in E.forms.items()}
 
@@ -41,14 +44,14 @@ def scaled(name, value, s):
 
 
 def build(fx: dict) -> list[Hidden]:
-    """The hidden effects of {name: VALUE, "forms": {name: form}} (parse's), in HIDDEN_ORDER."""
+    """The hidden effects of {name: VALUE, "forms": {name: form}} (parse's), in their order."""
     forms = fx.get("forms", {})
-    return [E(fx[E.name], forms.get(E.name)) for E in HIDDEN_ORDER if E.name in fx]
+    return [E(fx[E.name], forms.get(E.name)) for E in HIDDEN.values() if E.name in fx]
 
 
 def drives(fx: dict) -> dict:
     """{channel: what it is} of the channels the hidden effects make drive the damper."""
-    return {ch: what for E in HIDDEN_ORDER if fx.get(E.name) for ch, what in E.drives.items()}
+    return {ch: what for E in HIDDEN.values() if fx.get(E.name) for ch, what in E.drives.items()}
 
 
 class EffectError(ValueError):

@@ -9,6 +9,7 @@ SOLENOID_S = {None: 0.02, "fast": 0.002}  # s: the solenoid's lag per form
 
 class AuxChannel(Hidden):
     name = "aux_channel"
+    listed = 130
     unit = "1/A"
     form = "damping change per ampere of the adjuster current aux.valve_current (20 ms solenoid lag)"
     guess = 0.01

@@ -22,6 +22,7 @@ class Hidden:
     hi: ClassVar[float] = math.inf  # a typing mistake
     weakest: ClassVar[float] = 1e-3  # the weakest strength (times the guess's) calibration tries
     # --- where it acts --------------------------------------------------------------------
+    listed: ClassVar[int] = 0  # its place among the effects: the diagnosis's catalogue's (Effect.listed)
     stage: ClassVar[int] = 0  # its place in the load path (lower acts first)
     repack_K: ClassVar[float | None] = None  # K: re-pack the damper model at least this often
     drives: ClassVar[dict] = {}  # {channel: what it is} of the channels it makes drive the damper

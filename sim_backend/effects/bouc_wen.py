@@ -12,6 +12,7 @@ BW_YIELD = 2e-4  # m: the element's yield travel (a choice: MR dampers yield ove
 
 class BoucWen(Hidden):
     name = "bouc_wen"
+    listed = 120
     unit = "N"
     form = ("force at yield of a hysteretic element in the load path, Bouc-Wen with exponent n = 1 over "
             "BW_YIELD of travel (the diagnosis fits n = 2)")

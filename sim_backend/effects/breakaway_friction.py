@@ -13,6 +13,7 @@ STRIBECK = {None: ("gaussian", 0.005), "exponential": ("exponential", 0.002), "l
 
 class BreakawayFriction(Hidden):
     name = "breakaway_friction"
+    listed = 50
     unit = "-"
     form = "Stribeck seal (Gaussian, 5 mm/s): friction at rest over sliding friction"
     guess = 1.1

@@ -12,6 +12,7 @@ CAV_REDISSOLVE_S = 0.005  # s: how fast released air goes back into solution (a 
 
 class Cavitation(Hidden):
     name = "cavitation"
+    listed = 100
     unit = "Pa"
     form = "absolute pressure below which the oil releases air: chambers cannot go lower"
     guess = 3e5

@@ -13,6 +13,7 @@ K_OIL = 1.37e9  # Pa: pure oil, thesis 3.3.2 (when the damper gives none)
 
 class Compressibility(Hidden):
     name = "compressibility"
+    listed = 40
     unit = "Pa"
     form = "effective bulk modulus of the oil (entrained air), constant"
     guess = 2e10

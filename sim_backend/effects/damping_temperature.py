@@ -10,6 +10,7 @@ from sim_backend.effects.base import Hidden
 
 class DampingTemperature(Hidden):
     name = "damping_temperature"
+    listed = 80
     unit = "1/K"
     form = "K_effoil of eq 4.17 in both directions (oil density with temperature)"
     guess = 1e-4

@@ -12,6 +12,7 @@ RESONANCE_HZ, RESONANCE_ZETA = 150.0, 0.3  # the resonant form's
 
 class FluidInertia(Hidden):
     name = "fluid_inertia"
+    listed = 90
     unit = "kg"
     form = "mass of the oil column accelerated through the valves (1 ms lag)"
     guess = 0.5

@@ -15,6 +15,7 @@ CONTACT_F = 5000.0  # N: the load under which a free play's contact gives way on
 
 class FreePlay(Hidden):
     name = "free_play"
+    listed = 30
     unit = "m"
     form = "clearance in the damper's lower mount, in the load path (rigid contact)"
     guess = 2e-05

@@ -12,6 +12,7 @@ GAIN_STEP_S = 5.0  # s: the stepped form's update period (a choice)
 
 class GainDrift(Hidden):
     name = "gain_drift"
+    listed = 140
     unit = "1/s"
     form = "the load cell's gain drifting linearly from the plant's start: its reading times 1 + VALUE t"
     guess = 1e-05

@@ -9,6 +9,7 @@ GAS_LAG_S = 10.0  # s: the lagged form's lag behind the body
 
 class GasTemperature(Hidden):
     name = "gas_temperature"
+    listed = 70
     unit = "-"
     form = "share of the body's temperature rise the gas charge takes on"
     guess = 0.1

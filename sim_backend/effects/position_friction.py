@@ -14,6 +14,7 @@ NARROW_SPOT = (-0.003, 0.00075)  # m: the narrow form's
 
 class PositionFriction(Hidden):
     name = "position_friction"
+    listed = 60
     unit = "-"
     form = "a tight spot in the bore: extra friction at its peak over the table's"
     guess = 0.1

@@ -11,6 +11,7 @@ IWAN = (0.25, 0.75, 1.25, 1.75)  # the iwan form's elements' stick travels, in V
 
 class PreslidingFriction(Hidden):
     name = "presliding_friction"
+    listed = 110
     unit = "m"
     form = "the seal's pre-sliding travel (the plant's Dahl law, stepped with the frame)"
     guess = 1e-05

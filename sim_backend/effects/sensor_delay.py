@@ -12,6 +12,7 @@ from sim_backend.effects.base import Hidden
 
 class SensorDelay(Hidden):
     name = "sensor_delay"
+    listed = 20
     unit = "s"
     form = "time constant of a first-order filter in the LVDT/LVT conditioning"
     guess = 1e-4

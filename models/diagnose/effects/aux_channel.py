@@ -53,6 +53,7 @@ EFFECT = Effect(
     needs="aux",
     depends_on=("aux",),
     words=_words,
+    listed=130,
     order=160,
     say=(
         "The force follows {ch} (lag {v} {u}): something that channel measures changes the damping. Hold it "

@@ -78,6 +78,7 @@ EFFECT = Effect(
     depends_on=("displacement", "direction"),
     short="hysteresis (Bouc-Wen)",
     words=_words,
+    listed=120,
     order=150,
     # {aux}: what it is (words.sentence): an MR fluid only when a channel drives its size
     say=(

@@ -44,6 +44,7 @@ EFFECT = Effect(
     tangent=_breakaway_friction_tangent,
     acts_on="parts",
     depends_on=("velocity", "direction"),
+    listed=50,
     order=130,
     say=(
         "Friction is higher just after each velocity reversal, static/dynamic ratio {v}: seal breakaway. It "

@@ -53,6 +53,7 @@ EFFECT = Effect(
     acts_on="total",
     depends_on=("velocity", "direction", "displacement"),
     words=_words,
+    listed=100,
     order=210,
     say=(
         "The force stops rising above {v} {u} at high speed: a chamber cavitates. Raise the gas charge or "

@@ -49,6 +49,7 @@ EFFECT = Effect(
         dm.compressibility.beta_inv is None or dm.compressibility.beta_inv < 1e12 or dm.compressibility.air_fraction > 0
     ),
     words=_words,
+    listed=40,
     order=80,
     say=(
         "The force lags the valve curve at high speed as if the oil were a spring of {v} {u} in series: "

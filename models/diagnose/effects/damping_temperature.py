@@ -21,6 +21,7 @@ EFFECT = Effect(
     needs="T",
     depends_on=("temperature", "velocity", "direction"),
     referee="damping_drift",
+    listed=80,
     order=70,
     say=(
         "Damping changes {v} {u} per kelvin as the oil warms: oil viscosity/density. Test at a controlled "

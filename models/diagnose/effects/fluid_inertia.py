@@ -23,6 +23,7 @@ EFFECT = Effect(
     tangent=_fluid_inertia_tangent,
     acts_on="total",
     depends_on=("acceleration",),
+    listed=90,
     order=140,
     say=(
         "The force carries an acceleration term of {v} {u}: oil column inertia in the valves (or unsupported"

@@ -59,6 +59,7 @@ EFFECT = Effect(
     acts_on="total",
     depends_on=("velocity", "direction"),
     words=_words,
+    listed=30,
     order=220,
     say=(
         "The force sits at zero while the mount travels {v} {u} (relative to the rod, which floats meanwhile"

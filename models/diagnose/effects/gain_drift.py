@@ -42,6 +42,7 @@ EFFECT = Effect(
     acts_on="total",
     depends_on=("time",),
     nature="cell",
+    listed=140,
     order=230,
     say=(
         "The force's scale changes {v} {u} over the run, the same at every speed and stroke: the load cell's"

@@ -22,6 +22,7 @@ EFFECT = Effect(
     depends_on=("temperature", "displacement"),
     referee="drift",
     described=lambda dm: True,  # every damper's gas follows its temperature (eq 3.19)
+    listed=70,
     order=90,
     say=(
         "The static (gas) force grows {v} {u} per kelvin as the damper warms: the gas charge is heating. "

@@ -36,6 +36,7 @@ EFFECT = Effect(
     acts_on="parts",
     depends_on=("displacement", "direction"),
     linear=True,
+    listed=60,
     order=120,
     say=(
         "Friction changes along the stroke ({region}; {size}): a tight spot or wear in the bore or seal. "

@@ -50,6 +50,7 @@ EFFECT = Effect(
     depends_on=("displacement", "direction"),
     resolved=_resolved,
     short="pre-sliding friction",
+    listed=110,
     order=110,
     say=(
         "Friction builds over {v} {u} of travel after each reversal before the seal slides (pre-sliding, "

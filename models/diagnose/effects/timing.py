@@ -74,6 +74,7 @@ EFFECTS = (
         resolved=_resolved("tau_0"),
         short="the channels' alignment",
         words=lag_words,
+        listed=10,
         order=10,
         say=(
             "The {late} by {v} {u}: a timing offset of the cell (a filter or transport lag in a sensor's signal "
@@ -98,6 +99,7 @@ EFFECTS = (
         resolved=_resolved("tau"),
         short="a timing offset of the cell",
         words=lag_words,
+        listed=20,
         order=20,
         say=(
             "The {late} by {v} {u}: a timing offset of the cell (a filter or transport lag in a sensor's signal "

@@ -246,7 +246,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     clearly worse is not; another form of the same effect is the same physics. The sentence
     names the group and tells no mechanism's story."""
     from models.diagnose.referees import rivals
-    from models.diagnose.result import Candidate, Step
+    from models.diagnose.result import Candidate, Step, Tried
     from models.diagnose.stability import Judge, Variant
     from models.diagnose.words import rivals_sentence
     rng = np.random.default_rng(0)
@@ -257,7 +257,7 @@ def test_rivals_are_the_candidates_the_held_out_blocks_cannot_tell_from_the_winn
     def cand(effect, r, accepted=(1.0, 1.0, 1.0)):
         c = Candidate(effect, 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, 50.0, 2.0)
         c.accept_votes = np.array(accepted)
-        return c, {}, [], r
+        return Tried(c, {}, [], r)
     alike = cand("presliding_friction", r_best * (1 + rng.normal(0, 0.02, len(block))))
     worse = cand("compressibility", r_best * 1.5)
     own_form = cand("bouc_wen:aux.current", r_best)

@@ -15,7 +15,7 @@ import pytest
 from models.diagnose import blocks, stability
 from models.diagnose.kernels import delayed
 from models.diagnose.referees import _first
-from models.diagnose.result import Candidate
+from models.diagnose.result import Candidate, Tried
 from tests.conftest import dyno
 from tests.verdicts import verdict
 
@@ -58,15 +58,15 @@ def test_of_equals_the_model_carries_the_catalogues_first_whichever_gained_more(
     r = rng.normal(0, 10.0, len(block))
 
     def cand(effect, gain, resid):
-        return (Candidate(effect, 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, gain, 1.0), {}, [], resid)
+        return Tried(Candidate(effect, 1, {}, {}, 0.01, 10.0, 0.99, 1e-4, gain, 1.0), {}, [], resid)
     a = cand("compressibility", 50.0, r * (1 + rng.normal(0, 0.01, len(r))))
     b = cand("sensor_delay", 49.9, r)
     worse = cand("free_play", 60.0, r * 0.5)  # clearly better: carried whatever the order
     order = ["sensor_delay", "free_play", "compressibility"]
-    assert _first([a, b], [a, b], order, judge)[0].effect == "sensor_delay"
-    assert _first([b, a], [b, a], order, judge)[0].effect == "sensor_delay"
-    assert _first([a], [a, b], order, judge)[0].effect == "sensor_delay"  # b accepted in fewer judgements: at the edge
-    assert _first([a, b, worse], [a, b, worse], order, judge)[0].effect == "free_play"
+    assert _first([a, b], [a, b], order, judge).candidate.effect == "sensor_delay"
+    assert _first([b, a], [b, a], order, judge).candidate.effect == "sensor_delay"
+    assert _first([a], [a, b], order, judge).candidate.effect == "sensor_delay"  # b accepted in fewer judgements: at the edge
+    assert _first([a, b, worse], [a, b, worse], order, judge).candidate.effect == "free_play"
 
 
 @pytest.mark.rounding

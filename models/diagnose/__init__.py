@@ -34,7 +34,7 @@ from models.diagnose.from_model import FromModel
 from models.diagnose.from_spencer import NAME as SPENCER, FromSpencer
 from models.diagnose.measured import friction_outside_physics, undetermined
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
-from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step
+from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step, Tried
 from models.diagnose.noise import noise_from, noise_sd
 from models.diagnose import stability
 from models.diagnose.bootstrap import ALPHA, p_value
@@ -167,14 +167,14 @@ def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, b
         with clock.stage("candidates"):
             round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, judge, r_cur, shown,
                             sigma, alpha, last, cost, progress, jobs, clock)
-        candidates += [c for c, *_ in round_]
-        last = {c.effect: f_vals for c, _, f_vals, _ in round_}
-        ok = [x for x in round_ if x[0].accept_share >= 0.5]  # accepted in most judgements
+        candidates += [x.candidate for x in round_]
+        last = {x.candidate.effect: x.folds for x in round_}
+        ok = [x for x in round_ if x.candidate.accept_share >= 0.5]  # accepted in most judgements
         if not ok:
             break
         # the effect carried may be one at the edge that the held-out blocks cannot tell from the best
-        best, b_vals, b_folds, b_r = chosen(ok, [x for x in round_ if stability.EDGE < x[0].accept_share], judge,
-                                            alpha, names)
+        won = chosen(ok, [x for x in round_ if stability.EDGE < x.candidate.accept_share], judge, alpha, names)
+        best, b_vals, b_folds, b_r = won.candidate, won.values, won.folds, won.residual
         with clock.stage("rivals"):
             rivals, rival_votes = rivals_of(d, best, b_r, round_, judge)
         with clock.stage("stand-ins"):
@@ -333,8 +333,7 @@ def _sized(steps, excess, sigma):
 def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, sigma, alpha, last, cost, progress,
            jobs, clock):
     """Each candidate fitted beside the effects fitted so far (the cell's and those
-    accepted) and judged on the held-out blocks: [(Candidate, pooled values, values per
-    fold, residual [N])] of round `number`. A candidate is accepted where it is significant
+    accepted) and judged on the held-out blocks: [Tried] of round `number`. A candidate is accepted where it is significant
     (p < alpha), worth having (RELEVANCE noise variances, SHARE of the error it starts from)
     and resolved: accept_share is the share of the judgements in which it is."""
     judged = judge.judged
@@ -371,7 +370,7 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
             c.accept_votes = np.zeros(len(judge.variants))
             if worth > 0 and resolved(d, e, c.parameters, c.ci):
                 c.accept_votes = judge.votes(r, r_cur, alpha) * worth
-        out.append((c, vals, f_vals, r))
+        out.append(Tried(c, vals, f_vals, r))
         progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
                  f"  gain {c.relevance:+.3f} noise variances")
     return out

@@ -60,9 +60,9 @@ def _first(ok, near, order, judge):
     catalogue's). Which of equals has the larger gain, or is accepted in one judgement more,
     is the last bits' choice; the order is the same on every machine, and so is the path the
     rounds after it take."""
-    top = max(ok, key=lambda x: x[0].gain)
-    equal = [top] + [x for x in near if x is not top and 1.0 - judge.share(top[3], x[3], ALPHA) > 0.5]
-    return min(equal, key=lambda x: order.index(x[0].effect))
+    top = max(ok, key=lambda x: x.candidate.gain)
+    equal = [top] + [x for x in near if x is not top and 1.0 - judge.share(top.residual, x.residual, ALPHA) > 0.5]
+    return min(equal, key=lambda x: order.index(x.candidate.effect))
 
 
 def chosen(ok, near, judge, alpha, order):
@@ -73,11 +73,12 @@ def chosen(ok, near, judge, alpha, order):
     it does not, the named effect is the better account of the same residual (fewer
     parameters, each with a physical reading)."""
     best = _first(ok, near, order, judge)
-    named = [x for x in ok if not term(x[0].effect)]
-    if not term(best[0].effect) or not named:
+    named = [x for x in ok if not term(x.candidate.effect)]
+    if not term(best.candidate.effect) or not named:
         return best
-    cat = _first(named, [x for x in near if not term(x[0].effect)], order, judge)
-    better = judge.share(best[3], cat[3], alpha) * against(best[0].relevance - cat[0].relevance, RELEVANCE) >= 0.5
+    cat = _first(named, [x for x in near if not term(x.candidate.effect)], order, judge)
+    better = (judge.share(best.residual, cat.residual, alpha)
+              * against(best.candidate.relevance - cat.candidate.relevance, RELEVANCE) >= 0.5)
     return best if better else cat
 
 
@@ -86,7 +87,7 @@ def rivals_of(d, best, r_best, round_, judge):
     held-out blocks cannot tell from it (rivals), and the cell's timing where one test
     frequency cannot (timing_rival). Its stand-in is stood_in's."""
     found, votes = rivals(best, r_best, round_, judge)
-    lag = timing_rival(d, best, r_best, [x for x in round_ if x[0].accept_share > EDGE], judge, found)
+    lag = timing_rival(d, best, r_best, [x for x in round_ if x.candidate.accept_share > EDGE], judge, found)
     if lag:
         found, votes = sorted(found + [lag], key=lambda x: -x[1]), {**votes, lag[0]: np.asarray(best.accept_votes, float)}
     return found, votes
@@ -104,10 +105,10 @@ def timing_rival(d, best, r_best, near, judge, found):
     if (not f or max(f) > ONE_FREQUENCY * min(f) or spec.name == TIMING or spec.nature not in MECHANISMS
             or not set(spec.depends_on) <= LOOP_VARIABLES or any(e == TIMING for e, _, _ in found)):
         return None
-    lag = next((x for x in near if x[0].effect == TIMING), None)
-    if lag is None or not lag[0].gain >= TIMING_SHARE * best.gain:
+    lag = next((x for x in near if x.candidate.effect == TIMING), None)
+    if lag is None or not lag.candidate.gain >= TIMING_SHARE * best.gain:
         return None
-    return TIMING, lag[0].relevance, judge.p(r_best, lag[3], ALPHA)
+    return TIMING, lag.candidate.relevance, judge.p(r_best, lag.residual, ALPHA)
 
 
 def referee(spec):
@@ -170,7 +171,7 @@ def rivals(best, r_best, round_, judge):
     stability.HELD at the edge). Another form of the winner's own effect is not a rival: it
     is the same physics."""
     out, votes = [], {}
-    for c, _, _, r in round_:
+    for c, r in ((x.candidate, x.residual) for x in round_):
         if c.effect.split(":")[0] == best.effect.split(":")[0] or not np.any(c.accept_votes):
             continue
         # both accepted: the lesser of the two (two acceptances within a bar's band are at

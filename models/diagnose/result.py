@@ -59,6 +59,16 @@ class Candidate:
 
 
 @dataclass
+class Tried:
+    """A round's candidate as fitted beside the effects so far and judged on the held-out
+    blocks."""
+    candidate: Candidate
+    values: dict  # pooled over the folds
+    folds: list  # values per fold
+    residual: np.ndarray  # N
+
+
+@dataclass
 class Step:
     """An accepted effect or term, in the order accepted."""
     effect: str

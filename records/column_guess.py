@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from records.table import Layout
+
 SAMPLES = 3  # a column's first values: --inspect shows them, and a number among them makes it numeric
 
 
@@ -20,7 +22,7 @@ NAMES = (("time", ("time", "t", "zeit", "temps", "tiempo", "tempo", "sec")),
          ("pressure", ("pressure", "p_gas", "druck", "pression", "presion", "presión", "pressione")))
 
 
-def by_name(name: str, cells) -> str | None:
+def by_name(name: str, cells: list[str] | np.ndarray) -> str | None:
     """A standard channel a column's name (or first value) suggests, with its unit: the
     map a user would likely write."""
     from records import table
@@ -38,7 +40,7 @@ def by_name(name: str, cells) -> str | None:
     return None
 
 
-def time_unit(cells) -> str | None:
+def time_unit(cells: list[str] | np.ndarray) -> str | None:
     """ms or us for a time column whose name gives no unit and whose step is 0.5 or more
     (no dyno samples slower than 2 Hz: 1 a row is 1 kHz in ms; over 50, us), else None."""
     from records import table
@@ -50,7 +52,7 @@ def time_unit(cells) -> str | None:
     return None if not step >= 0.5 else "ms" if step <= 50 else "us"
 
 
-def key_of(j: int, name: str, layout) -> str:
+def key_of(j: int, name: str, layout: Layout | None) -> str:
     """How --map names column j: by its header, or by its 1-based position without one or
     when the header holds a colon (which --map reads as the unit's)."""
     return name if (layout is None or layout.header is not None) and ":" not in name else str(j + 1)
@@ -107,7 +109,7 @@ def _numbers(cells, layout):
         list(cells), layout.decimal if layout else ".")[0]
 
 
-def sign(cols, layout, mapping) -> str | None:
+def sign(cols: dict, layout: Layout | None, mapping: list[str]) -> str | None:
     """What to flip when the guessed map's force and displacement would give energy back
     (records.data.flips), or None. mapping: [NAME=COLUMN[:UNIT]]."""
     from records.data import flips
@@ -129,7 +131,7 @@ def sign(cols, layout, mapping) -> str | None:
                 "or --flip displacement"))
 
 
-def by_values(cols, layout, guesses) -> list[tuple[str, str]]:
+def by_values(cols: dict, layout: Layout | None, guesses: list[str]) -> list[tuple[str, str]]:
     """[(NAME=COLUMN[:UNIT], why)] read from the values of the numeric columns no name
     explained (a headerless export, a DAQ's CHANNEL0...): time rises by one step every row
     (a counter's step of 1 is no time); a velocity is the rate of change of another column,
@@ -212,13 +214,13 @@ def _motion_and_force(vals, t, force_named):
             (f"force={follow[0][1]}", "")]
 
 
-def counter(cells, layout) -> bool:
+def counter(cells: list[str] | np.ndarray, layout: Layout | None) -> bool:
     """A sample number: 1, 2, 3, ... (the UTFSM DAQ's first column)."""
     a = _numbers(cells, layout)
     return len(a) > 1 and bool(np.all(np.diff(a) == 1.0))
 
 
-def numeric(cells) -> bool:
+def numeric(cells: list[str] | np.ndarray) -> bool:
     """A column whose first values are numbers (a DAQ's channels, not a sample counter's name)."""
     from records import table
     first = [str(c) for c in list(cells[:SAMPLES]) if str(c)]
@@ -229,7 +231,7 @@ METRE_SPAN = 1.0  # m: no damper strokes a metre; a length that spans more count
 CM_SPAN = 20.0  # a span of at most this many: cm (2-200 mm, a dyno's strokes), above it mm
 
 
-def length_units(guesses, cols, layout) -> list[str]:
+def length_units(guesses: list[str], cols: dict, layout: Layout | None) -> list[str]:
     """guesses with a unit where a displacement named without one spans more than a metre
     could (cm up to CM_SPAN of them, else mm: the values cannot tell the two apart for
     certain; --inspect says check the units), and its velocity, named without one too, in

@@ -46,7 +46,7 @@ DAQ_CHANNEL = re.compile(r"^(channel|chan|ch|ai|ain|analog ?in(put)?|voltage|dev
 DAQ_RANGE_V = 10.5  # V: a DAQ's +-10 V input and a little over
 
 
-def volts(name: str, values) -> str:
+def volts(name: str, values: np.ndarray) -> str:
     """Why a column reads volts (its name says V, or a DAQ's channel name whose every value
     lies within its +-10 V range), else "": a raw channel no gain has made a quantity."""
     said = [t for t in BRACKETED.findall(name) + [name.rpartition("_")[2]] * ("_" in name)

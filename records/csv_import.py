@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import zipfile
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from records import table
 from records.column_units import BRACKETED, SI, UNIT_NAMES, UNITS, unit, unit_in_name, volts
 from records.files import input_file
+from records.table import Layout
 from rig.config import quantity
 from rig.errors import UsageError
 
@@ -48,7 +50,7 @@ def decode(data: bytes) -> str:
         return data.decode("latin-1")
 
 
-def parse_map(items):
+def parse_map(items: list[str]) -> list[tuple[str, str, str]]:
     """[(name, column, unit)] from NAME=COLUMN[:UNIT] strings, checking names and units (a
     standard channel's unit "" when not given: read() takes the column name's, else SI)."""
     out = []
@@ -94,7 +96,7 @@ class ColumnsRead:
     lines: np.ndarray = None  # the file's line of each row kept (a workbook's: the row's number)
 
 
-def source(path, sheet=None):
+def source(path: str | Path, sheet: str | None = None) -> tuple[dict, Layout | None]:
     """({column name: cells (text) or values (array)}, Layout or None) of a text table,
     an Excel workbook (its sheet named so, else its fullest), a Parquet file, a TDMS file
     (records/tdms.py) or a MATLAB file (columns VAR, or VAR[N] for a matrix's N-th)."""
@@ -207,7 +209,9 @@ def _cell(v) -> str:
     return repr(v) if isinstance(v, float) else str(v).replace("\t", " ").replace("\n", " ").strip()
 
 
-def read(path, mapping, gains=None, offsets=None, rate_hz=None, sheet=None) -> ColumnsRead:
+def read(path: str | Path, mapping: list[tuple[str, str, str]], gains: dict[str, float] | None = None,
+         offsets: dict[str, float] | None = None, rate_hz: float | None = None, sheet: str | None = None
+        ) -> ColumnsRead:
     """The mapped columns in SI. A time column of date-time stamps gives the recording's
     start; without a time column, the rate (given, or the preamble's) makes one. Values
     are raw x gain + offset in the mapped unit, then SI. Unmapped and empty columns are
@@ -406,7 +410,7 @@ def _plausible(path, name, column, a, first_row=2):
                        f"{name} (outside {where}): check its unit")
 
 
-def derived_velocity(t, x):
+def derived_velocity(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     """velocity_from, refused in one line where no rod moves that fast (time steps far too
     small for their unit, a displacement spike): what import writes, the reader reads."""
     v = velocity_from(t, x)
@@ -422,7 +426,7 @@ def derived_velocity(t, x):
 SG_HALF = 5  # samples either side: the Savitzky-Golay window of 11
 
 
-def savgol_slope(x, h, m=SG_HALF):
+def savgol_slope(x: np.ndarray, h: float, m: int = SG_HALF) -> np.ndarray:
     """The Savitzky-Golay first derivative of a quadratic over 2m+1 samples spaced h [s]
     (scipy.signal.savgol_filter(x, 2m+1, 2, deriv=1, delta=h), whose import alone costs a
     second of every import): inside, the least-squares slope, sum(k x[i+k]) / sum(k^2) / h
@@ -437,7 +441,7 @@ def savgol_slope(x, h, m=SG_HALF):
     return out
 
 
-def velocity_from(t, x):
+def velocity_from(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Velocity [m/s] from displacement: Savitzky-Golay derivative (module docstring).
     Rows sharing a time stamp share the velocity of their mean displacement."""
     tu, inverse = np.unique(t, return_inverse=True)

@@ -14,7 +14,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from records.events import SegmentEnd, SegmentStart
+from records.events import Event, SegmentEnd, SegmentStart
+
+# a recording's channels as load_recording gives them: {name: (t [s], values [SI])}
+Channels = dict[str, tuple[np.ndarray, np.ndarray]]
 
 # what a segment of motion is; the analyses choose segments by these
 # road: motion a virtual car or a replayed history asks for (hardware-in-the-loop, replay);
@@ -53,7 +56,7 @@ class Span(NamedTuple):
         return self.params["kind"]
 
 
-def segments(events, measured=True, kinds=None) -> list[Span]:
+def segments(events: list[Event], measured: bool = True, kinds: tuple | list | None = None) -> list[Span]:
     """The recording's segments: measured ones only by default (measured=False: all), of
     the given kinds if any. params carry their "kind"."""
     out, open_ = [], None
@@ -68,7 +71,7 @@ def segments(events, measured=True, kinds=None) -> list[Span]:
     return out
 
 
-def only(events, names):
+def only(events: list[Event], names: list[str]) -> list[Event]:
     """The events with only the named segments' starts and ends kept (ValueError names an
     unknown segment and the recording's own)."""
     known = [s.name for s in segments(events, measured=False)]
@@ -89,7 +92,7 @@ SAME_TEST_FREQUENCY = 0.02
 SAME_TEST_K = 2.5
 
 
-def near(a, b, share) -> bool:
+def near(a: float, b: float, share: float) -> bool:
     """a and b within `share` of the larger."""
     return abs(a - b) <= share * max(abs(a), abs(b))
 
@@ -119,7 +122,7 @@ class Test(NamedTuple):
                                                                    f" at {self.target_c:g} C")
 
 
-def same_tests(tests) -> list[int]:
+def same_tests(tests: list[Test]) -> list[int]:
     """The group of each test in order: the index of the first earlier test it is the same
     test as (Test.same), else its own."""
     out = []
@@ -131,7 +134,7 @@ def same_tests(tests) -> list[int]:
 REPEATS_DIFFER = 0.15  # repeats of one test whose force ranges differ by more were not one damper
 
 
-def differing_repeats(channels, events) -> list[tuple[str, list[str], list[float]]]:
+def differing_repeats(channels: Channels, events: list[Event]) -> list[tuple[str, list[str], list[float]]]:
     """[(test, [segment names], [force range, N])] of the sine tests run more than once
     (Test.same) whose force ranges (1 to 99 %) differ by more than REPEATS_DIFFER: something
     the recording does not carry changed between them (a coil current, an adjuster, the
@@ -146,7 +149,7 @@ def differing_repeats(channels, events) -> list[tuple[str, list[str], list[float
             for g in differing([Test.of(s.params) for s, _ in spans], [r for _, r in spans])]
 
 
-def differing(tests, ranges) -> list[list[int]]:
+def differing(tests: list[Test], ranges: list[float]) -> list[list[int]]:
     """The groups of indices of tests run more than once (Test.same) whose force ranges [N]
     differ by more than REPEATS_DIFFER, in order."""
     groups = {}
@@ -156,7 +159,7 @@ def differing(tests, ranges) -> list[list[int]]:
             if len(g) > 1 and max(ranges[i] for i in g) > (1 + REPEATS_DIFFER) * min(ranges[i] for i in g)]
 
 
-def repeats_sentence(test, names, ranges) -> str:
+def repeats_sentence(test: str, names: list[str], ranges: list[float]) -> str:
     """A differing_repeats() entry in words (what identify and diagnose say)."""
     return (f"{test} was run {len(names)} times and its force range went from {min(ranges):.0f} to "
             f"{max(ranges):.0f} N: something the recording does not carry changed between them (a coil current, an "
@@ -166,7 +169,7 @@ def repeats_sentence(test, names, ranges) -> str:
 LOW_SHARE = 0.1  # of the force range: a gas force fitted further below zero is the force's zero, not the fit's bias
 
 
-def reads_low(parameters, sd, force_range, data=None) -> str | None:
+def reads_low(parameters: dict, sd: dict, force_range: float, data=None) -> str | None:
     """The sentence saying the force reads low, or None: a gas spring pushes the rod out
     (positive here, eq 3.19), so a gas force below zero is the force's zero moved: a load
     cell's offset the file kept (a raw channel's zero not removed), or its mean removed by
@@ -195,7 +198,7 @@ def reads_low(parameters, sd, force_range, data=None) -> str | None:
             f"unit) to remove that much (the recording cannot tell the rest of an offset from a gas force)")
 
 
-def missing(channels, names):
+def missing(channels: Channels, names: list[str]) -> list[str]:
     """Those of `names` the recording lacks (or has fewer than 2 samples of)."""
     return [n for n in names if n not in channels or len(channels[n][0]) < 2]
 
@@ -203,7 +206,7 @@ def missing(channels, names):
 GAP_PERIODS = 5  # stamps further apart than this many sample periods: samples are missing there
 
 
-def gaps(t, period=None):
+def gaps(t: np.ndarray, period: float | None = None) -> list[tuple[float, float]]:
     """[(t_start, t_end)] of the gaps in a channel's stamps [s] (period: its sample period,
     the median spacing by default): a stalled loop or lost frames. Interpolating across one
     makes data that was never measured."""
@@ -214,18 +217,18 @@ def gaps(t, period=None):
     return [(t[i], t[i + 1]) for i in k]
 
 
-def at(channels, name, t):
+def at(channels: Channels, name: str, t: np.ndarray) -> np.ndarray:
     """A channel interpolated at times t [s]."""
     tc, vc = channels[name]
     return np.interp(t, tc, vc)
 
 
-def smoothing_cutoff(h, freq):
+def smoothing_cutoff(h: float, freq: float) -> float:
     """smooth's cut-off [Hz] at sample period h [s] for a test at freq [Hz]."""
     return min(max(10.0 * freq, 20.0), 0.2 / h)
 
 
-def smooth(y, h, freq):
+def smooth(y: np.ndarray, h: float, freq: float) -> np.ndarray:
     """The motion a model is driven with: zero-phase low-pass at ten times the test
     frequency (at least 20 Hz, at most 0.4 x Nyquist). The transducers' noise would
     otherwise flip the sign of the model's friction and put noise into its damping
@@ -241,13 +244,13 @@ def smooth(y, h, freq):
 SIGN_SHARE = 0.2  # net work against the work done either way: below this a recording cannot tell its sign
 
 
-def other_sign(x, F, t=None) -> str | None:
+def other_sign(x: np.ndarray, F: np.ndarray, t: np.ndarray | None = None) -> str | None:
     """The sentence saying a recording is in the other sign convention, or None (flips
     says when and which)."""
     return sign_sentence(flips(x, F, t))
 
 
-def sign_sentence(said) -> str | None:
+def sign_sentence(said: tuple | None) -> str | None:
     """flips' answer in words, or None."""
     if said is None:
         return None
@@ -272,7 +275,7 @@ def _why(gas) -> str:
                           "force is right and the displacement is counted the other way"))
 
 
-def flips(x, F, t=None) -> tuple[float, str, object] | None:
+def flips(x: np.ndarray, F: np.ndarray, t: np.ndarray | None = None) -> tuple[float, str, object] | None:
     """(work [J], the flip to give or "" when the recording cannot tell which, the gas force
     read at the turning points: records/gas_force.GasForce or None) when a recording is in
     the other sign convention, or None. A passive damper dissipates: over whole cycles the
@@ -316,7 +319,7 @@ VELOCITY_FOLLOWS = 0.9  # correlation of a velocity's integral with the displace
 VELOCITY_SCALE = 2.0  # the velocity's integral over the displacement by more than this (or less than its inverse)
 
 
-def velocity_disagrees(t, x, v) -> str | None:
+def velocity_disagrees(t: np.ndarray, x: np.ndarray, v: np.ndarray) -> str | None:
     """The sentence saying a velocity channel [m/s] is not the rate of change of the
     displacement [m] it was recorded with, or None: counted the other way (an LVT wired
     rebound positive) or in another unit. Its integral is compared with the displacement
@@ -346,7 +349,7 @@ def velocity_disagrees(t, x, v) -> str | None:
 BELOW_EXTENSION_M = 5e-4  # m: a displacement further below zero is not noise about full extension
 
 
-def below_extension(x, unit="mm", scale=1e-3) -> str | None:
+def below_extension(x: np.ndarray, unit: str = "mm", scale: float = 1e-3) -> str | None:
     """The sentence saying a displacement [m] reads below zero, which measured from full
     extension it cannot, or None: its zero is elsewhere. The --offset it gives is in the
     column's mapped unit (scale: that unit in m)."""
@@ -360,7 +363,7 @@ def below_extension(x, unit="mm", scale=1e-3) -> str | None:
             f"needs it")
 
 
-def sign_problem(channels) -> str | None:
+def sign_problem(channels: Channels) -> str | None:
     """other_sign of a recording's channels {name: (t, values)}: the force on the
     displacement's clock."""
     if "x" not in channels or "force" not in channels or len(channels["x"][0]) < 3:
@@ -370,7 +373,7 @@ def sign_problem(channels) -> str | None:
     return other_sign(x, np.interp(tx, tF, F) if len(tF) > 1 else np.full_like(x, np.nan), tx)
 
 
-def drives(meta, kind="") -> list[str]:
+def drives(meta: dict, kind: str = "") -> list[str]:
     """The aux.* channels a recording says drive the damper (its calibration's `drives`:
     an MR coil's current, an adjuster's command), from load_recording's metadata; kind:
     only those whose `drives` starts with it ("coil": an MR damper's coil)."""

@@ -29,6 +29,7 @@ import stat
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from rig.errors import UsageError
@@ -53,7 +54,7 @@ def numbered(path: Path) -> Path:
     return out
 
 
-def input_file(path, what="") -> Path:
+def input_file(path: str | Path, what: str = "") -> Path:
     """`path` if it is a regular file that can be opened; RigError naming the problem."""
     path = Path(path)
     label = f"{what} {path}".strip()
@@ -107,7 +108,7 @@ def _name_fits(path: Path, what):
                        f"at most {limit - TEMP_ROOM})")
 
 
-def make_folder(folder: Path, what, label):
+def make_folder(folder: Path, what: str, label: str) -> Path:
     """folder, created if need be; a one-line UsageError naming `what` and `label` if it
     is a file, cannot be created or is not writable."""
     if folder.exists() and not folder.is_dir():
@@ -120,7 +121,7 @@ def make_folder(folder: Path, what, label):
         raise UsageError(f"{what} {label}: folder {folder} not writable")
 
 
-def output_file(path, inputs=(), overwrite=False, what="--out") -> Path:
+def output_file(path: str | Path, inputs: list = (), overwrite: bool = False, what: str = "--out") -> Path:
     """A file to be written when the work is done, checked now: not an input, kept if it
     exists unless overwrite, its folder created."""
     path = Path(path)
@@ -140,7 +141,7 @@ def output_file(path, inputs=(), overwrite=False, what="--out") -> Path:
     return path
 
 
-def output_folder(path, inputs=(), overwrite=False, what="--out") -> Path:
+def output_folder(path: str | Path, inputs: list = (), overwrite: bool = False, what: str = "--out") -> Path:
     """A folder to be filled when the work is done, checked now: it holds no input, and
     if it holds anything it is kept unless overwrite."""
     path = Path(path)
@@ -161,7 +162,7 @@ def output_folder(path, inputs=(), overwrite=False, what="--out") -> Path:
 
 
 @contextlib.contextmanager
-def written(path, what="--out"):
+def written(path: str | Path, what: str = "--out") -> Iterator[Path]:
     """A temporary path beside `path` to write to; it becomes `path` when the block ends
     without an error, and is removed otherwise."""
     path = Path(path)
@@ -198,7 +199,7 @@ def _move_into(src: Path, dst: Path):
 
 
 @contextlib.contextmanager
-def filled(path, what="--out"):
+def filled(path: str | Path, what: str = "--out") -> Iterator[Path]:
     """A temporary folder beside `path` to write into; its files move into `path` when the
     block ends without an error, and it is removed otherwise."""
     path = Path(path)
@@ -316,7 +317,7 @@ def _lock_of(target) -> Path:
     return Path(target).with_name(Path(target).name + ".lock")
 
 
-def writer(target) -> int | None:
+def writer(target: str | Path) -> int | None:
     """The process writing the recording `target`, or None when no live process holds its
     lock. The flock itself says so, not the PID in the file: a PID can be reused by any
     process (PID 1 is always alive), a lock dies with its holder. The lock is taken for a
@@ -338,7 +339,7 @@ def writer(target) -> int | None:
         os.close(fd)
 
 
-def clear_stale_lock(target) -> str | None:
+def clear_stale_lock(target: str | Path) -> str | None:
     """Remove the lock file of `target` when no live process holds it (its writer died, or
     its PID now names another process); a line saying so, or None when there was none."""
     lock = _lock_of(target)
@@ -362,7 +363,7 @@ def clear_stale_lock(target) -> str | None:
         os.close(fd)
 
 
-def not_being_written(path, doing="read") -> Path:
+def not_being_written(path: str | Path, doing: str = "read") -> Path:
     """`path`, once no live process writes it; RigError naming the writer otherwise. A
     stale lock beside it is cleared, and said so on stderr."""
     pid = writer(path)

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from records.steady import FoundSegment
+
 WINDOW = 0.05  # of the shorter half-cycle either side of a turning point: the velocity within 16 % of its peak
 MIN_SIDE = 3  # samples at least on each side of a turning point
 MIN_TURNS = 3  # turning points at least for an interval
@@ -64,7 +66,7 @@ class GasForce:
         return f"{self.level:+.3g} +- {self.half_width:.2g} {unit}"
 
 
-def at_turns(t, x, F) -> GasForce | None:
+def at_turns(t: np.ndarray, x: np.ndarray, F: np.ndarray) -> GasForce | None:
     """The gas force from the force at zero velocity at the turning points (both ends of
     the stroke, both directions), or None where the motion has fewer than MIN_TURNS turning
     points between strokes of records/strokes.MIN_TRAVEL (in x's unit, metres here)."""
@@ -116,7 +118,7 @@ def at_turns(t, x, F) -> GasForce | None:
 SETTLE = 0.5  # of a hold skipped at its start: the oil's compliance and the gas's heat (eq 3.7) relax there
 
 
-def at_rest(t, F, holds) -> GasForce | None:
+def at_rest(t: np.ndarray, F: np.ndarray, holds: list[tuple[float, float, float, int]]) -> GasForce | None:
     """The gas force from the force held at rest: holds [(t0 [s], t1 [s], position [x's
     unit], +1 come into by compression, -1 by extension)] (records/segmentation's holds and
     dwells, their "approach"). At rest the valves give nothing and the seal holds whatever
@@ -151,14 +153,14 @@ def at_rest(t, F, holds) -> GasForce | None:
     return GasForce(float(coef[0]), k * math.sqrt(max(cov[0, 0], 0.0)), stiff, shw, float(mid), len(m))
 
 
-def holds_of(segments) -> list[tuple[float, float, float, int]]:
+def holds_of(segments: list[FoundSegment]) -> list[tuple[float, float, float, int]]:
     """at_rest's holds from records/segmentation's segments (positions in m)."""
     side = {"compression stroke": 1, "extension stroke": -1}
     return [(s.t0, s.t1, 1e-3 * s.params["x_mm"], side.get(s.params.get("approach"), 0))
             for s in segments if s.kind in ("hold", "dwell") and "x_mm" in s.params]
 
 
-def said_at_rest(gas: GasForce | None, holds) -> list[str]:
+def said_at_rest(gas: GasForce | None, holds: list[tuple[float, float, float, int]]) -> list[str]:
     """What import says of the gas force held at rest (SI: N, m): nothing without holds."""
     holds = [h for h in holds if h[3]]
     if not holds:
@@ -188,7 +190,7 @@ def said(gas: GasForce | None) -> str:
     return out
 
 
-def cycle_means(t, F, t0, t1, freq) -> np.ndarray:
+def cycle_means(t: np.ndarray, F: np.ndarray, t0: float, t1: float, freq: float) -> np.ndarray:
     """The force's mean [F's unit] over each whole cycle of a test at freq [Hz] from t0 to t1 [s]."""
     t = np.asarray(t, float)
     k = np.floor((t - t0) * freq).astype(int)
@@ -199,7 +201,7 @@ def cycle_means(t, F, t0, t1, freq) -> np.ndarray:
     return sums[full] / n[full]
 
 
-def difference(a, b) -> tuple[float, float]:
+def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     """(the mean of b less the mean of a, its 95 % half-width (Welch)): two runs' per-cycle
     mean forces (cycle_means) over one test of one damper, where the valves and friction
     are the same and what differs is the gas force."""
@@ -211,7 +213,7 @@ def difference(a, b) -> tuple[float, float]:
     return float(b.mean() - a.mean()), _t95(int(dof)) * math.sqrt(va + vb)
 
 
-def rising(points, steps=()) -> str | None:
+def rising(points: list[tuple], steps: list[tuple] = ()) -> str | None:
     """The sentence on one damper's runs at several gas charges, or None for fewer than two
     charges. points: [(run, charge [its unit], GasForce or None)]; steps: [(run a, run b,
     the difference of their mean forces over one test and its half-width)] (difference()).

@@ -13,6 +13,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from records.files import Claim
+from records.table import Layout
 from rig.errors import UsageError
 
 FLIPS = ("force", "displacement", "velocity")
@@ -56,7 +58,7 @@ class Imported:
     notes: list[str]
 
 
-def scales(items, what):
+def scales(items: list[str], what: str) -> dict[str, float]:
     """{channel: number} from NAME=NUMBER options (--gain, --offset)."""
     out = {}
     for item in items or ():
@@ -71,7 +73,7 @@ def scales(items, what):
     return out
 
 
-def start_of(text):
+def start_of(text: str | None) -> float | None:
     """s since the epoch of --start DATE-TIME (ISO 8601; without a zone, UTC); None without it."""
     from datetime import datetime, timezone
     if text is None:
@@ -83,7 +85,7 @@ def start_of(text):
     return (when if when.tzinfo else when.replace(tzinfo=timezone.utc)).timestamp()
 
 
-def drives(items, mapping):
+def drives(items: list[str], mapping: list[tuple[str, str, str]]) -> dict[str, str]:
     """{aux channel: what of the damper it drives} from --drive NAME=KIND."""
     from rig.config import DRIVES
     out = {}
@@ -97,7 +99,7 @@ def drives(items, mapping):
     return out
 
 
-def import_file(src: Source, claim) -> Imported:
+def import_file(src: Source, claim: Claim) -> Imported:
     """Read src, write it through claim (files.Claim) as an MCAP recording; UsageError names
     what cannot be read."""
     gc_was = gc.isenabled()
@@ -111,8 +113,8 @@ def import_file(src: Source, claim) -> Imported:
 
 def _import(src, claim):
     from records import gas_force, segmentation
-    from records.data import flips, sign_sentence
     from records.csv_import import derived_velocity, parse_map, read
+    from records.data import flips, sign_sentence
     from records.recorder import UNDATED, Recorder
     got = read(src.file, parse_map(src.map), src.gains, src.offsets, src.rate, src.sheet)
     data, units = got.data, got.units
@@ -240,14 +242,14 @@ def _run_info(got, how, every, src, kept) -> dict:
             **({"import_notes": "\n".join(kept)} if kept else {})}
 
 
-def postamble(layout) -> str:
+def postamble(layout: Layout | None) -> str:
     """What import leaves out after the data: an export's summary block."""
     lines = layout.postamble
     return (f"after the data, left out: {len(lines)} line{'s' * (len(lines) > 1)} that are no row of it ("
             + "; ".join(repr(line.strip()) for line in lines[:3]) + (", ..." if len(lines) > 3 else "") + ")")
 
 
-def flip(data, flips):
+def flip(data: dict, flips: list[str]) -> dict:
     """The channels counted the other way made ours: the force negated, the displacement
     about its most extended reading (its velocity with it), the velocity alone."""
     if "velocity" in flips and "velocity" not in data:
@@ -271,8 +273,8 @@ def _time_notes(got, t, maps) -> list[str]:
 
 def _zero_note(data, units) -> list[str]:
     """A displacement below zero, with the offset that puts its most extended reading at zero."""
-    from records.data import below_extension
     from records.column_units import UNITS
+    from records.data import below_extension
     unit = units.get("displacement", "m")
     below = below_extension(data["displacement"], unit, UNITS["displacement"].get(unit, (1.0,))[0])
     return [f"displacement: {below}"] if below else []
@@ -303,7 +305,7 @@ class Inspection:
     unnamed: list[str]  # numeric columns guessed from nothing
 
 
-def inspect_file(file, sheet=None, given=()) -> Inspection:
+def inspect_file(file: str | Path, sheet: str | None = None, given: list[str] = ()) -> Inspection:
     """What import would read from the file, the map given (--map) kept and the rest
     guessed. Writes nothing."""
     from records import table

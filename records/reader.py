@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import fields
+from pathlib import Path
 
 import numpy as np
 import orjson
@@ -24,11 +25,11 @@ from mcap.reader import make_reader
 from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import get_chunk_data_stream
 
-from records.events import from_wire
 from records import source_filter
+from records.data import Channels
+from records.events import Event, from_wire
 from records.files import input_file, not_being_written
 from rig.errors import UsageError
-
 
 MAX_TIME_S = 1e8  # s from a run's start: three years, beyond any durability run's clock
 MAX_VALUE = 1e15  # SI: above any force, pressure or length a dyno measures; the arithmetic stays finite
@@ -37,7 +38,7 @@ POSITIVE = ("freq_hz", "cycles")  # segment parameters that are above 0 or meani
 JSON_METADATA = {"damper": ("model",), "protocol": ("params",), "calibration": None}  # None: every key
 
 
-def load_recording(path, channels=None):
+def load_recording(path: str | Path, channels: list[str] | None = None) -> tuple[Channels, list[Event], dict]:
     """(channels {name: (t, values)}, events [Event] (records/events.py), metadata {name: dict}); metadata
     "units" is {channel: unit} as recorded. Only the named channels when given (those the
     recording has): the others' batches are most of a 1 kHz recording's reading time.
@@ -95,7 +96,7 @@ def load_recording(path, channels=None):
     return out, events, meta
 
 
-def merged(paths):
+def merged(paths: list[str | Path]) -> tuple[Channels, list[Event], dict]:
     """(channels, events, metadata of the first) from several recordings, each later one
     shifted in time to start 10 s after the one before ends."""
     channels, events, meta, offset = {}, [], None, 0.0
@@ -170,7 +171,7 @@ def _batch(d, topic):
     return d["t"], d["value"], unit if isinstance(unit, str) else str(unit)
 
 
-def read_event(d):
+def read_event(d: dict) -> Event:
     """The event a message holds: t [s] a finite number, kind and segment texts, params an
     object, and a kind's own fields of their types."""
     ok = isinstance(d, dict) and isinstance(d.get("kind"), str) and isinstance(d.get("t"), (int, float)) \

@@ -37,7 +37,7 @@ from records.mcap_batch import add_messages
 FLUSH_S = 0.5
 
 
-def SAMPLES(payload) -> bytes:
+def SAMPLES(payload: dict) -> bytes:
     """A /channels batch as JSON, its arrays written by orjson (a tenth of json's time on a
     million-row import); a sample that is no number is written null, as JSON has no NaN."""
     return orjson.dumps(payload, option=orjson.OPT_SERIALIZE_NUMPY)
@@ -306,7 +306,7 @@ def _passed(data, pos):
     return None
 
 
-def intact_from(data, pos=0):
+def intact_from(data: bytes, pos: int = 0) -> tuple[list, int]:
     """(records, end) of the whole records from pos up to the first one not yet whole: what
     a recording being written holds so far (its flushed chunks); read on from end later."""
     out = []
@@ -324,7 +324,7 @@ def intact_from(data, pos=0):
     return out, pos
 
 
-def scan(data):
+def scan(data: bytes) -> tuple[list, int]:
     """(records, bytes skipped): every intact schema, channel, metadata, attachment and
     every message of every intact chunk, in file order, resynchronising after damage (a
     torn end, a damaged chunk or a damaged magic)."""
@@ -358,7 +358,7 @@ def _scanned(path):
             {r.id: r for r in records if isinstance(r, Channel)})
 
 
-def recover(path) -> dict:
+def recover(path: str | Path) -> dict:
     """Rebuild an indexed MCAP from a damaged one (a run that was killed, a torn or
     corrupted file): every intact record is kept, also those after a damaged part. The
     original is kept beside it as PATH.damaged (PATH.damaged-2 ... if that exists).
@@ -388,7 +388,7 @@ def recover(path) -> dict:
     return counts
 
 
-def edit_run_info(path, changes: dict) -> dict:
+def edit_run_info(path: str | Path, changes: dict) -> dict:
     """Rewrite a recording with its "run" metadata changed ({damper_serial, operator, note,
     setup.KEY: text}; "" removes one); every other record is kept as it was: the messages
     with their times, the attachments, the other metadata. Returns the new run metadata."""

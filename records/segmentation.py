@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from records.data import Span, Test, same_tests, segments as recorded_segments
+from records.data import Channels, Span, Test, same_tests
+from records.data import segments as recorded_segments
 from records.events import Event, SegmentEnd, SegmentStart
 from records.steady import CYCLE_SLACK, FoundSegment, steady, sweep_params, sweeps
 from records.strokes import MIN_REVERSAL, MIN_TRAVEL, REVERSAL_NOISE, Halves, noise, smoothed, turns
@@ -33,7 +34,7 @@ BLOCK_KINDS = ("ramp", "sweep", "random")
 TESTS = ("sine", "sweep")  # what a short stretch beside is never joined to
 
 
-def find(t, x, source=None) -> list[FoundSegment]:
+def find(t: np.ndarray, x: np.ndarray, source: str | None = None) -> list[FoundSegment]:
     """The segments of a recording's displacement, in time order, covering it (but for
     holes in its time stamps: an acquisition paused). source: the moving average the file's
     source applied (records/source_filter), or None."""
@@ -256,7 +257,7 @@ KIND_WORDS = {"sine": ("sine", "sines"), "triangle": ("triangle", "triangles"), 
               "step": ("step", "steps"), "random": ("stretch of random motion", "stretches of random motion")}
 
 
-def division(segments, duration) -> str:
+def division(segments: list[FoundSegment], duration: float) -> str:
     """How the recording divides among the segments: "96 % in 22 sines, 3 % ramps, 1 %
     holds", largest first, with what no segment holds (holes in the time stamps)."""
     if not duration > 0:
@@ -276,7 +277,7 @@ def division(segments, duration) -> str:
     return ", ".join(parts)
 
 
-def cut(channels, events) -> list[Span]:
+def cut(channels: Channels, events: list[Event]) -> list[Span]:
     """The one cut every analysis reads (issue 88): the recording's own measured segments
     when it marks any (a run of ours, an import), else those its displacement is cut into
     here (an MCAP another tool wrote)."""
@@ -285,7 +286,7 @@ def cut(channels, events) -> list[Span]:
     return [Span(s.name, s.params, s.t0, s.t1) for s in find(*channels["x"])]
 
 
-def events(segments) -> list[Event]:
+def events(segments: list[FoundSegment]) -> list[Event]:
     """The segment_start and segment_end events a run writes, for these segments."""
     out = []
     for s in segments:

@@ -20,7 +20,7 @@ RUN_KEY = "smoothed"  # the recording's run metadata: Smoothing.text()
 _FORM = re.compile(r"^\s*([0-9.eE+-]+)\s*(period|periods|s|ms)\s*$")
 
 
-def unbroken(t, h):
+def unbroken(t: np.ndarray, h: float) -> list[tuple[int, int]]:
     """(first, end) sample of each stretch of times t [s] that no gap longer than 1.5
     samples of h [s] breaks: a filter never averages across a hole."""
     cuts = [0, *(np.flatnonzero(np.diff(t) > 1.5 * h) + 1).tolist(), len(t)]
@@ -148,7 +148,7 @@ def parse(text: str) -> Smoothing | LowPass:
     return Smoothing(width * (1e-3 if unit == "ms" else 1.0), False)
 
 
-def of(meta) -> Smoothing | LowPass | None:
+def of(meta: dict) -> Smoothing | LowPass | None:
     """The source's filter a recording's metadata (load_recording's) declares, or None."""
     text = meta.get("run", {}).get(RUN_KEY)
     return parse(text) if text else None

@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from rig.errors import UsageError
 from records import table
 from records.column_units import UNITS, unit, unit_in_name
 from records.csv_import import source
+from rig.errors import UsageError
 
 # what each column is called; a name holding one of these words (or a longer word starting
 # with one of the longer ones) is that column, the first such column counts
@@ -47,7 +48,7 @@ def _unit(name: str, quantity: str, path) -> str:
     return u
 
 
-def read(path) -> ForceVelocity:
+def read(path: str | Path) -> ForceVelocity:
     """The table's speeds and forces in SI; UsageError naming what is missing."""
     cols, layout = source(path)
     found = {}

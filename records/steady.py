@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from records.strokes import MIN_TRAVEL, fit
+from records.strokes import MIN_TRAVEL, Halves, fit
 
 SAME = 0.03  # half-cycles of one steady test: travel, mid-level (of the travel) and period within this share
 STEADY_FIT = 0.01  # of the amplitude: RMS misfit of a steady test's periodic fit (beyond the noise) ...
@@ -80,7 +80,7 @@ def _swept(H):
     return [(a, b) for a, b, _ in out if b - a + 1 >= SWEEP_HALVES and _change(lp[a:b + 1]) >= math.log(1 + SWEEP_CHANGE)]
 
 
-def sweeps(t, H) -> list[FoundSegment]:
+def sweeps(t: np.ndarray, H: Halves) -> list[FoundSegment]:
     """The sweeps among the half-cycles H (records/strokes.Halves) at times t [s]; their
     params come from sweep_params once their tapers have widened them."""
     return [FoundSegment("sweep", "sweep", float(t[H.ext[a]]), float(t[H.ext[b + 1]])) for a, b in _swept(H)]
@@ -114,7 +114,7 @@ def _alike_travel(H, i, j):
     return H.travel[i] >= MIN_TRAVEL and abs(math.log(H.travel[i] / H.travel[j])) <= math.log(1.25)
 
 
-def sweep_params(H, t0, t1):
+def sweep_params(H: Halves, t0: float, t1: float) -> dict:
     """A sweep's params: its frequency [Hz] at its first and last strokes of MIN_TRAVEL or
     more between t0 and t1 [s] but the outermost (one over their periods) and its median
     amplitude."""
@@ -125,7 +125,8 @@ def sweep_params(H, t0, t1):
             "amplitude_mm": round(float(np.median(H.travel[k])) / 2 * 1e3, 3), "measured": True, "found": "import"}
 
 
-def steady(t, x, H, sigma, swept, source=None) -> list[FoundSegment]:
+def steady(t: np.ndarray, x: np.ndarray, H: Halves, sigma: float, swept: list[FoundSegment], source: str | None = None
+          ) -> list[FoundSegment]:
     """The steady periodic tests among the half-cycles H (records/strokes.Halves) at times t
     [s] of the displacement x [m] (its noise sigma [m]) that are in none of the sweeps.
     source: the source's moving average (records/source_filter), whose reach at either end of

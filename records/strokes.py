@@ -28,7 +28,7 @@ HARMONICS = 16  # of a periodic fit, fewer where the rate does not resolve them 
 TRIANGLE_SHARE = 0.5  # a stroke within 10 % of its median speed this share of the time is a triangle's
 
 
-def noise(t, x):
+def noise(t: np.ndarray, x: np.ndarray) -> float:
     """The displacement's noise [x's unit, RMS], in the quietest tenth of the recording (blocks
     of NOISE_S), where the motion adds least: its scatter about a line there, or where no
     block is still (a file of one sine) its white part, from second differences, if less. A
@@ -49,7 +49,7 @@ def noise(t, x):
     return float(min(scatter, white))
 
 
-def smoothed(x, h):
+def smoothed(x: np.ndarray, h: float) -> np.ndarray:
     """x low-passed at SMOOTH_HZ (at most SMOOTH_SHARE of the rate; zero phase)."""
     fc = min(SMOOTH_HZ, SMOOTH_SHARE / h)
     if len(x) < 30:
@@ -177,7 +177,7 @@ SEARCH_SAMPLES = 2000  # a frequency search fits at most this many samples (a fu
 FIT_SAMPLES = 20000  # ... and the fit at that frequency at most this many
 
 
-def fit(t, x, f0, search=0.01):
+def fit(t: np.ndarray, x: np.ndarray, f0: float, search: float = 0.01) -> Fit | None:
     """The periodic motion (fundamental and harmonics, a constant and a slow drift) at the
     frequency within `search` of f0 [Hz] that fits x [m] best: least squares on the
     displacement itself (never zero crossings), the frequency refined by a bounded search.
@@ -220,7 +220,7 @@ def fit(t, x, f0, search=0.01):
     return Fit(f, amplitude, float(c[0]), math.sqrt(sse / len(y)), waveform, c, float(t[0]), n)
 
 
-def frequency(t, x, t0, t1, at=None):
+def frequency(t: np.ndarray, x: np.ndarray, t0: float, t1: float, at: np.ndarray = None) -> np.ndarray:
     """The instantaneous frequency [Hz] of the motion x [m] between t0 and t1 [s] (a sweep's,
     a ramp's) at times `at` (t by default): one over each half-cycle's period at its
     mid-level crossing, interpolated; nan outside the crossings found, or where none is."""
@@ -241,7 +241,7 @@ def frequency(t, x, t0, t1, at=None):
     return out
 
 
-def turns(t, H):
+def turns(t: np.ndarray, H: Halves) -> np.ndarray:
     """[(t [s], the shorter of its half-cycles [s])] of the turning points between two
     half-cycles of MIN_TRAVEL or more: a slow motion's, still for a moment either side."""
     j = np.flatnonzero((H.travel[:-1] >= MIN_TRAVEL) & (H.travel[1:] >= MIN_TRAVEL)) + 1

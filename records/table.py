@@ -95,7 +95,7 @@ def _shape(lines, delimiter):
     return n, values
 
 
-def sniff(text: str, units=frozenset()) -> Layout:
+def sniff(text: str, units: frozenset | set = frozenset()) -> Layout:
     """The table's layout; UsageError when no delimiter gives at least two columns of
     values. units: the unit names (lower case) a row of units under the names may hold,
     besides a DAQ's own (OTHER_UNITS) and any in brackets."""
@@ -304,7 +304,7 @@ MISSING = ("#n/a", "n/a", "#na", "na", "null", "none", "<na>", "-", "--", "#valu
            "1.#qnan")
 
 
-def numbers(cells: list[str], decimal=".") -> tuple[np.ndarray, int | None]:
+def numbers(cells: list[str], decimal: str = ".") -> tuple[np.ndarray, int | None]:
     """(float array with NaN for an empty cell or one marked missing, index of the first
     cell that is not a number or None)."""
     if decimal == ".":
@@ -331,7 +331,7 @@ def is_stamp(cell: str) -> bool:
     return bool(ISO.match(cell) or DMY.match(cell) or CLOCK.match(cell) or ELAPSED.match(cell))
 
 
-def day_first(cells) -> bool | None:
+def day_first(cells: list[str] | np.ndarray) -> bool | None:
     """Whether a column's DD/MM/YYYY-or-MM/DD/YYYY stamps put the day first: dots
     (DD.MM.YYYY) or a first field over 12 say so; a second over 12 says month first; past
     midnight, the reading whose dates lie closer together; otherwise None: the stamps
@@ -351,7 +351,7 @@ def day_first(cells) -> bool | None:
     return None
 
 
-def stamps(cells: list[str], order="find") -> tuple[np.ndarray, int | None]:
+def stamps(cells: list[str], order: str = "find") -> tuple[np.ndarray, int | None]:
     """(seconds since 1970-01-01 UTC of each date-time stamp, NaN for an empty cell; index
     of the first cell that is not a stamp, or None). ISO 8601 (or YYYY/MM/DD) with a space
     or T, with or without a zone; MM/DD/YYYY or DD/MM/YYYY (day_first), DD.MM.YYYY, with
@@ -412,7 +412,7 @@ PREAMBLE_STAMP = re.compile(r"^\s*\"?([A-Za-z][A-Za-z _./-]*?)\"?\s*[:=\t;,]\s*\
 STARTS = ("start", "trigger", "date", "time", "recorded", "acquired", "created")
 
 
-def preamble_start(lines) -> float | None:
+def preamble_start(lines: list[str]) -> float | None:
     """Seconds since 1970 UTC of the start a preamble gives (`Start time: 13.05.2022
     17:04:23`, `Trigger Date,2022-05-13 17:04:23`, or a `Date` line and a `Time` line),
     or None: a time column of numbers counts from it."""
@@ -437,7 +437,7 @@ def with_date(cols: dict, clock: list) -> list:
     return clock if dates is None else [f"{d} {c}" if d and c else "" for d, c in zip(dates, clock)]
 
 
-def dated(cells) -> bool:
+def dated(cells: list[str] | np.ndarray) -> bool:
     """Whether a column's stamps carry a date (not the time of day alone)."""
     return not any(CLOCK.match(c) or ELAPSED.match(c) for c in cells[:5] if c)
 

@@ -5,12 +5,14 @@ name first where two groups share a channel name); a waveform's time from its
 has one (the recording's start)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from rig.errors import UsageError
 
 
-def columns(path) -> dict:
+def columns(path: str | Path) -> dict:
     """{column name: values}; UsageError for a file npTDMS cannot read, one without a
     numeric channel, or channels of different lengths (sampled at different rates)."""
     from nptdms import TdmsFile

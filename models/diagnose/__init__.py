@@ -22,28 +22,33 @@ from, so that far above the noise an effect must still matter.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
-from models.diagnose.spec import Needs
-from workers import threads
+from models.diagnose import stability
+from models.diagnose.bootstrap import ALPHA, p_value
 from models.diagnose.candidates import EFFECTS, GAMMA, WITH_BASELINE, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
 from models.diagnose.data import Data, DiagnoseError, prepare
-from models.diagnose.from_model import FromModel
-from models.diagnose.from_spencer import NAME as SPENCER, FromSpencer
-from models.diagnose.measured import friction_outside_physics, undetermined
 from models.diagnose.fitting import cross_fit, linear_fit, open_params, pooled
-from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step, Tried
+from models.diagnose.from_model import FromModel
+from models.diagnose.from_spencer import NAME as SPENCER
+from models.diagnose.from_spencer import FromSpencer
+from models.diagnose.measured import friction_outside_physics, undetermined
 from models.diagnose.noise import noise_from, noise_sd
-from models.diagnose import stability
-from models.diagnose.bootstrap import ALPHA, p_value
 from models.diagnose.referees import MECHANISMS, RELEVANCE, bar, chosen, rivals_of, stood_in, term
+from models.diagnose.result import Baseline, Candidate, CellFit, Diagnosis, Final, LeftOver, Step, Tried
+from models.diagnose.spec import Needs
+from models.diagnose.stability import Judge
 from models.diagnose.stages import Clock
 from models.diagnose.terms import frequencies, tone
 from models.diagnose.where import describe, locate
 from models.statistics import nrmse
-from records.data import differing_repeats
+from records.data import Channels, differing_repeats
+from records.events import Event
+from records.source_filter import Smoothing
+from workers import threads
 
 __all__ = ["diagnose", "friction_outside_physics", "undetermined", "repeated", "form_share", "holdout_masks", "trades", "noise_sd", "locate", "DiagnoseError"]
 
@@ -58,7 +63,7 @@ SHARE = 0.01
 NAMED_SHARE = 0.2
 
 
-def blocks(d: Data, per_cycle=4, offset=0.0):
+def blocks(d: Data, per_cycle: int = 4, offset: float = 0.0) -> np.ndarray:
     """Block number of each sample: each cycle cut into `per_cycle` equal parts (strokes
     and reversals apart), the units the bootstrap resamples; offset [share of a block]
     shifts the cuts (the cycle's end then closes its first block: stability.py)."""
@@ -70,7 +75,7 @@ def blocks(d: Data, per_cycle=4, offset=0.0):
     return out
 
 
-def available(d: Data, accepted):
+def available(d: Data, accepted: list[str]) -> tuple[list[str], list[str]]:
     out, skipped = [], []
     taken = {a.split(":")[0] for a in accepted}
     for name, e in EFFECTS.items():
@@ -96,7 +101,8 @@ def available(d: Data, accepted):
     return out, skipped
 
 
-def holdout_masks(d: Data, holdout="interleaved"):
+def holdout_masks(d: Data, holdout: str | float = "interleaved"
+                 ) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray, np.ndarray]:
     """(folds [(train, held out)], judged, reported): the samples each fold fits and
     predicts, those the candidates are judged on, those the held-out error is reported on.
 
@@ -124,7 +130,7 @@ def holdout_masks(d: Data, holdout="interleaved"):
     return [(train, judged | tail)], judged, tail
 
 
-def scores(F, r, k):
+def scores(F: np.ndarray, r: np.ndarray, k: np.ndarray) -> dict[str, float]:
     """Held-out measures of a residual r [N] on samples k: NRMSE (of the force range), RMSE
     [N] and R^2."""
     e = r[k]
@@ -133,8 +139,9 @@ def scores(F, r, k):
             "r2_heldout": 1.0 - float(np.sum(e ** 2)) / max(sst, 1e-30)}
 
 
-def diagnose(channels, events, progress=lambda s: None, max_effects=4, seed=0, baseline=None,
-             holdout="interleaved", drives=None, jobs=1, smoothing=None) -> Diagnosis:
+def diagnose(channels: Channels, events: list[Event], progress: Callable[[str], None] = lambda s: None,
+             max_effects: int = 4, seed: int = 0, baseline: tuple | None = None, holdout: str | float = "interleaved",
+             drives: list[str] | None = None, jobs: int = 1, smoothing: Smoothing | None = None) -> Diagnosis:
     """The diagnosis (see commands/diagnose.py for its JSON). baseline: None for `minimal`, or (name,
     damper model) to start from that model, refitted. holdout: "interleaved" or the tail's fraction
     (holdout_masks). drives: the aux channels that drive the damper (records.data.drives), the only ones
@@ -239,7 +246,7 @@ def _final(d, model, values, r, shown):
     return Final(**scores(d.F, r, shown), parameters=values, force=model.force(d, values))
 
 
-def repeated(first, channels, events, n, **kw) -> dict:
+def repeated(first: Diagnosis, channels: Channels, events: list[Event], n: int, **kw) -> dict:
     """`dyno diagnose --repeats N`: the diagnosis `first` and N - 1 more, each of a copy of
     the recording with its force rescaled by 1 + k 1e-9 (k = -1, 1, -2, 2, ...: a millionth of
     any load cell's resolution) and its own bootstrap draws (seed k): {"n": N, "named":
@@ -398,13 +405,13 @@ def _replaced(d, base, cell, folds, judge, accepted, values, current, r_cur, pro
     return accepted, values, current, r_cur, replaced
 
 
-def resolved(d: Data, effect, params, ci):
+def resolved(d: Data, effect: str, params: dict, ci: dict) -> bool:
     """False when an effect's size is below what the recording can resolve (Effect.resolved)."""
     spec = EFFECTS[effect.split(":")[0]]
     return spec.resolved is None or spec.resolved(d, params, ci)
 
 
-def left_over(r, judge, sigma):
+def left_over(r: np.ndarray, judge: Judge, sigma: float) -> LeftOver:
     """Is the final held-out residual within the noise? The excess over the noise variance
     per block, SSE_b / (n_b sigma^2 (1 + RELEVANCE)) - 1, tested against zero by the
     catalogue's bootstrap, in every judgement (within when it is in at least half); with the

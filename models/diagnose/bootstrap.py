@@ -13,7 +13,7 @@ SURE_HITS = 50
 MORE = 4  # the most resamples a p-value at the bar draws, in multiples of its usual number
 
 
-def block_sse(r, block, ids):
+def block_sse(r: np.ndarray, block: np.ndarray, ids: np.ndarray) -> np.ndarray:
     return np.bincount(block, weights=r ** 2, minlength=ids.max() + 1)[ids]
 
 
@@ -22,7 +22,7 @@ def block_sse(r, block, ids):
 _KEPT, _KEPT_BYTES, _kept_lock = {}, 1e9, threading.Lock()
 
 
-def resamples(n, seed, i):
+def resamples(n: int, seed: int, i: int) -> np.ndarray:
     """Chunk i of the block bootstrap's resamples of n blocks: BOOT rows, each how often
     each block is drawn (blocks drawn with replacement), from its own seed, so a test gives
     the same p whether the chunk was kept or is drawn again."""
@@ -49,7 +49,7 @@ def resamples(n, seed, i):
     return w
 
 
-def p_value(d_c, seed, alpha=ALPHA):
+def p_value(d_c: np.ndarray, seed: int, alpha: float = ALPHA) -> float:
     """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
     (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha.
     It stops early once p is surely above alpha (SURE_HITS hits, and alpha under p's

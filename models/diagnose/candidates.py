@@ -16,11 +16,12 @@ from __future__ import annotations
 import numpy as np
 
 from models.diagnose import kernels
+from models.diagnose.data import Data
 from models.diagnose.effects import CATALOGUE
 from models.diagnose.forms import soft_sign
-from models.diagnose.valves import VALVES, damping_grad, slope, slope_grad, damping
-from models.diagnose.spec import ActsOn, Nature, Needs, P, Variable
+from models.diagnose.spec import ActsOn, Effect, Nature, Needs, P, Variable
 from models.diagnose.terms import TERMS
+from models.diagnose.valves import VALVES, damping, damping_grad, slope, slope_grad
 
 GAMMA = 1.38  # thesis section 4.1.2
 
@@ -30,12 +31,12 @@ def _gas(x, x_m, G0, L):
     return G0 * (L / np.maximum(L - (x - x_m), 1e-3 * L)) ** GAMMA
 
 
-def gas(x, x_m, p):
+def gas(x: np.ndarray, x_m: float, p: dict) -> np.ndarray:
     """Gas force [N]: polytropic about x_m (eq 3.19)."""
     return _gas(x, x_m, p["G0"], p["L"])
 
 
-def baseline_params(d):
+def baseline_params(d: Data) -> list[P]:
     """Start values and bounds of the minimal model from the data's ranges."""
     Fmax = max(np.percentile(np.abs(d.F), 99), 10.0)
     vmax = max(np.percentile(np.abs(d.v), 99), 1e-3)
@@ -191,7 +192,7 @@ class Forces:
         return {"Fd": self.Fd, "Fg": self.Fg, "Ff": self.Ff, "F": self.F}
 
 
-def refereed(effects):
+def refereed(effects: dict[str, Effect]) -> dict[str, Effect]:
     """effects, each referee checked: a named referee is a term of them, and an effect of
     the damper that follows the temperature names one in time (while the temperature only
     rises, the recording cannot tell the two apart): one without it fails here, at import,

@@ -14,7 +14,7 @@ TRADE = 0.7  # |correlation| between an accepted effect's parameters and an earl
 FORM_SHARE = 0.5  # share of a later effect's held-out gain that a change in an earlier one's form also brings: may be compensating it
 
 
-def trades(model: Model, d: Data, train, values, earlier):
+def trades(model: Model, d: Data, train: np.ndarray, values: dict, earlier: list[str]) -> list[tuple[str, float]]:
     """[(earlier effect, |correlation|)] whose parameters the newly accepted effect's (the
     model's last) trade against beyond TRADE: then its gain may be a change in the form
     of that effect, not physics of its own."""
@@ -47,13 +47,13 @@ def trades(model: Model, d: Data, train, values, earlier):
     return out
 
 
-def changes(preds, k):
+def changes(preds: list[list[np.ndarray]], k: int) -> list[np.ndarray]:
     """Per fold, what round k's accepted effect changed in the prediction [N] (its force and
     the refit of the rest)."""
     return [b - a for a, b in zip(preds[k - 1], preds[k])]
 
 
-def reshapes(d: Data, c):
+def reshapes(d: Data, c: np.ndarray) -> np.ndarray:
     """Columns [N] of the forms an effect's contribution c [N] may take that its one fitted
     shape lacks: c itself, and c sized by direction, with speed, along the stroke and with
     its own size, and c lagged (its rate of change over a sample period)."""
@@ -64,7 +64,7 @@ def reshapes(d: Data, c):
     return np.column_stack([c, c * np.sign(d.v), c * np.abs(d.v) / rms(d.v), c * x / rms(x), c * np.abs(c) / rms(c), dc])
 
 
-def form_share(d: Data, folds, judged, pred, c_x, c_y):
+def form_share(d: Data, folds: list, judged: np.ndarray, pred: np.ndarray, c_x: np.ndarray, c_y: np.ndarray) -> float:
     """Share (0-1) of a newly accepted effect's held-out gain that a change in an earlier
     effect's form also brings. Linearised about the model before the new effect (each fold's
     prediction `pred` [N]): the residual regressed on the new effect's change c_y alone,

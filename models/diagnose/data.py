@@ -16,10 +16,12 @@ from functools import cached_property
 import numpy as np
 
 from models.diagnose import quality
-from records.data import gaps as _gaps, sign_problem, smooth
+from records.data import Channels, sign_problem, smooth
+from records.data import gaps as _gaps
+from records.events import Event
 from records.segmentation import BLOCK_KINDS, cut
-from records.strokes import frequency
 from records.source_filter import Smoothing, unbroken
+from records.strokes import frequency
 
 MAX_RATE_HZ = 1000.0  # the model is algebraic in x, v, a: 1 kHz resolves 16 Hz cycles finely
 MIN_CYCLES = 6  # fewer whole cycles than this are split by quarter cycles (_quartered)
@@ -207,7 +209,8 @@ def _usable(channels):
         raise DiagnoseError(sign)
 
 
-def prepare(channels, events, drives=None, smoothing=None) -> Data:
+def prepare(channels: Channels, events: list[Event], drives: list[str] | None = None,
+            smoothing: Smoothing | None = None) -> Data:
     """Data from a recording's channels {name: (t, values)} and events; smoothing: the
     moving average its source applied (records/source_filter.py), or None."""
     _usable(channels)
@@ -356,7 +359,7 @@ def _decimated(tF, F, t):
     return np.interp(t, tF, F)
 
 
-def split(d: Data):
+def split(d: Data) -> tuple[Data, Data]:
     """(train, held-out): alternate whole cycles within each segment."""
     test = d.cycle % 2 == 1
     return d.take(~test), d.take(test)

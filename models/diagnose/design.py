@@ -198,7 +198,8 @@ def key(rival: Rival) -> frozenset:
     return frozenset(set(rival.chosen) ^ set(rival.other))
 
 
-def propose(diag: Diagnosis, limits: Limits, budget_s=120.0, tried=frozenset()) -> list[Proposal]:
+def propose(diag: Diagnosis, limits: Limits, budget_s: float = 120.0, tried: list[tuple] | tuple = frozenset()
+           ) -> list[Proposal]:
     """The next segments, best first, whose rig time adds up to at most budget_s. tried:
     (key(rival), Sine) pairs already run: a sine expected to decide a rival that did not
     is not asked for again for it (on nulls, 10 mm at 12 Hz for the cell's timing against

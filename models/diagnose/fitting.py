@@ -35,7 +35,8 @@ EPS = np.finfo(float).eps ** 0.5  # the relative step of a forward difference (o
 STEP_DAMPING = (1e-6, 1e-4, 1e-3, 1e-2)
 
 
-def fit(model: Model, d: Data, train, start: dict, hold=(), effort=60, warm=None):
+def fit(model: Model, d: Data, train: np.ndarray, start: dict, hold: tuple | list | set = (), effort: int = 60,
+        warm: dict | None = None) -> tuple[dict, dict, bool]:
     """Least squares over the training samples; returns (values, sd per parameter, whether
     it stopped at its step limit before converging).
     Parameters named in `hold` stay at their start (sd nan); at most `effort` function
@@ -201,8 +202,9 @@ def jacobian(model: Model, d: Data, train, F_train, held, names, lo, hi, Fs, las
     return jac
 
 
-def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=False, warm=None, more=(),
-              stopped=None):
+def cross_fit(model: Model, d: Data, folds: list, starts: list[dict], hold: tuple | list | set = (), effort: int = 60,
+              restart: bool = False, warm: list[dict] | None = None, more: tuple | list = (),
+              stopped: list | None = None) -> tuple[list[dict], list[dict], np.ndarray]:
     """Fit on each fold's training cycles, predict its held-out ones: (values per fold,
     sd per fold, residual [N] where every judged sample comes from a fit that never saw it).
     restart: each fold is fitted again from every other fold's values, and keeps whichever
@@ -243,7 +245,8 @@ def cross_fit(model: Model, d: Data, folds, starts, hold=(), effort=60, restart=
     return vals, sds, r
 
 
-def linear_fit(model: Model, d: Data, folds, starts, hold=()):
+def linear_fit(model: Model, d: Data, folds: list, starts: list[dict], hold: tuple | list | set = ()
+              ) -> tuple[list[dict], list[dict], np.ndarray]:
     """cross_fit for a model whose last effect is an open term (terms.py), by one
     Gauss-Newton step from the current model's values (`starts`): the term's coefficients
     (it is linear in them: its columns are the force's change per unit coefficient) and a
@@ -297,12 +300,12 @@ def linear_fit(model: Model, d: Data, folds, starts, hold=()):
     return vals, sds, r
 
 
-def open_params(d: Data, effects):
+def open_params(d: Data, effects: list[str]) -> set[str]:
     """Names of the coefficients of the effects among `effects` that are smooth bases."""
     return {p.name for e in effects if EFFECTS[e.split(":")[0]].linear for p in EFFECTS[e.split(":")[0]].params(d, e)}
 
 
-def pooled(vals, sds):
+def pooled(vals: list[dict], sds: list[dict]) -> tuple[dict, dict]:
     """The folds' estimates averaged, with the sd of that mean (independent halves)."""
     mean = {k: float(np.mean([v[k] for v in vals])) for k in vals[0]}
     sd = {k: float(np.sqrt(sum(s[k] ** 2 for s in sds)) / len(sds)) for k in sds[0]}

@@ -2,6 +2,8 @@
 delayed, a part's derivatives scaled, parameters that do not depend on the data."""
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from models.diagnose import kernels
@@ -9,28 +11,28 @@ from models.diagnose.spec import V_EPS
 
 
 @kernels.recent
-def soft_sign(v):
+def soft_sign(v: np.ndarray) -> np.ndarray:
     """A friction's direction, softened over V_EPS [m/s]."""
     return np.tanh(v / V_EPS)
 
 
 @kernels.recent
-def shift(y, t, tau):
+def shift(y: np.ndarray, t: np.ndarray, tau: float) -> np.ndarray:
     """y [any unit] at t - tau [s] (linear between samples)."""
     return kernels.delayed(np.asarray(y, float), np.asarray(t, float), float(tau))
 
 
-def scaled(cols, part, g):
+def scaled(cols: dict[str, dict[str, np.ndarray]], part: str, g: np.ndarray) -> None:
     """A part multiplied by g: its derivatives too ({part: {parameter: column}}, in place)."""
     cols[part] = {k: c * g for k, c in cols[part].items()}
 
 
-def fixed(*ps):
+def fixed(*ps) -> Callable:
     """An effect's parameters, the same whatever the data: Effect.params."""
     return lambda d, e: list(ps)
 
 
-def temperature_gain(part, k):
+def temperature_gain(part: str, k: str) -> tuple[Callable, Callable]:
     """(apply, tangent) of a part of the force ("Fd", "Fg") scaled by 1 + k (T - T_m), k
     [1/K] the effect's parameter, T_m the model's mean temperature."""
     def apply(m, d, p, f, e):

@@ -20,8 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from models.diagnose.candidates import Model, WITH_BASELINE
+from models.diagnose.candidates import WITH_BASELINE, Model
 from models.diagnose.data import Data
+from records.data import Channels
 
 HEAT_RAMP_K = (301.15, 333.15)  # K: 28 to 60 C, a body heated with a heat gun over the run (the issue's run)
 BISECTIONS = 30  # halvings of the value's range: a size within 1e-9 of its range (log or linear)
@@ -69,7 +70,7 @@ def catalogue() -> dict[str, HiddenInFile]:
     return out
 
 
-def with_heat(channels):
+def with_heat(channels: Channels) -> Channels:
     """The channels with the heat-gun temperature ramp as T_body when they have no body
     temperature, else themselves."""
     if any(n in channels for n in ("T_body", "temperature", "T_reservoir")):
@@ -79,7 +80,7 @@ def with_heat(channels):
     return {**channels, T_CHANNEL: (t, HEAT_RAMP_K[0] + (HEAT_RAMP_K[1] - HEAT_RAMP_K[0]) * u)}
 
 
-def added(hidden: HiddenInFile, d: Data, base: dict, value: float):
+def added(hidden: HiddenInFile, d: Data, base: dict, value: float) -> np.ndarray:
     """The force [N] the effect adds along d's samples at value (base: the baseline's
     fitted values, the cell's alignment with them)."""
     cell = list(WITH_BASELINE)
@@ -97,7 +98,7 @@ def added(hidden: HiddenInFile, d: Data, base: dict, value: float):
     return m1.force(d, p) - m0.force(d, {k: v for k, v in p.items() if k in {q.name for q in m0.params}})
 
 
-def fault(hidden: HiddenInFile, t, F, value: float):
+def fault(hidden: HiddenInFile, t: np.ndarray, F: np.ndarray, value: float) -> np.ndarray:
     """The force channel F [N] at times t [s] with the cell's fault at value."""
     t, F = np.asarray(t, float), np.asarray(F, float)
     u = (t - t[0]) / max(t[-1] - t[0], 1e-9)
@@ -118,7 +119,7 @@ def fault(hidden: HiddenInFile, t, F, value: float):
     raise ValueError(f"{hidden.name}: no fault form {hidden.fault!r} hiding.py knows")
 
 
-def copy(hidden: HiddenInFile, channels, d: Data, base: dict, value: float):
+def copy(hidden: HiddenInFile, channels: Channels, d: Data, base: dict, value: float) -> Channels:
     """The recording's channels with hidden at value: an effect's force added on the force
     channel's clock (nothing outside the stretches the diagnosis reads), or a cell fault."""
     t, F = channels["force"]
@@ -141,7 +142,7 @@ def contribution(hidden: HiddenInFile, channels, d: Data, base: dict, value: flo
     return float(np.sqrt(np.mean(dF ** 2)))
 
 
-def sized(hidden: HiddenInFile, channels, d: Data, base: dict, target: float):
+def sized(hidden: HiddenInFile, channels: Channels, d: Data, base: dict, target: float) -> tuple[float | None, float]:
     """(value, its contribution [N]): the value whose RMS contribution is target [N], by
     bisection between off and far; (None, largest contribution) when even far adds less
     (a friction effect on a baseline with no friction)."""

@@ -7,11 +7,14 @@ import re
 
 import numpy as np
 
+from models.diagnose.candidates import Model
+from models.diagnose.data import Data
+from models.diagnose.spec import P
 
 AT_BOUND = 1e-3  # a value within this share of its range from a bound sits at the bound
 
 
-def undetermined(params, values, sd) -> dict:
+def undetermined(params: list[P], values: dict, sd: dict) -> dict:
     """{parameter: why the recording could not determine it}: no influence on the fit (an
     infinite deviation in sd; a parameter sd lacks is not judged so), at a bound of its
     range (held there, not measured), or below the floor physics sets (P.floor) by more
@@ -35,7 +38,7 @@ def undetermined(params, values, sd) -> dict:
 SLIDING = 0.2  # of the top speed: above it the seal slides, and its friction opposes the motion
 
 
-def friction_outside_physics(model, d, values) -> dict:
+def friction_outside_physics(model: Model, d: Data, values: dict) -> dict:
     """{parameter: why} for the friction's parameters (F_c, position friction's pf...) when
     the model's friction reads below zero where the rod slides (above SLIDING of the top
     speed) by more than 1 % of the force range: a seal cannot push the rod along, so these

@@ -9,7 +9,7 @@ from models.diagnose.data import Data
 STROKE_SPACING = 0.25  # neighbouring strokes this much more unevenly spaced are not compared (a gap between)
 
 
-def noise_sd(r, d: Data, k):
+def noise_sd(r: np.ndarray, d: Data, k: np.ndarray) -> float:
     """Force noise [N] in the residual r over the samples k: what differs from one cycle to
     the next at the same point of the stroke, with any change slower than a cycle taken out
     (_by_strokes). Drift, warm-up, a heat gun, repeats at another setting are not noise:

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from records.data import Channels
+
 FLAT_MIN = 8  # identical samples in a row at the extreme: saturated
 SPIKE_SIGMA = 12.0  # spike: away from its neighbours' mean by this many noise sd ...
 SPIKE_RANGE = 0.02  # ... and by this share of the channel's 1-99 % range
@@ -51,7 +53,7 @@ def _runs(mask):
     return list(zip(np.nonzero(k == 1)[0], np.nonzero(k == -1)[0]))
 
 
-def saturated(name, t, y):
+def saturated(name: str, t: np.ndarray, y: np.ndarray) -> list[Flag]:
     """Flags for runs of >= FLAT_MIN identical samples at the channel's max or min."""
     out = []
     if len(y) < FLAT_MIN:
@@ -66,7 +68,7 @@ def saturated(name, t, y):
     return out
 
 
-def spikes(name, t, y):
+def spikes(name: str, t: np.ndarray, y: np.ndarray) -> list[Flag]:
     """Flags for one- or two-sample spikes."""
     if len(y) < 10:
         return []
@@ -100,7 +102,7 @@ def spikes(name, t, y):
     return out
 
 
-def units(channels):
+def units(channels: Channels) -> list[Flag]:
     """Channel-wide unit notes (nothing excluded)."""
     out = []
     if "x" in channels and len(channels["x"][1]) > 1:
@@ -144,7 +146,8 @@ def _named(declared) -> str:
     return f"moving average of {declared.text()}" if hasattr(declared, "width") else f"low-pass {declared.text()}"
 
 
-def smoothed(name, t, y, cycles, declared=None):
+def smoothed(name: str, t: np.ndarray, y: np.ndarray, cycles: list[tuple[float, float, float]],
+             declared=None) -> list[Flag]:
     """A channel-wide flag when the channel y(t) was smoothed by its source. cycles: [(f [Hz],
     t0, t1 [s])] of periodic stretches; declared: the source's moving average as import was
     told it (records/source_filter.py), which every model then goes through. From one cycle
@@ -237,7 +240,7 @@ def _window(e, most):
     return 2 + int(np.argmin(err)) if err else 1
 
 
-def check(channels):
+def check(channels: Channels) -> list[Flag]:
     """[Flag] for the channels the model is fitted to and its aux channels; channels
     {name: (t, values)}, each sorted and finite."""
     flags = []
@@ -249,7 +252,7 @@ def check(channels):
     return flags + units(channels)
 
 
-def excluded(flags):
+def excluded(flags: list[Flag]) -> list[tuple[float, float]]:
     """[(t0, t1)] spans to leave out, merged."""
     spans = sorted((f.t0, f.t1) for f in flags if np.isfinite(f.t0))
     out = []
@@ -261,7 +264,7 @@ def excluded(flags):
     return out
 
 
-def within(t, spans):
+def within(t: np.ndarray, spans: list[tuple[float, float]]) -> np.ndarray:
     """The samples at times t [s] inside any of the spans [(t0, t1)] (excluded's)."""
     k = np.zeros(len(t), bool)
     for a, b in spans:
@@ -269,7 +272,7 @@ def within(t, spans):
     return k
 
 
-def describe(flags, most=3):
+def describe(flags: list[Flag], most: int = 3) -> list[str]:
     """One line per channel and kind: how many, how many samples, the first few."""
     out = []
     groups = {}

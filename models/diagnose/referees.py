@@ -9,9 +9,11 @@ import numpy as np
 
 from models.diagnose.bootstrap import ALPHA
 from models.diagnose.candidates import EFFECTS, Model
+from models.diagnose.data import Data
 from models.diagnose.fitting import linear_fit, open_params
-from models.diagnose.spec import ActsOn, Nature, Needs, Variable
-from models.diagnose.stability import EDGE, against, holds
+from models.diagnose.result import Candidate, Tried
+from models.diagnose.spec import ActsOn, Effect, Nature, Needs, Variable
+from models.diagnose.stability import EDGE, Judge, against, holds
 
 RELEVANCE = 0.1  # noise variances an accepted effect must gain at least
 # a mechanism whose variables the loop shows is named only when it beats this stand-in
@@ -31,12 +33,12 @@ MECHANISMS = (Nature.PHYSICS, Nature.OPEN)  # natures that say physics left out:
 ONE_FREQUENCY = 1.1  # segments whose frequencies are within this ratio are one test frequency
 
 
-def bar(tried):
+def bar(tried: int) -> float:
     """The p-value each of a round's `tried` candidates must beat: ALPHA, Bonferroni-corrected."""
     return ALPHA / max(tried, 1)
 
 
-def not_proven(candidates):
+def not_proven(candidates: list[Candidate]) -> tuple[int, list[Candidate]]:
     """(tried, [Candidate]): the last round's candidates that lower the held-out error and
     pass one paired test (p < ALPHA) but not the bar for the `tried` of the round: the
     recording cannot tell whether any of them is real. Lowest held-out error first."""
@@ -47,7 +49,7 @@ def not_proven(candidates):
     return len(last), sorted(near, key=lambda c: c.nrmse_heldout)
 
 
-def term(e):
+def term(e: str) -> bool:
     """Is e a term outside the catalogue (or the baseline's form reshaped), not a named effect?"""
     return EFFECTS[e.split(":")[0]].nature in (Nature.OPEN, Nature.FORM)
 
@@ -65,7 +67,7 @@ def _first(ok, near, order, judge):
     return min(equal, key=lambda x: order.index(x.candidate.effect))
 
 
-def chosen(ok, near, judge, alpha, order):
+def chosen(ok: list[Tried], near: list[Tried], judge: Judge, alpha: float, order: list[str]) -> Tried:
     """The accepted round's winner: the largest gain or one it cannot be told from (_first),
     except that a term outside the catalogue must beat the best catalogue effect by the bar
     any effect must pass: by RELEVANCE noise variances more, significantly (the catalogue's
@@ -82,7 +84,8 @@ def chosen(ok, near, judge, alpha, order):
     return best if better else cat
 
 
-def rivals_of(d, best, r_best, round_, judge):
+def rivals_of(d: Data, best: Candidate, r_best: np.ndarray, round_: list[Tried], judge: Judge
+              ) -> tuple[list[tuple[str, float, float]], dict[str, np.ndarray]]:
     """(rivals, {candidate: its votes as a rival}) of a round's winner: the candidates the
     held-out blocks cannot tell from it (rivals), and the cell's timing where one test
     frequency cannot (timing_rival). Its stand-in is stood_in's."""
@@ -93,7 +96,8 @@ def rivals_of(d, best, r_best, round_, judge):
     return found, votes
 
 
-def timing_rival(d, best, r_best, near, judge, found):
+def timing_rival(d: Data, best: Candidate, r_best: np.ndarray, near: list[Tried], judge: Judge,
+                 found: list[tuple[str, float, float]]) -> tuple[str, float, float] | None:
     """(the cell's timing, its gain, paired p) when it is a rival of the winner by physics,
     or None: at one test frequency a lag and a mechanism of the loop (one whose variables
     the loop shows, other than the timing itself) open the loop alike, so a lag that
@@ -111,7 +115,7 @@ def timing_rival(d, best, r_best, near, judge, found):
     return TIMING, lag.candidate.relevance, judge.p(r_best, lag.residual, ALPHA)
 
 
-def referee(spec):
+def referee(spec: Effect) -> str | None:
     """The flexible model with no mechanism in it that an effect must beat before it is
     named: its own (a temperature's effect faces the same shape in time: while the
     temperature only rises, the recording cannot tell it from time), else the loop's surface
@@ -132,7 +136,8 @@ class Refereed:
     votes: np.ndarray
 
 
-def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge, rival_votes=None) -> Refereed:
+def stood_in(d: Data, base, fitted: list[str], best: Candidate, b_folds: list, r_best: np.ndarray, folds: list,
+             judge: Judge, rival_votes: dict[str, np.ndarray] | None = None) -> Refereed:
     """Refereed: the stand-in when a mechanism does not beat,
     on the same held-out blocks at p < ALPHA in at least half of the judgements, its referee
     (above) fitted beside the same accepted effects; votes: 1.0 in each judgement in which it
@@ -157,7 +162,8 @@ def stood_in(d, base, fitted, best, b_folds, r_best, folds, judge, rival_votes=N
     return Refereed(judge_term, (judge_term, judge.p(r_best, r, ALPHA)) if np.mean(votes) >= 0.5 else None, votes)
 
 
-def rivals(best, r_best, round_, judge):
+def rivals(best: Candidate, r_best: np.ndarray, round_: list[Tried], judge: Judge
+           ) -> tuple[list[tuple[str, float, float]], dict[str, np.ndarray]]:
     """([(effect, gain in noise variances, paired p)], {effect: votes}) of the round's
     candidates the recording cannot tell from the winner: on the same held-out blocks, the
     log ratio of the candidate's error to the winner's, bootstrapped; p >= ALPHA: the winner

@@ -13,11 +13,13 @@ are of the held-out judgement, which costs bootstrap draws only; `dyno diagnose 
 repeats the whole diagnosis on perturbed copies of the recording as well (costly)."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from models.diagnose.bootstrap import BOOT, block_sse, p_value, resamples
+from models.diagnose.data import Data
 
 SHIFTS = 5  # block partitions: the quarter-cycle blocks shifted by 0, 1/5, ... 4/5 of a block
 DRAWS = 3  # bootstrap draws of each partition (seeds): 15 judgements, so that no share is one half
@@ -81,7 +83,7 @@ class Judge:
         return float(np.mean(self.votes(r_new, r_old, alpha)))
 
 
-def judge(d, judged, seed, blocks) -> Judge:
+def judge(d: Data, judged: np.ndarray, seed: int, blocks: Callable[..., np.ndarray]) -> Judge:
     """The judgements of a diagnosis's held-out samples: blocks(d, offset) gives each
     sample's block with the partition shifted by offset [share of a block]."""
     out = []
@@ -94,7 +96,7 @@ def judge(d, judged, seed, blocks) -> Judge:
     return Judge(judged, out)
 
 
-def against(x, threshold, band=BAND) -> float:
+def against(x: float, threshold: float, band: float = BAND) -> float:
     """A statistic the fit gives against a fixed threshold, as a share of judgements: 1 well
     above it, 0 well below it, 0.5 within the band about it (at the edge)."""
     if not np.isfinite(x):
@@ -104,14 +106,14 @@ def against(x, threshold, band=BAND) -> float:
     return 1.0 if x >= threshold * band else 0.0 if x < threshold / band else 0.5
 
 
-def holds(share) -> bool:
+def holds(share: float) -> bool:
     return share >= HELD
 
 
-def at_edge(share) -> bool:
+def at_edge(share: float) -> bool:
     return EDGE < share < HELD
 
 
-def of(share, n=SHIFTS * DRAWS) -> str:
+def of(share: float, n: int = SHIFTS * DRAWS) -> str:
     """A share in words: "53 % of 15 judgements" (a fixed bar's band counts half a judgement)."""
     return f"{100 * share:.0f} % of {n} judgements"

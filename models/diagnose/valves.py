@@ -85,7 +85,7 @@ def _damping(v, c1_c, c2_c, C_c, Fcr_c, c1_r, c2_r, C_r, Fcr_r):
 _damping_recent = kernels.recent(_damping)
 
 
-def damping(v, p):
+def damping(v: np.ndarray, p: dict) -> np.ndarray:
     """Damping force [N], positive in compression, from velocity v [m/s]."""
     return _damping_recent(v, *(p[k] for k in VALVES))
 
@@ -96,7 +96,7 @@ def _slope_of(v, *valves):
     return np.abs(_damping(v + dv, *valves) - _damping(v - dv, *valves)) / (2 * dv)
 
 
-def slope(v, p):
+def slope(v: np.ndarray, p: dict) -> np.ndarray:
     """Local slope dF/dv of the damping curve [N s/m] (finite difference)."""
     return _slope_of(v, *(p[k] for k in VALVES))
 
@@ -132,6 +132,6 @@ def _slope_grad(v, c1_c, c2_c, C_c, Fcr_c, c1_r, c2_r, C_r, Fcr_r):
 _slope_grad_recent = kernels.recent(_slope_grad)
 
 
-def slope_grad(v, p):
+def slope_grad(v: np.ndarray, p: dict) -> np.ndarray:
     """slope's derivatives in VALVES' parameters [N s/m per unit]: (8, len(v))."""
     return _slope_grad_recent(v, *(p[k] for k in VALVES))

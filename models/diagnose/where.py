@@ -23,7 +23,7 @@ def _segment_peak(d: Data, y):
     return peak[d.segment]
 
 
-def locate(d: Data, r, sigma=0.0):
+def locate(d: Data, r: np.ndarray, sigma: float = 0.0) -> list[dict]:
     """[{where, energy_share, sample_share, mean_residual}] of regions holding more than
     their share of the residual energy, strongest concentration first. The residual is
     judged against the force level (each sample's square weighed by 1 / (sigma^2 +
@@ -75,7 +75,7 @@ def locate(d: Data, r, sigma=0.0):
     return out
 
 
-def best_lag(d: Data, r):
+def best_lag(d: Data, r: np.ndarray) -> dict | None:
     """The residual against the force's rate of change: what timing it leans to beyond the
     model's own (Diagnosis.channel_timing, the recording's one timing figure). A force later than
     the model's by lag leaves residual = -lag dF/dt; lag_s is in the timing's sign (negative:
@@ -93,7 +93,7 @@ def best_lag(d: Data, r):
             "lag_s": -lag}
 
 
-def describe(d: Data, effect, change, k):
+def describe(d: Data, effect: str, change: np.ndarray, k: np.ndarray) -> dict:
     """What an accepted effect is, from what accepting it changed in the held-out
     prediction (`change` [N], its force and the refit of the rest, over the samples k): its
     size (RMS and peak [N]), where it lives (the band of the variable it depends on where

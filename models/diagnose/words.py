@@ -9,6 +9,7 @@ import numpy as np
 from models.diagnose import fitting, quality, stability
 from models.diagnose.candidates import EFFECTS
 from models.diagnose.referees import bar, not_proven
+from models.diagnose.result import Diagnosis, Step
 from models.diagnose.spec import ActsOn, Nature
 from records.data import reads_low, repeats_sentence
 
@@ -24,7 +25,7 @@ def _what(step):
             + ("" if said_already else f"; {step.region}; {_size(step)}"))
 
 
-def alternatives(step):
+def alternatives(step: Step) -> list[str]:
     """The variables a finding's rivals explain it by that it does not (a drift in time that
     an elastic force along the stroke explains as well depends on displacement or on time:
     the recording does not say which). A lag between the channels depends on the motion
@@ -43,13 +44,13 @@ def _on(step):
     return ", ".join(step.depends_on) + (f", or on {', '.join(other)}" if other else "")
 
 
-def said(effect):
+def said(effect: str) -> str:
     """An effect id (an effect's name, or name:channel for one scaled by a channel) in words."""
     key = effect.split(":")[0]
     return EFFECTS[key].short or key.replace("_", " ")
 
 
-def sentence(step, sample_s=None):
+def sentence(step: Step, sample_s: float | None = None) -> str:
     """An accepted effect in words: its own (Effect.words), else its sentence with its size
     and interval, or for a smooth basis where it lives and how large; sample_s: the
     recording's sample period [s] (a lag below it is said as unresolved)."""
@@ -65,7 +66,7 @@ def sentence(step, sample_s=None):
     return text.format(v=f"{v:.3g} ({lo:.3g} to {hi:.3g})", u=unit) + _change(step)
 
 
-def rivals_sentence(step):
+def rivals_sentence(step: Step) -> str:
     """An effect the recording cannot tell from others: the group, what they share, the
     one the model carries, and no mechanism's story."""
     shares = step.rival_shares
@@ -85,7 +86,7 @@ def rivals_sentence(step):
             f"separates them." + _change(step))
 
 
-def small_sentence(step, span):
+def small_sentence(step: Step, span: float) -> str:
     """A significant gain below the practical size: its size, and no mechanism."""
     return (f"Small, not named: a misfit that {said(step.effect)} takes up, {_rms(step, span)} "
             f"({step.relevance:.2g} force-noise variances, {100 * step.excess_share:.0f} % of the held-out error "
@@ -93,7 +94,7 @@ def small_sentence(step, span):
             f"the model." + _change(step))
 
 
-def stand_in_sentence(step, span):
+def stand_in_sentence(step: Step, span: float) -> str:
     """A mechanism a flexible model with none in it explains as well: the dependence and
     its size, and no mechanism's name."""
     judge = EFFECTS[step.stand_in[0]]
@@ -135,7 +136,7 @@ def _held(res):
     return "alternate cycles held out" if h == "interleaved" else f"the last {100 * h:.0f} % held out, never chosen on"
 
 
-def summary(res):
+def summary(res: Diagnosis) -> str:
     lines = []
     b = res.baseline
     for line in quality.describe(res.data.flags):
@@ -182,7 +183,7 @@ def timing_sentence(res) -> str:
     return f"Timing ({what}): {said_[0].lower()}{said_[1:]}"
 
 
-def findings(res):
+def findings(res: Diagnosis) -> list[str]:
     """What the diagnosis found, sentence by sentence: where the residual lives, each
     accepted effect as it is said, and what is left over (summary's middle; the live
     diagnosis's event)."""
@@ -241,7 +242,7 @@ def findings(res):
     return lines
 
 
-def short_of_the_bar(res):
+def short_of_the_bar(res: Diagnosis) -> str:
     """The "Not proven" sentence of referees.not_proven, or "" if none."""
     tried, near = not_proven(res.candidates)
     if not near:

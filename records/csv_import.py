@@ -19,7 +19,6 @@ import numpy as np
 from records import table
 from records.column_units import BRACKETED, SI, UNIT_NAMES, UNITS, unit, unit_in_name, volts
 from records.files import input_file
-from records.table import Layout
 from rig.config import quantity
 from rig.errors import UsageError
 
@@ -96,7 +95,7 @@ class ColumnsRead:
     lines: np.ndarray = None  # the file's line of each row kept (a workbook's: the row's number)
 
 
-def source(path: str | Path, sheet: str | None = None) -> tuple[dict, Layout | None]:
+def source(path: str | Path, sheet: str | None = None) -> tuple[dict, table.Layout | None]:
     """({column name: cells (text) or values (array)}, Layout or None) of a text table,
     an Excel workbook (its sheet named so, else its fullest), a Parquet file, a TDMS file
     (records/tdms.py) or a MATLAB file (columns VAR, or VAR[N] for a matrix's N-th)."""
@@ -209,14 +208,12 @@ def _cell(v) -> str:
     return repr(v) if isinstance(v, float) else str(v).replace("\t", " ").replace("\n", " ").strip()
 
 
-def read(path: str | Path, mapping: list[tuple[str, str, str]], gains: dict[str, float] | None = None,
-         offsets: dict[str, float] | None = None, rate_hz: float | None = None, sheet: str | None = None
-        ) -> ColumnsRead:
-    """The mapped columns in SI. A time column of date-time stamps gives the recording's
-    start; without a time column, the rate (given, or the preamble's) makes one. Values
-    are raw x gain + offset in the mapped unit, then SI. Unmapped and empty columns are
-    ignored; unknown mapped columns, non-numbers and time that goes backwards are refused,
-    naming the row. sheet: a workbook's sheet by name (else its fullest)."""
+def read(path: str | Path, mapping: list[tuple[str, str, str]], gains: dict | None = None, offsets: dict | None = None,
+         rate_hz: float | None = None, sheet: str | None = None) -> ColumnsRead:
+    """The mapped columns in SI. A time column of date-time stamps gives the recording's start; without
+    a time column, the rate (given, or the preamble's) makes one. Values are raw x gain + offset in the
+    mapped unit, then SI. Unmapped and empty columns are ignored; unknown mapped columns, non-numbers and
+    time that goes backwards are refused, naming the row. sheet: a workbook's sheet (else its fullest)."""
     cols, layout = source(path, sheet)
     gains, offsets = gains or {}, offsets or {}
     first_row = (layout.first + 1) if layout else 1  # a data row's line in the file: first_row + index
@@ -408,47 +405,3 @@ def _plausible(path, name, column, a, first_row=2):
         where = f"{q[1]:g}..{q[2]:g} {q[0]}" if q else "+-1e12"
         raise UsageError(f"{path}:{i + first_row}: column {column!r}: {a[i]:.6g} {q[0] if q else ''} is not a plausible "
                        f"{name} (outside {where}): check its unit")
-
-
-def derived_velocity(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """velocity_from, refused in one line where no rod moves that fast (time steps far too
-    small for their unit, a displacement spike): what import writes, the reader reads."""
-    v = velocity_from(t, x)
-    lo, hi = quantity("v")[1:]
-    bad = np.nonzero(~((v >= lo) & (v <= hi)))[0]
-    if len(bad):
-        i = bad[0]
-        raise UsageError(f"the velocity derived from displacement reaches {v[i]:.3g} m/s at t = {t[i]:.6g} s, outside "
-                       f"{lo:g}..{hi:g} m/s: check the time and displacement columns' units")
-    return v
-
-
-SG_HALF = 5  # samples either side: the Savitzky-Golay window of 11
-
-
-def savgol_slope(x: np.ndarray, h: float, m: int = SG_HALF) -> np.ndarray:
-    """The Savitzky-Golay first derivative of a quadratic over 2m+1 samples spaced h [s]
-    (scipy.signal.savgol_filter(x, 2m+1, 2, deriv=1, delta=h), whose import alone costs a
-    second of every import): inside, the least-squares slope, sum(k x[i+k]) / sum(k^2) / h
-    (a quadratic's slope at the centre of a symmetric window is the line's); in the first
-    and last m samples, the derivative of the quadratic fitted to the edge window."""
-    k = np.arange(-m, m + 1)
-    out = np.empty(len(x))
-    out[m:len(x) - m] = np.convolve(x, k[::-1] / (np.sum(k * k) * h), "valid")
-    for sl, at in ((slice(0, 2 * m + 1), np.arange(m)), (slice(len(x) - 2 * m - 1, len(x)), np.arange(m + 1, 2 * m + 1))):
-        c = np.polyfit(np.arange(2 * m + 1), x[sl], 2)
-        out[sl][at] = (2 * c[0] * at + c[1]) / h
-    return out
-
-
-def velocity_from(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Velocity [m/s] from displacement: Savitzky-Golay derivative (module docstring).
-    Rows sharing a time stamp share the velocity of their mean displacement."""
-    tu, inverse = np.unique(t, return_inverse=True)
-    if len(tu) < len(t):
-        xu = np.bincount(inverse, weights=x) / np.bincount(inverse)
-        return velocity_from(tu, xu)[inverse]
-    h = np.diff(t)
-    if len(x) >= 11 and np.allclose(h, h.mean(), rtol=1e-3):
-        return savgol_slope(x, float(h.mean()))
-    return np.gradient(x, t)

@@ -113,7 +113,8 @@ def import_file(src: Source, claim: Claim) -> Imported:
 
 def _import(src, claim):
     from records import gas_force, segmentation
-    from records.csv_import import derived_velocity, parse_map, read
+    from records.csv_import import parse_map, read
+    from records.velocity import derived_velocity
     from records.data import flips, sign_sentence
     from records.recorder import UNDATED, Recorder
     got = read(src.file, parse_map(src.map), src.gains, src.offsets, src.rate, src.sheet)

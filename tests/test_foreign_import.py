@@ -1016,7 +1016,7 @@ def test_the_derived_velocity_is_scipys_savitzky_golay_derivative(n):
     """Import derives velocity with its own Savitzky-Golay slope (scipy.signal's import costs
     a second): the same numbers as scipy's, edges included."""
     from scipy.signal import savgol_filter
-    from records.csv_import import savgol_slope
+    from records.velocity import savgol_slope
     x = np.cumsum(np.random.default_rng(n).normal(size=n))
     assert np.allclose(savgol_slope(x, 0.003), savgol_filter(x, 11, 2, deriv=1, delta=0.003), rtol=0, atol=1e-9)
 

@@ -132,7 +132,7 @@ def copy(hidden: HiddenInFile, channels: Channels, d: Data, base: dict, value: f
     return {**channels, "force": (t, F + np.where(near, on, 0.0))}
 
 
-def contribution(hidden: HiddenInFile, channels, d: Data, base: dict, value: float) -> float:
+def contribution(hidden: HiddenInFile, channels: Channels, d: Data, base: dict, value: float) -> float:
     """RMS [N] of what hidden at value adds to the force over d's samples."""
     if hidden.kind == "cell":
         t, F = channels["force"]

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from records.data import Channels
+from records.source_filter import Smoothing
 
 FLAT_MIN = 8  # identical samples in a row at the extreme: saturated
 SPIKE_SIGMA = 12.0  # spike: away from its neighbours' mean by this many noise sd ...
@@ -147,7 +148,7 @@ def _named(declared) -> str:
 
 
 def smoothed(name: str, t: np.ndarray, y: np.ndarray, cycles: list[tuple[float, float, float]],
-             declared=None) -> list[Flag]:
+             declared: Smoothing | None = None) -> list[Flag]:
     """A channel-wide flag when the channel y(t) was smoothed by its source. cycles: [(f [Hz],
     t0, t1 [s])] of periodic stretches; declared: the source's moving average as import was
     told it (records/source_filter.py), which every model then goes through. From one cycle

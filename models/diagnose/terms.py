@@ -29,10 +29,12 @@ range (KNOTS functions). SI units: x [m], v [m/s], t [s], T [K]; forces [N].
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 
 import numpy as np
 
 from models.diagnose import kernels
+from models.diagnose.data import Data
 from models.diagnose.forms import scaled
 from models.diagnose.spec import Effect, P
 
@@ -43,7 +45,7 @@ SURFACE = (6, 3)  # the loop's stand-in: B-splines along the stroke, powers of |
 SURFACE_RCOND = 1e-4  # below this share of the largest singular value a surface direction is not resolved
 
 
-def bspline(u, lo, hi, n):
+def bspline(u: np.ndarray, lo: float, hi: float, n: int) -> np.ndarray:
     """(len(u), n) cubic B-spline basis over [lo, hi], knots evenly spread; u clipped to it."""
     inner = np.linspace(lo, hi, n - DEGREE + 1)
     knots = np.r_[[lo] * DEGREE, inner, [hi] * DEGREE]
@@ -57,7 +59,7 @@ def _centred(basis, ref, d):
     return B - (B if d is ref else basis(ref, ref)).mean(axis=0)
 
 
-def cached(m, d, key, make):
+def cached(m, d: Data, key: str, make: Callable[[Data, Data], np.ndarray]) -> np.ndarray:
     """make(ref, d): a basis on d's samples whose knots (and centring) come from ref, the
     data the model was built on, so that it means the same on other motion (the next
     test's); made once per model and data (the fit evaluates the force many times)."""
@@ -67,18 +69,19 @@ def cached(m, d, key, make):
     return got[1]
 
 
-def force_bound(d):
+def force_bound(d: Data) -> float:
     return 3.0 * max(float(np.percentile(np.abs(d.F), 99)), 10.0)
 
 
-def add(f, part, e, B, c):
+def add(f, part: str, e: str, B: np.ndarray, c: list | np.ndarray) -> None:
     """Adds basis B [N per unit] times coefficients c to the Forces' part ("Fd", "Fg" or
     the total "F"), and keeps B there: the force's exact derivative in c (fitting.py)."""
     f.bases[e] = (part, B)
     setattr(f, part, getattr(f, part) + _times(B, tuple(c)))
 
 
-def added(m, d, p, f, e, cols, before):
+def added(m, d: Data, p: dict, f, e: str, cols: dict[str, dict[str, np.ndarray]], before: dict[str, np.ndarray]
+         ) -> None:
     """The tangent of a term add()ed: its basis is its coefficients' derivative."""
     part, B = f.bases[e]
     cols[part].update(zip(m.own[e], B.T))
@@ -99,7 +102,7 @@ def _times(B, c):
     return B @ np.asarray(c)
 
 
-def coefficients(prefix, n, bound):
+def coefficients(prefix: str, n: int, bound: float) -> list[P]:
     return [P(f"{prefix}{i}", 0.0, -bound, bound, "N") for i in range(n)]
 
 
@@ -130,7 +133,7 @@ def _valve_form(m, d, p, f, e):
     add(f, "Fd", e, B, [p[f"vf{i}"] for i in range(B.shape[1])])
 
 
-def x_basis(ref, d, n):
+def x_basis(ref: Data, d: Data, n: int) -> np.ndarray:
     """B(x) on d's samples, its knots over ref's stroke."""
     return bspline(d.x, float(np.min(ref.x)), float(np.max(ref.x)), n)
 
@@ -163,7 +166,7 @@ def _stroke_damping_tangent(m, d, p, f, e, cols, before):
     _per_direction_tangent(p, f, cols, before, cached(m, d, e, lambda ref, dd: x_basis(ref, dd, KNOTS[e])), "sd")
 
 
-def t_span(ref):
+def t_span(ref: Data) -> tuple[float, float]:
     """(first, last) time [s] a function of time is fitted over: on a time split, up to the
     last sample the fits see, so that the held-out tail is a forecast at the last fitted
     level, not an extrapolation of the last spline pieces, which the training barely
@@ -186,7 +189,7 @@ def _drift(m, d, p, f, e):
     add(f, "F", e, B, [p[f"dr{i}"] for i in range(B.shape[1])])
 
 
-def part_drift(part, prefix):
+def part_drift(part: str, prefix: str) -> tuple[Callable, Callable]:
     """(apply, tangent) of a part of the force ("Fd", "Ff") times 1 + B(t): the same part
     changing in time, the stand-in of that part changing with a temperature that only rises."""
     def apply(m, d, p, f, e):
@@ -205,7 +208,7 @@ _damping_drift, _damping_drift_tangent = part_drift("Fd", "dd")
 _friction_drift, _friction_drift_tangent = part_drift("Ff", "fd")
 
 
-def frequency_u(d):
+def frequency_u(d: Data) -> np.ndarray:
     """Each sample's motion frequency as u = log(f / f_mid) over half the log range of the
     tests' frequencies: -1 at the lowest, +1 at the highest (a sweep's or ramp's, as it goes,
     clipped to them); 0 where none is known."""
@@ -219,7 +222,7 @@ def frequency_u(d):
     return np.nan_to_num((2 * np.log(fs) - np.log(lo) - np.log(hi)) / max(np.log(hi / lo), 1e-9))
 
 
-def frequencies(d):
+def frequencies(d: Data) -> list[float]:
     """The distinct sine frequencies [Hz] the recording holds."""
     return sorted({round(f, 6) for _, f in d.segments if f})
 
@@ -286,7 +289,7 @@ def _damping_params(d, e):
             + [P(f"sdr{i}", 0.0, -0.95, 3.0, "-") for i in range(n)])
 
 
-def tone(d, r, k):
+def tone(d: Data, r: np.ndarray, k: np.ndarray) -> float | None:
     """[Hz] of the strongest line in the residual r's spectrum (samples k) that is no
     harmonic of a segment's motion, or None. Each sine segment's periodogram, its motion's
     harmonics (and the bins beside them) masked, is put on a common 0.25 Hz grid and the

@@ -171,7 +171,7 @@ def summary(res: Diagnosis) -> str:
     return "\n".join(lines)
 
 
-def timing_sentence(res) -> str:
+def timing_sentence(res: Diagnosis) -> str:
     """The recording's one timing figure (Diagnosis.channel_timing) in words, as diagnose, the
     report and prove --on say it."""
     _, fit = res.channel_timing()
@@ -256,7 +256,7 @@ def short_of_the_bar(res: Diagnosis) -> str:
             f"is real; a longer recording of the same test (more cycles) can.")
 
 
-def repeats_text(again) -> str:
+def repeats_text(again: dict) -> str:
     """`--repeats N`'s count in words: how often each effect was named, or at the edge."""
     n = again["n"]
     said_ = "; ".join(f"{said(e)} named in {round(s * n)} of {n}, at the edge in {round(again['at_edge'][e] * n)}"

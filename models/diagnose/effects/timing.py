@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from models.diagnose.forms import fixed, shift
+from models.diagnose.result import Step
 from models.diagnose.spec import Effect, P
-
 
 # the channels' alignment fitted with the baseline, within this share of a sample period
 # either way: a cell in good order (docs/diagnosis.md: wider, it takes a compressible oil's lag)
@@ -44,7 +44,7 @@ def _alignment_params(d, e):
     return [P("tau_0", 0.0, -ALIGNMENT * h, ALIGNMENT * h, "s")]
 
 
-def lag_words(step, sample_s=None):
+def lag_words(step: Step, sample_s: float | None = None) -> str:
     """A timing offset between the channels in words (its values and 95 % interval); under
     one sample period sample_s [s], said as unresolved, never as channels to re-align."""
     text, pname, factor, unit = next(e for e in EFFECTS if e.name == step.effect).say

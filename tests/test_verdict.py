@@ -99,18 +99,22 @@ def test_the_baselines_derivatives_are_its_differences():
 def test_a_delayed_channel_is_numpys_interpolation_to_the_last_bit():
     """kernels.delayed (a sensor delay's or the alignment's shift) is np.interp(t - tau, t, y)
     bit for bit: even and uneven spacing, shifts within a sample and beyond both ends, nan and
-    inf among the values."""
+    inf among the values; each row of several shifted at once (the motion's three) as alone."""
     rng = np.random.default_rng(7)
     for trial in range(300):
         n = int(rng.integers(2, 2000))
         h = 10 ** rng.uniform(-5, -2)
         t = np.arange(n) * h + rng.uniform(0, 100) if trial % 2 else np.cumsum(rng.uniform(0.5, 1.5, n) * h)
-        y = rng.normal(size=n) * 10 ** rng.uniform(-6, 4)
+        Y = rng.normal(size=(3, n)) * 10 ** rng.uniform(-6, 4, (3, 1))
         for tau in (0.0, h * rng.uniform(-3, 3), h * rng.uniform(-0.1, 0.1), t[1] - t[0], 1e9, -1e9):
-            assert np.array_equal(delayed(y, t, tau), np.interp(t - tau, t, y)), (trial, tau)
-    y, t = np.array([1.0, np.inf, 3.0, np.nan, 5.0]), np.arange(5.0)
+            out = delayed(Y, t, tau)
+            for y, row in zip(Y, out):
+                assert np.array_equal(row, np.interp(t - tau, t, y)), (trial, tau)
+            assert np.array_equal(delayed(Y[1:2], t, tau)[0], out[1])
+    Y, t = np.array([[1.0, np.inf, 3.0, np.nan, 5.0], [np.nan, 1.0, -np.inf, 2.0, 2.0]]), np.arange(5.0)
     for tau in (0.3, -0.3, 0.0, 1.0):
-        assert np.array_equal(delayed(y, t, tau), np.interp(t - tau, t, y), equal_nan=True), tau
+        for y, row in zip(Y, delayed(Y, t, tau)):
+            assert np.array_equal(row, np.interp(t - tau, t, y), equal_nan=True), tau
 
 
 @pytest.mark.parametrize("current", ["0x25"])  # its verdict, measured three ways on this machine: stroke damping, a stand-in

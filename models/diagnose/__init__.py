@@ -348,39 +348,41 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
     sse_cur = judge.sse(r_cur, judge.main)
     mse = float(np.mean(r_cur[judged] ** 2))
 
-    def fit(e):
+    def fitted_and_judged(e):
+        """(Tried, its fit's seconds, its judgement's seconds): in a fitting process of its own
+        when there are several, where the judgement's bootstrap runs beside the others' fits."""
         t0 = time.perf_counter()
         m = Model(d, fitted + [e], base)
         if EFFECTS[e.split(":")[0]].linear:
-            return linear_fit(m, d, folds, current, hold=open_params(d, fitted)), time.perf_counter() - t0
-        # the open terms' coefficients held: they are refitted with the rest once accepted
-        return (cross_fit(m, d, folds, current, hold=open_params(d, fitted), warm=last.get(e)),
-                time.perf_counter() - t0)
+            f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))
+        else:  # the open terms' coefficients held: they are refitted with the rest once accepted
+            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted), warm=last.get(e))
+        t1 = time.perf_counter()
+        vals, sds = pooled(f_vals, f_sds)
+        gain = float((sse_cur - judge.sse(r, judge.main)).sum() / n_judged)  # held-out mean-square gain [N^2]
+        own = {p.name: vals[p.name] for p in EFFECTS[e.split(":")[0]].params(d, e)}
+        c = Candidate(e, number, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
+                      **scores(d.F, r, shown), p_value=judge.p(r, r_cur, alpha), gain=gain, relevance=gain / sigma ** 2)
+        # each block counts alike whatever its force, and symmetrically: a block made ten
+        # times worse weighs what one made ten times better does (Judge.log_ratio)
+        worth = stability.against(c.relevance, RELEVANCE) * stability.against(gain / max(mse, 1e-30), SHARE)
+        c.accept_votes = np.zeros(len(judge.variants))
+        if worth > 0 and resolved(d, e, c.parameters, c.ci):
+            c.accept_votes = judge.votes(r, r_cur, alpha) * worth
+        return Tried(c, vals, f_vals, r), t1 - t0, time.perf_counter() - t1
 
     # the costliest first (by the last round's time; before that, the nonlinear fits), so
     # that no process is left with a Bouc-Wen fit while the other waits
     order = sorted(names, key=lambda e: -cost.get(e, 0.0 if EFFECTS[e.split(":")[0]].linear else 1.0))
-    done = dict(zip(order, threads.forked(fit, [(e,) for e in order], jobs)))
-    cost.update({e: seconds for e, (_, seconds) in done.items()})
-    out = []
-    for e, ((f_vals, f_sds, r), _) in ((e, done[e]) for e in names):
-        with clock.stage("p-values"):
-            vals, sds = pooled(f_vals, f_sds)
-            gain = float((sse_cur - judge.sse(r, judge.main)).sum() / n_judged)  # held-out mean-square gain [N^2]
-            own = {p.name: vals[p.name] for p in EFFECTS[e.split(":")[0]].params(d, e)}
-            c = Candidate(e, number, own, {k: [own[k] - 1.96 * sds[k], own[k] + 1.96 * sds[k]] for k in own},
-                          **scores(d.F, r, shown), p_value=judge.p(r, r_cur, alpha), gain=gain,
-                          relevance=gain / sigma ** 2)
-            # each block counts alike whatever its force, and symmetrically: a block made ten
-            # times worse weighs what one made ten times better does (Judge.log_ratio)
-            worth = stability.against(c.relevance, RELEVANCE) * stability.against(gain / max(mse, 1e-30), SHARE)
-            c.accept_votes = np.zeros(len(judge.variants))
-            if worth > 0 and resolved(d, e, c.parameters, c.ci):
-                c.accept_votes = judge.votes(r, r_cur, alpha) * worth
-        out.append(Tried(c, vals, f_vals, r))
+    judge.drawn(alpha)  # the resamples every process's judgements share, drawn once here
+    done = dict(zip(order, threads.forked(fitted_and_judged, [(e,) for e in order], jobs)))
+    cost.update({e: seconds for e, (_, seconds, _) in done.items()})
+    clock.inner("p-values", sum(s for _, _, s in done.values()) / max(min(jobs, len(order)), 1))
+    for e in names:
+        c = done[e][0].candidate
         progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
                  f"  gain {c.relevance:+.3f} noise variances")
-    return out
+    return [done[e][0] for e in names]
 
 
 def _replaced(d, base, cell, folds, judge, accepted, values, current, r_cur, progress):

@@ -81,9 +81,10 @@ class Minimal:
                 "Fg": {"G0": R ** GAMMA, "L": np.where(free, p["G0"] * GAMMA * R ** (GAMMA - 1) * -dx / room ** 2, 0.0)},
                 "Ff": {"F_c": soft_sign(v)}}
 
-    def slope_columns(self, f):
-        """{parameter: the damping slope's derivative} along the Forces' motion."""
-        return dict(zip(VALVES, slope_grad(f.v, f.p)))
+    def slope_columns(self, f, at=None):
+        """{parameter: the damping slope's derivative} along the Forces' motion, at the
+        samples `at` only when given (each sample's is its own)."""
+        return dict(zip(VALVES, slope_grad(f.v if at is None else f.v[at], f.p)))
 
     def friction_columns(self, p):
         """{parameter: the sliding friction's derivative} (friction_level's)."""

@@ -19,7 +19,13 @@ def soft_sign(v: np.ndarray) -> np.ndarray:
 @kernels.recent
 def shift(y: np.ndarray, t: np.ndarray, tau: float) -> np.ndarray:
     """y [any unit] at t - tau [s] (linear between samples)."""
-    return kernels.delayed(np.asarray(y, float), np.asarray(t, float), float(tau))
+    return kernels.delayed(np.asarray(y, float)[None, :], np.asarray(t, float), float(tau))[0]
+
+
+@kernels.recent
+def shift_motion(x: np.ndarray, v: np.ndarray, a: np.ndarray, t: np.ndarray, tau: float) -> np.ndarray:
+    """The motion x, v, a at t - tau [s] (shift's, one walk for the three): (3, samples)."""
+    return kernels.delayed(np.array([x, v, a], float), np.asarray(t, float), float(tau))
 
 
 def scaled(cols: dict[str, dict[str, np.ndarray]], part: str, g: np.ndarray) -> None:

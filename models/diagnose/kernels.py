@@ -48,36 +48,39 @@ def lag(F, tau, h):
 
 
 @njit(cache=True, nogil=True)
-def delayed(y, t, tau):
-    """y at t - tau (t increasing [s], tau [s]): np.interp(t - tau, t, y) operation for
-    operation, so the same numbers to the last bit, with a walk to each interval instead of
-    its binary search (a sensor delay's fit shifts three channels at every evaluation)."""
-    n = len(t)
-    out = np.empty(n)
+def delayed(Y, t, tau):
+    """Each row of Y at t - tau (t increasing [s], tau [s]): np.interp(t - tau, t, y)
+    operation for operation, so the same numbers to the last bit, with a walk to each
+    interval instead of its binary search, walked once for all the rows (a sensor delay's
+    fit shifts three channels at every evaluation)."""
+    k, n = Y.shape
+    out = np.empty((k, n))
     j = 0
     for i in range(n):
         x = t[i] - tau
         if np.isnan(x):
-            out[i] = x
+            out[:, i] = x
         elif x < t[0]:
-            out[i] = y[0]
+            out[:, i] = Y[:, 0]
         elif x > t[n - 1]:
-            out[i] = y[n - 1]
+            out[:, i] = Y[:, n - 1]
         else:
             while j < n - 1 and t[j + 1] <= x:
                 j += 1
             while j > 0 and t[j] > x:
                 j -= 1
             if j == n - 1 or t[j] == x:
-                out[i] = y[j]
-            else:
-                slope = (y[j + 1] - y[j]) / (t[j + 1] - t[j])
-                r = slope * (x - t[j]) + y[j]
+                out[:, i] = Y[:, j]
+                continue
+            for q in range(k):
+                y0, y1 = Y[q, j], Y[q, j + 1]
+                slope = (y1 - y0) / (t[j + 1] - t[j])
+                r = slope * (x - t[j]) + y0
                 if np.isnan(r):  # numpy's retry from the interval's other end
-                    r = slope * (x - t[j + 1]) + y[j + 1]
-                    if np.isnan(r) and y[j] == y[j + 1]:
-                        r = y[j]
-                out[i] = r
+                    r = slope * (x - t[j + 1]) + y1
+                    if np.isnan(r) and y0 == y1:
+                        r = y0
+                out[q, i] = r
     return out
 
 
@@ -111,6 +114,13 @@ def bspline_basis(x, t, k, n):
     return B
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _trapezoid(f0, f1, t0, t1, a, b):
+    """The integral over [a, b] of a force linear from f0 at t0 to f1 at t1."""
+    s = (f1 - f0) / (t1 - t0)
+    return (b - a) * (f0 + s * (0.5 * (a + b) - t0))
+
+
 @njit(cache=True, nogil=True)
 def integral(F, t, lo, hi):
     """Integral over [lo, hi] of F linear between samples t (lo >= t[0])."""
@@ -119,10 +129,64 @@ def integral(F, t, lo, hi):
     while j < len(t) - 1 and t[j] < hi:
         a, b = max(t[j], lo), min(t[j + 1], hi)
         if b > a:
-            s = (F[j + 1] - F[j]) / (t[j + 1] - t[j])
-            out += (b - a) * (F[j] + s * (0.5 * (a + b) - t[j]))
+            out += _trapezoid(F[j], F[j + 1], t[j], t[j + 1], a, b)
         j += 1
     return out
+
+
+@njit(cache=True, nogil=True)
+def _integral_at(F, at, t, j, lo, hi):
+    """integral() of a force known only at some samples (F[at[i]] is sample i's), from the
+    interval j that holds lo (max(searchsorted(t, lo) - 1, 0), found once for many rows)."""
+    out = 0.0
+    while j < len(t) - 1 and t[j] < hi:
+        a, b = max(t[j], lo), min(t[j + 1], hi)
+        if b > a:
+            out += _trapezoid(F[at[j]], F[at[j + 1]], t[j], t[j + 1], a, b)
+        j += 1
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _gap_closes(F, S, t, c, i):
+    """Where a crossing of the clearance c [m] begun between samples i - 1 and i ends:
+    (t_z, side, t_e, j, closed), t_z where F [N] changed sign, side its new sign, t_e
+    where the gap closes (closed: the integral of |F| / S from t_z reached c, within
+    interval j) or F turned back (between j - 1 and j; t_e the last time when it never
+    did). S [N s/m] stepwise, its value at each interval's end."""
+    n = len(F)
+    h = t[i] - t[i - 1]
+    tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
+    side = 1.0 if F[i] > 0 else -1.0
+    s, t0, f0 = 0.0, tz, 0.0
+    j = i
+    while j < n:
+        f1 = side * F[j]
+        if f1 < 0.0:  # back to the old side before the gap closed: contact resumes there
+            return tz, side, t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1), j, False
+        dt = t[j] - t0
+        k = max(S[j], 1e-9)
+        ds = 0.5 * (f0 + f1) * dt / k
+        if s + ds >= c and dt > 0.0:
+            # |F| linear over the interval: s(tau) = (f0 tau + b tau^2 / 2) / k, b = (f1 - f0) / dt
+            b = (f1 - f0) / dt
+            need = (c - s) * k
+            if abs(b) * need < 1e-12 * f0 * f0:
+                tau = need / max(f0, 1e-30)
+            else:
+                tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
+            return tz, side, t0 + min(max(tau, 0.0), dt), j, True
+        s += ds
+        t0, f0 = t[j], f1
+        j += 1
+    return tz, side, t[n - 1], n, False
+
+
+@njit(cache=True, nogil=True)
+def _crossing(F, t, W, i):
+    """Whether the force changes sign between samples i - 1 and i with no gap between them."""
+    h = t[i] - t[i - 1]
+    return F[i - 1] * F[i] < 0.0 and 0.0 < h <= 4.0 * W
 
 
 @njit(cache=True, nogil=True)
@@ -142,35 +206,10 @@ def plateau(F, S, t, c, W):
     n = len(F)
     i = 1
     while i < n:
-        h = t[i] - t[i - 1]
-        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
+        if not _crossing(F, t, W, i):
             i += 1
             continue
-        tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
-        side = 1.0 if F[i] > 0 else -1.0
-        s, t0, f0, te = 0.0, tz, 0.0, t[n - 1]
-        j = i
-        while j < n:
-            f1 = side * F[j]
-            if f1 < 0.0:  # back to the old side before the gap closed: contact resumes there
-                te = t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1)
-                break
-            dt = t[j] - t0
-            k = max(S[j], 1e-9)
-            ds = 0.5 * (f0 + f1) * dt / k
-            if s + ds >= c and dt > 0.0:
-                # |F| linear over the interval: s(tau) = (f0 tau + b tau^2 / 2) / k, b = (f1 - f0) / dt
-                b = (f1 - f0) / dt
-                need = (c - s) * k
-                if abs(b) * need < 1e-12 * f0 * f0:
-                    tau = need / max(f0, 1e-30)
-                else:
-                    tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
-                te = t0 + min(max(tau, 0.0), dt)
-                break
-            s += ds
-            t0, f0 = t[j], f1
-            j += 1
+        tz, _, te, _, _ = _gap_closes(F, S, t, c, i)
         k = i - 1
         while k < n and t[k] - 0.5 * W < te:
             lo, hi = max(t[k] - 0.5 * W, tz), min(t[k] + 0.5 * W, te)
@@ -179,6 +218,28 @@ def plateau(F, S, t, c, W):
             k += 1
         i = max(k, i + 1)
     return out
+
+
+@njit(cache=True, nogil=True)
+def plateau_reach(F, S, t, c, W):
+    """The samples plateau_tangent reads or changes (sorted): about each crossing, from
+    the sample before its interval to where the gap has closed and the window past it.
+    Elsewhere a clearance leaves the force's derivatives as they are."""
+    n = len(F)
+    c = max(c, 0.0)
+    keep = np.zeros(n, np.bool_)
+    i = 1
+    while i < n:
+        if not _crossing(F, t, W, i):
+            i += 1
+            continue
+        _, _, te, j, _ = _gap_closes(F, S, t, c, i)
+        m = i - 1
+        while m < n and t[m] - 0.5 * W < te:
+            m += 1
+        keep[max(i - 2, 0):min(max(j, m) + 1, n)] = True
+        i = max(m, i + 1)
+    return np.flatnonzero(keep)
 
 
 @njit(cache=True, nogil=True)
@@ -311,68 +372,53 @@ def dahl_tangent(x, t, h, decay, z, ddecay):
 
 
 @njit(cache=True, nogil=True)
-def plateau_tangent(F, S, t, c, W, dF, dS, dc):
-    """plateau(F, S, t, c, W)'s derivative along rows dF, dS (the force's and the slope's) and
-    dc (the clearance's, one per row). Each crossing's window integrals move with F at fixed
-    limits, and with the gap's closing time t_e, where the force is |F_e|: the start t_z
-    moves the limits where F is zero, which moves nothing. t_e solves
+def plateau_tangent(F, S, t, c, W, at, dF, dS, dc):
+    """plateau(F, S, t, c, W)'s derivative along rows dF, dS (the force's and the slope's,
+    known at the samples `at`, plateau_reach's: column m is sample at[m]'s) and dc (the
+    clearance's, one per row), at those samples. Each crossing's window integrals move
+    with F at fixed limits, and with the gap's closing time t_e, where the force is |F_e|:
+    the start t_z moves the limits where F is zero, which moves nothing. t_e solves
     int_tz^te |F| / S dt = c, so |F_e| dt_e = S_e (dc - int_tz^te d(|F| / S) dt), S stepwise
     as plateau takes it (its value at each interval's end)."""
-    k, n = dF.shape
+    k = dF.shape[0]
+    n = len(F)
+    pos = np.full(n, -1)
+    pos[at] = np.arange(len(at))
     out = dF.copy()
     c = max(c, 0.0)  # at 0, the derivative on the side of a clearance
     i = 1
     G = np.zeros(k)
     while i < n:
-        h = t[i] - t[i - 1]
-        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
+        if not _crossing(F, t, W, i):
             i += 1
             continue
-        tz = t[i - 1] + h * F[i - 1] / (F[i - 1] - F[i])
-        side = 1.0 if F[i] > 0 else -1.0
-        s, t0, f0, te = 0.0, tz, 0.0, t[n - 1]
-        closed = False
+        tz, side, te, jc, closed = _gap_closes(F, S, t, c, i)
         for q in range(k):
             G[q] = 0.0
-        j = i
-        while j < n:
-            f1 = side * F[j]
-            if f1 < 0.0:  # back where F is zero: no force at t_e, nothing moves with it
-                te = t[j - 1] + (t[j] - t[j - 1]) * (side * F[j - 1]) / (side * F[j - 1] - f1)
-                break
-            dt = t[j] - t0
+        t0 = tz
+        # each interval's share of int d(|F| / S) up to where the gap closed: |F| = side F on
+        # the gap, S = kj there (none of the interval where F turned back)
+        for j in range(i, jc + 1 if closed else jc):
             kj = max(S[j], 1e-9)
-            ds = 0.5 * (f0 + f1) * dt / kj
-            hi = t[j]
-            if s + ds >= c and dt > 0.0:
-                b = (f1 - f0) / dt
-                need = (c - s) * kj
-                if abs(b) * need < 1e-12 * f0 * f0:
-                    tau = need / max(f0, 1e-30)
-                else:
-                    tau = (-f0 + np.sqrt(max(f0 * f0 + 2.0 * b * need, 0.0))) / b
-                te = t0 + min(max(tau, 0.0), dt)
-                hi = te
-                closed = True
-            # this interval's share of int d(|F| / S): |F| = side F on the gap, S = kj here
+            hi = te if closed and j == jc else t[j]
+            first, whole = max(np.searchsorted(t, t0) - 1, 0), integral(F, t, t0, hi)
             for q in range(k):
-                dk = dS[q, j] if S[j] > 1e-9 else 0.0
-                G[q] -= side * integral(dF[q], t, t0, hi) / kj - dk / (kj * kj) * side * integral(F, t, t0, hi)
-            if closed:
-                for q in range(k):
-                    G[q] = kj * (G[q] + dc[q])  # |F_e| dt_e
-                break
-            s += ds
-            t0, f0 = t[j], f1
-            j += 1
+                dk = dS[q, pos[j]] if S[j] > 1e-9 else 0.0
+                G[q] -= side * _integral_at(dF[q], pos, t, first, t0, hi) / kj - dk / (kj * kj) * side * whole
+            t0 = t[j]
+        if closed:
+            kj = max(S[jc], 1e-9)
+            for q in range(k):
+                G[q] = kj * (G[q] + dc[q])  # |F_e| dt_e
         m = i - 1
         while m < n and t[m] - 0.5 * W < te:
             lo, hi = max(t[m] - 0.5 * W, tz), min(t[m] + 0.5 * W, te)
+            first = max(np.searchsorted(t, lo) - 1, 0)
             for q in range(k):  # (at c = 0 the window holding t_z has no width and still moves)
-                acc = integral(dF[q], t, lo, hi) if hi > lo else 0.0
+                acc = _integral_at(dF[q], pos, t, first, lo, hi) if hi > lo else 0.0
                 if closed and hi == te:
                     acc += side * G[q]
-                out[q, m] -= acc / W
+                out[q, pos[m]] -= acc / W
             m += 1
         i = max(m, i + 1)
     return out

@@ -70,9 +70,16 @@ class Judge:
         if n < 3:
             return False
         m, y = x.mean(), (x / n).astype(np.float32)
-        chunks = int(np.ceil(3.0 / alpha / BOOT))
+        chunks = _chunks(alpha)
         hits = sum(int(np.sum(resamples(n, v.seed, i) @ y - m >= m)) for i in range(chunks))
         return (hits + 1) / (chunks * BOOT + 1) < alpha
+
+    def drawn(self, alpha) -> None:
+        """Every judgement's resamples at the bar alpha drawn (bootstrap.resamples keeps
+        them), so that forked fitting processes share them instead of each drawing its own."""
+        for v in self.variants:
+            for i in range(_chunks(alpha)):
+                resamples(len(v.ids), v.seed, i)
 
     def votes(self, r_new, r_old, alpha) -> np.ndarray:
         """1.0 in each judgement in which r_new is significantly better, else 0."""
@@ -81,6 +88,12 @@ class Judge:
     def share(self, r_new, r_old, alpha) -> float:
         """The share of the judgements in which r_new is significantly better."""
         return float(np.mean(self.votes(r_new, r_old, alpha)))
+
+
+def _chunks(alpha: float) -> int:
+    """Chunks of resamples a judgement draws: the least in which p can fall below alpha three
+    times over."""
+    return int(np.ceil(3.0 / alpha / BOOT))
 
 
 def judge(d: Data, judged: np.ndarray, seed: int, blocks: Callable[..., np.ndarray]) -> Judge:

@@ -34,6 +34,13 @@ class Clock:
             if self._stack:
                 self._stack[-1][2] += spent
 
+    def inner(self, name: str, seconds: float) -> None:
+        """Count `seconds` of the stage running as stage `name` inside it (work done
+        elsewhere, in the fitting processes, whose share of the wall time is known)."""
+        self.seconds[name] = self.seconds.get(name, 0.0) + seconds
+        if self._stack:
+            self._stack[-1][2] += seconds
+
     def report(self) -> dict:
         """{"stages_s": {stage: s}, "wall_s": s, "cores_used": share of the cores busy}."""
         wall = time.perf_counter() - self._t0

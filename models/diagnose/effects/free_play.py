@@ -20,21 +20,29 @@ def _free_play(m, d, p, f, e):
 
 
 def _free_play_tangent(m, d, p, f, e, cols, before):
-    S = f.slope()
-    dS = m.base.slope_columns(f) if hasattr(m.base, "slope_columns") else {}
+    # the clearance changes the derivatives only about each crossing (plateau_reach): they are
+    # worked out there, from the slope's derivatives there, and copied elsewhere
+    S, c, W = f.slope(), p["c_play"], W_FORCE * m.h
+    at = kernels.plateau_reach(before["F"], S, f.t, c, W)
+    dS = m.base.slope_columns(f, at) if hasattr(m.base, "slope_columns") else {}
     names = list(dict.fromkeys([*cols["F"], "c_play"]))
-    zero = np.zeros(len(S))
-    out = kernels.plateau_tangent(
+    zero = np.zeros(len(at))
+    near = kernels.plateau_tangent(
         before["F"],
         S,
         f.t,
-        p["c_play"],
-        W_FORCE * m.h,
-        np.array([cols["F"].get(k, zero) for k in names]),
+        c,
+        W,
+        at,
+        np.array([cols["F"][k][at] if k in cols["F"] else zero for k in names]),
         np.array([dS.get(k, zero) for k in names]),
         np.array([1.0 if k == "c_play" else 0.0 for k in names]),
     )
-    cols["F"] = dict(zip(names, out))
+    out = {}
+    for k, row in zip(names, near):
+        out[k] = np.array(cols["F"][k]) if k in cols["F"] else np.zeros(len(S))
+        out[k][at] = row
+    cols["F"] = out
 
 
 def _words(step, sample_s):

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.diagnose.forms import fixed, shift
+from models.diagnose.forms import fixed, shift_motion
 from models.diagnose.result import Step
 from models.diagnose.spec import Effect, P
 
@@ -23,7 +23,7 @@ def _timing(name):
     def apply(m, d, p, f, e):
         f.tau = p[name]
         if f.tau:  # the force answers the motion tau earlier than stamped
-            f.x, f.v, f.a = shift(f.x, f.t, -f.tau), shift(f.v, f.t, -f.tau), shift(f.a, f.t, -f.tau)
+            f.x, f.v, f.a = shift_motion(f.x, f.v, f.a, f.t, -f.tau)
 
     return apply
 

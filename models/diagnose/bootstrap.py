@@ -49,6 +49,16 @@ def resamples(n: int, seed: int, i: int) -> np.ndarray:
     return w
 
 
+def _resamples(alpha: float) -> int:
+    """The resamples p_value draws at least unless it stops early: BOOT, and 20 / alpha."""
+    return max(BOOT, int(np.ceil(20 / alpha)))
+
+
+def usual_chunks(alpha: float = ALPHA) -> int:
+    """The chunks of resamples p_value draws unless it stops early."""
+    return int(np.ceil(_resamples(alpha) / BOOT))
+
+
 def p_value(d_c: np.ndarray, seed: int, alpha: float = ALPHA) -> float:
     """One-sided bootstrap p-value of mean(d_c) > 0 over blocks d_c, with enough resamples
     (at least BOOT, and 20 / alpha) that the smallest p it can give is well under alpha.
@@ -63,7 +73,7 @@ def p_value(d_c: np.ndarray, seed: int, alpha: float = ALPHA) -> float:
         return 1.0
     m = d_c.mean()
     x = (d_c / n).astype(np.float32)
-    total = max(BOOT, int(np.ceil(20 / alpha)))
+    total = _resamples(alpha)
     hits = done = i = 0
     while done < MORE * total:
         boot = resamples(n, seed, i) @ x

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.diagnose.bootstrap import BOOT, block_sse, p_value, resamples
+from models.diagnose.bootstrap import BOOT, block_sse, p_value, resamples, usual_chunks
 from models.diagnose.data import Data
 
 SHIFTS = 5  # block partitions: the quarter-cycle blocks shifted by 0, 1/5, ... 4/5 of a block
@@ -78,7 +78,7 @@ class Judge:
         """Every judgement's resamples at the bar alpha drawn (bootstrap.resamples keeps
         them), so that forked fitting processes share them instead of each drawing its own."""
         for v in self.variants:
-            for i in range(_chunks(alpha)):
+            for i in range(usual_chunks(alpha) if v is self.main else _chunks(alpha)):  # p's, and the votes'
                 resamples(len(v.ids), v.seed, i)
 
     def votes(self, r_new, r_old, alpha) -> np.ndarray:

@@ -183,10 +183,30 @@ def _gap_closes(F, S, t, c, i):
 
 
 @njit(cache=True, nogil=True)
-def _crossing(F, t, W, i):
-    """Whether the force changes sign between samples i - 1 and i with no gap between them."""
-    h = t[i] - t[i - 1]
-    return F[i - 1] * F[i] < 0.0 and 0.0 < h <= 4.0 * W
+def _crossings(F, S, t, c, W):
+    """Each crossing of a clearance c [m] that plateau models, in time order, as arrays:
+    (i, t_z, side, t_e, j, closed) of _gap_closes and `end`, the first sample whose window
+    [t - W / 2, t + W / 2] starts after t_e (the next crossing is looked for from there).
+    A crossing begins where F changes sign between samples i - 1 and i with no gap between
+    them (an interval no longer than 4 W)."""
+    n = len(F)
+    at, end, j_of = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
+    tz_of, side_of, te_of, closed_of = np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_)
+    k = 0
+    i = 1
+    while i < n:
+        h = t[i] - t[i - 1]
+        if not (F[i - 1] * F[i] < 0.0) or h <= 0.0 or h > 4.0 * W:
+            i += 1
+            continue
+        tz, side, te, j, closed = _gap_closes(F, S, t, c, i)
+        m = i - 1
+        while m < n and t[m] - 0.5 * W < te:
+            m += 1
+        at[k], end[k], j_of[k], tz_of[k], side_of[k], te_of[k], closed_of[k] = i, m, j, tz, side, te, closed
+        k += 1
+        i = max(m, i + 1)
+    return at[:k], tz_of[:k], side_of[:k], te_of[:k], j_of[:k], closed_of[:k], end[:k]
 
 
 @njit(cache=True, nogil=True)
@@ -203,20 +223,12 @@ def plateau(F, S, t, c, W):
     out = F.copy()
     if c <= 0.0:
         return out
-    n = len(F)
-    i = 1
-    while i < n:
-        if not _crossing(F, t, W, i):
-            i += 1
-            continue
-        tz, _, te, _, _ = _gap_closes(F, S, t, c, i)
-        k = i - 1
-        while k < n and t[k] - 0.5 * W < te:
-            lo, hi = max(t[k] - 0.5 * W, tz), min(t[k] + 0.5 * W, te)
+    at, tz, _, te, _, _, end = _crossings(F, S, t, c, W)
+    for q in range(len(at)):
+        for k in range(at[q] - 1, end[q]):
+            lo, hi = max(t[k] - 0.5 * W, tz[q]), min(t[k] + 0.5 * W, te[q])
             if hi > lo:
                 out[k] -= integral(F, t, lo, hi) / W
-            k += 1
-        i = max(k, i + 1)
     return out
 
 
@@ -226,19 +238,10 @@ def plateau_reach(F, S, t, c, W):
     the sample before its interval to where the gap has closed and the window past it.
     Elsewhere a clearance leaves the force's derivatives as they are."""
     n = len(F)
-    c = max(c, 0.0)
     keep = np.zeros(n, np.bool_)
-    i = 1
-    while i < n:
-        if not _crossing(F, t, W, i):
-            i += 1
-            continue
-        _, _, te, j, _ = _gap_closes(F, S, t, c, i)
-        m = i - 1
-        while m < n and t[m] - 0.5 * W < te:
-            m += 1
-        keep[max(i - 2, 0):min(max(j, m) + 1, n)] = True
-        i = max(m, i + 1)
+    at, _, _, _, j, _, end = _crossings(F, S, t, max(c, 0.0), W)
+    for q in range(len(at)):
+        keep[max(at[q] - 2, 0):min(max(j[q], end[q]) + 1, n)] = True
     return np.flatnonzero(keep)
 
 
@@ -381,18 +384,14 @@ def plateau_tangent(F, S, t, c, W, at, dF, dS, dc):
     int_tz^te |F| / S dt = c, so |F_e| dt_e = S_e (dc - int_tz^te d(|F| / S) dt), S stepwise
     as plateau takes it (its value at each interval's end)."""
     k = dF.shape[0]
-    n = len(F)
-    pos = np.full(n, -1)
+    pos = np.full(len(F), -1)
     pos[at] = np.arange(len(at))
     out = dF.copy()
-    c = max(c, 0.0)  # at 0, the derivative on the side of a clearance
-    i = 1
+    # at c = 0, the derivative on the side of a clearance
+    starts, tzs, sides, tes, js, closes, ends = _crossings(F, S, t, max(c, 0.0), W)
     G = np.zeros(k)
-    while i < n:
-        if not _crossing(F, t, W, i):
-            i += 1
-            continue
-        tz, side, te, jc, closed = _gap_closes(F, S, t, c, i)
+    for x in range(len(starts)):
+        i, tz, side, te, jc, closed = starts[x], tzs[x], sides[x], tes[x], js[x], closes[x]
         for q in range(k):
             G[q] = 0.0
         t0 = tz
@@ -410,8 +409,7 @@ def plateau_tangent(F, S, t, c, W, at, dF, dS, dc):
             kj = max(S[jc], 1e-9)
             for q in range(k):
                 G[q] = kj * (G[q] + dc[q])  # |F_e| dt_e
-        m = i - 1
-        while m < n and t[m] - 0.5 * W < te:
+        for m in range(i - 1, ends[x]):
             lo, hi = max(t[m] - 0.5 * W, tz), min(t[m] + 0.5 * W, te)
             first = max(np.searchsorted(t, lo) - 1, 0)
             for q in range(k):  # (at c = 0 the window holding t_z has no width and still moves)
@@ -419,6 +417,4 @@ def plateau_tangent(F, S, t, c, W, at, dF, dS, dc):
                 if closed and hi == te:
                     acc += side * G[q]
                 out[q, pos[m]] -= acc / W
-            m += 1
-        i = max(m, i + 1)
     return out

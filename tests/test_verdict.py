@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from models.diagnose import blocks, stability
-from models.diagnose.kernels import delayed
+from models.diagnose.kernels import delayed, plateau, plateau_reach, plateau_tangent
 from models.diagnose.referees import _first
 from models.diagnose.result import Candidate, Tried
 from tests.conftest import dyno
@@ -93,6 +93,32 @@ def test_the_baselines_derivatives_are_its_differences():
     # an effect that changes the damping carries them through (tests/test_diagnose.py, each effect's)
     altered = Model(d, ["compressibility"], base=Minimal(d))
     assert set(altered.columns(altered.forces(d, {**p, "inv_k_oil": 1e-7}))) == set(p) | {"inv_k_oil"}
+
+
+def test_a_clearance_s_derivatives_worked_near_its_crossings_are_those_worked_everywhere():
+    """plateau_tangent works only on plateau_reach's samples: every sample the clearance
+    changes is among them, and the derivatives there are those of the samples the dense
+    rows give (gathered from rows known everywhere), whatever the clearance, rate and
+    spacing: a crossing it missed would leave a derivative of the force without the gap."""
+    rng = np.random.default_rng(3)
+    for trial in range(60):
+        n = int(rng.integers(50, 3000))
+        h = 10 ** rng.uniform(-4, -2.5)
+        t = np.cumsum(rng.uniform(0.7, 1.3, n) * h) if trial % 2 else np.arange(n) * h
+        F = 500 * np.sin(2 * np.pi * rng.uniform(0.5, 20) * t) + rng.normal(0, 20, n)
+        S = np.abs(rng.normal(2000, 500, n))
+        W = 0.5 * h
+        for c in (0.0, 1e-7, 1e-5, 1e-3):
+            at = plateau_reach(F, S, t, c, W)
+            assert set(np.flatnonzero(plateau(F, S, t, c, W) != F)) <= set(at), (trial, c)
+            dF, dS = rng.normal(size=(3, n)), rng.normal(size=(3, n))
+            out = plateau_tangent(F, S, t, c, W, at, dF[:, at], dS[:, at], np.array([0.0, 1.0, 0.0]))
+            # a row's samples outside the reach are its own: the reach is where it changes
+            wider = np.unique(np.r_[at, rng.choice(n, min(n, 40), replace=False)])
+            again = plateau_tangent(F, S, t, c, W, wider, dF[:, wider], dS[:, wider], np.array([0.0, 1.0, 0.0]))
+            assert np.array_equal(again[:, np.searchsorted(wider, at)], out), (trial, c)
+            assert np.array_equal(np.delete(again, np.searchsorted(wider, at), axis=1),
+                                  np.delete(dF[:, wider], np.searchsorted(wider, at), axis=1)), (trial, c)
 
 
 @pytest.mark.rounding

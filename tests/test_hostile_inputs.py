@@ -198,6 +198,7 @@ CASES = [
     (["run", "static", "points=100000"], ["points: 2 to 200"]),
     (["run", "temperature-sweep", "overshoot_c=-50"], ["overshoot_c: must not be negative"]),
     (["bench", "diagnose", "--rate", "0"], ["bench diagnose: argument --rate: must be above 0"]),
+    (["bench", "diagnose", "--runs", "0"], ["bench diagnose: argument --runs: must be within 1..50, got 0"]),
     (["bench", "identify", "{binary}"], ["not a readable recording"]),
     (["bench", "loop", "--embedded", "--diagnose"], ["--diagnose measures the loop against sim-rig"]),
     (["bench", "loop", "--busy", "-1"], ["bench loop: argument --busy: must be within"]),

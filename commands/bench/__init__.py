@@ -84,10 +84,10 @@ def diagnose(args):
     from proof.bench.throughput import diagnose_said
     if args.crank:
         from proof.bench.crank import bench
-        r = bench(args.seconds or 100.0, args.rate or 300.0)
+        r = bench(args.seconds or 100.0, args.rate or 300.0, args.runs)
     else:
         from proof.bench.throughput import bench_diagnose
-        r = bench_diagnose(args.seconds or 60.0, args.rate or 5000.0)
+        r = bench_diagnose(args.seconds or 60.0, args.rate or 5000.0, args.runs)
     title, text, body, note = diagnose_said(r, args.crank)
     return emit(args, title, r, text, body, note)
 

@@ -42,6 +42,8 @@ def add(sub):
     bd.add_argument("--seconds", type=number(above=0, hi=3600), default=None, help="recorded (default 60, crank 100)")
     bd.add_argument("--rate", type=number(above=0, hi=100000), default=None,
                     help="sample rate [Hz] (default 5000, crank 300)")
+    bd.add_argument("--runs", type=number(1, 50, integer=True), default=3,
+                    help="diagnoses of the one recording: minimum, median and maximum (default 3)")
     bdc = _bench(bsub, "discover", help="dyno run discover's wall time against its budget (goal <= 1.2 x)")
     bdc.add_argument("--budget", type=number(above=0, hi=3600), default=60.0,
                      help="rig time its own tests may add [s] (default 60)")

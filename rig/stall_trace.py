@@ -15,11 +15,18 @@ ARM_EVERY = 10  # ticks between re-arming: each costs some 70 us (at 1 kHz every
 
 
 class StallTrace:
-    """Armed by tick(); `path` holds the stacks once a stall outlasted `limit_s` (plus the
-    ARM_EVERY ticks between arms); close() removes the file when it stayed empty."""
+    """Armed by tick(); the stacks go to a file with no name until a stall outlasts
+    `limit_s` (plus the ARM_EVERY ticks between arms), which caught() then names: a run
+    killed outright leaves nothing behind (mkstemp's file, named from the start, stayed in
+    the temporary folder empty). Where the file system has no unnamed files, a named one,
+    removed by close() when it stayed empty."""
 
     def __init__(self, limit_s: float, period_s: float):
-        fd, self.path = tempfile.mkstemp(prefix=f"dyno-stall-{os.getpid()}-", suffix=".txt")
+        self.path = None
+        try:
+            fd = os.open(tempfile.gettempdir(), os.O_TMPFILE | os.O_WRONLY, 0o600)
+        except (AttributeError, OSError):  # not Linux, or a file system without O_TMPFILE
+            fd, self.path = tempfile.mkstemp(prefix=f"dyno-stall-{os.getpid()}-", suffix=".txt")
         self.file = os.fdopen(fd, "w")
         self.timeout = limit_s + ARM_EVERY * period_s
         self.ticks = 0
@@ -30,14 +37,32 @@ class StallTrace:
         self.ticks += 1
 
     def caught(self) -> str | None:
-        """The file's path once it holds a stall's stacks, else None."""
-        return self.path if os.path.getsize(self.path) else None
+        """The file's path once it holds a stall's stacks (named now if it had no name), else None."""
+        if self.file.closed:
+            return self.path if self.path and os.path.exists(self.path) else None
+        if not os.fstat(self.file.fileno()).st_size:
+            return None
+        if self.path is None:
+            fd, path = tempfile.mkstemp(prefix=f"dyno-stall-{os.getpid()}-", suffix=".txt")
+            os.close(fd)
+            os.unlink(path)  # the name, reserved, given to the unnamed file
+            # linkat(2) through /proc following the link, as open(2) gives for O_TMPFILE
+            # (os.link calls link(2), which does not follow it, unless given a directory)
+            proc = os.open("/proc/self/fd", os.O_RDONLY)
+            try:
+                os.link(str(self.file.fileno()), path, src_dir_fd=proc, follow_symlinks=True)
+            finally:
+                os.close(proc)
+            self.path = path
+        return self.path
 
     def close(self) -> str | None:
-        """Disarmed: the path of the stacks dumped, or None (the empty file removed). Again: the same."""
+        """Disarmed: the path of the stacks dumped, or None (an empty named file removed). Again: the same."""
         if not self.file.closed:
             faulthandler.cancel_dump_traceback_later()
+            caught = self.caught()
             self.file.close()
-            if not self.caught():
+            if self.path and not caught:
                 os.unlink(self.path)
-        return self.path if os.path.exists(self.path) else None
+                self.path = None
+        return self.path if self.path and os.path.exists(self.path) else None

@@ -1,9 +1,10 @@
 """The rig against the virtual rig in this process, over the real transports (python-can
 virtual bus, a pseudo-terminal, Modbus TCP on 127.0.0.1): every channel, motion, and each
 injected fault ending in the safe state with its message and the samples kept."""
-import numpy as np
+import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from rig import config
@@ -162,6 +163,22 @@ def test_force_limit_trips(cell):
     res, _ = run(vr, rig, sine(amplitude=0.01, freq=4.0, until=2.0))
     assert res.fault.startswith("limit: force")
     assert vr.plant.x_act == pytest.approx(rig.config.safe_position, abs=2e-4)
+
+
+def test_a_run_killed_outright_leaves_no_stall_file_behind(tmp_path):
+    """The stall trace's file has a name only once it holds a stall's stacks: a loop killed
+    with SIGKILL (nothing of it runs after) leaves nothing in the temporary folder."""
+    import signal
+    import subprocess
+    import sys
+    code = ("import sys, time; from rig.stall_trace import StallTrace; t = StallTrace(5.0, 0.001); t.tick(); "
+            "print(t.path, flush=True); time.sleep(60)")
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True,
+                         env={**os.environ, "TMPDIR": str(tmp_path)})
+    assert p.stdout.readline().strip() == "None"  # armed, and no name yet
+    p.send_signal(signal.SIGKILL)
+    p.wait(timeout=10)
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.realtime

@@ -81,3 +81,24 @@ def test_a_forked_child_that_dies_is_an_error_not_a_wait():
     from concurrent.futures.process import BrokenProcessPool
     with pytest.raises(BrokenProcessPool):
         threads.forked(lambda k: os._exit(1) if k == 1 else k, [(k,) for k in range(3)], 2)
+
+
+def test_a_stop_while_the_pool_starts_its_manager_thread_ends_as_a_stop(monkeypatch):
+    """A stop (KeyboardInterrupt from the operator's SIGTERM) raised just after the process
+    pool's manager thread was made and before it ran: the pool's shutdown could not join it
+    and `dyno prove` ended in a RuntimeError's traceback instead of exit 130 (seen once in a
+    fresh clone's suite). The same moment here, the thread run 0.1 s later: the stop
+    reaches the caller as itself."""
+    from concurrent.futures import process
+
+    from workers.pool import process_pool
+    start = process._ExecutorManagerThread.start
+
+    def interrupted(self):
+        threading.Timer(0.1, start, (self,)).start()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(process._ExecutorManagerThread, "start", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        with process_pool(1) as ex:
+            ex.submit(abs, -1)

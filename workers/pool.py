@@ -171,4 +171,19 @@ def process_pool(n, warm=None):
             p.kill()  # a SIGTERM would run the handler a forked worker inherited, mid-job
         raise
     finally:
-        ex.shutdown(cancel_futures=True)
+        _shut(ex)
+
+
+def _shut(ex):
+    """ex shut down, its waiting futures cancelled. A stop that came while its first submit
+    started the manager thread (the thread made, not yet run: the KeyboardInterrupt is raised
+    just after the thread's creation) leaves a thread that join() refuses ("cannot join
+    thread before it is started", a traceback after `prove: stopped`): it is given a moment
+    to run, then left unjoined, its workers gone."""
+    for _ in range(50):
+        try:
+            ex.shutdown(cancel_futures=True)
+            return
+        except RuntimeError:
+            time.sleep(0.02)
+    ex.shutdown(wait=False, cancel_futures=True)

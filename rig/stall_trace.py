@@ -43,16 +43,19 @@ class StallTrace:
         if not os.fstat(self.file.fileno()).st_size:
             return None
         if self.path is None:
-            fd, path = tempfile.mkstemp(prefix=f"dyno-stall-{os.getpid()}-", suffix=".txt")
-            os.close(fd)
-            os.unlink(path)  # the name, reserved, given to the unnamed file
             # linkat(2) through /proc following the link, as open(2) gives for O_TMPFILE
             # (os.link calls link(2), which does not follow it, unless given a directory)
-            proc = os.open("/proc/self/fd", os.O_RDONLY)
             try:
-                os.link(str(self.file.fileno()), path, src_dir_fd=proc, follow_symlinks=True)
-            finally:
-                os.close(proc)
+                fd, path = tempfile.mkstemp(prefix=f"dyno-stall-{os.getpid()}-", suffix=".txt")
+                os.close(fd)
+                os.unlink(path)  # the name, reserved, given to the unnamed file
+                proc = os.open("/proc/self/fd", os.O_RDONLY)
+                try:
+                    os.link(str(self.file.fileno()), path, src_dir_fd=proc, follow_symlinks=True)
+                finally:
+                    os.close(proc)
+            except OSError:  # no /proc, a full disk: the stacks stay unnamed; the trip asking must not fail
+                return None
             self.path = path
         return self.path
 

@@ -109,13 +109,14 @@ def test_a_clearance_s_derivatives_worked_near_its_crossings_are_those_worked_ev
         S = np.abs(rng.normal(2000, 500, n))
         W = 0.5 * h
         for c in (0.0, 1e-7, 1e-5, 1e-3):
-            at = plateau_reach(F, S, t, c, W)
+            reach = plateau_reach(F, S, t, c, W)
+            at = reach[0]
             assert set(np.flatnonzero(plateau(F, S, t, c, W) != F)) <= set(at), (trial, c)
             dF, dS = rng.normal(size=(3, n)), rng.normal(size=(3, n))
-            out = plateau_tangent(F, S, t, c, W, at, dF[:, at], dS[:, at], np.array([0.0, 1.0, 0.0]))
+            out = plateau_tangent(F, S, t, W, reach, dF[:, at], dS[:, at], np.array([0.0, 1.0, 0.0]))
             # a row's samples outside the reach are its own: the reach is where it changes
             wider = np.unique(np.r_[at, rng.choice(n, min(n, 40), replace=False)])
-            again = plateau_tangent(F, S, t, c, W, wider, dF[:, wider], dS[:, wider], np.array([0.0, 1.0, 0.0]))
+            again = plateau_tangent(F, S, t, W, (wider, reach[1]), dF[:, wider], dS[:, wider], np.array([0.0, 1.0, 0.0]))
             assert np.array_equal(again[:, np.searchsorted(wider, at)], out), (trial, c)
             assert np.array_equal(np.delete(again, np.searchsorted(wider, at), axis=1),
                                   np.delete(dF[:, wider], np.searchsorted(wider, at), axis=1)), (trial, c)

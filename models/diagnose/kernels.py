@@ -234,15 +234,17 @@ def plateau(F, S, t, c, W):
 
 @njit(cache=True, nogil=True)
 def plateau_reach(F, S, t, c, W):
-    """The samples plateau_tangent reads or changes (sorted): about each crossing, from
-    the sample before its interval to where the gap has closed and the window past it.
-    Elsewhere a clearance leaves the force's derivatives as they are."""
+    """(the samples plateau_tangent reads or changes, sorted; the crossings it works on,
+    _crossings' at c = 0 or more): about each crossing, from the sample before its interval
+    to where the gap has closed and the window past it. Elsewhere a clearance leaves the
+    force's derivatives as they are."""
     n = len(F)
     keep = np.zeros(n, np.bool_)
-    at, _, _, _, j, _, end = _crossings(F, S, t, max(c, 0.0), W)
+    crossings = _crossings(F, S, t, max(c, 0.0), W)  # at c = 0, the derivative on the side of a clearance
+    at, _, _, _, j, _, end = crossings
     for q in range(len(at)):
         keep[max(at[q] - 2, 0):min(max(j[q], end[q]) + 1, n)] = True
-    return np.flatnonzero(keep)
+    return np.flatnonzero(keep), crossings
 
 
 @njit(cache=True, nogil=True)
@@ -375,20 +377,19 @@ def dahl_tangent(x, t, h, decay, z, ddecay):
 
 
 @njit(cache=True, nogil=True)
-def plateau_tangent(F, S, t, c, W, at, dF, dS, dc):
+def plateau_tangent(F, S, t, W, reach, dF, dS, dc):
     """plateau(F, S, t, c, W)'s derivative along rows dF, dS (the force's and the slope's,
-    known at the samples `at`, plateau_reach's: column m is sample at[m]'s) and dc (the
-    clearance's, one per row), at those samples. Each crossing's window integrals move
+    known at the samples of plateau_reach(F, S, t, c, W), `reach`: column m is sample
+    at[m]'s) and dc (the clearance's, one per row), at those samples. Each crossing's window integrals move
     with F at fixed limits, and with the gap's closing time t_e, where the force is |F_e|:
     the start t_z moves the limits where F is zero, which moves nothing. t_e solves
     int_tz^te |F| / S dt = c, so |F_e| dt_e = S_e (dc - int_tz^te d(|F| / S) dt), S stepwise
     as plateau takes it (its value at each interval's end)."""
     k = dF.shape[0]
+    at, (starts, tzs, sides, tes, js, closes, ends) = reach
     pos = np.full(len(F), -1)
     pos[at] = np.arange(len(at))
     out = dF.copy()
-    # at c = 0, the derivative on the side of a clearance
-    starts, tzs, sides, tes, js, closes, ends = _crossings(F, S, t, max(c, 0.0), W)
     G = np.zeros(k)
     for x in range(len(starts)):
         i, tz, side, te, jc, closed = starts[x], tzs[x], sides[x], tes[x], js[x], closes[x]

@@ -23,7 +23,8 @@ def _free_play_tangent(m, d, p, f, e, cols, before):
     # the clearance changes the derivatives only about each crossing (plateau_reach): they are
     # worked out there, from the slope's derivatives there, and copied elsewhere
     S, c, W = f.slope(), p["c_play"], W_FORCE * m.h
-    at = kernels.plateau_reach(before["F"], S, f.t, c, W)
+    reach = kernels.plateau_reach(before["F"], S, f.t, c, W)
+    at = reach[0]
     dS = m.base.slope_columns(f, at) if hasattr(m.base, "slope_columns") else {}
     names = list(dict.fromkeys([*cols["F"], "c_play"]))
     zero = np.zeros(len(at))
@@ -31,9 +32,8 @@ def _free_play_tangent(m, d, p, f, e, cols, before):
         before["F"],
         S,
         f.t,
-        c,
         W,
-        at,
+        reach,
         np.array([cols["F"][k][at] if k in cols["F"] else zero for k in names]),
         np.array([dS.get(k, zero) for k in names]),
         np.array([1.0 if k == "c_play" else 0.0 for k in names]),

@@ -104,6 +104,14 @@ class ControlLoop:
             if gc_enabled:
                 gc.enable()
 
+    def _stall_said(self):
+        """Where the stall's time went, and the file of every thread's stack during it."""
+        if self.trace is None:
+            return ""
+        caught = self.trace.caught()
+        return (f" ({self.trace.where_the_time_went()}"
+                + (f"; every thread's stack during it: {caught})" if caught else ")"))
+
     def _run(self, plan, max_s):
         r = LoopResult()
         stop = SafeStop(self.rig.config.safe_position)
@@ -126,9 +134,7 @@ class ControlLoop:
                 if late > self.period:
                     r.overruns += 1
                     if late > self.safety.L["stale_s"] and stop.running:
-                        caught = self.trace and self.trace.caught()
-                        stop.trip(f"watchdog: control loop stalled for {late * 1e3:.0f} ms"
-                                  + (f" (every thread's stack during it: {caught})" if caught else ""))
+                        stop.trip(f"watchdog: control loop stalled for {late * 1e3:.0f} ms" + self._stall_said())
                 if self.trace is not None:
                     self.trace.tick()
                 readings = self._read(stop)

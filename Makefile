@@ -8,7 +8,7 @@ VENV := .venv
 STAMP := $(VENV)/.installed
 TEST_STAMP := $(VENV)/.installed-test
 
-.PHONY: run test lint quick fuzz results report-examples clean
+.PHONY: run test lint quick fuzz results results-long report-examples clean
 
 # --no-compile: pip would compile every module of every package (half its time); Python compiles
 # the few hundred a run imports on first use and keeps them (the bytecode caches above)
@@ -151,3 +151,21 @@ results: $(STAMP)
 	$(VENV)/bin/python -m tests.real_data --markdown > docs/results/real-data.md.tmp && mv docs/results/real-data.md.tmp docs/results/real-data.md
 	$(VENV)/bin/python -m tests.segmentation_grid --markdown > docs/results/segmentation.md.tmp && mv docs/results/segmentation.md.tmp docs/results/segmentation.md
 	$(VENV)/bin/python -m tests.mr_table --markdown > docs/results/mr-spencer.md.tmp && mv docs/results/mr-spencer.md.tmp docs/results/mr-spencer.md
+
+# the tables over the shared real recordings, the long null matrices and the closed loop's
+# wall time (hours more: prove-on alone about two on 2 cores). bench-loop-live.md is four
+# `dyno bench loop` runs assembled by hand with its prose; it is not made here.
+DATA ?= ../shared/data
+results-long: $(STAMP)
+	$(VENV)/bin/dyno bench discover --markdown > docs/results/bench-discover.md.tmp && mv docs/results/bench-discover.md.tmp docs/results/bench-discover.md
+	$(VENV)/bin/dyno prove --effects null --seeds 50 --rates 1000,5000 --markdown > docs/results/prove-nulls.md.tmp && mv docs/results/prove-nulls.md.tmp docs/results/prove-nulls.md
+	T=$$(mktemp -d) && $(VENV)/bin/dyno prove --effects null --seeds 20 --keep $$T > /dev/null && \
+	$(VENV)/bin/dyno prove --effects ALL --seeds 2 --keep $$T > /dev/null && \
+	$(VENV)/bin/python -m tests.held_share $$T --markdown > docs/results/held-share.md.tmp && mv docs/results/held-share.md.tmp docs/results/held-share.md; rm -rf $$T
+	T=$$(mktemp -d) && $(VENV)/bin/dyno import tests/data/mr-damper-utfsm/sine/25mm0x5Hz0A.txt --out $$T/b.mcap \
+	  --map time=1:s --map displacement=2:mm --map velocity=3:mm/s --map force=4:N --smoothed 0.1period > /dev/null && \
+	(cd $$T && $(CURDIR)/$(VENV)/bin/dyno prove --on b.mcap --sizes 3,5 --markdown) > docs/results/prove-on-utfsm.md.tmp && \
+	mv docs/results/prove-on-utfsm.md.tmp docs/results/prove-on-utfsm.md; rm -rf $$T
+	$(VENV)/bin/python -m tests.held_conditions --data $(DATA) --markdown > docs/results/held-conditions.md.tmp && mv docs/results/held-conditions.md.tmp docs/results/held-conditions.md
+	$(VENV)/bin/python -m tests.verdicts --data $(DATA) --markdown > docs/results/verdicts.md.tmp && mv docs/results/verdicts.md.tmp docs/results/verdicts.md
+	$(VENV)/bin/python -m tests.prove_real --data $(DATA) --markdown > docs/results/prove-on.md.tmp && mv docs/results/prove-on.md.tmp docs/results/prove-on.md

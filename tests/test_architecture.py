@@ -304,3 +304,15 @@ def test_one_name_per_concept():
     twice = {name: mods for name, mods in public_classes().items() if len(mods) > 1 and name != "Params"}
     assert not twice, twice
     assert len(public_classes()) > 100  # the check sees the tree
+
+
+def test_every_stamped_table_has_the_make_line_that_writes_it():
+    """A stamped table is true of the code that made it only if it can be made again: each
+    docs/results table is written by a line of `make results` or `make results-long`, but
+    bench-loop-live.md, four bench runs assembled with their prose (the Makefile says so)."""
+    make = (ROOT / "Makefile").read_text()
+    written = set(re.findall(r"> docs/results/([\w-]+\.md)\.tmp", make))
+    tables = {p.name for p in (ROOT / "docs" / "results").glob("*.md")}
+    assert tables - written == {"bench-loop-live.md"}, sorted(tables - written)
+    assert written <= tables, sorted(written - tables)
+    assert "bench-loop-live.md is four" in make

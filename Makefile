@@ -153,7 +153,7 @@ results: $(STAMP)
 	$(VENV)/bin/python -m tests.mr_table --markdown > docs/results/mr-spencer.md.tmp && mv docs/results/mr-spencer.md.tmp docs/results/mr-spencer.md
 
 # the tables over the shared real recordings, the long null matrices and the closed loop's
-# wall time (hours more: prove-on alone about two on 2 cores). bench-loop-live.md is four
+# wall time (hours more: prove-on alone 53 min on 2 cores). bench-loop-live.md is four
 # `dyno bench loop` runs assembled by hand with its prose; it is not made here.
 DATA ?= ../shared/data
 results-long: $(STAMP)

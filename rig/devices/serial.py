@@ -32,7 +32,12 @@ class SerialLoadCell:
 
     def poll(self, now):
         try:
-            data = self.port.read(self.port.in_waiting or 1)
+            # only what the line discipline already holds (TIOCINQ): on a tty a read or select
+            # that finds nothing waits for the kernel's flush worker, which the FIFO threads
+            # of a busy cell kept off its core for up to 3 ms at 4 kHz; bytes still in the
+            # flip buffer come a tick later, dated by their frame counter all the same
+            waiting = self.port.in_waiting
+            data = self.port.read(waiting) if waiting else b""
         except (serial.SerialException, OSError) as e:
             raise RigError(f"device {self.name!r}: serial read failed ({e})") from None
         dropped, lost = self.parser.dropped, self.clock.lost

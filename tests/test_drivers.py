@@ -90,6 +90,36 @@ def test_a_corrupt_serial_line_is_named_not_raised_from_the_parser():
     d.close()
 
 
+def test_a_load_cell_on_a_real_tty_reads_what_the_line_holds_and_a_split_frame_whole():
+    """On a pseudo-terminal the driver reads only the bytes the tty says it holds (TIOCINQ):
+    an empty line gives nothing without a read that waits on the kernel, and a frame that
+    arrives in two parts is one reading once its second part is there."""
+    import os
+    import time
+    master, slave = os.openpty()
+    d = _loadcell(os.ttyname(slave))
+    reads, read = [], d.port.read
+    d.port.read = lambda n: reads.append(n) or read(n)  # what the driver asks of the tty
+    try:
+        assert d.poll(0.1) == [] and d.poll(0.2) == []
+        assert reads == []  # nothing asked of an empty line (a read there waits on the kernel)
+        frame = loadcell.encode(7, 0, 2.5)
+        os.write(master, frame[:3])
+        out, deadline = [], time.monotonic() + 5.0
+        while time.monotonic() < deadline and d.port.in_waiting < 3:
+            time.sleep(1e-3)
+        assert d.poll(0.3) == []  # half a frame is no reading
+        os.write(master, frame[3:])
+        while not out and time.monotonic() < deadline:  # the kernel moves the bytes when it will
+            out = d.poll(0.4)
+        assert [(s, round(v, 4), f) for s, v, f, _ in out] == [("output", 2.5, None)]
+        assert d.poll(0.5) == [] and all(n > 0 for n in reads)
+    finally:
+        d.close()
+        os.close(master)
+        os.close(slave)
+
+
 def test_an_unopenable_serial_port_is_named():
     with pytest.raises(RigError, match=r"device 'loadcell': cannot open serial port '/nonexistent/tty'"):
         _loadcell("/nonexistent/tty")

@@ -159,13 +159,13 @@ DATA ?= ../shared/data
 results-long: $(STAMP)
 	$(VENV)/bin/dyno bench discover --markdown > docs/results/bench-discover.md.tmp && mv docs/results/bench-discover.md.tmp docs/results/bench-discover.md
 	$(VENV)/bin/dyno prove --effects null --seeds 50 --rates 1000,5000 --markdown > docs/results/prove-nulls.md.tmp && mv docs/results/prove-nulls.md.tmp docs/results/prove-nulls.md
-	T=$$(mktemp -d) && $(VENV)/bin/dyno prove --effects null --seeds 20 --keep $$T > /dev/null && \
+	T=$$(mktemp -d); trap 'rm -rf $$T' EXIT; $(VENV)/bin/dyno prove --effects null --seeds 20 --keep $$T > /dev/null && \
 	$(VENV)/bin/dyno prove --effects ALL --seeds 2 --keep $$T > /dev/null && \
-	$(VENV)/bin/python -m tests.held_share $$T --markdown > docs/results/held-share.md.tmp && mv docs/results/held-share.md.tmp docs/results/held-share.md; rm -rf $$T
-	T=$$(mktemp -d) && $(VENV)/bin/dyno import tests/data/mr-damper-utfsm/sine/25mm0x5Hz0A.txt --out $$T/b.mcap \
+	$(VENV)/bin/python -m tests.held_share $$T --markdown > docs/results/held-share.md.tmp && mv docs/results/held-share.md.tmp docs/results/held-share.md
+	T=$$(mktemp -d); trap 'rm -rf $$T' EXIT; $(VENV)/bin/dyno import tests/data/mr-damper-utfsm/sine/25mm0x5Hz0A.txt --out $$T/b.mcap \
 	  --map time=1:s --map displacement=2:mm --map velocity=3:mm/s --map force=4:N --smoothed 0.1period > /dev/null && \
 	(cd $$T && $(CURDIR)/$(VENV)/bin/dyno prove --on b.mcap --sizes 3,5 --markdown) > docs/results/prove-on-utfsm.md.tmp && \
-	mv docs/results/prove-on-utfsm.md.tmp docs/results/prove-on-utfsm.md; rm -rf $$T
+	mv docs/results/prove-on-utfsm.md.tmp docs/results/prove-on-utfsm.md
 	$(VENV)/bin/python -m tests.held_conditions --data $(DATA) --markdown > docs/results/held-conditions.md.tmp && mv docs/results/held-conditions.md.tmp docs/results/held-conditions.md
 	$(VENV)/bin/python -m tests.verdicts --data $(DATA) --markdown > docs/results/verdicts.md.tmp && mv docs/results/verdicts.md.tmp docs/results/verdicts.md
 	$(VENV)/bin/python -m tests.prove_real --data $(DATA) --markdown > docs/results/prove-on.md.tmp && mv docs/results/prove-on.md.tmp docs/results/prove-on.md

@@ -3,6 +3,8 @@ driver sends is byte-exact, what it receives becomes the right readings and faul
 bad bytes are faults, not exceptions. (The same drivers against the emulators: the wired
 and virtual-rig tests.)"""
 import itertools
+import os
+import time
 
 import can
 import pytest
@@ -94,8 +96,6 @@ def test_a_load_cell_on_a_real_tty_reads_what_the_line_holds_and_a_split_frame_w
     """On a pseudo-terminal the driver reads only the bytes the tty says it holds (TIOCINQ):
     an empty line gives nothing without a read that waits on the kernel, and a frame that
     arrives in two parts is one reading once its second part is there."""
-    import os
-    import time
     master, slave = os.openpty()
     d = _loadcell(os.ttyname(slave))
     reads, read = [], d.port.read

@@ -270,3 +270,28 @@ def test_many_amplitudes_share_panels_among_neighbours():
     groups = panels(chirp[::-1])
     assert len(groups) == MOST_PANELS and sum(groups, []) == chirp and all(len(g) == 4 for g in groups)
     assert title(Units(), groups[-1]) == "0.675-0.792 mm" and title(Units(), [12.7]) == "12.7 mm"
+
+
+def test_a_loop_sampled_at_the_same_phases_each_cycle_reads_its_mid_line():
+    """A 20 Hz sine at 1 kHz takes the same 50 phases every cycle, so a speed bin can hold
+    samples of one half of the loop only (UTFSM's 1 A chirp: a wide MR loop whose curve along
+    the stroke zigzagged between its two branches, -1,250 to +1,700 N). A spring beside the
+    damping opens the loop without moving its mid-line: the curve is the damping, c v, and
+    the half-width the spring's force at the bin's position."""
+    f, amp, c, k = 19.9995, 0.672e-3, 4000.0, 988e3  # Hz (the chirp's last sine), m, N s/m, N/m
+    t = np.arange(2000) * 1e-3
+    w = 2 * np.pi * f
+    phase = w * t + 2 * np.pi * 0.1 / 50  # a tenth of a sample off the crest
+    x, v = amp * np.sin(phase), amp * w * np.cos(phase)
+    sv, sF, sW = peaks.stroke(v, c * v + k * x, widths=True)
+    assert len(sv) >= 20 and np.all(np.isfinite(sF)), sv
+    spring = k * np.sqrt(np.maximum(amp ** 2 - (sv / w) ** 2, 0.0))  # the spring's force where |v| = s
+    inner = np.abs(sv) < 0.8 * amp * w  # below the top, where the position changes slowly with the speed
+    # within 3 % of the spring's amplitude (664 N), which a bin of one half was off by
+    assert np.max(np.abs(sF - c * sv)[inner]) < 0.03 * k * amp, np.c_[sv, sF - c * sv]
+    assert np.allclose(sW[inner], spring[inner], rtol=0.1), np.c_[sv, sW, spring][inner]
+    # a stroke of one half only (from the top speed to rest, then the file ends): its own
+    # force, no width
+    v = amp * w * np.cos(w * np.arange(125) * 1e-4)
+    sv, sF, sW = peaks.stroke(v, c * v, widths=True)
+    assert len(sv) == 20 and np.max(np.abs(sF - c * sv)) < 0.03 * c * amp * w and np.all(np.isnan(sW)), sF - c * sv

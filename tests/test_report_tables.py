@@ -4,6 +4,7 @@ import pytest
 
 from records.data import Span
 from views.reports import peaks
+from views.reports.stroke import stroke
 from views.reports.sines import force_temperature_figure
 
 
@@ -283,7 +284,7 @@ def test_a_loop_sampled_at_the_same_phases_each_cycle_reads_its_mid_line():
     w = 2 * np.pi * f
     phase = w * t + 2 * np.pi * 0.1 / 50  # a tenth of a sample off the crest
     x, v = amp * np.sin(phase), amp * w * np.cos(phase)
-    sv, sF, sW = peaks.stroke(v, c * v + k * x, widths=True)
+    sv, sF, sW = stroke(v, c * v + k * x, widths=True)
     assert len(sv) >= 20 and np.all(np.isfinite(sF)), sv
     spring = k * np.sqrt(np.maximum(amp ** 2 - (sv / w) ** 2, 0.0))  # the spring's force where |v| = s
     inner = np.abs(sv) < 0.8 * amp * w  # below the top, where the position changes slowly with the speed
@@ -293,5 +294,5 @@ def test_a_loop_sampled_at_the_same_phases_each_cycle_reads_its_mid_line():
     # a stroke of one half only (from the top speed to rest, then the file ends): its own
     # force, no width
     v = amp * w * np.cos(w * np.arange(125) * 1e-4)
-    sv, sF, sW = peaks.stroke(v, c * v, widths=True)
+    sv, sF, sW = stroke(v, c * v, widths=True)
     assert len(sv) == 20 and np.max(np.abs(sF - c * sv)) < 0.03 * c * amp * w and np.all(np.isnan(sW)), sF - c * sv

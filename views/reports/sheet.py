@@ -99,9 +99,10 @@ def _channels(meta):
     return rows
 
 
-def _conditions(ch, gas_N, turns, units: Units):
+def _conditions(ch, gas_N, turns, units: Units, centred=False):
     """Body temperature at the start and the end and its range, gas force (a static test's,
-    else at the stroke's turning points, records/gas_force.py) and pressure."""
+    else at the stroke's turning points, records/gas_force.py; centred: the force reads as
+    centred on zero by its source) and pressure."""
     out = []
     T_ = (lambda v: fmt(units.show("temperature", v), 3))
     if "T_body" in ch and len(ch["T_body"][1]):
@@ -112,7 +113,7 @@ def _conditions(ch, gas_N, turns, units: Units):
                                         f"{t[i] - t[0]:.4g} s)"))
     else:
         out.append(("body temperature", "not measured (no thermocouple channel)"))
-    out.append(("gas force", _gas(gas_N, turns, units)))
+    out.append(("gas force", _gas(gas_N, turns, units, centred)))
     if "P_gas" in ch and len(ch["P_gas"][1]):
         p = ch["P_gas"][1]
         out.append(("gas pressure", f"{fmt(units.show('pressure', p[0]), 3)} {units.unit('pressure')} at the start, "
@@ -130,20 +131,38 @@ def _at_turns(ch):
         return at_turns(tF, np.interp(tF, tx, x), F)
 
 
-def _gas(gas_N, gas, units: Units) -> str:
+def _gas(gas_N, gas, units: Units, centred=False) -> str:
     """The gas force a sheet states: a static test's range over the stroke, else the force at
-    the stroke's turning points with its 95 % interval (gas: _at_turns), else not measured."""
+    the stroke's turning points with its 95 % interval (gas: _at_turns), else not measured;
+    unknown where the force reads as centred on zero by its source (its zero is not the
+    load cell's, so no reading about it is the gas force), with what it reads there."""
     f = units.unit("force")
     if gas_N is not None and np.isfinite(gas_N[0]):
         lo, hi = (fmt(units.show("force", g), 3) for g in gas_N)
         return f"{lo} to {hi} {f} over the stroke (static test)" if lo != hi else f"{lo} {f} (static test)"
     if gas is None:
         return "not measured (no static test, too few turning points)"
-    return (f"{fmt(units.show('force', gas.level), 3)} ± {fmt(units.show('force', gas.half_width), 2)} {f} at the "
-            f"turning points (friction cancelled, 95 %)" + ("; below zero: no gas spring's" if gas.below_zero else ""))
+    read = (f"{fmt(units.show('force', gas.level), 3)} ± {fmt(units.show('force', gas.half_width), 2)} {f} at the "
+            f"turning points (friction cancelled, 95 %)")
+    if centred:
+        return f"unknown: the force is centred on zero (source data); about that zero it reads {read}"
+    return read + ("; below zero: no gas spring's" if gas.below_zero else "")
 
 
 MEAN_REMOVED = 0.02  # of a channel's range: a mean closer to zero reads as removed by the source
+
+
+def _centred(meta, ch, name, gas) -> bool:
+    """Whether an imported file's channel reads as centred on zero by its source: its mean
+    within MEAN_REMOVED of its range of zero, and below zero somewhere. A force's mean is its
+    gas force and the valves' asymmetry: near zero it says a mean removed only where the gas
+    force at the turning points (gas) is not above zero either."""
+    if meta.get("protocol", {}).get("name") != "import" or name not in ch or len(ch[name][1]) < 2:
+        return False
+    y = ch[name][1]
+    span = float(np.nanmax(y) - np.nanmin(y))
+    held = name == "force" and gas is not None and gas.above_zero
+    return span > 0 and np.nanmin(y) < 0 and abs(float(np.nanmean(y))) < MEAN_REMOVED * span and not held
 
 
 def _source(meta, ch, gas) -> str:
@@ -158,15 +177,8 @@ def _source(meta, ch, gas) -> str:
     done = []
     smooth = filtered(meta)
     done += [f"smoothed by its source ({smooth.text()})"] if smooth else []
-    for name, unit in (("x", "displacement"), ("force", "force")):
-        if name in ch and len(ch[name][1]) > 1:
-            y = ch[name][1]
-            span = float(np.nanmax(y) - np.nanmin(y))
-            # a force's mean is its gas force and the valves' asymmetry: near zero it says a mean removed
-            # only where the gas force at the turning points is not above zero either
-            held = name == "force" and gas is not None and gas.above_zero
-            if span > 0 and np.nanmin(y) < 0 and abs(float(np.nanmean(y))) < MEAN_REMOVED * span and not held:
-                done.append(f"{unit} centred on zero (a mean removed, or zeroed mid-way)")
+    done += [f"{unit} centred on zero (a mean removed, or zeroed mid-way)"
+             for name, unit in (("x", "displacement"), ("force", "force")) if _centred(meta, ch, name, gas)]
     done += [f"{v} flipped at import" for v in given.get("flip", [])]
     done += [f"gain {v} at import" for v in given.get("gain", [])]
     done += [f"offset {v} at import" for v in given.get("offset", [])]
@@ -186,7 +198,8 @@ def sheet(path, meta, ch, params="", table=None, curve=None, gas_N=None, check=N
     return Sheet(
         title="Damper test sheet" + (f": {', '.join(named)}" if named else ""),
         identity=identity, test=_test(meta, params), channels=_channels(meta),
-        conditions=[("source data", _source(meta, ch, turns)), *_conditions(ch, gas_N, turns, units)], curve=curve,
+        conditions=[("source data", _source(meta, ch, turns)),
+                    *_conditions(ch, gas_N, turns, units, _centred(meta, ch, "force", turns))], curve=curve,
         table=html_table(table, units, SHEET_NAMES, measured_only=True) if table else None,
         verdict=check[0] if check else None,
         reference=check[1] if check else "no reference given (dyno report --against REF.mcap|MODEL|TABLE)",

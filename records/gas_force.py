@@ -175,14 +175,35 @@ def said_at_rest(gas: GasForce | None, holds: list[tuple[float, float, float, in
     return [out]
 
 
-def said(gas: GasForce | None) -> str:
+MEAN_REMOVED = 0.02  # of a channel's range: a mean closer to zero reads as removed by the source
+
+
+def centred(y: np.ndarray, gas: GasForce | None = None) -> bool:
+    """Whether a lab's channel reads as centred on zero by its source (a mean removed, or a
+    load cell zeroed with the rod mid-stroke): its mean within MEAN_REMOVED of its range of
+    zero, and below zero somewhere. A force's mean is its gas force and the valves'
+    asymmetry: near zero it says a mean removed only where the gas force at the turning
+    points (gas, the force's) is not above zero either."""
+    y = np.asarray(y, float)
+    if len(y) < 2 or not np.any(np.isfinite(y)):
+        return False
+    span = float(np.nanmax(y) - np.nanmin(y))
+    held = gas is not None and gas.above_zero
+    return span > 0 and np.nanmin(y) < 0 and abs(float(np.nanmean(y))) < MEAN_REMOVED * span and not held
+
+
+def said(gas: GasForce | None, centred_on_zero: bool = False) -> str:
     """What import says of a recording's gas force (SI: N, m), a gas force below zero beyond
-    its interval whatever its size."""
+    its interval whatever its size; unknown where the force reads as centred on zero by its
+    source (centred()): about a zero the source chose no reading is the gas force."""
     if gas is None:
         return "gas force: unknown (the motion has too few turning points to read it at)"
-    out = (f"gas force: {gas.text()} at the stroke's turning points (friction cancelled; 95 % interval), at "
+    out = (f"{gas.text()} at the stroke's turning points (friction cancelled; 95 % interval), at "
            f"{1e3 * gas.mid:.4g} mm" + (f", rising {gas.stiffness / 1e3:+.3g} +- {gas.stiffness_half_width / 1e3:.2g} "
                                         f"N/mm with compression" if np.isfinite(gas.stiffness) else ""))
+    out = (f"gas force: unknown: the force reads as centred on zero (a mean removed by the source, or a load cell "
+           f"zeroed with the rod mid-stroke); about that zero it reads {out}" if centred_on_zero
+           else f"gas force: {out}")
     if gas.below_zero:
         out += (": below zero beyond its interval, which a gas spring's cannot be (it pushes the rod out): the force's "
                 "zero is elsewhere (a load cell's offset kept, or the mean removed by the source), or force and "

@@ -151,7 +151,9 @@ def _import(src, claim):
     kept += _smoothing_note(src.smoothing, found)
     other = flips(data["displacement"], data["force"], t)
     holds = gas_force.holds_of(found)
-    kept += [] if other else [gas_force.said(gas_force.at_turns(t, data["displacement"], data["force"]))]
+    if not other:
+        gas = gas_force.at_turns(t, data["displacement"], data["force"])
+        kept += [gas_force.said(gas, gas_force.centred(data["force"], gas))]
     kept += gas_force.said_at_rest(gas_force.at_rest(t[ok] - t[0], data["force"][ok], holds), holds)
     notes = list(kept)
     notes += [f"sign: {sign_sentence(other)}"] if other else []

@@ -103,6 +103,7 @@ def test_an_imported_run_says_what_its_file_does_not_hold(tmp_path):
              "--map", "velocity=3:mm/s", "--map", "force=4:N", "--smoothed", "0.1period", "--serial", "MR-1",
              "--setup", "current_A=1")
     assert r.returncode == 0, r.stderr
+    assert "gas force: unknown: the force reads as centred on zero" in r.stdout, r.stdout  # as the sheet says
     r = dyno("report", tmp_path / "mr.mcap", "--out", tmp_path / "rep")
     assert r.returncode == 0, r.stderr
     one = _page_one(tmp_path / "rep")[0][0]

@@ -149,20 +149,12 @@ def _gas(gas_N, gas, units: Units, centred=False) -> str:
     return read + ("; below zero: no gas spring's" if gas.below_zero else "")
 
 
-MEAN_REMOVED = 0.02  # of a channel's range: a mean closer to zero reads as removed by the source
-
-
 def _centred(meta, ch, name, gas) -> bool:
-    """Whether an imported file's channel reads as centred on zero by its source: its mean
-    within MEAN_REMOVED of its range of zero, and below zero somewhere. A force's mean is its
-    gas force and the valves' asymmetry: near zero it says a mean removed only where the gas
-    force at the turning points (gas) is not above zero either."""
-    if meta.get("protocol", {}).get("name") != "import" or name not in ch or len(ch[name][1]) < 2:
-        return False
-    y = ch[name][1]
-    span = float(np.nanmax(y) - np.nanmin(y))
-    held = name == "force" and gas is not None and gas.above_zero
-    return span > 0 and np.nanmin(y) < 0 and abs(float(np.nanmean(y))) < MEAN_REMOVED * span and not held
+    """Whether an imported file's channel reads as centred on zero by its source
+    (records/gas_force.centred; gas: the force's at the turning points)."""
+    from records.gas_force import centred
+    imported = meta.get("protocol", {}).get("name") == "import"
+    return imported and name in ch and centred(ch[name][1], gas if name == "force" else None)
 
 
 def _source(meta, ch, gas) -> str:

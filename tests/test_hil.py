@@ -297,3 +297,48 @@ def test_a_closed_loop_says_when_the_control_loop_stalled_through_it():
     assert "stall" not in hil.summary({**car, "stalled": 0.13})
     assert hil.summary({**car, "stalled": 0.25}).endswith("25 % of its ticks just after a stall of the control "
                                                          "loop: this host did not keep real time)")
+
+
+def _car_loop(stall_at=None, stall_ticks=0, stuck_at=None):
+    """The road segment's loop (iso8608 class C, the race car) around a 4 ms first-order
+    servo and a 3 kN s/m damper, tick by tick: the control loop asleep for stall_ticks at
+    stall_at [s] (the servo holding its last command), the servo stuck from stuck_at [s].
+    The time [s] the guard stopped it, else None."""
+    from protocols.library.hil import CarLoop, Params
+    from protocols.plan import RigInfo
+    from rig.errors import RigError
+    x_mid = 0.04
+    rig = RigInfo(x_mid=x_mid, x_min=0.0, x_max=0.08, v_max=1.0, f_max=30.0, force_max=1e4, T_max=400.0,
+                  T_ambient=293.15, damper=SimpleNamespace(geometry=SimpleNamespace(stroke=0.08)))
+    road = roads.parse("iso8608:C:50:3", 1000.0)
+    loop = CarLoop(Params(car="race-car", delay_ms=4.0), rig, load_car("race-car"), road)
+    servo, last, command = x_mid, x_mid, x_mid
+    for k in range(len(road.t)):
+        t = k * H
+        stuck = stuck_at is not None and t >= stuck_at
+        servo += 0.0 if stuck else (1 - np.exp(-H / 0.004)) * (command - servo)
+        v = (servo - last) / H
+        last = servo
+        if stall_at is not None and stall_at <= t < stall_at + stall_ticks * H:
+            continue  # asleep: no reading taken, the command held
+        readings = {"x": SimpleNamespace(value=servo), "force": SimpleNamespace(value=300.0 + 3000.0 * v)}
+        try:
+            command = loop.setpoint(t, t, readings)
+        except RigError:
+            return t
+    return None
+
+
+def test_a_stall_of_the_host_does_not_trip_the_guard_and_a_stuck_actuator_does():
+    """CI's failure of 2026-12-07: one 17 ms stall of the control loop over the wires, the car
+    4.2 mm on while the actuator held its command, and the guard stopped a loop that
+    tracked. The stall's lag is allowed while the servo takes it back; a servo that stops
+    following trips the guard within its hold time."""
+    assert _car_loop() is None
+    # at 1.5 s the road's damper speed is ~0.2 m/s: 25 ms of it is 5 mm, over twice the guard
+    for at in (1.0, 1.5, 2.0, 2.5):
+        assert _car_loop(stall_at=at, stall_ticks=25) is None, at
+    tripped = _car_loop(stuck_at=1.5)
+    assert tripped is not None and tripped - 1.5 < 0.1, tripped
+    tripped = _car_loop(stall_at=1.5, stall_ticks=25, stuck_at=1.5)
+    assert tripped is not None and tripped - 1.5 < 0.1, tripped

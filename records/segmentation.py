@@ -63,9 +63,14 @@ def _cut(t, x, h, source):
     H = Halves.of(t, xs, max(REVERSAL_NOISE * noise(t, xs), MIN_REVERSAL))
     swept = sweeps(t, H)
     tests = sorted(swept + steady(t, x, H, noise(t, x), swept, source), key=lambda s: s.t0)
-    out = _fill(t, xs, tests, turns(t, H))
+    # the strokes a still stretch's turning point and a sweep's frequencies are read from: of
+    # MIN_TRAVEL, each found once the motion has come back that far. A DAQ's spikes cut H's
+    # strokes (UTFSM's chirps: 30-90 um reversals at a slow crest, its quietest noise 0.1 um),
+    # and the crest was read as a dwell, the sweep's first strokes as random motion
+    strokes = Halves.of(t, xs, MIN_TRAVEL)
+    out = _fill(t, xs, tests, turns(t, strokes))
     for s in swept:  # widened by its tapers: its frequencies read over all of it
-        s.params = sweep_params(H, s.t0, s.t1)
+        s.params = sweep_params(strokes, s.t0, s.t1)
     return out
 
 
@@ -73,10 +78,7 @@ def _fill(t, xs, tests, turning):
     """tests with every stretch between them (and before and after) cut into holds and
     dwells, steps, ramps beside a sine, a sweep's tapers (the sweep widened) and motion that
     does not repeat. Still: within HOLD_BAND for DWELL_S or longer, but for a slow motion's
-    turning point (turning: strokes.turns), still for a moment either side of it: a still stretch with
-    one in its middle three fifths, lasting less than TURN_SHARE of its half-cycles, is none
-    (a hold's own turning points lie at its ends, or in it with half-cycles that take in the
-    hold)."""
+    turning point (turning: strokes.turns), still for a moment either side of it (_crest)."""
     edges = [float(t[0])] + [e for s in tests for e in (s.t0, s.t1)] + [float(t[-1])]
     out = list(tests)
     for i, (a, b) in enumerate(zip(edges[::2], edges[1::2])):
@@ -85,9 +87,7 @@ def _fill(t, xs, tests, turning):
         k = np.flatnonzero((t >= a) & (t <= b))
         pieces, last = [], a
         for tp, tq in _still(t[k], xs[k]):
-            margin = 0.2 * (tq - tp)
-            inside = (turning[:, 0] > tp + margin) & (turning[:, 0] < tq - margin)
-            if tq - tp < DWELL_S or np.any(tq - tp < TURN_SHARE * turning[inside, 1]):
+            if tq - tp < DWELL_S or _crest(t, xs, tp, tq, turning):
                 continue
             if (pieces and pieces[-1][0] == "still" and tp - last < DWELL_S
                     and abs(_level(t, xs, tp, tq) - _level(t, xs, *pieces[-1][1:])) <= HOLD_BAND):
@@ -105,6 +105,21 @@ def _fill(t, xs, tests, turning):
         out += _named_pieces(t, xs, pieces, before, after)
     out.sort(key=lambda s: s.t0)
     return _merged(out, float(np.median(np.diff(t))) if len(t) > 1 else 0.0)
+
+
+def _crest(t, xs, tp, tq, turning):
+    """Is the still stretch tp..tq [s] a slow stroke's turning point (turning: strokes.turns),
+    not a stop: one of turning within it whose half-cycles are longer than the stretch over
+    TURN_SHARE, and the motion over it a parabola bending by a quarter of HOLD_BAND or more
+    whose vertex lies in its middle three fifths (a stop's turning point lies at its start;
+    the vertex, a fit to all of its samples, is where a DAQ's spikes do not move it)."""
+    near = (turning[:, 0] >= tp) & (turning[:, 0] <= tq)
+    if not np.any(tq - tp < TURN_SHARE * turning[near, 1]):
+        return False
+    k = (t >= tp) & (t <= tq)
+    half = 0.5 * (tq - tp)
+    c2, c1, _ = np.polyfit(t[k] - (tp + half), xs[k], 2)
+    return abs(c2) * half ** 2 >= HOLD_BAND / 4 and abs(c1) < 0.6 * half * 2 * abs(c2)
 
 
 def _named_pieces(t, xs, pieces, before, after):

@@ -25,6 +25,12 @@ AMPLITUDES_M = (0.0016, 0.0032, 0.0064, 0.0127)
 FREQS_HZ = (0.5, 1.0, 2.0, 4.0, 8.0, 12.0, 16.0)
 LVDT_NOISE_M = 4e-6  # m RMS: a real LVDT's few micrometres
 LVDT_QUANTUM_M = 100e-3 / 2 ** 16  # m: 16 bits over a 100 mm range
+# a DAQ's spikes on the displacement as UTFSM's exports hold them (measured on the 1 A
+# chirp's opening hold at 1 kHz: ~120 a second, up to 135 um, 22 um RMS in all; most one
+# sample long, some 2-40 ms): bursts of a level each, lasting SPIKE_S on average
+SPIKES_PER_S = 120.0
+SPIKE_M = 60e-6  # m RMS
+SPIKE_S = 3e-3
 
 
 @dataclass
@@ -236,6 +242,14 @@ def static():
     return b.build()
 
 
+def chirp():
+    """A lab's chirp from rest (UTFSM's): a hold, then a linear sweep from 0.2 to 20 Hz that
+    starts at its first phase with no taper, its first strokes seconds long, ended by a
+    hold."""
+    b = Builder("chirp")
+    return b.hold(4.0).sweep(0.002, 0.2, 20.0, 45.0, "linear", taper_cycles=0.0).hold(2.0).build()
+
+
 def mixed():
     """A program of everything: holds, a step, a ramped sine pair, a stepped pair, a sweep,
     triangles and random motion."""
@@ -251,21 +265,39 @@ def mixed():
 
 PROGRAMS = {"ramped": lambda: matrix("ramped"), "stepped": lambda: matrix("stepped"),
             "dwells": lambda: matrix("dwells"), "lab": lab_matrix, "sweeps": sweeps, "triangles": triangles,
-            "random": road, "static": static, "mixed": mixed}
+            "random": road, "static": static, "mixed": mixed, "chirp": chirp}
 RATES_HZ = (300.0, 1000.0, 2000.0, 5000.0, 10000.0)
-NOISES = {"clean": (0.0, 0.0), "lvdt": (LVDT_NOISE_M, LVDT_QUANTUM_M)}
+# (white noise [m RMS], quantum [m], spikes a second): what every cut is held to; and a DAQ's
+# spikes besides, under which the table (tests/segmentation_grid.py) says how the cut fares
+NOISES = {"clean": (0.0, 0.0, 0.0), "lvdt": (LVDT_NOISE_M, LVDT_QUANTUM_M, 0.0)}
+SPIKY = {**NOISES, "spikes": (LVDT_NOISE_M, LVDT_QUANTUM_M, SPIKES_PER_S)}
 
 
-def sample(program, rate, noise=0.0, quantum=0.0, seed=0):
+def sample(program, rate, noise=0.0, quantum=0.0, spikes=0.0, seed=0):
     """(t [s], x [m]) of the program as acquired at `rate` [Hz]: white noise of `noise` [m]
-    RMS and quantisation to `quantum` [m] (0: none) on the displacement."""
+    RMS, `spikes` bursts a second (_spikes) and quantisation to `quantum` [m] (0: none) on
+    the displacement."""
     t = np.arange(int(program.duration * rate)) / rate
     x = program.x(t)
+    rng = np.random.default_rng(seed)
     if noise:
-        x = x + np.random.default_rng(seed).normal(0.0, noise, len(t))
+        x = x + rng.normal(0.0, noise, len(t))
+    if spikes:
+        x = x + _spikes(t, spikes, rng)
     if quantum:
         x = np.round(x / quantum) * quantum
     return t, x
+
+
+def _spikes(t, per_s, rng):
+    """Bursts [m] at times t [s]: per_s a second, each a level (SPIKE_M RMS) held for an
+    exponential time (SPIKE_S on average, at least a sample)."""
+    out = np.zeros(len(t))
+    starts = np.sort(rng.uniform(t[0], t[-1], rng.poisson(per_s * (t[-1] - t[0]))))
+    ends = starts + rng.exponential(SPIKE_S, len(starts))
+    for a, b, level in zip(np.searchsorted(t, starts), np.searchsorted(t, ends), rng.normal(0.0, SPIKE_M, len(starts))):
+        out[a:max(b, a + 1)] = level
+    return out
 
 
 # -- a force on the motion --------------------------------------------------------------------------
@@ -332,7 +364,9 @@ def score(program, segments, t_end=np.inf):
             continue
         out.sines += 1
         slack = EDGE_CYCLES / p.freq
-        near = [i for i, s in enumerate(found) if s[1] < p.t1 and s[2] > p.t0]
+        # a found sine is of this piece when most of it lies in it (the sine stepped into it may
+        # reach a sample into it, and is the piece before's)
+        near = [i for i, s in enumerate(found) if min(s[2], p.t1) - max(s[1], p.t0) > 0.5 * (s[2] - s[1])]
         inside = [i for i in near if found[i][1] >= p.t0 - slack and found[i][2] <= p.t1 + slack]
         if not inside:
             out.missed.append((p, "not found" if not near else f"found past its ends: {found[near[0]][1]:.3f}-"

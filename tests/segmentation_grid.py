@@ -1,5 +1,5 @@
-"""Other dynos' programs (tests/programs.py) cut at every rate, clean and with an LVDT's noise
-and quantisation: how many steady sines are found whole, the worst frequency and amplitude
+"""Other dynos' programs (tests/programs.py) cut at every rate, clean, with an LVDT's noise
+and quantisation, and with a DAQ's spikes besides: how many steady sines are found whole, the worst frequency and amplitude
 errors, sines invented, seconds unread, each other kind of piece read as itself, and the
 time the cut took. `python -m tests.segmentation_grid [--markdown]`: the table of
 docs/results/segmentation.md."""
@@ -15,8 +15,8 @@ def rows():
     for name, make in P.PROGRAMS.items():
         program = make()
         for rate in P.RATES_HZ:
-            for noise, (sigma, quantum) in P.NOISES.items():
-                t, x = P.sample(program, rate, sigma, quantum, seed=1)
+            for noise, spec in P.SPIKY.items():
+                t, x = P.sample(program, rate, *spec, seed=1)
                 t0 = time.perf_counter()
                 segs = segmentation.find(t, x)
                 took = time.perf_counter() - t0
@@ -45,7 +45,10 @@ def main(argv=None):
     print("# Other dynos' programs, cut into their tests\n")
     print(md.stamp().replace("`dyno ", "`python -m tests.segmentation_grid "), "\n")
     print("Each program of tests/programs.py (written apart from our own plans) sampled at each rate, "
-          f"clean and with an LVDT's noise ({P.LVDT_NOISE_M * 1e6:.0f} um RMS, 16 bits over 100 mm), cut by "
+          f"clean, with an LVDT's noise ({P.LVDT_NOISE_M * 1e6:.0f} um RMS, 16 bits over 100 mm) and with a DAQ's "
+          f"spikes besides ({P.SPIKES_PER_S:.0f} bursts a second of {P.SPIKE_M * 1e6:.0f} um RMS lasting "
+          f"{P.SPIKE_S * 1e3:.0f} ms on average, as UTFSM's exports hold them; what every cut is held to in the tests "
+          "is the clean and LVDT rows, the spikes rows say how far it falls short), cut by "
           "records/segmentation.find as `dyno import` cuts a file. A sine is found whole when one segment holds "
           f"every whole cycle, nothing past its steady stretch, its frequency within {100 * P.FREQ_TOL:.1f} % and "
           f"its amplitude within {100 * P.AMP_TOL:.0f} % (docs/recording.md). Invented: a sine segment where the "

@@ -97,6 +97,25 @@ def test_any_sine_program_at_any_rate_is_cut_right(program, rate, noise, seed):
     assert sc.invented == 0 and sc.unread_s < 1 / rate
 
 
+@pytest.mark.parametrize("rate", [300.0, 1000.0, 5000.0])
+def test_a_chirp_from_rest_under_a_daq_s_spikes_is_one_sweep_from_its_first_stroke(rate):
+    """UTFSM's chirps: a sweep that starts from a hold at its first phase, its first strokes
+    seconds long, on a displacement with a DAQ's spikes. The spikes cut the slow crests into
+    strokes of tens of micrometres: the first quarter cycle was read as a step, the crests as
+    dwells and the first cycle as random motion, and the sweep's start frequency was read
+    from the broken strokes (1.2-15 Hz for 0.2 Hz rising to 0.7 Hz over its first strokes)."""
+    program = P.PROGRAMS["chirp"]()
+    sweep = next(p for p in program.pieces if p.kind == "sweep")
+    for seed in (1, 2, 3):
+        t, x = P.sample(program, rate, *P.SPIKY["spikes"], seed=seed)
+        segs = segmentation.find(t, x)
+        sc = P.score(program, [(s.kind, s.t0, s.t1, s.params) for s in segs], t[-1])
+        first = next(s for s in segs if s.t1 > sweep.t0 + 0.5)  # what the sweep's start is read as
+        assert first.kind == "sweep" and abs(first.t0 - sweep.t0) < 0.1, (seed, [(s.name, s.t0) for s in segs])
+        assert sc.kinds["sweep"] >= 0.99 and sc.unread_s < 1 / rate, (seed, sc.kinds)
+        assert 0.2 <= first.params["f_start_hz"] <= program.freq_at(np.array([sweep.t0 + 3.0]))[0], (seed, first)
+
+
 def _imported(tmp_path, program, rate, **force):
     """The program as another lab's CSV (time, displacement in mm, force), imported."""
     t, x = P.sample(program, rate, P.LVDT_NOISE_M, P.LVDT_QUANTUM_M, seed=1)

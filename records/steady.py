@@ -133,53 +133,79 @@ def steady(t: np.ndarray, x: np.ndarray, H: Halves, sigma: float, swept: list[Fo
     a stretch holds no whole cycle: there it averaged what lies beyond."""
     free = ~np.any([(H.cross >= s.t0) & (H.cross <= s.t1) for s in swept], axis=0) if swept else np.ones(len(H), bool)
     taken = [(s.t0, s.t1) for s in swept]
-    out, fits = [], []
+    held = []
     for a, b, period in _alike_runs(H, free):
         got = _seed(t, x, H, a, b, 1.0 / period, sigma)
         if got is None or not _steady(got, sigma):
             continue
         a, b, got = got.run
         i0, i1 = H.ext[a], H.ext[b + 1]
-        held0, held1 = _ends(t, x, i0, i1, got, taken + [(s.t0, s.t1) for s in out])
+        held0, held1 = _ends(t, x, i0, i1, got, taken)
         # a seed of three half-cycles holds its frequency loosely (0.4 % off, which stopped a 2 cycle
         # test's ends a quarter cycle short): refitted on all it holds, its ends followed again
         j0, j1 = int(np.searchsorted(t, held0)), int(np.searchsorted(t, held1, "right")) - 1
         again = fit(t[j0:j1 + 1], x[j0:j1 + 1], got.freq) if b - a < 2 * MIN_CYCLES - 1 else None
         if again is not None and _steady(again, sigma):
             got = again
-            held0, held1 = _ends(t, x, j0, j1, got, taken + [(s.t0, s.t1) for s in out])
-        # a source's moving average blends whatever lies within its reach of a stretch's ends (the
-        # file's ends, a ramp, the next test) into it: no whole cycle is taken there
-        edge = 0.0 if source is None else source.reach(got.freq)
-        soft0, soft1 = held0 > t[0] and not edge, held1 < t[-1] and not edge
-        held0, held1 = max(held0, float(t[0])) + edge, min(held1, float(t[-1])) - edge
-        # a stretch ends between the last sample the fit held and the first it did not, and a
-        # little past that (EDGE stops inside a ramp): there whole cycles may reach a sample and
-        # half CYCLE_SLACK further (two tests stepped into each other: _apart); the recording's
-        # ends and a source's reach are where it ends, to a sample (a test of 1.05 Hz at 300 Hz is
-        # no whole number of samples a cycle: its last may fall just past a file's end)
-        h = float(np.median(np.diff(t[i0:i1 + 1])))
-        pad = h + 0.5 * CYCLE_SLACK / got.freq
-        lo, hi = held0 - (pad if soft0 else h), held1 + (pad if soft1 else h)
-        n = int(math.floor((hi - lo) * got.freq + 1e-9))
-        if n < MIN_CYCLES:
-            continue
-        # whole cycles from the stretch's firm end when it has one (the same whatever lies past
-        # its other end: one run reads alike in the file that holds it alone), else in its middle
-        if soft0 == soft1:
-            t0 = 0.5 * (lo + hi - n / got.freq)
-        else:
-            t0 = held0 if soft1 else hi - n / got.freq
-        k = (t >= max(t0, held0)) & (t <= min(t0 + n / got.freq, held1))
-        final = fit(t[k], x[k], got.freq, search=0.002) or got
-        t1 = t0 + n / final.freq
-        amp = final.amplitude
-        name = f"{final.waveform} {_g(amp * 1e3)} mm {_g(final.freq)} Hz"
-        fits.append(final)
-        out.append(FoundSegment(name, "sine", float(t0), float(t1),
-                           {"kind": "sine", "amplitude_mm": round(amp * 1e3, 4), "freq_hz": round(final.freq, 5),
-                            "cycles": n, "waveform": final.waveform, "measured": True, "found": "import"}))
+            held0, held1 = _ends(t, x, j0, j1, got, taken)
+        held.append([held0, held1, got, float(np.median(np.diff(t[i0:i1 + 1])))])
+    out, fits = [], []
+    for held0, held1, got, h in _stepped(held, t, x):
+        found = _whole(t, x, held0, held1, got, h, source)
+        if found is not None:
+            out.append(found[0])
+            fits.append(found[1])
     return _apart(out, fits, t, x)
+
+
+def _stepped(held, t, x):
+    """The steady stretches held ([t0, t1, fit, sample period]) with none overlapping the
+    next: two tests stepped straight into each other are each followed past the step while
+    their motions agree, so each stretch ends where the displacement leaves one fit for the
+    other (_step_at), before whole cycles are counted in it; where the tests were counted
+    first, the one found first kept the overlap and the other lost a cycle. A stretch
+    within another is the same test's."""
+    out = []
+    for s in sorted(held, key=lambda s: s[0]):
+        if out and s[1] <= out[-1][1]:
+            continue
+        if out and s[0] < out[-1][1]:
+            out[-1][1] = s[0] = _step_at(t, x, out[-1][2], s[2], s[0], out[-1][1])
+        out.append(s)
+    return out
+
+
+def _whole(t, x, held0, held1, got, h, source):
+    """(FoundSegment, its fit) of the whole cycles in the steady stretch held0..held1 [s] of
+    the fit got (sample period h [s]), or None for fewer than MIN_CYCLES."""
+    # a source's moving average blends whatever lies within its reach of a stretch's ends (the
+    # file's ends, a ramp, the next test) into it: no whole cycle is taken there
+    edge = 0.0 if source is None else source.reach(got.freq)
+    soft0, soft1 = held0 > t[0] and not edge, held1 < t[-1] and not edge
+    held0, held1 = max(held0, float(t[0])) + edge, min(held1, float(t[-1])) - edge
+    # a stretch ends between the last sample the fit held and the first it did not, and a
+    # little past that (EDGE stops inside a ramp): there whole cycles may reach a sample and
+    # half CYCLE_SLACK further (two tests stepped into each other: _apart); the recording's
+    # ends and a source's reach are where it ends, to a sample (a test of 1.05 Hz at 300 Hz is
+    # no whole number of samples a cycle: its last may fall just past a file's end)
+    pad = h + 0.5 * CYCLE_SLACK / got.freq
+    lo, hi = held0 - (pad if soft0 else h), held1 + (pad if soft1 else h)
+    n = int(math.floor((hi - lo) * got.freq + 1e-9))
+    if n < MIN_CYCLES:
+        return None
+    # whole cycles from the stretch's firm end when it has one (the same whatever lies past
+    # its other end: one run reads alike in the file that holds it alone), else in its middle
+    if soft0 == soft1:
+        t0 = 0.5 * (lo + hi - n / got.freq)
+    else:
+        t0 = held0 if soft1 else hi - n / got.freq
+    k = (t >= max(t0, held0)) & (t <= min(t0 + n / got.freq, held1))
+    final = fit(t[k], x[k], got.freq, search=0.002) or got
+    amp = final.amplitude
+    return FoundSegment(f"{final.waveform} {_g(amp * 1e3)} mm {_g(final.freq)} Hz", "sine", float(t0),
+                        float(t0 + n / final.freq),
+                        {"kind": "sine", "amplitude_mm": round(amp * 1e3, 4), "freq_hz": round(final.freq, 5),
+                         "cycles": n, "waveform": final.waveform, "measured": True, "found": "import"}), final
 
 
 def _steady(got, sigma):
@@ -192,9 +218,16 @@ def _seed(t, x, H, a, b, f0, sigma):
     cycle: the half-cycle that joins two tests, let in where a few samples a cycle blur its
     travel. While the fit is not steady and no end stands out (two cycles' fit bends to a
     joining half-cycle and spreads its misfit over all), the end whose loss leaves the
-    steadier fit goes. None where no fit is made."""
-    part = lambda a, b, f: fit(t[H.ext[a]:H.ext[b + 1] + 1], x[H.ext[a]:H.ext[b + 1] + 1], f, search=SEED_SEARCH)
-    got = part(a, b, f0)
+    steadier fit goes. Each fit searches about the period of the half-cycles it keeps (both
+    crossings within them): about the fit before, a seed lost the test (a 2 cycle sine's fit
+    bent to the joining half-cycle 8 % off, its search kept it there), and a period reaching
+    across a dwell to the test before took a 1.9 Hz seed to 0.65 Hz. None where no fit is made."""
+    def part(a, b):
+        p = H.period[a + 1:b]
+        p = p[np.isfinite(p)]
+        f = 1.0 / float(np.median(p)) if len(p) else f0
+        return fit(t[H.ext[a]:H.ext[b + 1] + 1], x[H.ext[a]:H.ext[b + 1] + 1], f, search=SEED_SEARCH)
+    got = part(a, b)
     while got is not None and b - a >= 3:
         i0, i1 = H.ext[a], H.ext[b + 1]
         r = x[i0:i1 + 1] - got.at(t[i0:i1 + 1])
@@ -202,9 +235,9 @@ def _seed(t, x, H, a, b, f0, sigma):
         worst = int(np.argmax(miss[[0, -1]]))
         if miss[[0, -1]][worst] > 3 * np.median(miss) + EDGE * got.amplitude / 10:
             a, b = (a + 1, b) if worst == 0 else (a, b - 1)
-            got = part(a, b, got.freq)
+            got = part(a, b)
         elif not _steady(got, sigma):
-            left, right = part(a + 1, b, got.freq), part(a, b - 1, got.freq)
+            left, right = part(a + 1, b), part(a, b - 1)
             share = lambda g: g.rms / g.amplitude if g is not None and g.amplitude > 0 else np.inf
             a, b, got = (a + 1, b, left) if share(left) <= share(right) else (a, b - 1, right)
         else:
@@ -310,16 +343,27 @@ def _apart(sines, fits, t, x):
     for (a, fa), (b, fb) in zip(zip(sines, fits), zip(sines[1:], fits[1:])):
         if a.t1 <= b.t0:
             continue
-        k = np.flatnonzero((t >= b.t0) & (t <= a.t1))
-        cut = 0.5 * (a.t1 + b.t0)
-        if len(k) > 1:  # the change point: a's misfit before it and b's after, least in sum
-            ra, rb = (x[k] - fa.at(t[k])) ** 2, (x[k] - fb.at(t[k])) ** 2
-            cost = np.concatenate([[0.0], np.cumsum(ra)]) + np.concatenate([np.cumsum(rb[::-1])[::-1], [0.0]])
-            j = int(np.argmin(cost))
-            cut = float(t[k[j]] if j < len(k) else t[k[-1]]) if 0 < j < len(k) else cut
+        cut = _step_at(t, x, fa, fb, b.t0, a.t1)
         for s, lost in ((a, a.t1 - cut), (b, cut - b.t0)):
             f = s.params["freq_hz"]
             if lost * f > CYCLE_SLACK:
                 s.params["cycles"] -= int(math.ceil(lost * f - CYCLE_SLACK))
         a.t1, b.t0 = cut, cut
     return [s for s in sines if s.params["cycles"] >= MIN_CYCLES]
+
+
+def _step_at(t, x, fa, fb, t0, t1):
+    """Where [s] between t0 and t1 the displacement x leaves fit fa for fb: the sample that
+    leaves fa's misfit before it and fb's after it least in sum; t0 when every sample is
+    fb's, t1 when every one is fa's, the middle where the two fits cannot tell (one sample,
+    or both alike on all). (The middle for the first two as well cut a slow sine's
+    overshoot into the fast one after it in half: a cycle of it lost.)"""
+    k = np.flatnonzero((t >= t0) & (t <= t1))
+    if len(k) < 2:
+        return 0.5 * (t0 + t1)
+    ra, rb = (x[k] - fa.at(t[k])) ** 2, (x[k] - fb.at(t[k])) ** 2
+    cost = np.concatenate([[0.0], np.cumsum(ra)]) + np.concatenate([np.cumsum(rb[::-1])[::-1], [0.0]])
+    if np.ptp(cost) <= 1e-12 * max(float(np.max(cost)), 1e-300):
+        return 0.5 * (t0 + t1)
+    j = int(np.argmin(cost))
+    return float(t0) if j == 0 else float(t1) if j == len(k) else float(t[k[j]])

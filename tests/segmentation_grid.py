@@ -1,13 +1,16 @@
 """Other dynos' programs (tests/programs.py) cut at every rate, clean, with an LVDT's noise
 and quantisation, and with a DAQ's spikes besides: how many steady sines are found whole, the worst frequency and amplitude
 errors, sines invented, seconds unread, each other kind of piece read as itself, and the
-time the cut took. `python -m tests.segmentation_grid [--markdown]`: the table of
+time the cut took; then the property test's random sine programs (tests/drawn.py), thousands
+of them, and which are cut wrong. `python -m tests.segmentation_grid [--markdown] [--drawn N]`:
 docs/results/segmentation.md."""
 import argparse
 import time
+from concurrent.futures import ProcessPoolExecutor
 
 from views.reports import markdown as md
 from records import segmentation
+from tests import drawn
 from tests import programs as P
 
 
@@ -35,12 +38,16 @@ HEADER = ("program", "s", "rate [Hz]", "noise", "sines found whole", "invented",
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m tests.segmentation_grid")
     ap.add_argument("--markdown", action="store_true")
+    ap.add_argument("--drawn", type=int, default=4000, help="random sine programs drawn (seeds 0 to N - 1)")
     a = ap.parse_args(argv)
     segmentation.find(*P.sample(P.PROGRAMS["mixed"](), 1000.0))  # compiled before anything is timed
     table = list(rows())
+    with ProcessPoolExecutor(2) as pool:
+        wrong = [w for w in pool.map(drawn.cut_wrong, range(a.drawn), chunksize=50) if w is not None]
     if not a.markdown:
         for r in table:
             print("  ".join(str(v) for v in r))
+        print(f"drawn: {len(wrong)} of {a.drawn} cut wrong", *wrong, sep="\n")
         return
     print("# Other dynos' programs, cut into their tests\n")
     print(md.stamp().replace("`dyno ", "`python -m tests.segmentation_grid "), "\n")
@@ -55,6 +62,14 @@ def main(argv=None):
           "program has no steady sine. Pieces read as their kind: the share of each kind of piece's time "
           "in a segment of that kind (a ramp's last moments may be read as the dwell after it).\n")
     print(md.table(HEADER, table))
+    print(f"\n**Drawn at random**: {a.drawn:,} sine programs as the property test draws them "
+          f"(tests/drawn.py: two to four sines ramped, stepped into the next or dwelling, numpy seeds 0 to "
+          f"{a.drawn - 1:,}, each at a rate drawn log-uniform from {drawn.RATE_HZ[0]:.0f} Hz to "
+          f"{drawn.RATE_HZ[1] / 1e3:.0f} kHz, clean or with the LVDT's noise): **{len(wrong)} cut wrong**"
+          + ("." if not wrong else ":"))
+    for w in wrong[:20]:
+        print(f"- seed {w['seed']} at {w['rate_hz']} Hz ({w['noise']}): {w['found']} found whole, "
+              f"{w['invented']} invented; " + "; ".join(w["missed"]))
 
 
 if __name__ == "__main__":

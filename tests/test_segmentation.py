@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from records import segmentation, strokes
 from records.reader import load_recording
+from tests import drawn
 from tests import programs as P
 from tests.conftest import dyno
 
@@ -59,39 +60,40 @@ def test_sweeps_triangles_random_and_holds_are_read_as_what_they_are(name, rate)
             assert np.allclose(f, program.freq_at(at), rtol=0.01), (f, program.freq_at(at))
 
 
-STEP = 0.1  # a sine stepped straight into the next differs from it by this share in amplitude or frequency
+class _Hypothesis:
+    """tests/drawn.py's picks, drawn by hypothesis (which shrinks a failing program)."""
+
+    def __init__(self, draw):
+        self.draw = draw
+
+    def real(self, lo, hi):
+        return self.draw(st.floats(lo, hi))
+
+    def whole(self, lo, hi):
+        return self.draw(st.integers(lo, hi))
+
+    def one(self, options):
+        return self.draw(st.sampled_from(options))
+
+    def keep(self, ok):
+        assume(ok)
+        return True
 
 
-@st.composite
-def sine_programs(draw):
-    """Two to four sines of the issue's range (0.5-16 Hz, 1.6-12.7 mm, under 0.8 m/s), each
-    ramped in and out, stepped straight into the next, or dwelling long, with holds about."""
-    b = P.Builder("drawn").hold(draw(st.floats(0.3, 1.5)))
-    before = None  # the sine this one steps straight on from
-    for _ in range(draw(st.integers(2, 4))):
-        A = draw(st.floats(0.0016, 0.0127))
-        f = draw(st.floats(0.5, min(16.0, 0.8 / (2 * math.pi * A))))
-        # a program steps to another test: one sine stepped into its like is one test
-        assume(before is None or abs(A / before[0] - 1) > STEP or abs(f / before[1] - 1) > STEP)
-        cycles = draw(st.integers(2, 5))
-        style = draw(st.sampled_from(["ramped", "stepped", "dwell"]))
-        b.sine(A, f, cycles, ramp_cycles=0 if style == "stepped" else 1)
-        before = (A, f) if style == "stepped" else None
-        if style != "stepped":
-            b.hold(2.0 if style == "dwell" else 0.2)
-    return b.hold(draw(st.floats(0.3, 1.5))).build()
+sine_programs = st.composite(lambda draw: drawn.program(_Hypothesis(draw)))
 
 
 @settings(max_examples=int(os.environ.get("DYNO_PROPERTY_EXAMPLES", "25")), deadline=None, database=None,
           suppress_health_check=[HealthCheck.too_slow])
-@given(program=sine_programs(), rate=st.floats(math.log(300), math.log(10000)).map(math.exp),
+@given(program=sine_programs(), rate=st.floats(*map(math.log, drawn.RATE_HZ)).map(math.exp),
        noise=st.sampled_from(sorted(P.NOISES)), seed=st.integers(0, 2 ** 16))
 def test_any_sine_program_at_any_rate_is_cut_right(program, rate, noise, seed):
     """Property: every steady sine found whole within tolerance, none invented in a ramp or
     a hold, nothing unread (DYNO_PROPERTY_EXAMPLES sets the number of programs). At 400 it
     found four cuts wrong (2026-12-05): a stepped sine's period read across the step, a
     seed that let the half-cycle joining two tests in, a seed of three half-cycles whose
-    frequency held loosely, a ramp's first half-cycle alike to the sine before it."""
+    frequency held loosely, a ramp's first half-cycle alike to the sine before it. Thousands
+    more are drawn for the table (tests/segmentation_grid.py --drawn)."""
     t, _, _, sc = cut(program, rate, noise, seed)
     assert sc.found == sc.sines, sc.missed
     assert sc.invented == 0 and sc.unread_s < 1 / rate

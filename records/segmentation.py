@@ -62,12 +62,14 @@ def _cut(t, x, h, source):
     xs = smoothed(x, h)
     H = Halves.of(t, xs, max(REVERSAL_NOISE * noise(t, xs), MIN_REVERSAL))
     swept = sweeps(t, H)
-    tests = sorted(swept + steady(t, x, H, noise(t, x), swept, source), key=lambda s: s.t0)
-    # the strokes a still stretch's turning point and a sweep's frequencies are read from: of
-    # MIN_TRAVEL, each found once the motion has come back that far. A DAQ's spikes cut H's
-    # strokes (UTFSM's chirps: 30-90 um reversals at a slow crest, its quietest noise 0.1 um),
-    # and the crest was read as a dwell, the sweep's first strokes as random motion
+    # the strokes the steady tests, a still stretch's turning point and a sweep's frequencies
+    # are read from: of MIN_TRAVEL, each found once the motion has come back that far. A DAQ's
+    # spikes cut H's strokes (UTFSM's chirps: 30-90 um reversals at a slow crest, its quietest
+    # noise 0.1 um): the crest was read as a dwell, the sweep's first strokes as random motion,
+    # and no run of alike strokes seeded a slow sine (a matrix under spikes: 12-19 of 26-27
+    # sines found whole, 17-24 from these; without spikes the two cut alike)
     strokes = Halves.of(t, xs, MIN_TRAVEL)
+    tests = sorted(swept + steady(t, x, strokes, noise(t, x), swept, source), key=lambda s: s.t0)
     out = _fill(t, xs, tests, turns(t, strokes))
     for s in swept:  # widened by its tapers: its frequencies read over all of it
         s.params = sweep_params(strokes, s.t0, s.t1)

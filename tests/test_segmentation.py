@@ -146,6 +146,24 @@ def test_a_chirp_from_rest_under_a_daq_s_spikes_is_one_sweep_from_its_first_stro
         assert 0.2 <= first.params["f_start_hz"] <= program.freq_at(np.array([sweep.t0 + 3.0]))[0], (seed, first)
 
 
+@pytest.mark.parametrize("rate", [300.0, 1000.0, 5000.0])
+def test_slow_sines_under_a_daq_s_spikes_are_found_whole(rate):
+    """Sines of 3.2 mm at 0.5 to 4 Hz under a DAQ's spikes (tests/programs.py): the steady
+    tests are read from strokes of MIN_TRAVEL, which the spikes do not cut. Read from strokes
+    the noise alone bounds, the 0.5 and 1 Hz sines were cut into strokes of tens of
+    micrometres at their slow crests, and no run of alike strokes seeded them (1 or 2 of 4
+    found, every seed and rate)."""
+    b = P.Builder("slow").hold(1.0)
+    for f in (0.5, 1.0, 2.0, 4.0):
+        b.sine(0.0032, f, 4).hold(0.5)
+    program = b.hold(0.5).build()
+    for seed in (1, 2, 3):
+        t, x = P.sample(program, rate, *P.SPIKY["spikes"], seed=seed)
+        segs = segmentation.find(t, x)
+        sc = P.score(program, [(s.kind, s.t0, s.t1, s.params) for s in segs], t[-1])
+        assert sc.found == sc.sines == 4 and sc.invented == 0, (seed, sc.missed)
+
+
 def _imported(tmp_path, program, rate, **force):
     """The program as another lab's CSV (time, displacement in mm, force), imported."""
     t, x = P.sample(program, rate, P.LVDT_NOISE_M, P.LVDT_QUANTUM_M, seed=1)

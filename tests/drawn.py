@@ -66,7 +66,7 @@ def cut_wrong(seed: int) -> dict | None:
     t, x = P.sample(prog, rate, *P.NOISES[noise], seed=pick.whole(0, 2 ** 16))
     segs = segmentation.find(t, x)
     sc = P.score(prog, [(s.kind, s.t0, s.t1, s.params) for s in segs], t[-1])
-    if sc.found == sc.sines and sc.invented == 0 and sc.unread_s < 1 / rate:
+    if P.cut_right(sc, rate):
         return None
     return {"seed": seed, "rate_hz": round(rate), "noise": noise, "found": f"{sc.found}/{sc.sines}",
             "invented": sc.invented, "missed": [f"{p.freq:.3g} Hz at {p.t0:.2f} s: {why}" for p, why in sc.missed]}

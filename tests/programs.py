@@ -352,6 +352,12 @@ class Score:
         return self.found / self.sines if self.sines else 1.0
 
 
+def cut_right(sc, rate) -> bool:
+    """Every steady sine found whole, none invented, less than a sample [1/rate Hz] unread: what
+    each drawn program is held to (tests/test_segmentation.py, tests/drawn.py)."""
+    return sc.found == sc.sines and sc.invented == 0 and sc.unread_s < 1 / rate
+
+
 def score(program, segments, t_end=np.inf):
     """How a cut [(kind, t0, t1, params)] reads the program (sampled up to t_end [s]): its sine
     segments (kind "sine", params amplitude_mm, freq_hz, cycles) against the steady sines,

@@ -36,6 +36,9 @@ def add(sub):
                     help="check the verdict by hand: diagnose N copies of the recording, each with its force rescaled "
                          "by 1 +- k 1e-9 and its own bootstrap draws, and say how often each effect is named (N times "
                          "the time; docs/diagnosis.md)")
+    dg.add_argument("--no-screen", dest="screening", action="store_false",
+                    help="fit every candidate in full, none ruled out by the screen (its values still reported: "
+                         "the screen's audit, docs/diagnosis.md)")
     dg.set_defaults(command="diagnose")
 
 
@@ -96,7 +99,7 @@ def run(args):
         if said:
             say(said)
     kw = dict(baseline=baseline, holdout=args.holdout, drives=drives(meta), jobs=threads.cores(),
-              smoothing=source_filter.of(meta))
+              smoothing=source_filter.of(meta), screening=getattr(args, "screening", True))
     try:
         res = diagnose(ch, events, progress=say, **kw)
     except (DiagnoseError, DamperError) as e:
@@ -132,7 +135,8 @@ def run(args):
             print("\n" + next_test.text(props, res, limits, budget))
         print("\nCandidates (held-out error, p, gain in noise variances):")
         for c in res.candidates:
-            print(f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"
+            print(f"  round {c.round} {c.effect:32s} screened out: a linear step gains {c.screen:+.3f}" if c.screened
+                  else f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"
                   f"{c.relevance:+8.2f}")
     return 0
 

@@ -9,7 +9,7 @@ from commands import batch
 
 def _one(task):
     """(name, JSON result or None, error message or None) of one recording's bytes."""
-    name, data, baseline, holdout = task
+    name, data, baseline, holdout, screening = task
     from models.damper import DamperError, from_dict
     from models.diagnose import diagnose
     from models.diagnose.data import DiagnoseError
@@ -25,7 +25,7 @@ def _one(task):
             else:
                 base = None if baseline == "minimal" else (baseline[0], from_dict(baseline[1]))
             res = diagnose(ch, events, progress=lambda s: None, baseline=base, holdout=holdout, drives=drives(meta),
-                           smoothing=source_filter.of(meta))
+                           smoothing=source_filter.of(meta), screening=screening)
         except (UsageError, RigError, DiagnoseError, DamperError) as e:
             return name, None, str(e).replace(str(path), name)
     return name, to_json(res), None
@@ -58,4 +58,4 @@ def run(args, baseline):
     """baseline: None (each recording's own damper, else the minimal model), "minimal" or
     (name, damper dict)."""
     args.summary = args.summary or "diagnosis-summary.csv"
-    return batch.run(args, _one, (baseline, args.holdout), ".diagnosis.json", _row, "diagnose")
+    return batch.run(args, _one, (baseline, args.holdout, args.screening), ".diagnosis.json", _row, "diagnose")

@@ -78,6 +78,30 @@ def test_two_hidden_effects_found_larger_first(recordings):
     assert res.accepted[:2] == ["fluid_inertia", "sensor_delay"]
 
 
+@pytest.mark.rounding
+@ONE_WORKER
+def test_the_screen_rules_out_only_what_no_judgement_would_accept(recordings):
+    """Issue 90: each candidate fitted in full beside its screen (screening=False) on a null
+    and on two hidden effects: none the screen rules out gains, fitted, what a judgement's
+    acceptance needs; as `dyno diagnose` runs, those are not fitted and the diagnosis says
+    what the full search says."""
+    from models.diagnose import screen
+    from models.diagnose.referees import RELEVANCE
+    from models.diagnose.stability import BAND
+    for name in ("null", "inertia"):
+        ch, ev = load_recording(recordings[name])[:2]
+        full, quick = diagnose(ch, ev, screening=False), diagnose(ch, ev)
+        ruled = {(c.round, c.effect) for c in full.candidates if c.screen < screen.BAR}
+        assert all(c.relevance < RELEVANCE / BAND for c in full.candidates if (c.round, c.effect) in ruled)
+        not_fitted = {(c.round, c.effect) for c in quick.candidates if c.screened}
+        assert not_fitted and not_fitted <= ruled
+        assert (quick.accepted, quick.named(), quick.at_edge()) == (full.accepted, full.named(), full.at_edge())
+        assert quick.final.nrmse_heldout == pytest.approx(full.final.nrmse_heldout, rel=1e-9)
+        if name == "null":  # its one round: most nonlinear fits are not made
+            nonlinear = [c for c in quick.candidates if not EFFECTS[c.effect.split(":")[0]].linear]
+            assert sum(c.screened for c in nonlinear) >= 2 / 3 * len(nonlinear)
+
+
 @ONE_WORKER
 def test_cli_json_and_summary(recordings, tmp_path):
     r = subprocess.run([*DYNO, "diagnose", str(recordings["lag"]), "--json", "--report", str(tmp_path / "rep"),

@@ -26,7 +26,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from models.diagnose import stability
+from models.diagnose import screen, stability
 from models.diagnose.bootstrap import ALPHA, p_value
 from models.diagnose.candidates import EFFECTS, GAMMA, WITH_BASELINE, Minimal, Model
 from models.diagnose.compensation import FORM_SHARE, changes, form_share, trades
@@ -141,12 +141,15 @@ def scores(F: np.ndarray, r: np.ndarray, k: np.ndarray) -> dict[str, float]:
 
 def diagnose(channels: Channels, events: list[Event], progress: Callable[[str], None] = lambda s: None,
              max_effects: int = 4, seed: int = 0, baseline: tuple | None = None, holdout: str | float = "interleaved",
-             drives: list[str] | None = None, jobs: int = 1, smoothing: Smoothing | None = None) -> Diagnosis:
+             drives: list[str] | None = None, jobs: int = 1, smoothing: Smoothing | None = None,
+             screening: bool = True) -> Diagnosis:
     """The diagnosis (see commands/diagnose.py for its JSON). baseline: None for `minimal`, or (name,
     damper model) to start from that model, refitted. holdout: "interleaved" or the tail's fraction
     (holdout_masks). drives: the aux channels that drive the damper (records.data.drives), the only ones
     an effect may be scaled by; None: all. jobs: processes fitting a round's candidates (threads.forked); 1:
-    this one (a rig's). smoothing: the source's moving average every model goes through (source_filter)."""
+    this one (a rig's). smoothing: the source's moving average every model goes through (source_filter).
+    screening: candidates the screen rules out are not fitted (screen.py); False: every one is, its
+    screen still computed (the screen's audit)."""
     clock = Clock(jobs)
     d = prepare(channels, events, drives, smoothing)
     folds, judged, shown = holdout_masks(d, holdout)
@@ -167,15 +170,15 @@ def diagnose(channels: Channels, events: list[Event], progress: Callable[[str], 
     accepted, steps, candidates = [], [], []
     current, r_cur = fold_vals, r0
     _, not_assessed = available(d, accepted)
-    last, cost = {}, {}  # each candidate's values per fold in the round before (its warm start), its time [s]
+    last, cost = {}, {}  # each candidate as tried in the round before (its warm start), its time [s]
     for _ in range(max_effects):
         names, _ = available(d, accepted)
         alpha = bar(len(names))
         with clock.stage("candidates"):
             round_ = _round(d, base, names, cell + accepted, len(steps) + 1, folds, current, judge, r_cur, shown,
-                            sigma, alpha, last, cost, progress, jobs, clock)
+                            sigma, alpha, last, cost, progress, jobs, clock, screening)
         candidates += [x.candidate for x in round_]
-        last = {x.candidate.effect: x.folds for x in round_}
+        last = {x.candidate.effect: x for x in round_ if not x.candidate.screened}
         ok = [x for x in round_ if x.candidate.accept_share >= 0.5]  # accepted in most judgements
         if not ok:
             break
@@ -338,7 +341,7 @@ def _sized(steps, excess, sigma):
 
 
 def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, sigma, alpha, last, cost, progress,
-           jobs, clock):
+           jobs, clock, screening=True):
     """Each candidate fitted beside the effects fitted so far (the cell's and those
     accepted) and judged on the held-out blocks: [Tried] of round `number`. A candidate is accepted where it is significant
     (p < alpha), worth having (RELEVANCE noise variances, SHARE of the error it starts from)
@@ -348,15 +351,33 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
     sse_cur = judge.sse(r_cur, judge.main)
     mse = float(np.mean(r_cur[judged] ** 2))
 
+    m_cur = Model(d, fitted, base)
+    nuisance = screen.nuisance(m_cur, d, folds, current, open_params(d, fitted))
+    F_cur = [m_cur.force(d, z) for z in current]
+    active = screening and screen.settled(d, folds, nuisance, F_cur, sigma)  # else every candidate is fitted
+
     def fitted_and_judged(e):
         """(Tried, its fit's seconds, its judgement's seconds): in a fitting process of its own
-        when there are several, where the judgement's bootstrap runs beside the others' fits."""
+        when there are several, where the judgement's bootstrap runs beside the others' fits.
+        Screened first (screen.py), except an open term (one linear step is its whole fit), a
+        candidate that gained screen.SURE noise variances last round, and all in a round that is not
+        (screen.settled); without screening, every screen is computed and none rules out."""
         t0 = time.perf_counter()
         m = Model(d, fitted + [e], base)
+        linear = EFFECTS[e.split(":")[0]].linear
+        sure = e in last and last[e].candidate.gain >= screen.SURE * sigma ** 2
+        skip = linear or (screening and (sure or not active))
+        sc = float("nan") if skip else screen.gain(m, d, folds, current, nuisance, F_cur, judged)
+        if active and sc < screen.BAR * sigma ** 2:
+            c = Candidate(e, number, {}, {}, **scores(d.F, r_cur, shown), p_value=1.0, gain=sc,
+                          relevance=sc / sigma ** 2, accept_votes=np.zeros(len(judge.variants)),
+                          screen=sc / sigma ** 2, screened=True)
+            return Tried(c, {}, None, r_cur), time.perf_counter() - t0, 0.0
         if EFFECTS[e.split(":")[0]].linear:
             f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))
         else:  # the open terms' coefficients held: they are refitted with the rest once accepted
-            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted), warm=last.get(e))
+            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted),
+                                         warm=last[e].folds if e in last else None)
         t1 = time.perf_counter()
         vals, sds = pooled(f_vals, f_sds)
         gain = float((sse_cur - judge.sse(r, judge.main)).sum() / n_judged)  # held-out mean-square gain [N^2]
@@ -367,6 +388,7 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
         # times worse weighs what one made ten times better does (Judge.log_ratio)
         worth = stability.against(c.relevance, RELEVANCE) * stability.against(gain / max(mse, 1e-30), SHARE)
         c.accept_votes = np.zeros(len(judge.variants))
+        c.screen = sc / sigma ** 2
         if worth > 0 and resolved(d, e, c.parameters, c.ci):
             c.accept_votes = judge.votes(r, r_cur, alpha) * worth
         return Tried(c, vals, f_vals, r), t1 - t0, time.perf_counter() - t1
@@ -380,7 +402,8 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
     clock.inner("p-values", sum(s for _, _, s in done.values()) / max(min(jobs, len(order)), 1))
     for e in names:
         c = done[e][0].candidate
-        progress(f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
+        progress(f"  {e:28s} screened out: a linear step gains {c.screen:+.3f} noise variances" if c.screened else
+                 f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
                  f"  gain {c.relevance:+.3f} noise variances")
     return [done[e][0] for e in names]
 

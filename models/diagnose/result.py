@@ -51,6 +51,8 @@ class Candidate:
     # in each held-out judgement (models/diagnose/stability.py), whether it passes the
     # acceptance test: significant, worth having (0.5 within the band of a fixed bar), resolved
     accept_votes: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    screen: float = float("nan")  # the screen's held-out gain [noise variances] (screen.py); nan: not screened
+    screened: bool = False  # ruled out by the screen, not fitted: its gain and relevance are the screen's
 
     @property
     def accept_share(self) -> float:

@@ -64,7 +64,9 @@ def to_json(res):
                         "parameters": {k: num(v) for k, v in c.parameters.items()},
                         "ci": {k: [num(a), num(z)] for k, (a, z) in c.ci.items()},
                         **{k: getattr(c, k) for k in held}, "p_value": c.p_value,
-                        "gain_noise_variances": c.relevance, "accept_share": c.accept_share}
+                        "gain_noise_variances": c.relevance, "accept_share": c.accept_share,
+                        # ruled out by the screen, not fitted (models/diagnose/screen.py): its gain is the screen's
+                        "screened": c.screened, "screen_noise_variances": num(c.screen)}
                        for c in res.candidates],
         "accepted": res.accepted,
         "named": res.named(),
@@ -142,6 +144,7 @@ def report(res, out_dir: Path):
     page.figure("Loops", "loops.png")
     page.heading("Candidates")
     page.table(("effect", "round", "held-out error", "p", "gain [noise variances]"),
-               [(c.effect, c.round, f"{100 * c.nrmse_heldout:.3f} %", f"{c.p_value:.4f}",
-                 f"{c.relevance:+.2f}") for c in res.candidates])
+               [(c.effect, c.round, "screened out" if c.screened else f"{100 * c.nrmse_heldout:.3f} %",
+                 "-" if c.screened else f"{c.p_value:.4f}",
+                 f"screen {c.screen:+.3f}" if c.screened else f"{c.relevance:+.2f}") for c in res.candidates])
     return page.write(out_dir)

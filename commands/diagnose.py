@@ -135,7 +135,7 @@ def run(args):
             print("\n" + next_test.text(props, res, limits, budget))
         print("\nCandidates (held-out error, p, gain in noise variances):")
         for c in res.candidates:
-            print(f"  round {c.round} {c.effect:32s} screened out: a linear step gains {c.screen:+.3f}" if c.screened
+            print(f"  round {c.round} {c.effect:32s}   screened out: a linear step gains {c.screen:.2g}" if c.screened
                   else f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"
                   f"{c.relevance:+8.2f}")
     return 0

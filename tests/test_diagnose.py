@@ -3,6 +3,7 @@ protocols), with and without a hidden effect."""
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -100,6 +101,27 @@ def test_the_screen_rules_out_only_what_no_judgement_would_accept(recordings):
         if name == "null":  # its one round: most nonlinear fits are not made
             nonlinear = [c for c in quick.candidates if not EFFECTS[c.effect.split(":")[0]].linear]
             assert sum(c.screened for c in nonlinear) >= 2 / 3 * len(nonlinear)
+
+
+@pytest.mark.rounding
+def test_a_candidate_acting_through_a_part_held_at_zero_is_fitted_not_screened(tmp_path):
+    """A real MR file (UTFSM, 25 mm 0.5 Hz 1 A) whose baseline leaves the sliding friction at
+    zero: a pre-sliding friction adds nothing to it, so its linear step gains nothing (2e-15
+    noise variances), yet fitted in full, with the friction raised beside it, it gains 0.61
+    and is significant. The screen leaves such a candidate to the full fit (screen.INERT)."""
+    src = Path(__file__).parent / "data" / "mr-damper-utfsm" / "sine" / "25mm0x5Hz1A.txt"
+    rec = tmp_path / "x.mcap"
+    r = subprocess.run([*DYNO, "import", str(src), "--out", str(rec), "--map", "time=1:s", "--map",
+                        "displacement=2:mm", "--map", "velocity=3:mm/s", "--map", "force=4:N", "--smoothed",
+                        "0.1period"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([*DYNO, "diagnose", str(rec), "--json"], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["baseline"]["parameters"]["F_c"] < 1e-6
+    first = {c["effect"]: c for c in doc["candidates"] if c["round"] == 1}
+    assert not first["presliding_friction"]["screened"] and first["presliding_friction"]["gain_noise_variances"] > 0.3
+    assert any(c["screened"] for c in doc["candidates"])  # later rounds do rule some out
 
 
 @ONE_WORKER

@@ -367,7 +367,7 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
         linear = EFFECTS[e.split(":")[0]].linear
         sure = e in last and last[e].candidate.gain >= screen.SURE * sigma ** 2
         skip = linear or (screening and (sure or not active))
-        sc = float("nan") if skip else screen.gain(m, d, folds, current, nuisance, F_cur, judged)
+        sc = float("nan") if skip else screen.gain(m, d, folds, current, nuisance, F_cur, judged, sigma)
         if active and sc < screen.BAR * sigma ** 2:
             c = Candidate(e, number, {}, {}, **scores(d.F, r_cur, shown), p_value=1.0, gain=sc,
                           relevance=sc / sigma ** 2, accept_votes=np.zeros(len(judge.variants)),
@@ -402,7 +402,7 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
     clock.inner("p-values", sum(s for _, _, s in done.values()) / max(min(jobs, len(order)), 1))
     for e in names:
         c = done[e][0].candidate
-        progress(f"  {e:28s} screened out: a linear step gains {c.screen:+.3f} noise variances" if c.screened else
+        progress(f"  {e:28s} screened out: a linear step gains {c.screen:.2g} noise variances" if c.screened else
                  f"  {e:28s} held-out {100 * c.nrmse_heldout:.3f} %  p = {c.p_value:.2g}"
                  f"  gain {c.relevance:+.3f} noise variances")
     return [done[e][0] for e in names]

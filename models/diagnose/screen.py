@@ -30,6 +30,7 @@ BAR = RELEVANCE / BAND / MARGIN  # noise variances
 # a tenth of a noise variance (10 bars) would not do: an MR term's 0.84 fell to 0.004 when
 # another took its residual
 SURE = 10.0
+INERT = 0.01  # of the force noise: a candidate that cannot move the force this much is not screened (gain)
 
 
 def settled(d: Data, folds: list, bases: list, F_cur: list[np.ndarray], sigma: float) -> bool:
@@ -76,33 +77,42 @@ def starts(d: Data, effect: str) -> list[dict]:
 
 
 def gain(model: Model, d: Data, folds: list, current: list[dict], bases: list, F_cur: list[np.ndarray],
-         judged: np.ndarray) -> float:
+         judged: np.ndarray, sigma: float) -> float:
     """The candidate's screened gain [N^2 a sample]: of its best start (above), the larger of
     the linear step's mean-square gain on the training samples and the candidate's own step's
     on the judged held-out samples. model: the current model with the candidate last; bases:
-    nuisance()'s per fold; F_cur: the current model's force per fold."""
+    nuisance()'s per fold; F_cur: the current model's force per fold; sigma: the force noise
+    [N]. nan (no screen) where the candidate cannot move the force by INERT of the noise
+    over its parameters' ranges at any start: it acts through a part the current model holds
+    at zero (a pre-sliding friction on a sliding friction of zero, which the full fit raises
+    with it: 0.61 noise variances on a real MR file, a screen of 2e-15)."""
     effect = model.effects[-1]
     own = [p for p in model.params[-len(EFFECTS[effect.split(":")[0]].params(d, effect)):] if p.lo < p.hi]
     n_train, n_judged = sum(np.count_nonzero(train) for train, _ in folds), np.count_nonzero(judged)
-    best = -np.inf
+    best, reach = -np.inf, 0.0
     for s in starts(d, effect):
         steps = [_step_gains(model, d, fold, {**z, **s}, own, basis, F0, judged)
                  for fold, z, basis, F0 in zip(folds, current, bases, F_cur)]
-        best = max(best, sum(t for t, _ in steps) / n_train, sum(h for _, h in steps) / n_judged)
-    return best
+        best = max(best, sum(g[0] for g in steps) / n_train, sum(g[1] for g in steps) / n_judged)
+        reach = max([reach] + [g[2] for g in steps])
+    return best if reach >= INERT * sigma else float("nan")
 
 
 def _step_gains(model, d, fold, z, own, basis, F0, judged):
-    """(training, held-out) squared error [N^2] one linear step from start z takes off: the
-    candidate's columns there (the jump to the start and its own parameters' derivatives) and
-    the fitted parameters' (basis), least squares together on the fold's training samples;
-    held out, on its judged samples, the candidate's part with what of it the fitted
-    parameters take up (a trend in time gains more on a later stretch than on the fit's)."""
+    """(training, held-out) squared error [N^2] one linear step from start z takes off, and
+    the candidate's reach there [N]: its columns (the jump to the start and its own
+    parameters' derivatives) and the fitted parameters' (basis), least squares together on
+    the fold's training samples; held out, on its judged samples, the candidate's part with
+    what of it the fitted parameters take up (a trend in time gains more on a later stretch
+    than on the fit's). The reach: the largest RMS on the training samples of the jump and of
+    each derivative times its parameter's range."""
     train, test = fold
     Q, moves = basis
     Fs = model.force(d, z)
     cols = [Fs - F0] if np.any(Fs != F0) else []  # the jump to the start
     cols += [_derivative(model, d, z, p, Fs, 1e-3) for p in own]
+    reach = max([0.0] + [float(np.sqrt(np.mean(c[train] ** 2))) * w
+                         for c, w in zip(cols, [1.0] * (len(cols) - len(own)) + [p.hi - p.lo for p in own])])
     y = (d.F - F0)[train]
     y_out = y - Q @ (Q.T @ y)  # what the fitted parameters' own step leaves
     C = np.column_stack(cols) if cols else np.zeros((len(d.F), 0))
@@ -110,13 +120,13 @@ def _step_gains(model, d, fold, z, own, basis, F0, judged):
     norm = np.linalg.norm(Ct, axis=0)
     keep = norm > 1e-12 * max(norm.max(initial=0.0), 1e-300)
     if not np.any(keep):
-        return float(y @ y - y_out @ y_out), 0.0
+        return float(y @ y - y_out @ y_out), 0.0, reach
     c = np.linalg.lstsq(Ct[:, keep] / norm[keep], y_out, rcond=None)[0] / norm[keep]
     r = y_out - Ct[:, keep] @ c
     k = test & judged
     step = C[k][:, keep] @ c - moves[k] @ (Q.T @ (C[train][:, keep] @ c))
     r0 = (F0 - d.F)[k]
-    return float(y @ y - r @ r), float(r0 @ r0 - (r0 + step) @ (r0 + step))
+    return float(y @ y - r @ r), float(r0 @ r0 - (r0 + step) @ (r0 + step)), reach
 
 
 def _derivative(model, d, z, p, F, rel):

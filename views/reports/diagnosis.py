@@ -146,5 +146,5 @@ def report(res, out_dir: Path):
     page.table(("effect", "round", "held-out error", "p", "gain [noise variances]"),
                [(c.effect, c.round, "screened out" if c.screened else f"{100 * c.nrmse_heldout:.3f} %",
                  "-" if c.screened else f"{c.p_value:.4f}",
-                 f"screen {c.screen:+.3f}" if c.screened else f"{c.relevance:+.2f}") for c in res.candidates])
+                 f"screened: {c.screen:.2g}" if c.screened else f"{c.relevance:+.2f}") for c in res.candidates])
     return page.write(out_dir)

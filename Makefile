@@ -169,3 +169,4 @@ results-long: $(STAMP)
 	$(VENV)/bin/python -m tests.held_conditions --data $(DATA) --markdown > docs/results/held-conditions.md.tmp && mv docs/results/held-conditions.md.tmp docs/results/held-conditions.md
 	$(VENV)/bin/python -m tests.verdicts --data $(DATA) --markdown > docs/results/verdicts.md.tmp && mv docs/results/verdicts.md.tmp docs/results/verdicts.md
 	$(VENV)/bin/python -m tests.prove_real --data $(DATA) --markdown > docs/results/prove-on.md.tmp && mv docs/results/prove-on.md.tmp docs/results/prove-on.md
+	$(VENV)/bin/python -m tests.screen_audit --data $(DATA) --markdown > docs/results/screen.md.tmp && mv docs/results/screen.md.tmp docs/results/screen.md

@@ -133,10 +133,13 @@ def run(args):
             print(repeats_text(again))
         if props is not None:
             print("\n" + next_test.text(props, res, limits, budget))
-        print("\nCandidates (held-out error, p, gain in noise variances):")
-        for c in res.candidates:
-            print(f"  round {c.round} {c.effect:32s}   screened out: a linear step gains {c.screen:.2g}" if c.screened
-                  else f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"
-                  f"{c.relevance:+8.2f}")
+        print("\nCandidates (held-out error, p, gain in noise variances):\n" + _candidates(res.candidates))
     return 0
+
+
+def _candidates(candidates):
+    """One line per candidate tried: its round, held-out error, p and gain, or what its screen gained."""
+    return "\n".join(f"  round {c.round} {c.effect:32s}   screened out: a linear step gains {c.screen:.2g}" if c.screened
+                     else f"  round {c.round} {c.effect:32s} {100 * c.nrmse_heldout:7.3f} %  p = {c.p_value:<7.2g}"
+                     f"{c.relevance:+8.2f}" for c in candidates)
 

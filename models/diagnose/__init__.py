@@ -148,8 +148,7 @@ def diagnose(channels: Channels, events: list[Event], progress: Callable[[str], 
     (holdout_masks). drives: the aux channels that drive the damper (records.data.drives), the only ones
     an effect may be scaled by; None: all. jobs: processes fitting a round's candidates (threads.forked); 1:
     this one (a rig's). smoothing: the source's moving average every model goes through (source_filter).
-    screening: candidates the screen rules out are not fitted (screen.py); False: every one is, its
-    screen still computed (the screen's audit)."""
+    screening: False fits every candidate, none ruled out by its screen (screen.Sieve: the audit)."""
     clock = Clock(jobs)
     d = prepare(channels, events, drives, smoothing)
     folds, judged, shown = holdout_masks(d, holdout)
@@ -351,33 +350,23 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
     sse_cur = judge.sse(r_cur, judge.main)
     mse = float(np.mean(r_cur[judged] ** 2))
 
-    m_cur = Model(d, fitted, base)
-    nuisance = screen.nuisance(m_cur, d, folds, current, open_params(d, fitted))
-    F_cur = [m_cur.force(d, z) for z in current]
-    active = screening and screen.settled(d, folds, nuisance, F_cur, sigma)  # else every candidate is fitted
+    sieve = screen.Sieve(Model(d, fitted, base), d, folds, current, open_params(d, fitted), sigma, screening)
 
     def fitted_and_judged(e):
         """(Tried, its fit's seconds, its judgement's seconds): in a fitting process of its own
         when there are several, where the judgement's bootstrap runs beside the others' fits.
-        Screened first (screen.py), except an open term (one linear step is its whole fit), a
-        candidate that gained screen.SURE noise variances last round, and all in a round that is not
-        (screen.settled); without screening, every screen is computed and none rules out."""
+        Screened first: one the screen rules out is not fitted (screen.Sieve)."""
         t0 = time.perf_counter()
         m = Model(d, fitted + [e], base)
-        linear = EFFECTS[e.split(":")[0]].linear
-        sure = e in last and last[e].candidate.gain >= screen.SURE * sigma ** 2
-        skip = linear or (screening and (sure or not active))
-        sc = float("nan") if skip else screen.gain(m, d, folds, current, nuisance, F_cur, judged, sigma)
-        if active and sc < screen.BAR * sigma ** 2:
-            c = Candidate(e, number, {}, {}, **scores(d.F, r_cur, shown), p_value=1.0, gain=sc,
-                          relevance=sc / sigma ** 2, accept_votes=np.zeros(len(judge.variants)),
-                          screen=sc / sigma ** 2, screened=True)
+        sc = sieve.screen(m, judged, last[e].candidate.gain if e in last else 0.0)
+        if sieve.rules_out(sc):
+            c = Candidate(e, number, {}, {}, **scores(d.F, r_cur, shown), p_value=1.0, gain=sc * sigma ** 2,
+                          relevance=sc, accept_votes=np.zeros(len(judge.variants)), screen=sc, screened=True)
             return Tried(c, {}, None, r_cur), time.perf_counter() - t0, 0.0
         if EFFECTS[e.split(":")[0]].linear:
             f_vals, f_sds, r = linear_fit(m, d, folds, current, hold=open_params(d, fitted))
         else:  # the open terms' coefficients held: they are refitted with the rest once accepted
-            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted),
-                                         warm=last[e].folds if e in last else None)
+            f_vals, f_sds, r = cross_fit(m, d, folds, current, hold=open_params(d, fitted), warm=getattr(last.get(e), "folds", None))
         t1 = time.perf_counter()
         vals, sds = pooled(f_vals, f_sds)
         gain = float((sse_cur - judge.sse(r, judge.main)).sum() / n_judged)  # held-out mean-square gain [N^2]
@@ -388,7 +377,7 @@ def _round(d, base, names, fitted, number, folds, current, judge, r_cur, shown, 
         # times worse weighs what one made ten times better does (Judge.log_ratio)
         worth = stability.against(c.relevance, RELEVANCE) * stability.against(gain / max(mse, 1e-30), SHARE)
         c.accept_votes = np.zeros(len(judge.variants))
-        c.screen = sc / sigma ** 2
+        c.screen = sc
         if worth > 0 and resolved(d, e, c.parameters, c.ci):
             c.accept_votes = judge.votes(r, r_cur, alpha) * worth
         return Tried(c, vals, f_vals, r), t1 - t0, time.perf_counter() - t1

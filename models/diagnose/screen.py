@@ -33,6 +33,33 @@ SURE = 10.0
 INERT = 0.01  # of the force noise: a candidate that cannot move the force this much is not screened (gain)
 
 
+class Sieve:
+    """A round's screen: the current model's derivatives and force per fold, taken once; it
+    rules out only where screening is asked and the current model is settled (settled())."""
+
+    def __init__(self, model: Model, d: Data, folds: list, current: list[dict], hold: set, sigma: float,
+                 screening: bool):
+        self.d, self.folds, self.current, self.sigma, self.screening = d, folds, current, sigma, screening
+        self.bases = nuisance(model, d, folds, current, hold)
+        self.F_cur = [model.force(d, z) for z in current]
+        self.active = screening and settled(d, folds, self.bases, self.F_cur, sigma)
+
+    def screen(self, model: Model, judged: np.ndarray, last_gain: float = 0.0) -> float:
+        """The screen of the candidate last in model [noise variances] (gain()); nan, not
+        computed, for an open term (one linear step is its whole fit), and while screening,
+        for one that gained SURE noise variances last round (last_gain [N^2]) and any in a
+        round not settled. Without screening every one is computed (the audit)."""
+        sigma2 = self.sigma ** 2
+        if EFFECTS[model.effects[-1].split(":")[0]].linear or (
+                self.screening and (last_gain >= SURE * sigma2 or not self.active)):
+            return float("nan")
+        return gain(model, self.d, self.folds, self.current, self.bases, self.F_cur, judged, self.sigma) / sigma2
+
+    def rules_out(self, screened: float) -> bool:
+        """Is a candidate of this screen [noise variances] left unfitted?"""
+        return self.active and screened < BAR
+
+
 def settled(d: Data, folds: list, bases: list, F_cur: list[np.ndarray], sigma: float) -> bool:
     """Does the current model sit at its optimum: does a linear step in its own parameters
     alone gain less than BAR noise variances on the training samples? Where it does not (an

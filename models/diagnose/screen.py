@@ -75,10 +75,10 @@ def settled(d: Data, folds: list, bases: list, F_cur: list[np.ndarray], sigma: f
 
 def nuisance(model: Model, d: Data, folds: list, current: list[dict], hold: set) -> list[tuple]:
     """Per fold, the current model's derivatives in its free parameters (those not held, and
-    not at a bound: the fit's constraint holds them, as a channels' alignment at its half
-    sample where the force lags more), an
-    orthonormal basis of their span on the fold's training samples, and what a unit step
-    along each of its columns changes on every sample."""
+    not at a bound: the fit's constraint holds them there, as it holds a channels' alignment
+    at its half sample where the force lags more): an orthonormal basis of their span on the
+    fold's training samples, and what a unit step along each of its columns changes on every
+    sample [N]."""
     out = []
     for (train, _), z in zip(folds, current):
         f = model.forces(d, z)

@@ -99,7 +99,7 @@ def run(args):
         if said:
             say(said)
     kw = dict(baseline=baseline, holdout=args.holdout, drives=drives(meta), jobs=threads.cores(),
-              smoothing=source_filter.of(meta), screening=getattr(args, "screening", True))
+              smoothing=source_filter.of(meta), screening=args.screening)
     try:
         res = diagnose(ch, events, progress=say, **kw)
     except (DiagnoseError, DamperError) as e:

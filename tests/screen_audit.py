@@ -24,10 +24,15 @@ HOLDOUTS = ("interleaved", "tail:0.15")
 SEEDS = (0, 1)
 
 
+def _concealed():
+    """prove's concealed value of each effect (sim_backend/plain.toml)."""
+    return tomllib.loads((Path(__file__).parent.parent / "sim_backend" / "plain.toml").read_text())["prove"]["concealed"]
+
+
 def cases(data: Path):
     """The real files with each holdout, then the plant's concealed effects and nulls."""
     from sim_backend.effects import HIDDEN
-    concealed = tomllib.loads((Path(__file__).parent.parent / "sim_backend" / "plain.toml").read_text())["prove"]["concealed"]
+    concealed = _concealed()
     return ([("file", (src, imports, h)) for src, imports in files(data) for h in HOLDOUTS]
             + [("plant", (e, s)) for s in SEEDS for e in [None] + [e for e in HIDDEN if e in concealed]])
 
@@ -60,8 +65,7 @@ def _plant(effect, seed):
     from proof.on_plant import offline_recording
     from sim_backend.effects import scaled
     from views.reports.diagnosis import to_json
-    concealed = tomllib.loads((Path(__file__).parent.parent / "sim_backend" / "plain.toml").read_text())["prove"]["concealed"]
-    ch, ev, _ = offline_recording({effect: scaled(effect, concealed[effect], 1.0)} if effect else None, seed=seed)
+    ch, ev, _ = offline_recording({effect: scaled(effect, _concealed()[effect], 1.0)} if effect else None, seed=seed)
     docs = []
     for screening in (False, True):
         t0 = time.perf_counter()

@@ -143,7 +143,8 @@ def _step_gains(model, d, fold, z, own, basis, F0, judged):
     y = (d.F - F0)[train]
     y_out = y - Q @ (Q.T @ y)  # what the fitted parameters' own step leaves
     C = np.column_stack(cols) if cols else np.zeros((len(d.F), 0))
-    Ct = C[train] - Q @ (Q.T @ C[train])  # Frisch-Waugh: the candidate's columns beyond the fitted parameters' span
+    C_train = C[train]
+    Ct = C_train - Q @ (Q.T @ C_train)  # Frisch-Waugh: the candidate's columns beyond the fitted parameters' span
     norm = np.linalg.norm(Ct, axis=0)
     keep = norm > 1e-12 * max(norm.max(initial=0.0), 1e-300)
     if not np.any(keep):
@@ -151,7 +152,7 @@ def _step_gains(model, d, fold, z, own, basis, F0, judged):
     c = np.linalg.lstsq(Ct[:, keep] / norm[keep], y_out, rcond=None)[0] / norm[keep]
     r = y_out - Ct[:, keep] @ c
     k = test & judged
-    step = C[k][:, keep] @ c - moves[k] @ (Q.T @ (C[train][:, keep] @ c))
+    step = C[k][:, keep] @ c - moves[k] @ (Q.T @ (C_train[:, keep] @ c))
     r0 = (F0 - d.F)[k]
     return float(y @ y - r @ r), float(r0 @ r0 - (r0 + step) @ (r0 + step)), reach
 

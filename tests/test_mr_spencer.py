@@ -97,3 +97,31 @@ def test_identify_model_spencer_on_an_imported_table(tmp_path, record):
                           (("--model", "spencer", "--coil", "aux.none", "--overwrite"), "no aux.none channel")):
         p = dyno("identify", rec, *(["--model", "spencer"] if args[0] == "--holdout" else []), *args)
         assert p.returncode == 2 and p.stderr.count("\n") == 1 and message in p.stderr, p.stderr
+
+
+def test_the_rig_at_its_stop_is_left_out_where_its_accelerometer_says_so(tmp_path, record):
+    """Issue 91: the NEES record ends with the actuator banging at its stop, its accelerometer
+    (a reading, column A) pinned at both rails, the force the rig's. Mapped as an aux
+    reading, its rails leave those samples out of the fit and the judgement, and say so;
+    the coil's command (declared a drive) sits at its extremes unflagged."""
+    t, x, xd, v, F = record
+    rng = np.random.default_rng(3)
+    acc = np.gradient(xd, t) + rng.normal(0.0, 0.05, len(t))  # m/s^2, changing every sample
+    stop = (t >= 7.0) & (t < 7.3)  # in the held-out tail (the last 20 %)
+    rail = float(np.max(np.abs(acc))) * 1.2
+    acc[stop] = np.clip(50.0 * rail * np.sin(2 * np.pi * 25 * t[stop]), -rail, rail)
+    F = F.copy()
+    F[stop] = 3000.0 * np.sin(2 * np.pi * 40 * t[stop])  # what the load cell reads of the impacts
+    csv = tmp_path / "stop.csv"
+    np.savetxt(csv, np.column_stack([t, x * 1e3, F, v, acc]), delimiter=",", header="time,disp,force,volts,acc",
+               comments="")
+    rec = tmp_path / "stop.mcap"
+    p = dyno("import", csv, "--out", rec, "--map", "time=time:s", "--map", "displacement=disp:mm", "--map",
+             "force=force:N", "--map", "aux.coil=volts:V", "--drive", "aux.coil=coil voltage", "--map", "aux.acc=acc")
+    assert p.returncode == 0, p.stderr
+    p = dyno("identify", rec, "--model", "spencer", "--holdout", "tail:0.2", "--json")
+    assert p.returncode == 0, p.stderr
+    held = json.loads(p.stdout)["heldout"]
+    assert "saturated run(s) in aux.acc" in p.stderr and "in aux.coil" not in p.stderr, p.stderr
+    tail = t >= t[len(t) - int(round(0.2 * len(t)))]
+    assert held["samples"] <= int(np.sum(tail & ~stop)) and held["r2"] > 0.99, held

@@ -95,6 +95,30 @@ def test_quality_flags_spikes_and_saturation_not_steps_or_ringing():
     assert len(spans) == 3 and all(b - a >= 2 * quality.MARGIN_S for a, b in spans)
 
 
+def test_a_reading_pinned_at_its_rails_is_saturated_a_still_or_stepped_one_is_not():
+    """An aux reading that changes every sample (an actuator's accelerometer) and sits at
+    its extremes has left its range: flagged, in the diagnosis's data too, where a reading
+    scales nothing. One that often repeats (a slow, coarse temperature, a stepped command
+    read back) or never changes sits at its extreme without saying so."""
+    from models.diagnose.data import prepare
+    from records.events import SegmentEnd, SegmentStart
+    t, acc = _signal()
+    stop = slice(3000, 3300)  # the rig banging at its stop, 25 Hz: at one rail, then the other
+    acc[stop] = np.clip(5000.0 * np.sin(2 * np.pi * 25 * t[stop]), acc.min(), acc.max())
+    pinned = quality.at_rail({"aux.acc": (t, acc)})
+    assert len(pinned) >= 4 and {f.kind for f in pinned} == {"saturated"}
+    assert 3.0 - quality.MARGIN_S <= min(f.t0 for f in pinned) and max(f.t1 for f in pinned) <= 3.3 + quality.MARGIN_S
+    slow = np.round(300.0 + 2.0 * t, 1)  # 0.1 K steps of a body warming: at its max for its last 50 samples
+    stepped = np.where(t > 2.0, 1.0, 0.0) + np.random.default_rng(1).normal(0.0, 1e-3, len(t)) * (t < 1.0)
+    assert quality.at_rail({"aux.T": (t, slow), "aux.cmd": (t, stepped), "aux.flat": (t, np.ones(len(t)))}) == []
+    # the diagnosis reads every aux channel for a rail, the readings it scales nothing by included
+    x = 0.05 + 0.01 * np.sin(2 * np.pi * 3 * t)
+    F = 2000.0 * 0.06 * np.pi * np.cos(2 * np.pi * 3 * t) + np.random.default_rng(2).normal(0.0, 2.0, len(t))
+    ev = [SegmentStart(0.0, "sine 3 Hz", {"kind": "sine", "freq_hz": 3.0}), SegmentEnd(t[-1], "sine 3 Hz")]
+    d = prepare({"force": (t, F), "x": (t, x), "aux.acc": (t, acc)}, ev, drives=[])
+    assert "aux.acc" not in d.aux and [f.channel for f in d.flags if f.kind == "saturated"] == ["aux.acc"] * len(pinned)
+
+
 def test_quality_notes_unit_mismatches_without_excluding():
     t = np.arange(2000) * 1e-3
     x = 5.0 * np.sin(2 * np.pi * 2 * t)  # millimetres read as metres

@@ -186,10 +186,11 @@ def _ramped(span, segs, sines):
     return near[0].params["freq_hz"] if near else None
 
 
-def _screened(channels, force, x, aux):
-    """(flags, excluded spans, force, x, aux): the data-quality check's flags and the
-    channels without the flagged spans."""
+def _screened(channels, force, x, aux, readings):
+    """(flags, excluded spans, force, x, aux): the data-quality check's flags (a reading's
+    at its rail among them: quality.at_rail) and the channels without the flagged spans."""
     flags = quality.check({"force": force, "x": x, **aux, **({"v": _clean(*channels["v"])} if "v" in channels else {})})
+    flags += quality.at_rail(readings)
     bad = quality.excluded(flags)
 
     def drop(t, y):
@@ -217,8 +218,8 @@ def prepare(channels: Channels, events: list[Event], drives: list[str] | None = 
     notes = []
     tF, F = _clean(*channels["force"])
     tx, x = _clean(*channels["x"])
-    aux = _driving({n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10},
-                   drives, notes)
+    every = {n: _clean(*c) for n, c in channels.items() if n.startswith("aux.") and len(c[0]) > 10}
+    aux = _driving(every, drives, notes)
     period = float(np.median(np.diff(tF)))
     holes = _gaps(tF, period) + _gaps(tx)
     if holes:
@@ -226,7 +227,8 @@ def prepare(channels: Channels, events: list[Event], drives: list[str] | None = 
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
     spans = _spans(channels, events, smoothing, notes)  # before the screening cuts holes in x
-    flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux)
+    readings = {n: c for n, c in every.items() if n not in aux}
+    flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux, readings)
     gaps = holes + bad
     flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1, _ in spans if f is not None], smoothing)
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))

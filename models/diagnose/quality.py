@@ -2,7 +2,10 @@
 reported, never fitted.
 
 - saturated: a run of identical samples at a measured channel's extreme (an amplifier or
-  ADC at its rail; an aux channel, often a command, may sit at its extreme);
+  ADC at its rail). An aux channel that drives the damper (a command) may sit at its
+  extreme; one that is a reading (an actuator's accelerometer) is saturated there only
+  when it otherwise changes from sample to sample (READING_STILL): a slow, coarse or
+  stepped reading sits still without leaving its range;
 - spikes: one or two samples that leave both neighbours by far more than the channel's
   sample-to-sample noise and by a visible share of its range (a dropout or a glitch);
 - unit mismatches: a displacement spanning more than a damper's stroke, a velocity channel
@@ -24,6 +27,11 @@ from records.data import Channels
 from records.source_filter import Smoothing
 
 FLAT_MIN = 8  # identical samples in a row at the extreme: saturated
+# an aux reading repeats its last value at fewer than this share of its samples away from
+# its extremes, or sitting still at one says nothing (measured on the NEES MR record: its
+# actuator's accelerometer 0.1 %, pinned at both rails for 0.4 s as the rig hit its stop;
+# force and displacement 0.5 %; the coil's command voltage, stepped, 12 %)
+READING_STILL = 0.02
 SPIKE_SIGMA = 12.0  # spike: away from its neighbours' mean by this many noise sd ...
 SPIKE_RANGE = 0.02  # ... and by this share of the channel's 1-99 % range
 MARGIN_S = 0.02  # s excluded either side of a flagged run (the conditioning settles)
@@ -251,6 +259,19 @@ def check(channels: Channels) -> list[Flag]:
         if name in CHANNELS or name.startswith("aux."):  # an aux command may sit at its extreme
             flags += spikes(name, t, y)
     return flags + units(channels)
+
+
+def at_rail(readings: Channels) -> list[Flag]:
+    """[Flag] of saturated runs in aux readings {name: (t, values)} (channels that drive
+    nothing, each sorted and finite) that otherwise change from sample to sample: an
+    accelerometer or a monitor at its rail says the rig left its range, and so every
+    channel's samples there."""
+    flags = []
+    for name, (t, y) in readings.items():
+        inside = (y[1:] != y.max()) & (y[1:] != y.min()) if len(y) else np.zeros(0, bool)
+        if np.any(inside) and float(np.mean(np.diff(y)[inside] == 0)) < READING_STILL:
+            flags += saturated(name, t, y)
+    return flags
 
 
 def excluded(flags: list[Flag]) -> list[tuple[float, float]]:

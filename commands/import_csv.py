@@ -145,5 +145,7 @@ def inspect(args):
         print(f"counting the rows, no channel: {', '.join(seen.counters)}")
     if seen.unnamed:
         print(f"not guessed from their names or values: {', '.join(seen.unnamed)}: map them yourself, raw volts "
-              f"with a gain (e.g. --map force=COLUMN:N --gain force=980.665)")
+              f"with a gain (e.g. --map force=COLUMN:N --gain force=980.665); any other reading as --map "
+              f"aux.NAME=COLUMN (where it sits at its rail the samples are left out), a coil's or valve's "
+              f"command with --drive as well")
     return 0

@@ -144,8 +144,6 @@ def inspect(args):
     if seen.counters:
         print(f"counting the rows, no channel: {', '.join(seen.counters)}")
     if seen.unnamed:
-        print(f"not guessed from their names or values: {', '.join(seen.unnamed)}: map them yourself, raw volts "
-              f"with a gain (e.g. --map force=COLUMN:N --gain force=980.665); any other reading as --map "
-              f"aux.NAME=COLUMN (where it sits at its rail the samples are left out), a coil's or valve's "
-              f"command with --drive as well")
+        print(f"not guessed from their names or values: {', '.join(seen.unnamed)}: map them yourself, raw volts with a gain "
+              f"(e.g. --map force=COLUMN:N --gain force=980.665); any other reading as aux.NAME (samples at its rail left out)")
     return 0

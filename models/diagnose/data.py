@@ -186,11 +186,12 @@ def _ramped(span, segs, sines):
     return near[0].params["freq_hz"] if near else None
 
 
-def _screened(channels, force, x, aux, readings):
-    """(flags, excluded spans, force, x, aux): the data-quality check's flags (a reading's
-    at its rail among them: quality.at_rail) and the channels without the flagged spans."""
+def _screened(channels, force, x, aux, every):
+    """(flags, excluded spans, force, x, aux): the data-quality check's flags and the
+    channels without the flagged spans. aux: the channels that drive the damper; every: all
+    aux channels, the readings among them checked for a rail (quality.at_rail)."""
     flags = quality.check({"force": force, "x": x, **aux, **({"v": _clean(*channels["v"])} if "v" in channels else {})})
-    flags += quality.at_rail(readings)
+    flags += quality.at_rail({n: c for n, c in every.items() if n not in aux})
     bad = quality.excluded(flags)
 
     def drop(t, y):
@@ -227,8 +228,7 @@ def prepare(channels: Channels, events: list[Event], drives: list[str] | None = 
         notes.append(f"{len(holes)} gap(s) in force or displacement ({lost:.2f} s in all): "
                      f"the cycles they touch are left out")
     spans = _spans(channels, events, smoothing, notes)  # before the screening cuts holes in x
-    readings = {n: c for n, c in every.items() if n not in aux}
-    flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux, readings)
+    flags, bad, (tF, F), (tx, x), aux = _screened(channels, (tF, F), (tx, x), aux, every)
     gaps = holes + bad
     flags += quality.smoothed("force", tF, F, [(f, t0, t1) for _, f, t0, t1, _ in spans if f is not None], smoothing)
     step = max(1, int(round(1.0 / (MAX_RATE_HZ * period))))

@@ -12,7 +12,6 @@ import json
 import subprocess
 import tempfile
 import time
-import tomllib
 from pathlib import Path
 
 from models.diagnose import screen
@@ -24,15 +23,11 @@ HOLDOUTS = ("interleaved", "tail:0.15")
 SEEDS = (0, 1)
 
 
-def _concealed():
-    """prove's concealed value of each effect (sim_backend/plain.toml)."""
-    return tomllib.loads((Path(__file__).parent.parent / "sim_backend" / "plain.toml").read_text())["prove"]["concealed"]
-
-
 def cases(data: Path):
     """The real files with each holdout, then the plant's concealed effects and nulls."""
     from sim_backend.effects import HIDDEN
-    concealed = _concealed()
+    from sim_backend.options import plain_cell
+    concealed = plain_cell()[2]["concealed"]
     return ([("file", (src, imports, h)) for src, imports in files(data) for h in HOLDOUTS]
             + [("plant", (e, s)) for s in SEEDS for e in [None] + [e for e in HIDDEN if e in concealed]])
 
@@ -64,8 +59,9 @@ def _plant(effect, seed):
     from models.diagnose import diagnose
     from proof.on_plant import offline_recording
     from sim_backend.effects import scaled
+    from sim_backend.options import plain_cell
     from views.reports.diagnosis import to_json
-    ch, ev, _ = offline_recording({effect: scaled(effect, _concealed()[effect], 1.0)} if effect else None, seed=seed)
+    ch, ev, _ = offline_recording({effect: scaled(effect, plain_cell()[2]["concealed"][effect], 1.0)} if effect else None, seed=seed)
     docs = []
     for screening in (False, True):
         t0 = time.perf_counter()
